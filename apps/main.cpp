@@ -1,0 +1,78 @@
+// softhom: multiscale mechanics of soft fiber composites. One program, one subcommand per job.
+#include <omp.h>
+
+#include <CLI/CLI.hpp>
+#include <iostream>
+
+#include "commands.hpp"
+#include "embedded_scenes.hpp"
+#include "scene_source.hpp"
+#include "softhom/io/scene.hpp"
+#include "softhom/io/summary.hpp"
+#include "softhom/materials/errors.hpp"
+
+namespace softhom::app {
+
+LoadedScene load_scene_or_default(const CommandOptions& options, const std::string& default_name) {
+  LoadedScene s;
+  if (!options.scene.empty()) {
+    s.file = options.scene;
+    s.name = options.scene.stem().string();
+    s.table = io::load_scene(options.scene);
+    return s;
+  }
+  const auto& scenes = embedded_scenes();
+  const auto it = scenes.find(default_name);
+  if (it == scenes.end()) throw InputError("scene", default_name, "no embedded scene of that name");
+  s.name = default_name;
+  s.table = io::parse_scene(it->second, "<embedded " + default_name + ".toml>");
+  return s;
+}
+
+}  // namespace softhom::app
+
+int main(int argc, char** argv) {
+  using namespace softhom;
+  CLI::App cli{"softhom " + io::softhom_version() +
+               ": multiscale mechanics of soft fiber composites (materials, FFT/FE RVE, macro FE)"};
+  cli.set_version_flag("--version", "softhom " + io::softhom_version());
+  cli.require_subcommand(1);
+
+  app::CommandOptions options;
+  struct Sub {
+    const char* name;
+    const char* help;
+    int (*run)(const app::CommandOptions&);
+  };
+  const Sub subs[] = {
+      {"point", "material-point driver: homogeneous deformation under mixed control", app::run_point},
+      {"rve", "periodic RVE homogenization (FFT engine)", app::run_rve},
+      {"macro", "structure-scale nonlinear FE (tubes, balloons, plates, actuators)", app::run_macro},
+      {"demo", "runs the built-in example scenes and reports where the results are", app::run_demo},
+  };
+  const Sub* chosen = nullptr;
+  for (const Sub& s : subs) {
+    CLI::App* sub = cli.add_subcommand(s.name, s.help);
+    sub->add_option("scene", options.scene, "scene file (TOML); omitted: the embedded default scene")
+        ->check(CLI::ExistingFile);
+    sub->add_option("-o,--out", options.out, "output directory (created if needed)")->capture_default_str();
+    sub->add_option("-j,--threads", options.threads, "threads (0: all cores)")->check(CLI::NonNegativeNumber);
+    sub->add_flag("-q,--quiet", options.quiet, "no progress on stderr");
+    sub->callback([&chosen, &s] { chosen = &s; });
+  }
+  try {
+    cli.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return cli.exit(e);
+  }
+  if (options.threads > 0) omp_set_num_threads(options.threads);
+  try {
+    return chosen->run(options);
+  } catch (const InputError& e) {
+    std::cerr << "softhom " << chosen->name << ": input error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "softhom " << chosen->name << ": error: " << e.what() << "\n";
+    return 1;
+  }
+}

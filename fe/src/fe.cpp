@@ -1,0 +1,2 @@
+// placeholder until the fe library lands
+namespace softhom::fe { int placeholder() { return 0; } }

@@ -1,0 +1,2 @@
+// placeholder until the macro library lands
+namespace softhom::macro { int placeholder() { return 0; } }

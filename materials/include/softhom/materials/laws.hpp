@@ -1,0 +1,74 @@
+#pragma once
+// The constitutive laws of spec §2–§4 (../shared/spec/model.md). Units: MPa, mm, s.
+// Every law shares the volumetric energy W_V(J) = (K/4)(J² − 1 − 2 ln J), so K is the small-strain
+// bulk modulus for all of them.
+#include <optional>
+#include <vector>
+
+#include "softhom/materials/hyperelastic.hpp"
+
+namespace softhom {
+
+/// Which invariant the HGO fiber energy uses (spec §2): the full I4 = a0·C a0 (recommended for
+/// compressible use) or the isochoric Ī4 = J^(-2/3) I4 (dissertation, original HGO).
+enum class FiberInvariant { full, isochoric };
+
+struct FiberFamily {
+  Vec3 direction{1.0, 0.0, 0.0};  ///< reference direction a0 (normalised on construction)
+  double k1 = 0.0;                ///< stress-like [MPa]
+  double k2 = 0.0;                ///< dimensionless
+};
+
+/// Compressible Gent matrix + any number of HGO fiber families (spec §2, dissertation eq. 2.4).
+struct GentHGOParams {
+  double G = 0.0;    ///< initial shear modulus
+  double Jm = 0.0;   ///< locking parameter (Ī1 − 3 < Jm)
+  double K = 0.0;    ///< bulk modulus
+  std::vector<FiberFamily> fibers;
+  FiberInvariant invariant = FiberInvariant::full;
+  bool tension_only = true;  ///< a family contributes only while I*_i > 1
+};
+
+/// Compressible neo-Hookean: W = (μ/2)(Ī1 − 3) + W_V(J).
+struct NeoHookeanParams {
+  double mu = 0.0;
+  double K = 0.0;
+  static NeoHookeanParams from_young(double E, double nu) {
+    return {E / (2.0 * (1.0 + nu)), E / (3.0 * (1.0 - 2.0 * nu))};
+  }
+};
+
+/// Yeoh (3 terms): W = Σ_{i=1..3} C_i (Ī1 − 3)^i + W_V(J). Initial shear modulus 2 C1.
+struct YeohParams {
+  double C1 = 0.0, C2 = 0.0, C3 = 0.0;
+  double K = 0.0;
+};
+
+/// Ogden (N terms, Abaqus convention of dissertation eq. 3.9):
+/// W = Σ_i (2 μ_i / α_i²)(λ̄1^α_i + λ̄2^α_i + λ̄3^α_i − 3) + W_V(J). Initial shear modulus Σ μ_i.
+struct OgdenParams {
+  std::vector<double> mu, alpha;
+  double K = 0.0;
+};
+
+/// One Prony term of D(t) = g∞ + Σ g_k exp(−t/τ_k).
+struct PronyTerm {
+  double g = 0.0;
+  double tau = 0.0;
+};
+struct PronySeries {
+  double g_inf = 1.0;
+  std::vector<PronyTerm> terms;
+};
+
+// Factories. Parameters are assumed validated (see library.hpp for the validating front end).
+ElasticLawPtr make_gent_hgo(const GentHGOParams& p);
+ElasticLawPtr make_neo_hookean(const NeoHookeanParams& p);
+ElasticLawPtr make_yeoh(const YeohParams& p);
+ElasticLawPtr make_ogden(const OgdenParams& p);
+
+/// Wraps an elastic law as a Material: the plain adapter when `prony` is empty (no history storage),
+/// the QLV wrapper of spec §4 otherwise (deviatoric relaxation of S_D^e, exponential integrator).
+MaterialPtr make_material(ElasticLawPtr law, const std::optional<PronySeries>& prony = std::nullopt);
+
+}  // namespace softhom

@@ -1,0 +1,61 @@
+#pragma once
+// The material interface every solver (material point, FFT RVE, FE) talks to.
+//
+// A material is a pure function (F, state_old, Δt) → (P, ∂P/∂F, state_new). Internal state is a plain
+// array of doubles owned by the caller (one slice per voxel or quadrature point); a law with
+// state_size() == 0 (every elastic law) needs no storage at all, and solvers allocate none for it.
+// Calls are const, allocation-free and thread-safe, so a solver may evaluate voxels in parallel.
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "softhom/materials/tensor.hpp"
+
+namespace softhom {
+
+/// Outcome of one material call. Anything but ok means P/A are not meaningful and the caller must
+/// cut back (the call never returns NaN or Inf stresses as "success").
+enum class MaterialStatus {
+  ok = 0,
+  locking,      ///< Gent limit reached: Ī1 − 3 ≥ Jm
+  inverted,     ///< J = det F ≤ 0
+  not_finite,   ///< non-finite input or a non-finite intermediate (e.g. exp overflow in HGO)
+};
+const char* to_string(MaterialStatus s);
+
+class Material {
+ public:
+  virtual ~Material() = default;
+
+  /// Short description for logs and summary.json.
+  virtual std::string describe() const = 0;
+
+  /// Doubles of internal (history) state per material point; 0 = elastic.
+  virtual int state_size() const { return 0; }
+  /// Writes the state of the undeformed, unloaded material (F = I at t = 0) into `state`.
+  virtual void init_state(double* state) const { (void)state; }
+
+  /// Stress P and, when `A` is non-null, the algorithmic tangent A = ∂P/∂F (9x9, see tensor.hpp).
+  /// `state_old` / `state_new` point at state_size() doubles (may be null when state_size() == 0);
+  /// state_new is written only on success. `dt` is the time step since state_old (ignored by elastic
+  /// laws).
+  virtual MaterialStatus evaluate(const Mat3& F, const double* state_old, double* state_new, double dt,
+                                  Mat3& P, Mat9* A) const = 0;
+
+  /// Small-strain moduli at F = I (instantaneous for viscoelastic laws). Solvers use these to choose
+  /// reference media; they are not used to compute stresses.
+  virtual double initial_shear_modulus() const = 0;
+  virtual double initial_bulk_modulus() const = 0;
+
+  /// Reference fiber directions (unit vectors), one per fiber family; empty for isotropic laws.
+  virtual std::vector<Vec3> fiber_directions() const { return {}; }
+
+  /// The same material with every reference direction a0 replaced by Q a0 (Q a rotation). Used to
+  /// express a material in a rotated load frame.
+  virtual std::unique_ptr<Material> rotated(const Mat3& Q) const = 0;
+};
+
+using MaterialPtr = std::shared_ptr<const Material>;
+
+}  // namespace softhom

@@ -1,0 +1,203 @@
+#include "softhom/materials/driver.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <Eigen/Dense>
+
+namespace softhom {
+namespace {
+
+struct FreeSet {
+  int count = 0;
+  std::array<int, 9> index{};  // flattened component of each free (stress-controlled) unknown
+};
+
+FreeSet free_components(const MixedControl& c) {
+  FreeSet s;
+  for (int k = 0; k < 9; ++k)
+    if (c.kind[k] == ControlKind::stress) s.index[s.count++] = k;
+  return s;
+}
+
+struct SubstepOutcome {
+  bool converged = false;
+  MaterialStatus status = MaterialStatus::ok;
+  int iterations = 0;
+  double residual = 0.0;
+};
+
+// Newton on the free components of F at time t, starting from F (updated in place). On success P
+// and state_new hold the converged values.
+SubstepOutcome solve_substep(const Material& material, const MixedControl& control, const FreeSet& free,
+                             double t, double dt, const std::vector<double>& state_old,
+                             std::vector<double>& state_new, const PointSolverOptions& opt,
+                             double stress_scale, Mat3& F, Mat3& P) {
+  SubstepOutcome out;
+  F = control.prescribed_F(t, F);
+  const double* s_old = state_old.empty() ? nullptr : state_old.data();
+  double* s_new = state_new.empty() ? nullptr : state_new.data();
+  Mat9 A;
+  Eigen::VectorXd r(free.count), dx(free.count);
+  Eigen::MatrixXd Jff(free.count, free.count);
+
+  auto residual = [&](const Mat3& P_now) {
+    double norm = 0.0;
+    for (int a = 0; a < free.count; ++a) {
+      const int k = free.index[a];
+      r[a] = P_now(k / 3, k % 3) - control.value[k](t);
+      norm = std::max(norm, std::abs(r[a]));
+    }
+    return norm;
+  };
+
+  out.status = material.evaluate(F, s_old, s_new, dt, P, &A);
+  if (out.status != MaterialStatus::ok) return out;
+  double rnorm = residual(P);
+  const double tolerance = opt.tolerance * std::max(stress_scale, P.cwiseAbs().maxCoeff());
+  for (int it = 0; it <= opt.max_iterations; ++it) {
+    out.iterations = it;
+    out.residual = rnorm;
+    if (rnorm <= tolerance || free.count == 0) {
+      out.converged = true;
+      return out;
+    }
+    if (it == opt.max_iterations) break;
+    for (int a = 0; a < free.count; ++a)
+      for (int b = 0; b < free.count; ++b) Jff(a, b) = A(free.index[a], free.index[b]);
+    dx = -Jff.fullPivLu().solve(r);
+    if (!dx.allFinite()) return out;
+    // Backtracking: a full Newton step may overshoot into locking or J ≤ 0, or increase the residual.
+    double step = 1.0;
+    Mat3 F_trial, P_trial;
+    bool accepted = false;
+    for (int ls = 0; ls < 12 && !accepted; ++ls, step *= 0.5) {
+      F_trial = F;
+      for (int a = 0; a < free.count; ++a) {
+        const int k = free.index[a];
+        F_trial(k / 3, k % 3) += step * dx[a];
+      }
+      const MaterialStatus st = material.evaluate(F_trial, s_old, s_new, dt, P_trial, &A);
+      if (st != MaterialStatus::ok) {
+        out.status = st;
+        continue;
+      }
+      const double rn = residual(P_trial);
+      if (rn < rnorm || step < 0.25 || rn <= tolerance) {
+        accepted = true;
+        F = F_trial;
+        P = P_trial;
+        rnorm = rn;
+        out.status = MaterialStatus::ok;
+      }
+    }
+    if (!accepted) return out;
+  }
+  return out;
+}
+
+std::string describe_failure(const SubstepOutcome& o) {
+  if (o.status != MaterialStatus::ok) return std::string("material call failed: ") + to_string(o.status);
+  std::ostringstream s;
+  s << "Newton did not converge (residual " << o.residual << " after " << o.iterations << " iterations)";
+  return s.str();
+}
+
+}  // namespace
+
+PointRunResult run_material_point(const Material& global_material, const MixedControl& control,
+                                  const PointSolverOptions& opt,
+                                  const std::function<void(const PointState&)>& on_step) {
+  control.validate();
+  // Work in the load frame: a0_load = Rᵀ a0_global.
+  const Mat3 Rt = control.frame.transpose();
+  const auto material_ptr = global_material.rotated(Rt);
+  const Material& material = *material_ptr;
+  const auto fibers = material.fiber_directions();
+  const FreeSet free = free_components(control);
+  const double stress_scale = material.initial_shear_modulus();
+
+  PointRunResult result;
+  const int nstate = material.state_size();
+  std::vector<double> state(nstate), state_trial(nstate);
+  if (nstate > 0) material.init_state(state.data());
+
+  auto make_state = [&](double t, const Mat3& F, const Mat3& P, int iterations, int substeps) {
+    PointState s;
+    s.t = t;
+    s.F = F;
+    s.P = P;
+    s.sigma = cauchy_from_piola(F, P);
+    for (const auto& a0 : fibers) s.fiber_angle_deg.push_back(fiber_angle_deg(F, a0));
+    s.newton_iterations = iterations;
+    s.substeps = substeps;
+    return s;
+  };
+
+  // t = 0: the prescribed F(0) (usually I) must be in equilibrium with the targets too.
+  Mat3 F = Mat3::Identity(), P = Mat3::Zero();
+  {
+    const SubstepOutcome o = solve_substep(material, control, free, 0.0, 0.0, state, state_trial, opt,
+                                           stress_scale, F, P);
+    if (!o.converged) {
+      result.error = "initial state (t = 0): " + describe_failure(o);
+      return result;
+    }
+    if (nstate > 0) state.swap(state_trial);
+    result.steps.push_back(make_state(0.0, F, P, o.iterations, 1));
+    if (on_step) on_step(result.steps.back());
+  }
+
+  double t = 0.0;
+  double dt_try = control.times.front();
+  for (const double t_out : control.times) {
+    int iterations = 0, substeps = 0;
+    dt_try = std::min(dt_try, t_out - t);
+    int halvings = 0;
+    while (t < t_out) {
+      const bool last = dt_try >= (t_out - t) * (1.0 - 1e-12);
+      const double dt = last ? t_out - t : dt_try;
+      const double t_new = last ? t_out : t + dt;
+      Mat3 F_new = F, P_new;
+      const SubstepOutcome o = solve_substep(material, control, free, t_new, dt, state, state_trial, opt,
+                                             stress_scale, F_new, P_new);
+      iterations += o.iterations;
+      if (!o.converged) {
+        if (halvings >= opt.max_cutbacks) {
+          std::ostringstream s;
+          s << "step to t = " << t_out << " failed at t = " << t_new << " after " << halvings
+            << " cut-backs (Δt = " << dt << "): " << describe_failure(o);
+          if (o.status == MaterialStatus::locking)
+            s << ". The prescribed deformation reaches the Gent locking limit (Ī1 − 3 → Jm) near F = ["
+              << F.row(0) << "; " << F.row(1) << "; " << F.row(2) << "]";
+          result.error = s.str();
+          result.total_newton_iterations += iterations;
+          return result;
+        }
+        ++halvings;
+        ++result.cutbacks;
+        dt_try = 0.5 * dt;
+        std::ostringstream s;
+        s << "cut-back: t = " << t_new << ", Δt " << dt << " → " << dt_try << " (" << describe_failure(o) << ")";
+        result.log.push_back(s.str());
+        continue;
+      }
+      t = t_new;
+      F = F_new;
+      P = P_new;
+      if (nstate > 0) state.swap(state_trial);
+      ++substeps;
+      // After a cut-back, grow the step again once it converges easily.
+      if (o.iterations <= 4) dt_try = std::min(2.0 * dt, control.times.back());
+      else dt_try = dt;
+    }
+    result.total_newton_iterations += iterations;
+    result.steps.push_back(make_state(t_out, F, P, iterations, substeps));
+    if (on_step) on_step(result.steps.back());
+  }
+  result.completed = true;
+  return result;
+}
+
+}  // namespace softhom

@@ -1,0 +1,1 @@
+// gent_hgo: being written

@@ -1,0 +1,1 @@
+// hyperelastic: being written

@@ -1,0 +1,1 @@
+// isotropic_laws: being written

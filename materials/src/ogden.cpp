@@ -1,0 +1,1 @@
+// ogden: being written

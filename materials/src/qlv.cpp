@@ -1,0 +1,1 @@
+// qlv: being written

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Installs exactly the Debian 12 packages softhom needs to build, test and plot. Idempotent: a second
+# run changes nothing. Run as root (or with sudo available).
+set -euo pipefail
+packages=(
+  build-essential cmake pkg-config
+  libeigen3-dev            # materials/, everywhere
+  libfftw3-dev             # fft/ (with libfftw3-omp / -threads)
+  libsuitesparse-dev       # fe/: CHOLMOD, UMFPACK
+  libcgal-dev              # rve/: conforming meshes
+  libhdf5-dev              # fields and stores
+  libtomlplusplus-dev      # scene files
+  libcli11-dev             # command line
+  nlohmann-json3-dev       # summary.json
+  libceres-dev             # calibration (bounded least squares)
+  libgtest-dev             # tests
+  libbenchmark-dev         # bench/
+  python3-matplotlib       # PNG plots
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+echo "softhom dependencies: all ${#packages[@]} packages installed"
