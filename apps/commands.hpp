@@ -18,5 +18,7 @@ int run_point(const CommandOptions& options);
 int run_rve(const CommandOptions& options);
 int run_macro(const CommandOptions& options);
 int run_demo(const CommandOptions& options);
+int run_sweep(const CommandOptions& options);
+int run_calibrate(const CommandOptions& options);
 
 }  // namespace softhom::app

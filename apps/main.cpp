@@ -48,6 +48,8 @@ int main(int argc, char** argv) {
       {"point", "material-point driver: homogeneous deformation under mixed control", app::run_point},
       {"rve", "periodic RVE homogenization (FFT engine)", app::run_rve},
       {"macro", "structure-scale nonlinear FE (tubes, balloons, plates, actuators)", app::run_macro},
+      {"sweep", "sweep campaign over microstructures and load cases (RVE)", app::run_sweep},
+      {"calibrate", "fits the macro Gent + HGO (+ QLV) model to RVE or CSV curves", app::run_calibrate},
       {"demo", "runs the built-in example scenes and reports where the results are", app::run_demo},
   };
   const Sub* chosen = nullptr;

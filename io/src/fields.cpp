@@ -1,1 +1,422 @@
-// fields: being written
+// Fields for ParaView: heavy data in HDF5 (C API), a hand-written XDMF 3 sidecar describing a temporal
+// collection of grids. The XDMF is kept in memory and written only on close(), and the HDF5 file lives
+// under a temporary name until then, so an interrupted run never leaves a file that looks complete.
+#include "softhom/io/fields.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <set>
+#include <stdexcept>
+#include <system_error>
+
+#include <fcntl.h>
+#include <hdf5.h>
+#include <unistd.h>
+
+#include "softhom/io/files.hpp"
+
+namespace softhom::io {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// HDF5 prints its whole error stack to stderr by default; we report errors as exceptions instead.
+void silence_hdf5() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
+
+// The API-level and the innermost message of the current HDF5 error stack, for exception texts.
+std::string hdf5_error_detail() {
+  struct Walk {
+    std::string first, last;
+  } w;
+  auto cb = [](unsigned n, const H5E_error2_t* e, void* data) -> herr_t {
+    auto* w = static_cast<Walk*>(data);
+    const std::string desc = (e && e->desc) ? e->desc : "";
+    if (n == 0) w->first = desc;
+    w->last = desc;
+    return 0;
+  };
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, cb, &w);
+  if (w.first.empty()) return "unknown HDF5 error";
+  return w.first == w.last ? w.first : w.first + ": " + w.last;
+}
+
+[[noreturn]] void hdf5_fail(const std::string& what) {
+  throw std::runtime_error(what + " (HDF5: " + hdf5_error_detail() + ")");
+}
+
+// Owns one HDF5 identifier and closes it with the matching H5?close.
+class Handle {
+ public:
+  Handle() = default;
+  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  Handle(Handle&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = -1; }
+  Handle& operator=(Handle&& o) noexcept {
+    if (this != &o) {
+      reset();
+      std::swap(id_, o.id_);
+      close_ = o.close_;
+    }
+    return *this;
+  }
+  ~Handle() { reset(); }
+  hid_t get() const { return id_; }
+  bool valid() const { return id_ >= 0; }
+  // Returns false if HDF5 reported an error while closing (for a file: data may not be flushed).
+  bool reset() {
+    bool ok = true;
+    if (id_ >= 0) ok = close_(id_) >= 0;
+    id_ = -1;
+    return ok;
+  }
+
+ private:
+  hid_t id_ = -1;
+  herr_t (*close_)(hid_t) = nullptr;
+};
+
+Handle checked(hid_t id, herr_t (*close)(hid_t), const std::string& what) {
+  if (id < 0) hdf5_fail(what);
+  return Handle(id, close);
+}
+
+void write_dataset(hid_t loc, const std::string& name, hid_t file_type, hid_t mem_type, const void* data,
+                   const std::vector<hsize_t>& dims, const std::string& file) {
+  const std::string what = "cannot write dataset '" + name + "' to '" + file + "'";
+  Handle space = checked(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose, what);
+  Handle set = checked(H5Dcreate2(loc, name.c_str(), file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                       H5Dclose, what);
+  if (H5Dwrite(set.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) hdf5_fail(what);
+}
+
+std::string number(double x) {
+  char buf[32];
+  return std::string(buf, std::to_chars(buf, buf + sizeof buf, x).ptr);
+}
+
+std::string join(const std::vector<hsize_t>& dims) {
+  std::string s;
+  for (std::size_t i = 0; i < dims.size(); ++i) {
+    if (i) s += ' ';
+    s += std::to_string(dims[i]);
+  }
+  return s;
+}
+
+std::string xml_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&apos;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+// Field names become HDF5 link names and XML attribute values: keep them to a plain alphabet.
+void check_name(const std::string& name) {
+  const bool ok = !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.';
+  });
+  if (!ok)
+    throw std::invalid_argument("FieldWriter: field name '" + name +
+                                "' must be non-empty and use only letters, digits, '_', '-', '.'");
+}
+
+struct CellInfo {
+  const char* xdmf;
+  int nodes;
+};
+CellInfo cell_info(CellType t) {
+  switch (t) {
+    case CellType::triangle3: return {"Triangle", 3};
+    case CellType::triangle6: return {"Triangle_6", 6};
+    case CellType::quad4: return {"Quadrilateral", 4};
+    case CellType::tetra4: return {"Tetrahedron", 4};
+    case CellType::tetra10: return {"Tetrahedron_10", 10};
+    case CellType::hexa8: return {"Hexahedron", 8};
+  }
+  throw std::invalid_argument("FieldWriter: unknown cell type");
+}
+
+// rename() only moves directory entries: fsync first so the renamed file is complete after a crash.
+void fsync_file(const fs::path& p) {
+  const int fd = ::open(p.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
+
+}  // namespace
+
+struct FieldWriter::Impl {
+  fs::path h5_final, h5_tmp, xdmf_final;
+  bool voxel = true;
+  // Per-centering entity counts and the HDF5/XDMF dimensions of one component (slowest first).
+  std::size_t n_cells = 0, n_nodes = 0;
+  std::vector<hsize_t> cell_dims, node_dims;
+  std::string mesh_xml;   // Topology + Geometry, identical in every step
+  std::string steps_xml;  // finished steps
+  Handle file, group;
+  int step = 0;
+  bool in_step = false, finished = false;
+  double time = 0.0;
+  std::string step_xml;
+  std::set<std::string> step_names;
+
+  ~Impl() {
+    if (finished) return;
+    // Unfinished writer: drop everything, so no half-written result is left behind.
+    group.reset();
+    file.reset();
+    std::error_code ec;
+    fs::remove(h5_tmp, ec);
+  }
+
+  void open(const fs::path& stem) {
+    silence_hdf5();
+    h5_final = stem;
+    h5_final += ".h5";
+    xdmf_final = stem;
+    xdmf_final += ".xdmf";
+    h5_tmp = temporary_path(h5_final);
+    std::error_code ec;
+    if (!h5_final.parent_path().empty()) {
+      fs::create_directories(h5_final.parent_path(), ec);
+      if (ec)
+        throw std::runtime_error("FieldWriter: cannot create directory '" + h5_final.parent_path().string() +
+                                 "' (" + ec.message() + ")");
+    }
+    file = checked(H5Fcreate(h5_tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
+                   "FieldWriter: cannot create '" + h5_tmp.string() + "'");
+  }
+
+  std::string href(const std::string& dataset) const {
+    // Relative to the XDMF file (same directory), so the pair can be moved together.
+    return xml_escape(h5_final.filename().string()) + ":" + dataset;
+  }
+
+  void require_open(const char* call) const {
+    if (finished) throw std::logic_error(std::string("FieldWriter::") + call + ": writer is closed");
+  }
+  void require_step(const char* call) const {
+    require_open(call);
+    if (!in_step) throw std::logic_error(std::string("FieldWriter::") + call + ": no step begun");
+  }
+
+  // Validates the common part of add() and returns the dataset dimensions.
+  std::vector<hsize_t> dims_for(const std::string& name, std::size_t size, int components, Centering c) {
+    require_step("add");
+    check_name(name);
+    if (step_names.count(name))
+      throw std::invalid_argument("FieldWriter: field '" + name + "' added twice in step " + std::to_string(step));
+    if (components != 1 && components != 3 && components != 9)
+      throw std::invalid_argument("FieldWriter: field '" + name + "' has " + std::to_string(components) +
+                                  " components; expected 1, 3 or 9");
+    const std::size_t count = c == Centering::cell ? n_cells : n_nodes;
+    if (size != count * static_cast<std::size_t>(components))
+      throw std::invalid_argument("FieldWriter: field '" + name + "' has " + std::to_string(size) +
+                                  " values, expected " + std::to_string(count * components) + " (" +
+                                  std::to_string(count) + (c == Centering::cell ? " cells" : " nodes") +
+                                  " x " + std::to_string(components) + ")");
+    auto dims = c == Centering::cell ? cell_dims : node_dims;
+    if (components > 1) dims.push_back(static_cast<hsize_t>(components));
+    return dims;
+  }
+
+  void add_attribute(const std::string& name, const std::vector<hsize_t>& dims, int components, Centering c,
+                     const char* number_type, int precision) {
+    const char* type = components == 1 ? "Scalar" : components == 3 ? "Vector" : "Tensor";
+    step_xml += "        <Attribute Name=\"" + name + "\" AttributeType=\"" + type + "\" Center=\"" +
+                (c == Centering::cell ? "Cell" : "Node") + "\">\n";
+    step_xml += "          <DataItem Dimensions=\"" + join(dims) + "\" NumberType=\"" + number_type +
+                "\" Precision=\"" + std::to_string(precision) + "\" Format=\"HDF\">" +
+                href("/step_" + std::to_string(step) + "/" + name) + "</DataItem>\n";
+    step_xml += "        </Attribute>\n";
+    step_names.insert(name);
+  }
+};
+
+FieldWriter::FieldWriter(const std::filesystem::path& stem, const VoxelGrid& grid)
+    : impl_(std::make_unique<Impl>()) {
+  for (int d = 0; d < 3; ++d) {
+    if (grid.cells[d] < 1)
+      throw std::invalid_argument("FieldWriter: voxel grid cells[" + std::to_string(d) + "] = " +
+                                  std::to_string(grid.cells[d]) + " must be >= 1");
+    if (!(std::isfinite(grid.spacing[d]) && grid.spacing[d] > 0.0))
+      throw std::invalid_argument("FieldWriter: voxel grid spacing[" + std::to_string(d) + "] must be finite and > 0");
+    if (!std::isfinite(grid.origin[d]))
+      throw std::invalid_argument("FieldWriter: voxel grid origin[" + std::to_string(d) + "] must be finite");
+  }
+  auto& m = *impl_;
+  m.voxel = true;
+  const auto [nx, ny, nz] = grid.cells;
+  m.n_cells = std::size_t(nx) * ny * nz;
+  m.n_nodes = std::size_t(nx + 1) * (ny + 1) * (nz + 1);
+  // XDMF (like C-order HDF5) lists the slowest index first: z y x. x is fastest in our storage.
+  m.cell_dims = {hsize_t(nz), hsize_t(ny), hsize_t(nx)};
+  m.node_dims = {hsize_t(nx + 1), hsize_t(ny + 1), hsize_t(nz + 1)};
+  // ORIGIN_DXDYDZ values are read in the same z y x order (ParaView reverses them into x y z).
+  m.mesh_xml = "        <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" + join(m.node_dims) + "\"/>\n" +
+               "        <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
+               "          <DataItem Name=\"Origin\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" "
+               "Format=\"XML\">" +
+               number(grid.origin[2]) + " " + number(grid.origin[1]) + " " + number(grid.origin[0]) +
+               "</DataItem>\n"
+               "          <DataItem Name=\"Spacing\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" "
+               "Format=\"XML\">" +
+               number(grid.spacing[2]) + " " + number(grid.spacing[1]) + " " + number(grid.spacing[0]) +
+               "</DataItem>\n"
+               "        </Geometry>\n";
+  m.open(stem);
+}
+
+FieldWriter::FieldWriter(const std::filesystem::path& stem, const UnstructuredMesh& mesh)
+    : impl_(std::make_unique<Impl>()) {
+  const CellInfo info = cell_info(mesh.cell_type);
+  if (mesh.coordinates.empty() || mesh.coordinates.size() % 3 != 0)
+    throw std::invalid_argument("FieldWriter: mesh coordinates size " + std::to_string(mesh.coordinates.size()) +
+                                " is not a positive multiple of 3");
+  if (std::any_of(mesh.coordinates.begin(), mesh.coordinates.end(), [](double x) { return !std::isfinite(x); }))
+    throw std::invalid_argument("FieldWriter: mesh coordinates contain a non-finite value");
+  const std::size_t nodes = mesh.coordinates.size() / 3;
+  if (mesh.connectivity.empty() || mesh.connectivity.size() % info.nodes != 0)
+    throw std::invalid_argument("FieldWriter: mesh connectivity size " + std::to_string(mesh.connectivity.size()) +
+                                " is not a positive multiple of " + std::to_string(info.nodes) + " (" +
+                                info.xdmf + ")");
+  for (long n : mesh.connectivity)
+    if (n < 0 || static_cast<std::size_t>(n) >= nodes)
+      throw std::invalid_argument("FieldWriter: mesh connectivity refers to node " + std::to_string(n) +
+                                  " of " + std::to_string(nodes));
+  auto& m = *impl_;
+  m.voxel = false;
+  m.n_nodes = nodes;
+  m.n_cells = mesh.connectivity.size() / info.nodes;
+  m.cell_dims = {hsize_t(m.n_cells)};
+  m.node_dims = {hsize_t(m.n_nodes)};
+  m.open(stem);
+
+  // The mesh is written once; every step's grid refers to the same two datasets.
+  const std::string file = m.h5_tmp.string();
+  Handle g = checked(H5Gcreate2(m.file.get(), "mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                     "FieldWriter: cannot create group /mesh in '" + file + "'");
+  write_dataset(g.get(), "coordinates", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, mesh.coordinates.data(),
+                {hsize_t(nodes), 3}, file);
+  write_dataset(g.get(), "connectivity", H5T_STD_I64LE, H5T_NATIVE_LONG, mesh.connectivity.data(),
+                {hsize_t(m.n_cells), hsize_t(info.nodes)}, file);
+  m.mesh_xml = "        <Topology TopologyType=\"" + std::string(info.xdmf) + "\" NumberOfElements=\"" +
+               std::to_string(m.n_cells) + "\" NodesPerElement=\"" + std::to_string(info.nodes) + "\">\n" +
+               "          <DataItem Dimensions=\"" + std::to_string(m.n_cells) + " " + std::to_string(info.nodes) +
+               "\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">" + m.href("/mesh/connectivity") +
+               "</DataItem>\n"
+               "        </Topology>\n"
+               "        <Geometry GeometryType=\"XYZ\">\n"
+               "          <DataItem Dimensions=\"" +
+               std::to_string(nodes) + " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" +
+               m.href("/mesh/coordinates") +
+               "</DataItem>\n"
+               "        </Geometry>\n";
+}
+
+FieldWriter::~FieldWriter() = default;  // Impl's destructor removes the temporaries if not closed
+
+void FieldWriter::begin_step(double time) {
+  auto& m = *impl_;
+  m.require_open("begin_step");
+  if (m.in_step) throw std::logic_error("FieldWriter::begin_step: step " + std::to_string(m.step) + " not ended");
+  if (!std::isfinite(time)) throw std::invalid_argument("FieldWriter::begin_step: time is not finite");
+  const std::string name = "step_" + std::to_string(m.step);
+  m.group = checked(H5Gcreate2(m.file.get(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                    "FieldWriter: cannot create group /" + name + " in '" + m.h5_tmp.string() + "'");
+  m.in_step = true;
+  m.time = time;
+  m.step_xml.clear();
+  m.step_names.clear();
+}
+
+void FieldWriter::add(const std::string& name, std::span<const double> data, int components, Centering centering) {
+  auto& m = *impl_;
+  const auto dims = m.dims_for(name, data.size(), components, centering);
+  for (std::size_t i = 0; i < data.size(); ++i)
+    if (!std::isfinite(data[i]))
+      throw std::invalid_argument("FieldWriter: field '" + name + "' has a non-finite value at index " +
+                                  std::to_string(i));
+  write_dataset(m.group.get(), name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, data.data(), dims, m.h5_tmp.string());
+  m.add_attribute(name, dims, components, centering, "Float", 8);
+}
+
+void FieldWriter::add(const std::string& name, std::span<const int> data, Centering centering) {
+  auto& m = *impl_;
+  const auto dims = m.dims_for(name, data.size(), 1, centering);
+  write_dataset(m.group.get(), name, H5T_STD_I32LE, H5T_NATIVE_INT, data.data(), dims, m.h5_tmp.string());
+  m.add_attribute(name, dims, 1, centering, "Int", 4);
+}
+
+void FieldWriter::end_step() {
+  auto& m = *impl_;
+  m.require_step("end_step");
+  if (!m.group.reset()) hdf5_fail("FieldWriter: cannot close group /step_" + std::to_string(m.step));
+  m.steps_xml += "      <Grid Name=\"step_" + std::to_string(m.step) + "\" GridType=\"Uniform\">\n" +
+                 "        <Time Value=\"" + number(m.time) + "\"/>\n" + m.mesh_xml + m.step_xml + "      </Grid>\n";
+  m.in_step = false;
+  ++m.step;
+}
+
+void FieldWriter::close() {
+  auto& m = *impl_;
+  m.require_open("close");
+  if (m.in_step) throw std::logic_error("FieldWriter::close: step " + std::to_string(m.step) + " not ended");
+  const std::string xdmf = "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n"
+                           "    <Grid Name=\"" + xml_escape(m.xdmf_final.stem().string()) +
+                           "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n" +
+                           m.steps_xml + "    </Grid>\n  </Domain>\n</Xdmf>\n";
+  if (!m.file.reset()) hdf5_fail("FieldWriter: cannot close '" + m.h5_tmp.string() + "'");
+  fsync_file(m.h5_tmp);
+  std::error_code ec;
+  fs::rename(m.h5_tmp, m.h5_final, ec);
+  if (ec)
+    throw std::runtime_error("FieldWriter: cannot rename '" + m.h5_tmp.string() + "' to '" + m.h5_final.string() +
+                             "' (" + ec.message() + ")");
+  // From here on the temporary is gone; the XDMF goes last so it never refers to a missing file.
+  m.finished = true;
+  write_file_atomic(m.xdmf_final, xdmf);
+}
+
+Dataset read_dataset(const std::filesystem::path& file, const std::string& dataset) {
+  silence_hdf5();
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec)) throw std::runtime_error("read_dataset: no such file '" + file.string() + "'");
+  Handle f = checked(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
+                     "read_dataset: cannot open '" + file.string() + "' as HDF5");
+  const hid_t d_id = H5Dopen2(f.get(), dataset.c_str(), H5P_DEFAULT);
+  if (d_id < 0) throw std::runtime_error("read_dataset: no dataset '" + dataset + "' in '" + file.string() + "'");
+  Handle d(d_id, H5Dclose);
+  const std::string what = "read_dataset: cannot read dataset '" + dataset + "' in '" + file.string() + "'";
+  Handle type = checked(H5Dget_type(d.get()), H5Tclose, what);
+  const H5T_class_t cls = H5Tget_class(type.get());
+  if (cls != H5T_INTEGER && cls != H5T_FLOAT)
+    throw std::runtime_error("read_dataset: dataset '" + dataset + "' in '" + file.string() + "' is not numeric");
+  Handle space = checked(H5Dget_space(d.get()), H5Sclose, what);
+  const int rank = H5Sget_simple_extent_ndims(space.get());
+  if (rank < 0) hdf5_fail(what);
+  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+  if (rank > 0 && H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr) < 0) hdf5_fail(what);
+  const hssize_t n = H5Sget_simple_extent_npoints(space.get());
+  if (n < 0) hdf5_fail(what);
+  Dataset out;
+  out.dims.assign(dims.begin(), dims.end());
+  out.values.resize(static_cast<std::size_t>(n));
+  // HDF5 converts any integer or float type to native double on read.
+  if (n > 0 && H5Dread(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.values.data()) < 0)
+    hdf5_fail(what);
+  return out;
+}
+
+}  // namespace softhom::io

@@ -1,1 +1,64 @@
-// summary: being written
+// summary.json: run metadata shared by every subcommand.
+#include "softhom/io/summary.hpp"
+
+#include <cmath>
+#include <ctime>
+#include <sstream>
+#include <stdexcept>
+
+#include <omp.h>
+
+#include "softhom/io/files.hpp"
+
+namespace softhom::io {
+
+std::string softhom_version() { return SOFTHOM_VERSION; }
+
+namespace {
+
+std::string utc_now_iso8601() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+// nlohmann writes NaN/Inf as `null`, which would silently turn a failed result into "no value":
+// refuse instead, naming where the number sits (JSON pointer syntax).
+void check_finite(const nlohmann::json& j, const std::string& where) {
+  if (j.is_number_float() && !std::isfinite(j.get<double>()))
+    throw std::invalid_argument("summary.json: non-finite number at '" + (where.empty() ? "/" : where) + "'");
+  if (j.is_object()) {
+    for (const auto& [key, value] : j.items()) check_finite(value, where + "/" + key);
+  } else if (j.is_array()) {
+    for (std::size_t i = 0; i < j.size(); ++i) check_finite(j[i], where + "/" + std::to_string(i));
+  }
+}
+
+}  // namespace
+
+nlohmann::json summary_base(const std::string& command, const std::filesystem::path& scene_file,
+                            const toml::table& scene) {
+  // toml++'s JSON formatter quotes dates, times, inf and nan, so its output is always valid JSON.
+  std::ostringstream scene_json;
+  scene_json << toml::json_formatter{scene};
+  nlohmann::json j;
+  j["softhom_version"] = softhom_version();
+  j["command"] = command;
+  j["scene_file"] = scene_file.string();
+  j["scene"] = nlohmann::json::parse(scene_json.str());
+  j["threads"] = omp_get_max_threads();  // what the OpenMP solvers will use (honours OMP_NUM_THREADS)
+  j["started_utc"] = utc_now_iso8601();
+  return j;
+}
+
+void write_summary(const std::filesystem::path& dir, const nlohmann::json& summary) {
+  check_finite(summary, "");
+  // Invalid UTF-8 (e.g. from a file name) is replaced rather than failing the whole summary.
+  write_file_atomic(dir / "summary.json",
+                    summary.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+}
+
+}  // namespace softhom::io

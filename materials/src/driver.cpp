@@ -26,6 +26,7 @@ struct SubstepOutcome {
   MaterialStatus status = MaterialStatus::ok;
   int iterations = 0;
   double residual = 0.0;
+  bool hit_locking = false;  // a trial state in this sub-step reached the material's locking limit
 };
 
 // Newton on the free components of F at time t, starting from F (updated in place). On success P
@@ -53,13 +54,21 @@ SubstepOutcome solve_substep(const Material& material, const MixedControl& contr
   };
 
   out.status = material.evaluate(F, s_old, s_new, dt, P, &A);
+  out.hit_locking = out.status == MaterialStatus::locking;
   if (out.status != MaterialStatus::ok) return out;
   double rnorm = residual(P);
-  const double tolerance = opt.tolerance * std::max(stress_scale, P.cwiseAbs().maxCoeff());
   for (int it = 0; it <= opt.max_iterations; ++it) {
     out.iterations = it;
     out.residual = rnorm;
+    // Relative to the current stress: the first trial state (prescribed components moved, free ones
+    // not yet) can carry a volumetric stress ~K·ΔJ that says nothing about the converged scale.
+    const double tolerance = opt.tolerance * std::max(stress_scale, P.cwiseAbs().maxCoeff());
     if (rnorm <= tolerance || free.count == 0) {
+      if (material.limit_margin(F) < opt.limit_margin) {
+        out.status = MaterialStatus::locking;
+        out.hit_locking = true;
+        return out;
+      }
       out.converged = true;
       return out;
     }
@@ -81,10 +90,11 @@ SubstepOutcome solve_substep(const Material& material, const MixedControl& contr
       const MaterialStatus st = material.evaluate(F_trial, s_old, s_new, dt, P_trial, &A);
       if (st != MaterialStatus::ok) {
         out.status = st;
+        out.hit_locking |= st == MaterialStatus::locking;
         continue;
       }
       const double rn = residual(P_trial);
-      if (rn < rnorm || step < 0.25 || rn <= tolerance) {
+      if (rn < rnorm || step < 0.25) {
         accepted = true;
         F = F_trial;
         P = P_trial;
@@ -101,6 +111,7 @@ std::string describe_failure(const SubstepOutcome& o) {
   if (o.status != MaterialStatus::ok) return std::string("material call failed: ") + to_string(o.status);
   std::ostringstream s;
   s << "Newton did not converge (residual " << o.residual << " after " << o.iterations << " iterations)";
+  if (o.hit_locking) s << "; trial states reached the material's locking limit";
   return s.str();
 }
 
@@ -168,7 +179,7 @@ PointRunResult run_material_point(const Material& global_material, const MixedCo
           std::ostringstream s;
           s << "step to t = " << t_out << " failed at t = " << t_new << " after " << halvings
             << " cut-backs (Δt = " << dt << "): " << describe_failure(o);
-          if (o.status == MaterialStatus::locking)
+          if (o.status == MaterialStatus::locking || o.hit_locking)
             s << ". The prescribed deformation reaches the Gent locking limit (Ī1 − 3 → Jm) near F = ["
               << F.row(0) << "; " << F.row(1) << "; " << F.row(2) << "]";
           result.error = s.str();

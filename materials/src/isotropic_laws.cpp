@@ -1,1 +1,100 @@
-// isotropic_laws: being written
+// Isotropic laws in the isochoric first invariant (spec §3):
+//   neo-Hookean  W = (μ/2)(Ī1 − 3) + W_V(J)
+//   Yeoh         W = C1 (Ī1 − 3) + C2 (Ī1 − 3)² + C3 (Ī1 − 3)³ + W_V(J)
+// Both reduce to W1 = dW/dĪ1, W11 = d²W/dĪ1² and go through the same InvariantAssembler as Gent.
+#include <cmath>
+#include <sstream>
+
+#include "softhom/materials/laws.hpp"
+
+namespace softhom {
+namespace {
+
+struct NeoHookeanEnergy {
+  NeoHookeanParams p;
+  double K() const { return p.K; }
+  double G() const { return p.mu; }
+  double W(double x) const { return 0.5 * p.mu * x; }
+  void derivatives(double /*x*/, double& W1, double& W11) const {
+    W1 = 0.5 * p.mu;
+    W11 = 0.0;
+  }
+  std::string describe() const {
+    std::ostringstream s;
+    s.precision(6);
+    s << "neo-Hookean (mu=" << p.mu << " MPa, K=" << p.K << " MPa)";
+    return s.str();
+  }
+};
+
+struct YeohEnergy {
+  YeohParams p;
+  double K() const { return p.K; }
+  double G() const { return 2.0 * p.C1; }
+  double W(double x) const { return x * (p.C1 + x * (p.C2 + x * p.C3)); }
+  void derivatives(double x, double& W1, double& W11) const {
+    W1 = p.C1 + x * (2.0 * p.C2 + 3.0 * p.C3 * x);
+    W11 = 2.0 * p.C2 + 6.0 * p.C3 * x;
+  }
+  std::string describe() const {
+    std::ostringstream s;
+    s.precision(6);
+    s << "Yeoh (C1=" << p.C1 << " C2=" << p.C2 << " C3=" << p.C3 << " MPa, K=" << p.K << " MPa)";
+    return s.str();
+  }
+};
+
+template <class Energy>
+class IsotropicI1Law final : public ElasticLaw {
+ public:
+  explicit IsotropicI1Law(const Energy& e) : e_(e) {}
+  std::string describe() const override { return e_.describe(); }
+
+  MaterialStatus second_piola(const Mat3& F, const Mat3& C, double J, Mat3& S, Mat9* CC) const override {
+    return compute(InvariantAssembler::Form::material, F, C, J, S, CC);
+  }
+  MaterialStatus first_piola(const Mat3& F, const Mat3& C, double J, Mat3& P, Mat9* A) const override {
+    return compute(InvariantAssembler::Form::piola, F, C, J, P, A);
+  }
+  double energy(const Mat3& C, double J) const override {
+    if (!(J > 0.0)) return std::nan("");
+    const double x = C.trace() / std::cbrt(J * J) - 3.0;
+    return e_.W(x) + volumetric_energy(e_.K(), J);
+  }
+  double initial_shear_modulus() const override { return e_.G(); }
+  double initial_bulk_modulus() const override { return e_.K(); }
+  std::unique_ptr<ElasticLaw> rotated(const Mat3& /*Q*/) const override {
+    return std::make_unique<IsotropicI1Law>(e_);  // isotropic: nothing to rotate
+  }
+
+ private:
+  MaterialStatus compute(InvariantAssembler::Form form, const Mat3& F, const Mat3& C, double J, Mat3& stress,
+                         Mat9* T) const {
+    const double j23 = 1.0 / std::cbrt(J * J);
+    const double I1b = j23 * C.trace();
+    double W1, W11;
+    e_.derivatives(I1b - 3.0, W1, W11);
+    const IsochoricTerms iso = isochoric_invariant_terms(W1, W11, j23, I1b);
+    const double J2 = J * J, K = e_.K();
+    const double sC = iso.sC + 0.5 * K * (J2 - 1.0);
+    const double cCC = iso.cCC + K * J2;
+    const double cS = iso.cS - K * (J2 - 1.0);
+    if (!std::isfinite(sC + cCC + cS + iso.sX + iso.cXX + iso.cXC)) return MaterialStatus::not_finite;
+    const Mat3 Ci = C.inverse();
+    InvariantAssembler assembler(form, F, Ci, T);
+    assembler.finish(iso.sX, sC, iso.cXX, iso.cXC, cCC, cS, stress);
+    if (!stress.allFinite()) return MaterialStatus::not_finite;
+    return MaterialStatus::ok;
+  }
+
+  Energy e_;
+};
+
+}  // namespace
+
+ElasticLawPtr make_neo_hookean(const NeoHookeanParams& p) {
+  return std::make_shared<IsotropicI1Law<NeoHookeanEnergy>>(NeoHookeanEnergy{p});
+}
+ElasticLawPtr make_yeoh(const YeohParams& p) { return std::make_shared<IsotropicI1Law<YeohEnergy>>(YeohEnergy{p}); }
+
+}  // namespace softhom

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include <Eigen/Geometry>
+
 #include "softhom/materials/errors.hpp"
 
 namespace softhom {

@@ -45,11 +45,15 @@ TEST(PointDriver, UniaxialGentMatchesClosedForm) {
   for (const auto& s : r.steps) {
     const double l = s.F(0, 0);
     const double expected = (l * l - 1.0 / l) * mu_eff(0.017, 14.0, l * l + 2.0 / l);
-    if (l > 1.01) EXPECT_NEAR(s.sigma(0, 0) / expected, 1.0, kClosedFormTol) << "λ = " << l;
+    if (l > 1.01) {
+      EXPECT_NEAR(s.sigma(0, 0) / expected, 1.0, kClosedFormTol) << "λ = " << l;
+    }
     // Uniaxial stress: every other Cauchy component vanishes (Newton tolerance 1e-10 relative).
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
-        if (i + j > 0) EXPECT_NEAR(s.sigma(i, j), 0.0, 1e-9 * std::max(1.0, std::abs(s.sigma(0, 0))));
+        if (i + j > 0) {
+          EXPECT_NEAR(s.sigma(i, j), 0.0, 1e-9 * std::max(1.0, std::abs(s.sigma(0, 0))));
+        }
   }
   EXPECT_NEAR(r.steps.back().F(0, 0), 3.0, 1e-14);
 }

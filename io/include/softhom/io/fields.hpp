@@ -39,7 +39,8 @@ class FieldWriter {
   FieldWriter(const FieldWriter&) = delete;
   FieldWriter& operator=(const FieldWriter&) = delete;
 
-  /// For an unstructured mesh, node coordinates of the current step (deformed mesh); optional.
+  /// Starts step k (datasets under /step_<k>/). The mesh itself is fixed: give the deformed shape as a
+  /// node-centred 3-component field named "displacement" (ParaView: Warp By Vector).
   void begin_step(double time);
   /// `components` is 1 (scalar), 3 (vector) or 9 (tensor, row-major); data has components × count.
   void add(const std::string& name, std::span<const double> data, int components, Centering centering);

@@ -20,7 +20,7 @@ class CsvTable {
  public:
   explicit CsvTable(std::vector<std::string> columns) : columns_(std::move(columns)) {}
   void add_row(const std::vector<double>& row);
-  std::size_t rows() const { return data_.size() / columns_.size(); }
+  std::size_t rows() const { return columns_.empty() ? 0 : data_.size() / columns_.size(); }
   const std::vector<std::string>& columns() const { return columns_; }
   std::string to_string() const;
   void write(const std::filesystem::path& path) const { write_file_atomic(path, to_string()); }

@@ -14,6 +14,9 @@ struct PointSolverOptions {
   double tolerance = 1e-10;      ///< on max |P_free − P_target| relative to max(|P|, G0 * 1e-6)
   int max_iterations = 25;
   int max_cutbacks = 12;         ///< a step may be halved this many times
+  /// A converged state with Material::limit_margin below this is refused like a failed material call
+  /// (Gent: Ī1 − 3 within 0.1 % of Jm): the run stops at the locking stretch with a clear message.
+  double limit_margin = 1e-3;
 };
 
 struct PointState {

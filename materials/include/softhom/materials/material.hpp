@@ -48,6 +48,11 @@ class Material {
   virtual double initial_shear_modulus() const = 0;
   virtual double initial_bulk_modulus() const = 0;
 
+  /// How far F is from a limit of the law's domain, as a fraction: 1 at F = I, 0 at the limit (Gent:
+  /// 1 − (Ī1 − 3)/Jm). Laws without such a limit return 1. Drivers use it to stop cleanly at locking
+  /// instead of following a compressible law into the region where only the bulk modulus resists.
+  virtual double limit_margin(const Mat3& F) const { (void)F; return 1.0; }
+
   /// Reference fiber directions (unit vectors), one per fiber family; empty for isotropic laws.
   virtual std::vector<Vec3> fiber_directions() const { return {}; }
 

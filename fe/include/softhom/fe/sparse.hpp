@@ -1,0 +1,68 @@
+#pragma once
+// Compressed-column sparse matrices with a fixed pattern (built once per mesh and constraint set),
+// and the sparse direct solvers of SuiteSparse behind one interface. The symbolic analysis is done
+// once per pattern and reused by every Newton iteration.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "softhom/fe/mesh.hpp"
+
+namespace softhom::fe {
+
+/// Square CSC matrix; row indices sorted within each column.
+struct CscMatrix {
+  int n = 0;
+  std::vector<int> colptr;  ///< n + 1
+  std::vector<int> rowind;  ///< nnz
+  std::vector<double> values;
+
+  long nnz() const { return long(rowind.size()); }
+  /// Position of (row, col) in values, or -1 when outside the pattern (binary search).
+  long find(int row, int col) const;
+  void set_zero();
+  /// y = A x (all stored entries).
+  void multiply(const double* x, double* y) const;
+};
+
+/// Equation numbers: eq[dof] ≥ 0 for a free dof, −1 for a prescribed one. Free dofs are numbered in
+/// increasing dof order, so node-major adjacency yields sorted CSC columns.
+struct DofMap {
+  std::vector<int> eq;
+  int num_free = 0;
+  static DofMap from_constrained(int num_dofs, const std::vector<char>& constrained);
+};
+
+/// Pattern of the stiffness restricted to free dofs: every pair of dofs sharing an element.
+CscMatrix build_pattern(const Mesh& mesh, const DofMap& dofs);
+
+enum class SolverKind { automatic, cholmod, umfpack };
+const char* to_string(SolverKind kind);
+
+/// Times of the last run of each phase, accumulated over calls [s].
+struct SolverTimes {
+  double analysis = 0.0, factorization = 0.0, solve = 0.0;
+  int factorizations = 0, solves = 0;
+};
+
+class LinearSolver {
+ public:
+  virtual ~LinearSolver() = default;
+  /// Symbolic analysis (fill-reducing ordering) of the pattern; called once.
+  virtual void analyze(const CscMatrix& A) = 0;
+  /// Numeric factorization of A (same pattern as analyze). Returns false when the matrix is not
+  /// factorizable by this method (singular; not positive definite for CHOLMOD).
+  virtual bool factorize(const CscMatrix& A) = 0;
+  /// x = A⁻¹ b with the last factorization (may be called several times per factorization).
+  virtual void solve(const std::vector<double>& b, std::vector<double>& x) = 0;
+  virtual SolverKind kind() const = 0;
+  const SolverTimes& times() const { return times_; }
+
+ protected:
+  SolverTimes times_;
+};
+
+/// CHOLMOD (symmetric positive definite: uses the upper triangle) or UMFPACK (general).
+std::unique_ptr<LinearSolver> make_linear_solver(SolverKind kind);
+
+}  // namespace softhom::fe

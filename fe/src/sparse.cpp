@@ -1,0 +1,217 @@
+#include "softhom/fe/sparse.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <stdexcept>
+
+#include <cholmod.h>
+#include <umfpack.h>
+
+namespace softhom::fe {
+
+long CscMatrix::find(int row, int col) const {
+  const int* begin = rowind.data() + colptr[col];
+  const int* end = rowind.data() + colptr[col + 1];
+  const int* it = std::lower_bound(begin, end, row);
+  return (it != end && *it == row) ? long(it - rowind.data()) : -1;
+}
+
+void CscMatrix::set_zero() { std::fill(values.begin(), values.end(), 0.0); }
+
+void CscMatrix::multiply(const double* x, double* y) const {
+  std::fill(y, y + n, 0.0);
+  for (int c = 0; c < n; ++c)
+    for (int k = colptr[c]; k < colptr[c + 1]; ++k) y[rowind[k]] += values[k] * x[c];
+}
+
+DofMap DofMap::from_constrained(int num_dofs, const std::vector<char>& constrained) {
+  DofMap m;
+  m.eq.assign(num_dofs, -1);
+  for (int d = 0; d < num_dofs; ++d)
+    if (!constrained[d]) m.eq[d] = m.num_free++;
+  return m;
+}
+
+CscMatrix build_pattern(const Mesh& mesh, const DofMap& dofs) {
+  const int nn = mesh.num_nodes();
+  // Node adjacency through elements (a face shares its element's nodes, so pressure terms fit too).
+  std::vector<std::vector<int>> adj(nn);
+  for (const Hex& hex : mesh.hexes)
+    for (int a : hex)
+      for (int b : hex) adj[a].push_back(b);
+  for (auto& v : adj) {
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+  }
+  CscMatrix A;
+  A.n = dofs.num_free;
+  A.colptr.assign(A.n + 1, 0);
+  for (int node = 0; node < nn; ++node)
+    for (int j = 0; j < 3; ++j) {
+      const int col = dofs.eq[3 * node + j];
+      if (col < 0) continue;
+      int count = 0;
+      for (int m : adj[node])
+        for (int i = 0; i < 3; ++i) count += dofs.eq[3 * m + i] >= 0;
+      A.colptr[col + 1] = count;
+    }
+  for (int c = 0; c < A.n; ++c) A.colptr[c + 1] += A.colptr[c];
+  A.rowind.resize(A.colptr[A.n]);
+  for (int node = 0; node < nn; ++node)
+    for (int j = 0; j < 3; ++j) {
+      const int col = dofs.eq[3 * node + j];
+      if (col < 0) continue;
+      int k = A.colptr[col];
+      for (int m : adj[node])
+        for (int i = 0; i < 3; ++i)
+          if (dofs.eq[3 * m + i] >= 0) A.rowind[k++] = dofs.eq[3 * m + i];
+    }
+  A.values.assign(A.rowind.size(), 0.0);
+  return A;
+}
+
+const char* to_string(SolverKind kind) {
+  switch (kind) {
+    case SolverKind::automatic: return "automatic";
+    case SolverKind::cholmod: return "cholmod";
+    case SolverKind::umfpack: return "umfpack";
+  }
+  return "?";
+}
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// CHOLMOD supernodal Cholesky on the upper triangle (stype = 1).
+class CholmodSolver final : public LinearSolver {
+ public:
+  CholmodSolver() {
+    cholmod_start(&common_);
+    // Always supernodal LLᵀ: a simplicial LDLᵀ would silently factorize an indefinite tangent
+    // (past a limit point) instead of reporting it, and supernodal is faster on 3D meshes anyway.
+    common_.supernodal = CHOLMOD_SUPERNODAL;
+  }
+  ~CholmodSolver() override {
+    if (factor_) cholmod_free_factor(&factor_, &common_);
+    if (upper_) cholmod_free_sparse(&upper_, &common_);
+    cholmod_finish(&common_);
+  }
+  SolverKind kind() const override { return SolverKind::cholmod; }
+
+  void analyze(const CscMatrix& A) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    n_ = A.n;
+    // Copy the upper-triangle pattern once; map its entries to positions in A.values.
+    map_.clear();
+    std::vector<int> colptr(A.n + 1, 0), rows;
+    for (int c = 0; c < A.n; ++c) {
+      for (int k = A.colptr[c]; k < A.colptr[c + 1]; ++k)
+        if (A.rowind[k] <= c) {
+          rows.push_back(A.rowind[k]);
+          map_.push_back(k);
+        }
+      colptr[c + 1] = int(rows.size());
+    }
+    upper_ = cholmod_allocate_sparse(A.n, A.n, rows.size(), 1, 1, 1, CHOLMOD_REAL, &common_);
+    if (!upper_) throw std::runtime_error("CHOLMOD: out of memory allocating the matrix");
+    std::memcpy(upper_->p, colptr.data(), sizeof(int) * colptr.size());
+    std::memcpy(upper_->i, rows.data(), sizeof(int) * rows.size());
+    copy_values(A);
+    factor_ = cholmod_analyze(upper_, &common_);
+    if (!factor_) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
+    times_.analysis += seconds_since(t0);
+  }
+
+  bool factorize(const CscMatrix& A) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    copy_values(A);
+    cholmod_factorize(upper_, factor_, &common_);
+    times_.factorization += seconds_since(t0);
+    ++times_.factorizations;
+    return common_.status == CHOLMOD_OK && factor_->minor == std::size_t(n_);
+  }
+
+  void solve(const std::vector<double>& b, std::vector<double>& x) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    cholmod_dense* B = cholmod_allocate_dense(n_, 1, n_, CHOLMOD_REAL, &common_);
+    std::memcpy(B->x, b.data(), sizeof(double) * n_);
+    cholmod_dense* X = cholmod_solve(CHOLMOD_A, factor_, B, &common_);
+    x.assign(static_cast<double*>(X->x), static_cast<double*>(X->x) + n_);
+    cholmod_free_dense(&X, &common_);
+    cholmod_free_dense(&B, &common_);
+    times_.solve += seconds_since(t0);
+    ++times_.solves;
+  }
+
+ private:
+  void copy_values(const CscMatrix& A) {
+    double* v = static_cast<double*>(upper_->x);
+    for (std::size_t k = 0; k < map_.size(); ++k) v[k] = A.values[map_[k]];
+  }
+  cholmod_common common_{};
+  cholmod_sparse* upper_ = nullptr;
+  cholmod_factor* factor_ = nullptr;
+  std::vector<long> map_;
+  int n_ = 0;
+};
+
+/// UMFPACK unsymmetric LU; the symbolic object (column ordering) is computed once.
+class UmfpackSolver final : public LinearSolver {
+ public:
+  UmfpackSolver() { umfpack_di_defaults(control_); }
+  ~UmfpackSolver() override {
+    if (numeric_) umfpack_di_free_numeric(&numeric_);
+    if (symbolic_) umfpack_di_free_symbolic(&symbolic_);
+  }
+  SolverKind kind() const override { return SolverKind::umfpack; }
+
+  void analyze(const CscMatrix& A) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    A_ = &A;
+    const int status = umfpack_di_symbolic(A.n, A.n, A.colptr.data(), A.rowind.data(), A.values.data(),
+                                           &symbolic_, control_, info_);
+    if (status != UMFPACK_OK) throw std::runtime_error("UMFPACK: symbolic analysis failed, status " + std::to_string(status));
+    times_.analysis += seconds_since(t0);
+  }
+
+  bool factorize(const CscMatrix& A) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    A_ = &A;
+    if (numeric_) umfpack_di_free_numeric(&numeric_);
+    const int status = umfpack_di_numeric(A.colptr.data(), A.rowind.data(), A.values.data(), symbolic_,
+                                          &numeric_, control_, info_);
+    times_.factorization += seconds_since(t0);
+    ++times_.factorizations;
+    return status == UMFPACK_OK;  // UMFPACK_WARNING_singular_matrix is > 0: refuse it
+  }
+
+  void solve(const std::vector<double>& b, std::vector<double>& x) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    x.assign(A_->n, 0.0);
+    const int status = umfpack_di_solve(UMFPACK_A, A_->colptr.data(), A_->rowind.data(), A_->values.data(),
+                                        x.data(), b.data(), numeric_, control_, info_);
+    if (status != UMFPACK_OK) throw std::runtime_error("UMFPACK: solve failed, status " + std::to_string(status));
+    times_.solve += seconds_since(t0);
+    ++times_.solves;
+  }
+
+ private:
+  double control_[UMFPACK_CONTROL];
+  double info_[UMFPACK_INFO];
+  void* symbolic_ = nullptr;
+  void* numeric_ = nullptr;
+  const CscMatrix* A_ = nullptr;
+};
+
+}  // namespace
+
+std::unique_ptr<LinearSolver> make_linear_solver(SolverKind kind) {
+  if (kind == SolverKind::umfpack) return std::make_unique<UmfpackSolver>();
+  return std::make_unique<CholmodSolver>();
+}
+
+}  // namespace softhom::fe

@@ -1,0 +1,61 @@
+#pragma once
+// Batched, multithreaded real-to-complex FFTs of many fields on one grid (FFTW3 + OpenMP threads).
+//
+// A BatchedFFT owns its buffers (FFTW-aligned) and two plans made once, at construction: forward
+// (real → half spectrum) and backward (half spectrum → real). Reuse it for every transform on the
+// grid. Plans are made with FFTW_MEASURE by default; wisdom can be cached on disk so that the
+// measurement is paid once per machine.
+#include <complex>
+#include <cstddef>
+#include <filesystem>
+#include <string>
+
+#include "softhom/fft/grid.hpp"
+
+namespace softhom::fft {
+
+using Complex = std::complex<double>;
+
+enum class PlanRigor { estimate, measure, patient };
+
+struct PlanOptions {
+  PlanRigor rigor = PlanRigor::measure;
+  int threads = 0;                     ///< 0: omp_get_max_threads()
+  std::filesystem::path wisdom_file;   ///< empty: no wisdom cache; else imported before and saved after planning
+};
+
+class BatchedFFT {
+ public:
+  /// `fields` real fields of grid.voxels() values each; spectra of grid.modes() values each.
+  BatchedFFT(const Grid& grid, int fields, const PlanOptions& options = {});
+  ~BatchedFFT();
+  BatchedFFT(const BatchedFFT&) = delete;
+  BatchedFFT& operator=(const BatchedFFT&) = delete;
+
+  const Grid& grid() const { return grid_; }
+  int fields() const { return fields_; }
+  double* real(int field = 0) { return real_ + std::size_t(field) * grid_.voxels(); }
+  Complex* spectrum(int field = 0) { return spectrum_ + std::size_t(field) * grid_.modes(); }
+
+  /// real → spectrum, unnormalised (x̂_k = Σ_x x e^{−ik·x}); the real buffer is preserved.
+  void forward();
+  /// spectrum → real, unnormalised (x = Σ_k x̂_k e^{ik·x}); the spectrum buffer is destroyed.
+  void backward();
+
+  /// Human-readable plan description ("fftw3 r2c 9 x 64x64x1, 2 threads, measure").
+  std::string describe() const;
+  double planning_seconds() const { return planning_seconds_; }
+
+ private:
+  Grid grid_;
+  int fields_ = 0;
+  int threads_ = 1;
+  PlanRigor rigor_;
+  double* real_ = nullptr;
+  Complex* spectrum_ = nullptr;
+  void* forward_plan_ = nullptr;
+  void* backward_plan_ = nullptr;
+  double planning_seconds_ = 0.0;
+};
+
+}  // namespace softhom::fft

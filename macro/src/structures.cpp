@@ -1,0 +1,229 @@
+#include "softhom/macro/structures.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "softhom/materials/errors.hpp"
+
+namespace softhom::macro {
+namespace {
+
+void fix(fe::FeModel& m, const std::vector<int>& nodes, int component, double scale = 0.0,
+         const PiecewiseLinear& value = PiecewiseLinear::constant(0.0)) {
+  fe::DirichletGroup g;
+  for (int n : nodes) g.dofs.push_back(3 * n + component);
+  g.scale.assign(g.dofs.size(), scale == 0.0 ? 1.0 : scale);
+  g.value = scale == 0.0 ? PiecewiseLinear::constant(0.0) : value;
+  m.dirichlet.push_back(std::move(g));
+}
+
+std::vector<fe::Quad> concat(const fe::Mesh& mesh, std::initializer_list<const char*> names) {
+  std::vector<fe::Quad> out;
+  for (const char* n : names) {
+    const auto it = mesh.surfaces.find(n);
+    if (it != mesh.surfaces.end()) out.insert(out.end(), it->second.begin(), it->second.end());
+  }
+  return out;
+}
+
+/// Per-element materials in the fiber frame; identical frames share one rotated copy.
+void assign_materials(Structure& s) {
+  const auto& spec = s.spec;
+  fe::Mesh& mesh = s.model.mesh;
+  const MaterialPtr m1 = spec.material_region1 ? spec.material_region1 : spec.material;
+  const auto centroids = element_centroids(mesh);
+  std::map<std::pair<long, long>, MaterialPtr> cache[2];
+  s.model.element_material.resize(mesh.num_elements());
+  for (int e = 0; e < mesh.num_elements(); ++e) {
+    const int region = mesh.region.empty() ? 0 : mesh.region[e];
+    const MaterialPtr& base = region == 1 ? m1 : spec.material;
+    if (spec.fiber_frame == FiberFrame::global || base->fiber_directions().empty()) {
+      s.model.element_material[e] = base;
+      continue;
+    }
+    const Vec3& c = centroids[e];
+    const Mat3 Q = spec.fiber_frame == FiberFrame::cylindrical ? cylindrical_frame(c) : spherical_frame(c);
+    // Key on the rotation (rounded) so that elements of one angular column share a material.
+    const std::pair<long, long> key{std::lround(1e9 * Q(0, 0)) * 3 + std::lround(1e9 * Q(1, 0)),
+                                    std::lround(1e9 * Q(2, 2)) + 7 * std::lround(1e9 * Q(0, 2))};
+    auto& slot = cache[region == 1][key];
+    if (!slot) slot = MaterialPtr(base->rotated(Q));
+    s.model.element_material[e] = slot;
+  }
+}
+
+double mean_radius(const std::vector<Vec3>& x, const std::vector<int>& nodes, bool spherical) {
+  double sum = 0.0;
+  for (int n : nodes) sum += spherical ? x[n].norm() : std::hypot(x[n][0], x[n][1]);
+  return nodes.empty() ? 0.0 : sum / nodes.size();
+}
+
+}  // namespace
+
+Structure build_structure(const StructureSpec& spec) {
+  if (!spec.material) throw InputError("material", "", "missing material");
+  Structure s;
+  s.spec = spec;
+  fe::FeModel& m = s.model;
+  m.formulation = spec.formulation;
+  switch (spec.kind) {
+    case StructureKind::plate: {
+      m.mesh = make_plate(spec.plate);
+      if (spec.control != LoadControl::stretch)
+        throw InputError("load.control", "", "a plate is driven by load.stretch");
+      const double L = spec.plate.size[0];
+      fix(m, fe::surface_nodes(m.mesh, "xmin"), 0);
+      // λ(t) − 1 as u_x / L on the loaded face.
+      PiecewiseLinear strain = spec.load;
+      for (double& v : strain.v) v -= 1.0;
+      s.end_nodes = fe::surface_nodes(m.mesh, "xmax");
+      fix(m, s.end_nodes, 0, L, strain);
+      for (int n : s.end_nodes) s.load_dofs.push_back(3 * n);
+      const auto origin = fe::select_nodes(m.mesh, [](const Vec3& x) { return x.norm() < 1e-9; });
+      const auto corner_y = fe::select_nodes(
+          m.mesh, [&](const Vec3& x) { return std::abs(x[0]) < 1e-9 && std::abs(x[2]) < 1e-9 && std::abs(x[1] - spec.plate.size[1]) < 1e-9; });
+      fix(m, origin, 1);
+      fix(m, origin, 2);
+      fix(m, corner_y, 2);
+      break;
+    }
+    case StructureKind::tube:
+    case StructureKind::actuator: {
+      TubeSpec t = spec.tube;
+      t.split_y = spec.kind == StructureKind::actuator;
+      if (spec.kind == StructureKind::actuator && !(t.cap_thickness > 0.0))
+        throw InputError("geometry.cap_thickness", std::to_string(t.cap_thickness), "an actuator needs an end cap");
+      m.mesh = make_tube(t);
+      const bool quarter = t.sweep_deg < 360.0 - 1e-9;
+      if (quarter) {
+        if (std::abs(t.sweep_deg - 90.0) > 1e-9)
+          throw InputError("geometry.sweep_deg", std::to_string(t.sweep_deg), "only 90 (quarter) or 360 are supported");
+        fix(m, fe::surface_nodes(m.mesh, "ysym"), 1);
+        fix(m, fe::surface_nodes(m.mesh, "xsym"), 0);
+      }
+      const auto zmin = fe::surface_nodes(m.mesh, "zmin");
+      if (spec.plane_strain) {
+        if (t.cap_thickness > 0.0) throw InputError("geometry.plane_strain", "true", "incompatible with an end cap");
+        fix(m, zmin, 2);
+        fix(m, fe::surface_nodes(m.mesh, "zmax"), 2);
+        if (!quarter) {
+          // Full ring in plane strain: pin the rigid in-plane translation and rotation.
+          const auto a = fe::select_nodes(m.mesh, [&](const Vec3& x) { return std::abs(x[1]) < 1e-9 && x[0] > 0 && std::abs(x[2]) < 1e-12; });
+          const auto b = fe::select_nodes(m.mesh, [&](const Vec3& x) { return std::abs(x[0]) < 1e-9 && x[1] > 0 && std::abs(x[2]) < 1e-12; });
+          fix(m, a, 1);
+          fix(m, b, 0);
+        }
+      } else {
+        // Clamped at z = 0 (the dissertation's "right side totally fixed"); the other end is free
+        // (capped) so axial extension, twist and bending can develop.
+        fix(m, zmin, 0);
+        fix(m, zmin, 1);
+        fix(m, zmin, 2);
+      }
+      s.inner_nodes = fe::surface_nodes(m.mesh, "inner");
+      s.end_nodes = fe::surface_nodes(m.mesh, "zmax");
+      const auto faces = concat(m.mesh, {"inner", "cap_inner"});
+      if (spec.control == LoadControl::pressure) {
+        m.pressures.push_back({faces, spec.load});
+      } else if (spec.control == LoadControl::volume) {
+        // Cavity closed by z = 0 (x·n = 0 there) and, when not capped, by the plane z = L: use the
+        // in-plane mask so that that plane contributes nothing.
+        const Vec3 mask = t.cap_thickness > 0.0 ? Vec3(1, 1, 1) : Vec3(1, 1, 0);
+        m.cavity = fe::CavityControl{faces, mask, spec.load};
+      } else {
+        throw InputError("load.control", "stretch", "a tube is driven by pressure or volume");
+      }
+      break;
+    }
+    case StructureKind::sphere: {
+      m.mesh = make_sphere_octant(spec.sphere);
+      fix(m, fe::surface_nodes(m.mesh, "x0"), 0);
+      fix(m, fe::surface_nodes(m.mesh, "y0"), 1);
+      fix(m, fe::surface_nodes(m.mesh, "z0"), 2);
+      s.inner_nodes = fe::surface_nodes(m.mesh, "inner");
+      const auto faces = m.mesh.surface("inner");
+      if (spec.control == LoadControl::pressure)
+        m.pressures.push_back({faces, spec.load});
+      else if (spec.control == LoadControl::volume)
+        m.cavity = fe::CavityControl{faces, Vec3(1, 1, 1), spec.load};
+      else
+        throw InputError("load.control", "stretch", "a sphere is driven by pressure or volume");
+      break;
+    }
+  }
+  assign_materials(s);
+  return s;
+}
+
+std::vector<std::string> probe_names(const Structure& s) {
+  switch (s.spec.kind) {
+    case StructureKind::plate: return {"time", "stretch", "force", "nominal_stress"};
+    case StructureKind::sphere: return {"time", "pressure", "stretch", "volume", "inner_radius"};
+    case StructureKind::tube:
+      return {"time", "pressure", "volume", "inner_radius", "stretch", "axial_stretch", "twist_deg"};
+    case StructureKind::actuator: return {"time", "pressure", "volume", "tip_angle_deg", "tip_deflection"};
+  }
+  return {};
+}
+
+std::vector<double> probe_values(const Structure& s, const fe::Simulation& sim) {
+  const double t = sim.time();
+  const auto x = sim.current_positions();
+  const auto& X = s.model.mesh.nodes;
+  const auto& spec = s.spec;
+  double p = 0.0, volume = 0.0;
+  if (s.model.cavity) {
+    p = sim.cavity_pressure();
+    volume = fe::cavity_volume(x, s.model.cavity->faces, s.model.cavity->mask);
+  } else if (!s.model.pressures.empty()) {
+    p = s.model.pressures[0].pressure(t);
+    const Vec3 mask = spec.tube.cap_thickness > 0.0 || spec.kind == StructureKind::sphere ? Vec3(1, 1, 1) : Vec3(1, 1, 0);
+    volume = fe::cavity_volume(x, s.model.pressures[0].faces, mask);
+  }
+  switch (spec.kind) {
+    case StructureKind::plate: {
+      const double lambda = spec.load(t);
+      const double force = sim.reaction(s.load_dofs);
+      return {t, lambda, force, force / (spec.plate.size[1] * spec.plate.size[2])};
+    }
+    case StructureKind::sphere: {
+      const double r = mean_radius(x, s.inner_nodes, true);
+      return {t, p, r / spec.sphere.inner_radius, volume, r};
+    }
+    case StructureKind::tube: {
+      const double r = mean_radius(x, s.inner_nodes, false);
+      // Axial stretch and twist from the free end's nodes (outer rim: away from the cap's axis).
+      double z = 0.0, Z = 0.0, twist = 0.0;
+      int count = 0;
+      for (int n : s.end_nodes) {
+        const double R = std::hypot(X[n][0], X[n][1]);
+        if (R < spec.tube.inner_radius - 1e-9) continue;
+        z += x[n][2];
+        Z += X[n][2];
+        twist += std::remainder(std::atan2(x[n][1], x[n][0]) - std::atan2(X[n][1], X[n][0]), 2 * M_PI);
+        ++count;
+      }
+      const double zc = spec.tube.length + spec.tube.cap_thickness;
+      const double axial = count ? (z / count) / (Z / count) : 1.0;
+      (void)zc;
+      return {t, p, volume, r, r / spec.tube.inner_radius, axial, count ? twist / count * 180.0 / M_PI : 0.0};
+    }
+    case StructureKind::actuator: {
+      // Tip angle α (dissertation Fig. 30/32): angle between the tube axis and the line from the
+      // clamped end's centre to the centre of the free end.
+      Vec3 c = Vec3::Zero(), c0 = Vec3::Zero();
+      for (int n : s.end_nodes) {
+        c += x[n];
+        c0 += X[n];
+      }
+      c /= double(s.end_nodes.size());
+      c0 /= double(s.end_nodes.size());
+      const double alpha = std::atan2(std::hypot(c[0], c[1]), c[2]) * 180.0 / M_PI;
+      return {t, p, volume, alpha, (c - c0).norm()};
+    }
+  }
+  return {};
+}
+
+}  // namespace softhom::macro

@@ -1,0 +1,827 @@
+// Newton–Krylov and Moulinec–Suquet FFT solvers for periodic fiber cells (see fft_solver.hpp).
+#include "softhom/rve/fft_solver.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include <Eigen/Dense>
+
+#include "softhom/materials/errors.hpp"
+
+namespace softhom::rve {
+
+using fft::Complex;
+
+const char* to_string(FftScheme s) { return s == FftScheme::newton_cg ? "newton-cg" : "moulinec-suquet"; }
+const char* to_string(ReferenceMedium r) { return r == ReferenceMedium::mean_tangent ? "mean-tangent" : "isotropic"; }
+
+Mat3 grid_rotation(double fiber_angle_deg) {
+  const double a = fiber_angle_deg * 3.14159265358979323846 / 180.0;
+  Mat3 R;
+  R.col(0) = Vec3(std::cos(a), -std::sin(a), 0.0);
+  R.col(2) = Vec3(std::sin(a), std::cos(a), 0.0);
+  R.col(1) = R.col(2).cross(R.col(0));
+  return R;
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr double kPhaseEps = 1e-12;  // fractions closer than this to 0/1 are pure voxels
+
+/// 9×9 operator of X ↦ R X Rᵀ on row-major flattened tensors.
+Mat9 rotation_operator(const Mat3& R) {
+  Mat9 T;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 3; ++l) T(3 * i + j, 3 * k + l) = R(i, k) * R(j, l);
+  return T;
+}
+
+Mat9 isotropic_tangent(double lambda, double mu) {
+  Mat9 C = Mat9::Zero();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      C(3 * i + i, 3 * j + j) += lambda;
+      C(3 * i + j, 3 * i + j) += mu;
+      C(3 * i + j, 3 * j + i) += mu;
+    }
+  return C;
+}
+
+/// Running sums of one evaluation pass (per thread, then reduced).
+struct PassSums {
+  Vec9 P = Vec9::Zero();
+  Mat9 A = Mat9::Zero();
+  // per phase (0 matrix, 1 fiber): Σ w P, Σ w F, Σ w P Fᵀ (= J σ), Σ w J, Σ w
+  Mat3 phase_P[2] = {Mat3::Zero(), Mat3::Zero()};
+  Mat3 phase_F[2] = {Mat3::Zero(), Mat3::Zero()};
+  Mat3 phase_PFt[2] = {Mat3::Zero(), Mat3::Zero()};
+  double phase_J[2] = {0.0, 0.0};
+  double phase_w[2] = {0.0, 0.0};
+  void add(const PassSums& o) {
+    P += o.P;
+    A += o.A;
+    for (int x = 0; x < 2; ++x) {
+      phase_P[x] += o.phase_P[x];
+      phase_F[x] += o.phase_F[x];
+      phase_PFt[x] += o.phase_PFt[x];
+      phase_J[x] += o.phase_J[x];
+      phase_w[x] += o.phase_w[x];
+    }
+  }
+};
+
+/// A Krylov vector: fluctuation spectrum (3 fields) and the free macro components (load frame).
+struct KVec {
+  std::vector<Complex> u;
+  Vec9 f = Vec9::Zero();
+};
+
+}  // namespace
+
+struct FftSolverStats {
+  int krylov = 0;
+};
+
+struct FftRveSolver::Impl {
+  FftSolverOptions opt;
+  fft::Grid grid;
+  fft::GradientOperator op;
+  int nq;
+  std::size_t N, NM, NP;
+  std::unique_ptr<fft::BatchedFFT> fft;
+  Mat3 R;            // grid axes in the load frame
+  Mat9 T_load;       // X_grid ↦ X_load
+  Vec3 a0_load;      // fiber axis in the load frame
+  MaterialPtr mat[2];  // grid frame: 0 matrix, 1 fiber
+  int state_size[2] = {0, 0};
+  double G_min = 1.0, G_max = 1.0, K_max = 1.0, lambda_ref = 1.0, mu_ref = 1.0;
+
+  std::vector<double> phi;          // fiber fraction per voxel
+  std::vector<int> comp_id;         // composite index per voxel, −1 for pure voxels
+  std::vector<Vec3> comp_normal;    // per composite voxel (grid frame)
+  std::vector<double> lam_a, lam_a_trial;     // laminate jump vector per composite point (3 each)
+  std::vector<double> hist_old[2], hist_new[2];
+  std::vector<Mat9> tangent;        // per material point p = v nq + q
+  double achieved_vf = 0.0;
+
+  // Unknowns (current and committed).
+  std::vector<Complex> u, u_committed;
+  Mat3 Fbar = Mat3::Identity(), Fbar_committed = Mat3::Identity();  // load frame
+
+  // Scratch.
+  std::vector<Complex> r_u;
+  PassSums sums;
+  Mat9 C0 = Mat9::Identity();
+
+  Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPtr fiber, double angle, const Mat3& frame,
+       const FftSolverOptions& o)
+      : opt(o),
+        grid{image.n, image.size},
+        op(grid, o.discretization),
+        nq(op.points()),
+        N(grid.voxels()),
+        NM(grid.modes()),
+        NP(N * std::size_t(op.points())) {
+    if (image.fiber_fraction.size() != N)
+      throw InputError("microstructure", "", "phase image has " + std::to_string(image.fiber_fraction.size()) +
+                                                 " values for " + std::to_string(N) + " voxels");
+    R = grid_rotation(angle);
+    T_load = rotation_operator(R);
+    a0_load = R.col(2);
+    // global → load: frameᵀ; load → grid: Rᵀ.
+    const Mat3 Q = R.transpose() * frame.transpose();
+    mat[0] = MaterialPtr(matrix->rotated(Q));
+    mat[1] = MaterialPtr(fiber->rotated(Q));
+    for (int x = 0; x < 2; ++x) state_size[x] = mat[x]->state_size();
+    const double G0 = mat[0]->initial_shear_modulus(), G1 = mat[1]->initial_shear_modulus();
+    const double K0 = mat[0]->initial_bulk_modulus(), K1 = mat[1]->initial_bulk_modulus();
+    G_min = std::min(G0, G1);
+    G_max = std::max(G0, G1);
+    K_max = std::max(K0, K1);
+    // Moulinec–Suquet reference: arithmetic mean of the extreme Lamé moduli (the classic choice).
+    mu_ref = 0.5 * (G0 + G1);
+    lambda_ref = 0.5 * ((K0 - 2.0 / 3.0 * G0) + (K1 - 2.0 / 3.0 * G1));
+
+    phi = image.fiber_fraction;
+    comp_id.assign(N, -1);
+    double vf = 0.0;
+    for (std::size_t v = 0; v < N; ++v) {
+      double& f = phi[v];
+      if (!(f >= 0.0 && f <= 1.0)) throw InputError("microstructure", std::to_string(f), "fiber fraction outside [0, 1]");
+      if (f < kPhaseEps) f = 0.0;
+      if (f > 1.0 - kPhaseEps) f = 1.0;
+      vf += f;
+      if (f > 0.0 && f < 1.0) {
+        comp_id[v] = int(comp_normal.size());
+        Vec3 n = image.normal.size() == N ? image.normal[v] : Vec3::Zero();
+        if (!(n.norm() > 0.5)) n = estimate_normal(image, v);
+        comp_normal.push_back(n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero());
+      }
+    }
+    achieved_vf = vf / double(N);
+    lam_a.assign(comp_normal.size() * nq * 3, 0.0);
+    lam_a_trial = lam_a;
+    for (int x = 0; x < 2; ++x)
+      if (state_size[x] > 0) {
+        hist_old[x].assign(NP * state_size[x], 0.0);
+        for (std::size_t p = 0; p < NP; ++p) mat[x]->init_state(hist_old[x].data() + p * state_size[x]);
+        hist_new[x] = hist_old[x];
+      }
+    if (opt.scheme == FftScheme::newton_cg) tangent.resize(NP);
+    fft = std::make_unique<fft::BatchedFFT>(grid, 9 * nq, opt.plan);
+    u.assign(3 * NM, 0.0);
+    u_committed = u;
+    r_u.assign(3 * NM, 0.0);
+  }
+
+  // Normal of a composite voxel of an imported image without normals: −∇φ by central differences
+  // (points out of the fiber); zero when the neighbourhood is flat (then the Voigt rule is used).
+  static Vec3 estimate_normal(const PhaseImage& im, std::size_t v) {
+    const int n1 = im.n[0], n2 = im.n[1], n3 = im.n[2];
+    const int i1 = int(v % n1), i2 = int((v / n1) % n2), i3 = int(v / (std::size_t(n1) * n2));
+    auto at = [&](int a, int b, int c) {
+      a = (a + n1) % n1;
+      b = (b + n2) % n2;
+      c = (c + n3) % n3;
+      return im.fiber_fraction[a + std::size_t(n1) * (b + std::size_t(n2) * c)];
+    };
+    Vec3 g(n1 > 1 ? (at(i1 + 1, i2, i3) - at(i1 - 1, i2, i3)) * n1 / im.size[0] : 0.0,
+           n2 > 1 ? (at(i1, i2 + 1, i3) - at(i1, i2 - 1, i3)) * n2 / im.size[1] : 0.0,
+           n3 > 1 ? (at(i1, i2, i3 + 1) - at(i1, i2, i3 - 1)) * n3 / im.size[2] : 0.0);
+    return g.norm() > 0.0 ? Vec3(-g.normalized()) : Vec3::Zero();
+  }
+
+  Mat3 to_grid(const Mat3& X_load) const { return R.transpose() * X_load * R; }
+  Mat3 to_load(const Mat3& X_grid) const { return R * X_grid * R.transpose(); }
+
+  // ---------------------------------------------------------------------------------------------
+  // Material points.
+
+  /// Laminate rule for a composite point. `a` (in/out) is the jump vector, warm-started.
+  MaterialStatus laminate(const Mat3& F, double f, const Vec3& n, Vec3& a, std::size_t p, double dt, Mat3& P,
+                          Mat9* A, Mat3 Px[2], Mat3 Fx[2]) const {
+    Mat9 Ax[2];
+    const double* ho[2];
+    double* hn[2];
+    for (int x = 0; x < 2; ++x) {
+      ho[x] = state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr;
+      hn[x] = state_size[x] ? const_cast<double*>(hist_new[x].data()) + p * state_size[x] : nullptr;
+    }
+    Vec3 a_prev = a;
+    Eigen::Matrix3d Q;
+    bool have_previous = false;
+    for (int it = 0; it < 40; ++it) {
+      Fx[1] = F + (1.0 - f) * a * n.transpose();
+      Fx[0] = F - f * a * n.transpose();
+      MaterialStatus s1 = mat[1]->evaluate(Fx[1], ho[1], hn[1], dt, Px[1], &Ax[1]);
+      MaterialStatus s0 = s1 == MaterialStatus::ok ? mat[0]->evaluate(Fx[0], ho[0], hn[0], dt, Px[0], &Ax[0]) : s1;
+      if (s0 != MaterialStatus::ok || s1 != MaterialStatus::ok) {
+        if (!have_previous) return s0 != MaterialStatus::ok ? s0 : s1;
+        a = a_prev + 0.5 * (a - a_prev);  // damp the laminate Newton step
+        continue;
+      }
+      const Vec3 r = (Px[1] - Px[0]) * n;
+      for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) {
+          double s = 0.0;
+          for (int j = 0; j < 3; ++j)
+            for (int l = 0; l < 3; ++l)
+              s += ((1.0 - f) * Ax[1](3 * i + j, 3 * k + l) + f * Ax[0](3 * i + j, 3 * k + l)) * n[j] * n[l];
+          Q(i, k) = s;
+        }
+      const double scale = (Px[1] * n).norm() + (Px[0] * n).norm() + 1e-14 * G_max;
+      if (r.norm() <= 1e-13 * scale) break;
+      if (it == 39) return MaterialStatus::not_finite;  // no traction continuity: treat as a failed call
+      a_prev = a;
+      have_previous = true;
+      a -= Q.inverse() * r;
+    }
+    P = f * Px[1] + (1.0 - f) * Px[0];
+    if (A) {
+      const Mat9 D = Ax[1] - Ax[0];
+      Eigen::Matrix<double, 3, 9> Tm;   // (D dF) n
+      Eigen::Matrix<double, 9, 3> Um;   // D (da ⊗ n)
+      for (int i = 0; i < 3; ++i)
+        for (int c = 0; c < 9; ++c) {
+          double s = 0.0;
+          for (int j = 0; j < 3; ++j) s += D(3 * i + j, c) * n[j];
+          Tm(i, c) = s;
+        }
+      for (int c = 0; c < 9; ++c)
+        for (int k = 0; k < 3; ++k) {
+          double s = 0.0;
+          for (int l = 0; l < 3; ++l) s += D(c, 3 * k + l) * n[l];
+          Um(c, k) = s;
+        }
+      *A = f * Ax[1] + (1.0 - f) * Ax[0] - f * (1.0 - f) * Um * Q.inverse() * Tm;
+    }
+    return MaterialStatus::ok;
+  }
+
+  /// Evaluates every material point at F = F̄ + ∇ũ (gradient already in fft->real), writes P into the
+  /// real buffer in place, stores tangents when asked; fills `sums`. Returns the first failure.
+  MaterialStatus evaluate_points(const Mat3& Fbar_grid, double dt, bool with_tangent) {
+    const double invN = 1.0 / double(N);
+    int failure = 0;
+    PassSums total;
+#pragma omp parallel
+    {
+      PassSums local;
+      Mat3 Px[2], Fx[2];
+#pragma omp for schedule(static)
+      for (std::size_t v = 0; v < N; ++v) {
+        int seen;
+#pragma omp atomic read
+        seen = failure;
+        if (seen) continue;
+        for (int q = 0; q < nq; ++q) {
+          const std::size_t p = v * nq + q;
+          double* base = fft->real(9 * q) + v;
+          Mat3 F;
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) F(i, j) = Fbar_grid(i, j) + base[std::size_t(3 * i + j) * N];
+          Mat3 P;
+          Mat9* A = with_tangent ? &tangent[p] : nullptr;
+          Mat9 A_local;
+          if (!A && opt.scheme == FftScheme::newton_cg) A = nullptr;
+          MaterialStatus s;
+          const double f = phi[v];
+          const double w = op.quadrature()[q].weight * invN;
+          if (comp_id[v] < 0) {
+            const int x = f > 0.5 ? 1 : 0;
+            s = mat[x]->evaluate(F, state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr,
+                                 state_size[x] ? hist_new[x].data() + p * state_size[x] : nullptr, dt, P, A);
+            if (s == MaterialStatus::ok) {
+              local.phase_P[x] += w * P;
+              local.phase_F[x] += w * F;
+              local.phase_PFt[x] += w * P * F.transpose();
+              local.phase_J[x] += w * F.determinant();
+              local.phase_w[x] += w;
+            }
+          } else {
+            const std::size_t c = std::size_t(comp_id[v]) * nq + q;
+            const Vec3& n = comp_normal[comp_id[v]];
+            if (n.squaredNorm() == 0.0) {
+              // Voigt (equal strain) rule where no interface normal can be found.
+              Mat9 A1, A0;
+              s = mat[1]->evaluate(F, state_size[1] ? hist_old[1].data() + p * state_size[1] : nullptr,
+                                   state_size[1] ? hist_new[1].data() + p * state_size[1] : nullptr, dt, Px[1],
+                                   A ? &A1 : nullptr);
+              if (s == MaterialStatus::ok)
+                s = mat[0]->evaluate(F, state_size[0] ? hist_old[0].data() + p * state_size[0] : nullptr,
+                                     state_size[0] ? hist_new[0].data() + p * state_size[0] : nullptr, dt, Px[0],
+                                     A ? &A0 : nullptr);
+              P = f * Px[1] + (1.0 - f) * Px[0];
+              if (A && s == MaterialStatus::ok) *A = f * A1 + (1.0 - f) * A0;
+              Fx[0] = Fx[1] = F;
+            } else {
+              Vec3 a(lam_a_trial[3 * c], lam_a_trial[3 * c + 1], lam_a_trial[3 * c + 2]);
+              s = laminate(F, f, n, a, p, dt, P, A, Px, Fx);
+              if (s == MaterialStatus::ok)
+                for (int i = 0; i < 3; ++i) lam_a_trial[3 * c + i] = a[i];
+            }
+            if (s == MaterialStatus::ok)
+              for (int x = 0; x < 2; ++x) {
+                const double wx = w * (x == 1 ? f : 1.0 - f);
+                local.phase_P[x] += wx * Px[x];
+                local.phase_F[x] += wx * Fx[x];
+                local.phase_PFt[x] += wx * Px[x] * Fx[x].transpose();
+                local.phase_J[x] += wx * Fx[x].determinant();
+                local.phase_w[x] += wx;
+              }
+          }
+          if (s != MaterialStatus::ok || !P.allFinite()) {
+            const int code = s == MaterialStatus::ok ? int(MaterialStatus::not_finite) : int(s);
+#pragma omp atomic write
+            failure = code;
+            break;
+          }
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) base[std::size_t(3 * i + j) * N] = P(i, j);
+          local.P += w * flatten(P);
+          if (A) local.A += w * (*A);
+        }
+      }
+#pragma omp critical
+      total.add(local);
+    }
+    sums = total;
+    return MaterialStatus(failure);
+  }
+
+  /// ∇ũ into the real buffer.
+  void gradient_to_real(const std::vector<Complex>& uh) {
+    op.gradient(uh.data(), fft->spectrum(0));
+    fft->backward();
+  }
+
+  /// Residual of the current state: r_u = Dᴴ P̂ and the macro stress error. Expects P in the real
+  /// buffer (after evaluate_points).
+  void residual(const std::array<bool, 9>& free, const Vec9& P_target, KVec& r) {
+    fft->forward();
+    op.divergence(fft->spectrum(0), r.u.data(), 1.0 / double(N));
+    const Vec9 Pl = T_load * sums.P;
+    for (int c = 0; c < 9; ++c) r.f[c] = free[c] ? Pl[c] - P_target[c] : 0.0;
+  }
+
+  double stress_scale() const {
+    const Vec9 Pl = T_load * sums.P;
+    return std::max(Pl.cwiseAbs().maxCoeff(), 1e-6 * G_min);
+  }
+
+  /// Relative residual norm (see FftSolverOptions::tolerance).
+  double residual_norm(const KVec& r) const {
+    double s = 0.0;
+#pragma omp parallel for reduction(+ : s) schedule(static)
+    for (std::size_t k = 0; k < NM; ++k) {
+      const double lap = op.laplacian(k);
+      if (lap <= 0.0) continue;
+      s += grid.mode_weight(k) * (std::norm(r.u[k]) + std::norm(r.u[NM + k]) + std::norm(r.u[2 * NM + k])) / lap;
+    }
+    const double scale = stress_scale();
+    return std::max(std::sqrt(s), r.f.cwiseAbs().maxCoeff()) / scale;
+  }
+
+  // ---------------------------------------------------------------------------------------------
+  // Krylov pieces.
+
+  double dot(const KVec& a, const KVec& b) const {
+    double s = 0.0;
+#pragma omp parallel for reduction(+ : s) schedule(static)
+    for (std::size_t k = 0; k < NM; ++k) {
+      const double w = grid.mode_weight(k);
+      for (int i = 0; i < 3; ++i) s += w * std::real(std::conj(a.u[i * NM + k]) * b.u[i * NM + k]);
+    }
+    return s + a.f.dot(b.f);
+  }
+  static void axpy(double alpha, const KVec& x, KVec& y) {
+    const std::size_t n = x.u.size();
+#pragma omp parallel for schedule(static)
+    for (std::size_t i = 0; i < n; ++i) y.u[i] += alpha * x.u[i];
+    y.f += alpha * x.f;
+  }
+  /// y = x + beta y
+  static void xpby(const KVec& x, double beta, KVec& y) {
+    const std::size_t n = x.u.size();
+#pragma omp parallel for schedule(static)
+    for (std::size_t i = 0; i < n; ++i) y.u[i] = x.u[i] + beta * y.u[i];
+    y.f = x.f + beta * y.f;
+  }
+
+  /// y = K x with the stored tangents; x.f holds load-frame macro components (any mask applied by caller).
+  void apply(const KVec& x, const std::array<bool, 9>& free, KVec& y) {
+    op.gradient(x.u.data(), fft->spectrum(0));
+    fft->backward();
+    const Vec9 dFbar = flatten(to_grid(unflatten(x.f)));
+    Vec9 mean = Vec9::Zero();
+    const double invN = 1.0 / double(N);
+#pragma omp parallel
+    {
+      Vec9 local = Vec9::Zero();
+#pragma omp for schedule(static)
+      for (std::size_t v = 0; v < N; ++v)
+        for (int q = 0; q < nq; ++q) {
+          double* base = fft->real(9 * q) + v;
+          Vec9 dF;
+          for (int c = 0; c < 9; ++c) dF[c] = dFbar[c] + base[std::size_t(c) * N];
+          const Vec9 dP = tangent[v * nq + q] * dF;
+          for (int c = 0; c < 9; ++c) base[std::size_t(c) * N] = dP[c];
+          local += op.quadrature()[q].weight * dP;
+        }
+#pragma omp critical
+      mean += local;
+    }
+    mean *= invN;
+    fft->forward();
+    op.divergence(fft->spectrum(0), y.u.data(), invN);
+    const Vec9 ml = T_load * mean;
+    for (int c = 0; c < 9; ++c) y.f[c] = free[c] ? ml[c] : 0.0;
+  }
+
+  /// z = M⁻¹ r: reference-medium Green operator per mode, macro block inverse.
+  void precondition(const KVec& r, const Eigen::MatrixXd& macro_inverse, const std::vector<int>& free_idx, KVec& z) {
+    op.solve_reference(C0, r.u.data(), z.u.data());
+    z.f.setZero();
+    if (!free_idx.empty()) {
+      Eigen::VectorXd rf(free_idx.size());
+      for (std::size_t a = 0; a < free_idx.size(); ++a) rf[a] = r.f[free_idx[a]];
+      const Eigen::VectorXd zf = macro_inverse * rf;
+      for (std::size_t a = 0; a < free_idx.size(); ++a) z.f[free_idx[a]] = zf[a];
+    }
+  }
+
+  Eigen::MatrixXd macro_block_inverse(const std::vector<int>& free_idx) const {
+    const Mat9 Cl = T_load * C0 * T_load.transpose();
+    const int m = int(free_idx.size());
+    Eigen::MatrixXd B(m, m);
+    for (int a = 0; a < m; ++a)
+      for (int b = 0; b < m; ++b) B(a, b) = Cl(free_idx[a], free_idx[b]);
+    return m ? Eigen::MatrixXd(B.inverse()) : Eigen::MatrixXd(0, 0);
+  }
+
+  void set_reference() {
+    if (opt.reference == ReferenceMedium::mean_tangent && opt.scheme == FftScheme::newton_cg)
+      C0 = 0.5 * (sums.A + sums.A.transpose());
+    else
+      C0 = isotropic_tangent(lambda_ref, mu_ref);
+  }
+
+  /// PCG on K x = b; returns iterations. x starts at zero.
+  int pcg(const KVec& b, const std::array<bool, 9>& free, double rel_tol, KVec& x) {
+    std::vector<int> free_idx;
+    for (int c = 0; c < 9; ++c)
+      if (free[c]) free_idx.push_back(c);
+    const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
+    KVec r = b, z{std::vector<Complex>(3 * NM), Vec9::Zero()}, p, Ap{std::vector<Complex>(3 * NM), Vec9::Zero()};
+    x.u.assign(3 * NM, 0.0);
+    x.f.setZero();
+    precondition(r, Minv, free_idx, z);
+    double rz = dot(r, z);
+    const double rz0 = rz;
+    if (!(rz0 > 0.0)) return 0;
+    p = z;
+    int it = 0;
+    while (it < opt.max_krylov_iterations) {
+      apply(p, free, Ap);
+      ++it;
+      const double pAp = dot(p, Ap);
+      if (!(pAp > 0.0)) break;  // loss of positive definiteness: keep the current iterate
+      const double alpha = rz / pAp;
+      axpy(alpha, p, x);
+      axpy(-alpha, Ap, r);
+      precondition(r, Minv, free_idx, z);
+      const double rz_new = dot(r, z);
+      if (std::sqrt(std::max(rz_new, 0.0) / rz0) <= rel_tol) break;
+      xpby(z, rz_new / rz, p);
+      rz = rz_new;
+    }
+    return it;
+  }
+
+  // ---------------------------------------------------------------------------------------------
+  // One (sub)step from the committed state to t_new.
+
+  struct StepOutcome {
+    bool ok = false;
+    std::string why;
+    int newton = 0, krylov = 0;
+    std::vector<double> residuals;
+  };
+
+  StepOutcome step(const MixedControl& control, double t_new, double dt) {
+    StepOutcome out;
+    std::array<bool, 9> free{};
+    Vec9 P_target = Vec9::Zero();
+    Mat3 target = Fbar;  // prescribed components at t_new
+    for (int c = 0; c < 9; ++c) {
+      free[c] = control.kind[c] == ControlKind::stress;
+      if (free[c])
+        P_target[c] = control.value[c](t_new);
+      else
+        target(c / 3, c % 3) = control.value[c](t_new);
+    }
+    KVec r{std::vector<Complex>(3 * NM), Vec9::Zero()}, dx;
+    if (opt.scheme == FftScheme::moulinec_suquet) return fixed_point(free, P_target, target, dt, r);
+
+    const int max_it = opt.max_newton_iterations;
+    double err = 0.0, first_err = -1.0;
+    std::vector<Complex> u_prev;
+    Mat3 Fbar_prev = Fbar;
+    for (int it = 0; it <= max_it; ++it) {
+      // Evaluate (with backtracking on a failed material call after an update).
+      MaterialStatus s = MaterialStatus::ok;
+      for (int half = 0;; ++half) {
+        gradient_to_real(u);
+        s = evaluate_points(to_grid(Fbar), dt, true);
+        if (s == MaterialStatus::ok || it == 0 || half == 6) break;
+        // Halve the last update (ũ and F̄ both, so the prescribed part is re-applied later).
+        for (std::size_t i = 0; i < u.size(); ++i) u[i] = u_prev[i] + 0.5 * (u[i] - u_prev[i]);
+        Fbar = Fbar_prev + 0.5 * (Fbar - Fbar_prev);
+      }
+      if (s != MaterialStatus::ok) {
+        out.why = std::string("material call failed (") + to_string(s) + ")";
+        return out;
+      }
+      residual(free, P_target, r);
+      err = residual_norm(r);
+      out.residuals.push_back(err);
+      Mat3 dFp = Mat3::Zero();
+      for (int c = 0; c < 9; ++c)
+        if (!free[c]) dFp(c / 3, c % 3) = target(c / 3, c % 3) - Fbar(c / 3, c % 3);
+      const bool prescribed_reached = dFp.cwiseAbs().maxCoeff() == 0.0;
+      if (!std::isfinite(err)) {
+        out.why = "non-finite residual";
+        return out;
+      }
+      if (prescribed_reached && err <= opt.tolerance) {
+        out.ok = true;
+        return out;
+      }
+      if (it == max_it) break;
+      if (prescribed_reached) {
+        if (first_err < 0.0) first_err = err;
+        if (err > 1e6 * std::max(first_err, opt.tolerance)) {
+          out.why = "Newton diverged";
+          return out;
+        }
+      }
+      set_reference();
+      // Right-hand side −r − K [0; ΔF_p] (tangent predictor for the prescribed increment).
+      KVec b = r;
+      for (auto& c : b.u) c = -c;
+      b.f = -b.f;
+      if (!prescribed_reached) {
+        KVec e{std::vector<Complex>(3 * NM, 0.0), flatten(dFp)}, Ke{std::vector<Complex>(3 * NM), Vec9::Zero()};
+        apply(e, free, Ke);
+        ++out.krylov;
+        axpy(-1.0, Ke, b);
+      }
+      const double eta = std::clamp(std::max(std::min(1e-2, err), 0.1 * opt.tolerance / std::max(err, 1e-300)), 1e-12, 0.1);
+      out.krylov += pcg(b, free, prescribed_reached ? eta : std::min(eta, 1e-3), dx);
+      ++out.newton;
+      u_prev = u;
+      Fbar_prev = Fbar;
+      for (std::size_t i = 0; i < u.size(); ++i) u[i] += dx.u[i];
+      Fbar += dFp + unflatten(dx.f);
+    }
+    out.why = "no convergence in " + std::to_string(max_it) + " Newton iterations (residual " + std::to_string(err) + ")";
+    return out;
+  }
+
+  /// Basic Moulinec–Suquet scheme: ũ ← ũ − K0⁻¹ Dᴴ P, F̄_free ← F̄_free − C0_ff⁻¹ (⟨P⟩ − P*).
+  StepOutcome fixed_point(const std::array<bool, 9>& free, const Vec9& P_target, const Mat3& target, double dt,
+                          KVec& r) {
+    StepOutcome out;
+    for (int c = 0; c < 9; ++c)
+      if (!free[c]) Fbar(c / 3, c % 3) = target(c / 3, c % 3);
+    set_reference();
+    std::vector<int> free_idx;
+    for (int c = 0; c < 9; ++c)
+      if (free[c]) free_idx.push_back(c);
+    const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
+    KVec z{std::vector<Complex>(3 * NM), Vec9::Zero()};
+    double err = 0.0;
+    for (int it = 0; it <= opt.max_fixed_point_iterations; ++it) {
+      gradient_to_real(u);
+      const MaterialStatus s = evaluate_points(to_grid(Fbar), dt, false);
+      if (s != MaterialStatus::ok) {
+        out.why = std::string("material call failed (") + to_string(s) + ")";
+        return out;
+      }
+      residual(free, P_target, r);
+      err = residual_norm(r);
+      if (!std::isfinite(err) || err > 1e12) {
+        out.why = "fixed point diverged";
+        return out;
+      }
+      if (err <= opt.tolerance) {
+        out.ok = true;
+        out.residuals.push_back(err);
+        return out;
+      }
+      precondition(r, Minv, free_idx, z);
+      for (std::size_t i = 0; i < u.size(); ++i) u[i] -= z.u[i];
+      Fbar -= unflatten(z.f);
+      ++out.newton;
+    }
+    out.residuals.push_back(err);
+    out.why = "fixed point: no convergence in " + std::to_string(opt.max_fixed_point_iterations) + " iterations";
+    return out;
+  }
+
+  void commit() {
+    u_committed = u;
+    Fbar_committed = Fbar;
+    lam_a = lam_a_trial;
+    for (int x = 0; x < 2; ++x)
+      if (state_size[x]) hist_old[x].swap(hist_new[x]);
+  }
+  void restore() {
+    u = u_committed;
+    Fbar = Fbar_committed;
+    lam_a_trial = lam_a;
+  }
+
+  RveStep record(double t, double angle0) const {
+    RveStep s;
+    s.t = t;
+    s.F = Fbar;
+    s.P = unflatten(T_load * sums.P);
+    s.sigma = cauchy_from_piola(s.F, s.P);
+    for (int x = 0; x < 2; ++x) {
+      const double w = sums.phase_w[x];
+      Mat3& Pp = x ? s.P_fiber : s.P_matrix;
+      Mat3& sp = x ? s.sigma_fiber : s.sigma_matrix;
+      if (w > 0.0) {
+        Pp = to_load(sums.phase_P[x] / w);
+        sp = to_load(sums.phase_PFt[x] / sums.phase_J[x]);
+      }
+    }
+    const Mat3 Ff = sums.phase_w[1] > 0.0 ? to_load(sums.phase_F[1] / sums.phase_w[1]) : s.F;
+    s.fiber_angle_deg = fiber_angle_deg(Ff, a0_load);
+    s.fiber_angle_change_deg = s.fiber_angle_deg - angle0;
+    return s;
+  }
+
+  /// Fields of the converged state (P still in the real buffer, ũ current). Destroys the buffer.
+  RveFields fields() {
+    RveFields f;
+    std::vector<double> P(fft->real(0), fft->real(0) + 9 * NP);
+    gradient_to_real(u);
+    const Mat3 Fg = to_grid(Fbar);
+    f.F.assign(9 * N, 0.0);
+    f.P.assign(9 * N, 0.0);
+    f.sigma.assign(9 * N, 0.0);
+    f.von_mises.assign(N, 0.0);
+    f.fiber_fraction = phi;
+#pragma omp parallel for schedule(static)
+    for (std::size_t v = 0; v < N; ++v) {
+      Mat3 Fm = Mat3::Zero(), Pm = Mat3::Zero(), Sm = Mat3::Zero();
+      for (int q = 0; q < nq; ++q) {
+        Mat3 Fq, Pq;
+        for (int c = 0; c < 9; ++c) {
+          Fq(c / 3, c % 3) = Fg(c / 3, c % 3) + fft->real(9 * q + c)[v];
+          Pq(c / 3, c % 3) = P[std::size_t(9 * q + c) * N + v];
+        }
+        const double w = op.quadrature()[q].weight;
+        Fm += w * to_load(Fq);
+        Pm += w * to_load(Pq);
+        Sm += w * to_load(cauchy_from_piola(Fq, Pq));
+      }
+      const Mat3 dev = Sm - Sm.trace() / 3.0 * Mat3::Identity();
+      f.von_mises[v] = std::sqrt(1.5 * ddot(dev, dev));
+      for (int c = 0; c < 9; ++c) {
+        f.F[9 * v + c] = Fm(c / 3, c % 3);
+        f.P[9 * v + c] = Pm(c / 3, c % 3);
+        f.sigma[9 * v + c] = Sm(c / 3, c % 3);
+      }
+    }
+    return f;
+  }
+};
+
+FftRveSolver::FftRveSolver(const PhaseImage& image, MaterialPtr matrix, MaterialPtr fiber, double fiber_angle_deg,
+                           const Mat3& load_frame, const FftSolverOptions& options)
+    : impl_(std::make_unique<Impl>(image, std::move(matrix), std::move(fiber), fiber_angle_deg, load_frame, options)) {}
+FftRveSolver::~FftRveSolver() = default;
+
+const fft::Grid& FftRveSolver::grid() const { return impl_->grid; }
+int FftRveSolver::quadrature_points() const { return impl_->nq; }
+std::string FftRveSolver::fft_description() const { return impl_->fft->describe(); }
+double FftRveSolver::achieved_volume_fraction() const { return impl_->achieved_vf; }
+double FftRveSolver::planning_seconds() const { return impl_->fft->planning_seconds(); }
+std::size_t FftRveSolver::memory_bytes() const {
+  const Impl& m = *impl_;
+  std::size_t b = m.fft->fields() * (m.N * sizeof(double) + m.NM * sizeof(Complex));
+  b += m.tangent.size() * sizeof(Mat9);
+  for (int x = 0; x < 2; ++x) b += 2 * m.hist_old[x].size() * sizeof(double);
+  b += 2 * m.lam_a.size() * sizeof(double) + m.N * (sizeof(double) + sizeof(int));
+  b += 3 * m.NM * sizeof(Complex) * (m.opt.scheme == FftScheme::newton_cg ? 9 : 4);  // ũ, copies, CG vectors
+  return b;
+}
+
+RveRunResult FftRveSolver::run(const MixedControl& control,
+                               const std::function<void(const RveStep&, const RveFields*)>& on_step,
+                               const std::function<bool(double)>& want_fields) {
+  control.validate();
+  Impl& m = *impl_;
+  const auto run_start = Clock::now();
+  RveRunResult result;
+  // t = 0: the undeformed state (evaluated so that phase sums and the reference are defined).
+  m.gradient_to_real(m.u);
+  if (m.evaluate_points(m.to_grid(m.Fbar), 0.0, m.opt.scheme == FftScheme::newton_cg) != MaterialStatus::ok)
+    throw ConvergenceError("material call failed at F = I");
+  const double angle0 = fiber_angle_deg(Mat3::Identity(), m.a0_load);
+  {
+    RveStep s0 = m.record(0.0, angle0);
+    result.steps.push_back(s0);
+    if (on_step) {
+      if (want_fields && want_fields(0.0)) {
+        const RveFields f = m.fields();
+        on_step(s0, &f);
+      } else {
+        on_step(s0, nullptr);
+      }
+    }
+  }
+  double t = 0.0;
+  double t_prev_out = 0.0;
+  for (double t_out : control.times) {
+    const auto step_start = Clock::now();
+    const double interval = t_out - t_prev_out;
+    double dt = interval;
+    int successes = 0;
+    RveStep agg;
+    Impl::StepOutcome last;
+    bool failed = false;
+    while (t < t_out - 1e-12 * std::max(1.0, t_out)) {
+      const double dt_try = std::min(dt, t_out - t);
+      const double t_new = (t + dt_try >= t_out - 1e-12 * std::max(1.0, t_out)) ? t_out : t + dt_try;
+      Impl::StepOutcome o = m.step(control, t_new, t_new - t);
+      agg.newton_iterations += o.newton;
+      agg.krylov_iterations += o.krylov;
+      if (o.ok) {
+        m.commit();
+        t = t_new;
+        ++agg.substeps;
+        last = std::move(o);
+        if (++successes >= 2 && dt < interval) {
+          dt = std::min(2.0 * dt, interval);
+          successes = 0;
+        }
+      } else {
+        m.restore();
+        ++agg.cutbacks;
+        ++result.cutbacks;
+        successes = 0;
+        std::ostringstream msg;
+        msg << "t = " << t << " → " << t_new << ": " << o.why << "; cutting back (dt " << dt_try << " → "
+            << dt_try / 2 << ")";
+        result.log.push_back(msg.str());
+        dt = dt_try / 2.0;
+        if (dt < interval / std::ldexp(1.0, m.opt.max_cutbacks)) {
+          result.error = "step to t = " + std::to_string(t_out) + " failed after " + std::to_string(m.opt.max_cutbacks) +
+                         " cut-backs: " + o.why;
+          failed = true;
+          break;
+        }
+      }
+    }
+    result.total_newton_iterations += agg.newton_iterations;
+    result.total_krylov_iterations += agg.krylov_iterations;
+    if (failed) break;
+    RveStep s = m.record(t_out, angle0);
+    s.newton_iterations = agg.newton_iterations;
+    s.krylov_iterations = agg.krylov_iterations;
+    s.substeps = agg.substeps;
+    s.cutbacks = agg.cutbacks;
+    s.residuals = last.residuals;
+    s.wall_seconds = std::chrono::duration<double>(Clock::now() - step_start).count();
+    if (!(s.F.allFinite() && s.P.allFinite() && s.sigma.allFinite())) {
+      result.error = "non-finite homogenized state at t = " + std::to_string(t_out);
+      break;
+    }
+    result.steps.push_back(s);
+    if (on_step) {
+      if (want_fields && want_fields(t_out)) {
+        const RveFields f = m.fields();
+        on_step(s, &f);
+      } else {
+        on_step(s, nullptr);
+      }
+    }
+    t_prev_out = t_out;
+  }
+  result.completed = result.error.empty();
+  result.wall_seconds = std::chrono::duration<double>(Clock::now() - run_start).count();
+  return result;
+}
+
+}  // namespace softhom::rve

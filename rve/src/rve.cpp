@@ -1,2 +1,0 @@
-// placeholder until the rve library lands
-namespace softhom::rve { int placeholder() { return 0; } }

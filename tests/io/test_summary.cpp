@@ -1,0 +1,85 @@
+// summary.json: metadata fields, scene echo, pretty atomic write, NaN refused.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+#include <unistd.h>
+
+#include "softhom/io/summary.hpp"
+
+using namespace softhom;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path = fs::temp_directory_path() /
+           ("softhom_test_summary_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::remove_all(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+}  // namespace
+
+TEST(Summary, BaseFieldsAndSceneEcho) {
+  const auto scene = toml::parse(
+      "[load]\ntype = \"uniaxial\"\nstretch = [[0, 1.0], [20, 1.5]]\nsteps = 7\n"
+      "[material]\npreset = \"ecoflex\"\nlimit = inf\n");
+  const auto j = io::summary_base("point", "scenes/a.toml", scene);
+  EXPECT_TRUE(std::regex_match(j["softhom_version"].get<std::string>(), std::regex(R"(\d+\.\d+\.\d+.*)")));
+  EXPECT_EQ(j["softhom_version"], io::softhom_version());
+  EXPECT_EQ(j["command"], "point");
+  EXPECT_EQ(j["scene_file"], "scenes/a.toml");
+  EXPECT_EQ(j["scene"]["load"]["type"], "uniaxial");
+  EXPECT_EQ(j["scene"]["load"]["steps"], 7);
+  EXPECT_EQ(j["scene"]["load"]["stretch"][1][1], 1.5);
+  EXPECT_TRUE(j["scene"]["material"]["limit"].is_string());  // TOML inf has no JSON number: quoted
+  EXPECT_GE(j["threads"].get<int>(), 1);
+  EXPECT_TRUE(std::regex_match(j["started_utc"].get<std::string>(),
+                               std::regex(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ)")));
+  EXPECT_EQ(io::summary_base("point", "", toml::table{})["scene_file"], "");  // embedded scene
+}
+
+TEST(Summary, WritesPrettyJsonAtomically) {
+  TempDir tmp;
+  auto j = io::summary_base("point", "", toml::parse("x = 1\n"));
+  j["results"] = {{"peak_stress", 0.1}, {"stretch", {1.0, 1.25}}};
+  io::write_summary(tmp.path / "out", j);  // creates the directory
+  const std::string text = slurp(tmp.path / "out" / "summary.json");
+  EXPECT_EQ(nlohmann::json::parse(text), j);
+  EXPECT_NE(text.find("\n  \"command\": \"point\""), std::string::npos) << text;  // 2-space indent
+  EXPECT_EQ(std::distance(fs::directory_iterator(tmp.path / "out"), fs::directory_iterator()), 1);
+}
+
+TEST(Summary, RefusesNonFiniteNumbersNamingWhere) {
+  TempDir tmp;
+  nlohmann::json j = {{"command", "point"}, {"results", {{"stress", {1.0, std::nan("")}}}}};
+  try {
+    io::write_summary(tmp.path, j);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("/results/stress/1"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(tmp.path / "summary.json"));
+  j["results"]["stress"][1] = HUGE_VAL;
+  EXPECT_THROW(io::write_summary(tmp.path, j), std::invalid_argument);
+  j["results"]["stress"][1] = 2.0;
+  EXPECT_NO_THROW(io::write_summary(tmp.path, j));
+}

@@ -1,0 +1,77 @@
+#pragma once
+// Small local image builders and controls for the FFT RVE tests (independent of the geometry generator).
+#include <cmath>
+
+#include "softhom/materials/loading.hpp"
+#include "softhom/rve/geometry.hpp"
+
+namespace softhom::rve::testing {
+
+/// One circular fiber of radius r at the centre of the unit cell, n × n pixels, fraction by s × s
+/// sub-sampling, radial normals in composite pixels.
+inline PhaseImage circle_image(int n, double r, int s = 16) {
+  PhaseImage im;
+  im.n = {n, n, 1};
+  im.size = {1.0, 1.0, 1.0 / n};
+  im.fiber_fraction.assign(std::size_t(n) * n, 0.0);
+  im.normal.assign(std::size_t(n) * n, Eigen::Vector3d::Zero());
+  const double h = 1.0 / n;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      int inside = 0;
+      for (int b = 0; b < s; ++b)
+        for (int a = 0; a < s; ++a) {
+          const double x = (i + (a + 0.5) / s) * h - 0.5, y = (j + (b + 0.5) / s) * h - 0.5;
+          inside += (x * x + y * y < r * r);
+        }
+      const double f = double(inside) / (s * s);
+      im.fiber_fraction[i + std::size_t(n) * j] = f;
+      if (f > 0.0 && f < 1.0) {
+        const Eigen::Vector3d c((i + 0.5) * h - 0.5, (j + 0.5) * h - 0.5, 0.0);
+        im.normal[i + std::size_t(n) * j] = c.normalized();
+      }
+    }
+  return im;
+}
+
+/// Layers normal to y1: fiber for i1 < n_fiber, matrix beyond; optionally one composite column with
+/// fraction `phi_interface` at i1 = n_fiber (normal +y1, pointing out of the fiber).
+inline PhaseImage layer_image(int n1, int n2, int n_fiber, double phi_interface = -1.0) {
+  PhaseImage im;
+  im.n = {n1, n2, 1};
+  im.size = {1.0, double(n2) / n1, 1.0 / n1};
+  im.fiber_fraction.assign(std::size_t(n1) * n2, 0.0);
+  im.normal.assign(std::size_t(n1) * n2, Eigen::Vector3d::Zero());
+  for (int j = 0; j < n2; ++j)
+    for (int i = 0; i < n1; ++i) {
+      const std::size_t v = i + std::size_t(n1) * j;
+      if (i < n_fiber) im.fiber_fraction[v] = 1.0;
+      if (i == n_fiber && phi_interface > 0.0) {
+        im.fiber_fraction[v] = phi_interface;
+        im.normal[v] = Eigen::Vector3d::UnitX();
+      }
+    }
+  return im;
+}
+
+/// Every component of F prescribed: linear ramp from I to F_end over [0, 1], output at `steps` times.
+inline MixedControl full_deformation(const Mat3& F_end, int steps) {
+  MixedControl c;
+  for (int k = 0; k < 9; ++k) {
+    c.kind[k] = ControlKind::deformation;
+    const double start = (k % 4 == 0) ? 1.0 : 0.0;
+    c.value[k] = PiecewiseLinear{{0.0, 1.0}, {start, F_end(k / 3, k % 3)}};
+  }
+  for (int s = 1; s <= steps; ++s) c.times.push_back(double(s) / steps);
+  c.name = "full";
+  return c;
+}
+
+inline MixedControl uniaxial_ramp(double lambda, int steps, double duration = 1.0) {
+  MixedControl c = uniaxial_control(PiecewiseLinear{{0.0, duration}, {1.0, lambda}});
+  c.times.clear();
+  for (int s = 1; s <= steps; ++s) c.times.push_back(duration * s / steps);
+  return c;
+}
+
+}  // namespace softhom::rve::testing
