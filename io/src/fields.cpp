@@ -262,7 +262,7 @@ FieldWriter::FieldWriter(const std::filesystem::path& stem, const VoxelGrid& gri
   m.n_nodes = std::size_t(nx + 1) * (ny + 1) * (nz + 1);
   // XDMF (like C-order HDF5) lists the slowest index first: z y x. x is fastest in our storage.
   m.cell_dims = {hsize_t(nz), hsize_t(ny), hsize_t(nx)};
-  m.node_dims = {hsize_t(nx + 1), hsize_t(ny + 1), hsize_t(nz + 1)};
+  m.node_dims = {hsize_t(nz + 1), hsize_t(ny + 1), hsize_t(nx + 1)};
   // ORIGIN_DXDYDZ values are read in the same z y x order (ParaView reverses them into x y z).
   m.mesh_xml = "        <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" + join(m.node_dims) + "\"/>\n" +
                "        <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"

@@ -69,7 +69,7 @@ TEST(Scene, ErrorsNameTheField) {
   EXPECT_NE(load_error("[material]\nlaw = \"gent\"\nG = \"a\"\nJm = 3\nK = 1\n").find("material.G = \"a\""),
             std::string::npos);
   EXPECT_NE(load_error("[material]\nlaw = \"neo-hookean\"\nE = 10\nnu = 0.5\n").find("material.nu"), std::string::npos);
-  EXPECT_NE(load_error("[material]\nlaw = \"gent\"\nG = 0.1\nJm = 3\nK = 1\n[[material.fibers]]\n"
+  EXPECT_NE(load_error("[material]\nlaw = \"gent\"\nG = 0.1\nJm = 3\nK = 1\nfiber_invariant = \"full\"\n[[material.fibers]]\n"
                        "direction = [0, 0, 0]\nk1 = 1\nk2 = 1\n")
                 .find("material.fibers[0].direction"),
             std::string::npos);

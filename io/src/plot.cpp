@@ -1,0 +1,60 @@
+#include "softhom/io/plot.hpp"
+
+#include <cstdlib>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "softhom/io/files.hpp"
+
+namespace softhom::io {
+namespace {
+
+// The plotting script: reads a JSON description (argv[1]) and writes the PNG (argv[2]).
+constexpr const char* kScript = R"py(
+import csv, json, sys
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+spec = json.load(open(sys.argv[1]))
+fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=120)
+for s in spec["series"]:
+    with open(s["csv"]) as f:
+        rows = list(csv.DictReader(f))
+    ax.plot([float(r[s["x"]]) for r in rows], [float(r[s["y"]]) for r in rows], label=s["label"])
+ax.set_title(spec["title"]); ax.set_xlabel(spec["xlabel"]); ax.set_ylabel(spec["ylabel"])
+ax.grid(True, alpha=0.3)
+if len(spec["series"]) > 1: ax.legend(fontsize=8)
+fig.tight_layout()
+fig.savefig(sys.argv[2], format="png")
+)py";
+
+}  // namespace
+
+bool plot_curves(const std::filesystem::path& png, const PlotSpec& spec, std::string* why) {
+  nlohmann::json j;
+  j["title"] = spec.title;
+  j["xlabel"] = spec.xlabel;
+  j["ylabel"] = spec.ylabel;
+  j["series"] = nlohmann::json::array();
+  for (const auto& s : spec.series)
+    j["series"].push_back({{"label", s.label}, {"csv", std::filesystem::absolute(s.csv).string()}, {"x", s.x}, {"y", s.y}});
+  const auto dir = png.parent_path().empty() ? std::filesystem::path(".") : png.parent_path();
+  const auto script = dir / ".softhom-plot.py";
+  const auto json = dir / ".softhom-plot.json";
+  const auto tmp = temporary_path(png);
+  write_file_atomic(script, kScript);
+  write_file_atomic(json, j.dump());
+  const std::string cmd = "python3 '" + script.string() + "' '" + json.string() + "' '" + tmp.string() + "' > /dev/null 2>&1";
+  const int rc = std::system(cmd.c_str());
+  std::filesystem::remove(script);
+  std::filesystem::remove(json);
+  if (rc != 0 || !std::filesystem::exists(tmp)) {
+    std::filesystem::remove(tmp);
+    if (why) *why = "python3 with matplotlib (Debian: python3-matplotlib) not available or the plot failed";
+    return false;
+  }
+  std::filesystem::rename(tmp, png);
+  return true;
+}
+
+}  // namespace softhom::io
