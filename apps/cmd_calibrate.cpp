@@ -42,6 +42,20 @@ std::filesystem::path find_plot_script() {
   return {};
 }
 
+/// A Python with matplotlib: $SOFTHOM_PYTHON, python3 on PATH, or the system /usr/bin/python3 (a
+/// pyenv/venv python3 on PATH often lacks the Debian python3-matplotlib).
+std::string find_python() {
+  std::vector<std::string> candidates;
+  if (const char* env = std::getenv("SOFTHOM_PYTHON")) candidates.emplace_back(env);
+  candidates.emplace_back("python3");
+  candidates.emplace_back("/usr/bin/python3");
+  for (const auto& p : candidates) {
+    const std::string cmd = shell_quote(p) + " -c 'import matplotlib' >/dev/null 2>&1";
+    if (std::system(cmd.c_str()) == 0) return shell_quote(p);
+  }
+  return {};
+}
+
 }  // namespace
 
 int run_calibrate(const CommandOptions& options) {
@@ -65,7 +79,8 @@ int run_calibrate(const CommandOptions& options) {
   std::filesystem::create_directories(options.out);
   studies::write_calibration_files(options.out, input, result);
   nlohmann::json summary = io::summary_base("calibrate", options.scene, table);
-  for (auto& [k, v] : studies::result_json(input, result).items()) summary[k] = v;
+  const nlohmann::json fields = studies::result_json(input, result);  // named: items() must not outlive it
+  for (const auto& [k, v] : fields.items()) summary[k] = v;
   io::write_summary(options.out, summary);
 
   if (!options.quiet) {
@@ -92,10 +107,10 @@ int run_calibrate(const CommandOptions& options) {
     const std::filesystem::path script = find_plot_script();
     if (script.empty()) {
       std::cerr << "softhom calibrate: warning: studies/plot_calibration.py not found (set SOFTHOM_PLOT_CALIBRATION): no fit.png\n";
-    } else if (std::system("python3 -c 'import matplotlib' >/dev/null 2>&1") != 0) {
+    } else if (const std::string python = find_python(); python.empty()) {
       std::cerr << "softhom calibrate: warning: python3 with matplotlib not available: no fit.png\n";
     } else {
-      const std::string cmd = "python3 " + shell_quote(script.string()) + " " + shell_quote(options.out.string()) +
+      const std::string cmd = python + " " + shell_quote(script.string()) + " " + shell_quote(options.out.string()) +
                               (options.quiet ? " >/dev/null" : "");
       if (std::system(cmd.c_str()) != 0) std::cerr << "softhom calibrate: warning: plotting failed (" << cmd << ")\n";
     }

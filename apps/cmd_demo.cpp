@@ -5,6 +5,7 @@
 #include "commands.hpp"
 #include "embedded_scenes.hpp"
 #include "point_output.hpp"
+#include "softhom/io/plot.hpp"
 #include "softhom/io/scene.hpp"
 
 namespace softhom::app {
@@ -34,6 +35,12 @@ int run_demo(const CommandOptions& options) {
               << " MPa, " << run.result.total_newton_iterations << " Newton iterations → "
               << (dir / "response.csv").string() << (as_expected ? "" : "   <-- UNEXPECTED") << "\n";
     if (!run.result.completed) std::cout << "      " << run.result.error << "\n";
+    const bool in_time = std::string(c.scene) == "point_relaxation";
+    io::PlotSpec plot{c.scene, in_time ? "t [s]" : "stretch F11", "Cauchy stress sigma11 [MPa]",
+                      {{"sigma11", dir / "response.csv", in_time ? "t" : "F11", "sigma11"}}};
+    std::string why;
+    if (io::plot_curves(dir / "sigma11.png", plot, &why)) std::cout << "      plot: " << (dir / "sigma11.png").string() << "\n";
+    else if (!options.quiet) std::cerr << "softhom demo: no PNG plot: " << why << "\n";
   }
   std::cout << "softhom demo: results under " << options.out.string() << "/<scene>/{response.csv,summary.json}\n";
   return failures == 0 ? 0 : 1;

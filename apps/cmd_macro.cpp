@@ -1,5 +1,241 @@
-#include "commands.hpp"
+// softhom macro: structure-scale nonlinear FE (tubes, balloons, plates, bending actuators).
+//
+// Scene layout (every key checked; errors name the TOML path):
+//   [geometry] type = "tube" | "sphere" | "plate" | "actuator", sizes and cell counts (see
+//              macro/geometry.hpp), plane_strain, fiber_frame = "global" | "cylindrical" | "spherical"
+//   [material] (io::parse_material; fibers given in the fiber frame), [material_lower] for actuators
+//   [load]     control = "pressure" | "volume" | "stretch", path = [[t, value], ...], steps = N
+//   [solver]   tolerance, max_iterations, max_cutbacks, substeps, formulation, linear_solver
+//   [output]   fields = true
+#include <chrono>
 #include <iostream>
+
+#include "commands.hpp"
+#include "scene_source.hpp"
+#include "softhom/io/fields.hpp"
+#include "softhom/io/files.hpp"
+#include "softhom/io/scene.hpp"
+#include "softhom/io/summary.hpp"
+#include "softhom/macro/structures.hpp"
+#include "softhom/materials/errors.hpp"
+
 namespace softhom::app {
-int run_macro(const CommandOptions&) { std::cerr << "softhom: 'macro' is not available yet in this version\n"; return 3; }
+namespace {
+
+PiecewiseLinear parse_path(const toml::table& t, const std::string& path) {
+  const auto* arr = t["path"].as_array();
+  if (!arr || arr->empty()) throw InputError(path + ".path", "", "need [[t0, v0], [t1, v1], ...]");
+  PiecewiseLinear f{{}, {}};
+  for (std::size_t k = 0; k < arr->size(); ++k) {
+    const auto* pt = (*arr)[k].as_array();
+    const std::string field = path + ".path[" + std::to_string(k) + "]";
+    if (!pt || pt->size() != 2) throw InputError(field, "", "each point is [t, value]");
+    const auto tv = (*pt)[0].value<double>(), vv = (*pt)[1].value<double>();
+    if (!tv || !vv) throw InputError(field, "", "entries must be numbers");
+    if (!f.t.empty() && !(*tv > f.t.back())) throw InputError(field, std::to_string(*tv), "times must increase");
+    f.t.push_back(*tv);
+    f.v.push_back(*vv);
+  }
+  if (f.t.front() != 0.0) throw InputError(path + ".path[0]", std::to_string(f.t.front()), "must start at t = 0");
+  if (f.t.size() < 2) throw InputError(path + ".path", "", "need at least two points");
+  return f;
+}
+
+int get_int(const toml::table& t, const char* key, const std::string& path, int fallback) {
+  const double v = io::get_number_or(t, key, path, fallback);
+  if (v != std::floor(v) || v < 1) throw InputError(path + "." + key, std::to_string(v), "must be a positive integer");
+  return int(v);
+}
+
+struct MacroScene {
+  macro::StructureSpec spec;
+  fe::NewtonOptions newton;
+  std::vector<double> times;
+  bool fields = true;
+};
+
+MacroScene parse_macro_scene(const toml::table& scene) {
+  io::check_keys(scene, "", {"description", "geometry", "material", "material_lower", "load", "solver", "output"});
+  MacroScene m;
+  auto& s = m.spec;
+  const auto* g = scene["geometry"].as_table();
+  if (!g) throw InputError("geometry", "", "missing [geometry] table");
+  const std::string type = io::get_string_or(*g, "type", "geometry", "");
+  io::check_keys(*g, "geometry",
+                 {"type", "inner_radius", "outer_radius", "length", "radial_cells", "circumferential_cells",
+                  "axial_cells", "sweep_deg", "cap_thickness", "cap_axial_cells", "cap_core_cells", "plane_strain",
+                  "thickness", "patch_cells", "size", "cells", "fiber_frame"});
+  if (type == "tube" || type == "actuator") {
+    s.kind = type == "tube" ? macro::StructureKind::tube : macro::StructureKind::actuator;
+    auto& t = s.tube;
+    t.inner_radius = io::get_number(*g, "inner_radius", "geometry");
+    t.outer_radius = io::get_number(*g, "outer_radius", "geometry");
+    t.length = io::get_number(*g, "length", "geometry");
+    t.radial_cells = get_int(*g, "radial_cells", "geometry", 2);
+    t.circumferential_cells = get_int(*g, "circumferential_cells", "geometry", 16);
+    t.axial_cells = get_int(*g, "axial_cells", "geometry", 1);
+    t.sweep_deg = io::get_number_or(*g, "sweep_deg", "geometry", 360.0);
+    t.cap_thickness = io::get_number_or(*g, "cap_thickness", "geometry", 0.0);
+    t.cap_axial_cells = get_int(*g, "cap_axial_cells", "geometry", 1);
+    t.cap_core_cells = get_int(*g, "cap_core_cells", "geometry", 2);
+    s.plane_strain = (*g)["plane_strain"].value_or(false);
+  } else if (type == "sphere") {
+    s.kind = macro::StructureKind::sphere;
+    s.sphere.inner_radius = io::get_number(*g, "inner_radius", "geometry");
+    s.sphere.thickness = io::get_number(*g, "thickness", "geometry");
+    s.sphere.radial_cells = get_int(*g, "radial_cells", "geometry", 2);
+    s.sphere.patch_cells = get_int(*g, "patch_cells", "geometry", 8);
+  } else if (type == "plate") {
+    s.kind = macro::StructureKind::plate;
+    const auto* size = (*g)["size"].as_array();
+    const auto* cells = (*g)["cells"].as_array();
+    if (!size || size->size() != 3) throw InputError("geometry.size", "", "need [Lx, Ly, Lz]");
+    if (!cells || cells->size() != 3) throw InputError("geometry.cells", "", "need [nx, ny, nz]");
+    for (int d = 0; d < 3; ++d) {
+      s.plate.size[d] = (*size)[d].value<double>().value_or(-1.0);
+      s.plate.cells[d] = int((*cells)[d].value<double>().value_or(0.0));
+    }
+  } else {
+    throw InputError("geometry.type", type, "expected tube, sphere, plate or actuator");
+  }
+  const std::string frame = io::get_string_or(*g, "fiber_frame", "geometry", "global");
+  if (frame == "global") s.fiber_frame = macro::FiberFrame::global;
+  else if (frame == "cylindrical") s.fiber_frame = macro::FiberFrame::cylindrical;
+  else if (frame == "spherical") s.fiber_frame = macro::FiberFrame::spherical;
+  else throw InputError("geometry.fiber_frame", frame, "expected global, cylindrical or spherical");
+
+  const auto* mat = scene["material"].as_table();
+  if (!mat) throw InputError("material", "", "missing [material] table");
+  s.material = build_material(io::parse_material(*mat, "material"));
+  if (const auto* lower = scene["material_lower"].as_table())
+    s.material_region1 = build_material(io::parse_material(*lower, "material_lower"));
+
+  const auto* load = scene["load"].as_table();
+  if (!load) throw InputError("load", "", "missing [load] table");
+  io::check_keys(*load, "load", {"control", "path", "steps"});
+  const std::string control = io::get_string_or(*load, "control", "load", "");
+  if (control == "pressure") s.control = macro::LoadControl::pressure;
+  else if (control == "volume") s.control = macro::LoadControl::volume;
+  else if (control == "stretch") s.control = macro::LoadControl::stretch;
+  else throw InputError("load.control", control, "expected pressure, volume or stretch");
+  s.load = parse_path(*load, "load");
+  const int steps = get_int(*load, "steps", "load", 20);
+  for (int k = 1; k <= steps; ++k) m.times.push_back(s.load.end_time() * k / steps);
+
+  if (const auto* sv = scene["solver"].as_table()) {
+    io::check_keys(*sv, "solver", {"tolerance", "max_iterations", "max_cutbacks", "substeps", "formulation", "linear_solver"});
+    m.newton.tolerance = io::get_number_or(*sv, "tolerance", "solver", m.newton.tolerance);
+    if (!(m.newton.tolerance > 0 && m.newton.tolerance < 1))
+      throw InputError("solver.tolerance", std::to_string(m.newton.tolerance), "must lie in (0, 1)");
+    m.newton.max_iterations = get_int(*sv, "max_iterations", "solver", m.newton.max_iterations);
+    m.newton.max_cutbacks = int(io::get_number_or(*sv, "max_cutbacks", "solver", m.newton.max_cutbacks));
+    m.newton.initial_substeps = get_int(*sv, "substeps", "solver", 1);
+    const std::string f = io::get_string_or(*sv, "formulation", "solver", "fbar");
+    if (f == "fbar") s.formulation = fe::Formulation::fbar;
+    else if (f == "standard") s.formulation = fe::Formulation::standard;
+    else throw InputError("solver.formulation", f, "expected fbar or standard");
+    const std::string ls = io::get_string_or(*sv, "linear_solver", "solver", "auto");
+    if (ls == "auto") m.newton.solver = fe::SolverKind::automatic;
+    else if (ls == "cholmod") m.newton.solver = fe::SolverKind::cholmod;
+    else if (ls == "umfpack") m.newton.solver = fe::SolverKind::umfpack;
+    else throw InputError("solver.linear_solver", ls, "expected auto, cholmod or umfpack");
+  }
+  if (const auto* out = scene["output"].as_table()) {
+    io::check_keys(*out, "output", {"fields"});
+    m.fields = (*out)["fields"].value_or(true);
+  }
+  return m;
+}
+
+io::UnstructuredMesh field_mesh(const fe::Mesh& mesh) {
+  io::UnstructuredMesh out;
+  for (const Vec3& x : mesh.nodes) out.coordinates.insert(out.coordinates.end(), {x[0], x[1], x[2]});
+  for (const fe::Hex& h : mesh.hexes) out.connectivity.insert(out.connectivity.end(), h.begin(), h.end());
+  out.cell_type = io::CellType::hexa8;
+  return out;
+}
+
+void write_fields(io::FieldWriter& w, const fe::Simulation& sim) {
+  const fe::ElementFields f = sim.element_fields();
+  w.begin_step(sim.time());
+  w.add("displacement", sim.displacement(), 3, io::Centering::node);
+  w.add("cauchy_stress", f.cauchy, 9, io::Centering::cell);
+  w.add("von_mises", f.von_mises, 1, io::Centering::cell);
+  w.add("J", f.J, 1, io::Centering::cell);
+  w.add("fiber_direction", f.fiber, 3, io::Centering::cell);
+  w.end_step();
+}
+
+}  // namespace
+
+int run_macro(const CommandOptions& options) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  const LoadedScene scene = load_scene_or_default(options, "macro_tube_plane_strain");
+  MacroScene ms = parse_macro_scene(scene.table);
+  const macro::Structure structure = macro::build_structure(ms.spec);
+  fe::Simulation sim(structure.model, ms.newton);
+  const std::string tag = "[macro " + scene.name + "] ";
+  if (!options.quiet)
+    std::cerr << tag << structure.model.mesh.num_elements() << " hex8, " << sim.num_free_dofs() << " free dofs, "
+              << fe::to_string(sim.solver_kind()) << "\n";
+
+  io::CsvTable table(macro::probe_names(structure));
+  table.add_row(macro::probe_values(structure, sim));
+  std::unique_ptr<io::FieldWriter> writer;
+  if (ms.fields) {
+    writer = std::make_unique<io::FieldWriter>(options.out / "fields", field_mesh(structure.model.mesh));
+    write_fields(*writer, sim);
+  }
+  std::string error;
+  std::size_t done = 0;
+  try {
+    for (double t : ms.times) {
+      sim.advance_to(t);
+      table.add_row(macro::probe_values(structure, sim));
+      if (writer) write_fields(*writer, sim);
+      ++done;
+      if (!options.quiet)
+        std::cerr << "\r" << tag << "t = " << t << " / " << ms.times.back() << " (" << sim.stats().newton_iterations
+                  << " Newton iterations, " << sim.stats().cutbacks << " cut-backs)   " << std::flush;
+    }
+  } catch (const ConvergenceError& e) {
+    error = e.what();
+  }
+  if (!options.quiet) std::cerr << "\n";
+  for (const auto& line : sim.stats().log)
+    if (!options.quiet) std::cerr << tag << line << "\n";
+  table.write(options.out / "response.csv");
+  if (writer) writer->close();
+
+  const fe::RunStats st = sim.stats();
+  nlohmann::json summary = io::summary_base("macro", scene.file, scene.table);
+  summary["material"] = ms.spec.material->describe();
+  summary["completed"] = error.empty();
+  summary["error"] = error;
+  summary["output_steps"] = done;
+  summary["steps"] = st.steps;
+  summary["newton_iterations"] = st.newton_iterations;
+  summary["cutbacks"] = st.cutbacks;
+  summary["line_search_backtracks"] = st.line_search_backtracks;
+  summary["elements"] = structure.model.mesh.num_elements();
+  summary["dofs"] = sim.num_free_dofs();
+  summary["linear_solver"] = fe::to_string(sim.solver_kind());
+  summary["assembly_time_s"] = st.assembly_time;
+  summary["analysis_time_s"] = st.linear.analysis;
+  summary["factorization_time_s"] = st.linear.factorization;
+  summary["solve_time_s"] = st.linear.solve;
+  summary["peak_memory_bytes"] = io::peak_memory_bytes();
+  summary["warnings"] = st.log;
+  summary["wall_time_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  io::write_summary(options.out, summary);
+  if (!error.empty()) {
+    std::cerr << "softhom macro: stopped early: " << error << "\n";
+    return 1;
+  }
+  if (!options.quiet)
+    std::cerr << "softhom macro: " << st.steps << " steps, " << st.newton_iterations << " Newton iterations → "
+              << options.out.string() << "\n";
+  return 0;
+}
+
 }  // namespace softhom::app

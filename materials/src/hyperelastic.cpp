@@ -48,9 +48,7 @@ MaterialStatus HyperelasticMaterial::evaluate(const Mat3& F, const double* /*sta
 // InvariantAssembler
 
 InvariantAssembler::InvariantAssembler(Form form, const Mat3& F, const Mat3& C_inv, Mat9* T)
-    : form_(form), F_(F), Ci_(C_inv), T_(T) {
-  if (T_) T_->setZero();
-}
+    : form_(form), F_(F), Ci_(C_inv), T_(T) {}
 
 void InvariantAssembler::add_fiber(const Vec3& a0, const Vec3& a, const Mat3& M, double sM, double cMM,
                                    double cMC) {
@@ -64,7 +62,9 @@ void InvariantAssembler::add_fiber(const Vec3& a0, const Vec3& a, const Mat3& M,
     for (int i = 0; i < 3; ++i)
       for (int J = 0; J < 3; ++J) m[voigt9(i, J)] = a[i] * a0[J];
   }
-  T_->noalias() += (cMM * m) * m.transpose();
+  if (T_written_) T_->noalias() += (cMM * m) * m.transpose();
+  else T_->noalias() = (cMM * m) * m.transpose();
+  T_written_ = true;
   z_ += cMC * m;
 }
 
@@ -80,6 +80,7 @@ void InvariantAssembler::finish(double sI, double sC, double cII, double cIC, do
     const Vec9 c = Eigen::Map<const Vec9>(Ci_.data());  // symmetric
     Vec9 i = Vec9::Zero();
     i[0] = i[4] = i[8] = 1.0;
+    if (!T_written_) CC.setZero();
     CC.noalias() += i * (cII * i + cIC * c).transpose();
     CC.noalias() += c * (cIC * i + cCC * c + z_).transpose();
     CC.noalias() += z_ * c.transpose();
@@ -96,21 +97,24 @@ void InvariantAssembler::finish(double sI, double sC, double cII, double cIC, do
       f[voigt9(i, J)] = F_(i, J);
       t[voigt9(i, J)] = Fit(i, J);
     }
-  // Dyadic part: cII f⊗f + cIC (f⊗t + t⊗f) + cCC t⊗t + z⊗t + t⊗z, as three rank-1 updates.
-  A.noalias() += f * (cII * f + cIC * t).transpose();
-  A.noalias() += t * (cIC * f + cCC * t + z_).transpose();
-  A.noalias() += z_ * t.transpose();
-  // ½ cS F⁻ᵀ_iL F⁻ᵀ_kJ at row 3i+J, column 3k+L (the "transposed" half of C⁻¹⊙C⁻¹).
+  // One pass over the columns (k, L) of A, summing
+  //   dyads      cII f⊗f + cIC (f⊗t + t⊗f) + cCC t⊗t + z⊗t + t⊗z = f⊗u + t⊗v + z⊗t
+  //   ½ cS F⁻ᵀ_iL F⁻ᵀ_kJ            (the "transposed" half of the push-forward of C⁻¹⊙C⁻¹)
+  //   δ_ik (S_JL + ½ cS C⁻¹_JL)     (geometric term and the other half of C⁻¹⊙C⁻¹)
+  // in registers and storing each column once.
+  const Vec9 u = cII * f + cIC * t, v = cIC * f + cCC * t + z_;
   const double h = 0.5 * cS;
+  const Mat3 G = S + h * Ci_;
+  const Mat3 hFitT = h * Fit.transpose();  // hFitT(J, k) = h F⁻ᵀ_kJ, contiguous in J
   for (int k = 0; k < 3; ++k)
     for (int L = 0; L < 3; ++L) {
-      const double w = h * 1.0;
-      for (int i = 0; i < 3; ++i)
-        for (int J = 0; J < 3; ++J) A(voigt9(i, J), voigt9(k, L)) += w * Fit(i, L) * Fit(k, J);
+      const int c = voigt9(k, L);
+      Vec9 col = f * u[c] + t * v[c] + z_ * t[c];
+      for (int i = 0; i < 3; ++i) col.segment<3>(3 * i) += Fit(i, L) * hFitT.col(k);
+      col.segment<3>(3 * k) += G.col(L);  // G symmetric: G(J, L) = G(L, J)
+      if (T_written_) A.col(c) += col;
+      else A.col(c) = col;
     }
-  // δ_ik (S_JL + ½ cS C⁻¹_JL): the geometric term and the other half of C⁻¹⊙C⁻¹.
-  const Mat3 G = S + h * Ci_;
-  for (int i = 0; i < 3; ++i) A.block<3, 3>(3 * i, 3 * i) += G;
 }
 
 }  // namespace softhom

@@ -9,6 +9,7 @@
 //   CC = CC_H + f (CC^e − CC_H),   f = g∞ + Σ g_k φ_k
 //   CC_H = 2 ∂S_H^e/∂C = (1/3) C⁻¹⊗(C:CC^e) + (2/3) C⁻¹⊗S^e − (2/3)(S^e:C) C⁻¹⊙C⁻¹
 // (from ∂(S^e:C)/∂C = ½ C:CC^e + S^e and ∂C⁻¹/∂C = −C⁻¹⊙C⁻¹). CC is minor- but not major-symmetric.
+// It is pushed forward term by term to A = ∂P/∂F (see evaluate), starting from the law's (P^e, A^e).
 //
 // State per point (6 (1 + N) doubles, symmetric tensors in the order 11, 22, 33, 23, 13, 12):
 //   [S_D^e at the last converged step | h_1 | … | h_N].
@@ -66,12 +67,16 @@ class QLVMaterial final : public Material {
     // A negative or non-finite step is not a time step: refuse it like a non-finite input.
     if (!(dt >= 0.0) || !std::isfinite(dt)) return MaterialStatus::not_finite;
     const Mat3 C = F.transpose() * F;
-    Mat3 Se;
-    Mat9 CCe;
-    st = law_->second_piola(F, C, J, Se, A ? &CCe : nullptr);
+    // Elastic response in Piola form (the law's fused kernel where it has one); S^e = F⁻¹ P^e.
+    Mat3 Pe;
+    Mat9 Ae;
+    st = law_->first_piola(F, C, J, Pe, A ? &Ae : nullptr);
     if (st != MaterialStatus::ok) return st;
+    const Mat3 Finv = F.inverse();
+    Mat3 Se = Finv * Pe;
+    Se = 0.5 * (Se + Se.transpose());  // symmetric up to rounding
+    const Mat3 Ci = Finv * Finv.transpose();
 
-    const Mat3 Ci = C.inverse();
     const double p = ddot(Se, C);
     const Mat3 SH = (p / 3.0) * Ci;
     const Mat3 SD = Se - SH;
@@ -94,20 +99,27 @@ class QLVMaterial final : public Material {
     P.noalias() = F * S;
 
     if (A) {
-      // CC = f CC^e + (1 − f) CC_H
-      Vec9 c, s, row;
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) {
-          c[voigt9(i, j)] = Ci(i, j);
-          s[voigt9(i, j)] = Se(i, j);
-        }
-      row.noalias() = CCe.transpose() * flatten(C);  // (C:CC^e)_kl = C_ij CC^e_ijkl
+      // A = δ_ik S_JL + push(CC),  push(X)_iJkL = F_iM X_MJNL F_kN,  CC = f CC^e + (1 − f) CC_H, with
+      //   push(CC^e)       = A^e − δ_ik S^e_JL
+      //   push(C⁻¹ ⊗ X)    = F⁻ᵀ ⊗ (F X)
+      //   push(C⁻¹ ⊙ C⁻¹)  = ½ (δ_ik C⁻¹_JL + F⁻ᵀ_iL F⁻ᵀ_kJ)
+      //   F (C:CC^e)       = (A^eᵀ : F) − P^e        (contract A^e = δ S^e + push(CC^e) with F)
+      // so no material 9x9 tensor is formed.
       const double w = 1.0 - f;
-      Mat9 CC = f * CCe;
-      CC.noalias() += (w / 3.0 * c) * (row + 2.0 * s).transpose();
-      add_sym_product(CC, -w * 2.0 / 3.0 * p, Ci);
-      piola_tangent_from_material(F, S, CC, *A);
-      if (!A->allFinite()) return MaterialStatus::not_finite;
+      const Mat3 Fit = Finv.transpose();
+      const Vec9 t = flatten(Fit), pe = flatten(Pe);
+      const Vec9 r = Ae.transpose() * flatten(F) - pe;  // vec(F (C:CC^e))
+      Mat9& T = *A;
+      T = f * Ae;
+      T.noalias() += t * (w / 3.0 * (r + 2.0 * pe)).transpose();
+      const double q = w * p / 3.0;
+      for (int k = 0; k < 3; ++k)
+        for (int L = 0; L < 3; ++L)
+          for (int i = 0; i < 3; ++i)
+            for (int J2 = 0; J2 < 3; ++J2) T(voigt9(i, J2), voigt9(k, L)) -= q * Fit(i, L) * Fit(k, J2);
+      const Mat3 G = S - f * Se - q * Ci;
+      for (int i = 0; i < 3; ++i) T.block<3, 3>(3 * i, 3 * i) += G;
+      if (!T.allFinite()) return MaterialStatus::not_finite;
     }
 
     // Success: write the new state (after every read of state_old, so the two may alias).

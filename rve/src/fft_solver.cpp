@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include <Eigen/Dense>
@@ -118,6 +119,11 @@ struct FftRveSolver::Impl {
   // Scratch.
   std::vector<Complex> r_u;
   PassSums sums;
+  std::vector<Complex> du_last;      // last converged increment (extrapolation predictor)
+  Mat3 dF_last = Mat3::Zero();
+  double dt_last = 0.0;
+  bool extrapolate = true;
+  double merit = 0.0;  // absolute residual norm of the last residual_norm() call (line search)
   Mat9 C0 = Mat9::Identity();
 
   Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPtr fiber, double angle, const Mat3& frame,
@@ -217,6 +223,7 @@ struct FftRveSolver::Impl {
     Vec3 a_prev = a;
     Eigen::Matrix3d Q;
     bool have_previous = false;
+    double r_prev = std::numeric_limits<double>::infinity();
     for (int it = 0; it < 40; ++it) {
       Fx[1] = F + (1.0 - f) * a * n.transpose();
       Fx[0] = F - f * a * n.transpose();
@@ -236,9 +243,15 @@ struct FftRveSolver::Impl {
               s += ((1.0 - f) * Ax[1](3 * i + j, 3 * k + l) + f * Ax[0](3 * i + j, 3 * k + l)) * n[j] * n[l];
           Q(i, k) = s;
         }
-      const double scale = (Px[1] * n).norm() + (Px[0] * n).norm() + 1e-14 * G_max;
-      if (r.norm() <= 1e-13 * scale) break;
-      if (it == 39) return MaterialStatus::not_finite;  // no traction continuity: treat as a failed call
+      // Relative tolerance plus the round-off floor of stresses ~ K (J − 1) (K/G up to 1e5 here).
+      const double scale = (Px[1] * n).norm() + (Px[0] * n).norm();
+      const double floor = 32.0 * std::numeric_limits<double>::epsilon() * K_max * (1.0 + F.cwiseAbs().maxCoeff());
+      const double rn = r.norm();
+      if (rn <= 1e-13 * scale + floor) break;
+      // Stagnation at round-off level is convergence too.
+      if (it >= 3 && rn <= 1e-9 * scale && rn > 0.25 * r_prev) break;
+      r_prev = rn;
+      if (it == 39) return MaterialStatus::not_finite;  // no traction continuity: treat as a failed call  // no traction continuity: treat as a failed call
       a_prev = a;
       have_previous = true;
       a -= Q.inverse() * r;
@@ -371,13 +384,17 @@ struct FftRveSolver::Impl {
     for (int c = 0; c < 9; ++c) r.f[c] = free[c] ? Pl[c] - P_target[c] : 0.0;
   }
 
-  double stress_scale() const {
+  /// Stress scale of the relative residual: the macro stress on prescribed-F components and the
+  /// stress targets (not the free components, whose error is part of the residual), floored.
+  double stress_scale(const std::array<bool, 9>& free, const Vec9& P_target) const {
     const Vec9 Pl = T_load * sums.P;
-    return std::max(Pl.cwiseAbs().maxCoeff(), 1e-6 * G_min);
+    double s = 1e-6 * G_min;
+    for (int c = 0; c < 9; ++c) s = std::max(s, free[c] ? std::abs(P_target[c]) : std::abs(Pl[c]));
+    return s;
   }
 
   /// Relative residual norm (see FftSolverOptions::tolerance).
-  double residual_norm(const KVec& r) const {
+  double residual_norm(const KVec& r, const std::array<bool, 9>& free, const Vec9& P_target) {
     double s = 0.0;
 #pragma omp parallel for reduction(+ : s) schedule(static)
     for (std::size_t k = 0; k < NM; ++k) {
@@ -385,8 +402,8 @@ struct FftRveSolver::Impl {
       if (lap <= 0.0) continue;
       s += grid.mode_weight(k) * (std::norm(r.u[k]) + std::norm(r.u[NM + k]) + std::norm(r.u[2 * NM + k])) / lap;
     }
-    const double scale = stress_scale();
-    return std::max(std::sqrt(s), r.f.cwiseAbs().maxCoeff()) / scale;
+    merit = std::sqrt(s + r.f.squaredNorm());
+    return std::max(std::sqrt(s), r.f.cwiseAbs().maxCoeff()) / stress_scale(free, P_target);
   }
 
   // ---------------------------------------------------------------------------------------------
@@ -511,7 +528,7 @@ struct FftRveSolver::Impl {
   struct StepOutcome {
     bool ok = false;
     std::string why;
-    int newton = 0, krylov = 0;
+    int newton = 0, krylov = 0, line_search_cuts = 0;
     std::vector<double> residuals;
   };
 
@@ -533,24 +550,57 @@ struct FftRveSolver::Impl {
     const int max_it = opt.max_newton_iterations;
     double err = 0.0, first_err = -1.0;
     std::vector<Complex> u_prev;
-    Mat3 Fbar_prev = Fbar;
+    Mat3 Fbar_prev = Fbar, step_macro = Mat3::Zero();
+    bool had_prescribed_step = false;
     for (int it = 0; it <= max_it; ++it) {
-      // Evaluate (with backtracking on a failed material call after an update).
-      MaterialStatus s = MaterialStatus::ok;
-      for (int half = 0;; ++half) {
-        gradient_to_real(u);
-        s = evaluate_points(to_grid(Fbar), dt, true);
-        if (s == MaterialStatus::ok || it == 0 || half == 6) break;
-        // Halve the last update (ũ and F̄ both, so the prescribed part is re-applied later).
-        for (std::size_t i = 0; i < u.size(); ++i) u[i] = u_prev[i] + 0.5 * (u[i] - u_prev[i]);
-        Fbar = Fbar_prev + 0.5 * (Fbar - Fbar_prev);
+      // Evaluate the new iterate. After a Newton update, a backtracking line search on the residual
+      // norm: nearly incompressible matrices (K/G ~ 1e5) make full Newton steps overshoot in J.
+      if (it == 0) {
+        // Predictor: linear extrapolation of the last converged increment (prescribed components set
+        // exactly); the path is smooth, so this lands much closer to the solution than the tangent
+        // predictor when the matrix is nearly incompressible. Falls back to the tangent predictor.
+        bool extrapolated = false;
+        if (extrapolate && dt_last > 0.0 && !du_last.empty()) {
+          const double ratio = dt / dt_last;
+          for (std::size_t i = 0; i < u.size(); ++i) u[i] = u_committed[i] + ratio * du_last[i];
+          Fbar = Fbar_committed + ratio * dF_last;
+          for (int c = 0; c < 9; ++c)
+            if (!free[c]) Fbar(c / 3, c % 3) = target(c / 3, c % 3);
+          gradient_to_real(u);
+          extrapolated = evaluate_points(to_grid(Fbar), dt, true) == MaterialStatus::ok;
+          if (!extrapolated) restore();
+        }
+        if (!extrapolated) gradient_to_real(u);
+        const MaterialStatus s = extrapolated ? MaterialStatus::ok : evaluate_points(to_grid(Fbar), dt, true);
+        if (s != MaterialStatus::ok) {
+          out.why = std::string("material call failed (") + to_string(s) + ")";
+          return out;
+        }
+        residual(free, P_target, r);
+        err = residual_norm(r, free, P_target);
+      } else {
+        const double merit_old = merit;
+        double scale = 1.0;
+        bool accepted = false;
+        MaterialStatus last = MaterialStatus::ok;
+        for (int ls = 0; ls < 8 && !accepted; ++ls, scale *= 0.5) {
+          for (std::size_t i = 0; i < u.size(); ++i) u[i] = u_prev[i] + scale * dx.u[i];
+          Fbar = Fbar_prev + scale * step_macro;
+          gradient_to_real(u);
+          last = evaluate_points(to_grid(Fbar), dt, true);
+          if (last != MaterialStatus::ok) continue;
+          residual(free, P_target, r);
+          err = residual_norm(r, free, P_target);
+          if (!std::isfinite(err)) continue;
+          accepted = had_prescribed_step || merit < (1.0 - 1e-4 * scale) * merit_old || ls == 7;
+          if (ls > 0 && accepted) ++out.line_search_cuts;
+        }
+        if (!accepted) {
+          out.why = last != MaterialStatus::ok ? std::string("material call failed (") + to_string(last) + ")"
+                                               : std::string("line search failed");
+          return out;
+        }
       }
-      if (s != MaterialStatus::ok) {
-        out.why = std::string("material call failed (") + to_string(s) + ")";
-        return out;
-      }
-      residual(free, P_target, r);
-      err = residual_norm(r);
       out.residuals.push_back(err);
       Mat3 dFp = Mat3::Zero();
       for (int c = 0; c < 9; ++c)
@@ -583,13 +633,14 @@ struct FftRveSolver::Impl {
         ++out.krylov;
         axpy(-1.0, Ke, b);
       }
-      const double eta = std::clamp(std::max(std::min(1e-2, err), 0.1 * opt.tolerance / std::max(err, 1e-300)), 1e-12, 0.1);
+      double eta = std::clamp(std::max(std::min(1e-2, err), 0.1 * opt.tolerance / std::max(err, 1e-300)), 1e-12, 0.1);
+      if (opt.krylov_tolerance > 0.0) eta = opt.krylov_tolerance;
       out.krylov += pcg(b, free, prescribed_reached ? eta : std::min(eta, 1e-3), dx);
       ++out.newton;
       u_prev = u;
       Fbar_prev = Fbar;
-      for (std::size_t i = 0; i < u.size(); ++i) u[i] += dx.u[i];
-      Fbar += dFp + unflatten(dx.f);
+      step_macro = dFp + unflatten(dx.f);
+      had_prescribed_step = !prescribed_reached;
     }
     out.why = "no convergence in " + std::to_string(max_it) + " Newton iterations (residual " + std::to_string(err) + ")";
     return out;
@@ -616,7 +667,7 @@ struct FftRveSolver::Impl {
         return out;
       }
       residual(free, P_target, r);
-      err = residual_norm(r);
+      err = residual_norm(r, free, P_target);
       if (!std::isfinite(err) || err > 1e12) {
         out.why = "fixed point diverged";
         return out;
@@ -636,7 +687,12 @@ struct FftRveSolver::Impl {
     return out;
   }
 
-  void commit() {
+  void commit(double dt) {
+    // Remember the converged increment: the next step starts from its linear extrapolation.
+    du_last.resize(u.size());
+    for (std::size_t i = 0; i < u.size(); ++i) du_last[i] = u[i] - u_committed[i];
+    dF_last = Fbar - Fbar_committed;
+    dt_last = dt;
     u_committed = u;
     Fbar_committed = Fbar;
     lam_a = lam_a_trial;
@@ -768,7 +824,7 @@ RveRunResult FftRveSolver::run(const MixedControl& control,
       agg.newton_iterations += o.newton;
       agg.krylov_iterations += o.krylov;
       if (o.ok) {
-        m.commit();
+        m.commit(t_new - t);
         t = t_new;
         ++agg.substeps;
         last = std::move(o);

@@ -619,7 +619,8 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
     c.y = io::get_string_or(*ct, "y", cp, "P11");
     for (const auto& [key, q] : {std::pair<const char*, const std::string*>{"x", &c.x}, {"y", &c.y}})
       if (!is_model_quantity(*q, families)) {
-        std::string fib = families ? ", fiber1_angle_deg..fiber" + std::to_string(families) + "_angle_deg" : "";
+        std::string fib = families == 1 ? ", fiber1_angle_deg"
+                          : families > 1 ? ", fiber1_angle_deg..fiber" + std::to_string(families) + "_angle_deg" : "";
         throw InputError(cp + "." + key, *q, "not a model quantity (t, F11..F33, P11..P33, sigma11..sigma33" + fib + ")");
       }
     if (c.x == c.y) throw InputError(cp + ".y", c.y, "same as x");

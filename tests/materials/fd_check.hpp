@@ -61,8 +61,9 @@ inline Mat9 fd_tangent(const Material& m, const Mat3& F, const double* state_old
 /// Default h = 1e-6 ‖F‖: the truncation error h² W‴/6 must stay small against G although W‴ ~ K
 /// (1e-12 K ≈ 1e-7 G for K/G = 1e5); the rounding error ε W / h ≈ 1e-10 W is small against |P| ~ W/|F|.
 /// `h` = 0 selects that default.
-inline Mat3 fd_energy_gradient(const ElasticLaw& law, const Mat3& F, double h = 0.0) {
+inline Mat3 fd_energy_gradient(const ElasticLaw& law, const Mat3& F, double h = 0.0, bool richardson = false) {
   if (!(h > 0.0)) h = 1e-6 * F.norm();
+  if (richardson) return (4.0 * fd_energy_gradient(law, F, 0.5 * h) - fd_energy_gradient(law, F, h)) / 3.0;
   Mat3 P;
   for (int k = 0; k < 3; ++k)
     for (int L = 0; L < 3; ++L) {

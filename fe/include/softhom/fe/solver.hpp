@@ -59,7 +59,12 @@ class Simulation {
   /// Reaction force: Σ of internal forces over `dofs` (e.g. a loaded face's x-dofs).
   double reaction(const std::vector<int>& dofs) const;
   ElementFields element_fields() const;
-  const RunStats& stats() const { return stats_; }
+  /// Statistics so far (linear-solver times of the current solver object).
+  RunStats stats() const {
+    RunStats s = stats_;
+    s.linear = linear_->times();
+    return s;
+  }
   SolverKind solver_kind() const;
   int num_free_dofs() const { return dofs_.num_free; }
   const FeModel& model() const { return model_; }
@@ -84,6 +89,7 @@ class Simulation {
   std::vector<double> cauchy_;     ///< element-mean Cauchy stress of the last converged state
   std::vector<int> state_offset_;  ///< per element into the state arrays (−1: elastic)
   double time_ = 0.0, last_dt_ = 0.0;
+  bool recent_cutback_ = false;
   double cavity_pressure_ = 0.0, cavity_v0_ = 0.0;
   RunStats stats_;
 };

@@ -81,6 +81,7 @@ class InvariantAssembler {
   Mat9* T_;
   Mat3 S_fibers_ = Mat3::Zero();  // Σ sM_f M_f
   Vec9 z_ = Vec9::Zero();         // Σ cMC_f vec(M_f) (material) or vec(F M_f) (piola)
+  bool T_written_ = false;        // *T_ holds a partial sum (else it is assigned, not accumulated)
 };
 
 /// Adapts an ElasticLaw to the Material interface (no internal state).

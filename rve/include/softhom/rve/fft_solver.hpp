@@ -47,6 +47,9 @@ struct FftSolverOptions {
   /// Newton/fixed point: RMS of the incompatible part of P (Σ_k |Dᴴ P̂|²/|D|²)^½ and the macro stress
   /// error, both relative to max(max|P̄_ij|, 1e-6 G_min).
   double tolerance = 1e-7;
+  /// Relative (preconditioned-norm) tolerance of each linear solve; 0: adaptive forcing term
+  /// η = clamp(max(min(1e-2, err), 0.1 tol / err), 1e-12, 0.1) (Eisenstat–Walker-like).
+  double krylov_tolerance = 0.0;
   int max_newton_iterations = 30;
   int max_krylov_iterations = 5000;
   int max_fixed_point_iterations = 20000;
