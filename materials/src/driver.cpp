@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include <Eigen/Dense>
@@ -34,7 +35,7 @@ struct SubstepOutcome {
 SubstepOutcome solve_substep(const Material& material, const MixedControl& control, const FreeSet& free,
                              double t, double dt, const std::vector<double>& state_old,
                              std::vector<double>& state_new, const PointSolverOptions& opt,
-                             double stress_scale, Mat3& F, Mat3& P) {
+                             double stress_scale, double bulk_scale, Mat3& F, Mat3& P) {
   SubstepOutcome out;
   F = control.prescribed_F(t, F);
   const double* s_old = state_old.empty() ? nullptr : state_old.data();
@@ -62,7 +63,10 @@ SubstepOutcome solve_substep(const Material& material, const MixedControl& contr
     out.residual = rnorm;
     // Relative to the current stress: the first trial state (prescribed components moved, free ones
     // not yet) can carry a volumetric stress ~K·ΔJ that says nothing about the converged scale.
-    const double tolerance = opt.tolerance * std::max(stress_scale, P.cwiseAbs().maxCoeff());
+    // Floor at the rounding noise of the volumetric stress (~K·eps): with G ≪ K the relative tolerance
+    // alone can ask for more digits than the stress has.
+    const double tolerance = std::max(opt.tolerance * std::max(stress_scale, P.cwiseAbs().maxCoeff()),
+                                      100.0 * std::numeric_limits<double>::epsilon() * bulk_scale);
     if (rnorm <= tolerance || free.count == 0) {
       if (material.limit_margin(F) < opt.limit_margin) {
         out.status = MaterialStatus::locking;
@@ -128,6 +132,7 @@ PointRunResult run_material_point(const Material& global_material, const MixedCo
   const auto fibers = material.fiber_directions();
   const FreeSet free = free_components(control);
   const double stress_scale = material.initial_shear_modulus();
+  const double bulk_scale = material.initial_bulk_modulus();
 
   PointRunResult result;
   const int nstate = material.state_size();
@@ -150,7 +155,7 @@ PointRunResult run_material_point(const Material& global_material, const MixedCo
   Mat3 F = Mat3::Identity(), P = Mat3::Zero();
   {
     const SubstepOutcome o = solve_substep(material, control, free, 0.0, 0.0, state, state_trial, opt,
-                                           stress_scale, F, P);
+                                           stress_scale, bulk_scale, F, P);
     if (!o.converged) {
       result.error = "initial state (t = 0): " + describe_failure(o);
       return result;
@@ -172,7 +177,7 @@ PointRunResult run_material_point(const Material& global_material, const MixedCo
       const double t_new = last ? t_out : t + dt;
       Mat3 F_new = F, P_new;
       const SubstepOutcome o = solve_substep(material, control, free, t_new, dt, state, state_trial, opt,
-                                             stress_scale, F_new, P_new);
+                                             stress_scale, bulk_scale, F_new, P_new);
       iterations += o.iterations;
       if (!o.converged) {
         if (halvings >= opt.max_cutbacks) {

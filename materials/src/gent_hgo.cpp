@@ -71,6 +71,13 @@ class GentHGOLaw final : public ElasticLaw {
     return compute(InvariantAssembler::Form::piola, F, C, J, P, A);
   }
 
+  double limit_margin(const Mat3& F) const override {
+    const double J = F.determinant();
+    if (!(J > 0.0)) return 0.0;
+    const double I1b = (F.transpose() * F).trace() / std::cbrt(J * J);
+    return 1.0 - (I1b - 3.0) / p_.Jm;
+  }
+
   double energy(const Mat3& C, double J) const override {
     if (!(J > 0.0)) return std::nan("");
     const double j23 = 1.0 / std::cbrt(J * J);

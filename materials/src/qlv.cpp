@@ -138,6 +138,7 @@ class QLVMaterial final : public Material {
   double initial_shear_modulus() const override { return law_->initial_shear_modulus(); }
   double initial_bulk_modulus() const override { return law_->initial_bulk_modulus(); }
   std::vector<Vec3> fiber_directions() const override { return law_->fiber_directions(); }
+  double limit_margin(const Mat3& F) const override { return law_->limit_margin(F); }
   std::unique_ptr<Material> rotated(const Mat3& Q) const override {
     return std::make_unique<QLVMaterial>(ElasticLawPtr(law_->rotated(Q)), prony_);
   }
