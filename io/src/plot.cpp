@@ -44,7 +44,25 @@ bool plot_curves(const std::filesystem::path& png, const PlotSpec& spec, std::st
   const auto tmp = temporary_path(png);
   write_file_atomic(script, kScript);
   write_file_atomic(json, j.dump());
-  const std::string cmd = "python3 '" + script.string() + "' '" + json.string() + "' '" + tmp.string() + "' > /dev/null 2>&1";
+  // The first interpreter that has matplotlib: $SOFTHOM_PYTHON, Debian's /usr/bin/python3 (where
+  // python3-matplotlib installs), then whatever python3 is on PATH (may be a virtualenv without it).
+  std::string python;
+  const char* candidates[] = {std::getenv("SOFTHOM_PYTHON"), "/usr/bin/python3", "python3"};
+  for (const char* candidate : candidates) {
+    if (!candidate || !*candidate) continue;
+    const std::string probe = std::string("'") + candidate + "' -c 'import matplotlib' > /dev/null 2>&1";
+    if (std::system(probe.c_str()) == 0) {
+      python = candidate;
+      break;
+    }
+  }
+  if (python.empty()) {
+    std::filesystem::remove(script);
+    std::filesystem::remove(json);
+    if (why) *why = "no python3 with matplotlib found (Debian: python3-matplotlib; or set SOFTHOM_PYTHON)";
+    return false;
+  }
+  const std::string cmd = "'" + python + "' '" + script.string() + "' '" + json.string() + "' '" + tmp.string() + "' > /dev/null 2>&1";
   const int rc = std::system(cmd.c_str());
   std::filesystem::remove(script);
   std::filesystem::remove(json);

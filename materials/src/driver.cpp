@@ -185,8 +185,9 @@ PointRunResult run_material_point(const Material& global_material, const MixedCo
           s << "step to t = " << t_out << " failed at t = " << t_new << " after " << halvings
             << " cut-backs (Δt = " << dt << "): " << describe_failure(o);
           if (o.status == MaterialStatus::locking || o.hit_locking)
-            s << ". The prescribed deformation reaches the Gent locking limit (Ī1 − 3 → Jm) near F = ["
-              << F.row(0) << "; " << F.row(1) << "; " << F.row(2) << "]";
+            s << ". The prescribed deformation reaches the Gent locking limit (Ī1 − 3 → Jm) beyond the last"
+              << " converged state F11 = " << F(0, 0) << ", F22 = " << F(1, 1) << ", F33 = " << F(2, 2)
+              << " (load frame)";
           result.error = s.str();
           result.total_newton_iterations += iterations;
           return result;
