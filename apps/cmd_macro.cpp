@@ -5,7 +5,7 @@
 //              macro/geometry.hpp), plane_strain, fiber_frame = "global" | "cylindrical" | "spherical"
 //   [material] (io::parse_material; fibers given in the fiber frame), [material_lower] for actuators
 //   [load]     control = "pressure" | "volume" | "stretch", path = [[t, value], ...], steps = N
-//   [solver]   tolerance, max_iterations, max_cutbacks, substeps, formulation, linear_solver
+//   [solver]   tolerance, max_iterations, max_cutbacks, substeps, formulation, linear_solver, verbose
 //   [output]   fields = true
 #include <chrono>
 #include <iostream>
@@ -123,13 +123,14 @@ MacroScene parse_macro_scene(const toml::table& scene) {
   for (int k = 1; k <= steps; ++k) m.times.push_back(s.load.end_time() * k / steps);
 
   if (const auto* sv = scene["solver"].as_table()) {
-    io::check_keys(*sv, "solver", {"tolerance", "max_iterations", "max_cutbacks", "substeps", "formulation", "linear_solver"});
+    io::check_keys(*sv, "solver", {"tolerance", "max_iterations", "max_cutbacks", "substeps", "formulation", "linear_solver", "verbose"});
     m.newton.tolerance = io::get_number_or(*sv, "tolerance", "solver", m.newton.tolerance);
     if (!(m.newton.tolerance > 0 && m.newton.tolerance < 1))
       throw InputError("solver.tolerance", std::to_string(m.newton.tolerance), "must lie in (0, 1)");
     m.newton.max_iterations = get_int(*sv, "max_iterations", "solver", m.newton.max_iterations);
     m.newton.max_cutbacks = int(io::get_number_or(*sv, "max_cutbacks", "solver", m.newton.max_cutbacks));
     m.newton.initial_substeps = get_int(*sv, "substeps", "solver", 1);
+    m.newton.verbose = (*sv)["verbose"].value_or(false);  // Newton iteration log on stderr
     const std::string f = io::get_string_or(*sv, "formulation", "solver", "fbar");
     if (f == "fbar") s.formulation = fe::Formulation::fbar;
     else if (f == "standard") s.formulation = fe::Formulation::standard;
