@@ -13,7 +13,9 @@ namespace {
 
 std::string join(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
 
-std::string show(const toml::node& node) {
+}  // namespace
+
+std::string describe_value(const toml::node& node) {
   std::ostringstream s;
   node.visit([&s](const auto& n) {
     using T = std::decay_t<decltype(n)>;
@@ -23,6 +25,10 @@ std::string show(const toml::node& node) {
   });
   return s.str();
 }
+
+namespace {
+
+std::string show(const toml::node& node) { return describe_value(node); }
 
 double as_number(const toml::node& node, const std::string& field) {
   if (auto v = node.value<double>()) {

@@ -31,16 +31,7 @@ std::string num(double v) {
   return s;
 }
 
-std::string show(const toml::node& node) {
-  std::ostringstream s;
-  node.visit([&s](const auto& n) {
-    using T = std::decay_t<decltype(n)>;
-    if constexpr (std::is_same_v<T, toml::value<std::string>>) s << '"' << n.get() << '"';
-    else if constexpr (std::is_same_v<T, toml::table>) s << "{table}";
-    else s << n;
-  });
-  return s.str();
-}
+std::string show(const toml::node& node) { return io::describe_value(node); }
 
 bool get_bool_or(const toml::table& t, const std::string& key, const std::string& path, bool fallback) {
   const toml::node* node = t.get(key);

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 namespace softhom::test {
 
 struct CommandResult {
@@ -16,8 +18,11 @@ struct CommandResult {
 };
 
 inline CommandResult run_softhom(const std::string& args) {
+  // ctest runs every test in its own process, in parallel: the pid keeps logs apart
+  // (std::rand() is unseeded and would give every process the same name).
+  static int calls = 0;
   const auto log = std::filesystem::temp_directory_path() /
-                   ("softhom-cli-" + std::to_string(std::rand()) + ".log");
+                   ("softhom-cli-" + std::to_string(::getpid()) + "-" + std::to_string(calls++) + ".log");
   const std::string cmd = std::string(SOFTHOM_BINARY) + " " + args + " > " + log.string() + " 2>&1";
   const int status = std::system(cmd.c_str());
   CommandResult r;
@@ -31,7 +36,7 @@ inline CommandResult run_softhom(const std::string& args) {
 }
 
 inline std::filesystem::path fresh_dir(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / ("softhom-test-" + name);
+  const auto dir = std::filesystem::temp_directory_path() / ("softhom-test-" + std::to_string(::getpid()) + "-" + name);
   std::filesystem::remove_all(dir);
   return dir;
 }

@@ -11,41 +11,15 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "io/io_test_helpers.hpp"
 #include "softhom/io/fields.hpp"
 
 using namespace softhom;
+using softhom::test::listing;
+using softhom::test::slurp;
 namespace fs = std::filesystem;
 
 namespace {
-
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path = fs::temp_directory_path() /
-           ("softhom_test_fields_" + std::to_string(::getpid()) + "_" + info->name());
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::vector<std::string> listing(const fs::path& dir) {
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
 
 std::vector<double> ramp(std::size_t n, double scale) {
   std::vector<double> v(n);
@@ -86,7 +60,7 @@ std::size_t check_xdmf_references(const std::string& xdmf, const fs::path& dir) 
 }  // namespace
 
 TEST(FieldWriter, VoxelGridTwoStepsRoundTrip) {
-  TempDir tmp;
+  test::TempDir tmp{"fields"};
   io::VoxelGrid grid;
   grid.cells = {4, 3, 2};
   grid.spacing = {0.5, 1.0, 2.0};
@@ -156,7 +130,7 @@ TEST(FieldWriter, VoxelGridTwoStepsRoundTrip) {
 }
 
 TEST(FieldWriter, UnstructuredTetraMeshRoundTrip) {
-  TempDir tmp;
+  test::TempDir tmp{"fields"};
   io::UnstructuredMesh mesh;
   mesh.cell_type = io::CellType::tetra4;
   mesh.coordinates = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
@@ -197,7 +171,7 @@ TEST(FieldWriter, UnstructuredTetraMeshRoundTrip) {
 }
 
 TEST(FieldWriter, UnfinishedWriterLeavesNothingAndKeepsPreviousResult) {
-  TempDir tmp;
+  test::TempDir tmp{"fields"};
   io::VoxelGrid grid;
   grid.cells = {2, 2, 1};
   {
@@ -229,7 +203,7 @@ TEST(FieldWriter, UnfinishedWriterLeavesNothingAndKeepsPreviousResult) {
 }
 
 TEST(FieldWriter, RefusesBadFieldsNamingThem) {
-  TempDir tmp;
+  test::TempDir tmp{"fields"};
   io::VoxelGrid grid;
   grid.cells = {2, 1, 1};
   io::FieldWriter w(tmp.path / "fields", grid);
@@ -264,7 +238,7 @@ TEST(FieldWriter, RefusesBadFieldsNamingThem) {
 }
 
 TEST(FieldWriter, RefusesInconsistentMesh) {
-  TempDir tmp;
+  test::TempDir tmp{"fields"};
   io::UnstructuredMesh mesh;
   mesh.cell_type = io::CellType::tetra4;
   mesh.coordinates = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
@@ -276,7 +250,7 @@ TEST(FieldWriter, RefusesInconsistentMesh) {
 }
 
 TEST(ReadDataset, MissingDatasetOrFileNamesIt) {
-  TempDir tmp;
+  test::TempDir tmp{"fields"};
   io::VoxelGrid grid;
   {
     io::FieldWriter w(tmp.path / "f", grid);

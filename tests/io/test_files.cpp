@@ -10,43 +10,15 @@
 
 #include <unistd.h>
 
+#include "io/io_test_helpers.hpp"
 #include "softhom/io/files.hpp"
 
 using namespace softhom;
+using softhom::test::listing;
+using softhom::test::slurp;
 namespace fs = std::filesystem;
 
 namespace {
-
-// A fresh directory per test, removed afterwards.
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path = fs::temp_directory_path() /
-           ("softhom_test_files_" + std::to_string(::getpid()) + "_" + info->name());
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::vector<std::string> listing(const fs::path& dir) {
-  std::vector<std::string> names;
-  for (const auto& e : fs::recursive_directory_iterator(dir))
-    if (e.is_regular_file()) names.push_back(fs::relative(e.path(), dir).string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
 
 std::vector<std::string> split(const std::string& s, char sep) {
   std::vector<std::string> out;
@@ -65,7 +37,7 @@ TEST(AtomicFile, TemporaryIsHiddenInSameDirectory) {
 }
 
 TEST(AtomicFile, CreatesDirectoriesReplacesContentLeavesNoTemporary) {
-  TempDir tmp;
+  test::TempDir tmp{"files"};
   const fs::path p = tmp.path / "a" / "b" / "x.txt";
   io::write_file_atomic(p, "first version, longer than the second\n");
   EXPECT_EQ(slurp(p), "first version, longer than the second\n");
@@ -77,7 +49,7 @@ TEST(AtomicFile, CreatesDirectoriesReplacesContentLeavesNoTemporary) {
 }
 
 TEST(AtomicFile, FailureThrowsNamingPathAndLeavesNoTemporary) {
-  TempDir tmp;
+  test::TempDir tmp{"files"};
   // The target is an existing non-empty directory: the write succeeds, the rename must fail.
   const fs::path target = tmp.path / "occupied";
   fs::create_directories(target / "inside");
@@ -160,7 +132,7 @@ TEST(CsvTable, RefusesWrongRowLength) {
 }
 
 TEST(CsvTable, WritesAtomically) {
-  TempDir tmp;
+  test::TempDir tmp{"files"};
   io::CsvTable t({"t", "v"});
   t.add_row({0.5, -2.25});
   t.write(tmp.path / "response.csv");

@@ -8,33 +8,15 @@
 
 #include <unistd.h>
 
+#include "io/io_test_helpers.hpp"
 #include "softhom/io/summary.hpp"
 
 using namespace softhom;
+using softhom::test::listing;
+using softhom::test::slurp;
 namespace fs = std::filesystem;
 
 namespace {
-
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path = fs::temp_directory_path() /
-           ("softhom_test_summary_" + std::to_string(::getpid()) + "_" + info->name());
-    fs::remove_all(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 }  // namespace
 
@@ -58,7 +40,7 @@ TEST(Summary, BaseFieldsAndSceneEcho) {
 }
 
 TEST(Summary, WritesPrettyJsonAtomically) {
-  TempDir tmp;
+  test::TempDir tmp{"summary", false};
   auto j = io::summary_base("point", "", toml::parse("x = 1\n"));
   j["results"] = {{"peak_stress", 0.1}, {"stretch", {1.0, 1.25}}};
   io::write_summary(tmp.path / "out", j);  // creates the directory
@@ -69,7 +51,7 @@ TEST(Summary, WritesPrettyJsonAtomically) {
 }
 
 TEST(Summary, RefusesNonFiniteNumbersNamingWhere) {
-  TempDir tmp;
+  test::TempDir tmp{"summary", false};
   nlohmann::json j = {{"command", "point"}, {"results", {{"stress", {1.0, std::nan("")}}}}};
   try {
     io::write_summary(tmp.path, j);
