@@ -162,6 +162,13 @@ std::string get_string_or(const toml::table& table, const std::string& key, cons
   throw InputError(join(path, key), show(*node), "must be a string");
 }
 
+bool get_bool_or(const toml::table& table, const std::string& key, const std::string& path, bool fallback) {
+  const toml::node* node = table.get(key);
+  if (!node) return fallback;
+  if (auto b = node->value<bool>()) return *b;
+  throw InputError(join(path, key), show(*node), "must be true or false");
+}
+
 void check_keys(const toml::table& table, const std::string& path, std::initializer_list<std::string_view> allowed) {
   for (const auto& [key, node] : table) {
     if (std::find(allowed.begin(), allowed.end(), key.str()) == allowed.end()) {

@@ -137,6 +137,8 @@ class QLVMaterial final : public Material {
 
   double initial_shear_modulus() const override { return law_->initial_shear_modulus(); }
   double initial_bulk_modulus() const override { return law_->initial_bulk_modulus(); }
+  // W_V contributes only to S_H^e, which stays elastic: the volumetric term passes through unrelaxed.
+  double volumetric_modulus() const override { return law_->initial_bulk_modulus(); }
   std::vector<Vec3> fiber_directions() const override { return law_->fiber_directions(); }
   double limit_margin(const Mat3& F) const override { return law_->limit_margin(F); }
   std::unique_ptr<Material> rotated(const Mat3& Q) const override {

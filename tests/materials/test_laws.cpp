@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <cstdlib>
 #include <iostream>
 #include <map>
@@ -478,4 +479,39 @@ TEST(ElasticLaws, MakeMaterialWithoutPronyStoresNoHistory) {
     EXPECT_NE(dynamic_cast<const HyperelasticMaterial*>(m.get()), nullptr) << name;
     EXPECT_EQ(make_material(law, PronySeries{1.0, {}})->state_size(), 0) << name;
   }
+}
+
+// Material::volumetric_modulus() is a contract the FFT solver's mixed (pressure) Newton relies on:
+// the law's stress is P_rest(F) + W_V′(J) J F⁻ᵀ with W_V′ = (K/2)(J − 1/J), K = volumetric_modulus(),
+// and P_rest independent of K. Checked by differencing two bulk moduli, elastic and QLV (whose
+// hydrostatic part stays elastic). Tolerance: 1e-12 of the volumetric stress, rounding of O(10)
+// operations on numbers of size K.
+TEST(ElasticLaws, VolumetricModulusIsTheAdditiveBulkTerm) {
+  const Vec3 d1 = Vec3(1.0, 2.0, 0.5).normalized();
+  const double K1 = 2000.0, K2 = 500.0;
+  const std::vector<std::pair<std::string, std::function<ElasticLawPtr(double)>>> laws = {
+      {"Gent+HGO", [&](double K) { return make_gent_hgo(ecoflex_aniso({d1}, FiberInvariant::full, true, K)); }},
+      {"neo-Hookean", [](double K) { return make_neo_hookean({3.8, K}); }},
+      {"Yeoh", [](double K) { return make_yeoh(cpasmo_yeoh(K)); }},
+      {"Ogden", [](double K) { return make_ogden(cpasmo_ogden(K)); }}};
+  const PronySeries prony{0.5, {{0.3, 2.0}, {0.2, 20.0}}};
+  std::mt19937 rng(77);
+  for (const auto& [name, make] : laws)
+    for (bool viscous : {false, true}) {
+      const MaterialPtr m1 = viscous ? make_material(make(K1), prony) : make_material(make(K1));
+      const MaterialPtr m2 = viscous ? make_material(make(K2), prony) : make_material(make(K2));
+      EXPECT_EQ(m1->volumetric_modulus(), K1) << name;
+      std::vector<double> s_old(m1->state_size()), s1(m1->state_size()), s2(m1->state_size());
+      if (viscous) m1->init_state(s_old.data());
+      for (int n = 0; n < 5; ++n) {
+        const Mat3 F = random_F(rng, random_J(rng), 0.4);
+        Mat3 P1, P2;
+        ASSERT_EQ(m1->evaluate(F, s_old.data(), s1.data(), 0.5, P1, nullptr), MaterialStatus::ok) << name;
+        ASSERT_EQ(m2->evaluate(F, s_old.data(), s2.data(), 0.5, P2, nullptr), MaterialStatus::ok) << name;
+        const double J = F.determinant();
+        const Mat3 cof = J * F.inverse().transpose();
+        const Mat3 expected = 0.5 * (K1 - K2) * (J - 1.0 / J) * cof;
+        EXPECT_LE((P1 - P2 - expected).norm(), 1e-12 * K1 * cof.norm()) << name << (viscous ? " QLV" : "");
+      }
+    }
 }

@@ -46,6 +46,7 @@ double get_number_or(const toml::table& table, const std::string& key, const std
 std::string get_string_or(const toml::table& table, const std::string& key, const std::string& path,
                           const std::string& fallback);
 /// Refuses keys not in `allowed` with an InputError naming path.key.
+bool get_bool_or(const toml::table& table, const std::string& key, const std::string& path, bool fallback);
 void check_keys(const toml::table& table, const std::string& path, std::initializer_list<std::string_view> allowed);
 
 }  // namespace softhom::io

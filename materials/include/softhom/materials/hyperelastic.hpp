@@ -93,6 +93,8 @@ class HyperelasticMaterial final : public Material {
                           Mat9* A) const override;
   double initial_shear_modulus() const override { return law_->initial_shear_modulus(); }
   double initial_bulk_modulus() const override { return law_->initial_bulk_modulus(); }
+  // Every law of laws.hpp adds W_V(J) with K = its initial bulk modulus.
+  double volumetric_modulus() const override { return law_->initial_bulk_modulus(); }
   std::vector<Vec3> fiber_directions() const override { return law_->fiber_directions(); }
   double limit_margin(const Mat3& F) const override { return law_->limit_margin(F); }
   std::unique_ptr<Material> rotated(const Mat3& Q) const override {

@@ -47,6 +47,10 @@ class Material {
   /// reference media; they are not used to compute stresses.
   virtual double initial_shear_modulus() const = 0;
   virtual double initial_bulk_modulus() const = 0;
+  /// K of an additive volumetric energy W_V(J) = (K/4)(J² − 1 − 2 ln J) contained in the law (so that
+  /// P = P_rest(F) + W_V′(J) J F⁻ᵀ and no other term depends on it), or 0 when the law has none.
+  /// Solvers use it for a mixed (pressure) Newton iteration at near incompressibility.
+  virtual double volumetric_modulus() const { return 0.0; }
 
   /// How far F is from a limit of the law's domain, as a fraction: 1 at F = I, 0 at the limit (Gent:
   /// 1 − (Ī1 − 3)/Jm). Laws without such a limit return 1. Drivers use it to stop cleanly at locking

@@ -54,6 +54,11 @@ struct FftSolverOptions {
   int max_krylov_iterations = 5000;
   int max_fixed_point_iterations = 20000;
   int max_cutbacks = 12;         ///< a step may be halved this many times
+  /// Mixed (u, p) Newton iteration in phases with K ≥ mixed_pressure_ratio · G (Newton–CG only): the
+  /// pressure is carried linearized between iterations, so the Newton steps are not limited by the
+  /// O(K θ²) volumetric error of finite rotations θ. Same converged solution as the plain iteration.
+  bool mixed_pressure = true;
+  double mixed_pressure_ratio = 100.0;
   fft::PlanOptions plan;         ///< FFTW rigor, threads, wisdom cache
 };
 
@@ -73,6 +78,7 @@ struct RveStep {
   int krylov_iterations = 0;
   int substeps = 0;
   int cutbacks = 0;
+  int shifted_solves = 0;              ///< Levenberg–Marquardt retries of indefinite linear solves
   std::vector<double> residuals;       ///< Newton residual history of the last sub-step
   double wall_seconds = 0.0;
 };
@@ -89,6 +95,7 @@ struct RveRunResult {
   int total_newton_iterations = 0;
   int total_krylov_iterations = 0;
   int cutbacks = 0;
+  int shifted_solves = 0;
   std::vector<std::string> log;
   double wall_seconds = 0.0;
 };
