@@ -5,9 +5,13 @@
 //   bench_rve bulk [n ...]         matrix K/G 10 … 1.2e5 at contrast 230, λ = 1.5 in 8 steps, mixed (u,p)
 //                                  Newton iteration on and off
 //   bench_rve fftcost n            cost of one Krylov iteration vs a 9·nq-field FFT round trip
+//   bench_rve resolution pdms|ecoflex [n ...]
+//                                  time versus error of P11 at λ = 1.5 (8 steps) for each discretization,
+//                                  error against the Richardson extrapolation of the two finest grids
 #include <omp.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -81,6 +85,42 @@ int main(int argc, char** argv) {
           solve_and_print("K/G", kg, n, fft::Discretization::rotated,
                           make_material(make_gent_hgo({0.017, 14.0, 0.017 * kg, {}, FiberInvariant::full, true})),
                           make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))), mixed, ramp(1.5, 8));
+  } else if (mode == "resolution") {
+    const std::string matrix = argc > 2 ? argv[2] : "pdms";
+    sizes.clear();
+    for (int i = 3; i < argc; ++i) sizes.push_back(std::atoi(argv[i]));
+    if (sizes.empty()) sizes = {16, 32, 64, 128};
+    const double G = matrix == "ecoflex" ? 0.017 : 0.65, Jm = matrix == "ecoflex" ? 14.0 : 5.0;
+    const MaterialPtr m = make_material(make_gent_hgo({G, Jm, 2000.0, {}, FiberInvariant::full, true}));
+    const MaterialPtr f = make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3)));
+    for (auto d : {fft::Discretization::rotated, fft::Discretization::hex, fft::Discretization::spectral}) {
+      std::vector<double> p11, secs;
+      for (int n : sizes) {
+        FftSolverOptions o;
+        o.discretization = d;
+        o.tolerance = 1e-7;
+        FftRveSolver solver(circle_cell(n), m, f, 45.0, Mat3::Identity(), o);
+        const auto t0 = std::chrono::steady_clock::now();
+        const RveRunResult r = solver.run(ramp(1.5, 8));
+        secs.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+        p11.push_back(r.completed ? r.steps.back().P(0, 0) : std::nan(""));
+        std::printf("resolution %-8s %-9s n %4d %s P11 %.8g newton %d krylov %d time %.2f s mem/voxel %.0f B\n", matrix.c_str(),
+                    fft::to_string(d), n, r.completed ? "ok" : "FAIL", p11.back(), r.total_newton_iterations,
+                    r.total_krylov_iterations, secs.back(), double(solver.memory_bytes()) / double(n) / n);
+        std::fflush(stdout);
+      }
+      const std::size_t k = p11.size();
+      if (k >= 3) {
+        // Observed order from the three finest grids (ratio 2), Richardson limit from the two finest.
+        const double e1 = p11[k - 3] - p11[k - 2], e2 = p11[k - 2] - p11[k - 1];
+        const double order = std::log2(std::abs(e1 / e2));
+        const double limit = p11[k - 1] + (p11[k - 1] - p11[k - 2]) / (std::pow(2.0, order) - 1.0);
+        for (std::size_t i = 0; i < k; ++i)
+          std::printf("error %-8s %-9s n %4d rel.error %.3e time %.2f s\n", matrix.c_str(), fft::to_string(d), sizes[i],
+                      std::abs(p11[i] - limit) / std::abs(limit), secs[i]);
+        std::printf("order %-8s %-9s observed %.2f limit %.8g\n", matrix.c_str(), fft::to_string(d), order, limit);
+      }
+    }
   } else if (mode == "fftcost") {
     for (int n : sizes)
       for (auto d : {fft::Discretization::rotated, fft::Discretization::hex, fft::Discretization::spectral}) {
