@@ -225,6 +225,11 @@ int run_macro(const CommandOptions& options) {
   summary["analysis_time_s"] = st.linear.analysis;
   summary["factorization_time_s"] = st.linear.factorization;
   summary["solve_time_s"] = st.linear.solve;
+  summary["factorizations"] = st.linear.factorizations;
+  summary["factorization_gflop"] = st.linear.flops / 1e9;
+  summary["factor_nonzeros"] = st.linear.factor_nnz;
+  summary["krylov_iterations"] = st.krylov_iterations;
+  summary["krylov_time_s"] = st.krylov_time;
   summary["peak_memory_bytes"] = io::peak_memory_bytes();
   summary["warnings"] = st.log;
   summary["wall_time_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

@@ -12,6 +12,11 @@ struct CommandOptions {
   std::filesystem::path out = "softhom-out";
   int threads = 0;              ///< 0: OpenMP default
   bool quiet = false;           ///< no progress on stderr
+  // sweep / demo only
+  int jobs = 0;                 ///< cases in parallel, threads split between them (0: one job per thread)
+  bool retry_failed = false;    ///< rerun cases stored as failed
+  bool no_warm_start = false;   ///< every case from F = I
+  bool dry_run = false;         ///< sweep: list the cases and their state, run nothing
 };
 
 int run_point(const CommandOptions& options);

@@ -60,6 +60,18 @@ int main(int argc, char** argv) {
     sub->add_option("-o,--out", options.out, "output directory (created if needed)")->capture_default_str();
     sub->add_option("-j,--threads", options.threads, "threads (0: all cores)")->check(CLI::NonNegativeNumber);
     sub->add_flag("-q,--quiet", options.quiet, "no progress on stderr");
+    if (std::string(s.name) == "sweep" || std::string(s.name) == "demo") {
+      sub->add_option("--jobs", options.jobs,
+                      "cases run in parallel, the threads split between them (0: one single-threaded job per thread)")
+          ->check(CLI::NonNegativeNumber)
+          ->capture_default_str();
+      sub->add_flag("--no-warm-start", options.no_warm_start, "run every case from the undeformed state");
+    }
+    if (std::string(s.name) == "sweep")
+    {
+      sub->add_flag("--retry-failed", options.retry_failed, "rerun the cases stored as failed");
+      sub->add_flag("--dry-run", options.dry_run, "list the cases (and which are already stored), run nothing");
+    }
     sub->callback([&chosen, &s] { chosen = &s; });
   }
   try {

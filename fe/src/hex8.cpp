@@ -76,7 +76,7 @@ Hex8Kinematics hex8_kinematics(const Hex8Geometry& g, const Mat83& u, Formulatio
 
 MaterialStatus hex8_internal_force(const Hex8Geometry& g, const Mat83& u, const Material& material,
                                    const double* state_old, double* state_new, double dt, Formulation f,
-                                   Vec24& r, Mat24* K, Mat3* cauchy_mean) {
+                                   Vec24& r, Mat24* K, Mat3* cauchy_mean, MixedVolume* mixed) {
   const int ns = material.state_size();
   const bool fbar = f == Formulation::fbar;
   std::array<Mat3, 8> F;
@@ -171,6 +171,21 @@ MaterialStatus hex8_internal_force(const Hex8Geometry& g, const Mat83& u, const 
         for (int i = 0; i < 3; ++i)
           for (int k = 0; k < 3; ++k) (*K)(3 * a + i, 3 * bb + k) += (ws / 3.0) * gs[q](bb, i) * gs[q](a, k);
     coef_H += ws / (3.0 * theta);
+  }
+  if (fbar && mixed) {
+    // Swap the F-bar volumetric terms V U′(θ_e) d, V (U″(θ_e) d dᵀ + U′(θ_e) H) for the condensed
+    // three-field ones (see MixedVolume).
+    const double V = g.volume, Kv = mixed->bulk, th = mixed->theta;
+    const double p_tilde = volumetric_dU(Kv, th) + volumetric_d2U(Kv, th) * (theta - th);
+    mixed->shift = V * (p_tilde - volumetric_dU(Kv, theta));
+    mixed->shift_u = V * (p_tilde - mixed->p);
+    mixed->theta_u = theta;
+    mixed->d = d;
+    r.noalias() += mixed->shift * d;
+    if (K) {
+      coef_H += V * (mixed->p - volumetric_dU(Kv, theta));
+      K->noalias() += (V * (volumetric_d2U(Kv, th) - volumetric_d2U(Kv, theta))) * d * d.transpose();
+    }
   }
   if (fbar && K) K->noalias() += coef_H * H;
   return MaterialStatus::ok;

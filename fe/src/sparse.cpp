@@ -20,9 +20,31 @@ long CscMatrix::find(int row, int col) const {
 void CscMatrix::set_zero() { std::fill(values.begin(), values.end(), 0.0); }
 
 void CscMatrix::multiply(const double* x, double* y) const {
+  if (!mirror.empty()) {
+    // Row r of A is column r's pattern with the mirrored values: no write conflicts between threads.
+#pragma omp parallel for schedule(static) if (n >= 50000)
+    for (int r = 0; r < n; ++r) {
+      double s = 0.0;
+      for (int k = colptr[r]; k < colptr[r + 1]; ++k) s += values[mirror[k]] * x[rowind[k]];
+      y[r] = s;
+    }
+    return;
+  }
   std::fill(y, y + n, 0.0);
   for (int c = 0; c < n; ++c)
     for (int k = colptr[c]; k < colptr[c + 1]; ++k) y[rowind[k]] += values[k] * x[c];
+}
+
+void CscMatrix::build_mirror() {
+  mirror.assign(rowind.size(), -1);
+  for (int c = 0; c < n; ++c)
+    for (int k = colptr[c]; k < colptr[c + 1]; ++k) {
+      mirror[k] = find(c, rowind[k]);
+      if (mirror[k] < 0) {
+        mirror.clear();
+        throw std::logic_error("CscMatrix::build_mirror: pattern is not structurally symmetric");
+      }
+    }
 }
 
 DofMap DofMap::from_constrained(int num_dofs, const std::vector<char>& constrained) {
@@ -68,6 +90,7 @@ CscMatrix build_pattern(const Mesh& mesh, const DofMap& dofs) {
           if (dofs.eq[3 * m + i] >= 0) A.rowind[k++] = dofs.eq[3 * m + i];
     }
   A.values.assign(A.rowind.size(), 0.0);
+  A.build_mirror();
   return A;
 }
 
@@ -94,6 +117,13 @@ class CholmodSolver final : public LinearSolver {
     // Always supernodal LLᵀ: a simplicial LDLᵀ would silently factorize an indefinite tangent
     // (past a limit point) instead of reporting it, and supernodal is faster on 3D meshes anyway.
     common_.supernodal = CHOLMOD_SUPERNODAL;
+    // Ordering: the smaller fill of AMD and METIS nested dissection. On tube meshes of 1e5 dofs AMD
+    // gives ~9x the flops of METIS (424 vs 48 GFlop per factorization); on small or 2D meshes AMD
+    // may win, and both orderings cost little next to one factorization.
+    common_.nmethods = 2;
+    common_.method[0].ordering = CHOLMOD_AMD;
+    common_.method[1].ordering = CHOLMOD_METIS;
+    common_.postorder = 1;
   }
   ~CholmodSolver() override {
     if (factor_) cholmod_free_factor(&factor_, &common_);
@@ -105,14 +135,17 @@ class CholmodSolver final : public LinearSolver {
   void analyze(const CscMatrix& A) override {
     const auto t0 = std::chrono::steady_clock::now();
     n_ = A.n;
-    // Copy the upper-triangle pattern once; map its entries to positions in A.values.
+    // Copy the upper-triangle pattern once; map its entries to positions in A.values (and of their
+    // transposes, to factorize the symmetric part).
     map_.clear();
+    mirror_.clear();
     std::vector<int> colptr(A.n + 1, 0), rows;
     for (int c = 0; c < A.n; ++c) {
       for (int k = A.colptr[c]; k < A.colptr[c + 1]; ++k)
         if (A.rowind[k] <= c) {
           rows.push_back(A.rowind[k]);
           map_.push_back(k);
+          mirror_.push_back(A.mirror.empty() ? A.find(c, A.rowind[k]) : A.mirror[k]);
         }
       colptr[c + 1] = int(rows.size());
     }
@@ -132,6 +165,8 @@ class CholmodSolver final : public LinearSolver {
     cholmod_factorize(upper_, factor_, &common_);
     times_.factorization += seconds_since(t0);
     ++times_.factorizations;
+    times_.flops += common_.fl;  // set by cholmod_analyze for this pattern
+    times_.factor_nnz = common_.lnz;
     return common_.status == CHOLMOD_OK && factor_->minor == std::size_t(n_);
   }
 
@@ -150,19 +185,22 @@ class CholmodSolver final : public LinearSolver {
  private:
   void copy_values(const CscMatrix& A) {
     double* v = static_cast<double*>(upper_->x);
-    for (std::size_t k = 0; k < map_.size(); ++k) v[k] = A.values[map_[k]];
+    for (std::size_t k = 0; k < map_.size(); ++k)
+      v[k] = mirror_[k] >= 0 ? 0.5 * (A.values[map_[k]] + A.values[mirror_[k]]) : A.values[map_[k]];
   }
   cholmod_common common_{};
   cholmod_sparse* upper_ = nullptr;
   cholmod_factor* factor_ = nullptr;
-  std::vector<long> map_;
+  std::vector<long> map_, mirror_;
   int n_ = 0;
 };
 
 /// UMFPACK unsymmetric LU; the symbolic object (column ordering) is computed once.
 class UmfpackSolver final : public LinearSolver {
  public:
-  UmfpackSolver() { umfpack_di_defaults(control_); }
+  UmfpackSolver() {
+    umfpack_di_defaults(control_);
+  }
   ~UmfpackSolver() override {
     if (numeric_) umfpack_di_free_numeric(&numeric_);
     if (symbolic_) umfpack_di_free_symbolic(&symbolic_);
@@ -172,6 +210,9 @@ class UmfpackSolver final : public LinearSolver {
   void analyze(const CscMatrix& A) override {
     const auto t0 = std::chrono::steady_clock::now();
     A_ = &A;
+    // METIS nested dissection (via CHOLMOD) instead of AMD on larger systems: ~1.6x fewer flops on
+    // 3D meshes of 1e4 dofs, more beyond.
+    control_[UMFPACK_ORDERING] = A.n >= 2000 ? UMFPACK_ORDERING_METIS : UMFPACK_ORDERING_AMD;
     const int status = umfpack_di_symbolic(A.n, A.n, A.colptr.data(), A.rowind.data(), A.values.data(),
                                            &symbolic_, control_, info_);
     if (status != UMFPACK_OK) throw std::runtime_error("UMFPACK: symbolic analysis failed, status " + std::to_string(status));
@@ -186,6 +227,8 @@ class UmfpackSolver final : public LinearSolver {
                                           &numeric_, control_, info_);
     times_.factorization += seconds_since(t0);
     ++times_.factorizations;
+    if (info_[UMFPACK_FLOPS] > 0) times_.flops += info_[UMFPACK_FLOPS];
+    times_.factor_nnz = info_[UMFPACK_LNZ] + info_[UMFPACK_UNZ];
     return status == UMFPACK_OK;  // UMFPACK_WARNING_singular_matrix is > 0: refuse it
   }
 

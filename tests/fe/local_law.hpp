@@ -18,6 +18,7 @@ class LocalGentHGO final : public Material {
   std::string describe() const override { return "local test Gent+HGO"; }
   double initial_shear_modulus() const override { return G_; }
   double initial_bulk_modulus() const override { return K_; }
+  double volumetric_modulus() const override { return K_; }  // W_V = (K/4)(J² − 1 − 2 ln J), as below
   std::vector<Vec3> fiber_directions() const override { return fibers_; }
   std::unique_ptr<Material> rotated(const Mat3& Q) const override {
     auto f = fibers_;

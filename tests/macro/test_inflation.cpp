@@ -34,6 +34,7 @@ TubeResult inflate_tube(int radial, int circ, double ratio) {
   Structure s = build_structure(spec);
   fe::NewtonOptions o;
   o.initial_substeps = 10;
+  o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
   fe::Simulation sim(s.model, o);
   sim.advance_to(1.0);
   const auto v = probe_values(s, sim);  // time, pressure, volume, inner_radius, ...

@@ -50,12 +50,33 @@ struct Hex8Kinematics {
 };
 Hex8Kinematics hex8_kinematics(const Hex8Geometry& g, const Mat83& u, Formulation f);
 
+/// Element variables of the three-field (u, θ, p) Newton iteration of a law with an additive
+/// volumetric energy U(J) = (K/4)(J² − 1 − 2 ln J) (Material::volumetric_modulus()). The F-bar
+/// energy is Σ_g w_g W_rest(F̄_g) + V_e U(θ_e(u)) exactly (det F̄_g = θ_e), so replacing V_e U(θ_e) by
+/// V_e U(θ) + p V_e (θ_e(u) − θ) with element unknowns θ, p (Simo–Taylor–Pister Q1/P0) has the same
+/// solution. Condensing θ and p gives the residual r_rest + V_e p̃ d, p̃ = U′(θ) + U″(θ)(θ_e − θ),
+/// and the tangent K_rest + V_e p H + V_e U″(θ) d dᵀ (d = ∂θ_e/∂u, H = ∂²θ_e/∂u²). What it buys:
+/// the geometric stiffness uses the iterate p, not U′(θ_e(u)) — after a large displacement-based
+/// step θ_e(u) − 1 carries an O(ε²) error that K/G ~ 1e5 turns into a spurious pressure far above the
+/// shear stresses, which wrecks the pure F-bar tangent (non-positive, Newton overshoots).
+struct MixedVolume {
+  double bulk = 0.0;     ///< in: K of U
+  double theta = 1.0;    ///< in: element dilatation iterate θ
+  double p = 0.0;        ///< in: element pressure iterate p
+  double theta_u = 1.0;  ///< out: θ_e(u) = v_e / V_e
+  double shift = 0.0;    ///< out: r (returned) − r_fbar = shift · d
+  double shift_u = 0.0;  ///< out: r (returned) − r_u = shift_u · d, r_u = r_rest + V p d (u-row of the 3-field residual)
+  Vec24 d;               ///< out: ∂θ_e/∂u
+};
+inline double volumetric_dU(double K, double J) { return 0.5 * K * (J - 1.0 / J); }
+inline double volumetric_d2U(double K, double J) { return 0.5 * K * (1.0 + 1.0 / (J * J)); }
+
 /// Internal force r_e (24, node-major: 3a + i) and, when K is non-null, the consistent tangent
-/// ∂r_e/∂u_e. History: `state_old`/`state_new` hold 8 × state_size doubles (Gauss-point major) or
+/// ∂r_e/∂u_e. With `mixed` (F-bar only) r and K are those of the condensed three-field iteration. History: `state_old`/`state_new` hold 8 × state_size doubles (Gauss-point major) or
 /// are null when the material is elastic. A non-ok status leaves r/K unspecified.
 MaterialStatus hex8_internal_force(const Hex8Geometry& g, const Mat83& u, const Material& material,
                                    const double* state_old, double* state_new, double dt, Formulation f,
-                                   Vec24& r, Mat24* K, Mat3* cauchy_mean = nullptr);
+                                   Vec24& r, Mat24* K, Mat3* cauchy_mean = nullptr, MixedVolume* mixed = nullptr);
 
 /// Unit-pressure area vector of a bilinear quad in the current configuration, a_a = ∫ N_a n da
 /// (n along x_ξ × x_η), its derivative ∂a/∂x (12x12, when non-null), and the flux

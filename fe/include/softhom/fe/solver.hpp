@@ -2,6 +2,15 @@
 // Quasi-static Newton driver: consistent linearization (including the Dirichlet increment predictor
 // and the follower-pressure load stiffness), backtracking line search, adaptive sub-stepping with
 // cut-back on divergence or failed material calls, history committed only after convergence.
+//
+// Performance design (issue #4): elements are coloured so that no two elements of one colour share a
+// node, and assembly scatters into precomputed CSC positions without atomics; the linear systems are
+// solved by GMRES right-preconditioned with a sparse direct factorization that is kept across Newton
+// iterations and load steps and refreshed only when GMRES needs more than `refactor_after` iterations
+// (a fresh factor converges in one). The factor is CHOLMOD's LLᵀ of the tangent's symmetric part
+// (the follower-pressure stiffness is the only unsymmetric term), falling back to UMFPACK LU when the
+// symmetric part is not positive definite (past a limit point).
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
@@ -17,7 +26,10 @@ struct NewtonOptions {
   int max_cutbacks = 12;      ///< consecutive halvings of one output interval
   bool line_search = true;
   int initial_substeps = 1;   ///< sub-steps per output interval at the start
-  SolverKind solver = SolverKind::automatic;
+  SolverKind solver = SolverKind::automatic;  ///< umfpack: always LU; otherwise Cholesky first
+  bool mixed = true;          ///< three-field (u, θ, p) iteration for laws with a volumetric modulus
+  int refactor_after = 8;     ///< refresh the factorization after a solve needing more GMRES iterations
+  int krylov_max = 40;        ///< GMRES iterations before a solve refactorizes and retries
   bool verbose = false;       ///< iteration log on stderr
 };
 
@@ -27,7 +39,9 @@ struct RunStats {
   int newton_iterations = 0;
   int cutbacks = 0;
   int line_search_backtracks = 0;
+  int krylov_iterations = 0;  ///< GMRES iterations (one preconditioner solve each)
   double assembly_time = 0.0;
+  double krylov_time = 0.0;   ///< GMRES without its preconditioner solves (matrix products, orthogonalization)
   SolverTimes linear;         ///< analysis / factorization / solve times
   std::vector<std::string> log;  ///< cut-backs and warnings, human readable
 };
@@ -63,6 +77,13 @@ class Simulation {
   RunStats stats() const {
     RunStats s = stats_;
     s.linear = linear_->times();
+    // Include a replaced solver's work (CHOLMOD before a switch to UMFPACK).
+    s.linear.analysis += linear_carry_.analysis;
+    s.linear.factorization += linear_carry_.factorization;
+    s.linear.solve += linear_carry_.solve;
+    s.linear.factorizations += linear_carry_.factorizations;
+    s.linear.solves += linear_carry_.solves;
+    s.linear.flops += linear_carry_.flops;
     return s;
   }
   SolverKind solver_kind() const;
@@ -77,13 +98,28 @@ class Simulation {
   bool try_step(double t_new, double dt, std::string& why);
   MaterialStatus assemble(double t, double dt, bool tangent, const std::vector<double>& u,
                           double cavity_p, Assembly& out);
+  /// x = K⁻¹ b (free dofs) to relative residual `tol`; false when no factorization works.
+  bool linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why);
+  bool refactor(std::string& why);
+  void mixed_update(const std::vector<double>& du, double alpha);
 
   FeModel model_;
   NewtonOptions options_;
   DofMap dofs_;
   CscMatrix K_;
   std::unique_ptr<LinearSolver> linear_;
+  bool analyzed_ = false, factor_valid_ = false, factor_stale_ = false, factor_exact_ = false;
+  long k_version_ = 0, factor_version_ = -1;  ///< tangent assemblies; the one last factorized
+  double last_factor_time_ = 0.0, last_factor_flops_ = 0.0;
+  SolverTimes linear_carry_;
   std::vector<Hex8Geometry> geometry_;
+  std::vector<std::vector<int>> colors_;  ///< element colours: no shared node within one colour
+  std::vector<std::array<long, 64>> block_;  ///< per element, node pair (a, b): K position of (a_0, b_0), −1 if absent
+  std::vector<std::array<signed char, 3>> free_rank_;  ///< per node: rank of each free component (−1 fixed)
+  // Three-field iteration (per element; bulk 0 = plain F-bar): iterate, converged and linearization data.
+  std::vector<double> mix_bulk_, mix_theta_, mix_p_, mix_theta_conv_, mix_p_conv_, mix_theta_u_;
+  std::vector<double> mix_theta_base_, mix_p_base_, mix_dtheta_, mix_dp_;
+  std::vector<Vec24> mix_d_;
   std::vector<double> u_, u_prev_step_;
   std::vector<double> state_old_, state_new_;
   std::vector<double> cauchy_;     ///< element-mean Cauchy stress of the last converged state

@@ -16,13 +16,19 @@ struct CscMatrix {
   std::vector<int> colptr;  ///< n + 1
   std::vector<int> rowind;  ///< nnz
   std::vector<double> values;
+  /// Position of the transposed entry (col, row) of every stored entry, or empty when the pattern is
+  /// not structurally symmetric (build_pattern fills it). Lets y = A x run row-wise in parallel and
+  /// CHOLMOD factorize the symmetric part.
+  std::vector<long> mirror;
 
   long nnz() const { return long(rowind.size()); }
   /// Position of (row, col) in values, or -1 when outside the pattern (binary search).
   long find(int row, int col) const;
   void set_zero();
-  /// y = A x (all stored entries).
+  /// y = A x (all stored entries); OpenMP-parallel over rows when `mirror` is set.
   void multiply(const double* x, double* y) const;
+  /// Fills `mirror` (requires a structurally symmetric pattern; throws otherwise).
+  void build_mirror();
 };
 
 /// Equation numbers: eq[dof] ≥ 0 for a free dof, −1 for a prescribed one. Free dofs are numbered in
@@ -43,6 +49,8 @@ const char* to_string(SolverKind kind);
 struct SolverTimes {
   double analysis = 0.0, factorization = 0.0, solve = 0.0;
   int factorizations = 0, solves = 0;
+  double flops = 0.0;       ///< floating-point operations of all numeric factorizations
+  double factor_nnz = 0.0;  ///< entries of the last factor (L, or L + U)
 };
 
 class LinearSolver {
@@ -62,7 +70,8 @@ class LinearSolver {
   SolverTimes times_;
 };
 
-/// CHOLMOD (symmetric positive definite: uses the upper triangle) or UMFPACK (general).
+/// CHOLMOD (supernodal LLᵀ of the symmetric part (A + Aᵀ)/2, so a nearly symmetric A gives a
+/// preconditioner; fill-reducing ordering: the better of AMD and METIS) or UMFPACK (general LU).
 std::unique_ptr<LinearSolver> make_linear_solver(SolverKind kind);
 
 }  // namespace softhom::fe

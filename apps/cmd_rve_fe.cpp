@@ -1,0 +1,358 @@
+// softhom rve with [solver] engine = "fe": FE homogenization of the same cell on a periodic conforming
+// T6 section mesh (rve/fe_solver.hpp). Same scene tables and the same response.csv columns and
+// summary.json keys as the FFT engine (plus mesh statistics), so curves overlay directly.
+//
+// FE [solver] keys: engine, mesh_size (element size away from the fibers, length unit of the scene;
+// default cell side / 16), interface_size (at the fiber boundaries; default mesh_size / 3), grading,
+// min_angle_deg, curved_interfaces, tolerance, max_newton_iterations, max_cutbacks, mixed_pressure,
+// pressure ("p1": P2+bubble / discontinuous P1, default; "p0": P2/P0), linear_solver ("cholmod" |
+// "umfpack"). [microstructure].grid is ignored (it is the FFT resolution).
+#include "cmd_rve_fe.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <sstream>
+
+#include "softhom/io/fields.hpp"
+#include "softhom/io/files.hpp"
+#include "softhom/io/scene.hpp"
+#include "softhom/io/summary.hpp"
+#include "softhom/materials/errors.hpp"
+#include "softhom/materials/library.hpp"
+#include "softhom/rve/fe_solver.hpp"
+#include "softhom/rve/geometry.hpp"
+#include "softhom/studies/rve_scene.hpp"
+
+namespace softhom::app {
+namespace {
+
+/// [microstructure] → generated section (the FE engine needs the exact geometry, not an image).
+rve::Section parse_section(const toml::table& t, double& target_vf, std::string& note) {
+  const std::string p = "microstructure";
+  io::check_keys(t, p, {"shape", "arrangement", "volume_fraction", "radius", "width", "height", "cell_size",
+                        "section_rotation_deg", "fiber_count", "min_gap", "seed", "fiber_angle_deg", "grid", "image"});
+  if (t.contains("image"))
+    throw InputError(p + ".image", "", "the FE engine needs a generated section (shape, arrangement, volume_fraction)");
+  rve::FiberCellSpec spec;
+  spec.volume_fraction = io::get_number_or(t, "volume_fraction", p, 0.0);
+  target_vf = spec.volume_fraction;
+  if (spec.volume_fraction == 0.0) {
+    rve::Section s;
+    s.L1 = s.L2 = t.contains("cell_size") ? io::get_number(t, "cell_size", p) : 1.0;
+    if (!(s.L1 > 0.0)) throw InputError(p + ".cell_size", std::to_string(s.L1), "must be positive");
+    note = "matrix only";
+    return s;
+  }
+  const std::string shape = io::get_string_or(t, "shape", p, "circle");
+  if (shape == "circle") spec.shape = rve::SectionShape::circle;
+  else if (shape == "rectangle" || shape == "square") spec.shape = rve::SectionShape::rectangle;
+  else throw InputError(p + ".shape", shape, "circle, rectangle or square");
+  const std::string arr = io::get_string_or(t, "arrangement", p, "square");
+  if (arr == "square") spec.arrangement = rve::Arrangement::square;
+  else if (arr == "hexagonal") spec.arrangement = rve::Arrangement::hexagonal;
+  else if (arr == "random") spec.arrangement = rve::Arrangement::random;
+  else throw InputError(p + ".arrangement", arr, "square, hexagonal or random");
+  spec.radius = io::get_number_or(t, "radius", p, 0.0);
+  spec.width = io::get_number_or(t, "width", p, 0.0);
+  spec.height = io::get_number_or(t, "height", p, shape == "square" ? spec.width : 0.0);
+  if (t.contains("cell_size")) spec.cell_size = io::get_number(t, "cell_size", p);
+  spec.section_rotation_deg = io::get_number_or(t, "section_rotation_deg", p, 0.0);
+  spec.fiber_count = int(io::get_number_or(t, "fiber_count", p, 1));
+  spec.min_gap = io::get_number_or(t, "min_gap", p, 0.0);
+  spec.seed = std::uint64_t(io::get_number_or(t, "seed", p, 1));
+  const rve::Section s = rve::generate_section(spec, p);
+  note = shape + " fibers, " + arr + " arrangement, cell " + std::to_string(s.L1) + " x " + std::to_string(s.L2);
+  return s;
+}
+
+struct FeSettings {
+  rve::SectionMeshOptions mesh;
+  rve::FeSolverOptions solver;
+};
+
+FeSettings parse_fe_solver(const toml::table& scene, double L1) {
+  FeSettings f;
+  f.mesh.mesh_size = L1 / 16.0;
+  const auto* t = scene["solver"].as_table();
+  if (!t) return f;
+  const std::string p = "solver";
+  io::check_keys(*t, p, {"engine", "mesh_size", "interface_size", "grading", "min_angle_deg", "curved_interfaces",
+                         "tolerance", "max_newton_iterations", "max_cutbacks", "mixed_pressure", "pressure",
+                         "linear_solver"});
+  f.mesh.mesh_size = io::get_number_or(*t, "mesh_size", p, f.mesh.mesh_size);
+  if (!(f.mesh.mesh_size > 0.0)) throw InputError(p + ".mesh_size", std::to_string(f.mesh.mesh_size), "must be positive");
+  f.mesh.interface_size = io::get_number_or(*t, "interface_size", p, f.mesh.mesh_size / 3.0);
+  if (!(f.mesh.interface_size > 0.0))
+    throw InputError(p + ".interface_size", std::to_string(f.mesh.interface_size), "must be positive");
+  f.mesh.grading = io::get_number_or(*t, "grading", p, f.mesh.grading);
+  if (!(f.mesh.grading > 0.0)) throw InputError(p + ".grading", std::to_string(f.mesh.grading), "must be positive");
+  f.mesh.min_angle_deg = io::get_number_or(*t, "min_angle_deg", p, f.mesh.min_angle_deg);
+  f.mesh.curved_interfaces = (*t)["curved_interfaces"].value_or(true);
+  f.solver.tolerance = io::get_number_or(*t, "tolerance", p, f.solver.tolerance);
+  if (!(f.solver.tolerance > 0 && f.solver.tolerance < 1))
+    throw InputError(p + ".tolerance", std::to_string(f.solver.tolerance), "must lie in (0, 1)");
+  f.solver.max_newton_iterations = int(io::get_number_or(*t, "max_newton_iterations", p, f.solver.max_newton_iterations));
+  if (f.solver.max_newton_iterations < 1) throw InputError(p + ".max_newton_iterations", "", "must be >= 1");
+  f.solver.max_cutbacks = int(io::get_number_or(*t, "max_cutbacks", p, f.solver.max_cutbacks));
+  if (f.solver.max_cutbacks < 0) throw InputError(p + ".max_cutbacks", "", "must be >= 0");
+  f.solver.mixed_pressure = (*t)["mixed_pressure"].value_or(true);
+  const std::string pr = io::get_string_or(*t, "pressure", p, "p1");
+  if (pr == "p1") f.solver.pressure = rve::FePressure::p1_bubble;
+  else if (pr == "p0") f.solver.pressure = rve::FePressure::p0;
+  else throw InputError(p + ".pressure", pr, "p1 (P2+bubble / discontinuous P1) or p0 (P2/P0)");
+  const std::string ls = io::get_string_or(*t, "linear_solver", p, "cholmod");
+  if (ls == "umfpack") f.solver.use_umfpack = true;
+  else if (ls != "cholmod") throw InputError(p + ".linear_solver", ls, "cholmod or umfpack");
+  return f;
+}
+
+io::UnstructuredMesh field_mesh(const rve::SectionMesh& m) {
+  io::UnstructuredMesh u;
+  u.cell_type = io::CellType::triangle6;
+  for (const auto& x : m.nodes) {
+    u.coordinates.push_back(x.x());
+    u.coordinates.push_back(x.y());
+    u.coordinates.push_back(0.0);
+  }
+  for (const auto& e : m.elements)
+    for (int a : e) u.connectivity.push_back(a);
+  return u;
+}
+
+}  // namespace
+
+std::string choose_engine(toml::table& scene, std::string& why) {
+  auto* solver = scene["solver"].as_table();
+  auto* micro = scene["microstructure"].as_table();
+  if (!solver || !micro) throw InputError("solver.engine", "auto", "needs [microstructure] and [solver] tables");
+  if (!solver->contains("target_error"))
+    throw InputError("solver.target_error", "", "engine = \"auto\" needs target_error (relative error of the homogenized stress)");
+  const double target = io::get_number(*solver, "target_error", "solver");
+  if (!(target > 0.0 && target < 0.5)) throw InputError("solver.target_error", std::to_string(target), "must lie in (0, 0.5)");
+  if (micro->contains("grid") || solver->contains("mesh_size"))
+    throw InputError("solver.target_error", std::to_string(target),
+                     "give either target_error (engine = \"auto\") or a resolution (grid / mesh_size), not both");
+  const auto* phases = scene["phases"].as_table();
+  const auto* matrix_table = phases ? (*phases)["matrix"].as_table() : nullptr;
+  if (!matrix_table) throw InputError("phases.matrix", "", "missing");
+  const MaterialPtr matrix = build_material(io::parse_material(*matrix_table, "phases.matrix"));
+  const double kg = matrix->initial_bulk_modulus() / matrix->initial_shear_modulus();
+  double target_vf = 0.0;
+  std::string note;
+  const rve::Section section = parse_section(*micro, target_vf, note);
+  // Error models of the benchmark cell (circle, VF 0.23, α = 45°, λ = 1.5; BENCHMARKS.md):
+  //   FFT (rotated, composite voxels, first order):  e ≈ 6.2e-3 / n for K/G ≤ 1e4 (PDMS);
+  //     nearly incompressible matrices (ecoflex, K/G = 1.2e5) are 10× worse and 50× slower.
+  //   FE (P2+bubble/P1, order 3.3): e ≈ 1e-5 (4/d)^3.3 with mesh_size = L/d; a factor 10 of
+  //     safety for cells with corners (rectangular fibers: lower regularity) → d = 4 (1e-4/e)^(1/3.3).
+  // Cost: FFT 16² ≈ 0.5 s, ×≈5 per doubling; FE L/4 ≈ 2 s, ×≈3 per doubling (5 steps, 2 cores).
+  int n = 16;
+  while (6.2e-3 / n > target && n < 1024) n *= 2;
+  const double fft_cost = kg <= 1e4 ? 0.5 * std::pow(5.0, std::log2(n / 16.0)) : 1e9;
+  double d = 4.0;
+  if (target < 1e-4) d = std::ceil(4.0 * std::pow(1e-4 / target, 1.0 / 3.3));
+  const double fe_cost = 2.0 * std::pow(3.0, std::log2(d / 4.0));
+  std::ostringstream os;
+  if (fft_cost <= fe_cost) {
+    toml::array g;
+    g.push_back(n);
+    g.push_back(int(std::lround(n * section.L2 / section.L1)));
+    micro->insert_or_assign("grid", std::move(g));
+    solver->erase("target_error");
+    solver->erase("engine");
+    os << "engine auto: FFT " << n << "² for target error " << target << " (matrix K/G " << kg << ")";
+    why = os.str();
+    return "fft";
+  }
+  solver->erase("target_error");
+  solver->insert_or_assign("engine", "fe");
+  solver->insert_or_assign("mesh_size", section.L1 / d);
+  solver->insert_or_assign("interface_size", section.L1 / (3.0 * d));
+  os << "engine auto: FE, mesh_size L/" << d << " for target error " << target << " (matrix K/G " << kg << ")";
+  why = os.str();
+  return "fe";
+}
+
+int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  io::check_keys(scene.table, "", {"description", "microstructure", "phases", "load", "solver", "output"});
+  const auto* micro = scene.table["microstructure"].as_table();
+  if (!micro) throw InputError("microstructure", "", "missing [microstructure] table");
+  const auto* phases = scene.table["phases"].as_table();
+  if (!phases) throw InputError("phases", "", "missing [phases] table ([phases.matrix], [phases.fiber])");
+  io::check_keys(*phases, "phases", {"matrix", "fiber"});
+  const auto* matrix_table = (*phases)["matrix"].as_table();
+  if (!matrix_table) throw InputError("phases.matrix", "", "missing");
+  const MaterialPtr matrix = build_material(io::parse_material(*matrix_table, "phases.matrix"));
+  const auto* fiber_table = (*phases)["fiber"].as_table();
+  const MaterialPtr fiber = fiber_table ? build_material(io::parse_material(*fiber_table, "phases.fiber")) : matrix;
+  double target_vf = 0.0;
+  std::string geometry_note;
+  const rve::Section section = parse_section(*micro, target_vf, geometry_note);
+  if (target_vf > 0.0 && !fiber_table) throw InputError("phases.fiber", "", "missing (the cell has fibers)");
+  const double alpha = io::get_number_or(*micro, "fiber_angle_deg", "microstructure", 0.0);
+  const FeSettings settings = parse_fe_solver(scene.table, section.L1);
+
+  std::string fields_mode = "last";
+  std::vector<double> field_times;
+  bool microstructure_only = false;
+  if (const auto* out = scene.table["output"].as_table()) {
+    io::check_keys(*out, "output", {"fields", "microstructure_only"});
+    if (const auto* arr = (*out)["fields"].as_array()) {
+      fields_mode = "times";
+      for (const auto& e : *arr) field_times.push_back(e.value<double>().value_or(-1.0));
+    } else {
+      fields_mode = io::get_string_or(*out, "fields", "output", "last");
+      if (fields_mode != "none" && fields_mode != "last" && fields_mode != "all")
+        throw InputError("output.fields", fields_mode, "none, last, all or a list of times");
+    }
+    microstructure_only = (*out)["microstructure_only"].value_or(false);
+  }
+  MixedControl control;
+  if (!microstructure_only) {
+    const auto* load_table = scene.table["load"].as_table();
+    if (!load_table) throw InputError("load", "", "missing [load] table");
+    control = io::parse_load(*load_table, "load");
+  }
+  std::filesystem::create_directories(options.out);
+
+  const auto mesh_start = std::chrono::steady_clock::now();
+  rve::SectionMesh mesh = rve::mesh_section(section, settings.mesh);
+  const double mesh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - mesh_start).count();
+  const rve::SectionMeshQuality& q = mesh.quality;
+  nlohmann::json mesh_json = {{"elements", mesh.num_elements()},
+                              {"nodes", mesh.num_nodes()},
+                              {"vertices", mesh.vertices},
+                              {"element_type", "T6 (6-node triangle, curved interfaces)"},
+                              {"mesh_size", settings.mesh.mesh_size},
+                              {"interface_size", settings.mesh.interface_size},
+                              {"min_angle_deg", q.min_angle_deg},
+                              {"max_angle_deg", q.max_angle_deg},
+                              {"min_radius_ratio", q.min_radius_ratio},
+                              {"mean_radius_ratio", q.mean_radius_ratio},
+                              {"min_edge", q.min_edge},
+                              {"max_edge", q.max_edge},
+                              {"refinement_passes", q.refinement_passes},
+                              {"mirrored_boundary_points", q.mirrored_points},
+                              {"max_pairing_error", q.max_pairing_error},
+                              {"fiber_area_error", q.fiber_area_error},
+                              {"mesh_time_s", mesh_seconds}};
+  const io::UnstructuredMesh fmesh = field_mesh(mesh);
+
+  if (microstructure_only) {
+    io::FieldWriter writer(options.out / "fields", fmesh);
+    writer.begin_step(0.0);
+    writer.add("phase", std::span<const int>(mesh.phase), io::Centering::cell);
+    writer.end_step();
+    writer.close();
+    nlohmann::json summary = io::summary_base("rve", scene.file, scene.table);
+    summary["engine"] = "fe";
+    summary["microstructure_only"] = true;
+    summary["cell_size"] = {section.L1, section.L2};
+    summary["volume_fraction_target"] = target_vf;
+    summary["volume_fraction_achieved"] = (mesh.area(1)) / (section.L1 * section.L2);
+    summary["geometry"] = geometry_note;
+    summary["mesh"] = mesh_json;
+    io::write_summary(options.out, summary);
+    if (!options.quiet) std::cerr << "softhom rve: mesh written to " << (options.out / "fields.xdmf").string() << "\n";
+    return 0;
+  }
+
+  rve::FeRveSolver solver(std::move(mesh), matrix, fiber, alpha, control.frame, settings.solver);
+  const double t_end = control.times.back();
+  std::unique_ptr<io::FieldWriter> writer;
+  if (fields_mode != "none") writer = std::make_unique<io::FieldWriter>(options.out / "fields", fmesh);
+  auto want_fields = [&](double t) {
+    if (fields_mode == "all") return true;
+    if (fields_mode == "last") return std::abs(t - t_end) <= 1e-12 * std::max(1.0, t_end);
+    if (fields_mode == "times")
+      for (double ft : field_times)
+        if (std::abs(t - ft) <= 1e-9 * std::max(1.0, t_end)) return true;
+    return false;
+  };
+  io::CsvTable table(studies::rve_response_columns());
+  nlohmann::json step_log = nlohmann::json::array();
+  auto on_step = [&](const rve::RveStep& s, const rve::FeFields* f) {
+    table.add_row(studies::rve_response_row(s));
+    step_log.push_back({{"t", s.t},
+                        {"newton_iterations", s.newton_iterations},
+                        {"krylov_iterations", s.krylov_iterations},
+                        {"substeps", s.substeps},
+                        {"cutbacks", s.cutbacks},
+                        {"residuals", s.residuals},
+                        {"wall_time_s", s.wall_seconds}});
+    if (f && writer) {
+      writer->begin_step(s.t);
+      writer->add("displacement", f->displacement, 3, io::Centering::node);
+      writer->add("F", f->F, 9, io::Centering::cell);
+      writer->add("P", f->P, 9, io::Centering::cell);
+      writer->add("sigma", f->sigma, 9, io::Centering::cell);
+      writer->add("von_mises", f->von_mises, 1, io::Centering::cell);
+      writer->add("J", f->J, 1, io::Centering::cell);
+      writer->add("phase", std::span<const int>(f->phase), io::Centering::cell);
+      writer->end_step();
+    }
+    if (!options.quiet)
+      std::cerr << "\r[rve fe " << scene.name << "] t = " << s.t << " / " << t_end << "  P11 = " << s.P(0, 0)
+                << "  Newton " << s.newton_iterations << "      " << std::flush;
+  };
+  const rve::RveRunResult result = solver.run(control, on_step, want_fields);
+  if (!options.quiet) std::cerr << "\n";
+  for (const auto& line : result.log)
+    if (!options.quiet) std::cerr << "[rve fe " << scene.name << "] " << line << "\n";
+  table.write(options.out / "response.csv");
+  if (writer) writer->close();
+
+  mesh_json["equations"] = solver.num_equations();
+  mesh_json["matrix_nonzeros"] = solver.matrix_nonzeros();
+  nlohmann::json summary = io::summary_base("rve", scene.file, scene.table);
+  summary["engine"] = "fe";
+  // The FFT engine's keys, with their FE meaning (no grid: the mesh statistics are under "mesh").
+  summary["grid"] = nullptr;
+  summary["voxels"] = nullptr;
+  summary["cell_size"] = {section.L1, section.L2};
+  summary["geometry"] = geometry_note;
+  summary["volume_fraction_target"] = target_vf;
+  summary["volume_fraction_achieved"] = solver.achieved_volume_fraction();
+  summary["fiber_angle_deg"] = alpha;
+  summary["matrix"] = matrix->describe();
+  summary["fiber"] = fiber->describe();
+  summary["load"] = control.name;
+  summary["discretization"] = settings.solver.pressure == rve::FePressure::p0 ? "fe-t6-p0" : "fe-t6+bubble-p1";
+  summary["quadrature_points"] = 6;
+  summary["solver"] = std::string("newton-") + solver.linear_solver();
+  summary["reference_medium"] = nullptr;
+  summary["tolerance"] = settings.solver.tolerance;
+  summary["fft"] = nullptr;
+  summary["fft_planning_s"] = 0.0;
+  summary["mesh"] = mesh_json;
+  summary["completed"] = result.completed;
+  summary["error"] = result.error;
+  summary["steps"] = step_log;
+  summary["newton_iterations"] = result.total_newton_iterations;
+  summary["krylov_iterations"] = result.total_krylov_iterations;
+  summary["factorizations"] = solver.factorizations();
+  summary["linear_solver_time_s"] = solver.factorization_seconds();
+  summary["assembly_time_s"] = solver.assembly_seconds();
+  summary["cutbacks"] = result.cutbacks;
+  summary["warnings"] = result.log;
+  summary["solver_memory_bytes"] = solver.memory_bytes();
+  summary["peak_memory_bytes"] = io::peak_memory_bytes();
+  summary["solve_time_s"] = result.wall_seconds;
+  summary["wall_time_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  io::write_summary(options.out, summary);
+
+  if (!result.completed) {
+    std::cerr << "softhom rve: stopped early: " << result.error << "\nsofthom rve: " << result.steps.size()
+              << " converged rows kept in " << (options.out / "response.csv").string() << "\n";
+    return 1;
+  }
+  if (!options.quiet)
+    std::cerr << "softhom rve (fe): " << solver.mesh().num_elements() << " T6 elements, " << result.steps.size() - 1
+              << " steps, " << result.total_newton_iterations << " Newton iterations, " << result.wall_seconds << " s → "
+              << options.out.string() << "\n";
+  return 0;
+}
+
+}  // namespace softhom::app

@@ -1,0 +1,145 @@
+// Macro FE benchmark: DOFs versus wall time of a double-helix tube inflation (issue #4), split into
+// assembly, symbolic analysis, numeric factorization and solve, with Newton iterations, factor fill,
+// achieved factorization rate and peak memory. Plain program (one run is seconds to minutes).
+//
+//   bench_macro [options] DOFS...       one inflation per requested size (nearest structured mesh)
+//     --steps N        load steps of the pressure ramp (default 20)
+//     --threads LIST   comma-separated OpenMP thread counts to run each size with (default 2)
+//     --solver S       auto | cholmod | umfpack (default auto: the symmetric-preconditioned path)
+//     --pressure P     final pressure [MPa] (default 0.01, the ecoflex scenes)
+//
+// The tube is the one of studies/scenes/macro_tube_helix45_ecoflex.toml (R_i 5, R_o 7.5, L 50 mm,
+// cap 2.5 mm, ecoflex-anisotropic with fibers at ±45° from the axis, clamped at z = 0, follower
+// pressure), meshed with cubes of edge h chosen to hit the requested number of DOFs. Sizes run in
+// the order given, so the peak memory column (VmHWM) is that of the largest run so far.
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "softhom/io/files.hpp"
+#include "softhom/macro/structures.hpp"
+#include "softhom/materials/errors.hpp"
+#include "softhom/materials/laws.hpp"
+
+using namespace softhom;
+using namespace softhom::macro;
+
+namespace {
+
+TubeSpec tube_for_dofs(double dofs) {
+  TubeSpec t;
+  t.inner_radius = 5.0;
+  t.outer_radius = 7.5;
+  t.length = 50.0;
+  t.sweep_deg = 360.0;
+  t.cap_thickness = 2.5;
+  // Nodes ≈ (nr + 1) nc (na + 1) with nr = 2.5/h, nc = 2π·6.25/h, na = 50/h: solve for h by bisection.
+  auto count = [&](double h, TubeSpec& s) {
+    s.radial_cells = std::max(1, int(std::lround(2.5 / h)));
+    s.circumferential_cells = std::max(8, int(std::lround(2 * M_PI * 6.25 / h / 4)) * 4);
+    s.axial_cells = std::max(1, int(std::lround(50.0 / h)));
+    s.cap_axial_cells = std::max(1, int(std::lround(2.5 / h)));
+    s.cap_core_cells = std::max(1, int(std::lround(5.0 / h)));
+    return 3.0 * (s.radial_cells + 1) * s.circumferential_cells * (s.axial_cells + 1);
+  };
+  double lo = 0.01, hi = 10.0;
+  for (int k = 0; k < 60; ++k) {
+    const double mid = std::sqrt(lo * hi);
+    TubeSpec s = t;
+    (count(mid, s) > dofs ? lo : hi) = mid;
+  }
+  count(hi, t);
+  return t;
+}
+
+StructureSpec helix_spec(double dofs, double pressure) {
+  StructureSpec spec;
+  spec.kind = StructureKind::tube;
+  spec.tube = tube_for_dofs(dofs);
+  GentHGOParams p;
+  p.G = 0.017;  // ecoflex-anisotropic (spec §6)
+  p.Jm = 14.0;
+  p.K = 2000.0;
+  const double a = 45.0 * M_PI / 180.0;
+  p.tension_only = std::getenv("BENCH_BOTH_WAYS") == nullptr;
+  p.fibers = {{Vec3(std::sin(a), std::cos(a), 0.0), 0.8, 18.0}, {Vec3(-std::sin(a), std::cos(a), 0.0), 0.8, 18.0}};
+  spec.material = make_material(make_gent_hgo(p));
+  spec.fiber_frame = FiberFrame::cylindrical;
+  spec.control = LoadControl::pressure;
+  spec.load = {{0.0, 180.0}, {0.0, pressure}};  // (times, values)
+  return spec;
+}
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  std::string item;
+  while (std::getline(in, item, ',')) out.push_back(item);
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int steps = 20;
+  double pressure = 0.01;
+  std::vector<int> threads{2};
+  fe::SolverKind solver = fe::SolverKind::automatic;
+  std::vector<double> sizes;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--steps" && i + 1 < argc) steps = std::atoi(argv[++i]);
+    else if (a == "--pressure" && i + 1 < argc) pressure = std::atof(argv[++i]);
+    else if (a == "--threads" && i + 1 < argc) {
+      threads.clear();
+      for (const auto& t : split(argv[++i])) threads.push_back(std::atoi(t.c_str()));
+    } else if (a == "--solver" && i + 1 < argc) {
+      const std::string s = argv[++i];
+      solver = s == "cholmod" ? fe::SolverKind::cholmod : s == "umfpack" ? fe::SolverKind::umfpack : fe::SolverKind::automatic;
+    } else {
+      sizes.push_back(std::atof(a.c_str()));
+    }
+  }
+  if (sizes.empty()) sizes = {1e4, 3e4, 1e5};
+  std::printf("# helix tube +/-45 deg, ecoflex-anisotropic, p = %g MPa in %d load steps, solver %s\n", pressure, steps,
+              fe::to_string(solver));
+  std::printf("# %8s %7s %3s %5s %5s %4s | %8s %8s %8s %8s %8s | %7s %9s %7s %8s %s\n", "dofs", "elems", "thr", "steps",
+              "newton", "cut", "wall_s", "assem_s", "analys_s", "factor_s", "solve_s", "nnzL/M", "GFlop/fac", "GFlop/s",
+              "peak_MiB", "result");
+  for (double target : sizes)
+    for (int nt : threads) {
+      omp_set_num_threads(nt);
+      const auto t0 = std::chrono::steady_clock::now();
+      const Structure s = build_structure(helix_spec(target, pressure));
+      fe::NewtonOptions o;
+      o.solver = solver;
+      o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
+      fe::Simulation sim(s.model, o);
+      std::string result = "ok";
+      try {
+        for (int k = 1; k <= steps; ++k) sim.advance_to(180.0 * k / steps);
+        const auto v = probe_values(s, sim);  // time, pressure, volume, inner_radius, stretch, axial, twist
+        std::ostringstream r;
+        r << "ok axial_stretch " << v[5] << " stretch " << v[4];
+        result = r.str();
+      } catch (const std::exception& e) {
+        result = std::string("FAILED: ") + e.what();
+      }
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const fe::RunStats st = sim.stats();
+      const double fac = st.linear.factorizations ? st.linear.flops / st.linear.factorizations : 0.0;
+      std::printf("  %8d %7d %3d %5d %5d %4d | %8.2f %8.2f %8.2f %8.2f %8.2f | %7.2f %9.3f %7.2f %8.0f %s\n",
+                  sim.num_free_dofs(), s.model.mesh.num_elements(), nt, st.steps, st.newton_iterations, st.cutbacks, wall,
+                  st.assembly_time, st.linear.analysis, st.linear.factorization, st.linear.solve, st.linear.factor_nnz / 1e6,
+                  fac / 1e9, st.linear.factorization > 0 ? st.linear.flops / st.linear.factorization / 1e9 : 0.0,
+                  double(io::peak_memory_bytes()) / (1 << 20), result.c_str());
+      std::fflush(stdout);
+    }
+  return 0;
+}

@@ -1,0 +1,972 @@
+// FE RVE engine on periodic conforming T6 section meshes (see fe_solver.hpp).
+#include "softhom/rve/fe_solver.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include <Eigen/Dense>
+
+#include "softhom/fe/sparse.hpp"
+#include "softhom/materials/errors.hpp"
+
+namespace softhom::rve {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Mat27 = Eigen::Matrix<double, 27, 27>;
+using Vec27 = Eigen::Matrix<double, 27, 1>;
+using Mat9x27 = Eigen::Matrix<double, 9, 27>;
+constexpr int kQp = 6;
+
+// Dunavant degree-4 rule on the reference triangle (weights sum to 1; area 1/2).
+constexpr double kQa = 0.445948490915965, kQb = 0.091576213509771;
+constexpr double kWa = 0.223381589678011, kWb = 0.109951743655322;
+constexpr double kQuad[kQp][3] = {{kQa, kQa, kWa}, {1 - 2 * kQa, kQa, kWa}, {kQa, 1 - 2 * kQa, kWa},
+                                  {kQb, kQb, kWb}, {1 - 2 * kQb, kQb, kWb}, {kQb, 1 - 2 * kQb, kWb}};
+
+/// Reference data of one element: ∂N/∂y at each quadrature point, the gradient of the cubic bubble
+/// 27 L0 L1 L2, and weight × area Jacobian.
+struct ElementGeometry {
+  std::array<Eigen::Matrix<double, 6, 2>, kQp> dN;
+  std::array<Eigen::Vector2d, kQp> dB;
+  std::array<double, kQp> w;
+  double area = 0.0;
+};
+
+/// Internal (condensed) unknowns of a mixed element, at most 9: bubble displacement (3, P2+/P1 only),
+/// dilatation θ and pressure p coefficients (1 each for P0, 3 each for P1 in the basis L0, L1, L2).
+constexpr int kMaxInternal = 9;
+using VecI = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxInternal, 1>;
+using MatI = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxInternal, kMaxInternal>;
+using MatIq = Eigen::Matrix<double, Eigen::Dynamic, 27, 0, kMaxInternal, 27>;
+
+ElementGeometry element_geometry(const SectionMesh& m, int e) {
+  ElementGeometry g;
+  for (int q = 0; q < kQp; ++q) {
+    const Eigen::Matrix<double, 6, 2> dR = tri6_shape_derivatives(kQuad[q][0], kQuad[q][1]);
+    Eigen::Matrix2d J = Eigen::Matrix2d::Zero();  // J(i, r) = ∂y_i/∂ξ_r
+    for (int a = 0; a < 6; ++a) J += m.nodes[m.elements[e][a]] * dR.row(a);
+    const double det = J.determinant();
+    if (!(det > 0.0))
+      throw std::runtime_error("FE RVE mesh: element " + std::to_string(e) + " has a non-positive Jacobian");
+    const Eigen::Matrix2d Ji = J.inverse();
+    g.dN[q] = dR * Ji;
+    const double l0 = 1.0 - kQuad[q][0] - kQuad[q][1], l1 = kQuad[q][0], l2 = kQuad[q][1];
+    g.dB[q] = (Eigen::RowVector2d(27.0 * l2 * (l0 - l1), 27.0 * l1 * (l0 - l2)) * Ji).transpose();
+    g.w[q] = 0.5 * kQuad[q][2] * det;
+    g.area += g.w[q];
+  }
+  return g;
+}
+
+/// Sums over one evaluation pass (per thread, then reduced).
+struct PassSums {
+  Mat3 P = Mat3::Zero();  // Σ w P (grid)
+  Mat3 phase_P[2] = {Mat3::Zero(), Mat3::Zero()};
+  Mat3 phase_F[2] = {Mat3::Zero(), Mat3::Zero()};
+  Mat3 phase_PFt[2] = {Mat3::Zero(), Mat3::Zero()};
+  double phase_J[2] = {0.0, 0.0};
+  double phase_w[2] = {0.0, 0.0};
+  void add(const PassSums& o) {
+    P += o.P;
+    for (int x = 0; x < 2; ++x) {
+      phase_P[x] += o.phase_P[x];
+      phase_F[x] += o.phase_F[x];
+      phase_PFt[x] += o.phase_PFt[x];
+      phase_J[x] += o.phase_J[x];
+      phase_w[x] += o.phase_w[x];
+    }
+  }
+};
+
+/// ∂cof(F)/∂F (9x9): ∂cof_iJ/∂F_kL = (cof_iJ cof_kL − cof_iL cof_kJ) / J.
+void add_dcof(Mat9& A, double s, const Mat3& cof, double J) {
+  const double w = s / J;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 3; ++l) A(3 * i + j, 3 * k + l) += w * (cof(i, j) * cof(k, l) - cof(i, l) * cof(k, j));
+}
+
+double vol_d1(double K, double J) { return 0.5 * K * (J - 1.0 / J); }
+double vol_d2(double K, double J) { return 0.5 * K * (1.0 + 1.0 / (J * J)); }
+
+}  // namespace
+
+const char* to_string(FePressure p) { return p == FePressure::p0 ? "p0" : "p1-bubble"; }
+
+struct FeRveSolver::Impl {
+  FeSolverOptions opt;
+  SectionMesh mesh;
+  int ne = 0, nn = 0;
+  std::vector<ElementGeometry> geo;
+  Mat3 R;         // grid axes in the load frame
+  Mat9 Tg;        // vec(F_grid) = Tg vec(F_load)
+  Vec3 a0_load;
+  MaterialPtr mat[2];
+  int state_size[2] = {0, 0};
+  bool mixed[2] = {false, false};
+  double K_vol[2] = {0.0, 0.0};
+  double G_min = 1.0, K_max = 0.0;
+  double cell_area = 1.0;
+  double achieved_vf = 0.0;
+
+  // Dofs: node → 3 equations of its master (−1 for the anchor node, fixed against translation).
+  std::vector<int> node_eq;   // 3 per node
+  int n_u = 0;
+  std::array<int, 9> macro_eq{};  // load-frame component → equation (−1 when prescribed)
+  int n_eq = 0;
+  fe::CscMatrix K;
+  std::unique_ptr<fe::LinearSolver> cholmod, umfpack;
+  bool cholmod_analyzed = false, umfpack_analyzed = false;
+  std::string last_solver = "none";
+  double assembly_time = 0.0;
+
+  // State (current and committed).
+  std::vector<double> ut, ut_c;          // fluctuation, 3 per node (slaves copy their master)
+  Mat3 Fbar = Mat3::Identity(), Fbar_c = Mat3::Identity();
+  // Internal unknowns per element (stride kMaxInternal): [bubble (nb), θ (np), p (np)].
+  int nb = 0, np = 1, ni = 2;
+  std::vector<double> internal, internal_c;
+  std::vector<int> hist_offset;          // per element into hist arrays (−1: elastic)
+  std::vector<double> hist_old, hist_new;
+  std::vector<double> hist_prev;         // history before the last commit (fields of that step)
+  // Linearization data of the last evaluation (mixed elements), for the recovery of the internal
+  // increments δi = −K_ii⁻¹ (R_i + K_iq δq).
+  std::vector<MatI> lin_Kinv;
+  std::vector<MatIq> lin_Kiq;
+  std::vector<VecI> lin_Ri;
+  // Assembled vectors of the last evaluation (n_eq): true residual, Newton right-hand side part,
+  // prescribed-increment predictor K_{:,p} ΔF_p.
+  std::vector<double> r_true, r_eff, r_pred;
+  double max_mismatch = 0.0;       // max pressure mismatch over mixed elements (stress units)
+  double bubble_residual_sq = 0.0;  // Σ |bubble residual|² (forces)
+  PassSums sums;
+
+  Impl(SectionMesh m, MaterialPtr matrix, MaterialPtr fiber, double angle, const Mat3& frame, const FeSolverOptions& o)
+      : opt(o), mesh(std::move(m)) {
+    ne = mesh.num_elements();
+    nn = mesh.num_nodes();
+    if (ne == 0) throw InputError("solver.mesh_size", "", "the mesh has no elements");
+    geo.resize(ne);
+    for (int e = 0; e < ne; ++e) geo[e] = element_geometry(mesh, e);
+    cell_area = mesh.L1 * mesh.L2;
+    R = grid_rotation(angle);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 3; ++k)
+          for (int l = 0; l < 3; ++l) Tg(3 * i + j, 3 * k + l) = R(k, i) * R(l, j);
+    a0_load = R.col(2);
+    const Mat3 Q = R.transpose() * frame.transpose();
+    mat[0] = MaterialPtr(matrix->rotated(Q));
+    mat[1] = MaterialPtr(fiber->rotated(Q));
+    G_min = std::min(mat[0]->initial_shear_modulus(), mat[1]->initial_shear_modulus());
+    K_max = std::max(mat[0]->initial_bulk_modulus(), mat[1]->initial_bulk_modulus());
+    for (int x = 0; x < 2; ++x) {
+      state_size[x] = mat[x]->state_size();
+      K_vol[x] = mat[x]->volumetric_modulus();
+      mixed[x] = opt.mixed_pressure && K_vol[x] > 0.0 && K_vol[x] >= opt.mixed_pressure_ratio * mat[x]->initial_shear_modulus();
+    }
+    double fiber_area = 0.0;
+    for (int e = 0; e < ne; ++e)
+      if (mesh.phase[e] == 1) fiber_area += geo[e].area;
+    achieved_vf = fiber_area / cell_area;
+
+    // Equations of the fluctuation: one triple per master node, the anchor (master of node 0) fixed.
+    node_eq.assign(3 * nn, -1);
+    std::vector<int> master_eq(nn, -1);
+    const int anchor = mesh.master[0];
+    for (int i = 0; i < nn; ++i)
+      if (mesh.master[i] == i && i != anchor) {
+        master_eq[i] = n_u;
+        n_u += 3;
+      }
+    for (int i = 0; i < nn; ++i) {
+      const int b = master_eq[mesh.master[i]];
+      if (b >= 0)
+        for (int c = 0; c < 3; ++c) node_eq[3 * i + c] = b + c;
+    }
+    ut.assign(3 * nn, 0.0);
+    ut_c = ut;
+    if (opt.pressure == FePressure::p1_bubble) {
+      nb = 3;
+      np = 3;
+    }
+    ni = nb + 2 * np;
+    internal.assign(std::size_t(kMaxInternal) * ne, 0.0);
+    for (int e = 0; e < ne; ++e)
+      for (int j = 0; j < np; ++j) internal[kMaxInternal * e + nb + j] = 1.0;  // θ = 1
+    internal_c = internal;
+    hist_offset.assign(ne, -1);
+    std::size_t off = 0;
+    for (int e = 0; e < ne; ++e) {
+      const int s = state_size[mesh.phase[e]];
+      if (s > 0) {
+        hist_offset[e] = int(off);
+        off += std::size_t(kQp) * s;
+      }
+    }
+    hist_old.assign(off, 0.0);
+    for (int e = 0; e < ne; ++e)
+      if (hist_offset[e] >= 0) {
+        const int x = mesh.phase[e];
+        for (int q = 0; q < kQp; ++q) mat[x]->init_state(hist_old.data() + hist_offset[e] + q * state_size[x]);
+      }
+    hist_new = hist_old;
+    bool any_mixed = false;
+    for (int e = 0; e < ne; ++e) any_mixed = any_mixed || mixed[mesh.phase[e]];
+    if (any_mixed) {
+      lin_Kinv.assign(ne, MatI::Zero(ni, ni));
+      lin_Kiq.assign(ne, MatIq::Zero(ni, 27));
+      lin_Ri.assign(ne, VecI::Zero(ni));
+    }
+  }
+
+  Mat3 to_grid(const Mat3& X) const { return R.transpose() * X * R; }
+  Mat3 to_load(const Mat3& X) const { return R * X * R.transpose(); }
+
+  /// Global equation of element-local dof d (0..17 fluctuation node-major, 18..26 load-frame F̄).
+  int element_eq(int e, int d) const {
+    if (d < 18) return node_eq[3 * mesh.elements[e][d / 3] + d % 3];
+    return macro_eq[d - 18];
+  }
+
+  /// Sparsity pattern on the current equation numbering (fluctuation + free macro components).
+  void build_pattern() {
+    std::vector<std::vector<int>> cols(n_eq);
+    std::vector<int> eqs;
+    for (int e = 0; e < ne; ++e) {
+      eqs.clear();
+      for (int d = 0; d < 27; ++d) {
+        const int g = element_eq(e, d);
+        if (g >= 0) eqs.push_back(g);
+      }
+      for (int c : eqs)
+        for (int r : eqs) cols[c].push_back(r);
+    }
+    K = fe::CscMatrix{};
+    K.n = n_eq;
+    K.colptr.assign(n_eq + 1, 0);
+    for (int c = 0; c < n_eq; ++c) {
+      auto& v = cols[c];
+      std::sort(v.begin(), v.end());
+      v.erase(std::unique(v.begin(), v.end()), v.end());
+      K.colptr[c + 1] = K.colptr[c] + int(v.size());
+    }
+    K.rowind.reserve(K.colptr[n_eq]);
+    for (int c = 0; c < n_eq; ++c) K.rowind.insert(K.rowind.end(), cols[c].begin(), cols[c].end());
+    K.values.assign(K.rowind.size(), 0.0);
+    cholmod.reset();
+    umfpack.reset();
+    cholmod_analyzed = umfpack_analyzed = false;
+  }
+
+  void set_control(const std::array<bool, 9>& free) {
+    n_eq = n_u;
+    for (int c = 0; c < 9; ++c) macro_eq[c] = free[c] ? n_eq++ : -1;
+    build_pattern();
+  }
+
+  /// Evaluates every element at the current state: residuals (true and Newton right-hand side part),
+  /// tangent (when asked), the predictor K_{:,p} dFp, the linearization data and the output sums.
+  MaterialStatus evaluate(double dt, bool with_tangent, const Vec9& dFp) {
+    const auto t0 = Clock::now();
+    r_true.assign(n_eq, 0.0);
+    r_eff.assign(n_eq, 0.0);
+    r_pred.assign(n_eq, 0.0);
+    if (with_tangent) K.set_zero();
+    const Mat3 Fg = to_grid(Fbar);
+    const bool any_prescribed_step = dFp.cwiseAbs().maxCoeff() > 0.0;
+    int failure = 0;
+    double mismatch = 0.0, bubble_sq = 0.0;
+    PassSums total;
+#pragma omp parallel
+    {
+      PassSums local;
+      double local_mismatch = 0.0, local_bubble = 0.0;
+      Mat9x27 B;
+      Mat27 Ke;
+      Vec27 re;
+      // Mixed-element blocks: bubble rows (3), pressure coupling G = ∫ Bᵀ cof ψ_j.
+      Eigen::Matrix<double, 27, 3> Kqb, Gq;
+      Eigen::Matrix3d Kbb, Gb, H, M;
+      Eigen::Vector3d rb, Rth, Rp;
+#pragma omp for schedule(dynamic, 64)
+      for (int e = 0; e < ne; ++e) {
+        int seen;
+#pragma omp atomic read
+        seen = failure;
+        if (seen) continue;
+        const int x = mesh.phase[e];
+        const Material& m = *mat[x];
+        const bool mx = mixed[x];
+        const double Kv = K_vol[x];
+        const auto& el = mesh.elements[e];
+        const ElementGeometry& g = geo[e];
+        const double* in = internal.data() + std::size_t(kMaxInternal) * e;
+        const int nbe = mx ? nb : 0;  // bubble only in mixed elements
+        re.setZero();
+        if (with_tangent) Ke.setZero();
+        if (mx) {
+          Kqb.setZero();
+          Gq.setZero();
+          Kbb.setZero();
+          Gb.setZero();
+          H.setZero();
+          M.setZero();
+          rb.setZero();
+          Rth.setZero();
+          Rp.setZero();
+        }
+        MaterialStatus status = MaterialStatus::ok;
+        Mat3 Pe_sum = Mat3::Zero(), Fe_sum = Mat3::Zero(), PFt_sum = Mat3::Zero();
+        double Je_sum = 0.0;
+        for (int q = 0; q < kQp && status == MaterialStatus::ok; ++q) {
+          const auto& dN = g.dN[q];
+          const double w = g.w[q];
+          Mat3 F = Fg;
+          for (int a = 0; a < 6; ++a)
+            for (int i = 0; i < 3; ++i) {
+              const double u = ut[3 * el[a] + i];
+              F(i, 0) += u * dN(a, 0);
+              F(i, 1) += u * dN(a, 1);
+            }
+          for (int i = 0; i < nbe; ++i) {
+            F(i, 0) += in[i] * g.dB[q][0];
+            F(i, 1) += in[i] * g.dB[q][1];
+          }
+          const double J = F.determinant();
+          if (!(J > 0.0)) {
+            status = MaterialStatus::inverted;
+            break;
+          }
+          Mat3 P;
+          Mat9 A;
+          const int ss = state_size[x];
+          const double* ho = ss ? hist_old.data() + hist_offset[e] + q * ss : nullptr;
+          double* hn = ss ? hist_new.data() + hist_offset[e] + q * ss : nullptr;
+          status = m.evaluate(F, ho, hn, dt, P, with_tangent || mx ? &A : nullptr);
+          if (status != MaterialStatus::ok) break;
+          const Mat3 cof = J * F.inverse().transpose();
+          // Pressure basis ψ_j at this point (P0: 1; P1: area coordinates), θ_q, p_q.
+          double psi[3] = {1.0, 0.0, 0.0};
+          if (np == 3) {
+            psi[1] = kQuad[q][0];
+            psi[2] = kQuad[q][1];
+            psi[0] = 1.0 - psi[1] - psi[2];
+          }
+          double th_q = 0.0, p_q = 0.0;
+          if (mx)
+            for (int j = 0; j < np; ++j) {
+              th_q += psi[j] * in[nbe + j];
+              p_q += psi[j] * in[nbe + np + j];
+            }
+          if (mx) {
+            // Replace the law's volumetric stress W_V′(J) cof F by the interpolated pressure p cof F.
+            const double dq = p_q - vol_d1(Kv, J);
+            P += dq * cof;
+            const Vec9 c9 = flatten(cof);
+            A.noalias() -= vol_d2(Kv, J) * c9 * c9.transpose();
+            add_dcof(A, dq, cof, J);
+            if (!(th_q > 0.0)) {
+              status = MaterialStatus::inverted;
+              break;
+            }
+          }
+          if (!P.allFinite()) {
+            status = MaterialStatus::not_finite;
+            break;
+          }
+          // B = ∂vec(F)/∂(ũ_e, F̄_load): column 3a+i has dN_a/dy1 at row 3i, dN_a/dy2 at row 3i+1
+          // (∂/∂y3 = 0); the macro columns are Tg. Products are formed with that sparsity.
+          auto add_BtX = [&](const Vec9& X, double s, Vec27& out) {
+            for (int a = 0; a < 6; ++a)
+              for (int i = 0; i < 3; ++i) out[3 * a + i] += s * (dN(a, 0) * X[3 * i] + dN(a, 1) * X[3 * i + 1]);
+            out.tail<9>().noalias() += s * Tg.transpose() * X;
+          };
+          const Vec9 Pv = flatten(P);
+          add_BtX(Pv, w, re);
+          if (with_tangent) {
+            for (int a = 0; a < 6; ++a)
+              for (int i = 0; i < 3; ++i) B.col(3 * a + i) = dN(a, 0) * A.col(3 * i) + dN(a, 1) * A.col(3 * i + 1);
+            B.rightCols<9>().noalias() = A * Tg;  // B now holds A·B
+            for (int a = 0; a < 6; ++a)
+              for (int i = 0; i < 3; ++i)
+                Ke.row(3 * a + i).noalias() += w * (dN(a, 0) * B.row(3 * i) + dN(a, 1) * B.row(3 * i + 1));
+            Ke.bottomRows<9>().noalias() += w * Tg.transpose() * B;
+          }
+          if (mx) {
+            const double gb0 = g.dB[q][0], gb1 = g.dB[q][1];
+            const Vec9 c9 = flatten(cof);
+            for (int i = 0; i < nbe; ++i) {
+              rb[i] += w * (gb0 * P(i, 0) + gb1 * P(i, 1));
+              const Vec9 ABk = gb0 * A.col(3 * i) + gb1 * A.col(3 * i + 1);  // A · B_bubble,i
+              Vec27 col = Vec27::Zero();
+              add_BtX(ABk, w, col);
+              Kqb.col(i) += col;
+              for (int k = 0; k < nbe; ++k) Kbb(k, i) += w * (gb0 * ABk[3 * k] + gb1 * ABk[3 * k + 1]);
+            }
+            Vec27 gcol = Vec27::Zero();
+            add_BtX(c9, w, gcol);
+            const double U1 = vol_d1(Kv, th_q), U2 = vol_d2(Kv, th_q);
+            for (int j = 0; j < np; ++j) {
+              Gq.col(j) += psi[j] * gcol;
+              for (int i = 0; i < nbe; ++i) Gb(i, j) += w * psi[j] * (gb0 * cof(i, 0) + gb1 * cof(i, 1));
+              Rth[j] += w * psi[j] * (U1 - p_q);
+              Rp[j] += w * psi[j] * (J - th_q);
+              for (int k = 0; k < np; ++k) {
+                H(j, k) += w * psi[j] * psi[k] * U2;
+                M(j, k) += w * psi[j] * psi[k];
+              }
+            }
+          }
+          Pe_sum += w * P;
+          Fe_sum += w * F;
+          PFt_sum += w * P * F.transpose();
+          Je_sum += w * J;
+        }
+        if (status != MaterialStatus::ok) {
+#pragma omp atomic write
+          failure = int(status);
+          continue;
+        }
+        Vec27 reff = re;
+        if (mx) {
+          // Static condensation of the internal unknowns i = [bubble, θ, p]:
+          //   K_ii = [Kbb 0 Gb; 0 H −M; Gbᵀ −M 0], K_iq = [Kqbᵀ; 0; Gqᵀ], R_i = [rb; Rθ; Rp].
+          MatI Kii = MatI::Zero(ni, ni);
+          MatIq Kiq = MatIq::Zero(ni, 27);
+          VecI Ri(ni);
+          const int o_t = nbe, o_p = nbe + np;
+          Kii.block(0, 0, nbe, nbe) = Kbb.topLeftCorner(nbe, nbe);
+          Kii.block(0, o_p, nbe, np) = Gb.topLeftCorner(nbe, np);
+          Kii.block(o_p, 0, np, nbe) = Gb.topLeftCorner(nbe, np).transpose();
+          Kii.block(o_t, o_t, np, np) = H.topLeftCorner(np, np);
+          Kii.block(o_t, o_p, np, np) = -M.topLeftCorner(np, np);
+          Kii.block(o_p, o_t, np, np) = -M.topLeftCorner(np, np);
+          Kiq.topRows(nbe) = Kqb.leftCols(nbe).transpose();
+          Kiq.middleRows(o_p, np) = Gq.leftCols(np).transpose();
+          for (int i = 0; i < nbe; ++i) Ri[i] = rb[i];
+          for (int j = 0; j < np; ++j) {
+            Ri[o_t + j] = Rth[j];
+            Ri[o_p + j] = Rp[j];
+          }
+          const MatI Kinv = Kii.fullPivLu().inverse();
+          const VecI KinvR = Kinv * Ri;
+          reff.noalias() -= Kiq.transpose() * KinvR;
+          if (with_tangent) Ke.noalias() -= Kiq.transpose() * (Kinv * Kiq);
+          lin_Kinv[e] = Kinv;
+          lin_Kiq[e] = Kiq;
+          lin_Ri[e] = Ri;
+          // Pressure mismatch in stress units: (Rθ + U″ Rp)_j / ∫ψ_j (P0: U″(J̄ − θ) + U′(θ) − p).
+          for (int j = 0; j < np; ++j) {
+            double mass = 0.0;
+            for (int k = 0; k < np; ++k) mass += M(j, k);
+            double u2 = 0.0;
+            for (int k = 0; k < np; ++k) u2 += H(j, k);
+            u2 /= mass;
+            local_mismatch = std::max(local_mismatch, std::abs(Rth[j] + u2 * Rp[j]) / mass);
+          }
+          // The bubble residual is a force: it joins the force residual norm.
+          for (int i = 0; i < nbe; ++i) local_bubble += rb[i] * rb[i];
+        }
+        // Scatter.
+        int eq[27];
+        for (int d = 0; d < 27; ++d) eq[d] = element_eq(e, d);
+        Vec27 pred = Vec27::Zero();
+        if (with_tangent && any_prescribed_step) pred = Ke.rightCols<9>() * dFp;
+        for (int d = 0; d < 27; ++d) {
+          if (eq[d] < 0) continue;
+#pragma omp atomic
+          r_true[eq[d]] += re[d];
+#pragma omp atomic
+          r_eff[eq[d]] += reff[d];
+          if (any_prescribed_step && with_tangent) {
+#pragma omp atomic
+            r_pred[eq[d]] += pred[d];
+          }
+        }
+        if (with_tangent)
+          for (int cl = 0; cl < 27; ++cl) {
+            if (eq[cl] < 0) continue;
+            // Rows come in runs of consecutive equations (the 3 components of a node, the free macro
+            // components): one binary search per run.
+            for (int rw = 0; rw < 27;) {
+              if (eq[rw] < 0) {
+                ++rw;
+                continue;
+              }
+              const long pos = K.find(eq[rw], eq[cl]);
+              int len = 1;
+              while (rw + len < 27 && eq[rw + len] == eq[rw] + len && (rw + len) % 3 != 0 && rw + len < 18) ++len;
+              if (rw >= 18)
+                while (rw + len < 27 && eq[rw + len] == eq[rw] + len) ++len;
+              for (int k = 0; k < len; ++k) {
+#pragma omp atomic
+                K.values[pos + k] += Ke(rw + k, cl);
+              }
+              rw += len;
+            }
+          }
+        local.P += Pe_sum;
+        local.phase_P[x] += Pe_sum;
+        local.phase_F[x] += Fe_sum;
+        local.phase_PFt[x] += PFt_sum;
+        local.phase_J[x] += Je_sum;
+        local.phase_w[x] += g.area;
+      }
+#pragma omp critical
+      {
+        total.add(local);
+        mismatch = std::max(mismatch, local_mismatch);
+        bubble_sq += local_bubble;
+      }
+    }
+    sums = total;
+    max_mismatch = mismatch;
+    bubble_residual_sq = bubble_sq;
+    assembly_time += std::chrono::duration<double>(Clock::now() - t0).count();
+    return MaterialStatus(failure);
+  }
+
+  /// Subtracts the macro stress targets from the free macro rows.
+  void apply_targets(const Vec9& P_target) {
+    for (int c = 0; c < 9; ++c)
+      if (macro_eq[c] >= 0) {
+        r_true[macro_eq[c]] -= cell_area * P_target[c];
+        r_eff[macro_eq[c]] -= cell_area * P_target[c];
+      }
+  }
+
+  double stress_scale(const std::array<bool, 9>& free, const Vec9& P_target) const {
+    const Mat3 Pl = to_load(sums.P) / cell_area;
+    double s = 1e-6 * G_min;
+    for (int c = 0; c < 9; ++c) s = std::max(s, free[c] ? std::abs(P_target[c]) : std::abs(Pl(c / 3, c % 3)));
+    return s;
+  }
+
+  /// Relative error of the current evaluation (see FeSolverOptions::tolerance).
+  double error(const std::array<bool, 9>& free, const Vec9& P_target) const {
+    const double s = stress_scale(free, P_target);
+    double fu = 0.0, fm = 0.0;
+    for (int i = 0; i < n_u; ++i) fu += r_true[i] * r_true[i];
+    fu += bubble_residual_sq;
+    for (int i = n_u; i < n_eq; ++i) fm = std::max(fm, std::abs(r_true[i]));
+    return std::max({std::sqrt(fu) / (s * std::sqrt(cell_area)), fm / (cell_area * s), max_mismatch / s});
+  }
+
+  double merit() const {
+    double s = 0.0;
+    for (double v : r_eff) s += v * v;
+    return std::sqrt(s);
+  }
+
+  /// Solves K x = b; CHOLMOD first, UMFPACK when the tangent is not positive definite.
+  bool solve(const std::vector<double>& b, std::vector<double>& x) {
+    // The factorizations run on one BLAS thread: 2D supernodes are small, and a threaded BLAS
+    // (OpenBLAS-OpenMP) on a loaded machine spends its time spinning (measured 15x slower on 2 cores).
+    struct OneThread {
+      int n = omp_get_max_threads();
+      OneThread() { omp_set_num_threads(1); }
+      ~OneThread() { omp_set_num_threads(n); }
+    } one_thread;
+    if (!opt.use_umfpack) {
+      if (!cholmod) cholmod = fe::make_linear_solver(fe::SolverKind::cholmod);
+      if (!cholmod_analyzed) {
+        cholmod->analyze(K);
+        cholmod_analyzed = true;
+      }
+      if (cholmod->factorize(K)) {
+        cholmod->solve(b, x);
+        last_solver = "cholmod";
+        return true;
+      }
+    }
+    if (!umfpack) umfpack = fe::make_linear_solver(fe::SolverKind::umfpack);
+    if (!umfpack_analyzed) {
+      umfpack->analyze(K);
+      umfpack_analyzed = true;
+    }
+    if (!umfpack->factorize(K)) return false;
+    umfpack->solve(b, x);
+    last_solver = "umfpack";
+    return true;
+  }
+
+  // Newton directions of the internal unknowns: δi = −K_ii⁻¹ (R_i + K_iq δq), from the global
+  // increment and the linearization data of the last evaluation.
+  void element_increments(const std::vector<double>& dx, const Vec9& dF_load, std::vector<double>& di) const {
+    di.assign(internal.size(), 0.0);
+#pragma omp parallel for schedule(static)
+    for (int e = 0; e < ne; ++e) {
+      if (!mixed[mesh.phase[e]]) continue;
+      Vec27 dq;
+      for (int d = 0; d < 18; ++d) {
+        const int g = element_eq(e, d);
+        dq[d] = g >= 0 ? dx[g] : 0.0;
+      }
+      dq.tail<9>() = dF_load;
+      const VecI d = -(lin_Kinv[e] * (lin_Ri[e] + lin_Kiq[e] * dq));
+      for (int k = 0; k < ni; ++k) di[std::size_t(kMaxInternal) * e + k] = d[k];
+    }
+  }
+
+  struct StepOutcome {
+    bool ok = false;
+    std::string why;
+    int newton = 0, line_search_cuts = 0;
+    std::vector<double> residuals;
+  };
+
+  StepOutcome step(const MixedControl& control, double t_new, double dt) {
+    StepOutcome out;
+    std::array<bool, 9> free{};
+    Vec9 P_target = Vec9::Zero();
+    Mat3 target = Fbar;
+    for (int c = 0; c < 9; ++c) {
+      free[c] = control.kind[c] == ControlKind::stress;
+      if (free[c]) P_target[c] = control.value[c](t_new);
+      else target(c / 3, c % 3) = control.value[c](t_new);
+    }
+    // State of the last accepted iterate and the Newton direction.
+    std::vector<double> ut0, in0, dx, di;
+    Mat3 F0 = Fbar;
+    Vec9 dF = Vec9::Zero();
+    bool had_prescribed_step = false;
+    double err = 0.0, first_err = -1.0;
+    for (int it = 0; it <= opt.max_newton_iterations; ++it) {
+      Vec9 dFp = Vec9::Zero();
+      for (int c = 0; c < 9; ++c)
+        if (!free[c]) dFp[c] = target(c / 3, c % 3) - Fbar(c / 3, c % 3);
+      if (it == 0) {
+        const MaterialStatus s = evaluate(dt, true, dFp);
+        if (s != MaterialStatus::ok) {
+          out.why = std::string("material call failed (") + to_string(s) + ")";
+          return out;
+        }
+        apply_targets(P_target);
+      } else {
+        const double merit_old = merit();
+        double scale = 1.0;
+        bool accepted = false;
+        MaterialStatus last = MaterialStatus::ok;
+        for (int ls = 0; ls < 8 && !accepted; ++ls, scale *= 0.5) {
+          for (int i = 0; i < nn; ++i)
+            for (int c = 0; c < 3; ++c) {
+              const int g = node_eq[3 * i + c];
+              ut[3 * i + c] = ut0[3 * i + c] + (g >= 0 ? scale * dx[g] : 0.0);
+            }
+          Fbar = F0 + scale * unflatten(dF);
+          for (std::size_t k = 0; k < internal.size(); ++k) internal[k] = in0[k] + scale * di[k];
+          // Prescribed components reached exactly (no round-off drift).
+          if (had_prescribed_step && scale == 1.0)
+            for (int c = 0; c < 9; ++c)
+              if (!free[c]) Fbar(c / 3, c % 3) = target(c / 3, c % 3);
+          Vec9 dFp_now = Vec9::Zero();
+          for (int c = 0; c < 9; ++c)
+            if (!free[c]) dFp_now[c] = target(c / 3, c % 3) - Fbar(c / 3, c % 3);
+          last = evaluate(dt, true, dFp_now);
+          if (last != MaterialStatus::ok) continue;
+          apply_targets(P_target);
+          const double mnew = merit();
+          if (!std::isfinite(mnew)) continue;
+          accepted = had_prescribed_step || mnew < (1.0 - 1e-4 * scale) * merit_old || ls == 7;
+          if (ls > 0 && accepted) ++out.line_search_cuts;
+        }
+        if (!accepted) {
+          out.why = last != MaterialStatus::ok ? std::string("material call failed (") + to_string(last) + ")"
+                                               : std::string("line search failed");
+          return out;
+        }
+      }
+      bool reached = true;
+      for (int c = 0; c < 9; ++c)
+        if (!free[c] && Fbar(c / 3, c % 3) != target(c / 3, c % 3)) reached = false;
+      err = error(free, P_target);
+      out.residuals.push_back(err);
+      if (!std::isfinite(err)) {
+        out.why = "non-finite residual";
+        return out;
+      }
+      // Convergence, or stagnation at the round-off floor of stresses ~ K (J − 1) (K/G up to 1.2e5):
+      // the residual of a nearly incompressible phase cannot drop below ~eps K.
+      const double noise = 64.0 * std::numeric_limits<double>::epsilon() * K_max *
+                           (1.0 + Fbar.cwiseAbs().maxCoeff()) / stress_scale(free, P_target);
+      if (reached && (err <= opt.tolerance || (it >= 2 && err <= noise))) {
+        out.ok = true;
+        return out;
+      }
+      if (it == opt.max_newton_iterations) break;
+      if (reached) {
+        if (first_err < 0.0) first_err = err;
+        if (err > 1e6 * std::max(first_err, opt.tolerance)) {
+          out.why = "Newton diverged";
+          return out;
+        }
+      }
+      // Newton direction: K dx = −r_eff − K_{:,p} ΔF_p.
+      Vec9 dFp_now = Vec9::Zero();
+      for (int c = 0; c < 9; ++c)
+        if (!free[c]) dFp_now[c] = target(c / 3, c % 3) - Fbar(c / 3, c % 3);
+      std::vector<double> b(n_eq);
+      for (int i = 0; i < n_eq; ++i) b[i] = -r_eff[i] - (reached ? 0.0 : r_pred[i]);
+      if (!solve(b, dx)) {
+        out.why = "singular tangent";
+        return out;
+      }
+      dF = dFp_now;
+      for (int c = 0; c < 9; ++c)
+        if (macro_eq[c] >= 0) dF[c] = dx[macro_eq[c]];
+      element_increments(dx, dF, di);
+      ut0 = ut;
+      in0 = internal;
+      F0 = Fbar;
+      had_prescribed_step = !reached;
+      ++out.newton;
+    }
+    out.why = "no convergence in " + std::to_string(opt.max_newton_iterations) + " Newton iterations (residual " +
+              std::to_string(err) + ")";
+    return out;
+  }
+
+  void commit() {
+    ut_c = ut;
+    Fbar_c = Fbar;
+    internal_c = internal;
+    if (!hist_old.empty()) hist_prev = hist_old;
+    hist_old.swap(hist_new);
+  }
+  void restore() {
+    ut = ut_c;
+    Fbar = Fbar_c;
+    internal = internal_c;
+  }
+
+  RveStep record(double t, double angle0) const {
+    RveStep s;
+    s.t = t;
+    s.F = Fbar;
+    s.P = to_load(sums.P) / cell_area;
+    s.sigma = cauchy_from_piola(s.F, s.P);
+    for (int x = 0; x < 2; ++x) {
+      const double w = sums.phase_w[x];
+      if (w > 0.0) {
+        (x ? s.P_fiber : s.P_matrix) = to_load(sums.phase_P[x] / w);
+        (x ? s.sigma_fiber : s.sigma_matrix) = to_load(sums.phase_PFt[x] / sums.phase_J[x]);
+      }
+    }
+    const Mat3 Ff = sums.phase_w[1] > 0.0 ? to_load(sums.phase_F[1] / sums.phase_w[1]) : s.F;
+    s.fiber_angle_deg = fiber_angle_deg(Ff, a0_load);
+    s.fiber_angle_change_deg = s.fiber_angle_deg - angle0;
+    return s;
+  }
+
+  /// Element fields of the current (converged) state; history is not advanced (state_new scratch).
+  FeFields fields(double dt) {
+    FeFields f;
+    f.F.assign(9 * std::size_t(ne), 0.0);
+    f.P.assign(9 * std::size_t(ne), 0.0);
+    f.sigma.assign(9 * std::size_t(ne), 0.0);
+    f.von_mises.assign(ne, 0.0);
+    f.J.assign(ne, 0.0);
+    f.phase = mesh.phase;
+    const Mat3 Fg = to_grid(Fbar);
+    std::vector<double> scratch(std::size_t(std::max(state_size[0], state_size[1])) * omp_get_max_threads() + 1);
+#pragma omp parallel for schedule(static)
+    for (int e = 0; e < ne; ++e) {
+      const int x = mesh.phase[e];
+      const auto& el = mesh.elements[e];
+      const ElementGeometry& g = geo[e];
+      Mat3 Fm = Mat3::Zero(), Pm = Mat3::Zero(), Sm = Mat3::Zero();
+      double Jm = 0.0;
+      double* hn = scratch.data() + std::size_t(omp_get_thread_num()) * std::max(state_size[0], state_size[1]);
+      const double* in = internal.data() + std::size_t(kMaxInternal) * e;
+      const int nbe = mixed[x] ? nb : 0;
+      for (int q = 0; q < kQp; ++q) {
+        Mat3 F = Fg;
+        for (int a = 0; a < 6; ++a)
+          for (int i = 0; i < 3; ++i) {
+            F(i, 0) += ut[3 * el[a] + i] * g.dN[q](a, 0);
+            F(i, 1) += ut[3 * el[a] + i] * g.dN[q](a, 1);
+          }
+        for (int i = 0; i < nbe; ++i) {
+          F(i, 0) += in[i] * g.dB[q][0];
+          F(i, 1) += in[i] * g.dB[q][1];
+        }
+        double p_q = in[nbe + np];
+        if (np == 3) p_q = (1.0 - kQuad[q][0] - kQuad[q][1]) * in[nbe + 3] + kQuad[q][0] * in[nbe + 4] + kQuad[q][1] * in[nbe + 5];
+        Mat3 P;
+        const int ss = state_size[x];
+        // History: the converged step went from hist_prev over dt (hist_old is already its end state).
+        const std::vector<double>& h = dt > 0.0 ? hist_prev : hist_old;
+        mat[x]->evaluate(F, ss ? h.data() + hist_offset[e] + q * ss : nullptr, ss ? hn : nullptr, dt, P, nullptr);
+        const double J = F.determinant();
+        if (mixed[x]) P += (p_q - vol_d1(K_vol[x], J)) * J * F.inverse().transpose();
+        const double w = g.w[q] / g.area;
+        Fm += w * F;
+        Pm += w * P;
+        Sm += w * cauchy_from_piola(F, P);
+        Jm += w * J;
+      }
+      Fm = to_load(Fm);
+      Pm = to_load(Pm);
+      Sm = to_load(Sm);
+      const Mat3 dev = Sm - Sm.trace() / 3.0 * Mat3::Identity();
+      f.von_mises[e] = std::sqrt(1.5 * ddot(dev, dev));
+      f.J[e] = Jm;
+      for (int c = 0; c < 9; ++c) {
+        f.F[9 * e + c] = Fm(c / 3, c % 3);
+        f.P[9 * e + c] = Pm(c / 3, c % 3);
+        f.sigma[9 * e + c] = Sm(c / 3, c % 3);
+      }
+    }
+    f.displacement.assign(3 * std::size_t(nn), 0.0);
+    const Mat3 H = Fg - Mat3::Identity();
+    for (int i = 0; i < nn; ++i) {
+      const Vec3 y(mesh.nodes[i].x(), mesh.nodes[i].y(), 0.0);
+      const Vec3 u = H * y + Vec3(ut[3 * i], ut[3 * i + 1], ut[3 * i + 2]);
+      for (int c = 0; c < 3; ++c) f.displacement[3 * i + c] = u[c];
+    }
+    return f;
+  }
+};
+
+FeRveSolver::FeRveSolver(SectionMesh mesh, MaterialPtr matrix, MaterialPtr fiber, double fiber_angle_deg,
+                         const Mat3& load_frame, const FeSolverOptions& options)
+    : impl_(std::make_unique<Impl>(std::move(mesh), std::move(matrix), std::move(fiber), fiber_angle_deg, load_frame,
+                                   options)) {}
+FeRveSolver::~FeRveSolver() = default;
+
+const SectionMesh& FeRveSolver::mesh() const { return impl_->mesh; }
+int FeRveSolver::num_equations() const { return impl_->n_eq; }
+double FeRveSolver::achieved_volume_fraction() const { return impl_->achieved_vf; }
+int FeRveSolver::factorizations() const {
+  int n = 0;
+  if (impl_->cholmod) n += impl_->cholmod->times().factorizations;
+  if (impl_->umfpack) n += impl_->umfpack->times().factorizations;
+  return n;
+}
+double FeRveSolver::factorization_seconds() const {
+  double t = 0.0;
+  for (const auto* s : {impl_->cholmod.get(), impl_->umfpack.get()})
+    if (s) t += s->times().analysis + s->times().factorization + s->times().solve;
+  return t;
+}
+std::array<double, 3> FeRveSolver::linear_seconds() const {
+  std::array<double, 3> t{0.0, 0.0, 0.0};
+  for (const auto* s : {impl_->cholmod.get(), impl_->umfpack.get()})
+    if (s) {
+      t[0] += s->times().analysis;
+      t[1] += s->times().factorization;
+      t[2] += s->times().solve;
+    }
+  return t;
+}
+double FeRveSolver::assembly_seconds() const { return impl_->assembly_time; }
+long FeRveSolver::matrix_nonzeros() const { return impl_->K.nnz(); }
+std::string FeRveSolver::linear_solver() const { return impl_->last_solver; }
+std::size_t FeRveSolver::memory_bytes() const {
+  const Impl& m = *impl_;
+  std::size_t b = m.geo.size() * sizeof(ElementGeometry) +
+                  m.lin_Kinv.size() * (sizeof(MatI) + sizeof(MatIq) + sizeof(VecI));
+  b += (m.ut.size() * 2 + m.internal.size() * 4 + m.hist_old.size() * 3 + m.node_eq.size()) * sizeof(double);
+  b += m.K.values.size() * (sizeof(double) + sizeof(int)) * 2;  // matrix + solver copy of the upper part
+  b += 3 * std::size_t(m.n_eq) * sizeof(double);
+  return b;
+}
+
+RveRunResult FeRveSolver::run(const MixedControl& control,
+                              const std::function<void(const RveStep&, const FeFields*)>& on_step,
+                              const std::function<bool(double)>& want_fields) {
+  control.validate();
+  Impl& m = *impl_;
+  const auto run_start = Clock::now();
+  RveRunResult result;
+  std::array<bool, 9> free{};
+  for (int c = 0; c < 9; ++c) free[c] = control.kind[c] == ControlKind::stress;
+  m.set_control(free);
+  if (m.evaluate(0.0, false, Vec9::Zero()) != MaterialStatus::ok) throw ConvergenceError("material call failed at F = I");
+  const double angle0 = fiber_angle_deg(Mat3::Identity(), m.a0_load);
+  auto emit = [&](const RveStep& s, double dt) {
+    if (!on_step) return;
+    if (want_fields && want_fields(s.t)) {
+      const FeFields f = m.fields(dt);
+      on_step(s, &f);
+    } else {
+      on_step(s, nullptr);
+    }
+  };
+  {
+    const RveStep s0 = m.record(0.0, angle0);
+    result.steps.push_back(s0);
+    emit(s0, 0.0);
+  }
+  double t = 0.0, t_prev_out = 0.0, last_dt = 0.0;
+  for (double t_out : control.times) {
+    const auto step_start = Clock::now();
+    const double interval = t_out - t_prev_out;
+    double dt = interval;
+    int successes = 0;
+    RveStep agg;
+    Impl::StepOutcome last;
+    bool failed = false;
+    while (t < t_out - 1e-12 * std::max(1.0, t_out)) {
+      const double dt_try = std::min(dt, t_out - t);
+      const double t_new = (t + dt_try >= t_out - 1e-12 * std::max(1.0, t_out)) ? t_out : t + dt_try;
+      Impl::StepOutcome o = m.step(control, t_new, t_new - t);
+      agg.newton_iterations += o.newton;
+      if (o.ok) {
+        m.commit();
+        last_dt = t_new - t;
+        t = t_new;
+        ++agg.substeps;
+        last = std::move(o);
+        if (++successes >= 2 && dt < interval) {
+          dt = std::min(2.0 * dt, interval);
+          successes = 0;
+        }
+      } else {
+        m.restore();
+        ++agg.cutbacks;
+        ++result.cutbacks;
+        successes = 0;
+        std::ostringstream msg;
+        msg << "t = " << t << " → " << t_new << ": " << o.why << "; cutting back (dt " << dt_try << " → "
+            << dt_try / 2 << ")";
+        result.log.push_back(msg.str());
+        dt = dt_try / 2.0;
+        if (dt < interval / std::ldexp(1.0, m.opt.max_cutbacks)) {
+          result.error = "step to t = " + std::to_string(t_out) + " failed after " + std::to_string(m.opt.max_cutbacks) +
+                         " cut-backs: " + o.why;
+          failed = true;
+          break;
+        }
+      }
+    }
+    result.total_newton_iterations += agg.newton_iterations;
+    if (failed) break;
+    RveStep s = m.record(t_out, angle0);
+    s.newton_iterations = agg.newton_iterations;
+    s.substeps = agg.substeps;
+    s.cutbacks = agg.cutbacks;
+    s.residuals = last.residuals;
+    s.wall_seconds = std::chrono::duration<double>(Clock::now() - step_start).count();
+    if (!(s.F.allFinite() && s.P.allFinite() && s.sigma.allFinite())) {
+      result.error = "non-finite homogenized state at t = " + std::to_string(t_out);
+      break;
+    }
+    result.steps.push_back(s);
+    emit(s, last_dt);
+    t_prev_out = t_out;
+  }
+  result.completed = result.error.empty();
+  result.wall_seconds = std::chrono::duration<double>(Clock::now() - run_start).count();
+  return result;
+}
+
+}  // namespace softhom::rve

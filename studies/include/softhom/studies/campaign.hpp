@@ -1,0 +1,135 @@
+#pragma once
+// Sweep campaigns (`softhom sweep CAMPAIGN.toml --out DIR`): a Cartesian product (and explicit lists)
+// of FFT RVE cases over matrix, fiber section, fiber angle, volume fraction, arrangement, resolution
+// and load case; each case is an `softhom rve` scene.
+//
+// Campaign file:
+//   description = "..."
+//   [base]                 an RVE scene (same tables as studies/scenes/rve_*.toml) giving everything
+//                          the axes do not set: [base.phases.fiber], [base.solver], ... Keys set by an
+//                          axis override it. (Or base_scene = "file.toml", relative to the campaign.)
+//   [matrices.NAME]        a [phases.matrix] table; an axis value that is not defined here is a preset
+//                          name ({preset = NAME}).
+//   [sections.NAME]        [microstructure] keys of a fiber section: shape, radius, width, height,
+//                          section_rotation_deg, fiber_count, min_gap, seed. Built in: "circle"
+//                          (r = 0.2 mm) and "square" (0.07 x 0.07 mm), spec §7.
+//   [loads.NAME]           a [load] table. Built in: tension (λ = 1.8), compression (λ = 0.6),
+//                          equibiaxial (λ = 1.3), shear (simple shear γ = 0.5), relaxation (ramp to
+//                          λ = 1.5 in 20 s, hold 20 s).
+//   [sweep] / [[sweep]]    axes → lists; each [[sweep]] table is one Cartesian product, the campaign is
+//                          their union: matrix, section, angle, volume_fraction, arrangement,
+//                          resolution (n → grid [n, n], or [n1, n2] / [n1, n2, n3]), load.
+//   [[cases]]              explicit cases: one value per axis, optional name (the case id) and
+//                          override = {table merged into the case scene last, e.g. solver limits}.
+//   Axes missing from a product or case: the [base] scene's value, else section "circle", angle 45,
+//   volume_fraction 0.23, arrangement "square", resolution 32 (matrix and load are required).
+//   volume_fraction = 0 is the matrix alone (section and arrangement then do not matter).
+//   [campaign] warm_start = true   see below.
+//
+// Store (DIR/campaign.h5, rebuilt atomically after every finished case): /cases/<id> groups with the
+// parameters and status as attributes and the response table (dataset "response", attribute
+// "columns"; the `softhom rve` response.csv layout); DIR/cases.csv: one row per case and step with
+// every parameter as a column. A case whose id and scene hash are in the store is skipped on a rerun.
+//
+// Warm starts: within one microstructure (same scene but [load]) of elastic phases, a case whose load
+// path begins with another case's whole path (e.g. tension to λ = 1.5 and to 1.8 with the same output
+// times up to 1.5) continues from that case's converged state instead of starting from F = I. Chains
+// are always recomputed from their first case, so a rerun gives the same numbers.
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include <toml++/toml.h>
+
+#include "softhom/materials/loading.hpp"
+
+namespace softhom::studies {
+
+/// A case parameter: a string (matrix, section, load, ...) or a number (angle, fraction, ...).
+struct CaseParameter {
+  std::string name;
+  std::variant<std::string, double> value;
+  bool is_string() const { return std::holds_alternative<std::string>(value); }
+  std::string text() const;  ///< value as written in ids and CSV files
+};
+
+struct CampaignCase {
+  std::string id;                          ///< unique, also the HDF5 group name
+  std::vector<CaseParameter> parameters;   ///< axis values in axis order
+  toml::table scene;                       ///< the full `softhom rve` scene of the case
+  std::string scene_text;                  ///< canonical TOML text of `scene`
+  std::string scene_hash;                  ///< FNV-1a 64 of scene_text (hex); a changed case is rerun
+  std::string microstructure_hash;         ///< hash of the scene without [load] (warm-start groups)
+  MixedControl control;                    ///< parsed [load]
+  bool elastic = true;                     ///< no phase has history (warm starts allowed)
+};
+
+struct Campaign {
+  std::string description;
+  std::vector<CampaignCase> cases;
+  bool warm_start = true;
+};
+
+/// The axis names, in column order.
+const std::vector<std::string>& campaign_axes();
+
+/// Expands a campaign table; every case scene is validated (materials, load, section geometry,
+/// solver options) so a bad campaign stops before anything runs. Errors are InputErrors naming the
+/// campaign field ("sweep[0].angle[2]") or the case and its scene field.
+Campaign expand_campaign(const toml::table& table, const std::filesystem::path& base_dir);
+
+/// One stored case (a group of the HDF5 store).
+struct CaseRecord {
+  std::string id;
+  std::vector<CaseParameter> parameters;
+  std::string status;   ///< "ok" or "failed"
+  std::string error;
+  std::string scene_text, scene_hash;
+  std::vector<std::string> columns;
+  std::vector<double> data;  ///< rows x columns, row-major
+  std::map<std::string, double> stats;      ///< iterations, voxels, achieved fraction, threads, timings
+  std::map<std::string, std::string> info;  ///< geometry note, warm-start source, solver description
+  std::size_t rows() const { return columns.empty() ? 0 : data.size() / columns.size(); }
+};
+
+/// Stats that vary between identical runs (timings); a resumed store equals an uninterrupted one
+/// except for these.
+bool is_timing_stat(const std::string& name);
+
+/// Reads DIR/campaign.h5 (empty map when absent). Throws std::runtime_error on a corrupt store.
+std::map<std::string, CaseRecord> read_store(const std::filesystem::path& store);
+/// Writes all records (sorted by id) to `store` atomically (temporary file + rename).
+void write_store(const std::filesystem::path& store, const std::map<std::string, CaseRecord>& records,
+                 const std::string& description);
+/// The tidy table: case, status, every parameter (union over cases, first-seen order), step, then the
+/// response columns. A failed case without a converged row still has one row (empty response).
+std::string cases_csv(const std::vector<const CaseRecord*>& records);
+
+struct SweepOptions {
+  int jobs = 1;           ///< cases in parallel (threads); 0: one single-threaded job per thread
+  int threads = 0;        ///< total OpenMP threads (0: omp_get_max_threads()); split evenly between jobs
+  bool warm_start = true; ///< and the campaign's own switch
+  bool retry_failed = false;
+  bool quiet = false;     ///< no progress on stderr
+  /// Stop after this many newly finished cases (0: no limit); simulates an interrupted run in tests.
+  int max_new_cases = 0;
+};
+
+struct SweepReport {
+  int total = 0, skipped = 0, finished = 0, failed = 0;
+  int warm_started = 0;
+  int threads_per_job = 1;
+  double wall_time_s = 0.0;
+  double case_time_s = 0.0;  ///< sum of the wall times of the cases run now
+  std::filesystem::path store, csv;
+};
+
+/// Runs the campaign's unfinished cases into DIR/campaign.h5 and DIR/cases.csv. Failed cases are
+/// recorded with their error; only bad input (before any case runs) throws.
+SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& dir, const SweepOptions& options);
+
+}  // namespace softhom::studies

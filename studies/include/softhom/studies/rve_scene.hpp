@@ -1,0 +1,48 @@
+#pragma once
+// RVE scene tables → FFT solver inputs, shared by `softhom rve` and the sweep campaigns (moved here from
+// apps/cmd_rve.cpp so that a campaign case is exactly an `softhom rve` scene).
+//
+// Scene tables: [microstructure] (generated section or imported HDF5 phase image, grid, fiber angle),
+// [phases.matrix] / [phases.fiber] (material tables as in `softhom point`), [load] (same syntax as
+// `softhom point`), [solver] (discretization, scheme, tolerances, FFTW), [output] (fields).
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <toml++/toml.h>
+
+#include "softhom/materials/loading.hpp"
+#include "softhom/materials/material.hpp"
+#include "softhom/rve/fft_solver.hpp"
+#include "softhom/rve/geometry.hpp"
+
+namespace softhom::studies {
+
+/// The phase image (grid frame) of a [microstructure] table; `target_vf` is the requested fraction,
+/// `geometry_note` a one-line description. Reads an imported image with io::read_dataset (HDF5: not
+/// thread-safe in the Debian build; callers running cases in threads serialise this).
+rve::PhaseImage build_phase_image(const toml::table& microstructure, double& target_vf, std::string& geometry_note);
+
+/// [solver] table → options (defaults when absent); `wisdom` receives solver.fftw_wisdom.
+rve::FftSolverOptions parse_fft_solver_options(const toml::table& scene, std::filesystem::path& wisdom);
+
+/// Everything an FFT RVE run needs, parsed and validated from a scene table (not [output]).
+struct RveSceneSetup {
+  rve::PhaseImage image;
+  MaterialPtr matrix, fiber;
+  double fiber_angle_deg = 0.0;
+  double target_vf = 0.0;
+  std::string geometry_note;
+  MixedControl control;
+  rve::FftSolverOptions solver;
+};
+
+/// Parses [microstructure], [phases], [load], [solver] of an RVE scene (every error an InputError
+/// naming the TOML path). `with_load = false` skips [load] (microstructure-only runs).
+RveSceneSetup parse_rve_scene(const toml::table& scene, bool with_load = true);
+
+/// response.csv layout of an RVE run (load frame): t, F, P, sigma, fiber angle, phase means, iterations.
+std::vector<std::string> rve_response_columns();
+std::vector<double> rve_response_row(const rve::RveStep& step);
+
+}  // namespace softhom::studies

@@ -1,0 +1,754 @@
+// Sweep campaigns: expansion of the campaign file into RVE scenes, and the resumable parallel runner.
+#include "softhom/studies/campaign.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <iostream>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "softhom/io/files.hpp"
+#include "softhom/io/scene.hpp"
+#include "softhom/io/summary.hpp"
+#include "softhom/materials/errors.hpp"
+#include "softhom/studies/rve_scene.hpp"
+
+namespace softhom::studies {
+
+// The Debian HDF5 build is not thread-safe: the store and imported phase images go through this.
+std::mutex& hdf5_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::string format_number(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+std::string fnv1a_hex(const std::string& s) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : s) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+std::string toml_text(const toml::table& t) {
+  std::ostringstream os;
+  os << t;
+  return os.str();
+}
+
+/// Deep merge: tables merge recursively, everything else replaces.
+void merge_into(toml::table& dst, const toml::table& src) {
+  for (const auto& [k, v] : src) {
+    if (const auto* st = v.as_table()) {
+      if (auto* dt = dst[k].as_table()) {
+        merge_into(*dt, *st);
+        continue;
+      }
+    }
+    dst.insert_or_assign(k, v);
+  }
+}
+
+toml::table& subtable(toml::table& t, const std::string& key) {
+  if (!t[key].is_table()) t.insert_or_assign(key, toml::table{});
+  return *t[key].as_table();
+}
+
+// Built-in sections and loads (spec §7: circular r = 0.2 mm, square 0.07 mm; tension to 1.8,
+// compression to 0.6, ramp to 1.5 in 20 s + 20 s hold).
+toml::table builtin_section(const std::string& name) {
+  if (name == "circle") return toml::table{{"shape", "circle"}, {"radius", 0.2}};
+  if (name == "square") return toml::table{{"shape", "square"}, {"width", 0.07}};
+  return {};
+}
+
+toml::table builtin_load(const std::string& name) {
+  if (name == "tension") return toml::table{{"type", "uniaxial"}, {"stretch", 1.8}, {"duration", 1.0}, {"steps", 16}};
+  if (name == "compression")
+    return toml::table{{"type", "uniaxial"}, {"stretch", 0.6}, {"duration", 1.0}, {"steps", 16}};
+  if (name == "equibiaxial")
+    return toml::table{{"type", "equibiaxial"}, {"stretch", 1.3}, {"duration", 1.0}, {"steps", 12}};
+  if (name == "shear") return toml::table{{"type", "simple_shear"}, {"gamma", 0.5}, {"duration", 1.0}, {"steps", 10}};
+  if (name == "relaxation") {
+    toml::array path{toml::array{0.0, 1.0}, toml::array{20.0, 1.5}, toml::array{40.0, 1.5}};
+    return toml::table{{"type", "uniaxial"}, {"stretch", path}, {"steps", 20}};
+  }
+  return {};
+}
+
+struct AxisValue {
+  std::variant<std::string, double> v;
+  std::vector<int> grid;  // resolution only
+};
+
+/// Axis values of one product or explicit case; absent axes stay empty (→ defaults).
+using AxisMap = std::map<std::string, std::vector<AxisValue>>;
+
+AxisValue parse_axis_value(const std::string& axis, const toml::node& node, const std::string& field) {
+  AxisValue a;
+  if (axis == "matrix" || axis == "section" || axis == "arrangement" || axis == "load") {
+    const auto s = node.value<std::string>();
+    if (!s || s->empty()) throw InputError(field, io::describe_value(node), "must be a name (string)");
+    a.v = *s;
+    return a;
+  }
+  if (axis == "resolution") {
+    if (const auto* arr = node.as_array()) {
+      for (std::size_t k = 0; k < arr->size(); ++k) {
+        const auto n = (*arr)[k].value<double>();
+        if (!n || *n < 1 || *n != std::floor(*n))
+          throw InputError(field, io::describe_value(node), "grid entries must be positive integers");
+        a.grid.push_back(int(*n));
+      }
+      if (a.grid.size() < 2 || a.grid.size() > 3) throw InputError(field, io::describe_value(node), "give n, [n1, n2] or [n1, n2, n3]");
+    } else {
+      const auto n = node.value<double>();
+      if (!n || *n < 1 || *n != std::floor(*n)) throw InputError(field, io::describe_value(node), "must be a positive integer or a grid");
+      a.grid = {int(*n), int(*n)};
+    }
+    a.v = double(a.grid[0]);
+    return a;
+  }
+  const auto d = node.value<double>();
+  if (!d || !std::isfinite(*d)) throw InputError(field, io::describe_value(node), "must be a number");
+  if (axis == "volume_fraction" && !(*d >= 0.0 && *d < 1.0)) throw InputError(field, io::describe_value(node), "must lie in [0, 1)");
+  a.v = *d;
+  return a;
+}
+
+AxisMap parse_axes(const toml::table& t, const std::string& path, bool single) {
+  AxisMap m;
+  for (const auto& [k, v] : t) {
+    const std::string key(k.str());
+    if (single && (key == "name" || key == "override")) continue;
+    const auto& axes = campaign_axes();
+    if (std::find(axes.begin(), axes.end(), key) == axes.end())
+      throw InputError(path + "." + key, "", "unknown axis (matrix, section, angle, volume_fraction, arrangement, resolution, load)");
+    const std::string field = path + "." + key;
+    if (single) {
+      m[key].push_back(parse_axis_value(key, v, field));
+      continue;
+    }
+    const auto* arr = v.as_array();
+    // resolution = [24, 24] is ambiguous: a list of two resolutions. Grids need [[24, 24]].
+    if (!arr) {
+      m[key].push_back(parse_axis_value(key, v, field));
+      continue;
+    }
+    if (arr->empty()) throw InputError(field, "[]", "an axis needs at least one value");
+    for (std::size_t i = 0; i < arr->size(); ++i)
+      m[key].push_back(parse_axis_value(key, (*arr)[i], field + "[" + std::to_string(i) + "]"));
+  }
+  return m;
+}
+
+struct Definitions {
+  toml::table base;
+  std::map<std::string, toml::table> matrices, sections, loads;
+};
+
+std::string id_number(double v) {
+  std::string s = format_number(v);
+  return s;
+}
+
+/// Builds one case from one value per axis.
+CampaignCase make_case(const Definitions& defs, const std::map<std::string, AxisValue>& values, const std::string& name,
+                       const toml::table* override_table, const std::string& field) {
+  auto get = [&](const std::string& axis) -> const AxisValue* {
+    const auto it = values.find(axis);
+    return it == values.end() ? nullptr : &it->second;
+  };
+  const toml::table* base_micro = defs.base["microstructure"].as_table();
+  auto base_number = [&](const char* key, double fallback) {
+    if (base_micro)
+      if (const auto v = (*base_micro)[key].value<double>()) return *v;
+    return fallback;
+  };
+  auto base_string = [&](const char* key, const std::string& fallback) {
+    if (base_micro)
+      if (const auto v = (*base_micro)[key].value<std::string>()) return *v;
+    return fallback;
+  };
+
+  if (!get("matrix")) throw InputError(field + ".matrix", "", "missing (every case needs a matrix)");
+  if (!get("load")) throw InputError(field + ".load", "", "missing (every case needs a load case)");
+  const std::string matrix = std::get<std::string>(get("matrix")->v);
+  const std::string load = std::get<std::string>(get("load")->v);
+  double vf = get("volume_fraction") ? std::get<double>(get("volume_fraction")->v) : base_number("volume_fraction", 0.23);
+  double angle = get("angle") ? std::get<double>(get("angle")->v) : base_number("fiber_angle_deg", 45.0);
+  // Without a section axis the base scene's section is kept (named after its shape), else "circle".
+  const bool base_section = !get("section") && base_micro && base_micro->contains("shape");
+  std::string section = get("section") ? std::get<std::string>(get("section")->v) : base_string("shape", "circle");
+  std::string arrangement = get("arrangement") ? std::get<std::string>(get("arrangement")->v) : base_string("arrangement", "square");
+  std::vector<int> grid{32, 32};
+  if (get("resolution")) grid = get("resolution")->grid;
+  else if (base_micro && (*base_micro)["grid"]) {
+    if (const auto* arr = (*base_micro)["grid"].as_array()) {
+      grid.clear();
+      for (const auto& e : *arr) grid.push_back(int(e.value<double>().value_or(0)));
+    } else {
+      const int g = int((*base_micro)["grid"].value<double>().value_or(32));
+      grid = {g, g};
+    }
+  }
+  const bool matrix_only = vf == 0.0;
+  if (matrix_only) {
+    // The homogeneous cell does not depend on these: one case per matrix, resolution and load.
+    section = "none";
+    arrangement = "none";
+    angle = 0.0;
+  }
+
+  CampaignCase c;
+  c.parameters = {{"matrix", matrix},     {"section", section},
+                  {"angle", angle},       {"volume_fraction", vf},
+                  {"arrangement", arrangement}, {"resolution", double(grid[0])},
+                  {"load", load}};
+
+  toml::table scene = defs.base;
+  scene.erase("output");
+  toml::table& micro = subtable(scene, "microstructure");
+  if (!matrix_only) {
+    if (!base_section) {
+      toml::table sec;
+      if (const auto it = defs.sections.find(section); it != defs.sections.end()) sec = it->second;
+      else sec = builtin_section(section);
+      if (sec.empty())
+        throw InputError(field + ".section", section, "not defined: add [sections." + section + "] or use circle, square");
+      for (const char* k : {"shape", "radius", "width", "height", "section_rotation_deg", "fiber_count", "min_gap", "seed"})
+        micro.erase(k);
+      merge_into(micro, sec);
+    }
+    micro.insert_or_assign("arrangement", arrangement);
+    micro.insert_or_assign("fiber_angle_deg", angle);
+  } else {
+    for (const char* k : {"shape", "radius", "width", "height", "section_rotation_deg", "fiber_count", "min_gap", "seed",
+                          "arrangement", "cell_size"})
+      micro.erase(k);
+    micro.insert_or_assign("fiber_angle_deg", 0.0);
+  }
+  micro.insert_or_assign("volume_fraction", vf);
+  toml::array g;
+  for (int n : grid) g.push_back(n);
+  micro.insert_or_assign("grid", g);
+
+  toml::table& phases = subtable(scene, "phases");
+  if (const auto it = defs.matrices.find(matrix); it != defs.matrices.end()) phases.insert_or_assign("matrix", it->second);
+  else phases.insert_or_assign("matrix", toml::table{{"preset", matrix}});
+  if (!phases.contains("fiber")) phases.insert_or_assign("fiber", toml::table{{"preset", "glass"}});
+  if (const auto it = defs.loads.find(load); it != defs.loads.end()) scene.insert_or_assign("load", it->second);
+  else if (toml::table l = builtin_load(load); !l.empty()) scene.insert_or_assign("load", l);
+  else
+    throw InputError(field + ".load", load,
+                     "not defined: add [loads." + load + "] or use tension, compression, equibiaxial, shear, relaxation");
+  if (override_table) merge_into(scene, *override_table);
+
+  if (!name.empty()) {
+    c.id = name;
+  } else {
+    std::ostringstream id;
+    id << matrix << "-";
+    if (matrix_only) id << "matrix";
+    else id << section << "-a" << id_number(angle) << "-vf" << id_number(vf) << "-" << arrangement;
+    id << "-n" << grid[0];
+    for (std::size_t k = 1; k < grid.size(); ++k) id << "x" << grid[k];
+    id << "-" << load;
+    c.id = id.str();
+  }
+  for (char& ch : c.id)
+    if (ch == '/' || ch == ' ' || ch == ',' || ch == '"') ch = '_';
+
+  // Validate the scene exactly as `softhom rve` would (errors name the case).
+  try {
+    const RveSceneSetup setup = parse_rve_scene(scene);
+    c.control = setup.control;
+    c.elastic = setup.matrix->state_size() == 0 && setup.fiber->state_size() == 0;
+  } catch (const InputError& e) {
+    throw InputError("case " + c.id + ": " + e.field(), e.value(), std::string(e.what()).substr(
+        std::min(std::string(e.what()).size(), e.field().size() + (e.value().empty() ? 0 : 3 + e.value().size()) + 2)));
+  }
+  c.scene = scene;
+  c.scene_text = toml_text(scene);
+  c.scene_hash = fnv1a_hex(c.scene_text);
+  toml::table no_load = scene;
+  no_load.erase("load");
+  c.microstructure_hash = fnv1a_hex(toml_text(no_load));
+  return c;
+}
+
+void expand_product(const Definitions& defs, const AxisMap& axes, const std::string& field, std::vector<CampaignCase>& out) {
+  const auto& names = campaign_axes();
+  std::vector<std::string> present;
+  for (const auto& a : names)
+    if (axes.count(a)) present.push_back(a);
+  std::vector<std::size_t> idx(present.size(), 0);
+  while (true) {
+    std::map<std::string, AxisValue> values;
+    for (std::size_t k = 0; k < present.size(); ++k) values[present[k]] = axes.at(present[k])[idx[k]];
+    out.push_back(make_case(defs, values, "", nullptr, field));
+    // Last axis fastest.
+    int k = int(present.size()) - 1;
+    while (k >= 0 && ++idx[k] == axes.at(present[k]).size()) idx[k--] = 0;
+    if (k < 0) break;
+  }
+}
+
+std::map<std::string, toml::table> named_tables(const toml::table& t, const char* key) {
+  std::map<std::string, toml::table> m;
+  if (!t.contains(key)) return m;
+  const auto* tab = t[key].as_table();
+  if (!tab) throw InputError(key, "", "must be a table of named tables");
+  for (const auto& [k, v] : *tab) {
+    const auto* sub = v.as_table();
+    if (!sub) throw InputError(std::string(key) + "." + std::string(k.str()), io::describe_value(v), "must be a table");
+    m[std::string(k.str())] = *sub;
+  }
+  return m;
+}
+
+}  // namespace
+
+std::string CaseParameter::text() const {
+  if (const auto* s = std::get_if<std::string>(&value)) return *s;
+  return format_number(std::get<double>(value));
+}
+
+const std::vector<std::string>& campaign_axes() {
+  static const std::vector<std::string> axes{"matrix", "section", "angle", "volume_fraction", "arrangement", "resolution", "load"};
+  return axes;
+}
+
+bool is_timing_stat(const std::string& name) {
+  return name == "wall_time_s" || name == "solve_time_s" || name == "fft_planning_s";
+}
+
+Campaign expand_campaign(const toml::table& table, const std::filesystem::path& base_dir) {
+  io::check_keys(table, "", {"description", "base", "base_scene", "matrices", "sections", "loads", "sweep", "cases", "campaign"});
+  Campaign camp;
+  camp.description = io::get_string_or(table, "description", "", "");
+  Definitions defs;
+  if (table.contains("base") && table.contains("base_scene"))
+    throw InputError("base_scene", "", "give either [base] or base_scene, not both");
+  if (const auto* b = table["base"].as_table()) defs.base = *b;
+  else if (table.contains("base")) throw InputError("base", "", "must be a table (an RVE scene)");
+  if (table.contains("base_scene")) {
+    const std::string f = io::get_string_or(table, "base_scene", "", "");
+    std::filesystem::path p = f;
+    if (p.is_relative()) p = base_dir / p;
+    if (!std::filesystem::exists(p)) throw InputError("base_scene", f, "file not found");
+    defs.base = io::load_scene(p);
+  }
+  defs.matrices = named_tables(table, "matrices");
+  defs.sections = named_tables(table, "sections");
+  defs.loads = named_tables(table, "loads");
+  if (const auto* c = table["campaign"].as_table()) {
+    io::check_keys(*c, "campaign", {"warm_start"});
+    camp.warm_start = (*c)["warm_start"].value_or(true);
+  }
+
+  std::vector<CampaignCase> all;
+  if (const auto* s = table["sweep"].as_table()) {
+    expand_product(defs, parse_axes(*s, "sweep", false), "sweep", all);
+  } else if (const auto* arr = table["sweep"].as_array()) {
+    for (std::size_t i = 0; i < arr->size(); ++i) {
+      const std::string f = "sweep[" + std::to_string(i) + "]";
+      const auto* s = (*arr)[i].as_table();
+      if (!s) throw InputError(f, "", "must be a table of axes");
+      expand_product(defs, parse_axes(*s, f, false), f, all);
+    }
+  } else if (table.contains("sweep")) {
+    throw InputError("sweep", "", "must be a table ([sweep]) or an array of tables ([[sweep]])");
+  }
+  if (const auto* arr = table["cases"].as_array()) {
+    for (std::size_t i = 0; i < arr->size(); ++i) {
+      const std::string f = "cases[" + std::to_string(i) + "]";
+      const auto* s = (*arr)[i].as_table();
+      if (!s) throw InputError(f, "", "must be a table");
+      const AxisMap axes = parse_axes(*s, f, true);
+      std::map<std::string, AxisValue> values;
+      for (const auto& [k, v] : axes) values[k] = v.front();
+      const std::string name = io::get_string_or(*s, "name", f, "");
+      const toml::table* ov = (*s)["override"].as_table();
+      if (s->contains("override") && !ov) throw InputError(f + ".override", "", "must be a table (merged into the case scene)");
+      all.push_back(make_case(defs, values, name, ov, f));
+    }
+  } else if (table.contains("cases")) {
+    throw InputError("cases", "", "must be an array of tables ([[cases]])");
+  }
+  if (all.empty()) throw InputError("sweep", "", "the campaign has no cases (give [sweep] axes or [[cases]])");
+
+  // Union: identical cases from several products count once; one id with two different scenes is an error.
+  std::map<std::string, std::string> seen;
+  for (auto& c : all) {
+    const auto it = seen.find(c.id);
+    if (it != seen.end()) {
+      if (it->second != c.scene_hash)
+        throw InputError("cases", c.id, "two different cases have this id (give explicit cases a distinct name)");
+      continue;
+    }
+    seen[c.id] = c.scene_hash;
+    camp.cases.push_back(std::move(c));
+  }
+  return camp;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Runner.
+
+namespace {
+
+bool near(double a, double b) { return std::abs(a - b) <= 1e-12 * std::max({1.0, std::abs(a), std::abs(b)}); }
+
+/// A's whole load path is the beginning of B's: same frame and control kinds, B's output times start
+/// with A's, and every prescribed component agrees on [0, t_A] (piecewise linear: checking the
+/// breakpoints of both and the output times suffices).
+bool is_prefix(const MixedControl& A, const MixedControl& B) {
+  if (A.times.empty() || B.times.size() <= A.times.size()) return false;
+  if (!(A.frame - B.frame).isZero(0.0)) return false;
+  for (std::size_t i = 0; i < A.times.size(); ++i)
+    if (!near(A.times[i], B.times[i])) return false;
+  const double tA = A.times.back();
+  for (int c = 0; c < 9; ++c) {
+    if (A.kind[c] != B.kind[c]) return false;
+    std::vector<double> ts = A.times;
+    ts.push_back(0.0);
+    for (double t : A.value[c].t) if (t <= tA) ts.push_back(t);
+    for (double t : B.value[c].t) if (t <= tA) ts.push_back(t);
+    for (double t : ts)
+      if (!near(A.value[c](t), B.value[c](t))) return false;
+  }
+  return true;
+}
+
+/// B restarted at t0 (t ↦ t − t0), for continuing a solver that is at B's state at t0.
+MixedControl shifted(const MixedControl& B, double t0) {
+  MixedControl s = B;
+  for (int c = 0; c < 9; ++c) {
+    const PiecewiseLinear& f = B.value[c];
+    PiecewiseLinear g{{0.0}, {f(t0)}};
+    for (std::size_t k = 0; k < f.t.size(); ++k)
+      if (f.t[k] > t0 && !near(f.t[k], t0)) {
+        g.t.push_back(f.t[k] - t0);
+        g.v.push_back(f.v[k]);
+      }
+    s.value[c] = g;
+  }
+  s.times.clear();
+  for (double t : B.times)
+    if (t > t0 && !near(t, t0)) s.times.push_back(t - t0);
+  return s;
+}
+
+struct Chain {
+  std::vector<int> members;  // indices into campaign.cases, each a prefix of the next
+  std::vector<bool> store;   // member must be (re)stored
+};
+
+std::string hms(double s) {
+  if (!(s >= 0) || !std::isfinite(s)) return "?";
+  const long t = std::lround(s);
+  char buf[32];
+  if (t >= 3600) std::snprintf(buf, sizeof buf, "%ldh%02ldm", t / 3600, (t / 60) % 60);
+  else if (t >= 60) std::snprintf(buf, sizeof buf, "%ldm%02lds", t / 60, t % 60);
+  else std::snprintf(buf, sizeof buf, "%.1fs", s);
+  return buf;
+}
+
+CaseRecord base_record(const CampaignCase& c) {
+  CaseRecord r;
+  r.id = c.id;
+  r.parameters = c.parameters;
+  r.scene_text = c.scene_text;
+  r.scene_hash = c.scene_hash;
+  r.columns = rve_response_columns();
+  return r;
+}
+
+void finish_record(CaseRecord& r, const std::vector<rve::RveStep>& steps) {
+  r.data.clear();
+  double newton = 0, krylov = 0, cutbacks = 0;
+  for (const auto& s : steps) {
+    const auto row = rve_response_row(s);
+    r.data.insert(r.data.end(), row.begin(), row.end());
+    newton += s.newton_iterations;
+    krylov += s.krylov_iterations;
+    cutbacks += s.cutbacks;
+  }
+  r.stats["steps"] = steps.empty() ? 0.0 : double(steps.size() - 1);
+  r.stats["newton_iterations"] = newton;
+  r.stats["krylov_iterations"] = krylov;
+  r.stats["cutbacks"] = cutbacks;
+}
+
+}  // namespace
+
+SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& dir, const SweepOptions& options) {
+  const auto start = Clock::now();
+  SweepReport report;
+  report.total = int(campaign.cases.size());
+  std::filesystem::create_directories(dir);
+  report.store = dir / "campaign.h5";
+  report.csv = dir / "cases.csv";
+
+  std::map<std::string, CaseRecord> records;
+  {
+    std::lock_guard<std::mutex> lock(hdf5_mutex());
+    records = read_store(report.store);
+  }
+  // What must run: absent, changed, or failed with --retry-failed.
+  std::vector<bool> todo(campaign.cases.size(), false);
+  for (std::size_t i = 0; i < campaign.cases.size(); ++i) {
+    const auto& c = campaign.cases[i];
+    const auto it = records.find(c.id);
+    todo[i] = it == records.end() || it->second.scene_hash != c.scene_hash ||
+              (options.retry_failed && it->second.status != "ok");
+    if (!todo[i]) ++report.skipped;
+  }
+
+  // Chains (deterministic from the campaign alone, so a resumed run computes each case the same way).
+  std::vector<Chain> chains;
+  const bool warm = options.warm_start && campaign.warm_start;
+  {
+    std::map<std::string, std::vector<int>> groups;
+    std::vector<std::string> group_order;
+    for (std::size_t i = 0; i < campaign.cases.size(); ++i) {
+      const auto& c = campaign.cases[i];
+      const std::string key = (warm && c.elastic) ? c.microstructure_hash : "single:" + c.id;
+      if (!groups.count(key)) group_order.push_back(key);
+      groups[key].push_back(int(i));
+    }
+    for (const auto& key : group_order) {
+      std::vector<int> members = groups[key];
+      std::stable_sort(members.begin(), members.end(), [&](int a, int b) {
+        return campaign.cases[a].control.times.back() < campaign.cases[b].control.times.back();
+      });
+      std::vector<Chain> local;
+      for (int m : members) {
+        bool placed = false;
+        for (auto& ch : local)
+          if (is_prefix(campaign.cases[ch.members.back()].control, campaign.cases[m].control)) {
+            ch.members.push_back(m);
+            placed = true;
+            break;
+          }
+        if (!placed) local.push_back(Chain{{m}, {}});
+      }
+      for (auto& ch : local) {
+        // Run up to the last member that must be stored; earlier finished members are recomputed
+        // (not stored) only to warm the later ones.
+        int last = -1;
+        for (std::size_t k = 0; k < ch.members.size(); ++k)
+          if (todo[ch.members[k]]) last = int(k);
+        if (last < 0) continue;
+        ch.members.resize(last + 1);
+        for (int m : ch.members) ch.store.push_back(todo[m]);
+        chains.push_back(std::move(ch));
+      }
+    }
+    std::stable_sort(chains.begin(), chains.end(),
+                     [](const Chain& a, const Chain& b) { return a.members.front() < b.members.front(); });
+  }
+
+  int to_run = 0;
+  for (const auto& ch : chains)
+    for (bool s : ch.store) to_run += s ? 1 : 0;
+  const int total_threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+  // Threads per case from the requested jobs, not from the work left: a resumed run then computes
+  // every case with the same thread count as an uninterrupted one (OpenMP sums are order dependent).
+  // jobs = 0: one single-threaded job per thread — on small cells OpenMP inside a case gains little,
+  // and on a loaded machine its spinning barriers cost far more (BENCHMARKS.md, Campaigns).
+  const int requested_jobs = options.jobs > 0 ? options.jobs : total_threads;
+  const int tpj = std::max(1, total_threads / requested_jobs);
+  const int jobs = std::max(1, std::min(requested_jobs, std::max(1, int(chains.size()))));
+  report.threads_per_job = tpj;
+  if (!options.quiet)
+    std::cerr << "[sweep] " << report.total << " cases: " << report.skipped << " already in the store, " << to_run
+              << " to run in " << chains.size() << " chains, " << jobs << " job(s) x " << tpj << " thread(s)"
+              << (warm ? ", warm starts on" : ", warm starts off") << "\n";
+
+  // Work queue of chains, results queue of records.
+  std::mutex mu;
+  std::condition_variable cv;
+  std::size_t next_chain = 0;
+  std::deque<CaseRecord> results;
+  std::atomic<bool> stop{false};
+  int running = 0, workers_alive = jobs;
+
+  auto worker = [&]() {
+    omp_set_num_threads(tpj);
+    while (true) {
+      std::size_t ci;
+      {
+        std::lock_guard<std::mutex> lock(mu);
+        if (stop || next_chain >= chains.size()) break;
+        ci = next_chain++;
+      }
+      const Chain& ch = chains[ci];
+      std::unique_ptr<rve::FftRveSolver> solver;
+      std::vector<rve::RveStep> prefix;  // steps of the previous chain member (warm state)
+      const CampaignCase* prev = nullptr;
+      for (std::size_t k = 0; k < ch.members.size() && !stop; ++k) {
+        const CampaignCase& c = campaign.cases[ch.members[k]];
+        if (ch.store[k]) {
+          std::lock_guard<std::mutex> lock(mu);
+          ++running;
+        }
+        CaseRecord r = base_record(c);
+        r.stats["threads"] = tpj;
+        const auto t0 = Clock::now();
+        std::vector<rve::RveStep> steps;
+        try {
+          rve::RveRunResult result;
+          if (solver && prev) {
+            // Continue from the previous member's converged end state.
+            const double t_prev = prev->control.times.back();
+            const MixedControl rest = shifted(c.control, t_prev);
+            result = solver->run(rest);
+            steps = prefix;
+            const std::size_t n_prev = prev->control.times.size();
+            for (std::size_t s = 1; s < result.steps.size(); ++s) {
+              rve::RveStep st = result.steps[s];
+              st.t = c.control.times[n_prev + s - 1];  // the exact output time of a cold run
+              steps.push_back(st);
+            }
+            r.info["warm_start_from"] = prev->id;
+          } else {
+            RveSceneSetup setup;
+            {
+              // Imported phase images are read with HDF5.
+              std::lock_guard<std::mutex> lock(hdf5_mutex());
+              setup = parse_rve_scene(c.scene);
+            }
+            setup.solver.plan.threads = tpj;
+            setup.solver.plan.wisdom_file.clear();  // FFTW keeps wisdom in memory across the cases
+            solver = std::make_unique<rve::FftRveSolver>(setup.image, setup.matrix, setup.fiber, setup.fiber_angle_deg,
+                                                         setup.control.frame, setup.solver);
+            r.stats["voxels"] = double(setup.image.voxels());
+            r.stats["volume_fraction_achieved"] = solver->achieved_volume_fraction();
+            r.stats["fft_planning_s"] = solver->planning_seconds();
+            r.info["geometry"] = setup.geometry_note;
+            r.info["fft"] = solver->fft_description();
+            result = solver->run(c.control);
+            steps = result.steps;
+          }
+          if (prev) {
+            r.stats["voxels"] = double(solver->grid().voxels());
+            r.stats["volume_fraction_achieved"] = solver->achieved_volume_fraction();
+          }
+          r.status = result.completed ? "ok" : "failed";
+          r.error = result.error;
+          for (const auto& line : result.log) r.info["log"] += line + "\n";
+          if (!result.completed) {
+            solver.reset();  // the next member starts cold
+            prefix.clear();
+            prev = nullptr;
+          } else {
+            prefix = steps;
+            prev = &c;
+          }
+        } catch (const std::exception& e) {
+          r.status = "failed";
+          r.error = e.what();
+          solver.reset();
+          prefix.clear();
+          prev = nullptr;
+        }
+        finish_record(r, steps);
+        r.stats["wall_time_s"] = std::chrono::duration<double>(Clock::now() - t0).count();
+        if (!ch.store[k]) continue;
+        std::lock_guard<std::mutex> lock(mu);
+        --running;
+        if (!stop) results.push_back(std::move(r));
+        cv.notify_all();
+      }
+    }
+    std::lock_guard<std::mutex> lock(mu);
+    --workers_alive;
+    cv.notify_all();
+  };
+
+  std::vector<std::thread> threads;
+  for (int j = 0; j < jobs; ++j) threads.emplace_back(worker);
+
+  auto write_outputs = [&] {
+    std::vector<const CaseRecord*> ordered;
+    // cases.csv follows the campaign order; store groups are sorted by id.
+    for (const auto& c : campaign.cases)
+      if (const auto it = records.find(c.id); it != records.end()) ordered.push_back(&it->second);
+    {
+      std::lock_guard<std::mutex> lock(hdf5_mutex());
+      write_store(report.store, records, campaign.description);
+    }
+    io::write_file_atomic(report.csv, cases_csv(ordered));
+  };
+  if (chains.empty()) write_outputs();  // a finished campaign: refresh cases.csv (e.g. after edits)
+
+  int committed = 0;
+  while (true) {
+    std::unique_lock<std::mutex> lock(mu);
+    cv.wait(lock, [&] { return !results.empty() || workers_alive == 0; });
+    if (results.empty() && workers_alive == 0) break;
+    std::vector<CaseRecord> batch;
+    while (!results.empty()) {
+      batch.push_back(std::move(results.front()));
+      results.pop_front();
+    }
+    const int now_running = running;
+    lock.unlock();
+    for (auto& r : batch) {
+      ++report.finished;
+      if (r.status != "ok") ++report.failed;
+      if (r.info.count("warm_start_from")) ++report.warm_started;
+      report.case_time_s += r.stats["wall_time_s"];
+      if (!options.quiet) {
+        std::cerr << "[sweep] " << r.id << ": " << r.status;
+        if (r.status != "ok") std::cerr << " (" << r.error << ")";
+        std::cerr << ", " << r.rows() << " rows, " << hms(r.stats["wall_time_s"])
+                  << (r.info.count("warm_start_from") ? ", warm from " + r.info["warm_start_from"] : "") << "\n";
+      }
+      records[r.id] = std::move(r);
+    }
+    write_outputs();
+    committed += int(batch.size());
+    if (!options.quiet) {
+      const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+      const int left = to_run - report.finished;
+      const double eta = report.finished > 0 ? elapsed / report.finished * left : -1.0;
+      std::cerr << "[sweep] done " << report.finished << "/" << to_run << " (failed " << report.failed << "), running "
+                << now_running << ", skipped " << report.skipped << " | elapsed " << hms(elapsed) << ", ETA "
+                << (left == 0 ? "0s" : hms(eta)) << "\n";
+    }
+    if (options.max_new_cases > 0 && committed >= options.max_new_cases) {
+      stop = true;  // a simulated kill: cases in flight are dropped
+      std::lock_guard<std::mutex> l2(mu);
+      results.clear();
+    }
+  }
+  for (auto& t : threads) t.join();
+  report.wall_time_s = std::chrono::duration<double>(Clock::now() - start).count();
+  return report;
+}
+
+}  // namespace softhom::studies
