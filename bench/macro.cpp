@@ -67,7 +67,6 @@ StructureSpec helix_spec(double dofs, double pressure) {
   p.Jm = 14.0;
   p.K = 2000.0;
   const double a = 45.0 * M_PI / 180.0;
-  p.tension_only = std::getenv("BENCH_BOTH_WAYS") == nullptr;
   p.fibers = {{Vec3(std::sin(a), std::cos(a), 0.0), 0.8, 18.0}, {Vec3(-std::sin(a), std::cos(a), 0.0), 0.8, 18.0}};
   spec.material = make_material(make_gent_hgo(p));
   spec.fiber_frame = FiberFrame::cylindrical;

@@ -4,6 +4,7 @@
 // solve is seconds). Usage:
 //   bench_rve_fe MATRIX LAMBDA STEPS "FE divisions" "FFT grids"
 //   e.g. bench_rve_fe pdms 1.5 5 "4 8 16 32 64" "16 32 64 128"
+//   optional 6th argument "square": square fibers 0.07 mm, VF 0.12 (the dissertation's sharp-corner cell)
 // FE division d: mesh_size = L/d, interface_size = L/(3d) (graded, quasi-uniform away from fibers).
 // The reference is extrapolated from the three finest FE meshes with their observed order
 // (h = √(area / elements)).
@@ -51,17 +52,19 @@ int main(int argc, char** argv) {
   const int steps = argc > 3 ? std::atoi(argv[3]) : 5;
   const std::vector<double> fe_div = numbers(argc > 4 ? argv[4] : "4 8 16 32");
   const std::vector<double> fft_n = numbers(argc > 5 ? argv[5] : "16 32 64");
+  const bool square = argc > 6 && std::string(argv[6]) == "square";
   FiberCellSpec spec;
-  spec.shape = SectionShape::circle;
+  spec.shape = square ? SectionShape::rectangle : SectionShape::circle;
   spec.radius = 0.2;
-  spec.volume_fraction = 0.23;
+  spec.width = spec.height = 0.07;
+  spec.volume_fraction = square ? 0.12 : 0.23;
   const Section section = generate_section(spec);
   const MaterialPtr matrix = build_material(preset_spec(matrix_name)), glass = build_material(preset_spec("glass"));
   MixedControl control = uniaxial_control(PiecewiseLinear{{0.0, 1.0}, {1.0, lambda}});
   control.times.clear();
   for (int k = 1; k <= steps; ++k) control.times.push_back(double(k) / steps);
-  std::printf("# matrix %s, glass fibers, VF 0.23, alpha 45, uniaxial lambda %.3g in %d steps\n", matrix_name.c_str(),
-              lambda, steps);
+  std::printf("# matrix %s, glass %s fibers, VF %.2f, alpha 45, uniaxial lambda %.3g in %d steps\n",
+              matrix_name.c_str(), square ? "square" : "circular", spec.volume_fraction, lambda, steps);
   std::vector<Row> rows;
   for (double d : fe_div) {
     const auto t0 = std::chrono::steady_clock::now();

@@ -21,6 +21,12 @@ void FeModel::validate() const {
     for (int d : g.dofs)
       if (d < 0 || d >= 3 * nn) throw InputError("dirichlet.dofs", std::to_string(d), "dof out of range");
   }
+  for (const auto& l : nodal_loads) {
+    if (l.scale.size() != l.dofs.size())
+      throw InputError("nodal_loads.scale", std::to_string(l.scale.size()), "must match the number of dofs");
+    for (int d : l.dofs)
+      if (d < 0 || d >= 3 * nn) throw InputError("nodal_loads.dofs", std::to_string(d), "dof out of range");
+  }
   auto check_faces = [&](const std::vector<Quad>& faces, const char* what) {
     for (const Quad& q : faces)
       for (int n : q)

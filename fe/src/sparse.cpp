@@ -117,6 +117,8 @@ class CholmodSolver final : public LinearSolver {
     // Always supernodal LLᵀ: a simplicial LDLᵀ would silently factorize an indefinite tangent
     // (past a limit point) instead of reporting it, and supernodal is faster on 3D meshes anyway.
     common_.supernodal = CHOLMOD_SUPERNODAL;
+    // "Not positive definite" is an expected outcome (the caller falls back to LU and logs it).
+    common_.print = 0;
     // Ordering: the smaller fill of AMD and METIS nested dissection. On tube meshes of 1e5 dofs AMD
     // gives ~9x the flops of METIS (424 vs 48 GFlop per factorization); on small or 2D meshes AMD
     // may win, and both orderings cost little next to one factorization.

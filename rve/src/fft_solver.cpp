@@ -18,7 +18,9 @@ namespace softhom::rve {
 using fft::Complex;
 
 const char* to_string(FftScheme s) { return s == FftScheme::newton_cg ? "newton-cg" : "moulinec-suquet"; }
-const char* to_string(ReferenceMedium r) { return r == ReferenceMedium::mean_tangent ? "mean-tangent" : "isotropic"; }
+const char* to_string(ReferenceMedium r) {
+  return r == ReferenceMedium::mean_tangent ? "mean-tangent" : r == ReferenceMedium::geometric ? "geometric" : "isotropic";
+}
 
 Mat3 grid_rotation(double fiber_angle_deg) {
   const double a = fiber_angle_deg * 3.14159265358979323846 / 180.0;
@@ -59,6 +61,8 @@ Mat9 isotropic_tangent(double lambda, double mu) {
 struct PassSums {
   Vec9 P = Vec9::Zero();
   Mat9 A = Mat9::Zero();
+  Mat9 phase_A[2] = {Mat9::Zero(), Mat9::Zero()};  // Σ w A over the pure voxels of each phase
+  double phase_A_w[2] = {0.0, 0.0};
   // per phase (0 matrix, 1 fiber): Σ w P, Σ w F, Σ w P Fᵀ (= J σ), Σ w J, Σ w
   Mat3 phase_P[2] = {Mat3::Zero(), Mat3::Zero()};
   Mat3 phase_F[2] = {Mat3::Zero(), Mat3::Zero()};
@@ -68,6 +72,10 @@ struct PassSums {
   void add(const PassSums& o) {
     P += o.P;
     A += o.A;
+    for (int x = 0; x < 2; ++x) {
+      phase_A[x] += o.phase_A[x];
+      phase_A_w[x] += o.phase_A_w[x];
+    }
     for (int x = 0; x < 2; ++x) {
       phase_P[x] += o.phase_P[x];
       phase_F[x] += o.phase_F[x];
@@ -385,6 +393,10 @@ struct FftRveSolver::Impl {
             s = mat[x]->evaluate(F, state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr,
                                  state_size[x] ? hist_new[x].data() + p * state_size[x] : nullptr, dt, P, A);
             if (s == MaterialStatus::ok && mixed[x]) pressure_correction(x, p, F, P, A);
+            if (s == MaterialStatus::ok && A && opt.reference == ReferenceMedium::geometric) {
+              local.phase_A[x] += w * (*A);
+              local.phase_A_w[x] += w;
+            }
             if (s == MaterialStatus::ok) {
               local.phase_P[x] += w * P;
               local.phase_F[x] += w * F;
@@ -605,7 +617,28 @@ struct FftRveSolver::Impl {
   }
 
   void set_reference() {
-    if (opt.reference == ReferenceMedium::mean_tangent && opt.scheme == FftScheme::newton_cg)
+    if (opt.reference == ReferenceMedium::geometric && opt.scheme == FftScheme::newton_cg &&
+        sums.phase_A_w[0] > 0.0 && sums.phase_A_w[1] > 0.0) {
+      // Isotropic projections of the phase-mean tangents: with a = Σ C_iikk and b = ½ Σ (C_ijij + C_ijji),
+      // an isotropic C has K = a/9, μ = (b − a/3)/10.
+      double K[2], mu[2];
+      for (int x = 0; x < 2; ++x) {
+        const Mat9 C = sums.phase_A[x] / sums.phase_A_w[x];
+        double a = 0.0, b = 0.0;
+        for (int i = 0; i < 3; ++i)
+          for (int k = 0; k < 3; ++k) a += C(4 * i, 4 * k);
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) b += 0.5 * (C(3 * i + j, 3 * i + j) + C(3 * i + j, 3 * j + i));
+        K[x] = a / 9.0;
+        mu[x] = (b - a / 3.0) / 10.0;
+      }
+      if (K[0] > 0.0 && K[1] > 0.0 && mu[0] > 0.0 && mu[1] > 0.0) {
+        const double K0 = std::sqrt(K[0] * K[1]), mu0 = std::sqrt(mu[0] * mu[1]);
+        C0 = isotropic_tangent(K0 - 2.0 / 3.0 * mu0, mu0);
+        return;
+      }
+    }
+    if (opt.reference != ReferenceMedium::isotropic && opt.scheme == FftScheme::newton_cg)
       C0 = 0.5 * (sums.A + sums.A.transpose());
     else
       C0 = isotropic_tangent(lambda_ref, mu_ref);

@@ -642,7 +642,9 @@ SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& 
               setup = parse_rve_scene(c.scene);
             }
             setup.solver.plan.threads = tpj;
-            setup.solver.plan.wisdom_file.clear();  // FFTW keeps wisdom in memory across the cases
+            // FFTW_MEASURE picks plans by timing, so two runs can differ in round-off; the campaign's
+            // wisdom file makes a resumed run reuse the plans of the first one (and skips measuring).
+            if (setup.solver.plan.wisdom_file.empty()) setup.solver.plan.wisdom_file = dir / "fftw.wisdom";
             solver = std::make_unique<rve::FftRveSolver>(setup.image, setup.matrix, setup.fiber, setup.fiber_angle_deg,
                                                          setup.control.frame, setup.solver);
             r.stats["voxels"] = double(setup.image.voxels());

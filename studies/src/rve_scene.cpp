@@ -117,7 +117,8 @@ rve::FftSolverOptions parse_fft_solver_options(const toml::table& scene, std::fi
   const std::string r = io::get_string_or(*t, "reference", p, "mean-tangent");
   if (r == "mean-tangent") o.reference = rve::ReferenceMedium::mean_tangent;
   else if (r == "isotropic") o.reference = rve::ReferenceMedium::isotropic;
-  else throw InputError(p + ".reference", r, "mean-tangent or isotropic");
+  else if (r == "geometric") o.reference = rve::ReferenceMedium::geometric;
+  else throw InputError(p + ".reference", r, "mean-tangent, geometric or isotropic");
   o.tolerance = io::get_number_or(*t, "tolerance", p, o.tolerance);
   if (!(o.tolerance > 0 && o.tolerance < 1)) throw InputError(p + ".tolerance", std::to_string(o.tolerance), "must lie in (0, 1)");
   o.krylov_tolerance = io::get_number_or(*t, "krylov_tolerance", p, o.krylov_tolerance);

@@ -25,6 +25,14 @@ struct PressureLoad {
   PiecewiseLinear pressure;
 };
 
+/// Dead (configuration-independent) nodal forces f_dof(t) = scale_k · value(t), e.g. the consistent
+/// nodal forces of a uniform traction on a face of the reference configuration.
+struct NodalLoad {
+  std::vector<int> dofs;
+  std::vector<double> scale;  ///< same size as dofs
+  PiecewiseLinear value = PiecewiseLinear::constant(0.0);
+};
+
 /// Cavity-volume control: the pressure on `faces` is an unknown, determined by the constraint that
 /// the enclosed volume equals volume_ratio(t) · V0. Passes pressure maxima (limit points).
 /// The cavity is closed by the faces and by planes on which (mask ⊙ x) · n = 0 (symmetry planes
@@ -42,6 +50,7 @@ struct FeModel {
   Formulation formulation = Formulation::fbar;
   std::vector<DirichletGroup> dirichlet;
   std::vector<PressureLoad> pressures;
+  std::vector<NodalLoad> nodal_loads;
   std::optional<CavityControl> cavity;
 
   /// Throws InputError on inconsistent sizes, bad node ids or invalid elements.

@@ -76,16 +76,21 @@ class Simulation {
   /// Statistics so far (linear-solver times of the current solver object).
   RunStats stats() const {
     RunStats s = stats_;
-    s.linear = linear_->times();
-    // Include a replaced solver's work (CHOLMOD before a switch to UMFPACK).
-    s.linear.analysis += linear_carry_.analysis;
-    s.linear.factorization += linear_carry_.factorization;
-    s.linear.solve += linear_carry_.solve;
-    s.linear.factorizations += linear_carry_.factorizations;
-    s.linear.solves += linear_carry_.solves;
-    s.linear.flops += linear_carry_.flops;
+    s.linear = SolverTimes{};
+    for (const auto* ls : {chol_.get(), lu_.get()}) {  // both factorizations' work
+      if (!ls) continue;
+      const SolverTimes& t = ls->times();
+      s.linear.analysis += t.analysis;
+      s.linear.factorization += t.factorization;
+      s.linear.solve += t.solve;
+      s.linear.factorizations += t.factorizations;
+      s.linear.solves += t.solves;
+      s.linear.flops += t.flops;
+      s.linear.factor_nnz = std::max(s.linear.factor_nnz, t.factor_nnz);
+    }
     return s;
   }
+  /// Factorization in use (the configured one before the first solve).
   SolverKind solver_kind() const;
   int num_free_dofs() const { return dofs_.num_free; }
   const FeModel& model() const { return model_; }
@@ -107,11 +112,12 @@ class Simulation {
   NewtonOptions options_;
   DofMap dofs_;
   CscMatrix K_;
-  std::unique_ptr<LinearSolver> linear_;
-  bool analyzed_ = false, factor_valid_ = false, factor_stale_ = false, factor_exact_ = false;
+  std::unique_ptr<LinearSolver> chol_, lu_;  ///< Cholesky of the symmetric part; LU (created on demand)
+  LinearSolver* linear_ = nullptr;            ///< the one holding the current factor
+  bool lu_this_step_ = false;                 ///< the symmetric part was indefinite in this step: LU
+  bool chol_analyzed_ = false, lu_analyzed_ = false, factor_valid_ = false, factor_stale_ = false, factor_exact_ = false;
   long k_version_ = 0, factor_version_ = -1;  ///< tangent assemblies; the one last factorized
   double last_factor_time_ = 0.0, last_factor_flops_ = 0.0;
-  SolverTimes linear_carry_;
   std::vector<Hex8Geometry> geometry_;
   std::vector<std::vector<int>> colors_;  ///< element colours: no shared node within one colour
   std::vector<std::array<long, 64>> block_;  ///< per element, node pair (a, b): K position of (a_0, b_0), −1 if absent

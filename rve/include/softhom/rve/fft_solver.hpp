@@ -36,7 +36,12 @@
 namespace softhom::rve {
 
 enum class FftScheme { newton_cg, moulinec_suquet };
-enum class ReferenceMedium { mean_tangent, isotropic };
+/// Reference medium of the preconditioner: mean_tangent = symmetrized volume average of the current
+/// tangents; geometric = isotropic medium with the geometric means of the phases' current bulk and
+/// shear moduli (isotropic projections of the phase-mean tangents), which centres the spectrum when one
+/// phase is stiffer in shear and the other in bulk (glass in ecoflex); isotropic = the fixed
+/// Moulinec–Suquet choice from the initial moduli.
+enum class ReferenceMedium { mean_tangent, isotropic, geometric };
 const char* to_string(FftScheme s);
 const char* to_string(ReferenceMedium r);
 
