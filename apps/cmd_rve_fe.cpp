@@ -34,8 +34,8 @@ rve::Section parse_section(const toml::table& t, double& target_vf, std::string&
                         "section_rotation_deg", "fiber_count", "min_gap", "seed", "fiber_angle_deg", "grid", "image"});
   if (t.contains("image"))
     throw InputError(p + ".image", "", "the FE engine needs a generated section (shape, arrangement, volume_fraction)");
-  rve::FiberCellSpec spec;
-  spec.volume_fraction = io::get_number_or(t, "volume_fraction", p, 0.0);
+  std::string label;
+  const rve::FiberCellSpec spec = studies::parse_fiber_cell_spec(t, p, label);
   target_vf = spec.volume_fraction;
   if (spec.volume_fraction == 0.0) {
     rve::Section s;
@@ -44,25 +44,8 @@ rve::Section parse_section(const toml::table& t, double& target_vf, std::string&
     note = "matrix only";
     return s;
   }
-  const std::string shape = io::get_string_or(t, "shape", p, "circle");
-  if (shape == "circle") spec.shape = rve::SectionShape::circle;
-  else if (shape == "rectangle" || shape == "square") spec.shape = rve::SectionShape::rectangle;
-  else throw InputError(p + ".shape", shape, "circle, rectangle or square");
-  const std::string arr = io::get_string_or(t, "arrangement", p, "square");
-  if (arr == "square") spec.arrangement = rve::Arrangement::square;
-  else if (arr == "hexagonal") spec.arrangement = rve::Arrangement::hexagonal;
-  else if (arr == "random") spec.arrangement = rve::Arrangement::random;
-  else throw InputError(p + ".arrangement", arr, "square, hexagonal or random");
-  spec.radius = io::get_number_or(t, "radius", p, 0.0);
-  spec.width = io::get_number_or(t, "width", p, 0.0);
-  spec.height = io::get_number_or(t, "height", p, shape == "square" ? spec.width : 0.0);
-  if (t.contains("cell_size")) spec.cell_size = io::get_number(t, "cell_size", p);
-  spec.section_rotation_deg = io::get_number_or(t, "section_rotation_deg", p, 0.0);
-  spec.fiber_count = int(io::get_number_or(t, "fiber_count", p, 1));
-  spec.min_gap = io::get_number_or(t, "min_gap", p, 0.0);
-  spec.seed = std::uint64_t(io::get_number_or(t, "seed", p, 1));
   const rve::Section s = rve::generate_section(spec, p);
-  note = shape + " fibers, " + arr + " arrangement, cell " + std::to_string(s.L1) + " x " + std::to_string(s.L2);
+  note = label + ", cell " + std::to_string(s.L1) + " x " + std::to_string(s.L2);
   return s;
 }
 

@@ -53,10 +53,8 @@ rve::PhaseImage build_phase_image_impl(const toml::table& t, double& target_vf, 
     geometry_note = "imported " + file + ":" + dataset;
     return im;
   }
-  rve::FiberCellSpec spec;
-  spec.volume_fraction = io::get_number_or(t, "volume_fraction", p, 0.0);
-  target_vf = spec.volume_fraction;
-  if (spec.volume_fraction == 0.0) {
+  target_vf = io::get_number_or(t, "volume_fraction", p, 0.0);
+  if (target_vf == 0.0) {
     rve::PhaseImage im;
     im.n = {n[0], n[1], n.size() == 3 ? n[2] : 1};
     const double h = 1.0 / n[0];
@@ -65,6 +63,22 @@ rve::PhaseImage build_phase_image_impl(const toml::table& t, double& target_vf, 
     geometry_note = "matrix only";
     return im;
   }
+  std::string label;
+  const rve::FiberCellSpec spec = parse_fiber_cell_spec(t, p, label);
+  const rve::Section section = rve::generate_section(spec, p);
+  // Square pixels: n2 follows the cell aspect ratio when only n1 matters.
+  rve::PhaseImage im = rve::voxelize_section(section, n[0], n[1]);
+  if (n.size() == 3 && n[2] > 1) im = rve::extrude(im, n[2]);
+  geometry_note = label + ", cell " + std::to_string(section.L1) + " x " +
+                  std::to_string(section.L2);
+  return im;
+}
+
+}  // namespace
+
+rve::FiberCellSpec parse_fiber_cell_spec(const toml::table& t, const std::string& p, std::string& label) {
+  rve::FiberCellSpec spec;
+  spec.volume_fraction = io::get_number_or(t, "volume_fraction", p, 0.0);
   const std::string shape = io::get_string_or(t, "shape", p, "circle");
   if (shape == "circle") spec.shape = rve::SectionShape::circle;
   else if (shape == "rectangle" || shape == "square") spec.shape = rve::SectionShape::rectangle;
@@ -82,16 +96,9 @@ rve::PhaseImage build_phase_image_impl(const toml::table& t, double& target_vf, 
   spec.fiber_count = int(io::get_number_or(t, "fiber_count", p, 1));
   spec.min_gap = io::get_number_or(t, "min_gap", p, 0.0);
   spec.seed = std::uint64_t(io::get_number_or(t, "seed", p, 1));
-  const rve::Section section = rve::generate_section(spec, p);
-  // Square pixels: n2 follows the cell aspect ratio when only n1 matters.
-  rve::PhaseImage im = rve::voxelize_section(section, n[0], n[1]);
-  if (n.size() == 3 && n[2] > 1) im = rve::extrude(im, n[2]);
-  geometry_note = shape + " fibers, " + arr + " arrangement, cell " + std::to_string(section.L1) + " x " +
-                  std::to_string(section.L2);
-  return im;
+  label = shape + " fibers, " + arr + " arrangement";
+  return spec;
 }
-
-}  // namespace
 
 rve::PhaseImage build_phase_image(const toml::table& t, double& target_vf, std::string& geometry_note) {
   return build_phase_image_impl(t, target_vf, geometry_note);

@@ -21,6 +21,10 @@ namespace softhom::studies {
 /// The phase image (grid frame) of a [microstructure] table; `target_vf` is the requested fraction,
 /// `geometry_note` a one-line description. Reads an imported image with io::read_dataset (HDF5: not
 /// thread-safe in the Debian build; callers running cases in threads serialise this).
+/// The generated-section keys of [microstructure] (shape, arrangement, volume_fraction, radius, width,
+/// height, cell_size, section_rotation_deg, fiber_count, min_gap, seed) as a cell description, shared
+/// by both RVE engines; `label` gets "<shape> fibers, <arrangement> arrangement".
+rve::FiberCellSpec parse_fiber_cell_spec(const toml::table& microstructure, const std::string& path, std::string& label);
 rve::PhaseImage build_phase_image(const toml::table& microstructure, double& target_vf, std::string& geometry_note);
 
 /// [solver] table → options (defaults when absent); `wisdom` receives solver.fftw_wisdom.
