@@ -24,6 +24,8 @@
 #include "softhom/rve/geometry.hpp"
 #include "softhom/studies/rve_scene.hpp"
 
+#include "rve_output.hpp"
+
 namespace softhom::app {
 namespace {
 
@@ -179,21 +181,9 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   const double alpha = io::get_number_or(*micro, "fiber_angle_deg", "microstructure", 0.0);
   const FeSettings settings = parse_fe_solver(scene.table, section.L1);
 
-  std::string fields_mode = "last";
-  std::vector<double> field_times;
-  bool microstructure_only = false;
-  if (const auto* out = scene.table["output"].as_table()) {
-    io::check_keys(*out, "output", {"fields", "microstructure_only"});
-    if (const auto* arr = (*out)["fields"].as_array()) {
-      fields_mode = "times";
-      for (const auto& e : *arr) field_times.push_back(e.value<double>().value_or(-1.0));
-    } else {
-      fields_mode = io::get_string_or(*out, "fields", "output", "last");
-      if (fields_mode != "none" && fields_mode != "last" && fields_mode != "all")
-        throw InputError("output.fields", fields_mode, "none, last, all or a list of times");
-    }
-    microstructure_only = (*out)["microstructure_only"].value_or(false);
-  }
+  const RveOutputSettings output = parse_rve_output(scene.table);
+  const std::string& fields_mode = output.fields_mode;
+  const bool microstructure_only = output.microstructure_only;
   MixedControl control;
   if (!microstructure_only) {
     const auto* load_table = scene.table["load"].as_table();
@@ -248,25 +238,12 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   const double t_end = control.times.back();
   std::unique_ptr<io::FieldWriter> writer;
   if (fields_mode != "none") writer = std::make_unique<io::FieldWriter>(options.out / "fields", fmesh);
-  auto want_fields = [&](double t) {
-    if (fields_mode == "all") return true;
-    if (fields_mode == "last") return std::abs(t - t_end) <= 1e-12 * std::max(1.0, t_end);
-    if (fields_mode == "times")
-      for (double ft : field_times)
-        if (std::abs(t - ft) <= 1e-9 * std::max(1.0, t_end)) return true;
-    return false;
-  };
+  auto want_fields = [&](double t) { return output.wants_fields(t, t_end); };
   io::CsvTable table(studies::rve_response_columns());
   nlohmann::json step_log = nlohmann::json::array();
   auto on_step = [&](const rve::RveStep& s, const rve::FeFields* f) {
     table.add_row(studies::rve_response_row(s));
-    step_log.push_back({{"t", s.t},
-                        {"newton_iterations", s.newton_iterations},
-                        {"krylov_iterations", s.krylov_iterations},
-                        {"substeps", s.substeps},
-                        {"cutbacks", s.cutbacks},
-                        {"residuals", s.residuals},
-                        {"wall_time_s", s.wall_seconds}});
+    step_log.push_back(rve_step_log_entry(s));
     if (f && writer) {
       writer->begin_step(s.t);
       writer->add("displacement", f->displacement, 3, io::Centering::node);

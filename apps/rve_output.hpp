@@ -1,0 +1,64 @@
+#pragma once
+// Output pieces shared by the two RVE engines' commands (cmd_rve.cpp: FFT, cmd_rve_fe.cpp: FE), so that
+// both write the same [output] semantics and the same summary.json step log.
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <toml++/toml.h>
+
+#include "softhom/io/scene.hpp"
+#include "softhom/materials/errors.hpp"
+#include "softhom/rve/fft_solver.hpp"
+
+namespace softhom::app {
+
+/// The [output] table of an RVE scene: which output times get fields, and whether to stop after
+/// writing the microstructure.
+struct RveOutputSettings {
+  std::string fields_mode = "last";  ///< none | last | all | times
+  std::vector<double> field_times;
+  bool microstructure_only = false;
+
+  bool wants_fields(double t, double t_end) const {
+    if (fields_mode == "all") return true;
+    if (fields_mode == "last") return std::abs(t - t_end) <= 1e-12 * std::max(1.0, t_end);
+    if (fields_mode == "times")
+      for (double ft : field_times)
+        if (std::abs(t - ft) <= 1e-9 * std::max(1.0, t_end)) return true;
+    return false;
+  }
+};
+
+inline RveOutputSettings parse_rve_output(const toml::table& scene) {
+  RveOutputSettings o;
+  if (const auto* out = scene["output"].as_table()) {
+    io::check_keys(*out, "output", {"fields", "microstructure_only"});
+    if (const auto* arr = (*out)["fields"].as_array()) {
+      o.fields_mode = "times";
+      for (const auto& e : *arr) o.field_times.push_back(e.value<double>().value_or(-1.0));
+    } else {
+      o.fields_mode = io::get_string_or(*out, "fields", "output", "last");
+      if (o.fields_mode != "none" && o.fields_mode != "last" && o.fields_mode != "all")
+        throw InputError("output.fields", o.fields_mode, "none, last, all or a list of times");
+    }
+    o.microstructure_only = io::get_bool_or(*out, "microstructure_only", "output", false);
+  }
+  return o;
+}
+
+/// One entry of summary.json "steps".
+inline nlohmann::json rve_step_log_entry(const rve::RveStep& s) {
+  return {{"t", s.t},
+          {"newton_iterations", s.newton_iterations},
+          {"krylov_iterations", s.krylov_iterations},
+          {"substeps", s.substeps},
+          {"cutbacks", s.cutbacks},
+          {"shifted_solves", s.shifted_solves},
+          {"residuals", s.residuals},
+          {"wall_time_s", s.wall_seconds}};
+}
+
+}  // namespace softhom::app
