@@ -13,6 +13,7 @@
 
 #include "softhom/fe/sparse.hpp"
 #include "softhom/materials/errors.hpp"
+#include "step_driver.hpp"
 
 namespace softhom::rve {
 namespace {
@@ -616,12 +617,7 @@ struct FeRveSolver::Impl {
     }
   }
 
-  struct StepOutcome {
-    bool ok = false;
-    std::string why;
-    int newton = 0, line_search_cuts = 0;
-    std::vector<double> residuals;
-  };
+  using StepOutcome = detail::SubstepOutcome;
 
   StepOutcome step(const MixedControl& control, double t_new, double dt) {
     StepOutcome out;
@@ -892,78 +888,32 @@ RveRunResult FeRveSolver::run(const MixedControl& control,
   m.set_control(free);
   if (m.evaluate(0.0, false, Vec9::Zero()) != MaterialStatus::ok) throw ConvergenceError("material call failed at F = I");
   const double angle0 = fiber_angle_deg(Mat3::Identity(), m.a0_load);
-  auto emit = [&](const RveStep& s, double dt) {
-    if (!on_step) return;
-    if (want_fields && want_fields(s.t)) {
-      const FeFields f = m.fields(dt);
-      on_step(s, &f);
-    } else {
-      on_step(s, nullptr);
+  struct Engine {
+    Impl& m;
+    const MixedControl& control;
+    double angle0;
+    const std::function<void(const RveStep&, const FeFields*)>& on_step;
+    const std::function<bool(double)>& want_fields;
+    detail::SubstepOutcome step(double t_new, double dt) { return m.step(control, t_new, dt); }
+    void commit(double) { m.commit(); }
+    void restore() { m.restore(); }
+    RveStep record(double t) const { return m.record(t, angle0); }
+    void emit(const RveStep& s, double dt) {
+      if (!on_step) return;
+      if (want_fields && want_fields(s.t)) {
+        const FeFields f = m.fields(dt);
+        on_step(s, &f);
+      } else {
+        on_step(s, nullptr);
+      }
     }
-  };
+  } engine{m, control, angle0, on_step, want_fields};
   {
     const RveStep s0 = m.record(0.0, angle0);
     result.steps.push_back(s0);
-    emit(s0, 0.0);
+    engine.emit(s0, 0.0);
   }
-  double t = 0.0, t_prev_out = 0.0, last_dt = 0.0;
-  for (double t_out : control.times) {
-    const auto step_start = Clock::now();
-    const double interval = t_out - t_prev_out;
-    double dt = interval;
-    int successes = 0;
-    RveStep agg;
-    Impl::StepOutcome last;
-    bool failed = false;
-    while (t < t_out - 1e-12 * std::max(1.0, t_out)) {
-      const double dt_try = std::min(dt, t_out - t);
-      const double t_new = (t + dt_try >= t_out - 1e-12 * std::max(1.0, t_out)) ? t_out : t + dt_try;
-      Impl::StepOutcome o = m.step(control, t_new, t_new - t);
-      agg.newton_iterations += o.newton;
-      if (o.ok) {
-        m.commit();
-        last_dt = t_new - t;
-        t = t_new;
-        ++agg.substeps;
-        last = std::move(o);
-        if (++successes >= 2 && dt < interval) {
-          dt = std::min(2.0 * dt, interval);
-          successes = 0;
-        }
-      } else {
-        m.restore();
-        ++agg.cutbacks;
-        ++result.cutbacks;
-        successes = 0;
-        std::ostringstream msg;
-        msg << "t = " << t << " → " << t_new << ": " << o.why << "; cutting back (dt " << dt_try << " → "
-            << dt_try / 2 << ")";
-        result.log.push_back(msg.str());
-        dt = dt_try / 2.0;
-        if (dt < interval / std::ldexp(1.0, m.opt.max_cutbacks)) {
-          result.error = "step to t = " + std::to_string(t_out) + " failed after " + std::to_string(m.opt.max_cutbacks) +
-                         " cut-backs: " + o.why;
-          failed = true;
-          break;
-        }
-      }
-    }
-    result.total_newton_iterations += agg.newton_iterations;
-    if (failed) break;
-    RveStep s = m.record(t_out, angle0);
-    s.newton_iterations = agg.newton_iterations;
-    s.substeps = agg.substeps;
-    s.cutbacks = agg.cutbacks;
-    s.residuals = last.residuals;
-    s.wall_seconds = std::chrono::duration<double>(Clock::now() - step_start).count();
-    if (!(s.F.allFinite() && s.P.allFinite() && s.sigma.allFinite())) {
-      result.error = "non-finite homogenized state at t = " + std::to_string(t_out);
-      break;
-    }
-    result.steps.push_back(s);
-    emit(s, last_dt);
-    t_prev_out = t_out;
-  }
+  detail::run_output_steps(control, m.opt.max_cutbacks, engine, result);
   result.completed = result.error.empty();
   result.wall_seconds = std::chrono::duration<double>(Clock::now() - run_start).count();
   return result;

@@ -1,0 +1,99 @@
+#pragma once
+// The output-step loop shared by the FFT and FE RVE engines: each output interval of the control is
+// reached by sub-steps that start at the full interval, halve after a failed sub-step (the engine
+// restores its committed state) and double again after two successes; a step that still fails after
+// `max_cutbacks` halvings ends the run with its reason. Every cut-back is logged.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "softhom/materials/loading.hpp"
+#include "softhom/rve/fft_solver.hpp"
+
+namespace softhom::rve::detail {
+
+/// Result of one sub-step attempt of an engine.
+struct SubstepOutcome {
+  bool ok = false;
+  std::string why;
+  int newton = 0, krylov = 0, line_search_cuts = 0, shifted_solves = 0;
+  std::vector<double> residuals;
+};
+
+/// `engine` provides: SubstepOutcome step(double t_new, double dt); void commit(double dt);
+/// void restore(); RveStep record(double t); void emit(const RveStep&, double last_dt).
+/// Appends the output steps (after t = 0) to `result` and sets its totals and error.
+template <class Engine>
+void run_output_steps(const MixedControl& control, int max_cutbacks, Engine& engine, RveRunResult& result) {
+  using Clock = std::chrono::steady_clock;
+  double t = 0.0, t_prev_out = 0.0, last_dt = 0.0;
+  for (double t_out : control.times) {
+    const auto step_start = Clock::now();
+    const double interval = t_out - t_prev_out;
+    const double t_eps = 1e-12 * std::max(1.0, t_out);
+    double dt = interval;
+    int successes = 0;
+    RveStep agg;
+    SubstepOutcome last;
+    bool failed = false;
+    while (t < t_out - t_eps) {
+      const double dt_try = std::min(dt, t_out - t);
+      const double t_new = (t + dt_try >= t_out - t_eps) ? t_out : t + dt_try;
+      SubstepOutcome o = engine.step(t_new, t_new - t);
+      agg.newton_iterations += o.newton;
+      agg.krylov_iterations += o.krylov;
+      agg.shifted_solves += o.shifted_solves;
+      result.shifted_solves += o.shifted_solves;
+      if (o.ok) {
+        last_dt = t_new - t;
+        engine.commit(last_dt);
+        t = t_new;
+        ++agg.substeps;
+        last = std::move(o);
+        if (++successes >= 2 && dt < interval) {
+          dt = std::min(2.0 * dt, interval);
+          successes = 0;
+        }
+      } else {
+        engine.restore();
+        ++agg.cutbacks;
+        ++result.cutbacks;
+        successes = 0;
+        std::ostringstream msg;
+        msg << "t = " << t << " → " << t_new << ": " << o.why << "; cutting back (dt " << dt_try << " → "
+            << dt_try / 2 << ")";
+        result.log.push_back(msg.str());
+        dt = dt_try / 2.0;
+        if (dt < interval / std::ldexp(1.0, max_cutbacks)) {
+          result.error = "step to t = " + std::to_string(t_out) + " failed after " + std::to_string(max_cutbacks) +
+                         " cut-backs: " + o.why;
+          failed = true;
+          break;
+        }
+      }
+    }
+    result.total_newton_iterations += agg.newton_iterations;
+    result.total_krylov_iterations += agg.krylov_iterations;
+    if (failed) break;
+    RveStep s = engine.record(t_out);
+    s.newton_iterations = agg.newton_iterations;
+    s.krylov_iterations = agg.krylov_iterations;
+    s.shifted_solves = agg.shifted_solves;
+    s.substeps = agg.substeps;
+    s.cutbacks = agg.cutbacks;
+    s.residuals = last.residuals;
+    s.wall_seconds = std::chrono::duration<double>(Clock::now() - step_start).count();
+    if (!(s.F.allFinite() && s.P.allFinite() && s.sigma.allFinite())) {
+      result.error = "non-finite homogenized state at t = " + std::to_string(t_out);
+      break;
+    }
+    result.steps.push_back(s);
+    engine.emit(s, last_dt);
+    t_prev_out = t_out;
+  }
+}
+
+}  // namespace softhom::rve::detail
