@@ -829,7 +829,7 @@ struct FftRveSolver::Impl {
       had_prescribed_step = !prescribed_reached || (it == 0 && full_first_step);
     }
     out.why = "no convergence in " + std::to_string(max_it) + " Newton iterations (residual " + std::to_string(err) + ")";
-    if (std::getenv("SOFTHOM_DEBUG_NEWTON")) { for (double e : out.residuals) fprintf(stderr, " %.2e", e); fprintf(stderr, " stress scale %.3e\n", stress_scale(free, P_target)); }
+    if (std::getenv("SOFTHOM_DEBUG_NEWTON")) { for (double e : out.residuals) fprintf(stderr, " %.2e", e); fprintf(stderr, " stress scale %.3e shifted %d ls-cuts %d krylov %d\n", stress_scale(free, P_target), out.shifted_solves, out.line_search_cuts, out.krylov); }
     return out;
   }
 
