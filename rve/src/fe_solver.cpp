@@ -908,14 +908,7 @@ RveRunResult FeRveSolver::run(const MixedControl& control,
       }
     }
   } engine{m, control, angle0, on_step, want_fields};
-  {
-    const RveStep s0 = m.record(0.0, angle0);
-    result.steps.push_back(s0);
-    engine.emit(s0, 0.0);
-  }
-  detail::run_output_steps(control, m.opt.max_cutbacks, engine, result);
-  result.completed = result.error.empty();
-  result.wall_seconds = std::chrono::duration<double>(Clock::now() - run_start).count();
+  detail::run_output_steps(control, m.opt.max_cutbacks, engine, result, run_start);
   return result;
 }
 

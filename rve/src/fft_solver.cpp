@@ -126,7 +126,7 @@ struct FftRveSolver::Impl {
   bool linearized_pressure = false;                // evaluate with p from the last linearization
   double predictor_ratio = -1.0;                   // ≥ 0: predictor, p = p_committed + ratio · dp_last
   std::vector<double> p_trial, p_committed, dp_last;  // per point pressures of the mixed iteration
-  std::vector<double> lin_cur, lin_next, lin_committed;  // per point: c = W_V″ cof F (9), s (1): p(F) = s + c:F
+  std::vector<double> lin_cur, lin_next;  // per point: c = W_V″ cof F (9), s (1): p(F) = s + c:F
   std::vector<double> dP_full;                     // per point: P_full − P̂ (9)
   double achieved_vf = 0.0;
 
@@ -209,7 +209,6 @@ struct FftRveSolver::Impl {
     if (mixed_active) {
       lin_cur.assign(10 * NP, 0.0);
       lin_next.assign(10 * NP, 0.0);
-      lin_committed.assign(10 * NP, 0.0);
       p_trial.assign(NP, 0.0);
       p_committed.assign(NP, 0.0);
       dp_last.assign(NP, 0.0);
@@ -476,7 +475,7 @@ struct FftRveSolver::Impl {
   /// Leaves P_full in the real buffer and its mean in sums.P.
   double evaluate_residual(const std::array<bool, 9>& free, const Vec9& P_target, KVec& r) {
     residual(free, P_target, r);
-    if (!(mixed_active && linearized_pressure)) return residual_norm(r, free, P_target);
+    if (!mixed_active) return residual_norm(r, free, P_target);
     residual_norm(r, free, P_target);
     const double merit_hat = merit;
     Vec9 mean = Vec9::Zero();
@@ -504,9 +503,8 @@ struct FftRveSolver::Impl {
   void accept_linearization() {
     if (mixed_active) lin_cur.swap(lin_next);
   }
-  void commit_linearization(bool track_increment) {
+  void commit_pressures(bool track_increment) {
     if (!mixed_active) return;
-    lin_committed = lin_cur;
     for (std::size_t p = 0; p < NP; ++p) {
       dp_last[p] = track_increment ? p_trial[p] - p_committed[p] : 0.0;
       p_committed[p] = p_trial[p];
@@ -709,13 +707,10 @@ struct FftRveSolver::Impl {
     std::vector<Complex> u_prev;
     Mat3 Fbar_prev = Fbar, step_macro = Mat3::Zero();
     bool had_prescribed_step = false;
-    // Every iterate, the predictor included, takes its pressure from the linearization at the last
-    // accepted state (the converged one for the predictor): the exact W_V′(J) of an extrapolated
-    // state carries O(K θ²) errors that make the tangent indefinite.
-    if (mixed_active) {
-      lin_cur = lin_committed;
-      linearized_pressure = true;
-    }
+    // The predictor takes the extrapolated pressure (or, at the committed state, the exact W_V′(J),
+    // which is what the linearization there would give); every later iterate takes its pressure from
+    // the linearization at the last accepted state (see pressure_correction()).
+    linearized_pressure = false;
     double lm_shift = 0.0;
     bool full_first_step = false;
     for (int it = 0; it <= max_it; ++it) {
@@ -749,6 +744,7 @@ struct FftRveSolver::Impl {
         }
         accept_linearization();
         err = evaluate_residual(free, P_target, r);
+        linearized_pressure = mixed_active;
       } else {
         const double merit_old = merit;
         double scale = 1.0;
@@ -829,7 +825,6 @@ struct FftRveSolver::Impl {
       had_prescribed_step = !prescribed_reached || (it == 0 && full_first_step);
     }
     out.why = "no convergence in " + std::to_string(max_it) + " Newton iterations (residual " + std::to_string(err) + ")";
-    if (std::getenv("SOFTHOM_DEBUG_NEWTON")) { for (double e : out.residuals) fprintf(stderr, " %.2e", e); fprintf(stderr, " stress scale %.3e shifted %d ls-cuts %d krylov %d\n", stress_scale(free, P_target), out.shifted_solves, out.line_search_cuts, out.krylov); }
     return out;
   }
 
@@ -885,7 +880,7 @@ struct FftRveSolver::Impl {
     lam_a = lam_a_trial;
     for (int x = 0; x < 2; ++x)
       if (state_size[x]) hist_old[x].swap(hist_new[x]);
-    commit_linearization(true);
+    commit_pressures(true);
   }
   void restore() {
     u = u_committed;
@@ -984,7 +979,7 @@ RveRunResult FftRveSolver::run(const MixedControl& control,
   if (m.evaluate_points(m.to_grid(m.Fbar), 0.0, m.opt.scheme == FftScheme::newton_cg) != MaterialStatus::ok)
     throw ConvergenceError("material call failed at F = I");
   m.accept_linearization();
-  m.commit_linearization(false);
+  m.commit_pressures(false);
   const double angle0 = fiber_angle_deg(Mat3::Identity(), m.a0_load);
   struct Engine {
     Impl& m;
@@ -1006,14 +1001,7 @@ RveRunResult FftRveSolver::run(const MixedControl& control,
       }
     }
   } engine{m, control, angle0, on_step, want_fields};
-  {
-    const RveStep s0 = m.record(0.0, angle0);
-    result.steps.push_back(s0);
-    engine.emit(s0, 0.0);
-  }
-  detail::run_output_steps(control, m.opt.max_cutbacks, engine, result);
-  result.completed = result.error.empty();
-  result.wall_seconds = std::chrono::duration<double>(Clock::now() - run_start).count();
+  detail::run_output_steps(control, m.opt.max_cutbacks, engine, result, run_start);
   return result;
 }
 

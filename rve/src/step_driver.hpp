@@ -24,11 +24,18 @@ struct SubstepOutcome {
 };
 
 /// `engine` provides: SubstepOutcome step(double t_new, double dt); void commit(double dt);
-/// void restore(); RveStep record(double t); void emit(const RveStep&, double last_dt).
-/// Appends the output steps (after t = 0) to `result` and sets its totals and error.
+/// void restore(); RveStep record(double t); void emit(const RveStep&, double last_dt), and is
+/// evaluated at t = 0 already. Records and emits t = 0, then every output step; sets the totals,
+/// error, completion flag and wall time (from `run_start`) of `result`.
 template <class Engine>
-void run_output_steps(const MixedControl& control, int max_cutbacks, Engine& engine, RveRunResult& result) {
+void run_output_steps(const MixedControl& control, int max_cutbacks, Engine& engine, RveRunResult& result,
+                      std::chrono::steady_clock::time_point run_start) {
   using Clock = std::chrono::steady_clock;
+  {
+    const RveStep s0 = engine.record(0.0);
+    result.steps.push_back(s0);
+    engine.emit(s0, 0.0);
+  }
   double t = 0.0, t_prev_out = 0.0, last_dt = 0.0;
   for (double t_out : control.times) {
     const auto step_start = Clock::now();
@@ -94,6 +101,8 @@ void run_output_steps(const MixedControl& control, int max_cutbacks, Engine& eng
     engine.emit(s, last_dt);
     t_prev_out = t_out;
   }
+  result.completed = result.error.empty();
+  result.wall_seconds = std::chrono::duration<double>(Clock::now() - run_start).count();
 }
 
 }  // namespace softhom::rve::detail
