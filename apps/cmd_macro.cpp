@@ -2,13 +2,21 @@
 //
 // Scene layout (every key checked; errors name the TOML path):
 //   [geometry] type = "tube" | "sphere" | "plate" | "actuator", sizes and cell counts (see
-//              macro/geometry.hpp), plane_strain, fiber_frame = "global" | "cylindrical" | "spherical"
+//              macro/geometry.hpp), plane_strain, fiber_frame = "global" | "cylindrical" | "spherical",
+//              elements = "hex8" | "tet10" (generated hexes split into quadratic tets);
+//              or type = "gmsh", file = "mesh.msh" (MSH 4.1, relative to the scene file)
+//   gmsh only: [[boundary]] surface = "<physical surface>", fix = ["x", "y", "z"] (u_i = 0);
+//              [load] surface = "<name>" or ["a", "b"] (follower pressure / cavity), cavity_mask = [1, 1, 0];
+//              [probe] surface = "<name>" (mean displacement in response.csv);
+//              [regions.<physical volume>] a material table for that region ([material] elsewhere)
 //   [material] (io::parse_material; fibers given in the fiber frame), [material_lower] for actuators
 //   [load]     control = "pressure" | "volume" | "stretch", path = [[t, value], ...], steps = N
 //   [solver]   tolerance, max_iterations, max_cutbacks, substeps, formulation, linear_solver, verbose
 //   [output]   fields = true
 #include <chrono>
 #include <iostream>
+
+#include "softhom/fe/gmsh.hpp"
 
 #include "commands.hpp"
 #include "scene_source.hpp"
@@ -54,8 +62,82 @@ struct MacroScene {
   bool fields = true;
 };
 
-MacroScene parse_macro_scene(const toml::table& scene) {
-  io::check_keys(scene, "", {"description", "geometry", "material", "material_lower", "load", "solver", "output"});
+std::vector<std::string> string_list(const toml::node_view<const toml::node>& node, const std::string& field) {
+  std::vector<std::string> out;
+  if (const auto v = node.value<std::string>()) {
+    out.push_back(*v);
+  } else if (const auto* arr = node.as_array()) {
+    for (const auto& e : *arr) {
+      const auto v = e.value<std::string>();
+      if (!v) throw InputError(field, "", "entries must be strings");
+      out.push_back(*v);
+    }
+  } else if (node) {
+    throw InputError(field, "", "expected a string or an array of strings");
+  }
+  return out;
+}
+
+Vec3 vec3_of(const toml::node_view<const toml::node>& node, const std::string& field) {
+  const auto* arr = node.as_array();
+  if (!arr || arr->size() != 3) throw InputError(field, "", "need three numbers");
+  Vec3 v;
+  for (int d = 0; d < 3; ++d) {
+    const auto x = (*arr)[d].value<double>();
+    if (!x) throw InputError(field, "", "entries must be numbers");
+    v[d] = *x;
+  }
+  return v;
+}
+
+/// [geometry] type = "gmsh": the mesh, constraints on physical surfaces and region materials.
+void parse_imported(const toml::table& scene, const toml::table& g, const std::filesystem::path& scene_file,
+                    macro::StructureSpec& s) {
+  s.kind = macro::StructureKind::imported;
+  const std::string file = io::get_string_or(g, "file", "geometry", "");
+  if (file.empty()) throw InputError("geometry.file", "", "a gmsh geometry needs file = \"mesh.msh\"");
+  std::filesystem::path path(file);
+  if (path.is_relative() && !scene_file.empty()) path = scene_file.parent_path() / path;
+  if (!std::filesystem::exists(path)) throw InputError("geometry.file", path.string(), "no such file");
+  auto& im = s.imported;
+  im.mesh = fe::read_gmsh(path);
+  if (const auto* arr = scene["boundary"].as_array()) {
+    for (std::size_t k = 0; k < arr->size(); ++k) {
+      const std::string field = "boundary[" + std::to_string(k) + "]";
+      const auto* t = (*arr)[k].as_table();
+      if (!t) throw InputError(field, "", "expected [[boundary]] tables");
+      io::check_keys(*t, field, {"surface", "fix"});
+      macro::ImportedSpec::Fix f;
+      f.surface = io::get_string_or(*t, "surface", field, "");
+      if (f.surface.empty()) throw InputError(field + ".surface", "", "missing physical surface name");
+      for (const std::string& c : string_list((*t)["fix"], field + ".fix")) {
+        if (c != "x" && c != "y" && c != "z") throw InputError(field + ".fix", c, "components are \"x\", \"y\", \"z\"");
+        f.components[c[0] - 'x'] = true;
+      }
+      im.fixed.push_back(f);
+    }
+  } else if (scene["boundary"]) {
+    throw InputError("boundary", "", "expected [[boundary]] tables");
+  }
+  if (const auto* probe = scene["probe"].as_table()) {
+    io::check_keys(*probe, "probe", {"surface"});
+    im.probe_surface = io::get_string_or(*probe, "surface", "probe", "");
+  }
+  if (const auto* regions = scene["regions"].as_table())
+    for (const auto& [name, node] : *regions) {
+      const std::string field = "regions." + std::string(name.str());
+      const auto* t = node.as_table();
+      if (!t) throw InputError(field, "", "expected a material table");
+      if (std::find(im.mesh.region_names.begin(), im.mesh.region_names.end(), std::string(name.str())) ==
+          im.mesh.region_names.end())
+        throw InputError(field, "", "no physical volume of that name in " + path.string());
+      im.region_materials[std::string(name.str())] = build_material(io::parse_material(*t, field));
+    }
+}
+
+MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::path& scene_file = {}) {
+  io::check_keys(scene, "", {"description", "geometry", "material", "material_lower", "load", "solver", "output",
+                             "boundary", "probe", "regions"});
   MacroScene m;
   auto& s = m.spec;
   const auto* g = scene["geometry"].as_table();
@@ -64,7 +146,7 @@ MacroScene parse_macro_scene(const toml::table& scene) {
   io::check_keys(*g, "geometry",
                  {"type", "inner_radius", "outer_radius", "length", "radial_cells", "circumferential_cells",
                   "axial_cells", "sweep_deg", "cap_thickness", "cap_axial_cells", "cap_core_cells", "plane_strain",
-                  "thickness", "patch_cells", "size", "cells", "fiber_frame"});
+                  "thickness", "patch_cells", "size", "cells", "fiber_frame", "elements", "file"});
   if (type == "tube" || type == "actuator") {
     s.kind = type == "tube" ? macro::StructureKind::tube : macro::StructureKind::actuator;
     auto& t = s.tube;
@@ -95,9 +177,19 @@ MacroScene parse_macro_scene(const toml::table& scene) {
       s.plate.size[d] = (*size)[d].value<double>().value_or(-1.0);
       s.plate.cells[d] = int((*cells)[d].value<double>().value_or(0.0));
     }
+  } else if (type == "gmsh") {
+    parse_imported(scene, *g, scene_file, s);
   } else {
-    throw InputError("geometry.type", type, "expected tube, sphere, plate or actuator");
+    throw InputError("geometry.type", type, "expected tube, sphere, plate, actuator or gmsh");
   }
+  if (type != "gmsh" && (scene["boundary"] || scene["probe"] || scene["regions"]))
+    throw InputError(scene["boundary"] ? "boundary" : scene["probe"] ? "probe" : "regions", "",
+                     "only for geometry.type = \"gmsh\"");
+  const std::string elements = io::get_string_or(*g, "elements", "geometry", "hex8");
+  if (elements == "tet10") s.tet10 = true;
+  else if (elements != "hex8") throw InputError("geometry.elements", elements, "expected hex8 or tet10");
+  if (type == "gmsh" && g->contains("elements"))
+    throw InputError("geometry.elements", elements, "an imported mesh keeps its own elements");
   const std::string frame = io::get_string_or(*g, "fiber_frame", "geometry", "global");
   if (frame == "global") s.fiber_frame = macro::FiberFrame::global;
   else if (frame == "cylindrical") s.fiber_frame = macro::FiberFrame::cylindrical;
@@ -112,7 +204,13 @@ MacroScene parse_macro_scene(const toml::table& scene) {
 
   const auto* load = scene["load"].as_table();
   if (!load) throw InputError("load", "", "missing [load] table");
-  io::check_keys(*load, "load", {"control", "path", "steps"});
+  io::check_keys(*load, "load", {"control", "path", "steps", "surface", "cavity_mask"});
+  if (s.kind == macro::StructureKind::imported) {
+    s.imported.load_surfaces = string_list((*load)["surface"], "load.surface");
+    if ((*load)["cavity_mask"]) s.imported.cavity_mask = vec3_of((*load)["cavity_mask"], "load.cavity_mask");
+  } else if (load->contains("surface") || load->contains("cavity_mask")) {
+    throw InputError("load.surface", "", "only for geometry.type = \"gmsh\" (generated structures load their cavity)");
+  }
   const std::string control = io::get_string_or(*load, "control", "load", "");
   if (control == "pressure") s.control = macro::LoadControl::pressure;
   else if (control == "volume") s.control = macro::LoadControl::volume;
@@ -151,8 +249,16 @@ MacroScene parse_macro_scene(const toml::table& scene) {
 io::UnstructuredMesh field_mesh(const fe::Mesh& mesh) {
   io::UnstructuredMesh out;
   for (const Vec3& x : mesh.nodes) out.coordinates.insert(out.coordinates.end(), {x[0], x[1], x[2]});
+  if (!mesh.hexes.empty() && !mesh.tets.empty())
+    throw InputError("output.fields", "true", "field output of meshes mixing hexahedra and tetrahedra is not supported");
   for (const fe::Hex& h : mesh.hexes) out.connectivity.insert(out.connectivity.end(), h.begin(), h.end());
-  out.cell_type = io::CellType::hexa8;
+  for (const fe::Tet10& t : mesh.tets) {
+    // XDMF/VTK Tetrahedron_10 orders the last two mid-edge nodes differently (tet10.hpp).
+    long vtk[10];
+    for (int a = 0; a < 10; ++a) vtk[fe::kTet10ToVtk[a]] = t[a];
+    out.connectivity.insert(out.connectivity.end(), vtk, vtk + 10);
+  }
+  out.cell_type = mesh.tets.empty() ? io::CellType::hexa8 : io::CellType::tetra10;
   return out;
 }
 
@@ -172,12 +278,13 @@ void write_fields(io::FieldWriter& w, const fe::Simulation& sim) {
 int run_macro(const CommandOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   const LoadedScene scene = load_scene_or_default(options, "macro_tube_plane_strain");
-  MacroScene ms = parse_macro_scene(scene.table);
+  MacroScene ms = parse_macro_scene(scene.table, scene.file);
   const macro::Structure structure = macro::build_structure(ms.spec);
   fe::Simulation sim(structure.model, ms.newton);
   const std::string tag = "[macro " + scene.name + "] ";
   if (!options.quiet)
-    std::cerr << tag << structure.model.mesh.num_elements() << " hex8, " << sim.num_free_dofs() << " free dofs, "
+    std::cerr << tag << structure.model.mesh.num_hexes() << " hex8 + " << structure.model.mesh.tets.size() << " tet10, "
+              << sim.num_free_dofs() << " free dofs, "
               << fe::to_string(sim.solver_kind()) << "\n";
 
   io::CsvTable table(macro::probe_names(structure));

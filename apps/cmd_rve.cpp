@@ -71,12 +71,27 @@ int run_rve(const CommandOptions& options) {
   std::filesystem::create_directories(options.out);
 
   if (microstructure_only) {
-    io::FieldWriter writer(options.out / "fields", voxel_grid(image));
-    writer.begin_step(0.0);
-    writer.add("fiber_fraction", image.fiber_fraction, 1, io::Centering::cell);
-    writer.end_step();
-    writer.close();
+    // microstructure.h5 + .xdmf: datasets at the root that [microstructure.image] reads back exactly
+    // (dataset = "/fiber_fraction", normal_dataset = "/interface_normal"), plus a binary phase-id image
+    // ("/phase", uint8, fiber where the fraction is >= 1/2) for other codes.
+    std::vector<io::VoxelImageDataset> sets;
+    io::VoxelImageDataset phase{"phase", {}, 1, true};
+    phase.values.reserve(image.voxels());
+    for (double f : image.fiber_fraction) phase.values.push_back(f >= 0.5 ? 1.0 : 0.0);
+    sets.push_back(std::move(phase));
+    sets.push_back({"fiber_fraction", image.fiber_fraction, 1, false});
+    auto flat = [](const std::vector<Eigen::Vector3d>& a) {
+      std::vector<double> v;
+      v.reserve(3 * a.size());
+      for (const auto& x : a)
+        for (int c = 0; c < 3; ++c) v.push_back(std::isfinite(x[c]) ? x[c] : 0.0);
+      return v;
+    };
+    if (image.normal.size() == image.voxels()) sets.push_back({"interface_normal", flat(image.normal), 3, false});
+    if (image.fiber_direction.size() == image.voxels()) sets.push_back({"fiber_direction", flat(image.fiber_direction), 3, false});
+    io::write_voxel_image(options.out / "microstructure", voxel_grid(image), sets);
     nlohmann::json summary = io::summary_base("rve", scene.file, scene.table);
+    summary["files"] = {"microstructure.h5", "microstructure.xdmf"};
     summary["microstructure_only"] = true;
     summary["grid"] = image.n;
     summary["cell_size"] = image.size;
@@ -84,7 +99,7 @@ int run_rve(const CommandOptions& options) {
     summary["volume_fraction_achieved"] = image.volume_fraction();
     summary["geometry"] = geometry_note;
     io::write_summary(options.out, summary);
-    if (!options.quiet) std::cerr << "softhom rve: microstructure written to " << (options.out / "fields.xdmf").string() << "\n";
+    if (!options.quiet) std::cerr << "softhom rve: microstructure written to " << (options.out / "microstructure.xdmf").string() << "\n";
     return 0;
   }
 

@@ -2,14 +2,20 @@
 // T6 section mesh (rve/fe_solver.hpp). Same scene tables and the same response.csv columns and
 // summary.json keys as the FFT engine (plus mesh statistics), so curves overlay directly.
 //
-// FE [solver] keys: engine, mesh_size (element size away from the fibers, length unit of the scene;
-// default cell side / 16), interface_size (at the fiber boundaries; default mesh_size / 3), grading,
-// min_angle_deg, curved_interfaces, tolerance, max_newton_iterations, max_cutbacks, mixed_pressure,
-// pressure ("p1": P2+bubble / discontinuous P1, default; "p0": P2/P0), linear_solver ("cholmod" |
-// "umfpack"). [microstructure].grid is ignored (it is the FFT resolution).
+// FE [solver] keys: engine, fe_mesh ("section": T6 section mesh, default; "3d": periodic Tet10 cell
+// mesh, fluctuations in all three directions), mesh_size (element size away from the fibers, length
+// unit of the scene; default cell side / 16 for the section, / 6 in 3D), interface_size (at the fiber
+// boundaries; default mesh_size / 3, / 2 in 3D), grading, min_angle_deg, curved_interfaces,
+// corner_refinement, corner_exponent (section: graded refinement toward rectangular-fiber corners),
+// length (3D: cell length along the fibers, default the cell side), tolerance,
+// max_newton_iterations, max_cutbacks, mixed_pressure, pressure ("p1": P2+bubble / discontinuous
+// P1, section default; "p0": P2/P0, the only 3D option), linear_solver ("cholmod" | "umfpack").
+// [microstructure].grid is ignored (it is the FFT resolution).
 #include "cmd_rve_fe.hpp"
 
+#include <array>
 #include <chrono>
+#include <memory>
 #include <cmath>
 #include <iostream>
 #include <sstream>
@@ -20,6 +26,7 @@
 #include "softhom/io/summary.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/library.hpp"
+#include "softhom/fe/tet10.hpp"
 #include "softhom/rve/fe_solver.hpp"
 #include "softhom/rve/geometry.hpp"
 #include "softhom/studies/rve_scene.hpp"
@@ -52,28 +59,47 @@ rve::Section parse_section(const toml::table& t, double& target_vf, std::string&
 }
 
 struct FeSettings {
+  bool three_d = false;
   rve::SectionMeshOptions mesh;
+  rve::CellMeshOptions mesh3d;
   rve::FeSolverOptions solver;
 };
 
 FeSettings parse_fe_solver(const toml::table& scene, double L1) {
   FeSettings f;
   f.mesh.mesh_size = L1 / 16.0;
+  f.mesh.interface_size = f.mesh.mesh_size / 3.0;
   const auto* t = scene["solver"].as_table();
   if (!t) return f;
   const std::string p = "solver";
-  io::check_keys(*t, p, {"engine", "mesh_size", "interface_size", "grading", "min_angle_deg", "curved_interfaces",
-                         "tolerance", "max_newton_iterations", "max_cutbacks", "mixed_pressure", "pressure",
-                         "linear_solver"});
+  io::check_keys(*t, p, {"engine", "fe_mesh", "mesh_size", "interface_size", "grading", "min_angle_deg",
+                         "curved_interfaces", "corner_refinement", "corner_exponent", "length", "tolerance",
+                         "max_newton_iterations", "max_cutbacks", "mixed_pressure", "pressure", "linear_solver"});
+  const std::string kind = io::get_string_or(*t, "fe_mesh", p, "section");
+  if (kind == "3d") f.three_d = true;
+  else if (kind != "section") throw InputError(p + ".fe_mesh", kind, "section (T6 cross-section mesh) or 3d (Tet10 cell mesh)");
+  if (f.three_d) f.mesh.mesh_size = L1 / 6.0;
   f.mesh.mesh_size = io::get_number_or(*t, "mesh_size", p, f.mesh.mesh_size);
   if (!(f.mesh.mesh_size > 0.0)) throw InputError(p + ".mesh_size", std::to_string(f.mesh.mesh_size), "must be positive");
-  f.mesh.interface_size = io::get_number_or(*t, "interface_size", p, f.mesh.mesh_size / 3.0);
+  f.mesh.interface_size = io::get_number_or(*t, "interface_size", p, f.mesh.mesh_size / (f.three_d ? 2.0 : 3.0));
   if (!(f.mesh.interface_size > 0.0))
     throw InputError(p + ".interface_size", std::to_string(f.mesh.interface_size), "must be positive");
   f.mesh.grading = io::get_number_or(*t, "grading", p, f.mesh.grading);
   if (!(f.mesh.grading > 0.0)) throw InputError(p + ".grading", std::to_string(f.mesh.grading), "must be positive");
   f.mesh.min_angle_deg = io::get_number_or(*t, "min_angle_deg", p, f.mesh.min_angle_deg);
   f.mesh.curved_interfaces = (*t)["curved_interfaces"].value_or(true);
+  f.mesh.corner_refinement = (*t)["corner_refinement"].value_or(true);
+  f.mesh.corner_exponent = io::get_number_or(*t, "corner_exponent", p, f.mesh.corner_exponent);
+  if (!(f.mesh.corner_exponent > 0.0 && f.mesh.corner_exponent < 1.0))
+    throw InputError(p + ".corner_exponent", std::to_string(f.mesh.corner_exponent), "must lie in (0, 1)");
+  f.mesh3d.mesh_size = f.mesh.mesh_size;
+  f.mesh3d.interface_size = f.mesh.interface_size;
+  f.mesh3d.grading = f.mesh.grading;
+  f.mesh3d.curved_interfaces = f.mesh.curved_interfaces;
+  f.mesh3d.length = io::get_number_or(*t, "length", p, 0.0);
+  if (t->contains("length") && !f.three_d) throw InputError(p + ".length", "", "only with fe_mesh = \"3d\"");
+  if (t->contains("length") && !(f.mesh3d.length > 0.0))
+    throw InputError(p + ".length", std::to_string(f.mesh3d.length), "must be positive");
   f.solver.tolerance = io::get_number_or(*t, "tolerance", p, f.solver.tolerance);
   if (!(f.solver.tolerance > 0 && f.solver.tolerance < 1))
     throw InputError(p + ".tolerance", std::to_string(f.solver.tolerance), "must lie in (0, 1)");
@@ -82,7 +108,8 @@ FeSettings parse_fe_solver(const toml::table& scene, double L1) {
   f.solver.max_cutbacks = int(io::get_number_or(*t, "max_cutbacks", p, f.solver.max_cutbacks));
   if (f.solver.max_cutbacks < 0) throw InputError(p + ".max_cutbacks", "", "must be >= 0");
   f.solver.mixed_pressure = (*t)["mixed_pressure"].value_or(true);
-  const std::string pr = io::get_string_or(*t, "pressure", p, "p1");
+  const std::string pr = io::get_string_or(*t, "pressure", p, f.three_d ? "p0" : "p1");
+  if (pr == "p1" && f.three_d) throw InputError(p + ".pressure", pr, "the 3D tetrahedral mesh supports p0 (P2/P0) only");
   if (pr == "p1") f.solver.pressure = rve::FePressure::p1_bubble;
   else if (pr == "p0") f.solver.pressure = rve::FePressure::p0;
   else throw InputError(p + ".pressure", pr, "p1 (P2+bubble / discontinuous P1) or p0 (P2/P0)");
@@ -102,6 +129,21 @@ io::UnstructuredMesh field_mesh(const rve::SectionMesh& m) {
   }
   for (const auto& e : m.elements)
     for (int a : e) u.connectivity.push_back(a);
+  return u;
+}
+
+/// 3D cell mesh: the unwrapped periodic copies are written as they are (the cell appears with
+/// jagged faces, each element once), Tet10 in the VTK/XDMF node order.
+io::UnstructuredMesh field_mesh(const rve::CellMesh& m) {
+  io::UnstructuredMesh u;
+  u.cell_type = io::CellType::tetra10;
+  for (const auto& x : m.nodes)
+    for (int c = 0; c < 3; ++c) u.coordinates.push_back(x[c]);
+  for (const auto& e : m.elements) {
+    std::array<int, 10> v;
+    for (int a = 0; a < 10; ++a) v[fe::kTet10ToVtk[a]] = e[a];
+    for (int a : v) u.connectivity.push_back(a);
+  }
   return u;
 }
 
@@ -193,32 +235,71 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   std::filesystem::create_directories(options.out);
 
   const auto mesh_start = std::chrono::steady_clock::now();
-  rve::SectionMesh mesh = rve::mesh_section(section, settings.mesh);
-  const double mesh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - mesh_start).count();
-  const rve::SectionMeshQuality& q = mesh.quality;
-  nlohmann::json mesh_json = {{"elements", mesh.num_elements()},
-                              {"nodes", mesh.num_nodes()},
-                              {"vertices", mesh.vertices},
-                              {"element_type", "T6 (6-node triangle, curved interfaces)"},
-                              {"mesh_size", settings.mesh.mesh_size},
-                              {"interface_size", settings.mesh.interface_size},
-                              {"min_angle_deg", q.min_angle_deg},
-                              {"max_angle_deg", q.max_angle_deg},
-                              {"min_radius_ratio", q.min_radius_ratio},
-                              {"mean_radius_ratio", q.mean_radius_ratio},
-                              {"min_edge", q.min_edge},
-                              {"max_edge", q.max_edge},
-                              {"refinement_passes", q.refinement_passes},
-                              {"mirrored_boundary_points", q.mirrored_points},
-                              {"max_pairing_error", q.max_pairing_error},
-                              {"fiber_area_error", q.fiber_area_error},
-                              {"mesh_time_s", mesh_seconds}};
-  const io::UnstructuredMesh fmesh = field_mesh(mesh);
+  nlohmann::json mesh_json;
+  io::UnstructuredMesh fmesh;
+  std::vector<int> phase;
+  double fiber_measure = 0.0, cell_measure = section.L1 * section.L2;
+  std::unique_ptr<rve::SectionMesh> mesh2d;
+  std::unique_ptr<rve::CellMesh> mesh3d;
+  if (!settings.three_d) {
+    mesh2d = std::make_unique<rve::SectionMesh>(rve::mesh_section(section, settings.mesh));
+    const rve::SectionMesh& mesh = *mesh2d;
+    const rve::SectionMeshQuality& q = mesh.quality;
+    mesh_json = {{"elements", mesh.num_elements()},
+                 {"nodes", mesh.num_nodes()},
+                 {"vertices", mesh.vertices},
+                 {"element_type", "T6 (6-node triangle, curved interfaces)"},
+                 {"mesh_size", settings.mesh.mesh_size},
+                 {"interface_size", settings.mesh.interface_size},
+                 {"min_angle_deg", q.min_angle_deg},
+                 {"max_angle_deg", q.max_angle_deg},
+                 {"min_radius_ratio", q.min_radius_ratio},
+                 {"mean_radius_ratio", q.mean_radius_ratio},
+                 {"min_edge", q.min_edge},
+                 {"max_edge", q.max_edge},
+                 {"refinement_passes", q.refinement_passes},
+                 {"mirrored_boundary_points", q.mirrored_points},
+                 {"max_pairing_error", q.max_pairing_error},
+                 {"fiber_area_error", q.fiber_area_error},
+                 {"refined_corners", q.refined_corners},
+                 {"min_corner_size", q.min_corner_size}};
+    fmesh = field_mesh(mesh);
+    phase = mesh.phase;
+    fiber_measure = mesh.area(1);
+  } else {
+    mesh3d = std::make_unique<rve::CellMesh>(rve::mesh_cell(section, settings.mesh3d));
+    const rve::CellMesh& mesh = *mesh3d;
+    const rve::CellMeshQuality& q = mesh.quality;
+    mesh_json = {{"elements", mesh.num_elements()},
+                 {"nodes", mesh.num_nodes()},
+                 {"vertices", mesh.vertices},
+                 {"element_type", "Tet10 (10-node tetrahedron, curved interfaces)"},
+                 {"cell_length", mesh.L3},
+                 {"mesh_size", settings.mesh3d.mesh_size},
+                 {"interface_size", settings.mesh3d.interface_size},
+                 {"min_dihedral_deg", q.min_dihedral_deg},
+                 {"max_dihedral_deg", q.max_dihedral_deg},
+                 {"min_radius_ratio", q.min_radius_ratio},
+                 {"mean_radius_ratio", q.mean_radius_ratio},
+                 {"min_edge", q.min_edge},
+                 {"max_edge", q.max_edge},
+                 {"periodic_copies", q.periodic_copies},
+                 {"max_pairing_error", q.max_pairing_error},
+                 {"fiber_volume_error", q.fiber_volume_error},
+                 {"aspect_stretch", q.aspect_stretch}};
+    fmesh = field_mesh(mesh);
+    phase = mesh.phase;
+    fiber_measure = mesh.volume(1);
+    cell_measure *= mesh.L3;
+  }
+  mesh_json["mesh_time_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - mesh_start).count();
+  const int num_elements = int(phase.size());
+  const char* element_name = settings.three_d ? "Tet10" : "T6";
 
   if (microstructure_only) {
     io::FieldWriter writer(options.out / "fields", fmesh);
     writer.begin_step(0.0);
-    writer.add("phase", std::span<const int>(mesh.phase), io::Centering::cell);
+    writer.add("phase", std::span<const int>(phase), io::Centering::cell);
     writer.end_step();
     writer.close();
     nlohmann::json summary = io::summary_base("rve", scene.file, scene.table);
@@ -226,7 +307,7 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
     summary["microstructure_only"] = true;
     summary["cell_size"] = {section.L1, section.L2};
     summary["volume_fraction_target"] = target_vf;
-    summary["volume_fraction_achieved"] = (mesh.area(1)) / (section.L1 * section.L2);
+    summary["volume_fraction_achieved"] = fiber_measure / cell_measure;
     summary["geometry"] = geometry_note;
     summary["mesh"] = mesh_json;
     io::write_summary(options.out, summary);
@@ -234,7 +315,10 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
     return 0;
   }
 
-  rve::FeRveSolver solver(std::move(mesh), matrix, fiber, alpha, control.frame, settings.solver);
+  std::unique_ptr<rve::FeRveSolver> solver_ptr =
+      mesh2d ? std::make_unique<rve::FeRveSolver>(std::move(*mesh2d), matrix, fiber, alpha, control.frame, settings.solver)
+             : std::make_unique<rve::FeRveSolver>(std::move(*mesh3d), matrix, fiber, alpha, control.frame, settings.solver);
+  rve::FeRveSolver& solver = *solver_ptr;
   const double t_end = control.times.back();
   std::unique_ptr<io::FieldWriter> writer;
   if (fields_mode != "none") writer = std::make_unique<io::FieldWriter>(options.out / "fields", fmesh);
@@ -281,8 +365,9 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   summary["matrix"] = matrix->describe();
   summary["fiber"] = fiber->describe();
   summary["load"] = control.name;
-  summary["discretization"] = settings.solver.pressure == rve::FePressure::p0 ? "fe-t6-p0" : "fe-t6+bubble-p1";
-  summary["quadrature_points"] = 6;
+  summary["discretization"] = settings.three_d ? "fe-tet10-p0"
+                             : settings.solver.pressure == rve::FePressure::p0 ? "fe-t6-p0" : "fe-t6+bubble-p1";
+  summary["quadrature_points"] = settings.three_d ? 4 : 6;
   summary["solver"] = std::string("newton-") + solver.linear_solver();
   summary["reference_medium"] = nullptr;
   summary["tolerance"] = settings.solver.tolerance;
@@ -311,7 +396,7 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
     return 1;
   }
   if (!options.quiet)
-    std::cerr << "softhom rve (fe): " << solver.mesh().num_elements() << " T6 elements, " << result.steps.size() - 1
+    std::cerr << "softhom rve (fe): " << num_elements << " " << element_name << " elements, " << result.steps.size() - 1
               << " steps, " << result.total_newton_iterations << " Newton iterations, " << result.wall_seconds << " s → "
               << options.out.string() << "\n";
   return 0;

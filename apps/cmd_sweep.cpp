@@ -46,6 +46,7 @@ int run_sweep(const CommandOptions& options) {
   summary["finished"] = r.finished;
   summary["failed_now"] = r.failed;
   summary["warm_started"] = r.warm_started;
+  summary["newton_iterations"] = r.newton_iterations;  // computed now; a shared load path counts once
   summary["jobs"] = options.jobs;
   summary["threads_per_job"] = r.threads_per_job;
   summary["case_time_s"] = r.case_time_s;

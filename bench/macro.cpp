@@ -7,6 +7,13 @@
 //     --threads LIST   comma-separated OpenMP thread counts to run each size with (default 2)
 //     --solver S       auto | cholmod | umfpack (default auto: the symmetric-preconditioned path)
 //     --pressure P     final pressure [MPa] (default 0.01, the ecoflex scenes)
+//   bench_macro --orderings DOFS...    CHOLMOD symbolic analysis only (no factorization): fill nnz(L),
+//                                      flops per factorization and analysis time for AMD, METIS and
+//                                      NESDIS on the tube's stiffness pattern (what the direct solver
+//                                      would cost at 1e6 DOFs without running it)
+//   bench_macro --kernel [N]           micro benchmark of the hex8 kernel: µs per element evaluation
+//                                      (residual + F-bar/three-field tangent) and per material call, on a
+//                                      distorted, loaded element of the helix material, N repetitions
 //
 // The tube is the one of studies/scenes/macro_tube_helix45_ecoflex.toml (R_i 5, R_o 7.5, L 50 mm,
 // cap 2.5 mm, ecoflex-anisotropic with fibers at ±45° from the axis, clamped at z = 0, follower
@@ -14,13 +21,18 @@
 // the order given, so the peak memory column (VmHWM) is that of the largest run so far.
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
+#include <stdexcept>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <cholmod.h>
 
 #include "softhom/io/files.hpp"
 #include "softhom/macro/structures.hpp"
@@ -75,6 +87,98 @@ StructureSpec helix_spec(double dofs, double pressure) {
   return spec;
 }
 
+/// µs per call of the element kernel (one thread), of the residual only and of the 8 material calls.
+int kernel_benchmark(int n) {
+  const StructureSpec spec = helix_spec(1e4, 0.01);
+  const Material& m = *spec.material;
+  fe::Mat83 X;
+  const double sign[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1}, {-1, -1, 1}, {1, -1, 1}, {1, 1, 1}, {-1, 1, 1}};
+  for (int a = 0; a < 8; ++a)
+    for (int i = 0; i < 3; ++i) X(a, i) = 0.25 * sign[a][i] + 0.02 * std::sin(3.0 * a + 7.0 * i);  // distorted
+  const fe::Hex8Geometry g = fe::hex8_geometry(X);
+  Mat3 F;
+  F << 1.25, 0.08, -0.03, 0.05, 0.9, 0.04, -0.02, 0.06, 0.93;  // loaded: stretch + shear, fibers in tension
+  fe::Mat83 u;
+  for (int a = 0; a < 8; ++a) u.row(a) = ((F - Mat3::Identity()) * X.row(a).transpose()).transpose() + 0.003 * Vec3(std::cos(a), std::sin(2.0 * a), std::cos(5.0 * a)).transpose();
+  fe::Vec24 r;
+  fe::Mat24 K;
+  Mat3 sigma, P;
+  Mat9 A;
+  double sink = 0.0;
+  auto time_it = [&](auto&& body) {
+    body();  // warm up
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::clock_t c0 = std::clock();
+    for (int k = 0; k < n; ++k) body();
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / n * 1e6;
+    const double cpu = double(std::clock() - c0) / CLOCKS_PER_SEC / n * 1e6;
+    return std::pair<double, double>{wall, cpu};
+  };
+  auto element = [&](bool tangent) {
+    fe::MixedVolume mv;
+    mv.bulk = m.volumetric_modulus();
+    mv.theta = 1.01;
+    mv.p = 0.3;
+    const MaterialStatus st = fe::hex8_internal_force(g, u, m, nullptr, nullptr, 0.0, fe::Formulation::fbar, r,
+                                                      tangent ? &K : nullptr, tangent ? &sigma : nullptr, &mv);
+    if (st != MaterialStatus::ok) throw std::runtime_error("kernel benchmark: material call failed");
+    sink += r[0] + (tangent ? K(3, 5) : 0.0);
+  };
+  const auto kt = time_it([&] { element(true); });
+  const auto kr = time_it([&] { element(false); });
+  const auto mt = time_it([&] {
+    for (int q = 0; q < 8; ++q) {
+      m.evaluate(F * (1.0 + 1e-3 * q), nullptr, nullptr, 0.0, P, &A);
+      sink += A(0, 0);
+    }
+  });
+  std::printf("# hex8 kernel (F-bar, three-field, helix Gent+HGO material), %d repetitions, one thread\n", n);
+  std::printf("  element residual + tangent : %8.2f us wall %8.2f us cpu\n", kt.first, kt.second);
+  std::printf("  element residual only      : %8.2f us wall %8.2f us cpu\n", kr.first, kr.second);
+  std::printf("  8 material calls (P, A)    : %8.2f us wall %8.2f us cpu\n", mt.first, mt.second);
+  std::printf("  checksum |K| = %.12e (sink %g)\n", K.norm(), sink);
+  return 0;
+}
+
+/// Symbolic CHOLMOD analysis of the tube's free-dof pattern with one ordering at a time.
+void ordering_benchmark(double target) {
+  const Structure s = build_structure(helix_spec(target, 0.01));
+  const fe::Mesh& mesh = s.model.mesh;
+  std::vector<char> constrained(mesh.num_dofs(), 0);
+  for (const auto& g : s.model.dirichlet)
+    for (int d : g.dofs) constrained[d] = 1;
+  const fe::DofMap dofs = fe::DofMap::from_constrained(mesh.num_dofs(), constrained);
+  const fe::CscMatrix K = fe::build_pattern(mesh, dofs);
+  std::vector<int> colptr(K.n + 1, 0), rows;
+  for (int c = 0; c < K.n; ++c) {
+    for (int k = K.colptr[c]; k < K.colptr[c + 1]; ++k)
+      if (K.rowind[k] <= c) rows.push_back(K.rowind[k]);
+    colptr[c + 1] = int(rows.size());
+  }
+  const std::pair<int, const char*> methods[] = {{CHOLMOD_AMD, "AMD"}, {CHOLMOD_METIS, "METIS"}, {CHOLMOD_NESDIS, "NESDIS"}};
+  for (const auto& [ordering, name] : methods) {
+    cholmod_common cm;
+    cholmod_start(&cm);
+    cm.supernodal = CHOLMOD_SUPERNODAL;
+    cm.nmethods = 1;
+    cm.method[0].ordering = ordering;
+    cm.postorder = 1;
+    cholmod_sparse* A = cholmod_allocate_sparse(K.n, K.n, rows.size(), 1, 1, 1, CHOLMOD_PATTERN, &cm);
+    std::copy(colptr.begin(), colptr.end(), static_cast<int*>(A->p));
+    std::copy(rows.begin(), rows.end(), static_cast<int*>(A->i));
+    const auto t0 = std::chrono::steady_clock::now();
+    cholmod_factor* L = cholmod_analyze(A, &cm);
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::printf("  %8d %7d %-7s | nnz(L) %9.2f M  %9.2f GFlop/factorization  L %8.0f MiB  analysis %6.2f s  peak %6.0f MiB\n",
+                K.n, mesh.num_elements(), name, cm.lnz / 1e6, cm.fl / 1e9, cm.lnz * 8.0 / (1 << 20), t,
+                double(io::peak_memory_bytes()) / (1 << 20));
+    std::fflush(stdout);
+    if (L) cholmod_free_factor(&L, &cm);
+    cholmod_free_sparse(&A, &cm);
+    cholmod_finish(&cm);
+  }
+}
+
 std::vector<std::string> split(const std::string& s) {
   std::vector<std::string> out;
   std::stringstream in(s);
@@ -93,6 +197,12 @@ int main(int argc, char** argv) {
   std::vector<double> sizes;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    if (a == "--orderings") {
+      std::printf("# CHOLMOD symbolic analysis of the helix tube (free dofs, elements, ordering)\n");
+      for (int k = i + 1; k < argc; ++k) ordering_benchmark(std::atof(argv[k]));
+      return 0;
+    }
+    if (a == "--kernel") return kernel_benchmark(i + 1 < argc ? std::atoi(argv[i + 1]) : 20000);
     if (a == "--steps" && i + 1 < argc) steps = std::atoi(argv[++i]);
     else if (a == "--pressure" && i + 1 < argc) pressure = std::atof(argv[++i]);
     else if (a == "--threads" && i + 1 < argc) {

@@ -4,21 +4,35 @@
 //   bench_rve contrast [n ...]     fiber/matrix shear contrast 10 … 1e6, one load step λ = 1.05
 //   bench_rve bulk [n ...]         matrix K/G 10 … 1.2e5 at contrast 230, λ = 1.5 in 8 steps, mixed (u,p)
 //                                  Newton iteration on and off
-//   bench_rve fftcost n            cost of one Krylov iteration vs a 9·nq-field FFT round trip
+//   bench_rve fftcost [disc ...] [grid ...]
+//                                  cost of one Krylov iteration (time in the linear solves / iterations)
+//                                  vs the FFT round trip of the fields the solver transforms and of all
+//                                  9·nq fields, memory per voxel, 1 and 2 threads in one run. grid: "256"
+//                                  (256² section) or "64x64x64"; disc: rotated|hex|spectral (default all)
+//   bench_rve timeerror pdms|ecoflex 2|3 [disc ...] [n ...]
+//                                  time (CPU and wall) versus error of P11 at λ = 1.5 (preset materials,
+//                                  as bench_rve_fe) on n² sections (2) or n³ cells (3, the section extruded),
+//                                  error against the FE reference and against each discretization's own
+//                                  Richardson extrapolation; cheapest setting reaching 1 % and 0.1 %
 //   bench_rve resolution pdms|ecoflex [n ...]
 //                                  time versus error of P11 at λ = 1.5 (8 steps) for each discretization,
 //                                  error against the Richardson extrapolation of the two finest grids
 #include <omp.h>
+#include <time.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <string>
 #include <vector>
 
 #include "softhom/fft/gradient.hpp"
+#include "softhom/io/files.hpp"
 #include "softhom/materials/laws.hpp"
+#include "softhom/materials/library.hpp"
 #include "softhom/rve/fft_solver.hpp"
 #include "softhom/rve/geometry.hpp"
 
@@ -35,6 +49,36 @@ PhaseImage circle_cell(int n) {
   spec.radius = 0.2;
   return voxelize_section(generate_section(spec), n, n);
 }
+
+double cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+/// Resident set size now (VmRSS), bytes.
+std::size_t resident_bytes() {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::size_t(std::atol(line.c_str() + 6)) * 1024;
+  return 0;
+}
+
+/// "256" → 256² section; "64x64x64" → 64³.
+fft::Grid parse_grid(const std::string& s) {
+  int a = 0, b = 0, c = 0;
+  if (std::sscanf(s.c_str(), "%dx%dx%d", &a, &b, &c) == 3) return fft::Grid{{a, b, c}, {1.0, 1.0, double(c) / a}};
+  a = std::atoi(s.c_str());
+  return fft::Grid{{a, a, 1}, {1.0, 1.0, 1.0 / a}};
+}
+
+PhaseImage cell_image(const fft::Grid& g) {
+  const PhaseImage section = circle_cell(g.n[0]);
+  return g.n[2] > 1 ? extrude(section, g.n[2]) : section;
+}
+
+bool is_discretization(const std::string& s) { return s == "rotated" || s == "hex" || s == "spectral"; }
 
 MixedControl ramp(double lambda, int steps) {
   MixedControl c = uniaxial_control(PiecewiseLinear{{0.0, 1.0}, {1.0, lambda}});
@@ -78,10 +122,26 @@ int main(int argc, char** argv) {
           solve_and_print("contrast", c, n, d, make_material(make_neo_hookean({1.0, 10.0})),
                           make_material(make_neo_hookean({c, 10.0 * c})));
   } else if (mode == "bulk") {
-    // Matrix Gent G = 0.017, Jm = 14, K = KG · G; glass fiber (contrast ≈ 230).
-    for (double kg : {10.0, 1e2, 1e3, 1e4, 1.2e5})
+    // Matrix Gent G = 0.017, Jm = 14, K = KG · G; glass fiber (contrast ≈ 230). Optional arguments
+    // "kg=V" (K/G values, default 10 … 1.2e5) and "mixed" (mixed iteration only).
+    std::vector<double> kgs;
+    bool mixed_only = false;
+    sizes.clear();
+    for (int i = 2; i < argc; ++i) {
+      const std::string a = argv[i];
+      if (a.rfind("kg=", 0) == 0)
+        kgs.push_back(std::atof(a.c_str() + 3));
+      else if (a == "mixed")
+        mixed_only = true;
+      else
+        sizes.push_back(std::atoi(a.c_str()));
+    }
+    if (kgs.empty()) kgs = {10.0, 1e2, 1e3, 1e4, 1.2e5};
+    if (sizes.empty()) sizes = {32};
+    for (double kg : kgs)
       for (int n : sizes)
         for (bool mixed : {true, false})
+          if (mixed || !mixed_only)
           solve_and_print("K/G", kg, n, fft::Discretization::rotated,
                           make_material(make_gent_hgo({0.017, 14.0, 0.017 * kg, {}, FiberInvariant::full, true})),
                           make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))), mixed, ramp(1.5, 8));
@@ -122,36 +182,162 @@ int main(int argc, char** argv) {
       }
     }
   } else if (mode == "fftcost") {
-    for (int n : sizes)
-      for (auto d : {fft::Discretization::rotated, fft::Discretization::hex, fft::Discretization::spectral}) {
-        fft::Grid g{{n, n, 1}, {1.0, 1.0, 1.0 / n}};
-        fft::GradientOperator op(g, d);
-        fft::BatchedFFT fftw(g, 9 * op.points(), {fft::PlanRigor::measure, 0, {}});
-        const int reps = 20;
-        const auto t0 = std::chrono::steady_clock::now();
-        for (int i = 0; i < reps; ++i) {
-          fftw.forward();
-          fftw.backward();
+    std::vector<fft::Discretization> discs;
+    std::vector<fft::Grid> grids;
+    for (int i = 2; i < argc; ++i) {
+      if (is_discretization(argv[i]))
+        discs.push_back(fft::parse_discretization(argv[i]));
+      else
+        grids.push_back(parse_grid(argv[i]));
+    }
+    if (discs.empty()) discs = {fft::Discretization::rotated, fft::Discretization::hex, fft::Discretization::spectral};
+    if (grids.empty()) grids = {parse_grid("64"), parse_grid("256")};
+    const int max_threads = omp_get_max_threads();
+    for (const fft::Grid& g : grids)
+      for (auto d : discs) {
+        double per_krylov[3] = {0, 0, 0}, per_total[3] = {0, 0, 0};
+        for (int threads : {1, 2}) {
+          if (threads > std::max(2, max_threads)) continue;
+          omp_set_num_threads(threads);
+          fft::GradientOperator op(g, d);
+          const int reps = 10;
+          double fft_cpu_ms = 0.0;
+          auto roundtrip_ms = [&](int columns) {
+            fft::BatchedFFT fftw(g, 9 * op.points(), {fft::PlanRigor::measure, threads, {}}, columns);
+            fftw.forward();
+            fftw.backward();
+            const double c0 = cpu_seconds();
+            const auto t0 = std::chrono::steady_clock::now();
+            for (int i = 0; i < reps; ++i) {
+              fftw.forward();
+              fftw.backward();
+            }
+            fft_cpu_ms = 1e3 * (cpu_seconds() - c0) / reps;
+            return 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
+          };
+          const double fft_all_ms = roundtrip_ms(3);
+          const double fft_used_ms = op.columns() < 3 ? roundtrip_ms(op.columns()) : fft_all_ms;  // sets fft_cpu_ms
+          // One Newton step with a fixed number of Krylov iterations (tolerance unreachable), twice: 10 and
+          // 60 iterations. The difference is the cost of 50 Krylov iterations alone (the two material
+          // evaluations and the setup cancel); CPU time as well as wall time, since the box is shared.
+          double wall[2], cpu[2], kry_wall = 0.0;
+          int its[2];
+          std::size_t mem = 0;
+          double rss = 0.0;
+          for (int pass = 0; pass < 2; ++pass) {
+            FftSolverOptions o;
+            o.discretization = d;
+            o.max_newton_iterations = 1;
+            o.max_cutbacks = 0;
+            o.krylov_tolerance = 1e-30;
+            o.max_krylov_iterations = pass == 0 ? 10 : 60;
+            o.plan.threads = threads;
+            const std::size_t rss0 = resident_bytes();
+            FftRveSolver solver(cell_image(g), make_material(make_neo_hookean({1.0, 10.0})),
+                                make_material(make_neo_hookean({100.0, 1000.0})), 45.0, Mat3::Identity(), o);
+            const double c0 = cpu_seconds();
+            const auto t1 = std::chrono::steady_clock::now();
+            const RveRunResult r = solver.run(one_step(1.05));
+            wall[pass] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+            cpu[pass] = cpu_seconds() - c0;
+            its[pass] = r.total_krylov_iterations;
+            kry_wall = r.krylov_seconds / std::max(1, r.total_krylov_iterations);
+            mem = solver.memory_bytes();
+            const std::size_t rss1 = resident_bytes();
+            rss = double(rss1 - std::min(rss0, rss1));
+          }
+          const int dk = std::max(1, its[1] - its[0]);
+          const double kry_ms = 1e3 * (wall[1] - wall[0]) / dk, kry_cpu_ms = 1e3 * (cpu[1] - cpu[0]) / dk;
+          per_krylov[threads] = kry_ms;
+          per_total[threads] = wall[1];
+          const double nv = double(g.voxels());
+          std::printf("fftcost %4dx%4dx%4d %-9s threads %d fft-roundtrip %8.3f ms (%d fields; all %d: %8.3f ms; cpu %8.3f ms) "
+                      "per-krylov %8.3f ms (cpu %8.3f ms, in-solver %8.3f ms) ratio %5.2f (cpu %5.2f; vs all fields %5.2f) "
+                      "whole step %.3f s (%d its) mem/voxel %5.0f B (rss %5.0f B) peak-rss %.0f MB\n",
+                      g.n[0], g.n[1], g.n[2], fft::to_string(d), threads, fft_used_ms, 9 * op.points() / 3 * op.columns(),
+                      9 * op.points(), fft_all_ms, fft_cpu_ms, kry_ms, kry_cpu_ms, 1e3 * kry_wall, kry_ms / fft_used_ms,
+                      kry_cpu_ms / fft_cpu_ms, kry_ms / fft_all_ms, wall[1], its[1], double(mem) / nv, rss / nv,
+                      double(io::peak_memory_bytes()) / 1048576.0);
+          std::fflush(stdout);
         }
-        const double fft_ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
-        // One Newton step with a fixed number of Krylov iterations gives the per-iteration cost.
+        if (per_krylov[1] > 0 && per_krylov[2] > 0)
+          std::printf("speedup %4dx%4dx%4d %-9s 2 threads: per-krylov %.2f, whole run %.2f\n", g.n[0], g.n[1], g.n[2],
+                      fft::to_string(d), per_krylov[1] / per_krylov[2], per_total[1] / per_total[2]);
+      }
+    omp_set_num_threads(max_threads);
+  } else if (mode == "timeerror") {
+    // Preset materials and cell of bench_rve_fe; λ = 1.5 in 5 (PDMS) or 8 (ecoflex) steps.
+    const std::string matrix = argc > 2 ? argv[2] : "pdms";
+    const int dim = argc > 3 ? std::atoi(argv[3]) : 2;
+    std::vector<fft::Discretization> discs;
+    sizes.clear();
+    for (int i = 4; i < argc; ++i) {
+      if (is_discretization(argv[i]))
+        discs.push_back(fft::parse_discretization(argv[i]));
+      else
+        sizes.push_back(std::atoi(argv[i]));
+    }
+    if (discs.empty()) discs = {fft::Discretization::rotated, fft::Discretization::hex, fft::Discretization::spectral};
+    if (sizes.empty()) sizes = dim == 3 ? std::vector<int>{16, 32, 64} : std::vector<int>{32, 64, 128, 256, 512};
+    // FE reference (BENCHMARKS.md, FE RVE: Richardson extrapolation of the P2+bubble/P1 meshes L/16 … L/64).
+    const double P11_ref = matrix == "ecoflex" ? 0.13691696 : 1.2015139;
+    const int steps = matrix == "ecoflex" ? 8 : 5;
+    const MaterialPtr m = build_material(preset_spec(matrix)), f = build_material(preset_spec("glass"));
+    std::printf("# timeerror %s %dD, lambda 1.5 in %d steps, tolerance 1e-7, reference P11 %.8g (FE), load %s\n",
+                matrix.c_str(), dim, steps, P11_ref, [] {
+                  static char buf[64] = "?";
+                  std::ifstream in("/proc/loadavg");
+                  in.getline(buf, sizeof buf);
+                  return buf;
+                }());
+    struct Run {
+      fft::Discretization d;
+      int n;
+      double P11, cpu, wall, error;
+    };
+    std::vector<Run> runs;
+    for (auto d : discs) {
+      std::vector<double> p11;
+      for (int n : sizes) {
         FftSolverOptions o;
         o.discretization = d;
-        o.max_newton_iterations = 1;
-        o.max_cutbacks = 0;
-        o.krylov_tolerance = 1e-30;
-        o.max_krylov_iterations = 50;
-        FftRveSolver solver(circle_cell(n), make_material(make_neo_hookean({1.0, 10.0})),
-                            make_material(make_neo_hookean({100.0, 1000.0})), 45.0, Mat3::Identity(), o);
-        const auto t1 = std::chrono::steady_clock::now();
-        const RveRunResult r = solver.run(one_step(1.05));
-        const double total_ms = 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-        const int k = std::max(1, r.total_krylov_iterations);
-        std::printf("fftcost %5d %-9s fft-roundtrip %8.3f ms  per-krylov %8.3f ms (%d its, incl. 2 evaluations)  ratio %.2f  mem/voxel %.0f B\n",
-                    n, fft::to_string(d), fft_ms, total_ms / k, k, total_ms / k / fft_ms,
-                    double(solver.memory_bytes()) / double(n) / n);
+        o.tolerance = 1e-7;
+        const fft::Grid g{{n, n, dim == 3 ? n : 1}, {1.0, 1.0, 1.0}};
+        const double c0 = cpu_seconds();
+        const auto t0 = std::chrono::steady_clock::now();
+        FftRveSolver solver(cell_image(g), m, f, 45.0, Mat3::Identity(), o);
+        const RveRunResult r = solver.run(ramp(1.5, steps));
+        const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const double cpu = cpu_seconds() - c0;
+        p11.push_back(r.completed ? r.steps.back().P(0, 0) : std::nan(""));
+        const double err = std::abs(p11.back() - P11_ref) / P11_ref;
+        runs.push_back({d, n, p11.back(), cpu, wall, err});
+        std::printf("timeerror %-8s %dD %-9s n %4d %s P11 %.9f error(FE) %.3e newton %5d krylov %7d cpu %8.2f s "
+                    "wall %8.2f s (planning %.2f s, krylov %.2f s) mem/voxel %.0f B\n",
+                    matrix.c_str(), dim, fft::to_string(d), n, r.completed ? "ok  " : "FAIL", p11.back(), err,
+                    r.total_newton_iterations, r.total_krylov_iterations, cpu, wall, solver.planning_seconds(),
+                    r.krylov_seconds, double(solver.memory_bytes()) / double(g.voxels()));
         std::fflush(stdout);
       }
+      const std::size_t k = p11.size();
+      if (k >= 3) {
+        const double e1 = p11[k - 3] - p11[k - 2], e2 = p11[k - 2] - p11[k - 1];
+        const double order = std::log2(std::abs(e1 / e2));
+        const double limit = p11[k - 1] + (p11[k - 1] - p11[k - 2]) / (std::pow(2.0, order) - 1.0);
+        std::printf("richardson %-8s %dD %-9s observed order %.2f limit %.9f (vs FE %.2e)\n", matrix.c_str(), dim,
+                    fft::to_string(d), order, limit, std::abs(limit - P11_ref) / P11_ref);
+      }
+    }
+    for (double target : {1e-2, 1e-3, 1e-4}) {
+      const Run* best = nullptr;
+      for (const Run& r : runs)
+        if (r.error <= target && (!best || r.cpu < best->cpu)) best = &r;
+      if (best)
+        std::printf("cheapest %-8s %dD error <= %.0e: %s n %d (error %.2e, cpu %.2f s)\n", matrix.c_str(), dim, target,
+                    fft::to_string(best->d), best->n, best->error, best->cpu);
+      else
+        std::printf("cheapest %-8s %dD error <= %.0e: none of the runs\n", matrix.c_str(), dim, target);
+    }
   }
   return 0;
 }

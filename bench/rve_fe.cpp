@@ -4,11 +4,17 @@
 // solve is seconds). Usage:
 //   bench_rve_fe MATRIX LAMBDA STEPS "FE divisions" "FFT grids"
 //   e.g. bench_rve_fe pdms 1.5 5 "4 8 16 32 64" "16 32 64 128"
-//   optional 6th argument "square": square fibers 0.07 mm, VF 0.12 (the dissertation's sharp-corner cell)
+//   optional 6th argument "square": square fibers 0.07 mm, VF 0.12 (the dissertation's sharp-corner cell),
+//     "square-nocorner": the same without corner refinement, "circle": the default cell
+//   optional 7th/8th arguments: 3D FE divisions (Tet10 P2/P0 on a cube cell, mesh_size = L/d,
+//     interface_size = L/(2d)) and 3D FFT grids n (n³ voxels, the section image extruded), e.g. "2 3" "16 32"
+//   optional 9th argument: reference P11 (skips the Richardson reference, e.g. from an earlier run)
+// Times: wall and process CPU seconds (the box is shared: CPU time is the less noisy measure).
 // FE division d: mesh_size = L/d, interface_size = L/(3d) (graded, quasi-uniform away from fibers).
 // The reference is extrapolated from the three finest FE meshes with their observed order
 // (h = √(area / elements)).
 #include <chrono>
+#include <ctime>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -36,9 +42,11 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+double cpu_seconds() { return double(std::clock()) / CLOCKS_PER_SEC; }
+
 struct Row {
   std::string engine;
-  double resolution = 0.0, h = 0.0, P11 = 0.0, seconds = 0.0;
+  double resolution = 0.0, h = 0.0, P11 = 0.0, seconds = 0.0, cpu = 0.0;
   long size = 0;  // elements or voxels
   int newton = 0;
   bool ok = false;
@@ -52,7 +60,11 @@ int main(int argc, char** argv) {
   const int steps = argc > 3 ? std::atoi(argv[3]) : 5;
   const std::vector<double> fe_div = numbers(argc > 4 ? argv[4] : "4 8 16 32");
   const std::vector<double> fft_n = numbers(argc > 5 ? argv[5] : "16 32 64");
-  const bool square = argc > 6 && std::string(argv[6]) == "square";
+  const std::string shape = argc > 6 ? argv[6] : "circle";
+  const bool square = shape.rfind("square", 0) == 0;
+  const std::vector<double> fe3_div = numbers(argc > 7 ? argv[7] : "");
+  const std::vector<double> fft3_n = numbers(argc > 8 ? argv[8] : "");
+  const double given_ref = argc > 9 ? std::atof(argv[9]) : 0.0;
   FiberCellSpec spec;
   spec.shape = square ? SectionShape::rectangle : SectionShape::circle;
   spec.radius = 0.2;
@@ -68,9 +80,11 @@ int main(int argc, char** argv) {
   std::vector<Row> rows;
   for (double d : fe_div) {
     const auto t0 = std::chrono::steady_clock::now();
+    const double c0 = cpu_seconds();
     SectionMeshOptions mo;
     mo.mesh_size = section.L1 / d;
     mo.interface_size = mo.mesh_size / 3.0;
+    mo.corner_refinement = shape != "square-nocorner";
     SectionMesh mesh = mesh_section(section, mo);
     Row r;
     r.engine = "fe";
@@ -80,6 +94,7 @@ int main(int argc, char** argv) {
     FeRveSolver solver(std::move(mesh), matrix, glass, 45.0, control.frame);
     const RveRunResult res = solver.run(control);
     r.seconds = seconds_since(t0);
+    r.cpu = cpu_seconds() - c0;
     r.ok = res.completed;
     r.newton = res.total_newton_iterations;
     r.P11 = res.steps.back().P(0, 0);
@@ -91,6 +106,7 @@ int main(int argc, char** argv) {
   }
   for (double n : fft_n) {
     const auto t0 = std::chrono::steady_clock::now();
+    const double c0 = cpu_seconds();
     FftSolverOptions o;
     o.tolerance = 1e-8;
     o.plan.rigor = fft::PlanRigor::estimate;
@@ -102,6 +118,7 @@ int main(int argc, char** argv) {
     r.size = long(n * n);
     r.h = section.L1 / n;
     r.seconds = seconds_since(t0);
+    r.cpu = cpu_seconds() - c0;
     r.ok = res.completed;
     r.newton = res.total_newton_iterations;
     r.P11 = res.steps.back().P(0, 0);
@@ -110,18 +127,82 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
     rows.push_back(r);
   }
-  // Richardson reference from the three finest FE meshes.
-  std::vector<Row> fe;
-  for (const Row& r : rows)
-    if (r.engine == "fe" && r.ok) fe.push_back(r);
-  if (fe.size() < 3) return 0;
-  const Row &a = fe[fe.size() - 3], &b = fe[fe.size() - 2], &c = fe[fe.size() - 1];
-  const double order = std::log(std::abs(b.P11 - a.P11) / std::abs(c.P11 - b.P11)) / std::log(b.h / c.h);
-  const double ref = c.P11 + (c.P11 - b.P11) / (std::pow(b.h / c.h, order) - 1.0);
-  std::printf("# FE observed order %.2f, extrapolated P11 %.9f\n", order, ref);
-  std::printf("| engine | resolution | elements / voxels | Newton | wall s | P11 | rel. error |\n|---|---|---|---|---|---|---|\n");
-  for (const Row& r : rows)
-    std::printf("| %s | %s%g | %ld | %d | %.2f | %.6f | %.2e |\n", r.engine.c_str(), r.engine == "fe" ? "L/" : "",
-                r.resolution, r.size, r.newton, r.seconds, r.P11, std::abs(r.P11 - ref) / std::abs(ref));
+  // 3D: Tet10 P2/P0 on the cube cell (L3 = L1), and the FFT engine on the extruded image.
+  for (double d : fe3_div) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const double c0 = cpu_seconds();
+    CellMeshOptions mo;
+    mo.mesh_size = section.L1 / d;
+    mo.interface_size = mo.mesh_size / 2.0;
+    CellMesh mesh = mesh_cell(section, mo);
+    const double mesh_s = seconds_since(t0);
+    Row r;
+    r.engine = "fe3d";
+    r.resolution = d;
+    r.size = mesh.num_elements();
+    r.h = std::cbrt(section.L1 * section.L2 * mesh.L3 / mesh.num_elements());
+    const CellMeshQuality q = mesh.quality;
+    FeSolverOptions so;
+    so.pressure = FePressure::p0;
+    FeRveSolver solver(std::move(mesh), matrix, glass, 45.0, control.frame, so);
+    const RveRunResult res = solver.run(control);
+    r.seconds = seconds_since(t0);
+    r.cpu = cpu_seconds() - c0;
+    r.ok = res.completed;
+    r.newton = res.total_newton_iterations;
+    r.P11 = res.steps.back().P(0, 0);
+    std::printf("fe3d L/%-4g elements %7ld eq %7d newton %4d time %8.2f s cpu %8.2f s (mesh %.2f, assembly %.2f, linear %.2f) "
+                "dihedral %.1f rr %.3f P11 %.9f %s\n",
+                d, r.size, solver.num_equations(), r.newton, r.seconds, r.cpu, mesh_s, solver.assembly_seconds(),
+                solver.factorization_seconds(), q.min_dihedral_deg, q.min_radius_ratio, r.P11,
+                r.ok ? "" : res.error.c_str());
+    std::fflush(stdout);
+    rows.push_back(r);
+  }
+  for (double n : fft3_n) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const double c0 = cpu_seconds();
+    FftSolverOptions o;
+    o.tolerance = 1e-8;
+    o.plan.rigor = fft::PlanRigor::estimate;
+    FftRveSolver solver(extrude(voxelize_section(section, int(n), int(n)), int(n)), matrix, glass, 45.0, control.frame, o);
+    const RveRunResult res = solver.run(control);
+    Row r;
+    r.engine = "fft3d";
+    r.resolution = n;
+    r.size = long(n * n * n);
+    r.h = section.L1 / n;
+    r.seconds = seconds_since(t0);
+    r.cpu = cpu_seconds() - c0;
+    r.ok = res.completed;
+    r.newton = res.total_newton_iterations;
+    r.P11 = res.steps.back().P(0, 0);
+    std::printf("fft3d %4g^3 newton %4d krylov %7d time %8.2f s cpu %8.2f s P11 %.9f %s\n", n, r.newton,
+                res.total_krylov_iterations, r.seconds, r.cpu, r.P11, r.ok ? "" : res.error.c_str());
+    std::fflush(stdout);
+    rows.push_back(r);
+  }
+  // Reference: given, or the Richardson extrapolation of the three finest section FE meshes.
+  double ref = given_ref;
+  if (ref == 0.0) {
+    std::vector<Row> fe;
+    for (const Row& r : rows)
+      if (r.engine == "fe" && r.ok) fe.push_back(r);
+    if (fe.size() < 3) return 0;
+    const Row &a = fe[fe.size() - 3], &b = fe[fe.size() - 2], &c = fe[fe.size() - 1];
+    const double order = std::log(std::abs(b.P11 - a.P11) / std::abs(c.P11 - b.P11)) / std::log(b.h / c.h);
+    ref = c.P11 + (c.P11 - b.P11) / (std::pow(b.h / c.h, order) - 1.0);
+    std::printf("# FE observed order %.2f, extrapolated P11 %.9f\n", order, ref);
+  } else {
+    std::printf("# reference P11 %.9f (given)\n", ref);
+  }
+  std::printf("| engine | resolution | elements / voxels | Newton | wall s | CPU s | P11 | rel. error |\n"
+              "|---|---|---|---|---|---|---|---|\n");
+  for (const Row& r : rows) {
+    const bool fe_row = r.engine == "fe" || r.engine == "fe3d";
+    std::printf("| %s | %s%g%s | %ld | %d | %.2f | %.2f | %.6f | %.2e |\n", r.engine.c_str(), fe_row ? "L/" : "",
+                r.resolution, r.engine == "fft3d" ? "³" : r.engine == "fft" ? "²" : "", r.size, r.newton, r.seconds,
+                r.cpu, r.P11, std::abs(r.P11 - ref) / std::abs(ref));
+  }
   return 0;
 }

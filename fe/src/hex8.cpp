@@ -74,6 +74,29 @@ Hex8Kinematics hex8_kinematics(const Hex8Geometry& g, const Mat83& u, Formulatio
   return k;
 }
 
+namespace {
+
+/// Accumulates wBᵀ A B into nine 8x8 blocks, KB[3i + k](a, b) = K(3a + i, 3b + k), without forming B:
+/// (Bᵀ A B)(3a+i, 3b+k) = Σ_JL dN_aJ A(3i+J, 3k+L) dN_bL. Two small dense products per (i, k) cost
+/// 2.4k multiply-adds per Gauss point instead of 7k for the dense 9x24 M, and write contiguously.
+inline void add_BtAB(const Mat83& dN, const Mat9& A, double w, std::array<Eigen::Matrix<double, 8, 8>, 9>& KB) {
+  for (int i = 0; i < 3; ++i) {
+    // E(a, 3k + L) = Σ_J dN_aJ A(3i + J, 3k + L)
+    const Eigen::Matrix<double, 8, 9> E = (w * dN).lazyProduct(A.block<3, 9>(3 * i, 0));
+    for (int k = 0; k < 3; ++k) KB[3 * i + k].noalias() += E.block<8, 3>(0, 3 * k).lazyProduct(dN.transpose());
+  }
+}
+
+/// K += KB in the node-major layout.
+inline void scatter_blocks(const std::array<Eigen::Matrix<double, 8, 8>, 9>& KB, Mat24& K) {
+  for (int b = 0; b < 8; ++b)
+    for (int k = 0; k < 3; ++k)
+      for (int a = 0; a < 8; ++a)
+        for (int i = 0; i < 3; ++i) K(3 * a + i, 3 * b + k) += KB[3 * i + k](a, b);
+}
+
+}  // namespace
+
 MaterialStatus hex8_internal_force(const Hex8Geometry& g, const Mat83& u, const Material& material,
                                    const double* state_old, double* state_new, double dt, Formulation f,
                                    Vec24& r, Mat24* K, Mat3* cauchy_mean, MixedVolume* mixed) {
@@ -90,33 +113,30 @@ MaterialStatus hex8_internal_force(const Hex8Geometry& g, const Mat83& u, const 
   }
   const double theta = volume_current / g.volume;
 
-  // Spatial gradients g_a = F⁻ᵀ ∇N_a (rows), l = ∂(ln J)/∂u, d = ∂θ/∂u, H = ∂²θ/∂u² (F-bar only).
+  // Spatial gradients g_a = F⁻ᵀ ∇N_a (rows of gs), l = ∂(ln J)/∂u = vec(gs) node-major, d = ∂θ/∂u.
+  // H = ∂²θ/∂u² = Σ_q c_q (l_q l_qᵀ − Q_q), Q_q[(a,i),(b,k)] = g_b,i g_a,k, is never formed: its
+  // coefficient is known only after the loop, so the per-point matrices l lᵀ and Q are added once at
+  // the end with their combined weights.
   std::array<Mat83, 8> gs;
+  std::array<double, 8> cq{};
   Vec24 d = Vec24::Zero();
-  Mat24 H;
   if (fbar) {
-    if (K) H.setZero();
     for (int q = 0; q < 8; ++q) {
       gs[q] = g.dN[q] * F[q].inverse();
-      Vec24 l;
+      cq[q] = g.w[q] * J[q] / g.volume;
       for (int a = 0; a < 8; ++a)
-        for (int i = 0; i < 3; ++i) l[3 * a + i] = gs[q](a, i);
-      const double c = g.w[q] * J[q] / g.volume;
-      d += c * l;
-      if (K) {
-        H.noalias() += c * l * l.transpose();
-        // Q[(a,i),(b,k)] = g_b,i g_a,k  (tr(δF F⁻¹ ΔF F⁻¹))
-        for (int a = 0; a < 8; ++a)
-          for (int b = 0; b < 8; ++b)
-            for (int i = 0; i < 3; ++i)
-              for (int k = 0; k < 3; ++k) H(3 * a + i, 3 * b + k) -= c * gs[q](b, i) * gs[q](a, k);
-      }
+        for (int i = 0; i < 3; ++i) d[3 * a + i] += cq[q] * gs[q](a, i);
     }
   }
 
   r.setZero();
-  if (K) K->setZero();
-  double coef_H = 0.0;
+  std::array<Eigen::Matrix<double, 8, 8>, 9> KB;
+  std::array<double, 8> q_coef{};  // coefficient of Q_q from the geometric term of F̄ (ws/3)
+  if (K) {
+    K->setZero();
+    for (auto& m : KB) m.setZero();
+  }
+  double coef_H = 0.0, coef_dd = 0.0;
   Mat3 P;
   Mat9 A;
   for (int q = 0; q < 8; ++q) {
@@ -134,42 +154,32 @@ MaterialStatus hex8_internal_force(const Hex8Geometry& g, const Mat83& u, const 
     const double w = g.w[q];
     if (!fbar) {
       r.noalias() += w * b;
-      if (K) {
-        // Bᵀ A B with B sparse: (Bᵀ A B)(3a+i, 3b+k) = Σ_JL dN_aJ A(3i+J, 3k+L) dN_bL.
-        Eigen::Matrix<double, 9, 24> AB;
-        for (int row = 0; row < 9; ++row) AB.row(row) = BT_times(g.dN[q], A.row(row).transpose()).transpose();
-        for (int col = 0; col < 24; ++col) K->col(col).noalias() += w * BT_times(g.dN[q], AB.col(col));
-      }
+      if (K) add_BtAB(g.dN[q], A, w, KB);
       continue;
     }
     // δF̄ = α [δF + (1/3)(c·δu) F],  c = d/θ − l.
-    Vec24 l;
+    Vec24 c;
     for (int a = 0; a < 8; ++a)
-      for (int i = 0; i < 3; ++i) l[3 * a + i] = gs[q](a, i);
-    const Vec24 c = d / theta - l;
+      for (int i = 0; i < 3; ++i) c[3 * a + i] = d[3 * a + i] / theta - gs[q](a, i);
     const Vec9 fv = flatten(F[q]);
     const double s = p.dot(fv);  // P̄ : F
     r.noalias() += w * alpha * (b + (s / 3.0) * c);
     if (!K) continue;
-    // M = α (B + (1/3) f cᵀ); K += w Mᵀ A M + geometric terms of F̄(u).
-    Eigen::Matrix<double, 9, 24> M;
-    for (int row = 0; row < 9; ++row) {
-      const int i = row / 3, J = row % 3;
-      M.row(row) = (fv[row] / 3.0) * c.transpose();
-      for (int a = 0; a < 8; ++a) M(row, 3 * a + i) += g.dN[q](a, J);
-    }
-    M *= alpha;
-    const Eigen::Matrix<double, 9, 24> AM = A * M;
-    K->noalias() += w * (M.transpose() * AM);
+    // K += w Mᵀ A M + geometric terms of F̄(u), M = α (B + (1/3) f cᵀ):
+    //   Mᵀ A M = α² [Bᵀ A B + (1/3)(Bᵀ A f) cᵀ + (1/3) c (Bᵀ Aᵀ f)ᵀ + (1/9)(fᵀ A f) c cᵀ],
+    // plus (wα/3)(b cᵀ + c bᵀ) + (ws/9) c cᵀ − (ws/(3θ²)) d dᵀ + (ws/3) Q_q + (ws/(3θ)) H.
+    // All c-terms form one rank-2 update c u2ᵀ + u1 cᵀ.
+    const double wa2 = w * alpha * alpha;
+    add_BtAB(g.dN[q], A, wa2, KB);
+    const Vec9 Af = A * fv, Atf = A.transpose() * fv;
+    const double phi = fv.dot(Af);
     const double ws = w * alpha * s;
-    K->noalias() += (w * alpha / 3.0) * (b * c.transpose() + c * b.transpose());
-    K->noalias() += (ws / 9.0) * c * c.transpose();
-    K->noalias() -= (ws / (3.0 * theta * theta)) * d * d.transpose();
-    // + (ws/3) Q_q
-    for (int a = 0; a < 8; ++a)
-      for (int bb = 0; bb < 8; ++bb)
-        for (int i = 0; i < 3; ++i)
-          for (int k = 0; k < 3; ++k) (*K)(3 * a + i, 3 * bb + k) += (ws / 3.0) * gs[q](bb, i) * gs[q](a, k);
+    const Vec24 common = (w * alpha / 3.0) * b + (0.5 * (ws + wa2 * phi) / 9.0) * c;
+    const Vec24 u1 = (wa2 / 3.0) * BT_times(g.dN[q], Af) + common;
+    const Vec24 u2 = (wa2 / 3.0) * BT_times(g.dN[q], Atf) + common;
+    K->noalias() += u1 * c.transpose() + c * u2.transpose();
+    coef_dd -= ws / (3.0 * theta * theta);
+    q_coef[q] = ws / 3.0;
     coef_H += ws / (3.0 * theta);
   }
   if (fbar && mixed) {
@@ -184,10 +194,22 @@ MaterialStatus hex8_internal_force(const Hex8Geometry& g, const Mat83& u, const 
     r.noalias() += mixed->shift * d;
     if (K) {
       coef_H += V * (mixed->p - volumetric_dU(Kv, theta));
-      K->noalias() += (V * (volumetric_d2U(Kv, th) - volumetric_d2U(Kv, theta))) * d * d.transpose();
+      coef_dd += V * (volumetric_d2U(Kv, th) - volumetric_d2U(Kv, theta));
     }
   }
-  if (fbar && K) K->noalias() += coef_H * H;
+  if (!K) return MaterialStatus::ok;
+  scatter_blocks(KB, *K);
+  if (!fbar) return MaterialStatus::ok;
+  K->noalias() += coef_dd * d * d.transpose();
+  // Σ_q [(q_coef_q − coef_H c_q) Q_q + coef_H c_q l_q l_qᵀ]: blocks (a, b) get γ g_b g_aᵀ + δ g_a g_bᵀ.
+  for (int q = 0; q < 8; ++q) {
+    const double gamma = q_coef[q] - coef_H * cq[q], delta = coef_H * cq[q];
+    const Mat83& G = gs[q];
+    for (int b = 0; b < 8; ++b)
+      for (int a = 0; a < 8; ++a)
+        (*K).block<3, 3>(3 * a, 3 * b).noalias() +=
+            gamma * G.row(b).transpose() * G.row(a) + delta * G.row(a).transpose() * G.row(b);
+  }
   return MaterialStatus::ok;
 }
 

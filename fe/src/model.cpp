@@ -1,12 +1,13 @@
 #include "softhom/fe/model.hpp"
 
+#include "softhom/fe/tet10_element.hpp"
 #include "softhom/materials/errors.hpp"
 
 namespace softhom::fe {
 
 void FeModel::validate() const {
   const int nn = mesh.num_nodes();
-  if (mesh.hexes.empty()) throw InputError("mesh", "", "no elements");
+  if (mesh.num_elements() == 0) throw InputError("mesh", "", "no elements");
   if (int(element_material.size()) != mesh.num_elements())
     throw InputError("materials", std::to_string(element_material.size()),
                      "need one material per element (" + std::to_string(mesh.num_elements()) + ")");
@@ -15,6 +16,9 @@ void FeModel::validate() const {
   for (const Hex& h : mesh.hexes)
     for (int n : h)
       if (n < 0 || n >= nn) throw InputError("mesh.hexes", std::to_string(n), "node id out of range");
+  for (const Tet10& t : mesh.tets)
+    for (int n : t)
+      if (n < 0 || n >= nn) throw InputError("mesh.tets", std::to_string(n), "node id out of range");
   for (const auto& g : dirichlet) {
     if (!g.scale.empty() && g.scale.size() != g.dofs.size())
       throw InputError("dirichlet.scale", std::to_string(g.scale.size()), "must match the number of dofs");
@@ -27,20 +31,25 @@ void FeModel::validate() const {
     for (int d : l.dofs)
       if (d < 0 || d >= 3 * nn) throw InputError("nodal_loads.dofs", std::to_string(d), "dof out of range");
   }
-  auto check_faces = [&](const std::vector<Quad>& faces, const char* what) {
-    for (const Quad& q : faces)
+  auto check_faces = [&](const auto& faces, const char* what) {
+    for (const auto& q : faces)
       for (int n : q)
         if (n < 0 || n >= nn) throw InputError(what, std::to_string(n), "node id out of range");
   };
-  for (const auto& p : pressures) check_faces(p.faces, "pressure.faces");
+  for (const auto& p : pressures) {
+    check_faces(p.faces, "pressure.faces");
+    check_faces(p.tris, "pressure.tris");
+  }
   if (cavity) {
     check_faces(cavity->faces, "cavity.faces");
-    if (cavity->faces.empty()) throw InputError("cavity.faces", "", "a cavity needs faces");
+    check_faces(cavity->tris, "cavity.tris");
+    if (cavity->faces.empty() && cavity->tris.empty()) throw InputError("cavity.faces", "", "a cavity needs faces");
     if (!(cavity->mask.sum() > 0)) throw InputError("cavity.mask", "", "mask must have a positive entry");
   }
 }
 
-double cavity_volume(const std::vector<Vec3>& x, const std::vector<Quad>& faces, const Vec3& mask) {
+double cavity_volume(const std::vector<Vec3>& x, const std::vector<Quad>& faces, const Vec3& mask,
+                     const std::vector<Tri6>& tris) {
   double flux = 0.0;
   Vec12 a;
   for (const Quad& q : faces) {
@@ -48,6 +57,14 @@ double cavity_volume(const std::vector<Vec3>& x, const std::vector<Quad>& faces,
     for (int k = 0; k < 4; ++k) xe.row(k) = x[q[k]].transpose();
     double f = 0.0;
     quad4_pressure(xe, mask, a, nullptr, f);
+    flux += f;
+  }
+  Vec18 a6;
+  for (const Tri6& t : tris) {
+    Mat63 xe;
+    for (int k = 0; k < 6; ++k) xe.row(k) = x[t[k]].transpose();
+    double f = 0.0;
+    tri6_pressure(xe, mask, a6, nullptr, f);
     flux += f;
   }
   return -flux / mask.sum();

@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <iostream>
 #include <sstream>
+#include <tuple>
+#include <type_traits>
 
 #include "softhom/materials/errors.hpp"
 
@@ -31,6 +33,16 @@ Mat83 gather(const std::vector<double>& u, const Hex& hex) {
     for (int i = 0; i < 3; ++i) ue(a, i) = u[3 * hex[a] + i];
   return ue;
 }
+
+Tet10Coords gather(const std::vector<double>& u, const Tet10& tet) {
+  Tet10Coords ue;
+  for (int a = 0; a < 10; ++a)
+    for (int i = 0; i < 3; ++i) ue(a, i) = u[3 * tet[a] + i];
+  return ue;
+}
+
+/// Gauss points per element (history blocks).
+int gauss_points(const Mesh& mesh, int e) { return mesh.is_tet(e) ? 4 : 8; }
 
 }  // namespace
 
@@ -57,13 +69,20 @@ Simulation::Simulation(FeModel model, NewtonOptions options) : model_(std::move(
   if (dofs_.num_free == 0) throw InputError("boundary", "", "every degree of freedom is prescribed");
   K_ = build_pattern(mesh, dofs_);
 
-  geometry_.resize(mesh.num_elements());
+  geometry_.resize(mesh.num_hexes());
   int bad = -1;
-  for (int e = 0; e < mesh.num_elements(); ++e) {
+  for (int e = 0; e < mesh.num_hexes(); ++e) {
     Mat83 X;
     for (int a = 0; a < 8; ++a) X.row(a) = mesh.nodes[mesh.hexes[e][a]].transpose();
     geometry_[e] = hex8_geometry(X);
     if (!geometry_[e].valid && bad < 0) bad = e;
+  }
+  tet_geometry_.resize(mesh.tets.size());
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    Tet10Coords X;
+    for (int a = 0; a < 10; ++a) X.row(a) = mesh.nodes[mesh.tets[t][a]].transpose();
+    tet_geometry_[t] = tet10_geometry(X);
+    if (!tet_geometry_[t].valid && bad < 0) bad = mesh.num_hexes() + int(t);
   }
   if (bad >= 0) throw InputError("mesh", "element " + std::to_string(bad), "non-positive Jacobian at a Gauss point");
 
@@ -73,14 +92,14 @@ Simulation::Simulation(FeModel model, NewtonOptions options) : model_(std::move(
     const int ns = model_.element_material[e]->state_size();
     if (ns > 0) {
       state_offset_[e] = int(total);
-      total += 8 * std::size_t(ns);
+      total += gauss_points(mesh, e) * std::size_t(ns);
     }
   }
   state_old_.assign(total, 0.0);
   for (int e = 0; e < mesh.num_elements(); ++e)
     if (state_offset_[e] >= 0) {
       const auto& m = *model_.element_material[e];
-      for (int q = 0; q < 8; ++q) m.init_state(state_old_.data() + state_offset_[e] + q * m.state_size());
+      for (int q = 0; q < gauss_points(mesh, e); ++q) m.init_state(state_old_.data() + state_offset_[e] + q * m.state_size());
     }
   state_new_ = state_old_;
 
@@ -96,11 +115,11 @@ Simulation::Simulation(FeModel model, NewtonOptions options) : model_(std::move(
   {
     std::vector<std::vector<int>> node_elems(mesh.num_nodes());
     for (int e = 0; e < mesh.num_elements(); ++e)
-      for (int a = 0; a < 8; ++a) node_elems[mesh.hexes[e][a]].push_back(e);
+      for (int a = 0; a < mesh.element_size(e); ++a) node_elems[mesh.element_nodes(e)[a]].push_back(e);
     std::vector<int> color(mesh.num_elements(), -1), mark;
     for (int e = 0; e < mesh.num_elements(); ++e) {
-      for (int a = 0; a < 8; ++a)
-        for (int o : node_elems[mesh.hexes[e][a]])
+      for (int a = 0; a < mesh.element_size(e); ++a)
+        for (int o : node_elems[mesh.element_nodes(e)[a]])
           if (color[o] >= 0) {
             if (int(mark.size()) <= color[o]) mark.resize(color[o] + 1, -1);
             mark[color[o]] = e;
@@ -119,23 +138,26 @@ Simulation::Simulation(FeModel model, NewtonOptions options) : model_(std::move(
     signed char r = 0;
     for (int i = 0; i < 3; ++i) free_rank_[n][i] = dofs_.eq[3 * n + i] >= 0 ? r++ : -1;
   }
-  block_.resize(mesh.num_elements());
-  for (int e = 0; e < mesh.num_elements(); ++e) {
-    const Hex& hex = mesh.hexes[e];
-    for (int b = 0; b < 8; ++b) {
+  // Per element type: block[n * a + b] for the n nodes of the element.
+  auto block_offsets = [&](const int* nodes, int n, long* block) {
+    for (int b = 0; b < n; ++b) {
       int col = -1;  // any free column of node b
-      for (int j = 0; j < 3 && col < 0; ++j) col = dofs_.eq[3 * hex[b] + j];
-      for (int a = 0; a < 8; ++a) {
+      for (int j = 0; j < 3 && col < 0; ++j) col = dofs_.eq[3 * nodes[b] + j];
+      for (int a = 0; a < n; ++a) {
         long pos = -1;
         if (col >= 0)
           for (int i = 0; i < 3 && pos < 0; ++i) {
-            const int row = dofs_.eq[3 * hex[a] + i];
-            if (row >= 0) pos = K_.find(row, col) - free_rank_[hex[a]][i] - K_.colptr[col];
+            const int row = dofs_.eq[3 * nodes[a] + i];
+            if (row >= 0) pos = K_.find(row, col) - free_rank_[nodes[a]][i] - K_.colptr[col];
           }
-        block_[e][8 * a + b] = pos;  // offset within the column
+        block[n * a + b] = pos;  // offset within the column
       }
     }
-  }
+  };
+  block_.resize(mesh.num_hexes());
+  for (int e = 0; e < mesh.num_hexes(); ++e) block_offsets(mesh.hexes[e].data(), 8, block_[e].data());
+  tet_block_.resize(mesh.tets.size());
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) block_offsets(mesh.tets[t].data(), 10, tet_block_[t].data());
   if (model_.formulation == Formulation::fbar && options_.mixed) {
     mix_bulk_.assign(mesh.num_elements(), 0.0);
     bool any = false;
@@ -151,13 +173,15 @@ Simulation::Simulation(FeModel model, NewtonOptions options) : model_(std::move(
       mix_theta_ = mix_theta_conv_;
       mix_p_ = mix_p_conv_;
       mix_theta_u_ = mix_theta_conv_;
-      mix_d_.assign(mesh.num_elements(), Vec24::Zero());
+      mix_d_.assign(mesh.num_hexes(), Vec24::Zero());
+      mix_d_tet_.assign(mesh.tets.size(), Vec30::Zero());
     }
   }
 
   u_.assign(ndof, 0.0);
   u_prev_step_ = u_;
-  if (model_.cavity) cavity_v0_ = cavity_volume(mesh.nodes, model_.cavity->faces, model_.cavity->mask);
+  if (model_.cavity)
+    cavity_v0_ = cavity_volume(mesh.nodes, model_.cavity->faces, model_.cavity->mask, model_.cavity->tris);
   if (model_.cavity && !(cavity_v0_ > 0.0))
     throw InputError("cavity", std::to_string(cavity_v0_), "enclosed volume must be positive (check face orientation)");
 }
@@ -165,6 +189,14 @@ Simulation::Simulation(FeModel model, NewtonOptions options) : model_(std::move(
 Simulation::~Simulation() = default;
 
 SolverKind Simulation::solver_kind() const { return linear_->kind(); }
+
+MaterialStatus Simulation::element_force(int e, const Tet10Coords& u, Vec30& r, Mat30* K) const {
+  const int off = state_offset_[e];
+  std::vector<double> scratch(off >= 0 ? 4 * model_.element_material[e]->state_size() : 0);
+  return tet10_internal_force(tet_geometry_[e - model_.mesh.num_hexes()], u, *model_.element_material[e],
+                              off >= 0 ? state_old_.data() + off : nullptr, off >= 0 ? scratch.data() : nullptr,
+                              last_dt_, model_.formulation, r, K);
+}
 
 MaterialStatus Simulation::element_force(int e, const Mat83& u, Vec24& r, Mat24* K) const {
   const int off = state_offset_[e];
@@ -223,12 +255,75 @@ MaterialStatus Simulation::assemble(double t, double dt, bool tangent, const std
     Mat24 Ke;
     Mat3 sigma;
     std::array<int, 24> gdof;
+    // Tet10 elements: the steps of the hex8 body below with 10 nodes (tet10_element.hpp).
+    Vec30 r10;
+    Mat30 K10;
+    std::array<int, 30> gdof10;
+    auto tet_element = [&](int e) {
+      const int t = e - mesh.num_hexes();
+      const Tet10& tet = mesh.tets[t];
+      const Tet10Coords ue = gather(u, tet);
+      const int off = state_offset_[e];
+      Tet10MixedVolume mv;
+      const bool me = mixed && mix_bulk_[e] > 0.0;
+      if (me) {
+        mv.bulk = mix_bulk_[e];
+        mv.theta = mix_theta_[e];
+        mv.p = mix_p_[e];
+      }
+      const MaterialStatus st = tet10_internal_force(
+          tet_geometry_[t], ue, *model_.element_material[e], off >= 0 ? state_old_.data() + off : nullptr,
+          off >= 0 ? state_new_.data() + off : nullptr, dt, model_.formulation, r10, tangent ? &K10 : nullptr,
+          tangent ? &sigma : nullptr, me ? &mv : nullptr);
+      if (st != MaterialStatus::ok) {
+        int expected = -1;
+        if (failed.compare_exchange_strong(expected, e)) failed_status = int(st);
+        return;
+      }
+      if (me) {
+        mix_theta_u_[e] = mv.theta_u;
+        mix_d_tet_[t] = mv.d;
+      }
+      if (tangent)
+        for (int c = 0; c < 9; ++c) out.cauchy[9 * std::size_t(e) + c] = sigma(c / 3, c % 3);
+      for (int a = 0; a < 10; ++a)
+        for (int i = 0; i < 3; ++i) gdof10[3 * a + i] = 3 * tet[a] + i;
+      for (int q = 0; q < 30; ++q) R[gdof10[q]] += r10[q];
+      if (mixed)
+        for (int q = 0; q < 30; ++q) {
+          Rt[gdof10[q]] += r10[q] - (me ? mv.shift * mv.d[q] : 0.0);
+          Ru[gdof10[q]] += r10[q] - (me ? mv.shift_u * mv.d[q] : 0.0);
+        }
+      if (!tangent) return;
+      for (int b = 0; b < 10; ++b)
+        for (int j = 0; j < 3; ++j) {
+          const int cl = 3 * b + j;
+          const int col = eq[gdof10[cl]];
+          if (col < 0) {
+            if (predictor && du_c[gdof10[cl]] != 0.0)
+              for (int rw = 0; rw < 30; ++rw) drhs[gdof10[rw]] += K10(rw, cl) * du_c[gdof10[cl]];
+            continue;
+          }
+          double* column = kv + K_.colptr[col];
+          for (int a = 0; a < 10; ++a) {
+            const long o = tet_block_[t][10 * a + b];
+            if (o < 0) continue;
+            const auto& fr = free_rank_[tet[a]];
+            for (int i = 0; i < 3; ++i)
+              if (fr[i] >= 0) column[o + fr[i]] += K10(3 * a + i, cl);
+          }
+        }
+    };
     for (const std::vector<int>& color : colors_) {
       // Elements of one colour share no node: plain (non-atomic) updates are race-free.
 #pragma omp for schedule(dynamic, 32)
       for (std::size_t k = 0; k < color.size(); ++k) {
         const int e = color[k];
         if (failed.load(std::memory_order_relaxed) >= 0) continue;
+        if (mesh.is_tet(e)) {
+          tet_element(e);
+          continue;
+        }
         const Hex& hex = mesh.hexes[e];
         const Mat83 ue = gather(u, hex);
         const int off = state_offset_[e];
@@ -303,18 +398,22 @@ MaterialStatus Simulation::assemble(double t, double dt, bool tangent, const std
 
   // Follower pressures: R += p a(x), K += p ∂a/∂x (unsymmetric load stiffness).
   std::vector<double> fext(ndof, 0.0);
-  auto add_faces = [&](const std::vector<Quad>& faces, double p, bool collect) {
-    Vec12 a;
-    Mat12 da;
+  // Quads (bilinear) and 6-node triangles (tet faces): the same steps with nf nodes per face.
+  auto add_faces = [&](const auto& faces, double p, bool collect, double pk) {
+    constexpr int nf = std::tuple_size_v<typename std::decay_t<decltype(faces)>::value_type>;
+    static_assert(nf == 4 || nf == 6);
+    std::conditional_t<nf == 4, Vec12, Vec18> a;
+    std::conditional_t<nf == 4, Mat12, Mat18> da;
     const Vec3 mask = model_.cavity ? model_.cavity->mask : Vec3::Ones();
-    for (const Quad& q : faces) {
-      Mat43 xe;
-      for (int k = 0; k < 4; ++k)
+    for (const auto& q : faces) {
+      std::conditional_t<nf == 4, Mat43, Mat63> xe;
+      for (int k = 0; k < nf; ++k)
         xe.row(k) = (mesh.nodes[q[k]] + Vec3(u[3 * q[k]], u[3 * q[k] + 1], u[3 * q[k] + 2])).transpose();
       double flux = 0.0;
-      quad4_pressure(xe, mask, a, tangent ? &da : nullptr, flux);
+      if constexpr (nf == 4) quad4_pressure(xe, mask, a, tangent ? &da : nullptr, flux);
+      else tri6_pressure(xe, mask, a, tangent ? &da : nullptr, flux);
       if (collect) out.volume -= flux / mask.sum();
-      for (int k = 0; k < 4; ++k)
+      for (int k = 0; k < nf; ++k)
         for (int i = 0; i < 3; ++i) {
           const int dof = 3 * q[k] + i;
           R[dof] += p * a[3 * k + i];
@@ -325,24 +424,30 @@ MaterialStatus Simulation::assemble(double t, double dt, bool tangent, const std
           fext[dof] -= p * a[3 * k + i];
           if (collect) out.a[dof] += a[3 * k + i];
         }
-      if (!tangent || p == 0.0) continue;
-      for (int m = 0; m < 4; ++m)
+      if (!tangent || pk == 0.0) continue;
+      for (int m = 0; m < nf; ++m)
         for (int j = 0; j < 3; ++j) {
           const int col = eq[3 * q[m] + j];
           const int cdof = 3 * q[m] + j;
-          for (int k = 0; k < 4; ++k)
+          for (int k = 0; k < nf; ++k)
             for (int i = 0; i < 3; ++i) {
               const int row = eq[3 * q[k] + i];
               if (row < 0) continue;
               if (col >= 0)
-                kv[K_.find(row, col)] += p * da(3 * k + i, 3 * m + j);
+                kv[K_.find(row, col)] += pk * da(3 * k + i, 3 * m + j);
               else if (predictor && du_c[cdof] != 0.0)
-                drhs[3 * q[k] + i] += p * da(3 * k + i, 3 * m + j) * du_c[cdof];
+                drhs[3 * q[k] + i] += pk * da(3 * k + i, 3 * m + j) * du_c[cdof];
             }
         }
     }
   };
-  for (const auto& load : model_.pressures) add_faces(load.faces, load.pressure(t), false);
+  for (const auto& load : model_.pressures) {
+    // The load stiffness takes the pressure at stiffness_time_ when set (the first iteration of a step
+    // started at the converged state: see try_step), else the residual's.
+    const double pk = load.pressure(stiffness_time_ >= 0.0 ? stiffness_time_ : t);
+    add_faces(load.faces, load.pressure(t), false, pk);
+    add_faces(load.tris, load.pressure(t), false, pk);
+  }
   for (const auto& load : model_.nodal_loads) {
     const double v = load.value(t);
     for (std::size_t k = 0; k < load.dofs.size(); ++k) {
@@ -358,7 +463,8 @@ MaterialStatus Simulation::assemble(double t, double dt, bool tangent, const std
   out.volume = 0.0;
   if (model_.cavity) {
     out.a.assign(ndof, 0.0);
-    add_faces(model_.cavity->faces, cavity_p, true);
+    add_faces(model_.cavity->faces, cavity_p, true, cavity_p);
+    add_faces(model_.cavity->tris, cavity_p, true, cavity_p);
   }
   out.fext_norm = norm(fext);
   stats_.assembly_time += seconds_since(t0);
@@ -477,7 +583,8 @@ bool Simulation::linear_solve(const std::vector<double>& b, std::vector<double>&
     bool done = false;
     int its = 0;
     // A lagged factor gets fewer iterations before it is replaced by a fresh one.
-    const int max_its = factor_version_ == k_version_ ? options_.krylov_max : std::min(options_.krylov_max, 15);
+    const bool lagged = factor_version_ != k_version_;
+    int max_its = lagged ? std::min(options_.krylov_max, 15) : options_.krylov_max;
     while (!done && its < max_its) {
       for (int i = 0; i < n; ++i) V[0][i] = r[i] / beta;
       std::fill(g.begin(), g.end(), 0.0);
@@ -512,6 +619,13 @@ bool Simulation::linear_solve(const std::vector<double>& b, std::vector<double>&
         ++j;
         ++its;
         if (std::abs(g[j]) <= tol * bnorm || hn == 0.0) break;
+        // A lagged factor whose convergence rate over the first 5 iterations would not reach the tolerance
+        // within the cap (the early Newton iterations of a step, where the tangent still moves a lot):
+        // refactorize now instead of after 15 wasted triangular solves (1e5 dofs: 0.1-0.2 s each).
+        if (lagged && its == 5) {
+          const double ratio = std::abs(g[j]) / bnorm;
+          if (!(ratio < 1.0) || std::log(tol) / std::log(ratio) * its > max_its) max_its = its;
+        }
       }
       // x += M⁻¹ V y with H y = g (upper triangular j x j).
       std::vector<double> y(j);
@@ -570,8 +684,10 @@ void Simulation::mixed_update(const std::vector<double>& du, double alpha) {
       mix_p_base_[e] = mix_p_[e];
       if (mix_bulk_[e] <= 0.0) continue;
       double s = 0.0;
-      for (int a = 0; a < 8; ++a)
-        for (int i = 0; i < 3; ++i) s += mix_d_[e][3 * a + i] * du[3 * mesh.hexes[e][a] + i];
+      const int* en = mesh.element_nodes(e);
+      const double* de = mesh.is_tet(e) ? mix_d_tet_[e - mesh.num_hexes()].data() : mix_d_[e].data();
+      for (int a = 0; a < mesh.element_size(e); ++a)
+        for (int i = 0; i < 3; ++i) s += de[3 * a + i] * du[3 * en[a] + i];
       const double th = mix_theta_[e], K = mix_bulk_[e];
       mix_dtheta_[e] = s + mix_theta_u_[e] - th;
       mix_dp_[e] = volumetric_d2U(K, th) * mix_dtheta_[e] + volumetric_dU(K, th) - mix_p_[e];
@@ -616,6 +732,38 @@ bool Simulation::try_step(double t_new, double dt, std::string& why) {
     }
   if (!any_jump) du_c.clear();
 
+  // Secant predictor: start from u_n + ρ (u_n − u_{n−1}), ρ the ratio of this step's load increment to
+  // the last one's (the load vector of pressures and nodal forces, so a ramp gives ρ = dt/dt_n and a hold
+  // gives no extrapolation). Newton then starts O(Δ²) from the solution instead of O(Δ): the F-bar
+  // residual after the first correction (dominated by the O(K ε²) volume mismatch of the step) drops,
+  // and the tube steps need one Newton iteration fewer. Only without prescribed-displacement jumps (the
+  // Dirichlet predictor covers those) and cavity control; advance_to retries a failed step without it.
+  extrapolated_ = false;
+  if (options_.extrapolate && extrapolate_step_ && !any_jump && !model_.cavity && time_ > prev_step_time_) {
+    std::vector<double> l_new, l_now, l_old;
+    auto loads = [&](double t, std::vector<double>& out) {
+      out.clear();
+      for (const auto& load : model_.pressures) out.push_back(load.pressure(t));
+      for (const auto& load : model_.nodal_loads) out.push_back(load.value(t));
+    };
+    loads(t_new, l_new);
+    loads(time_, l_now);
+    loads(prev_step_time_, l_old);
+    double num = 0.0, den = 0.0, nn = 0.0;
+    for (std::size_t k = 0; k < l_new.size(); ++k) {
+      num += (l_new[k] - l_now[k]) * (l_now[k] - l_old[k]);
+      den += (l_now[k] - l_old[k]) * (l_now[k] - l_old[k]);
+      nn += (l_new[k] - l_now[k]) * (l_new[k] - l_now[k]);
+    }
+    // Proportional load increments only (cosine > 0.999), and at most a doubling of the last one.
+    if (den > 0.0 && num > 0.999 * std::sqrt(nn * den)) {
+      extrapolated_ = true;
+      const double rho = std::min(num / den, 2.0);
+      for (int d = 0; d < ndof; ++d)
+        if (dofs_.eq[d] >= 0) u[d] += rho * (u_[d] - u_prev_step_[d]);
+    }
+  }
+
   auto fail = [&](const std::string& msg) {
     why = msg;
     return false;
@@ -629,7 +777,14 @@ bool Simulation::try_step(double t_new, double dt, std::string& why) {
     const bool predictor = it == 0 && !du_c.empty();
     if (predictor) as.dirichlet_rhs = du_c;
     else as.dirichlet_rhs.clear();
+    // A step started at the converged state u_n linearizes there with the load stiffness of the converged
+    // pressure p_n: K(u_n, p_n) is the tangent of an equilibrium and so positive definite on a stable path,
+    // while the new pressure on the old stress field (K(u_n, p_{n+1})) is indefinite for a slender soft
+    // tube (bending modes of stiffness ~ G (t/L)² against p: the capped ecoflex tube at p/G = 0.03), which
+    // forced UMFPACK LU for the whole first step. From a secant start the new pressure belongs there.
+    stiffness_time_ = (it == 0 && !extrapolated_) ? time_ : -1.0;
     MaterialStatus st = assemble(t_new, dt, true, u, p, as);
+    stiffness_time_ = -1.0;
     // Line search on the full assembly of the trial point (most steps accept α = 1, so no extra
     // residual evaluation): backtrack when the trial is inadmissible (material failure) or, without a
     // cavity constraint, when s(α) = Δu·R(u + αΔu) is not reduced enough (energy criterion).
@@ -691,6 +846,8 @@ bool Simulation::try_step(double t_new, double dt, std::string& why) {
                                   (rc <= 1e-4 * scale && last_du <= 1e-10 * u_max));
     r_prev = rc;
     if (!predictor && it > 0 && (rc <= options_.tolerance * scale || floor) && vres <= 1e-9) {
+      u_prev_step_.swap(u_);
+      prev_step_time_ = time_;
       u_ = std::move(u);
       cavity_pressure_ = p;
       std::swap(state_old_, state_new_);
@@ -784,7 +941,19 @@ void Simulation::advance_to(double t_end) {
     dt = std::min(dt, t_end - time_);
     if (t_end - time_ - dt < 1e-9 * interval) dt = t_end - time_;
     std::string why;
-    if (try_step(time_ + dt, dt, why)) {
+    extrapolate_step_ = true;
+    bool ok = try_step(time_ + dt, dt, why);
+    if (!ok && extrapolated_) {
+      // The secant start may overshoot where the response stiffens or softens abruptly: retry the same
+      // step from the converged state before cutting it back.
+      stats_.log.push_back("t = " + std::to_string(time_) + " + " + std::to_string(dt) + ": " + why +
+                           " from the secant predictor; retried from the converged state");
+      if (options_.verbose) std::cerr << stats_.log.back() << "\n";
+      extrapolate_step_ = false;
+      why.clear();
+      ok = try_step(time_ + dt, dt, why);
+    }
+    if (ok) {
       time_ += dt;
       last_dt_ = dt;
       ++stats_.steps;
@@ -815,11 +984,22 @@ double Simulation::reaction(const std::vector<int>& dofs) const {
   std::vector<char> want(model_.mesh.num_dofs(), 0);
   for (int d : dofs) want[d] = 1;
   for (int e = 0; e < model_.mesh.num_elements(); ++e) {
-    const Hex& hex = model_.mesh.hexes[e];
+    const int* en = model_.mesh.element_nodes(e);
+    const int nen = model_.mesh.element_size(e);
     bool touches = false;
-    for (int a = 0; a < 8 && !touches; ++a)
-      for (int i = 0; i < 3; ++i) touches |= want[3 * hex[a] + i] != 0;
+    for (int a = 0; a < nen && !touches; ++a)
+      for (int i = 0; i < 3; ++i) touches |= want[3 * en[a] + i] != 0;
     if (!touches) continue;
+    if (model_.mesh.is_tet(e)) {
+      Vec30 r10;
+      const Tet10& tet = model_.mesh.tets[e - model_.mesh.num_hexes()];
+      if (element_force(e, gather(u_, tet), r10, nullptr) != MaterialStatus::ok) continue;
+      for (int a = 0; a < 10; ++a)
+        for (int i = 0; i < 3; ++i)
+          if (want[3 * tet[a] + i]) sum += r10[3 * a + i];
+      continue;
+    }
+    const Hex& hex = model_.mesh.hexes[e];
     if (element_force(e, gather(u_, hex), r, nullptr) != MaterialStatus::ok) continue;
     for (int a = 0; a < 8; ++a)
       for (int i = 0; i < 3; ++i)
@@ -838,14 +1018,21 @@ ElementFields Simulation::element_fields() const {
   f.fiber.assign(3 * std::size_t(ne), 0.0);
 #pragma omp parallel for schedule(static) if (ne >= 4000)
   for (int e = 0; e < ne; ++e) {
-    const Hex& hex = mesh.hexes[e];
-    const Mat83 ue = gather(u_, hex);
-    const Hex8Kinematics k = hex8_kinematics(geometry_[e], ue, model_.formulation);
-    if (!k.ok) continue;
-    f.J[e] = k.theta;
+    Mat3 Fmean = Mat3::Zero();
+    if (mesh.is_tet(e)) {
+      const int t = e - mesh.num_hexes();
+      const Tet10Kinematics k = tet10_kinematics(tet_geometry_[t], gather(u_, mesh.tets[t]), model_.formulation);
+      if (!k.ok) continue;
+      f.J[e] = k.theta;
+      for (int q = 0; q < 4; ++q) Fmean += (tet_geometry_[t].w[q] / tet_geometry_[t].volume) * k.F[q];
+    } else {
+      const Hex8Kinematics k = hex8_kinematics(geometry_[e], gather(u_, mesh.hexes[e]), model_.formulation);
+      if (!k.ok) continue;
+      f.J[e] = k.theta;
+      for (int q = 0; q < 8; ++q) Fmean += (geometry_[e].w[q] / geometry_[e].volume) * k.F[q];
+    }
     const Material& m = *model_.element_material[e];
-    Mat3 sigma = Mat3::Zero(), Fmean = Mat3::Zero();
-    for (int q = 0; q < 8; ++q) Fmean += (geometry_[e].w[q] / geometry_[e].volume) * k.F[q];
+    Mat3 sigma = Mat3::Zero();
     if (!cauchy_.empty())
       for (int c = 0; c < 9; ++c) sigma(c / 3, c % 3) = cauchy_[9 * std::size_t(e) + c];
     for (int c = 0; c < 9; ++c) f.cauchy[9 * std::size_t(e) + c] = sigma(c / 3, c % 3);

@@ -59,9 +59,12 @@ CscMatrix build_pattern(const Mesh& mesh, const DofMap& dofs) {
   const int nn = mesh.num_nodes();
   // Node adjacency through elements (a face shares its element's nodes, so pressure terms fit too).
   std::vector<std::vector<int>> adj(nn);
-  for (const Hex& hex : mesh.hexes)
-    for (int a : hex)
-      for (int b : hex) adj[a].push_back(b);
+  for (int e = 0; e < mesh.num_elements(); ++e) {
+    const int* en = mesh.element_nodes(e);
+    const int sz = mesh.element_size(e);
+    for (int a = 0; a < sz; ++a)
+      for (int b = 0; b < sz; ++b) adj[en[a]].push_back(en[b]);
+  }
   for (auto& v : adj) {
     std::sort(v.begin(), v.end());
     v.erase(std::unique(v.begin(), v.end()), v.end());

@@ -88,36 +88,106 @@ double GradientOperator::laplacian(std::size_t mode) const {
   return s;
 }
 
-void GradientOperator::gradient(const Complex* u, Complex* grad) const {
+template <class Body>
+void GradientOperator::for_modes(Body&& body) const {
+  const int n1 = grid_.n[0], n2 = grid_.n[1], n3 = grid_.n[2], m1 = grid_.half_n1();
+  const int P1 = points_per_dim_[0], P2 = points_per_dim_[1], P3 = points_per_dim_[2];
+  const long rows = long(n2) * n3;
+  const bool even1 = n1 % 2 == 0;
+#pragma omp for schedule(static)
+  for (long row = 0; row < rows; ++row) {
+    const int k2 = int(row % n2), k3 = int(row / n2);
+    const Complex d1 = deriv_[1][k2], d2 = deriv_[2][k3];
+    Complex v1[2], v2[2];
+    for (int p = 0; p < P2; ++p) v1[p] = value_[1][std::size_t(p) * n2 + k2];
+    for (int p = 0; p < P3; ++p) v2[p] = value_[2][std::size_t(p) * n3 + k3];
+    const std::size_t first = std::size_t(row) * m1;
+    for (int k1 = 0; k1 < m1; ++k1) {
+      // Same products, in the same order, as coefficients().
+      Complex D[24];
+      const Complex d0 = deriv_[0][k1];
+      int q = 0;
+      for (int p3 = 0; p3 < P3; ++p3)
+        for (int p2 = 0; p2 < P2; ++p2)
+          for (int p1 = 0; p1 < P1; ++p1, ++q) {
+            const Complex v0 = value_[0][std::size_t(p1) * n1 + k1];
+            D[3 * q + 0] = d0 * v1[p2] * v2[p3];
+            D[3 * q + 1] = d1 * v0 * v2[p3];
+            D[3 * q + 2] = d2 * v0 * v1[p2];
+          }
+      const double w = (k1 == 0 || (even1 && 2 * k1 == n1)) ? 1.0 : 2.0;
+      body(first + std::size_t(k1), D, w);
+    }
+  }
+}
+
+void GradientOperator::gradient(const Complex* u, Complex* grad, bool all_columns) const {
   const std::size_t nm = grid_.modes();
-  const int nq = points();
-#pragma omp parallel for schedule(static)
-  for (std::size_t k = 0; k < nm; ++k) {
-    Complex D[24];
-    coefficients(k, D);
+  const int nq = points(), nc = all_columns ? 3 : columns();
+#pragma omp parallel
+  for_modes([&](std::size_t k, const Complex* D, double) {
     const Complex ui[3] = {u[k], u[nm + k], u[2 * nm + k]};
     for (int q = 0; q < nq; ++q)
       for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) grad[std::size_t(9 * q + 3 * i + j) * nm + k] = D[3 * q + j] * ui[i];
-  }
+        for (int j = 0; j < nc; ++j) grad[std::size_t(9 * q + 3 * i + j) * nm + k] = D[3 * q + j] * ui[i];
+  });
+}
+
+void GradientOperator::gradient_of_update(const Complex* z, double beta, Complex* p, Complex* grad) const {
+  const std::size_t nm = grid_.modes();
+  const int nq = points(), nc = columns();
+#pragma omp parallel
+  for_modes([&](std::size_t k, const Complex* D, double) {
+    Complex pi[3];
+    for (int i = 0; i < 3; ++i) {
+      const std::size_t a = std::size_t(i) * nm + k;
+      pi[i] = beta == 0.0 ? z[a] : z[a] + beta * p[a];
+      p[a] = pi[i];
+    }
+    for (int q = 0; q < nq; ++q)
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < nc; ++j) grad[std::size_t(9 * q + 3 * i + j) * nm + k] = D[3 * q + j] * pi[i];
+  });
 }
 
 void GradientOperator::divergence(const Complex* stress, Complex* out, double scale) const {
   const std::size_t nm = grid_.modes();
-  const int nq = points();
-#pragma omp parallel for schedule(static)
-  for (std::size_t k = 0; k < nm; ++k) {
-    Complex D[24];
-    coefficients(k, D);
+  const int nq = points(), nc = columns();
+#pragma omp parallel
+  for_modes([&](std::size_t k, const Complex* D, double) {
     Complex acc[3] = {0.0, 0.0, 0.0};
     for (int q = 0; q < nq; ++q) {
       const double wq = quadrature_[q].weight;
       for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
+        for (int j = 0; j < nc; ++j)
           acc[i] += wq * std::conj(D[3 * q + j]) * stress[std::size_t(9 * q + 3 * i + j) * nm + k];
     }
     for (int i = 0; i < 3; ++i) out[std::size_t(i) * nm + k] = scale * acc[i];
-  }
+  });
+}
+
+double GradientOperator::divergence_dot(const Complex* stress, Complex* out, double scale, const Complex* x) const {
+  const std::size_t nm = grid_.modes();
+  const int nq = points(), nc = columns();
+  double s = 0.0;
+#pragma omp parallel reduction(+ : s)
+  for_modes([&](std::size_t k, const Complex* D, double w) {
+    Complex acc[3] = {0.0, 0.0, 0.0};
+    for (int q = 0; q < nq; ++q) {
+      const double wq = quadrature_[q].weight;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < nc; ++j)
+          acc[i] += wq * std::conj(D[3 * q + j]) * stress[std::size_t(9 * q + 3 * i + j) * nm + k];
+    }
+    double d = 0.0;
+    for (int i = 0; i < 3; ++i) {
+      const Complex o = scale * acc[i];
+      out[std::size_t(i) * nm + k] = o;
+      d += std::real(std::conj(x[std::size_t(i) * nm + k]) * o);
+    }
+    s += w * d;
+  });
+  return s;
 }
 
 void GradientOperator::solve_reference(const Matrix9& C0, const Complex* r, Complex* out) const {
@@ -151,6 +221,127 @@ void GradientOperator::solve_reference(const Matrix9& C0, const Complex* r, Comp
     out[nm + k] = x[1];
     out[2 * nm + k] = x[2];
   }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// ReferenceGreen
+
+void ReferenceGreen::set(const Matrix9& C0) {
+  const Grid& g = op_.grid();
+  const std::size_t nm = g.modes();
+  const int nq = op_.points();
+  table_.resize(9 * nm);
+  double* T = table_.data();
+#pragma omp parallel
+  op_.for_modes([&](std::size_t k, const Complex* D, double) {
+    // As solve_reference(): M_jl = Σ_q w_q conj(D_qj) D_ql, K0_ik = Σ_jl C0_(ij)(kl) M_jl.
+    Eigen::Matrix3cd M = Eigen::Matrix3cd::Zero();
+    for (int q = 0; q < nq; ++q)
+      for (int j = 0; j < 3; ++j)
+        for (int l = 0; l < 3; ++l) M(j, l) += op_.quadrature_[q].weight * std::conj(D[3 * q + j]) * D[3 * q + l];
+    double* t = T + 9 * k;
+    for (int c = 0; c < 9; ++c) t[c] = 0.0;
+    if (!(M.trace().real() > 0.0)) return;  // kernel mode: the Green operator is 0 there
+    Eigen::Matrix3cd K0;
+    for (int i = 0; i < 3; ++i)
+      for (int kk = 0; kk < 3; ++kk) {
+        Complex s = 0.0;
+        for (int j = 0; j < 3; ++j)
+          for (int l = 0; l < 3; ++l) s += C0(3 * i + j, 3 * kk + l) * M(j, l);
+        K0(i, kk) = s;
+      }
+    // K0 is Hermitian (C0 major-symmetric, M Hermitian), so is its inverse: keep the upper triangle.
+    const Eigen::Matrix3cd G = K0.inverse();
+    t[0] = G(0, 0).real();
+    t[1] = G(1, 1).real();
+    t[2] = G(2, 2).real();
+    t[3] = G(0, 1).real();
+    t[4] = G(0, 1).imag();
+    t[5] = G(0, 2).real();
+    t[6] = G(0, 2).imag();
+    t[7] = G(1, 2).real();
+    t[8] = G(1, 2).imag();
+  });
+}
+
+namespace {
+/// z = G r with G Hermitian from its packed upper triangle.
+inline void green_mul(const double* t, const Complex r[3], Complex z[3]) {
+  const Complex g01(t[3], t[4]), g02(t[5], t[6]), g12(t[7], t[8]);
+  z[0] = t[0] * r[0] + g01 * r[1] + g02 * r[2];
+  z[1] = std::conj(g01) * r[0] + t[1] * r[1] + g12 * r[2];
+  z[2] = std::conj(g02) * r[0] + std::conj(g12) * r[1] + t[2] * r[2];
+}
+}  // namespace
+
+void ReferenceGreen::apply(const Complex* r, Complex* out, double scale) const {
+  const std::size_t nm = op_.grid().modes();
+  const double inv = 1.0 / scale;
+  const double* T = table_.data();
+#pragma omp parallel for schedule(static)
+  for (std::size_t k = 0; k < nm; ++k) {
+    const Complex rk[3] = {r[k], r[nm + k], r[2 * nm + k]};
+    Complex z[3];
+    green_mul(T + 9 * k, rk, z);
+    for (int i = 0; i < 3; ++i) out[std::size_t(i) * nm + k] = inv * z[i];
+  }
+}
+
+double ReferenceGreen::apply_dot(const Complex* r, Complex* out, double scale) const {
+  const Grid& g = op_.grid();
+  const std::size_t nm = g.modes(), m1 = std::size_t(g.half_n1()), rows = nm / m1;
+  const bool even1 = g.n[0] % 2 == 0;
+  const double inv = 1.0 / scale;
+  const double* T = table_.data();
+  double s = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : s)
+  for (std::size_t row = 0; row < rows; ++row)
+    for (std::size_t k1 = 0; k1 < m1; ++k1) {
+      const std::size_t k = row * m1 + k1;
+      const double w = (k1 == 0 || (even1 && 2 * k1 == std::size_t(g.n[0]))) ? 1.0 : 2.0;
+      const Complex rk[3] = {r[k], r[nm + k], r[2 * nm + k]};
+      Complex z[3];
+      green_mul(T + 9 * k, rk, z);
+      double d = 0.0;
+      for (int i = 0; i < 3; ++i) {
+        out[std::size_t(i) * nm + k] = inv * z[i];
+        d += std::real(std::conj(rk[i]) * (inv * z[i]));
+      }
+      s += w * d;
+    }
+  return s;
+}
+
+double ReferenceGreen::cg_update(double alpha, const Complex* p, const Complex* Ap, Complex* x, Complex* r, Complex* z,
+                                 double scale) const {
+  const Grid& g = op_.grid();
+  const std::size_t nm = g.modes(), m1 = std::size_t(g.half_n1()), rows = nm / m1;
+  const bool even1 = g.n[0] % 2 == 0;
+  const double inv = 1.0 / scale;
+  const double* T = table_.data();
+  double s = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : s)
+  for (std::size_t row = 0; row < rows; ++row)
+    for (std::size_t k1 = 0; k1 < m1; ++k1) {
+      const std::size_t k = row * m1 + k1;
+      const double w = (k1 == 0 || (even1 && 2 * k1 == std::size_t(g.n[0]))) ? 1.0 : 2.0;
+      Complex rk[3];
+      for (int i = 0; i < 3; ++i) {
+        const std::size_t a = std::size_t(i) * nm + k;
+        x[a] += alpha * p[a];
+        r[a] -= alpha * Ap[a];
+        rk[i] = r[a];
+      }
+      Complex zk[3];
+      green_mul(T + 9 * k, rk, zk);
+      double d = 0.0;
+      for (int i = 0; i < 3; ++i) {
+        z[std::size_t(i) * nm + k] = inv * zk[i];
+        d += std::real(std::conj(rk[i]) * (inv * zk[i]));
+      }
+      s += w * d;
+    }
+  return s;
 }
 
 }  // namespace softhom::fft

@@ -8,6 +8,7 @@
 #include <mutex>
 #include <new>
 #include <sstream>
+#include <stdexcept>
 
 namespace softhom::fft {
 namespace {
@@ -43,8 +44,10 @@ const char* name_of(PlanRigor r) {
 
 }  // namespace
 
-BatchedFFT::BatchedFFT(const Grid& grid, int fields, const PlanOptions& options)
-    : grid_(grid), fields_(fields), rigor_(options.rigor) {
+BatchedFFT::BatchedFFT(const Grid& grid, int fields, const PlanOptions& options, int columns)
+    : grid_(grid), fields_(fields), columns_(columns), rigor_(options.rigor) {
+  if (columns < 1 || columns > 3 || (columns < 3 && fields % 9 != 0))
+    throw std::invalid_argument("BatchedFFT: columns must be 1..3, and < 3 only for 3x3 tensor fields");
   const auto start = std::chrono::steady_clock::now();
   threads_ = options.threads > 0 ? options.threads : omp_get_max_threads();
   const std::size_t nr = grid.voxels() * std::size_t(fields), nc = grid.modes() * std::size_t(fields);
@@ -61,10 +64,26 @@ BatchedFFT::BatchedFFT(const Grid& grid, int fields, const PlanOptions& options)
     init_threads_once();
     if (!options.wisdom_file.empty()) fftw_import_wisdom_from_filename(options.wisdom_file.c_str());
     fftw_plan_with_nthreads(threads_);
-    forward_plan_ = fftw_plan_many_dft_r2c(3, dims, fields, real_, nullptr, 1, nv,
-                                           reinterpret_cast<fftw_complex*>(spectrum_), nullptr, 1, nm, flags);
-    backward_plan_ = fftw_plan_many_dft_c2r(3, dims, fields, reinterpret_cast<fftw_complex*>(spectrum_), nullptr,
-                                            1, nm, real_, nullptr, 1, nv, flags);
+    if (columns == 3) {
+      forward_plan_ = fftw_plan_many_dft_r2c(3, dims, fields, real_, nullptr, 1, nv,
+                                             reinterpret_cast<fftw_complex*>(spectrum_), nullptr, 1, nm, flags);
+      backward_plan_ = fftw_plan_many_dft_c2r(3, dims, fields, reinterpret_cast<fftw_complex*>(spectrum_), nullptr,
+                                              1, nm, real_, nullptr, 1, nv, flags);
+    } else {
+      // Guru interface: the transformed fields form a (tensor t, row i, column j < columns) loop nest.
+      const int m1 = grid.half_n1();
+      fftw_iodim fwd[3] = {{grid.n[2], grid.n[1] * grid.n[0], m1 * grid.n[1]},
+                           {grid.n[1], grid.n[0], m1},
+                           {grid.n[0], 1, 1}};
+      fftw_iodim bwd[3] = {{grid.n[2], m1 * grid.n[1], grid.n[1] * grid.n[0]},
+                           {grid.n[1], m1, grid.n[0]},
+                           {grid.n[0], 1, 1}};
+      fftw_iodim many_f[3] = {{fields / 9, 9 * nv, 9 * nm}, {3, 3 * nv, 3 * nm}, {columns, nv, nm}};
+      fftw_iodim many_b[3] = {{fields / 9, 9 * nm, 9 * nv}, {3, 3 * nm, 3 * nv}, {columns, nm, nv}};
+      forward_plan_ = fftw_plan_guru_dft_r2c(3, fwd, 3, many_f, real_, reinterpret_cast<fftw_complex*>(spectrum_), flags);
+      backward_plan_ =
+          fftw_plan_guru_dft_c2r(3, bwd, 3, many_b, reinterpret_cast<fftw_complex*>(spectrum_), real_, flags);
+    }
     if (!options.wisdom_file.empty()) fftw_export_wisdom_to_filename(options.wisdom_file.c_str());
   }
   if (!forward_plan_ || !backward_plan_) throw std::runtime_error("fftw: could not create plans");
@@ -89,7 +108,7 @@ void BatchedFFT::backward() { fftw_execute(static_cast<fftw_plan>(backward_plan_
 
 std::string BatchedFFT::describe() const {
   std::ostringstream os;
-  os << "fftw3 r2c " << fields_ << " x " << grid_.n[0] << "x" << grid_.n[1] << "x" << grid_.n[2] << ", "
+  os << "fftw3 r2c " << transformed_fields() << " x " << grid_.n[0] << "x" << grid_.n[1] << "x" << grid_.n[2] << ", "
      << threads_ << " threads, " << name_of(rigor_);
   return os.str();
 }

@@ -412,11 +412,148 @@ Dataset read_dataset(const std::filesystem::path& file, const std::string& datas
   if (n < 0) hdf5_fail(what);
   Dataset out;
   out.dims.assign(dims.begin(), dims.end());
+  out.integer = cls == H5T_INTEGER;
+  // Numeric attributes of the dataset (e.g. voxel_size); others (strings, compounds) are skipped.
+  auto read_attr = [](hid_t loc, const char* name, const H5A_info_t*, void* data) -> herr_t {
+    auto* attrs = static_cast<std::map<std::string, std::vector<double>>*>(data);
+    const hid_t a = H5Aopen(loc, name, H5P_DEFAULT);
+    if (a < 0) return 0;
+    Handle attr(a, H5Aclose);
+    const hid_t t = H5Aget_type(attr.get());
+    if (t < 0) return 0;
+    Handle atype(t, H5Tclose);
+    const H5T_class_t c = H5Tget_class(atype.get());
+    if (c != H5T_INTEGER && c != H5T_FLOAT) return 0;
+    const hid_t sp = H5Aget_space(attr.get());
+    if (sp < 0) return 0;
+    Handle aspace(sp, H5Sclose);
+    const hssize_t count = H5Sget_simple_extent_npoints(aspace.get());
+    if (count <= 0) return 0;
+    std::vector<double> v(static_cast<std::size_t>(count));
+    if (H5Aread(attr.get(), H5T_NATIVE_DOUBLE, v.data()) >= 0) (*attrs)[name] = std::move(v);
+    return 0;
+  };
+  hsize_t attr_index = 0;
+  H5Aiterate2(d.get(), H5_INDEX_NAME, H5_ITER_NATIVE, &attr_index, read_attr, &out.attributes);
   out.values.resize(static_cast<std::size_t>(n));
   // HDF5 converts any integer or float type to native double on read.
   if (n > 0 && H5Dread(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.values.data()) < 0)
     hdf5_fail(what);
   return out;
+}
+
+}  // namespace softhom::io
+
+namespace softhom::io {
+
+namespace {
+
+void write_attribute(hid_t loc, const char* name, const std::array<double, 3>& v, const std::string& what) {
+  const hsize_t n = 3;
+  Handle space = checked(H5Screate_simple(1, &n, nullptr), H5Sclose, what);
+  Handle attr = checked(H5Acreate2(loc, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, what);
+  if (H5Awrite(attr.get(), H5T_NATIVE_DOUBLE, v.data()) < 0) hdf5_fail(what);
+}
+
+}  // namespace
+
+void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
+                       const std::vector<VoxelImageDataset>& datasets) {
+  silence_hdf5();
+  std::array<double, 3> cell{};
+  for (int d = 0; d < 3; ++d) {
+    if (grid.cells[d] < 1 || !(std::isfinite(grid.spacing[d]) && grid.spacing[d] > 0.0))
+      throw std::invalid_argument("write_voxel_image: grid needs cells >= 1 and finite spacing > 0");
+    cell[d] = grid.cells[d] * grid.spacing[d];
+  }
+  const std::size_t n_cells = std::size_t(grid.cells[0]) * grid.cells[1] * grid.cells[2];
+  fs::path h5_final = stem, xdmf_final = stem;
+  h5_final += ".h5";
+  xdmf_final += ".xdmf";
+  if (!h5_final.parent_path().empty()) fs::create_directories(h5_final.parent_path());
+  const fs::path h5_tmp = temporary_path(h5_final);
+  // Removes the temporary on any exception below.
+  struct Cleanup {
+    const fs::path& p;
+    bool armed = true;
+    ~Cleanup() {
+      std::error_code ec;
+      if (armed) fs::remove(p, ec);
+    }
+  } cleanup{h5_tmp};
+  const std::string href_file = xml_escape(h5_final.filename().string());
+  std::string attrs_xml;
+  {
+    Handle file = checked(H5Fcreate(h5_tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
+                          "write_voxel_image: cannot create '" + h5_tmp.string() + "'");
+    std::set<std::string> names;
+    for (const VoxelImageDataset& ds : datasets) {
+      check_name(ds.name);
+      if (!names.insert(ds.name).second)
+        throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' given twice");
+      if (ds.components != 1 && ds.components != 3)
+        throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' must have 1 or 3 components");
+      if (ds.values.size() != n_cells * std::size_t(ds.components))
+        throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' has " + std::to_string(ds.values.size()) +
+                                    " values, expected " + std::to_string(n_cells * ds.components));
+      std::vector<hsize_t> dims{hsize_t(grid.cells[2]), hsize_t(grid.cells[1]), hsize_t(grid.cells[0])};
+      if (ds.components > 1) dims.push_back(hsize_t(ds.components));
+      const std::string what = "write_voxel_image: cannot write '" + ds.name + "' to '" + h5_tmp.string() + "'";
+      if (ds.as_uint8) {
+        std::vector<unsigned char> bytes(ds.values.size());
+        for (std::size_t i = 0; i < bytes.size(); ++i) {
+          const double v = ds.values[i];
+          if (!(v >= 0.0 && v <= 255.0 && v == std::floor(v)))
+            throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' value " + number(v) +
+                                        " at index " + std::to_string(i) + " is not an integer in [0, 255]");
+          bytes[i] = static_cast<unsigned char>(v);
+        }
+        write_dataset(file.get(), ds.name, H5T_STD_U8LE, H5T_NATIVE_UCHAR, bytes.data(), dims, h5_tmp.string());
+      } else {
+        for (std::size_t i = 0; i < ds.values.size(); ++i)
+          if (!std::isfinite(ds.values[i]))
+            throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' has a non-finite value at index " +
+                                        std::to_string(i));
+        write_dataset(file.get(), ds.name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, ds.values.data(), dims, h5_tmp.string());
+      }
+      Handle set = checked(H5Dopen2(file.get(), ds.name.c_str(), H5P_DEFAULT), H5Dclose, what);
+      write_attribute(set.get(), "voxel_size", grid.spacing, what);
+      write_attribute(set.get(), "cell_size", cell, what);
+      {  // Layout tag in the convention of FANS (variable-length string; "zyx": file dims z, y, x)
+        Handle str = checked(H5Tcopy(H5T_C_S1), H5Tclose, what);
+        if (H5Tset_size(str.get(), H5T_VARIABLE) < 0) hdf5_fail(what);
+        Handle scalar = checked(H5Screate(H5S_SCALAR), H5Sclose, what);
+        Handle attr = checked(H5Acreate2(set.get(), "permute_order", str.get(), scalar.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, what);
+        const char* zyx = "zyx";
+        if (H5Awrite(attr.get(), str.get(), &zyx) < 0) hdf5_fail(what);
+      }
+      const char* type = ds.components == 1 ? "Scalar" : "Vector";
+      attrs_xml += "      <Attribute Name=\"" + ds.name + "\" AttributeType=\"" + type + "\" Center=\"Cell\">\n" +
+                   "        <DataItem Dimensions=\"" + join(dims) + "\" NumberType=\"" +
+                   (ds.as_uint8 ? "UChar\" Precision=\"1" : "Float\" Precision=\"8") + "\" Format=\"HDF\">" + href_file +
+                   ":/" + ds.name + "</DataItem>\n      </Attribute>\n";
+    }
+    if (!file.reset()) hdf5_fail("write_voxel_image: cannot close '" + h5_tmp.string() + "'");
+  }
+  const std::vector<hsize_t> node_dims{hsize_t(grid.cells[2] + 1), hsize_t(grid.cells[1] + 1), hsize_t(grid.cells[0] + 1)};
+  const std::string xdmf =
+      "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n    <Grid Name=\"" +
+      xml_escape(xdmf_final.stem().string()) + "\" GridType=\"Uniform\">\n" +
+      "      <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" + join(node_dims) + "\"/>\n" +
+      "      <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
+      "        <DataItem Name=\"Origin\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" +
+      number(grid.origin[2]) + " " + number(grid.origin[1]) + " " + number(grid.origin[0]) + "</DataItem>\n" +
+      "        <DataItem Name=\"Spacing\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" +
+      number(grid.spacing[2]) + " " + number(grid.spacing[1]) + " " + number(grid.spacing[0]) + "</DataItem>\n" +
+      "      </Geometry>\n" + attrs_xml + "    </Grid>\n  </Domain>\n</Xdmf>\n";
+  fsync_file(h5_tmp);
+  std::error_code ec;
+  fs::rename(h5_tmp, h5_final, ec);
+  if (ec)
+    throw std::runtime_error("write_voxel_image: cannot rename '" + h5_tmp.string() + "' to '" + h5_final.string() +
+                             "' (" + ec.message() + ")");
+  cleanup.armed = false;
+  write_file_atomic(xdmf_final, xdmf);
 }
 
 }  // namespace softhom::io

@@ -181,7 +181,7 @@ void check_keys(const toml::table& table, const std::string& path, std::initiali
 
 MaterialSpec parse_material(const toml::table& t, const std::string& path) {
   check_keys(t, path, {"preset", "law", "G", "Jm", "K", "mu", "E", "nu", "C1", "C2", "C3", "alpha", "k1", "k2",
-                       "fiber_invariant", "tension_only", "fibers", "viscoelastic"});
+                       "fiber_invariant", "tension_only", "fibers", "viscoelastic", "form"});
   MaterialSpec s;
   s.field_prefix = path;
   const std::string preset = get_string_or(t, "preset", path, "");
@@ -215,7 +215,7 @@ MaterialSpec parse_material(const toml::table& t, const std::string& path) {
   };
   switch (s.law) {
     case LawKind::gent_hgo:
-      reject({"mu", "E", "nu", "C1", "C2", "C3", "alpha"}, "Gent-HGO");
+      reject({"mu", "E", "nu", "C1", "C2", "C3", "alpha", "form"}, "Gent-HGO");
       s.gent.G = get_number_or(t, "G", path, s.gent.G);
       s.gent.Jm = get_number_or(t, "Jm", path, s.gent.Jm);
       s.gent.K = get_number_or(t, "K", path, s.gent.K);
@@ -232,16 +232,22 @@ MaterialSpec parse_material(const toml::table& t, const std::string& path) {
       }
       s.neo_hookean.mu = get_number_or(t, "mu", path, s.neo_hookean.mu);
       s.neo_hookean.K = get_number_or(t, "K", path, s.neo_hookean.K);
+      if (t.contains("form")) {  // energy form (laws.hpp NeoHookeanForm); "lame-log" = FANS's law
+        const std::string form = get_string_or(t, "form", path, "isochoric");
+        if (form == "isochoric") s.neo_hookean.form = NeoHookeanForm::isochoric;
+        else if (form == "lame-log") s.neo_hookean.form = NeoHookeanForm::lame_log;
+        else throw InputError(join(path, "form"), form, "isochoric or lame-log");
+      }
       break;
     case LawKind::yeoh:
-      reject({"G", "Jm", "mu", "E", "nu", "alpha"}, "Yeoh");
+      reject({"G", "Jm", "mu", "E", "nu", "alpha", "form"}, "Yeoh");
       s.yeoh.C1 = get_number_or(t, "C1", path, s.yeoh.C1);
       s.yeoh.C2 = get_number_or(t, "C2", path, s.yeoh.C2);
       s.yeoh.C3 = get_number_or(t, "C3", path, s.yeoh.C3);
       s.yeoh.K = get_number_or(t, "K", path, s.yeoh.K);
       break;
     case LawKind::ogden:
-      reject({"G", "Jm", "E", "nu", "C1", "C2", "C3"}, "Ogden");
+      reject({"G", "Jm", "E", "nu", "C1", "C2", "C3", "form"}, "Ogden");
       if (t.contains("mu")) s.ogden.mu = as_numbers(*t.get("mu"), join(path, "mu"));
       if (t.contains("alpha")) s.ogden.alpha = as_numbers(*t.get("alpha"), join(path, "alpha"));
       s.ogden.K = get_number_or(t, "K", path, s.ogden.K);

@@ -143,8 +143,10 @@ fe::Mesh make_sphere_octant(const SphereSpec& s) {
 std::vector<Vec3> element_centroids(const fe::Mesh& mesh) {
   std::vector<Vec3> out(mesh.num_elements(), Vec3::Zero());
   for (int e = 0; e < mesh.num_elements(); ++e) {
-    for (int n : mesh.hexes[e]) out[e] += mesh.nodes[n];
-    out[e] /= 8.0;
+    // Vertex average (a tet's first 4 nodes are its vertices).
+    const int nv = mesh.is_tet(e) ? 4 : 8;
+    for (int a = 0; a < nv; ++a) out[e] += mesh.nodes[mesh.element_nodes(e)[a]];
+    out[e] /= double(nv);
   }
   return out;
 }

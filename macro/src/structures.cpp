@@ -18,13 +18,56 @@ void fix(fe::FeModel& m, const std::vector<int>& nodes, int component, double sc
   m.dirichlet.push_back(std::move(g));
 }
 
-std::vector<fe::Quad> concat(const fe::Mesh& mesh, std::initializer_list<const char*> names) {
+template <class Names>
+std::vector<fe::Quad> concat(const fe::Mesh& mesh, const Names& names) {
   std::vector<fe::Quad> out;
-  for (const char* n : names) {
+  for (const auto& n : names) {
     const auto it = mesh.surfaces.find(n);
     if (it != mesh.surfaces.end()) out.insert(out.end(), it->second.begin(), it->second.end());
   }
   return out;
+}
+std::vector<fe::Quad> concat(const fe::Mesh& mesh, std::initializer_list<const char*> names) {
+  return concat<std::initializer_list<const char*>>(mesh, names);
+}
+template <class Names>
+std::vector<fe::Tri6> concat_tris(const fe::Mesh& mesh, const Names& names) {
+  std::vector<fe::Tri6> out;
+  for (const auto& n : names) {
+    const auto& f = mesh.tri_surface(n);
+    out.insert(out.end(), f.begin(), f.end());
+  }
+  return out;
+}
+std::vector<fe::Tri6> concat_tris(const fe::Mesh& mesh, std::initializer_list<const char*> names) {
+  return concat_tris<std::initializer_list<const char*>>(mesh, names);
+}
+
+/// The generated hex mesh, or its split into tet10 with mid-edge nodes on the structure's curved
+/// surfaces (cylinders about z for tubes, spheres about the origin for the balloon).
+fe::Mesh maybe_tets(fe::Mesh mesh, const StructureSpec& spec) {
+  if (!spec.tet10) return mesh;
+  switch (spec.kind) {
+    case StructureKind::tube:
+    case StructureKind::actuator:
+      return fe::hex_to_tet10(mesh, [](const Vec3& a, const Vec3& b) {
+        const double ra = std::hypot(a[0], a[1]), rb = std::hypot(b[0], b[1]);
+        const Vec3 m = 0.5 * (a + b);
+        const double rm = std::hypot(m[0], m[1]);
+        // Points on the axis (cap core) or edges crossing it keep the straight midpoint.
+        if (ra < 1e-9 || rb < 1e-9 || rm < 1e-9 || std::abs(ra - rb) > 1e-9 * (ra + rb)) return m;
+        return Vec3(m[0] * ra / rm, m[1] * ra / rm, m[2]);
+      });
+    case StructureKind::sphere:
+      return fe::hex_to_tet10(mesh, [](const Vec3& a, const Vec3& b) {
+        const double ra = a.norm(), rb = b.norm();
+        const Vec3 m = 0.5 * (a + b);
+        if (std::abs(ra - rb) > 1e-9 * (ra + rb)) return m;
+        return Vec3(m * (ra / m.norm()));
+      });
+    default:
+      return fe::hex_to_tet10(mesh);
+  }
 }
 
 /// Per-element materials in the fiber frame; identical frames share one rotated copy.
@@ -33,11 +76,20 @@ void assign_materials(Structure& s) {
   fe::Mesh& mesh = s.model.mesh;
   const MaterialPtr m1 = spec.material_region1 ? spec.material_region1 : spec.material;
   const auto centroids = element_centroids(mesh);
-  std::map<std::pair<long, long>, MaterialPtr> cache[2];
+  std::map<int, std::map<std::pair<long, long>, MaterialPtr>> cache;
+  // Imported meshes: the material of a region is looked up by its physical name.
+  std::vector<MaterialPtr> by_region;
+  if (spec.kind == StructureKind::imported)
+    for (const std::string& name : mesh.region_names) {
+      const auto it = spec.imported.region_materials.find(name);
+      by_region.push_back(it != spec.imported.region_materials.end() ? it->second : spec.material);
+    }
   s.model.element_material.resize(mesh.num_elements());
   for (int e = 0; e < mesh.num_elements(); ++e) {
     const int region = mesh.region.empty() ? 0 : mesh.region[e];
-    const MaterialPtr& base = region == 1 ? m1 : spec.material;
+    const MaterialPtr& base = spec.kind == StructureKind::imported
+                                  ? (region < int(by_region.size()) ? by_region[region] : spec.material)
+                                  : (region == 1 ? m1 : spec.material);
     if (spec.fiber_frame == FiberFrame::global || base->fiber_directions().empty()) {
       s.model.element_material[e] = base;
       continue;
@@ -47,7 +99,7 @@ void assign_materials(Structure& s) {
     // Key on the rotation (rounded) so that elements of one angular column share a material.
     const std::pair<long, long> key{std::lround(1e9 * Q(0, 0)) * 3 + std::lround(1e9 * Q(1, 0)),
                                     std::lround(1e9 * Q(2, 2)) + 7 * std::lround(1e9 * Q(0, 2))};
-    auto& slot = cache[region == 1][key];
+    auto& slot = cache[spec.kind == StructureKind::imported ? region : int(region == 1)][key];
     if (!slot) slot = MaterialPtr(base->rotated(Q));
     s.model.element_material[e] = slot;
   }
@@ -69,7 +121,7 @@ Structure build_structure(const StructureSpec& spec) {
   m.formulation = spec.formulation;
   switch (spec.kind) {
     case StructureKind::plate: {
-      m.mesh = make_plate(spec.plate);
+      m.mesh = maybe_tets(make_plate(spec.plate), spec);
       if (spec.control != LoadControl::stretch)
         throw InputError("load.control", "", "a plate is driven by load.stretch");
       const double L = spec.plate.size[0];
@@ -94,7 +146,7 @@ Structure build_structure(const StructureSpec& spec) {
       t.split_y = spec.kind == StructureKind::actuator;
       if (spec.kind == StructureKind::actuator && !(t.cap_thickness > 0.0))
         throw InputError("geometry.cap_thickness", std::to_string(t.cap_thickness), "an actuator needs an end cap");
-      m.mesh = make_tube(t);
+      m.mesh = maybe_tets(make_tube(t), spec);
       const bool quarter = t.sweep_deg < 360.0 - 1e-9;
       if (quarter) {
         if (std::abs(t.sweep_deg - 90.0) > 1e-9)
@@ -124,31 +176,69 @@ Structure build_structure(const StructureSpec& spec) {
       s.inner_nodes = fe::surface_nodes(m.mesh, "inner");
       s.end_nodes = fe::surface_nodes(m.mesh, "zmax");
       const auto faces = concat(m.mesh, {"inner", "cap_inner"});
+      const auto tris = concat_tris(m.mesh, {"inner", "cap_inner"});
       if (spec.control == LoadControl::pressure) {
-        m.pressures.push_back({faces, spec.load});
+        m.pressures.push_back({faces, spec.load, tris});
       } else if (spec.control == LoadControl::volume) {
         // Cavity closed by z = 0 (x·n = 0 there) and, when not capped, by the plane z = L: use the
         // in-plane mask so that that plane contributes nothing.
         const Vec3 mask = t.cap_thickness > 0.0 ? Vec3(1, 1, 1) : Vec3(1, 1, 0);
-        m.cavity = fe::CavityControl{faces, mask, spec.load};
+        m.cavity = fe::CavityControl{faces, mask, spec.load, tris};
       } else {
         throw InputError("load.control", "stretch", "a tube is driven by pressure or volume");
       }
       break;
     }
     case StructureKind::sphere: {
-      m.mesh = make_sphere_octant(spec.sphere);
+      m.mesh = maybe_tets(make_sphere_octant(spec.sphere), spec);
       fix(m, fe::surface_nodes(m.mesh, "x0"), 0);
       fix(m, fe::surface_nodes(m.mesh, "y0"), 1);
       fix(m, fe::surface_nodes(m.mesh, "z0"), 2);
       s.inner_nodes = fe::surface_nodes(m.mesh, "inner");
       const auto faces = m.mesh.surface("inner");
+      const auto tris = m.mesh.tri_surface("inner");
       if (spec.control == LoadControl::pressure)
-        m.pressures.push_back({faces, spec.load});
+        m.pressures.push_back({faces, spec.load, tris});
       else if (spec.control == LoadControl::volume)
-        m.cavity = fe::CavityControl{faces, Vec3(1, 1, 1), spec.load};
+        m.cavity = fe::CavityControl{faces, Vec3(1, 1, 1), spec.load, tris};
       else
         throw InputError("load.control", "stretch", "a sphere is driven by pressure or volume");
+      break;
+    }
+    case StructureKind::imported: {
+      const ImportedSpec& im = spec.imported;
+      m.mesh = im.mesh;
+      if (m.mesh.num_elements() == 0) throw InputError("geometry.file", "", "the mesh has no volume elements");
+      for (const auto& f : im.fixed) {
+        if (!m.mesh.has_surface(f.surface))
+          throw InputError("boundary.surface", f.surface, "no physical surface of that name in the mesh");
+        const auto nodes = fe::surface_nodes(m.mesh, f.surface);
+        for (int c = 0; c < 3; ++c)
+          if (f.components[c]) fix(m, nodes, c);
+      }
+      for (const auto& n : im.load_surfaces)
+        if (!m.mesh.has_surface(n)) throw InputError("load.surface", n, "no physical surface of that name in the mesh");
+      if (!im.probe_surface.empty()) {
+        if (!m.mesh.has_surface(im.probe_surface))
+          throw InputError("probe.surface", im.probe_surface, "no physical surface of that name in the mesh");
+        s.end_nodes = fe::surface_nodes(m.mesh, im.probe_surface);
+      }
+      for (const auto& n : im.load_surfaces) {
+        const auto nodes = fe::surface_nodes(m.mesh, n);
+        s.inner_nodes.insert(s.inner_nodes.end(), nodes.begin(), nodes.end());
+      }
+      std::sort(s.inner_nodes.begin(), s.inner_nodes.end());
+      s.inner_nodes.erase(std::unique(s.inner_nodes.begin(), s.inner_nodes.end()), s.inner_nodes.end());
+      const auto faces = concat(m.mesh, im.load_surfaces);
+      const auto tris = concat_tris(m.mesh, im.load_surfaces);
+      if (spec.control == LoadControl::pressure) {
+        if (!im.load_surfaces.empty()) m.pressures.push_back({faces, spec.load, tris});
+      } else if (spec.control == LoadControl::volume) {
+        if (im.load_surfaces.empty()) throw InputError("load.surface", "", "volume control needs the cavity surface");
+        m.cavity = fe::CavityControl{faces, im.cavity_mask, spec.load, tris};
+      } else {
+        throw InputError("load.control", "stretch", "an imported mesh is driven by pressure or volume");
+      }
       break;
     }
   }
@@ -163,6 +253,8 @@ std::vector<std::string> probe_names(const Structure& s) {
     case StructureKind::tube:
       return {"time", "pressure", "volume", "inner_radius", "stretch", "axial_stretch", "twist_deg"};
     case StructureKind::actuator: return {"time", "pressure", "volume", "tip_angle_deg", "tip_deflection"};
+    case StructureKind::imported:
+      return {"time", "pressure", "volume", "mean_radius", "probe_ux", "probe_uy", "probe_uz"};
   }
   return {};
 }
@@ -175,11 +267,12 @@ std::vector<double> probe_values(const Structure& s, const fe::Simulation& sim) 
   double p = 0.0, volume = 0.0;
   if (s.model.cavity) {
     p = sim.cavity_pressure();
-    volume = fe::cavity_volume(x, s.model.cavity->faces, s.model.cavity->mask);
+    volume = fe::cavity_volume(x, s.model.cavity->faces, s.model.cavity->mask, s.model.cavity->tris);
   } else if (!s.model.pressures.empty()) {
     p = s.model.pressures[0].pressure(t);
-    const Vec3 mask = spec.tube.cap_thickness > 0.0 || spec.kind == StructureKind::sphere ? Vec3(1, 1, 1) : Vec3(1, 1, 0);
-    volume = fe::cavity_volume(x, s.model.pressures[0].faces, mask);
+    Vec3 mask = spec.tube.cap_thickness > 0.0 || spec.kind == StructureKind::sphere ? Vec3(1, 1, 1) : Vec3(1, 1, 0);
+    if (spec.kind == StructureKind::imported) mask = spec.imported.cavity_mask;
+    volume = fe::cavity_volume(x, s.model.pressures[0].faces, mask, s.model.pressures[0].tris);
   }
   switch (spec.kind) {
     case StructureKind::plate: {
@@ -221,6 +314,12 @@ std::vector<double> probe_values(const Structure& s, const fe::Simulation& sim) 
       c0 /= double(s.end_nodes.size());
       const double alpha = std::atan2(std::hypot(c[0], c[1]), c[2]) * 180.0 / M_PI;
       return {t, p, volume, alpha, (c - c0).norm()};
+    }
+    case StructureKind::imported: {
+      // Mean distance of the loaded surface's nodes from the z axis; mean displacement of the probe surface.
+      Vec3 du = Vec3::Zero();
+      for (int n : s.end_nodes) du += (x[n] - X[n]) / double(s.end_nodes.size());
+      return {t, p, volume, mean_radius(x, s.inner_nodes, false), du[0], du[1], du[2]};
     }
   }
   return {};

@@ -21,6 +21,7 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 
 #include "softhom/materials/errors.hpp"
+#include "fiber_placement.hpp"
 
 namespace softhom::rve {
 namespace {
@@ -35,44 +36,9 @@ using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
 using CDT = CGAL::Constrained_Delaunay_triangulation_2<Kernel, Tds, CGAL::Exact_predicates_tag>;
 using Point = CDT::Point;
 
-/// A fiber (or a periodic image of one) placed in the plane.
-struct PlacedFiber {
-  FiberSection f;   // center already shifted
-  Vec2 u{1, 0}, v{0, 1};  // rectangle axes
-};
-
-double signed_distance(const PlacedFiber& p, const Vec2& x) {
-  if (p.f.shape == SectionShape::circle) return (x - p.f.center).norm() - p.f.radius;
-  const Vec2 q = x - p.f.center;
-  const double du = std::abs(q.dot(p.u)) - 0.5 * p.f.width, dv = std::abs(q.dot(p.v)) - 0.5 * p.f.height;
-  if (du > 0.0 || dv > 0.0) return std::hypot(std::max(du, 0.0), std::max(dv, 0.0));
-  return std::max(du, dv);
-}
-
-double bounding_radius(const FiberSection& f) {
-  return f.shape == SectionShape::circle ? f.radius : 0.5 * std::hypot(f.width, f.height);
-}
-
-/// The fibers and their images that reach into the cell.
-std::vector<PlacedFiber> placed_fibers(const Section& s) {
-  std::vector<PlacedFiber> out;
-  for (const FiberSection& f : s.fibers)
-    for (int k1 = -1; k1 <= 1; ++k1)
-      for (int k2 = -1; k2 <= 1; ++k2) {
-        PlacedFiber p;
-        p.f = f;
-        p.f.center = f.center + Vec2(k1 * s.L1, k2 * s.L2);
-        const double R = bounding_radius(f);
-        if (p.f.center.x() + R <= 0.0 || p.f.center.x() - R >= s.L1 || p.f.center.y() + R <= 0.0 ||
-            p.f.center.y() - R >= s.L2)
-          continue;
-        const double t = f.rotation_deg * kPi / 180.0;
-        p.u = Vec2(std::cos(t), std::sin(t));
-        p.v = Vec2(-std::sin(t), std::cos(t));
-        out.push_back(p);
-      }
-  return out;
-}
+using detail::PlacedFiber;
+using detail::placed_fibers;
+using detail::signed_distance;
 
 /// Refinement criteria: CGAL's minimum-angle test plus a size bound that depends on the position
 /// (the size criteria of CGAL take one global bound only).
@@ -359,9 +325,41 @@ SectionMesh mesh_section(const Section& section, const SectionMeshOptions& optio
     for (const auto& p : fibers) d = std::min(d, std::abs(signed_distance(p, Vec2(x, y))));
     return d;
   };
+  // Corners of rectangular fibers (stress singularities): graded refinement toward each corner that
+  // is a real corner of the fiber union (not shared with a touching periodic image).
+  struct CornerRefinement {
+    Vec2 x;
+    double R, h_min;
+  };
+  std::vector<CornerRefinement> corners;
+  if (o.corner_refinement) {
+    if (!(o.corner_exponent > 0.0 && o.corner_exponent < 1.0))
+      throw InputError("solver.corner_exponent", std::to_string(o.corner_exponent), "must lie in (0, 1)");
+    for (std::size_t k = 0; k < fibers.size(); ++k) {
+      if (fibers[k].f.shape != SectionShape::rectangle) continue;
+      const double R = 0.5 * std::min(fibers[k].f.width, fibers[k].f.height);
+      for (const Vec2& c : detail::rectangle_corners(fibers[k])) {
+        bool shared = false;
+        for (std::size_t j = 0; j < fibers.size(); ++j)
+          if (j != k && signed_distance(fibers[j], c) <= 1e-9 * std::max(L1, L2)) shared = true;
+        if (shared || c.x() < -R || c.x() > L1 + R || c.y() < -R || c.y() > L2 + R) continue;
+        const double ratio = std::min(1.0, o.interface_size / R);
+        const double h_min = std::max(R * std::pow(ratio, 1.0 / (1.0 - o.corner_exponent)), 1e-5 * std::max(L1, L2));
+        corners.push_back({c, R, h_min});
+      }
+    }
+  }
   const std::function<double(double, double)> size = [&](double x, double y) {
     if (fibers.empty()) return o.mesh_size;
-    return std::min(o.mesh_size, o.interface_size + o.grading * distance(x, y));
+    double h = std::min(o.mesh_size, o.interface_size + o.grading * distance(x, y));
+    for (const auto& c : corners) {
+      const double r = (Vec2(x, y) - c.x).norm();
+      if (r >= c.R) continue;
+      // Power grading, and at most 0.5 growth per unit distance so neighbours stay comparable.
+      h = std::min(h, std::max(c.h_min, std::min(o.interface_size * std::pow(r / c.R, o.corner_exponent),
+                                                  c.h_min + 0.5 * r)));
+    }
+    return h;
   };
 
   // Interface chains, with the end points on the cell boundary made periodic-consistent.
@@ -596,6 +594,9 @@ SectionMesh mesh_section(const Section& section, const SectionMeshOptions& optio
   for (const auto& f : section.fibers)
     exact += f.shape == SectionShape::circle ? kPi * f.radius * f.radius : f.width * f.height;
   quality.fiber_area_error = exact > 0.0 ? std::abs(m.area(1) - exact) / exact : 0.0;
+  quality.refined_corners = int(corners.size());
+  for (const auto& c : corners)
+    quality.min_corner_size = quality.min_corner_size == 0.0 ? c.h_min : std::min(quality.min_corner_size, c.h_min);
   m.quality = quality;
   return m;
 }

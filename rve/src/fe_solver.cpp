@@ -12,6 +12,7 @@
 #include <Eigen/Dense>
 
 #include "softhom/fe/sparse.hpp"
+#include "softhom/fe/tet10.hpp"
 #include "softhom/materials/errors.hpp"
 #include "step_driver.hpp"
 
@@ -19,24 +20,86 @@ namespace softhom::rve {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-using Mat27 = Eigen::Matrix<double, 27, 27>;
-using Vec27 = Eigen::Matrix<double, 27, 1>;
-using Mat9x27 = Eigen::Matrix<double, 9, 27>;
-constexpr int kQp = 6;
 
 // Dunavant degree-4 rule on the reference triangle (weights sum to 1; area 1/2).
 constexpr double kQa = 0.445948490915965, kQb = 0.091576213509771;
 constexpr double kWa = 0.223381589678011, kWb = 0.109951743655322;
-constexpr double kQuad[kQp][3] = {{kQa, kQa, kWa}, {1 - 2 * kQa, kQa, kWa}, {kQa, 1 - 2 * kQa, kWa},
-                                  {kQb, kQb, kWb}, {1 - 2 * kQb, kQb, kWb}, {kQb, 1 - 2 * kQb, kWb}};
+constexpr double kQuad[6][3] = {{kQa, kQa, kWa}, {1 - 2 * kQa, kQa, kWa}, {kQa, 1 - 2 * kQa, kWa},
+                                {kQb, kQb, kWb}, {1 - 2 * kQb, kQb, kWb}, {kQb, 1 - 2 * kQb, kWb}};
 
-/// Reference data of one element: ∂N/∂y at each quadrature point, the gradient of the cubic bubble
-/// 27 L0 L1 L2, and weight × area Jacobian.
-struct ElementGeometry {
-  std::array<Eigen::Matrix<double, 6, 2>, kQp> dN;
-  std::array<Eigen::Vector2d, kQp> dB;
-  std::array<double, kQp> w;
-  double area = 0.0;
+// The element families. Everything else (assembly, periodic dof map, condensation, Newton, macro
+// control, outputs) is shared and written once against these traits:
+//   kNodes, kDim, kQp      nodes, spatial dimension of the mesh (∂/∂y3 = 0 when kDim = 2), points
+//   kHasBubble             the P2+bubble / discontinuous-P1 pressure pair is available
+//   geometry(mesh, e)      ∂N/∂y, bubble gradient, weights at the quadrature points
+//   p1_basis(q)            the P1 pressure basis at point q (only with kHasBubble)
+//   position(mesh, i)      node position as a 3-vector, measure(mesh) the cell area / volume
+
+template <int NodesT, int DimT, int QpT>
+struct ElementGeometryT {
+  std::array<Eigen::Matrix<double, NodesT, DimT>, QpT> dN;
+  std::array<Eigen::Matrix<double, DimT, 1>, QpT> dB;  // bubble gradient (zero without bubble)
+  std::array<double, QpT> w;
+  double area = 0.0;  // element measure (area or volume)
+};
+
+/// 6-node triangles of the section, 6-point degree-4 rule, cubic bubble 27 L0 L1 L2.
+struct TriElement {
+  using Mesh = SectionMesh;
+  static constexpr int kNodes = 6, kDim = 2, kQp = 6;
+  static constexpr bool kHasBubble = true;
+  using Geometry = ElementGeometryT<kNodes, kDim, kQp>;
+  static Geometry geometry(const Mesh& m, int e) {
+    Geometry g;
+    for (int q = 0; q < kQp; ++q) {
+      const Eigen::Matrix<double, 6, 2> dR = tri6_shape_derivatives(kQuad[q][0], kQuad[q][1]);
+      Eigen::Matrix2d J = Eigen::Matrix2d::Zero();  // J(i, r) = ∂y_i/∂ξ_r
+      for (int a = 0; a < 6; ++a) J += m.nodes[m.elements[e][a]] * dR.row(a);
+      const double det = J.determinant();
+      if (!(det > 0.0))
+        throw std::runtime_error("FE RVE mesh: element " + std::to_string(e) + " has a non-positive Jacobian");
+      const Eigen::Matrix2d Ji = J.inverse();
+      g.dN[q] = dR * Ji;
+      const double l0 = 1.0 - kQuad[q][0] - kQuad[q][1], l1 = kQuad[q][0], l2 = kQuad[q][1];
+      g.dB[q] = (Eigen::RowVector2d(27.0 * l2 * (l0 - l1), 27.0 * l1 * (l0 - l2)) * Ji).transpose();
+      g.w[q] = 0.5 * kQuad[q][2] * det;
+      g.area += g.w[q];
+    }
+    return g;
+  }
+  static std::array<double, 3> p1_basis(int q) {
+    return {1.0 - kQuad[q][0] - kQuad[q][1], kQuad[q][0], kQuad[q][1]};
+  }
+  static Vec3 position(const Mesh& m, int i) { return Vec3(m.nodes[i].x(), m.nodes[i].y(), 0.0); }
+  static double measure(const Mesh& m) { return m.L1 * m.L2; }
+};
+
+/// 10-node tetrahedra of the 3D cell (fe/tet10.hpp), 4-point degree-2 rule; P2/P0 only (no bubble).
+struct TetElement {
+  using Mesh = CellMesh;
+  static constexpr int kNodes = 10, kDim = 3, kQp = 4;
+  static constexpr bool kHasBubble = false;
+  using Geometry = ElementGeometryT<kNodes, kDim, kQp>;
+  static Geometry geometry(const Mesh& m, int e) {
+    Geometry g;
+    const auto rule = fe::tet_rule_degree2();
+    for (int q = 0; q < kQp; ++q) {
+      const fe::Tet10Grad dR = fe::tet10_shape_derivatives(rule[q].xi);
+      Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+      for (int a = 0; a < 10; ++a) J += m.nodes[m.elements[e][a]] * dR.row(a);
+      const double det = J.determinant();
+      if (!(det > 0.0))
+        throw std::runtime_error("FE RVE mesh: element " + std::to_string(e) + " has a non-positive Jacobian");
+      g.dN[q] = dR * J.inverse();
+      g.dB[q].setZero();
+      g.w[q] = rule[q].w * det;
+      g.area += g.w[q];
+    }
+    return g;
+  }
+  static std::array<double, 3> p1_basis(int) { return {1.0, 0.0, 0.0}; }
+  static Vec3 position(const Mesh& m, int i) { return m.nodes[i]; }
+  static double measure(const Mesh& m) { return m.L1 * m.L2 * m.L3; }
 };
 
 /// Internal (condensed) unknowns of a mixed element, at most 9: bubble displacement (3, P2+/P1 only),
@@ -44,26 +107,6 @@ struct ElementGeometry {
 constexpr int kMaxInternal = 9;
 using VecI = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxInternal, 1>;
 using MatI = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxInternal, kMaxInternal>;
-using MatIq = Eigen::Matrix<double, Eigen::Dynamic, 27, 0, kMaxInternal, 27>;
-
-ElementGeometry element_geometry(const SectionMesh& m, int e) {
-  ElementGeometry g;
-  for (int q = 0; q < kQp; ++q) {
-    const Eigen::Matrix<double, 6, 2> dR = tri6_shape_derivatives(kQuad[q][0], kQuad[q][1]);
-    Eigen::Matrix2d J = Eigen::Matrix2d::Zero();  // J(i, r) = ∂y_i/∂ξ_r
-    for (int a = 0; a < 6; ++a) J += m.nodes[m.elements[e][a]] * dR.row(a);
-    const double det = J.determinant();
-    if (!(det > 0.0))
-      throw std::runtime_error("FE RVE mesh: element " + std::to_string(e) + " has a non-positive Jacobian");
-    const Eigen::Matrix2d Ji = J.inverse();
-    g.dN[q] = dR * Ji;
-    const double l0 = 1.0 - kQuad[q][0] - kQuad[q][1], l1 = kQuad[q][0], l2 = kQuad[q][1];
-    g.dB[q] = (Eigen::RowVector2d(27.0 * l2 * (l0 - l1), 27.0 * l1 * (l0 - l2)) * Ji).transpose();
-    g.w[q] = 0.5 * kQuad[q][2] * det;
-    g.area += g.w[q];
-  }
-  return g;
-}
 
 /// Sums over one evaluation pass (per thread, then reduced).
 struct PassSums {
@@ -101,11 +144,24 @@ double vol_d2(double K, double J) { return 0.5 * K * (1.0 + 1.0 / (J * J)); }
 
 const char* to_string(FePressure p) { return p == FePressure::p0 ? "p0" : "p1-bubble"; }
 
-struct FeRveSolver::Impl {
+namespace {
+
+template <class E>
+struct Model {
+  static constexpr int kNodes = E::kNodes, kDim = E::kDim, kQp = E::kQp;
+  static constexpr int kNU = 3 * kNodes;  // element fluctuation dofs
+  static constexpr int ND = kNU + 9;      // + the 9 load-frame components of F̄
+  using MatD = Eigen::Matrix<double, ND, ND>;
+  using VecD = Eigen::Matrix<double, ND, 1>;
+  using Mat9xD = Eigen::Matrix<double, 9, ND>;
+  using MatIq = Eigen::Matrix<double, Eigen::Dynamic, ND, 0, kMaxInternal, ND>;
+  using Geometry = typename E::Geometry;
+  using Mesh = typename E::Mesh;
+
   FeSolverOptions opt;
-  SectionMesh mesh;
+  Mesh mesh;
   int ne = 0, nn = 0;
-  std::vector<ElementGeometry> geo;
+  std::vector<Geometry> geo;
   Mat3 R;         // grid axes in the load frame
   Mat9 Tg;        // vec(F_grid) = Tg vec(F_load)
   Vec3 a0_load;
@@ -149,14 +205,14 @@ struct FeRveSolver::Impl {
   double bubble_residual_sq = 0.0;  // Σ |bubble residual|² (forces)
   PassSums sums;
 
-  Impl(SectionMesh m, MaterialPtr matrix, MaterialPtr fiber, double angle, const Mat3& frame, const FeSolverOptions& o)
+  Model(Mesh m, MaterialPtr matrix, MaterialPtr fiber, double angle, const Mat3& frame, const FeSolverOptions& o)
       : opt(o), mesh(std::move(m)) {
     ne = mesh.num_elements();
     nn = mesh.num_nodes();
     if (ne == 0) throw InputError("solver.mesh_size", "", "the mesh has no elements");
     geo.resize(ne);
-    for (int e = 0; e < ne; ++e) geo[e] = element_geometry(mesh, e);
-    cell_area = mesh.L1 * mesh.L2;
+    for (int e = 0; e < ne; ++e) geo[e] = E::geometry(mesh, e);
+    cell_area = E::measure(mesh);
     R = grid_rotation(angle);
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
@@ -195,6 +251,8 @@ struct FeRveSolver::Impl {
     ut.assign(3 * nn, 0.0);
     ut_c = ut;
     if (opt.pressure == FePressure::p1_bubble) {
+      if (!E::kHasBubble)
+        throw InputError("solver.pressure", "p1", "the 3D tetrahedral mesh supports p0 (P2/P0) only");
       nb = 3;
       np = 3;
     }
@@ -223,7 +281,7 @@ struct FeRveSolver::Impl {
     for (int e = 0; e < ne; ++e) any_mixed = any_mixed || mixed[mesh.phase[e]];
     if (any_mixed) {
       lin_Kinv.assign(ne, MatI::Zero(ni, ni));
-      lin_Kiq.assign(ne, MatIq::Zero(ni, 27));
+      lin_Kiq.assign(ne, MatIq::Zero(ni, ND));
       lin_Ri.assign(ne, VecI::Zero(ni));
     }
   }
@@ -231,10 +289,10 @@ struct FeRveSolver::Impl {
   Mat3 to_grid(const Mat3& X) const { return R.transpose() * X * R; }
   Mat3 to_load(const Mat3& X) const { return R * X * R.transpose(); }
 
-  /// Global equation of element-local dof d (0..17 fluctuation node-major, 18..26 load-frame F̄).
+  /// Global equation of element-local dof d (0..kNU−1 fluctuation node-major, then load-frame F̄).
   int element_eq(int e, int d) const {
-    if (d < 18) return node_eq[3 * mesh.elements[e][d / 3] + d % 3];
-    return macro_eq[d - 18];
+    if (d < kNU) return node_eq[3 * mesh.elements[e][d / 3] + d % 3];
+    return macro_eq[d - kNU];
   }
 
   /// Sparsity pattern on the current equation numbering (fluctuation + free macro components).
@@ -243,7 +301,7 @@ struct FeRveSolver::Impl {
     std::vector<int> eqs;
     for (int e = 0; e < ne; ++e) {
       eqs.clear();
-      for (int d = 0; d < 27; ++d) {
+      for (int d = 0; d < ND; ++d) {
         const int g = element_eq(e, d);
         if (g >= 0) eqs.push_back(g);
       }
@@ -290,11 +348,11 @@ struct FeRveSolver::Impl {
     {
       PassSums local;
       double local_mismatch = 0.0, local_bubble = 0.0;
-      Mat9x27 B;
-      Mat27 Ke;
-      Vec27 re;
+      Mat9xD B;
+      MatD Ke;
+      VecD re;
       // Mixed-element blocks: bubble rows (3), pressure coupling G = ∫ Bᵀ cof ψ_j.
-      Eigen::Matrix<double, 27, 3> Kqb, Gq;
+      Eigen::Matrix<double, ND, 3> Kqb, Gq;
       Eigen::Matrix3d Kbb, Gb, H, M;
       Eigen::Vector3d rb, Rth, Rp;
 #pragma omp for schedule(dynamic, 64)
@@ -308,9 +366,9 @@ struct FeRveSolver::Impl {
         const bool mx = mixed[x];
         const double Kv = K_vol[x];
         const auto& el = mesh.elements[e];
-        const ElementGeometry& g = geo[e];
+        const Geometry& g = geo[e];
         const double* in = internal.data() + std::size_t(kMaxInternal) * e;
-        const int nbe = mx ? nb : 0;  // bubble only in mixed elements
+        const int nbe = mx ? nb : 0;  // bubble only in mixed elements (section elements only)
         re.setZero();
         if (with_tangent) Ke.setZero();
         if (mx) {
@@ -331,11 +389,10 @@ struct FeRveSolver::Impl {
           const auto& dN = g.dN[q];
           const double w = g.w[q];
           Mat3 F = Fg;
-          for (int a = 0; a < 6; ++a)
+          for (int a = 0; a < kNodes; ++a)
             for (int i = 0; i < 3; ++i) {
               const double u = ut[3 * el[a] + i];
-              F(i, 0) += u * dN(a, 0);
-              F(i, 1) += u * dN(a, 1);
+              for (int J = 0; J < kDim; ++J) F(i, J) += u * dN(a, J);
             }
           for (int i = 0; i < nbe; ++i) {
             F(i, 0) += in[i] * g.dB[q][0];
@@ -357,9 +414,10 @@ struct FeRveSolver::Impl {
           // Pressure basis ψ_j at this point (P0: 1; P1: area coordinates), θ_q, p_q.
           double psi[3] = {1.0, 0.0, 0.0};
           if (np == 3) {
-            psi[1] = kQuad[q][0];
-            psi[2] = kQuad[q][1];
-            psi[0] = 1.0 - psi[1] - psi[2];
+            const auto b = E::p1_basis(q);
+            psi[0] = b[0];
+            psi[1] = b[1];
+            psi[2] = b[2];
           }
           double th_q = 0.0, p_q = 0.0;
           if (mx)
@@ -383,36 +441,46 @@ struct FeRveSolver::Impl {
             status = MaterialStatus::not_finite;
             break;
           }
-          // B = ∂vec(F)/∂(ũ_e, F̄_load): column 3a+i has dN_a/dy1 at row 3i, dN_a/dy2 at row 3i+1
-          // (∂/∂y3 = 0); the macro columns are Tg. Products are formed with that sparsity.
-          auto add_BtX = [&](const Vec9& X, double s, Vec27& out) {
-            for (int a = 0; a < 6; ++a)
-              for (int i = 0; i < 3; ++i) out[3 * a + i] += s * (dN(a, 0) * X[3 * i] + dN(a, 1) * X[3 * i + 1]);
-            out.tail<9>().noalias() += s * Tg.transpose() * X;
+          // B = ∂vec(F)/∂(ũ_e, F̄_load): column 3a+i has dN_a/dy_J at row 3i+J (J < kDim; on the
+          // section ∂/∂y3 = 0); the macro columns are Tg. Products are formed with that sparsity.
+          auto add_BtX = [&](const Vec9& X, double s, VecD& out) {
+            for (int a = 0; a < kNodes; ++a)
+              for (int i = 0; i < 3; ++i) {
+                double v = 0.0;
+                for (int J = 0; J < kDim; ++J) v += dN(a, J) * X[3 * i + J];
+                out[3 * a + i] += s * v;
+              }
+            out.template tail<9>().noalias() += s * Tg.transpose() * X;
           };
           const Vec9 Pv = flatten(P);
           add_BtX(Pv, w, re);
           if (with_tangent) {
-            for (int a = 0; a < 6; ++a)
-              for (int i = 0; i < 3; ++i) B.col(3 * a + i) = dN(a, 0) * A.col(3 * i) + dN(a, 1) * A.col(3 * i + 1);
-            B.rightCols<9>().noalias() = A * Tg;  // B now holds A·B
-            for (int a = 0; a < 6; ++a)
-              for (int i = 0; i < 3; ++i)
-                Ke.row(3 * a + i).noalias() += w * (dN(a, 0) * B.row(3 * i) + dN(a, 1) * B.row(3 * i + 1));
-            Ke.bottomRows<9>().noalias() += w * Tg.transpose() * B;
+            for (int a = 0; a < kNodes; ++a)
+              for (int i = 0; i < 3; ++i) {
+                B.col(3 * a + i) = dN(a, 0) * A.col(3 * i);
+                for (int J = 1; J < kDim; ++J) B.col(3 * a + i) += dN(a, J) * A.col(3 * i + J);
+              }
+            B.template rightCols<9>().noalias() = A * Tg;  // B now holds A·B
+            for (int a = 0; a < kNodes; ++a)
+              for (int i = 0; i < 3; ++i) {
+                auto row = Ke.row(3 * a + i);
+                for (int J = 0; J < kDim; ++J) row.noalias() += (w * dN(a, J)) * B.row(3 * i + J);
+              }
+            Ke.template bottomRows<9>().noalias() += w * Tg.transpose() * B;
           }
           if (mx) {
+            // Bubble terms (nbe > 0 on the section only, where ∂/∂y3 = 0: two gradient components).
             const double gb0 = g.dB[q][0], gb1 = g.dB[q][1];
             const Vec9 c9 = flatten(cof);
             for (int i = 0; i < nbe; ++i) {
               rb[i] += w * (gb0 * P(i, 0) + gb1 * P(i, 1));
               const Vec9 ABk = gb0 * A.col(3 * i) + gb1 * A.col(3 * i + 1);  // A · B_bubble,i
-              Vec27 col = Vec27::Zero();
+              VecD col = VecD::Zero();
               add_BtX(ABk, w, col);
               Kqb.col(i) += col;
               for (int k = 0; k < nbe; ++k) Kbb(k, i) += w * (gb0 * ABk[3 * k] + gb1 * ABk[3 * k + 1]);
             }
-            Vec27 gcol = Vec27::Zero();
+            VecD gcol = VecD::Zero();
             add_BtX(c9, w, gcol);
             const double U1 = vol_d1(Kv, th_q), U2 = vol_d2(Kv, th_q);
             for (int j = 0; j < np; ++j) {
@@ -436,12 +504,12 @@ struct FeRveSolver::Impl {
           failure = int(status);
           continue;
         }
-        Vec27 reff = re;
+        VecD reff = re;
         if (mx) {
           // Static condensation of the internal unknowns i = [bubble, θ, p]:
           //   K_ii = [Kbb 0 Gb; 0 H −M; Gbᵀ −M 0], K_iq = [Kqbᵀ; 0; Gqᵀ], R_i = [rb; Rθ; Rp].
           MatI Kii = MatI::Zero(ni, ni);
-          MatIq Kiq = MatIq::Zero(ni, 27);
+          MatIq Kiq = MatIq::Zero(ni, ND);
           VecI Ri(ni);
           const int o_t = nbe, o_p = nbe + np;
           Kii.block(0, 0, nbe, nbe) = Kbb.topLeftCorner(nbe, nbe);
@@ -477,11 +545,11 @@ struct FeRveSolver::Impl {
           for (int i = 0; i < nbe; ++i) local_bubble += rb[i] * rb[i];
         }
         // Scatter.
-        int eq[27];
-        for (int d = 0; d < 27; ++d) eq[d] = element_eq(e, d);
-        Vec27 pred = Vec27::Zero();
-        if (with_tangent && any_prescribed_step) pred = Ke.rightCols<9>() * dFp;
-        for (int d = 0; d < 27; ++d) {
+        int eq[ND];
+        for (int d = 0; d < ND; ++d) eq[d] = element_eq(e, d);
+        VecD pred = VecD::Zero();
+        if (with_tangent && any_prescribed_step) pred = Ke.template rightCols<9>() * dFp;
+        for (int d = 0; d < ND; ++d) {
           if (eq[d] < 0) continue;
 #pragma omp atomic
           r_true[eq[d]] += re[d];
@@ -493,20 +561,20 @@ struct FeRveSolver::Impl {
           }
         }
         if (with_tangent)
-          for (int cl = 0; cl < 27; ++cl) {
+          for (int cl = 0; cl < ND; ++cl) {
             if (eq[cl] < 0) continue;
             // Rows come in runs of consecutive equations (the 3 components of a node, the free macro
             // components): one binary search per run.
-            for (int rw = 0; rw < 27;) {
+            for (int rw = 0; rw < ND;) {
               if (eq[rw] < 0) {
                 ++rw;
                 continue;
               }
               const long pos = K.find(eq[rw], eq[cl]);
               int len = 1;
-              while (rw + len < 27 && eq[rw + len] == eq[rw] + len && (rw + len) % 3 != 0 && rw + len < 18) ++len;
-              if (rw >= 18)
-                while (rw + len < 27 && eq[rw + len] == eq[rw] + len) ++len;
+              while (rw + len < ND && eq[rw + len] == eq[rw] + len && (rw + len) % 3 != 0 && rw + len < kNU) ++len;
+              if (rw >= kNU)
+                while (rw + len < ND && eq[rw + len] == eq[rw] + len) ++len;
               for (int k = 0; k < len; ++k) {
 #pragma omp atomic
                 K.values[pos + k] += Ke(rw + k, cl);
@@ -606,12 +674,12 @@ struct FeRveSolver::Impl {
 #pragma omp parallel for schedule(static)
     for (int e = 0; e < ne; ++e) {
       if (!mixed[mesh.phase[e]]) continue;
-      Vec27 dq;
-      for (int d = 0; d < 18; ++d) {
+      VecD dq;
+      for (int d = 0; d < kNU; ++d) {
         const int g = element_eq(e, d);
         dq[d] = g >= 0 ? dx[g] : 0.0;
       }
-      dq.tail<9>() = dF_load;
+      dq.template tail<9>() = dF_load;
       const VecI d = -(lin_Kinv[e] * (lin_Ri[e] + lin_Kiq[e] * dq));
       for (int k = 0; k < ni; ++k) di[std::size_t(kMaxInternal) * e + k] = d[k];
     }
@@ -777,7 +845,7 @@ struct FeRveSolver::Impl {
     for (int e = 0; e < ne; ++e) {
       const int x = mesh.phase[e];
       const auto& el = mesh.elements[e];
-      const ElementGeometry& g = geo[e];
+      const Geometry& g = geo[e];
       Mat3 Fm = Mat3::Zero(), Pm = Mat3::Zero(), Sm = Mat3::Zero();
       double Jm = 0.0;
       double* hn = scratch.data() + std::size_t(omp_get_thread_num()) * std::max(state_size[0], state_size[1]);
@@ -785,17 +853,18 @@ struct FeRveSolver::Impl {
       const int nbe = mixed[x] ? nb : 0;
       for (int q = 0; q < kQp; ++q) {
         Mat3 F = Fg;
-        for (int a = 0; a < 6; ++a)
-          for (int i = 0; i < 3; ++i) {
-            F(i, 0) += ut[3 * el[a] + i] * g.dN[q](a, 0);
-            F(i, 1) += ut[3 * el[a] + i] * g.dN[q](a, 1);
-          }
+        for (int a = 0; a < kNodes; ++a)
+          for (int i = 0; i < 3; ++i)
+            for (int J = 0; J < kDim; ++J) F(i, J) += ut[3 * el[a] + i] * g.dN[q](a, J);
         for (int i = 0; i < nbe; ++i) {
           F(i, 0) += in[i] * g.dB[q][0];
           F(i, 1) += in[i] * g.dB[q][1];
         }
         double p_q = in[nbe + np];
-        if (np == 3) p_q = (1.0 - kQuad[q][0] - kQuad[q][1]) * in[nbe + 3] + kQuad[q][0] * in[nbe + 4] + kQuad[q][1] * in[nbe + 5];
+        if (np == 3) {
+          const auto b = E::p1_basis(q);
+          p_q = b[0] * in[nbe + 3] + b[1] * in[nbe + 4] + b[2] * in[nbe + 5];
+        }
         Mat3 P;
         const int ss = state_size[x];
         // History: the converged step went from hist_prev over dt (hist_old is already its end state).
@@ -824,92 +893,145 @@ struct FeRveSolver::Impl {
     f.displacement.assign(3 * std::size_t(nn), 0.0);
     const Mat3 H = Fg - Mat3::Identity();
     for (int i = 0; i < nn; ++i) {
-      const Vec3 y(mesh.nodes[i].x(), mesh.nodes[i].y(), 0.0);
+      const Vec3 y = E::position(mesh, i);
       const Vec3 u = H * y + Vec3(ut[3 * i], ut[3 * i + 1], ut[3 * i + 2]);
       for (int c = 0; c < 3; ++c) f.displacement[3 * i + c] = u[c];
     }
     return f;
   }
+
+  // ---- statistics and the run loop (shared by both element families) ----
+  int factorizations() const {
+    int n = 0;
+    if (cholmod) n += cholmod->times().factorizations;
+    if (umfpack) n += umfpack->times().factorizations;
+    return n;
+  }
+  std::array<double, 3> linear_seconds() const {
+    std::array<double, 3> t{0.0, 0.0, 0.0};
+    for (const auto* s : {cholmod.get(), umfpack.get()})
+      if (s) {
+        t[0] += s->times().analysis;
+        t[1] += s->times().factorization;
+        t[2] += s->times().solve;
+      }
+    return t;
+  }
+  std::size_t memory_bytes() const {
+    std::size_t b = geo.size() * sizeof(Geometry) + lin_Kinv.size() * (sizeof(MatI) + sizeof(MatIq) + sizeof(VecI));
+    b += (ut.size() * 2 + internal.size() * 4 + hist_old.size() * 3 + node_eq.size()) * sizeof(double);
+    b += K.values.size() * (sizeof(double) + sizeof(int)) * 2;  // matrix + solver copy of the upper part
+    b += 3 * std::size_t(n_eq) * sizeof(double);
+    return b;
+  }
+
+  RveRunResult run(const MixedControl& control, const std::function<void(const RveStep&, const FeFields*)>& on_step,
+                   const std::function<bool(double)>& want_fields) {
+    control.validate();
+    const auto run_start = Clock::now();
+    RveRunResult result;
+    std::array<bool, 9> free{};
+    for (int c = 0; c < 9; ++c) free[c] = control.kind[c] == ControlKind::stress;
+    set_control(free);
+    if (evaluate(0.0, false, Vec9::Zero()) != MaterialStatus::ok) throw ConvergenceError("material call failed at F = I");
+    const double angle0 = fiber_angle_deg(Mat3::Identity(), a0_load);
+    struct Engine {
+      Model& m;
+      const MixedControl& control;
+      double angle0;
+      const std::function<void(const RveStep&, const FeFields*)>& on_step;
+      const std::function<bool(double)>& want_fields;
+      detail::SubstepOutcome step(double t_new, double dt) { return m.step(control, t_new, dt); }
+      void commit(double) { m.commit(); }
+      void restore() { m.restore(); }
+      RveStep record(double t) const { return m.record(t, angle0); }
+      void emit(const RveStep& s, double dt) {
+        if (!on_step) return;
+        if (want_fields && want_fields(s.t)) {
+          const FeFields f = m.fields(dt);
+          on_step(s, &f);
+        } else {
+          on_step(s, nullptr);
+        }
+      }
+    } engine{*this, control, angle0, on_step, want_fields};
+    detail::run_output_steps(control, opt.max_cutbacks, engine, result, run_start);
+    return result;
+  }
+};
+
+}  // namespace
+
+/// One of the two element families (the other pointer is empty).
+struct FeRveSolver::Impl {
+  std::unique_ptr<Model<TriElement>> tri;
+  std::unique_ptr<Model<TetElement>> tet;
+  template <class F>
+  decltype(auto) visit(F&& f) const {
+    return tri ? f(*tri) : f(*tet);
+  }
 };
 
 FeRveSolver::FeRveSolver(SectionMesh mesh, MaterialPtr matrix, MaterialPtr fiber, double fiber_angle_deg,
                          const Mat3& load_frame, const FeSolverOptions& options)
-    : impl_(std::make_unique<Impl>(std::move(mesh), std::move(matrix), std::move(fiber), fiber_angle_deg, load_frame,
-                                   options)) {}
+    : impl_(std::make_unique<Impl>()) {
+  impl_->tri = std::make_unique<Model<TriElement>>(std::move(mesh), std::move(matrix), std::move(fiber),
+                                                   fiber_angle_deg, load_frame, options);
+}
+FeRveSolver::FeRveSolver(CellMesh mesh, MaterialPtr matrix, MaterialPtr fiber, double fiber_angle_deg,
+                         const Mat3& load_frame, const FeSolverOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->tet = std::make_unique<Model<TetElement>>(std::move(mesh), std::move(matrix), std::move(fiber),
+                                                   fiber_angle_deg, load_frame, options);
+}
 FeRveSolver::~FeRveSolver() = default;
 
-const SectionMesh& FeRveSolver::mesh() const { return impl_->mesh; }
-int FeRveSolver::num_equations() const { return impl_->n_eq; }
-double FeRveSolver::achieved_volume_fraction() const { return impl_->achieved_vf; }
-int FeRveSolver::factorizations() const {
-  int n = 0;
-  if (impl_->cholmod) n += impl_->cholmod->times().factorizations;
-  if (impl_->umfpack) n += impl_->umfpack->times().factorizations;
-  return n;
+bool FeRveSolver::is_3d() const { return bool(impl_->tet); }
+const SectionMesh& FeRveSolver::mesh() const {
+  if (!impl_->tri) throw std::logic_error("FeRveSolver::mesh(): the solver runs on a 3D cell mesh (cell_mesh())");
+  return impl_->tri->mesh;
 }
-double FeRveSolver::factorization_seconds() const {
-  double t = 0.0;
-  for (const auto* s : {impl_->cholmod.get(), impl_->umfpack.get()})
-    if (s) t += s->times().analysis + s->times().factorization + s->times().solve;
-  return t;
+const CellMesh& FeRveSolver::cell_mesh() const {
+  if (!impl_->tet) throw std::logic_error("FeRveSolver::cell_mesh(): the solver runs on a section mesh (mesh())");
+  return impl_->tet->mesh;
+}
+int FeRveSolver::num_elements() const {
+  return impl_->visit([](const auto& m) { return m.ne; });
+}
+int FeRveSolver::num_equations() const {
+  return impl_->visit([](const auto& m) { return m.n_eq; });
+}
+double FeRveSolver::achieved_volume_fraction() const {
+  return impl_->visit([](const auto& m) { return m.achieved_vf; });
+}
+int FeRveSolver::factorizations() const {
+  return impl_->visit([](const auto& m) { return m.factorizations(); });
 }
 std::array<double, 3> FeRveSolver::linear_seconds() const {
-  std::array<double, 3> t{0.0, 0.0, 0.0};
-  for (const auto* s : {impl_->cholmod.get(), impl_->umfpack.get()})
-    if (s) {
-      t[0] += s->times().analysis;
-      t[1] += s->times().factorization;
-      t[2] += s->times().solve;
-    }
-  return t;
+  return impl_->visit([](const auto& m) { return m.linear_seconds(); });
 }
-double FeRveSolver::assembly_seconds() const { return impl_->assembly_time; }
-long FeRveSolver::matrix_nonzeros() const { return impl_->K.nnz(); }
-std::string FeRveSolver::linear_solver() const { return impl_->last_solver; }
+double FeRveSolver::factorization_seconds() const {
+  const auto t = linear_seconds();
+  return t[0] + t[1] + t[2];
+}
+double FeRveSolver::assembly_seconds() const {
+  return impl_->visit([](const auto& m) { return m.assembly_time; });
+}
+long FeRveSolver::matrix_nonzeros() const {
+  return impl_->visit([](const auto& m) { return long(m.K.nnz()); });
+}
+std::string FeRveSolver::linear_solver() const {
+  return impl_->visit([](const auto& m) { return m.last_solver; });
+}
 std::size_t FeRveSolver::memory_bytes() const {
-  const Impl& m = *impl_;
-  std::size_t b = m.geo.size() * sizeof(ElementGeometry) +
-                  m.lin_Kinv.size() * (sizeof(MatI) + sizeof(MatIq) + sizeof(VecI));
-  b += (m.ut.size() * 2 + m.internal.size() * 4 + m.hist_old.size() * 3 + m.node_eq.size()) * sizeof(double);
-  b += m.K.values.size() * (sizeof(double) + sizeof(int)) * 2;  // matrix + solver copy of the upper part
-  b += 3 * std::size_t(m.n_eq) * sizeof(double);
-  return b;
+  return impl_->visit([](const auto& m) { return m.memory_bytes(); });
 }
 
 RveRunResult FeRveSolver::run(const MixedControl& control,
                               const std::function<void(const RveStep&, const FeFields*)>& on_step,
                               const std::function<bool(double)>& want_fields) {
-  control.validate();
-  Impl& m = *impl_;
-  const auto run_start = Clock::now();
-  RveRunResult result;
-  std::array<bool, 9> free{};
-  for (int c = 0; c < 9; ++c) free[c] = control.kind[c] == ControlKind::stress;
-  m.set_control(free);
-  if (m.evaluate(0.0, false, Vec9::Zero()) != MaterialStatus::ok) throw ConvergenceError("material call failed at F = I");
-  const double angle0 = fiber_angle_deg(Mat3::Identity(), m.a0_load);
-  struct Engine {
-    Impl& m;
-    const MixedControl& control;
-    double angle0;
-    const std::function<void(const RveStep&, const FeFields*)>& on_step;
-    const std::function<bool(double)>& want_fields;
-    detail::SubstepOutcome step(double t_new, double dt) { return m.step(control, t_new, dt); }
-    void commit(double) { m.commit(); }
-    void restore() { m.restore(); }
-    RveStep record(double t) const { return m.record(t, angle0); }
-    void emit(const RveStep& s, double dt) {
-      if (!on_step) return;
-      if (want_fields && want_fields(s.t)) {
-        const FeFields f = m.fields(dt);
-        on_step(s, &f);
-      } else {
-        on_step(s, nullptr);
-      }
-    }
-  } engine{m, control, angle0, on_step, want_fields};
-  detail::run_output_steps(control, m.opt.max_cutbacks, engine, result, run_start);
-  return result;
+  if (impl_->tri) return impl_->tri->run(control, on_step, want_fields);
+  return impl_->tet->run(control, on_step, want_fields);
 }
 
 }  // namespace softhom::rve

@@ -58,6 +58,33 @@ Mat9 isotropic_tangent(double lambda, double mu) {
   return C;
 }
 
+/// Packed upper triangle (45 values, row by row) of the symmetrized 9×9 tangent. The tangent of a
+/// hyperelastic law (and its laminate condensation and mixed-pressure correction) is major-symmetric,
+/// and CG needs a symmetric operator anyway; packing cuts the tangent stream of every Krylov iteration
+/// from 648 to 360 bytes per point.
+inline void pack_symmetric(const Mat9& A, double* S) {
+  int idx = 0;
+  for (int a = 0; a < 9; ++a) {
+    S[idx++] = A(a, a);
+    for (int b = a + 1; b < 9; ++b) S[idx++] = 0.5 * (A(a, b) + A(b, a));
+  }
+}
+
+/// y = S x for a packed symmetric S (pack_symmetric).
+inline void symmetric_product(const double* __restrict S, const double* __restrict x, double* __restrict y) {
+  double out[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  int idx = 0;
+  for (int a = 0; a < 9; ++a) {
+    double acc = S[idx++] * x[a];
+    for (int b = a + 1; b < 9; ++b, ++idx) {
+      acc += S[idx] * x[b];
+      out[b] += S[idx] * x[a];
+    }
+    out[a] += acc;
+  }
+  for (int a = 0; a < 9; ++a) y[a] = out[a];
+}
+
 /// Running sums of one evaluation pass (per thread, then reduced).
 struct PassSums {
   Vec9 P = Vec9::Zero();
@@ -103,6 +130,7 @@ struct FftRveSolver::Impl {
   FftSolverOptions opt;
   fft::Grid grid;
   fft::GradientOperator op;
+  fft::ReferenceGreen green{op};  // K0⁻¹ tabulated per mode for the current C0 (set_reference())
   int nq;
   std::size_t N, NM, NP;
   std::unique_ptr<fft::BatchedFFT> fft;
@@ -118,7 +146,9 @@ struct FftRveSolver::Impl {
   std::vector<Vec3> comp_normal;    // per composite voxel (grid frame)
   std::vector<double> lam_a, lam_a_trial;     // laminate jump vector per composite point (3 each)
   std::vector<double> hist_old[2], hist_new[2];
-  std::vector<Mat9> tangent;        // per material point p = v nq + q
+  std::vector<double> tangent;      // packed symmetric tangent per material point p = v nq + q (45 each)
+  double krylov_seconds = 0.0;      // time in the linear solves (operator, preconditioner, vector ops)
+  KVec cg_r, cg_z, cg_p, cg_Ap;     // CG work vectors, kept between solves (no allocation per solve)
   // Mixed (pressure) Newton iteration for nearly incompressible phases (see pressure_correction()).
   bool mixed[2] = {false, false};
   double K_vol[2] = {0.0, 0.0};
@@ -158,7 +188,7 @@ struct FftRveSolver::Impl {
                                                  " values for " + std::to_string(N) + " voxels");
     R = grid_rotation(angle);
     T_load = rotation_operator(R);
-    a0_load = R.col(2);
+    a0_load = R * image.mean_fiber_direction();  // y3 unless the image gives per-voxel directions
     // global → load: frameᵀ; load → grid: Rᵀ.
     const Mat3 Q = R.transpose() * frame.transpose();
     mat[0] = MaterialPtr(matrix->rotated(Q));
@@ -198,7 +228,7 @@ struct FftRveSolver::Impl {
         for (std::size_t p = 0; p < NP; ++p) mat[x]->init_state(hist_old[x].data() + p * state_size[x]);
         hist_new[x] = hist_old[x];
       }
-    if (opt.scheme == FftScheme::newton_cg) tangent.resize(NP);
+    if (opt.scheme == FftScheme::newton_cg) tangent.resize(45 * NP);
     for (int x = 0; x < 2; ++x) {
       K_vol[x] = mat[x]->volumetric_modulus();
       const double G = mat[x]->initial_shear_modulus();
@@ -214,7 +244,9 @@ struct FftRveSolver::Impl {
       dp_last.assign(NP, 0.0);
       dP_full.assign(9 * NP, 0.0);
     }
-    fft = std::make_unique<fft::BatchedFFT>(grid, 9 * nq, opt.plan);
+    // Section grids: the i3 columns of ∇ũ vanish and Div does not read them, so 6 of 9 fields per point
+    // are transformed (the voxel loops treat those columns as zero).
+    fft = std::make_unique<fft::BatchedFFT>(grid, 9 * nq, opt.plan, op.columns());
     u.assign(3 * NM, 0.0);
     u_committed = u;
     r_u.assign(3 * NM, 0.0);
@@ -369,6 +401,8 @@ struct FftRveSolver::Impl {
     {
       PassSums local;
       Mat3 Px[2], Fx[2];
+      Mat9 A_point;
+      const int ncol = op.columns();
 #pragma omp for schedule(static)
       for (std::size_t v = 0; v < N; ++v) {
         int seen;
@@ -380,11 +414,9 @@ struct FftRveSolver::Impl {
           double* base = fft->real(9 * q) + v;
           Mat3 F;
           for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) F(i, j) = Fbar_grid(i, j) + base[std::size_t(3 * i + j) * N];
+            for (int j = 0; j < 3; ++j) F(i, j) = Fbar_grid(i, j) + (j < ncol ? base[std::size_t(3 * i + j) * N] : 0.0);
           Mat3 P;
-          Mat9* A = with_tangent ? &tangent[p] : nullptr;
-          Mat9 A_local;
-          if (!A && opt.scheme == FftScheme::newton_cg) A = nullptr;
+          Mat9* A = with_tangent ? &A_point : nullptr;
           MaterialStatus s;
           const double f = phi[v];
           const double w = op.quadrature()[q].weight * invN;
@@ -445,7 +477,10 @@ struct FftRveSolver::Impl {
           for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) base[std::size_t(3 * i + j) * N] = P(i, j);
           local.P += w * flatten(P);
-          if (A) local.A += w * (*A);
+          if (A) {
+            local.A += w * (*A);
+            pack_symmetric(*A, &tangent[45 * p]);
+          }
         }
       }
 #pragma omp critical
@@ -457,7 +492,7 @@ struct FftRveSolver::Impl {
 
   /// ∇ũ into the real buffer.
   void gradient_to_real(const std::vector<Complex>& uh) {
-    op.gradient(uh.data(), fft->spectrum(0));
+    op.gradient(uh.data(), fft->spectrum(0), false);
     fft->backward();
   }
 
@@ -536,74 +571,87 @@ struct FftRveSolver::Impl {
   // ---------------------------------------------------------------------------------------------
   // Krylov pieces.
 
-  double dot(const KVec& a, const KVec& b) const {
-    double s = 0.0;
-#pragma omp parallel for reduction(+ : s) schedule(static)
-    for (std::size_t k = 0; k < NM; ++k) {
-      const double w = grid.mode_weight(k);
-      for (int i = 0; i < 3; ++i) s += w * std::real(std::conj(a.u[i * NM + k]) * b.u[i * NM + k]);
-    }
-    return s + a.f.dot(b.f);
-  }
   static void axpy(double alpha, const KVec& x, KVec& y) {
     const std::size_t n = x.u.size();
 #pragma omp parallel for schedule(static)
     for (std::size_t i = 0; i < n; ++i) y.u[i] += alpha * x.u[i];
     y.f += alpha * x.f;
   }
-  /// y = x + beta y
-  static void xpby(const KVec& x, double beta, KVec& y) {
-    const std::size_t n = x.u.size();
-#pragma omp parallel for schedule(static)
-    for (std::size_t i = 0; i < n; ++i) y.u[i] = x.u[i] + beta * y.u[i];
-    y.f = x.f + beta * y.f;
-  }
 
-  /// y = K x with the stored tangents; x.f holds load-frame macro components (any mask applied by caller).
-  void apply(const KVec& x, const std::array<bool, 9>& free, KVec& y, double shift = 0.0) {
+  /// δP = (A + shift C0)(δF̄ + ∇δũ) at every point, in place in the real buffer (which holds ∇δũ on
+  /// the transformed columns); returns the volume mean of δP (grid frame). The one pass over the
+  /// stored tangents of a Krylov iteration: fused, no allocation, static schedule (the same voxel
+  /// partition as evaluate_points(), which writes the tangents, so each thread reads what it wrote).
+  Vec9 tangent_product(const Vec9& dFbar, double shift) {
     const Mat9 S = shift * C0;  // Levenberg–Marquardt shift (see pcg)
-    op.gradient(x.u.data(), fft->spectrum(0));
-    fft->backward();
-    const Vec9 dFbar = flatten(to_grid(unflatten(x.f)));
+    const int ncol = op.columns();
     Vec9 mean = Vec9::Zero();
-    const double invN = 1.0 / double(N);
+    double wq[8];
+    for (int q = 0; q < nq; ++q) wq[q] = op.quadrature()[q].weight;
+    const double* T = tangent.data();
 #pragma omp parallel
     {
-      Vec9 local = Vec9::Zero();
+      double local[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
 #pragma omp for schedule(static)
       for (std::size_t v = 0; v < N; ++v)
         for (int q = 0; q < nq; ++q) {
           double* base = fft->real(9 * q) + v;
-          Vec9 dF;
-          for (int c = 0; c < 9; ++c) dF[c] = dFbar[c] + base[std::size_t(c) * N];
-          const Vec9 dP = shift == 0.0 ? Vec9(tangent[v * nq + q] * dF) : Vec9(tangent[v * nq + q] * dF + S * dF);
-          for (int c = 0; c < 9; ++c) base[std::size_t(c) * N] = dP[c];
-          local += op.quadrature()[q].weight * dP;
+          double dF[9], dP[9];
+          for (int c = 0; c < 9; ++c) dF[c] = dFbar[c] + (c % 3 < ncol ? base[std::size_t(c) * N] : 0.0);
+          symmetric_product(T + 45 * (v * nq + q), dF, dP);
+          if (shift != 0.0) Eigen::Map<Vec9>(dP) += S * Eigen::Map<const Vec9>(dF);
+          for (int c = 0; c < 9; ++c) {
+            if (c % 3 < ncol) base[std::size_t(c) * N] = dP[c];
+            local[c] += wq[q] * dP[c];
+          }
         }
 #pragma omp critical
-      mean += local;
+      for (int c = 0; c < 9; ++c) mean[c] += local[c];
     }
-    mean *= invN;
+    return mean / double(N);
+  }
+
+  /// y = K x with the stored tangents; x.f holds load-frame macro components (any mask applied by caller).
+  void apply(const KVec& x, const std::array<bool, 9>& free, KVec& y, double shift = 0.0) {
+    op.gradient(x.u.data(), fft->spectrum(0), false);
+    fft->backward();
+    const Vec9 mean = tangent_product(flatten(to_grid(unflatten(x.f))), shift);
     fft->forward();
-    op.divergence(fft->spectrum(0), y.u.data(), invN);
+    op.divergence(fft->spectrum(0), y.u.data(), 1.0 / double(N));
     const Vec9 ml = T_load * mean;
     for (int c = 0; c < 9; ++c) y.f[c] = free[c] ? ml[c] : 0.0;
   }
 
-  /// z = M⁻¹ r: reference-medium Green operator per mode, macro block inverse.
+  /// The CG direction update fused with the operator: p ← z + β p, Ap = K p; returns ⟨p, Ap⟩.
+  double apply_direction(const KVec& z, double beta, KVec& p, const std::array<bool, 9>& free, KVec& Ap,
+                         double shift) {
+    op.gradient_of_update(z.u.data(), beta, p.u.data(), fft->spectrum(0));
+    p.f = beta == 0.0 ? Vec9(z.f) : Vec9(z.f + beta * p.f);
+    fft->backward();
+    const Vec9 mean = tangent_product(flatten(to_grid(unflatten(p.f))), shift);
+    fft->forward();
+    const double pAp = op.divergence_dot(fft->spectrum(0), Ap.u.data(), 1.0 / double(N), p.u.data());
+    const Vec9 ml = T_load * mean;
+    for (int c = 0; c < 9; ++c) Ap.f[c] = free[c] ? ml[c] : 0.0;
+    return pAp + p.f.dot(Ap.f);
+  }
+
+  /// Macro block of the preconditioner: z_f = Minv r_f / scale on the free components.
+  static void precondition_macro(const Vec9& rf, const Eigen::MatrixXd& macro_inverse, const std::vector<int>& free_idx,
+                                 Vec9& zf, double scale) {
+    zf.setZero();
+    if (free_idx.empty()) return;
+    Eigen::VectorXd r(free_idx.size());
+    for (std::size_t a = 0; a < free_idx.size(); ++a) r[a] = rf[free_idx[a]];
+    const Eigen::VectorXd z = macro_inverse * r / scale;
+    for (std::size_t a = 0; a < free_idx.size(); ++a) zf[free_idx[a]] = z[a];
+  }
+
+  /// z = M⁻¹ r: reference-medium Green operator per mode (tabulated by set_reference()), macro block inverse.
   void precondition(const KVec& r, const Eigen::MatrixXd& macro_inverse, const std::vector<int>& free_idx, KVec& z,
                     double scale = 1.0) {
-    if (scale == 1.0)
-      op.solve_reference(C0, r.u.data(), z.u.data());
-    else
-      op.solve_reference(Mat9(scale * C0), r.u.data(), z.u.data());
-    z.f.setZero();
-    if (!free_idx.empty()) {
-      Eigen::VectorXd rf(free_idx.size());
-      for (std::size_t a = 0; a < free_idx.size(); ++a) rf[a] = r.f[free_idx[a]];
-      const Eigen::VectorXd zf = macro_inverse * rf / scale;
-      for (std::size_t a = 0; a < free_idx.size(); ++a) z.f[free_idx[a]] = zf[a];
-    }
+    green.apply(r.u.data(), z.u.data(), scale);
+    precondition_macro(r.f, macro_inverse, free_idx, z.f, scale);
   }
 
   Eigen::MatrixXd macro_block_inverse(const std::vector<int>& free_idx) const {
@@ -615,7 +663,12 @@ struct FftRveSolver::Impl {
     return m ? Eigen::MatrixXd(B.inverse()) : Eigen::MatrixXd(0, 0);
   }
 
+  /// Chooses the reference medium C0 for the next linear solve(s) and tabulates its Green operator.
   void set_reference() {
+    choose_reference();
+    green.set(C0);
+  }
+  void choose_reference() {
     if (opt.reference == ReferenceMedium::geometric && opt.scheme == FftScheme::newton_cg &&
         sums.phase_A_w[0] > 0.0 && sums.phase_A_w[1] > 0.0) {
       // Isotropic projections of the phase-mean tangents: with a = Σ C_iikk and b = ½ Σ (C_ijij + C_ijji),
@@ -648,37 +701,46 @@ struct FftRveSolver::Impl {
   /// Levenberg–Marquardt step, used when K is indefinite away from the solution). Sets `breakdown`
   /// when a direction of non-positive curvature stops it.
   int pcg(const KVec& b, const std::array<bool, 9>& free, double rel_tol, KVec& x, double shift, bool& breakdown) {
+    const auto start = Clock::now();
     breakdown = false;
     std::vector<int> free_idx;
     for (int c = 0; c < 9; ++c)
       if (free[c]) free_idx.push_back(c);
     const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
-    KVec r = b, z{std::vector<Complex>(3 * NM), Vec9::Zero()}, p, Ap{std::vector<Complex>(3 * NM), Vec9::Zero()};
+    const double scale = 1.0 + shift;
+    KVec &r = cg_r, &z = cg_z, &p = cg_p, &Ap = cg_Ap;
+    r.u = b.u;
+    r.f = b.f;
+    for (KVec* v : {&z, &p, &Ap}) v->u.resize(3 * NM);
     x.u.assign(3 * NM, 0.0);
     x.f.setZero();
-    precondition(r, Minv, free_idx, z, 1.0 + shift);
-    double rz = dot(r, z);
+    // Per iteration: one fused pass p ← z + βp → ∇p, FFT⁻¹, the tangent pass, FFT, one fused pass
+    // Div → Ap and ⟨p, Ap⟩, one fused pass x += αp, r −= αAp, z = M⁻¹r and ⟨r, z⟩.
+    precondition_macro(r.f, Minv, free_idx, z.f, scale);
+    double rz = green.apply_dot(r.u.data(), z.u.data(), scale) + r.f.dot(z.f);
     const double rz0 = rz;
-    if (!(rz0 > 0.0)) return 0;
-    p = z;
     int it = 0;
-    while (it < opt.max_krylov_iterations) {
-      apply(p, free, Ap, shift);
-      ++it;
-      const double pAp = dot(p, Ap);
-      if (!(pAp > 0.0)) {  // negative curvature: K is indefinite here
-        breakdown = true;
-        break;
+    if (rz0 > 0.0) {
+      double beta = 0.0;
+      while (it < opt.max_krylov_iterations) {
+        const double pAp = apply_direction(z, beta, p, free, Ap, shift);
+        ++it;
+        if (!(pAp > 0.0)) {  // negative curvature: K is indefinite here
+          breakdown = true;
+          break;
+        }
+        const double alpha = rz / pAp;
+        double rz_new = green.cg_update(alpha, p.u.data(), Ap.u.data(), x.u.data(), r.u.data(), z.u.data(), scale);
+        x.f += alpha * p.f;
+        r.f -= alpha * Ap.f;
+        precondition_macro(r.f, Minv, free_idx, z.f, scale);
+        rz_new += r.f.dot(z.f);
+        if (std::sqrt(std::max(rz_new, 0.0) / rz0) <= rel_tol) break;
+        beta = rz_new / rz;
+        rz = rz_new;
       }
-      const double alpha = rz / pAp;
-      axpy(alpha, p, x);
-      axpy(-alpha, Ap, r);
-      precondition(r, Minv, free_idx, z, 1.0 + shift);
-      const double rz_new = dot(r, z);
-      if (std::sqrt(std::max(rz_new, 0.0) / rz0) <= rel_tol) break;
-      xpby(z, rz_new / rz, p);
-      rz = rz_new;
     }
+    krylov_seconds += std::chrono::duration<double>(Clock::now() - start).count();
     return it;
   }
 
@@ -702,8 +764,12 @@ struct FftRveSolver::Impl {
     KVec r{std::vector<Complex>(3 * NM), Vec9::Zero()}, dx;
     if (opt.scheme == FftScheme::moulinec_suquet) return fixed_point(free, P_target, target, dt, r);
 
-    const int max_it = opt.max_newton_iterations;
+    int max_it = opt.max_newton_iterations;
     double err = 0.0, first_err = -1.0;
+    // Pseudo-transient continuation (FftSolverOptions::max_continuation_iterations), entered when
+    // Newton stagnates: shift δ of the reference medium, residual of the previous iterate.
+    bool continuation = false;
+    double ptc_shift = 0.0, ptc_err = 0.0;
     std::vector<Complex> u_prev;
     Mat3 Fbar_prev = Fbar, step_macro = Mat3::Zero();
     bool had_prescribed_step = false;
@@ -758,7 +824,9 @@ struct FftRveSolver::Impl {
           if (last != MaterialStatus::ok) continue;
           err = evaluate_residual(free, P_target, r);
           if (!std::isfinite(err)) continue;
-          accepted = had_prescribed_step || merit < (1.0 - 1e-4 * scale) * merit_old || ls == 7;
+          // Continuation accepts any admissible iterate: on the way from the end of one equilibrium
+          // branch to the next the residual has to grow before it falls.
+          accepted = continuation || had_prescribed_step || merit < (1.0 - 1e-4 * scale) * merit_old || ls == 7;
           if (ls > 0 && accepted) ++out.line_search_cuts;
         }
         if (accepted) accept_linearization();
@@ -783,6 +851,23 @@ struct FftRveSolver::Impl {
       if (prescribed_reached && err <= std::max(opt.tolerance, floor)) {
         out.ok = true;
         return out;
+      }
+      if (continuation) {
+        // Switched evolution relaxation, one-sided: the shift follows a falling residual, so it
+        // vanishes (Newton) as the iteration closes in on an equilibrium, but is not raised while the
+        // residual grows on the way between branches (that would stall the descent); only an
+        // indefinite linear solve raises it (the Levenberg–Marquardt retry below).
+        ptc_shift *= std::clamp(err / ptc_err, 0.2, 1.0);
+        if (ptc_shift < 1e-9) ptc_shift = 0.0;
+        ptc_err = err;
+        ++out.continuation;
+      } else if (prescribed_reached && opt.max_continuation_iterations > 0 && it >= 10 &&
+                 (it == max_it || err > 0.3 * out.residuals[out.residuals.size() - 4])) {
+        // Stagnation (less than a factor 3 in three iterations after ten): the branch has ended.
+        continuation = true;
+        ptc_shift = std::max(10.0 * lm_shift, 1e-2);
+        ptc_err = err;
+        max_it = it + opt.max_continuation_iterations;
       }
       if (it == max_it) break;
       if (prescribed_reached) {
@@ -810,7 +895,7 @@ struct FftRveSolver::Impl {
       // solve as a Levenberg–Marquardt step with a shift of the reference medium, which grows by 10
       // on each breakdown and starts the next Newton iteration ten times smaller.
       bool breakdown = false;
-      double shift = lm_shift;
+      double shift = continuation ? ptc_shift : lm_shift;
       for (int attempt = 0; attempt < 8; ++attempt) {
         out.krylov += pcg(b, free, prescribed_reached ? eta : std::min(eta, 1e-3), dx, shift, breakdown);
         if (!breakdown) break;
@@ -818,13 +903,16 @@ struct FftRveSolver::Impl {
         ++out.shifted_solves;
       }
       lm_shift = shift >= 1e-2 ? 0.1 * shift : 0.0;
+      if (continuation) ptc_shift = shift;
       ++out.newton;
       u_prev = u;
       Fbar_prev = Fbar;
       step_macro = dFp + unflatten(dx.f);
       had_prescribed_step = !prescribed_reached || (it == 0 && full_first_step);
     }
-    out.why = "no convergence in " + std::to_string(max_it) + " Newton iterations (residual " + std::to_string(err) + ")";
+    out.why = "no convergence in " + std::to_string(opt.max_newton_iterations) + " Newton iterations" +
+              (continuation ? " + " + std::to_string(out.continuation) + " continuation iterations" : std::string()) +
+              " (residual " + std::to_string(err) + ")";
     return out;
   }
 
@@ -926,7 +1014,7 @@ struct FftRveSolver::Impl {
       for (int q = 0; q < nq; ++q) {
         Mat3 Fq, Pq;
         for (int c = 0; c < 9; ++c) {
-          Fq(c / 3, c % 3) = Fg(c / 3, c % 3) + fft->real(9 * q + c)[v];
+          Fq(c / 3, c % 3) = Fg(c / 3, c % 3) + (c % 3 < op.columns() ? fft->real(9 * q + c)[v] : 0.0);
           Pq(c / 3, c % 3) = P[std::size_t(9 * q + c) * N + v];
         }
         const double w = op.quadrature()[q].weight;
@@ -959,11 +1047,53 @@ double FftRveSolver::planning_seconds() const { return impl_->fft->planning_seco
 std::size_t FftRveSolver::memory_bytes() const {
   const Impl& m = *impl_;
   std::size_t b = m.fft->fields() * (m.N * sizeof(double) + m.NM * sizeof(Complex));
-  b += m.tangent.size() * sizeof(Mat9);
+  b += m.tangent.size() * sizeof(double) + m.green.memory_bytes();
   for (int x = 0; x < 2; ++x) b += 2 * m.hist_old[x].size() * sizeof(double);
   b += 2 * m.lam_a.size() * sizeof(double) + m.N * (sizeof(double) + sizeof(int));
-  b += 3 * m.NM * sizeof(Complex) * (m.opt.scheme == FftScheme::newton_cg ? 9 : 4);  // ũ, copies, CG vectors
+  // Mixed (u, p) iteration: two linearizations (10 each), three pressures, P_full − P̂ (9) per point.
+  b += (m.lin_cur.size() + m.lin_next.size() + m.p_trial.size() + m.p_committed.size() + m.dp_last.size() +
+        m.dP_full.size()) * sizeof(double);
+  // ũ and its copies (committed, previous iterate, last increment), residual, right-hand side, Newton
+  // step and the four CG vectors; 4 for the fixed point.
+  b += 3 * m.NM * sizeof(Complex) * (m.opt.scheme == FftScheme::newton_cg ? 12 : 4);
   return b;
+}
+
+FftRveState FftRveSolver::state() const {
+  const Impl& m = *impl_;
+  FftRveState s;
+  s.F = m.Fbar_committed;
+  s.u = m.u_committed;
+  s.history_matrix = m.hist_old[0];
+  s.history_fiber = m.hist_old[1];
+  s.laminate = m.lam_a;
+  s.du_last = m.du_last;
+  s.dF_last = m.dF_last;
+  s.dt_last = m.dt_last;
+  return s;
+}
+
+void FftRveSolver::set_state(const FftRveState& s) {
+  Impl& m = *impl_;
+  auto check = [](const char* what, std::size_t got, std::size_t want) {
+    if (got != want)
+      throw InputError("state", std::string(what) + " of " + std::to_string(got) + " values",
+                       "this solver needs " + std::to_string(want) + " (a state of another grid or phases)");
+  };
+  check("u", s.u.size(), m.u.size());
+  check("history_matrix", s.history_matrix.size(), m.hist_old[0].size());
+  check("history_fiber", s.history_fiber.size(), m.hist_old[1].size());
+  check("laminate", s.laminate.size(), m.lam_a.size());
+  if (!s.du_last.empty()) check("du_last", s.du_last.size(), m.u.size());
+  if (!s.F.allFinite() || !(s.F.determinant() > 0.0)) throw InputError("state.F", "", "not a deformation gradient (det F <= 0)");
+  m.Fbar = m.Fbar_committed = s.F;
+  m.u = m.u_committed = s.u;
+  m.hist_old[0] = m.hist_new[0] = s.history_matrix;
+  m.hist_old[1] = m.hist_new[1] = s.history_fiber;
+  m.lam_a = m.lam_a_trial = s.laminate;
+  m.du_last = s.du_last;
+  m.dF_last = s.dF_last;
+  m.dt_last = s.dt_last;
 }
 
 RveRunResult FftRveSolver::run(const MixedControl& control,
@@ -1001,7 +1131,9 @@ RveRunResult FftRveSolver::run(const MixedControl& control,
       }
     }
   } engine{m, control, angle0, on_step, want_fields};
+  m.krylov_seconds = 0.0;
   detail::run_output_steps(control, m.opt.max_cutbacks, engine, result, run_start);
+  result.krylov_seconds = m.krylov_seconds;
   return result;
 }
 

@@ -14,6 +14,7 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
+#include <Eigen/Eigenvalues>
 
 #include "softhom/materials/errors.hpp"
 
@@ -578,6 +579,18 @@ PhaseImage extrude(const PhaseImage& s, int n3) {
       out.fiber_direction.insert(out.fiber_direction.end(), s.fiber_direction.begin(), s.fiber_direction.end());
   }
   return out;
+}
+
+Eigen::Vector3d PhaseImage::mean_fiber_direction() const {
+  if (fiber_direction.size() != voxels() || fiber_fraction.size() != voxels()) return Eigen::Vector3d::UnitZ();
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+  for (std::size_t v = 0; v < fiber_direction.size(); ++v) M += fiber_fraction[v] * fiber_direction[v] * fiber_direction[v].transpose();
+  if (!(M.trace() > 0.0)) return Eigen::Vector3d::UnitZ();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(M);
+  Eigen::Vector3d a = es.eigenvectors().col(2);  // eigenvalues ascending
+  Eigen::Index k;
+  a.cwiseAbs().maxCoeff(&k);
+  return a[k] < 0.0 ? Eigen::Vector3d(-a) : a;
 }
 
 double PhaseImage::volume_fraction() const {

@@ -19,7 +19,7 @@ namespace softhom::rve::detail {
 struct SubstepOutcome {
   bool ok = false;
   std::string why;
-  int newton = 0, krylov = 0, line_search_cuts = 0, shifted_solves = 0;
+  int newton = 0, krylov = 0, line_search_cuts = 0, shifted_solves = 0, continuation = 0;
   std::vector<double> residuals;
 };
 
@@ -54,7 +54,16 @@ void run_output_steps(const MixedControl& control, int max_cutbacks, Engine& eng
       agg.krylov_iterations += o.krylov;
       agg.shifted_solves += o.shifted_solves;
       result.shifted_solves += o.shifted_solves;
+      agg.continuation_iterations += o.continuation;
+      result.continuation_iterations += o.continuation;
       if (o.ok) {
+        if (o.continuation > 0) {
+          std::ostringstream msg;
+          msg << "t = " << t << " → " << t_new << ": Newton stalled (the equilibrium branch ends: fold or "
+              << "bifurcation of the cell); converged after " << o.continuation
+              << " pseudo-transient continuation iterations";
+          result.log.push_back(msg.str());
+        }
         last_dt = t_new - t;
         engine.commit(last_dt);
         t = t_new;
@@ -89,6 +98,7 @@ void run_output_steps(const MixedControl& control, int max_cutbacks, Engine& eng
     s.newton_iterations = agg.newton_iterations;
     s.krylov_iterations = agg.krylov_iterations;
     s.shifted_solves = agg.shifted_solves;
+    s.continuation_iterations = agg.continuation_iterations;
     s.substeps = agg.substeps;
     s.cutbacks = agg.cutbacks;
     s.residuals = last.residuals;

@@ -17,6 +17,7 @@
 #include "softhom/io/files.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/materials/errors.hpp"
+#include "softhom/studies/campaign.hpp"
 
 namespace softhom::studies {
 namespace {
@@ -563,14 +564,19 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
   for (const auto& f : m.fibers) families += f.plus_minus ? 2 : 1;
   std::set<std::string> names;
   std::size_t fit_points = 0;
+  std::map<std::filesystem::path, std::map<std::string, CaseRecord>> stores;  // campaign stores read so far
   for (std::size_t i = 0; i < carr->size(); ++i) {
     const std::string cp = "curves[" + std::to_string(i) + "]";
     const auto* ct = carr->get(i)->as_table();
     if (!ct) throw InputError(cp, show(*carr->get(i)), "must be a table ([[curves]])");
-    io::check_keys(*ct, cp, {"name", "file", "run", "load", "x", "y", "x_column", "y_column", "weight", "role"});
+    io::check_keys(*ct, cp, {"name", "file", "run", "campaign", "case", "load", "load_rotation_deg", "x", "y", "x_column",
+                             "y_column", "weight", "role"});
     CalCurve c;
-    if (ct->contains("file") == ct->contains("run"))
-      throw InputError(cp + ".file", "", "give exactly one of file = \"data.csv\" or run = \"DIR\" (a softhom output directory)");
+    if (int(ct->contains("file")) + int(ct->contains("run")) + int(ct->contains("campaign")) != 1)
+      throw InputError(cp + ".file", "", "give exactly one of file = \"data.csv\", run = \"DIR\" (a softhom output directory) "
+                                         "or campaign = \"DIR\" with case = \"ID\" (a softhom sweep store)");
+    const std::string src_key = ct->contains("file") ? ".file" : ct->contains("run") ? ".run" : ".campaign";
+    const CaseRecord* record = nullptr;  // campaign curves
     toml::table load_from_run;
     const toml::table* load = ct->get("load") ? ct->get("load")->as_table() : nullptr;
     if (ct->get("load") && !load) throw InputError(cp + ".load", show(*ct->get("load")), "must be a table ([curves.load])");
@@ -580,6 +586,34 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
       c.file = std::filesystem::path(f).is_absolute() ? std::filesystem::path(f) : base_dir / f;
       default_name = std::filesystem::path(f).stem().string();
       if (!load) throw InputError(cp + ".load", "", "missing: the load control of the curve ([curves.load], as a softhom point [load])");
+    } else if (ct->contains("campaign")) {
+      // A case of a `softhom sweep` store: its response table, and its scene's [load] unless given.
+      const std::string d = io::get_string_or(*ct, "campaign", cp, "");
+      std::filesystem::path store = std::filesystem::path(d).is_absolute() ? std::filesystem::path(d) : base_dir / d;
+      if (std::filesystem::is_directory(store)) store /= "campaign.h5";
+      if (!std::filesystem::exists(store)) throw InputError(cp + ".campaign", store.string(), "no campaign store there (run softhom sweep first)");
+      if (!stores.count(store)) {
+        try {
+          stores[store] = read_store(store);
+        } catch (const std::exception& e) {
+          throw InputError(cp + ".campaign", store.string(), e.what());
+        }
+      }
+      const std::string id = io::get_string_or(*ct, "case", cp, "");
+      const auto& recs = stores.at(store);
+      const auto it = recs.find(id);
+      if (it == recs.end())
+        throw InputError(cp + ".case", id, "no such case in " + store.string() + " (" + std::to_string(recs.size()) + " cases; see its cases.csv)");
+      record = &it->second;
+      c.file = store;
+      default_name = id;
+      if (!load) {
+        const toml::table scene = io::parse_scene(record->scene_text, store.string() + ":" + id);
+        const auto* lt = scene["load"].as_table();
+        if (!lt) throw InputError(cp + ".case", id, "the stored scene has no [load]: give [curves.load] explicitly");
+        load_from_run = *lt;
+        load = &load_from_run;
+      }
     } else {
       const std::string r = io::get_string_or(*ct, "run", cp, "");
       const std::filesystem::path dir = std::filesystem::path(r).is_absolute() ? std::filesystem::path(r) : base_dir / r;
@@ -600,12 +634,24 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
         load = &load_from_run;
       }
     }
-    if (!std::filesystem::exists(c.file)) throw InputError(cp + (ct->contains("file") ? ".file" : ".run"), c.file.string(), "file not found");
+    if (ct->contains("case") && !record) throw InputError(cp + ".case", "", "only with campaign = \"DIR\"");
+    if (!std::filesystem::exists(c.file)) throw InputError(cp + src_key, c.file.string(), "file not found");
     c.name = io::get_string_or(*ct, "name", cp, default_name);
     if (c.name.empty() || c.name.find_first_of("/\\,\"\n") != std::string::npos)
       throw InputError(cp + ".name", c.name, "must be non-empty without / \\ , or quotes (used as a file name)");
     if (!names.insert(c.name).second) throw InputError(cp + ".name", c.name, "duplicate curve name");
     c.control = io::parse_load(*load, cp + ".load");
+    if (ct->contains("load_rotation_deg")) {
+      // The whole experiment turned by β about e3 (e.g. an RVE case with fibers at α in its load frame
+      // is a model with fibers at α0 loaded along a direction rotated by β = α − α0, spec §7).
+      const double b = io::get_number_or(*ct, "load_rotation_deg", cp, 0.0) * std::numbers::pi / 180.0;
+      if (!std::isfinite(b)) throw InputError(cp + ".load_rotation_deg", num(b), "must be a finite angle in degrees");
+      Mat3 Rz = Mat3::Identity();
+      Rz(0, 0) = Rz(1, 1) = std::cos(b);
+      Rz(1, 0) = std::sin(b);
+      Rz(0, 1) = -std::sin(b);
+      c.control.frame = Rz * c.control.frame;
+    }
     c.x = io::get_string_or(*ct, "x", cp, "t");
     c.y = io::get_string_or(*ct, "y", cp, "P11");
     for (const auto& [key, q] : {std::pair<const char*, const std::string*>{"x", &c.x}, {"y", &c.y}})
@@ -618,10 +664,17 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
     const std::string xcol = io::get_string_or(*ct, "x_column", cp, c.x);
     const std::string ycol = io::get_string_or(*ct, "y_column", cp, c.y);
     CsvData csv;
-    try {
-      csv = read_csv(c.file);
-    } catch (const InputError& e) {
-      throw InputError(cp + (ct->contains("file") ? ".file" : ".run"), c.file.string(), e.what());
+    if (record) {
+      csv.columns = record->columns;
+      for (std::size_t r = 0; r < record->rows(); ++r)
+        csv.rows.emplace_back(record->data.begin() + std::ptrdiff_t(r * record->columns.size()),
+                              record->data.begin() + std::ptrdiff_t((r + 1) * record->columns.size()));
+    } else {
+      try {
+        csv = read_csv(c.file);
+      } catch (const InputError& e) {
+        throw InputError(cp + src_key, c.file.string(), e.what());
+      }
     }
     const int xi = csv.column(xcol), yi = csv.column(ycol);
     auto list = [&] {
@@ -635,7 +688,7 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
       c.x_data.push_back(row[std::size_t(xi)]);
       c.y_data.push_back(row[std::size_t(yi)]);
     }
-    if (c.x_data.size() < 2) throw InputError(cp + ".file", c.file.string(), "needs at least two data rows");
+    if (c.x_data.size() < 2) throw InputError(cp + src_key, c.file.string(), "needs at least two data rows");
     const double dir = c.x_data[1] > c.x_data[0] ? 1.0 : -1.0;
     for (std::size_t k = 1; k < c.x_data.size(); ++k)
       if (!(dir * (c.x_data[k] - c.x_data[k - 1]) > 0.0))

@@ -10,8 +10,10 @@
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
+#include <functional>
 #include <iostream>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -421,25 +423,76 @@ namespace {
 
 bool near(double a, double b) { return std::abs(a - b) <= 1e-12 * std::max({1.0, std::abs(a), std::abs(b)}); }
 
-/// A's whole load path is the beginning of B's: same frame and control kinds, B's output times start
-/// with A's, and every prescribed component agrees on [0, t_A] (piecewise linear: checking the
-/// breakpoints of both and the output times suffices).
-bool is_prefix(const MixedControl& A, const MixedControl& B) {
-  if (A.times.empty() || B.times.size() <= A.times.size()) return false;
-  if (!(A.frame - B.frame).isZero(0.0)) return false;
-  for (std::size_t i = 0; i < A.times.size(); ++i)
-    if (!near(A.times[i], B.times[i])) return false;
-  const double tA = A.times.back();
-  for (int c = 0; c < 9; ++c) {
-    if (A.kind[c] != B.kind[c]) return false;
-    std::vector<double> ts = A.times;
-    ts.push_back(0.0);
-    for (double t : A.value[c].t) if (t <= tA) ts.push_back(t);
-    for (double t : B.value[c].t) if (t <= tA) ts.push_back(t);
-    for (double t : ts)
-      if (!near(A.value[c](t), B.value[c](t))) return false;
+/// Where case A's load path lies on case B's: B passes A's state of time t at time c·t; returns c, or
+/// nothing when A's path is not the beginning of B's. Same frame and control kinds, every component
+/// agrees, A.value(t) = B.value(c t) on [0, t_A] (piecewise linear: checking both breakpoint sets and
+/// A's output times suffices), and c t_A ≤ t_B.
+/// rescale (elastic cells, whose response depends on the path of the controlled values only, not on
+/// time or steps): c from the component that changes most along A, and A's output times may fall
+/// anywhere on B's path ("tension to λ = 1.5 in 16 steps" lies on "tension to λ = 1.8 in 16 steps").
+/// Otherwise (history-dependent phases) c = 1 and A's output times must be B's first ones, so that B
+/// computes exactly A's time steps: other steps would change the time integration, not just round-off.
+std::optional<double> path_scale(const MixedControl& A, const MixedControl& B, bool rescale) {
+  if (A.times.empty() || B.times.empty()) return std::nullopt;
+  if (!(A.frame - B.frame).isZero(0.0)) return std::nullopt;
+  for (int k = 0; k < 9; ++k)
+    if (A.kind[k] != B.kind[k]) return std::nullopt;
+  const double tA = A.times.back(), tB = B.times.back();
+  double c = 1.0;
+  if (rescale) {
+    int kmax = -1;
+    double dmax = 0.0;
+    for (int k = 0; k < 9; ++k) {
+      const double d = std::abs(A.value[k](tA) - A.value[k](0.0));
+      if (d > dmax) dmax = d, kmax = k;
+    }
+    if (kmax < 0) return std::nullopt;  // nothing changes along A: no path to share
+    const PiecewiseLinear& f = B.value[kmax];
+    const double target = A.value[kmax](tA);
+    std::vector<double> ts{0.0};
+    for (double t : f.t)
+      if (t > 0.0 && t < tB) ts.push_back(t);
+    ts.push_back(tB);
+    double s = -1.0;  // first time at which B's component reaches A's end value
+    for (std::size_t i = 1; i < ts.size() && s < 0.0; ++i) {
+      const double v0 = f(ts[i - 1]), v1 = f(ts[i]);
+      if (v1 != v0 && (target - v0) * (target - v1) <= 0.0)
+        s = ts[i - 1] + (target - v0) / (v1 - v0) * (ts[i] - ts[i - 1]);
+    }
+    if (!(s > 0.0)) return std::nullopt;
+    c = near(s, tA) ? 1.0 : s / tA;
+  } else {
+    if (B.times.size() < A.times.size()) return std::nullopt;
+    for (std::size_t i = 0; i < A.times.size(); ++i)
+      if (!near(A.times[i], B.times[i])) return std::nullopt;
   }
-  return true;
+  if (c * tA > tB * (1.0 + 1e-12)) return std::nullopt;
+  std::vector<double> ts = A.times;
+  ts.push_back(0.0);
+  for (int k = 0; k < 9; ++k) {
+    for (double t : A.value[k].t)
+      if (t <= tA) ts.push_back(t);
+    for (double t : B.value[k].t)
+      if (t <= c * tA) ts.push_back(t / c);
+  }
+  for (int k = 0; k < 9; ++k)
+    for (double t : ts)
+      if (!near(A.value[k](t), B.value[k](c * t))) return std::nullopt;
+  return c;
+}
+
+/// Total variation of the controlled values along the path: orders the cases of one path.
+double path_extent(const MixedControl& A) {
+  double e = 0.0;
+  const double tA = A.times.back();
+  for (int k = 0; k < 9; ++k) {
+    std::vector<double> ts{0.0};
+    for (double t : A.value[k].t)
+      if (t > 0.0 && t < tA) ts.push_back(t);
+    ts.push_back(tA);
+    for (std::size_t i = 1; i < ts.size(); ++i) e += std::abs(A.value[k](ts[i]) - A.value[k](ts[i - 1]));
+  }
+  return e;
 }
 
 /// B restarted at t0 (t ↦ t − t0), for continuing a solver that is at B's state at t0.
@@ -462,8 +515,9 @@ MixedControl shifted(const MixedControl& B, double t0) {
 }
 
 struct Chain {
-  std::vector<int> members;  // indices into campaign.cases, each a prefix of the next
+  std::vector<int> members;  // indices into campaign.cases; each one's path is the beginning of the next's
   std::vector<bool> store;   // member must be (re)stored
+  int last = 0;              // run up to this member (the last one to store)
 };
 
 std::string hms(double s) {
@@ -527,7 +581,8 @@ SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& 
     if (!todo[i]) ++report.skipped;
   }
 
-  // Chains (deterministic from the campaign alone, so a resumed run computes each case the same way).
+  // Chains (deterministic from the campaign alone, so a resumed run computes each case the same way):
+  // within one microstructure, cases whose load paths lie on each other's (path_scale) run as one path.
   std::vector<Chain> chains;
   const bool warm = options.warm_start && campaign.warm_start;
   {
@@ -535,35 +590,45 @@ SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& 
     std::vector<std::string> group_order;
     for (std::size_t i = 0; i < campaign.cases.size(); ++i) {
       const auto& c = campaign.cases[i];
-      const std::string key = (warm && c.elastic) ? c.microstructure_hash : "single:" + c.id;
+      const std::string key = warm ? c.microstructure_hash : "single:" + c.id;
       if (!groups.count(key)) group_order.push_back(key);
       groups[key].push_back(int(i));
     }
     for (const auto& key : group_order) {
       std::vector<int> members = groups[key];
+      std::vector<double> extent(campaign.cases.size(), 0.0);
+      for (int m : members) extent[m] = path_extent(campaign.cases[m].control);
       std::stable_sort(members.begin(), members.end(), [&](int a, int b) {
+        if (extent[a] != extent[b]) return extent[a] < extent[b];
         return campaign.cases[a].control.times.back() < campaign.cases[b].control.times.back();
       });
       std::vector<Chain> local;
       for (int m : members) {
+        const CampaignCase& c = campaign.cases[m];
         bool placed = false;
-        for (auto& ch : local)
-          if (is_prefix(campaign.cases[ch.members.back()].control, campaign.cases[m].control)) {
+        for (auto& ch : local) {
+          const CampaignCase& last = campaign.cases[ch.members.back()];
+          // Every member must lie on the final path: check against the chain's first member too.
+          if (path_scale(last.control, c.control, c.elastic) &&
+              path_scale(campaign.cases[ch.members.front()].control, c.control, c.elastic)) {
             ch.members.push_back(m);
             placed = true;
             break;
           }
-        if (!placed) local.push_back(Chain{{m}, {}});
+        }
+        if (!placed) local.push_back(Chain{{m}, {}, 0});
       }
       for (auto& ch : local) {
         // Run up to the last member that must be stored; earlier finished members are recomputed
-        // (not stored) only to warm the later ones.
+        // (not stored) only because they are on the way. The later members still shape the path's
+        // output steps, so a resumed run computes every case exactly as an uninterrupted one.
         int last = -1;
-        for (std::size_t k = 0; k < ch.members.size(); ++k)
+        for (std::size_t k = 0; k < ch.members.size(); ++k) {
+          ch.store.push_back(todo[ch.members[k]]);
           if (todo[ch.members[k]]) last = int(k);
+        }
         if (last < 0) continue;
-        ch.members.resize(last + 1);
-        for (int m : ch.members) ch.store.push_back(todo[m]);
+        ch.last = last;
         chains.push_back(std::move(ch));
       }
     }
@@ -596,45 +661,69 @@ SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& 
   std::atomic<bool> stop{false};
   int running = 0, workers_alive = jobs;
 
-  auto worker = [&]() {
-    omp_set_num_threads(tpj);
-    while (true) {
-      std::size_t ci;
-      {
-        std::lock_guard<std::mutex> lock(mu);
-        if (stop || next_chain >= chains.size()) break;
-        ci = next_chain++;
+  // One chain: the final member's load path is run once, in segments that end at each member's last
+  // output time. Its output times are the union of all members' (mapped onto the final path by
+  // path_scale) and every member's rows are read off the path at its own times. A segment continues
+  // from the solver's converged state at the end of the previous one (the warm start). A member that
+  // fails ends the shared path; the members after it then run cold, each on its own.
+  std::atomic<long> newton_computed{0};
+  std::function<void(const std::vector<int>&, const std::vector<bool>&, int)> run_chain =
+      [&](const std::vector<int>& members, const std::vector<bool>& store, int last) {
+    const std::size_t K = members.size();
+    const CampaignCase& fin = campaign.cases[members.back()];
+    std::vector<double> scale(K, 1.0);
+    for (std::size_t k = 0; k + 1 < K; ++k) {
+      const CampaignCase& c = campaign.cases[members[k]];
+      const auto sc = path_scale(c.control, fin.control, c.elastic);
+      if (!sc) {  // not expected (chains are built with path_scale); run the members on their own
+        for (int j = 0; j <= last; ++j) run_chain({members[j]}, {store[j]}, 0);
+        return;
       }
-      const Chain& ch = chains[ci];
-      std::unique_ptr<rve::FftRveSolver> solver;
-      std::vector<rve::RveStep> prefix;  // steps of the previous chain member (warm state)
-      const CampaignCase* prev = nullptr;
-      for (std::size_t k = 0; k < ch.members.size() && !stop; ++k) {
-        const CampaignCase& c = campaign.cases[ch.members[k]];
-        if (ch.store[k]) {
-          std::lock_guard<std::mutex> lock(mu);
-          ++running;
-        }
-        CaseRecord r = base_record(c);
-        r.stats["threads"] = tpj;
-        const auto t0 = Clock::now();
-        std::vector<rve::RveStep> steps;
-        try {
-          rve::RveRunResult result;
-          if (solver && prev) {
-            // Continue from the previous member's converged end state.
-            const double t_prev = prev->control.times.back();
-            const MixedControl rest = shifted(c.control, t_prev);
-            result = solver->run(rest);
-            steps = prefix;
-            const std::size_t n_prev = prev->control.times.size();
-            for (std::size_t s = 1; s < result.steps.size(); ++s) {
-              rve::RveStep st = result.steps[s];
-              st.t = c.control.times[n_prev + s - 1];  // the exact output time of a cold run
-              steps.push_back(st);
-            }
-            r.info["warm_start_from"] = prev->id;
-          } else {
+      scale[k] = *sc;
+    }
+    std::vector<double> S;  // output times on the final path
+    for (std::size_t k = 0; k < K; ++k)
+      for (double t : campaign.cases[members[k]].control.times) S.push_back(k + 1 == K ? t : scale[k] * t);
+    std::sort(S.begin(), S.end());
+    std::vector<double> U;
+    for (double t : S)
+      if (U.empty() || !near(U.back(), t)) U.push_back(t);
+    S.swap(U);
+    std::vector<std::vector<std::size_t>> idx(K);
+    for (std::size_t k = 0; k < K; ++k)
+      for (double t : campaign.cases[members[k]].control.times) {
+        const double x = k + 1 == K ? t : scale[k] * t;
+        std::size_t j = std::size_t(std::lower_bound(S.begin(), S.end(), x) - S.begin());
+        if (j == S.size() || (j > 0 && std::abs(S[j - 1] - x) < std::abs(S[j] - x))) --j;
+        idx[k].push_back(j);
+      }
+
+    std::unique_ptr<rve::FftRveSolver> solver;
+    std::vector<rve::RveStep> path;  // path[0]: t = 0; path[j + 1]: at S[j]
+    for (int k = 0; k <= last; ++k) {
+      if (stop) return;
+      const CampaignCase& c = campaign.cases[members[k]];
+      if (store[k]) {
+        std::lock_guard<std::mutex> lock(mu);
+        ++running;
+      }
+      CaseRecord r = base_record(c);
+      r.stats["threads"] = tpj;
+      const auto t0 = Clock::now();
+      std::vector<rve::RveStep> steps;
+      bool failed = false;
+      double newton = 0, krylov = 0, cutbacks = 0;
+      try {
+        const std::size_t done = path.empty() ? 0 : path.size() - 1;  // entries of S reached
+        if (k > 0) r.info["warm_start_from"] = campaign.cases[members[k - 1]].id;
+        if (K > 1 && k + 1 < int(K)) r.info["on_path_of"] = fin.id;
+        rve::RveRunResult result;
+        result.completed = true;
+        if (idx[k].back() + 1 > done) {
+          MixedControl seg = done == 0 ? fin.control : shifted(fin.control, S[done - 1]);
+          seg.times.clear();
+          for (std::size_t j = done; j <= idx[k].back(); ++j) seg.times.push_back(done == 0 ? S[j] : S[j] - S[done - 1]);
+          if (!solver) {
             RveSceneSetup setup;
             {
               // Imported phase images are read with HDF5.
@@ -647,44 +736,65 @@ SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& 
             if (setup.solver.plan.wisdom_file.empty()) setup.solver.plan.wisdom_file = dir / "fftw.wisdom";
             solver = std::make_unique<rve::FftRveSolver>(setup.image, setup.matrix, setup.fiber, setup.fiber_angle_deg,
                                                          setup.control.frame, setup.solver);
-            r.stats["voxels"] = double(setup.image.voxels());
-            r.stats["volume_fraction_achieved"] = solver->achieved_volume_fraction();
             r.stats["fft_planning_s"] = solver->planning_seconds();
             r.info["geometry"] = setup.geometry_note;
             r.info["fft"] = solver->fft_description();
-            result = solver->run(c.control);
-            steps = result.steps;
           }
-          if (prev) {
-            r.stats["voxels"] = double(solver->grid().voxels());
-            r.stats["volume_fraction_achieved"] = solver->achieved_volume_fraction();
+          result = solver->run(seg);
+          for (std::size_t st = done == 0 ? 0 : 1; st < result.steps.size(); ++st) {
+            path.push_back(result.steps[st]);
+            newton += result.steps[st].newton_iterations;
+            krylov += result.steps[st].krylov_iterations;
+            cutbacks += result.steps[st].cutbacks;
           }
-          r.status = result.completed ? "ok" : "failed";
-          r.error = result.error;
           for (const auto& line : result.log) r.info["log"] += line + "\n";
-          if (!result.completed) {
-            solver.reset();  // the next member starts cold
-            prefix.clear();
-            prev = nullptr;
-          } else {
-            prefix = steps;
-            prev = &c;
-          }
-        } catch (const std::exception& e) {
-          r.status = "failed";
-          r.error = e.what();
-          solver.reset();
-          prefix.clear();
-          prev = nullptr;
         }
-        finish_record(r, steps);
-        r.stats["wall_time_s"] = std::chrono::duration<double>(Clock::now() - t0).count();
-        if (!ch.store[k]) continue;
+        r.stats["voxels"] = double(solver->grid().voxels());
+        r.stats["volume_fraction_achieved"] = solver->achieved_volume_fraction();
+        if (!path.empty()) steps.push_back(path[0]);
+        for (std::size_t i = 0; i < idx[k].size() && idx[k][i] + 1 < path.size(); ++i) {
+          rve::RveStep st = path[idx[k][i] + 1];
+          st.t = c.control.times[i];  // the exact output time of a cold run
+          steps.push_back(st);
+        }
+        failed = !result.completed || steps.size() != idx[k].size() + 1;
+        r.status = failed ? "failed" : "ok";
+        r.error = result.completed ? (failed ? "the shared load path ended early" : "") : result.error;
+      } catch (const std::exception& e) {
+        r.status = "failed";
+        r.error = e.what();
+        failed = true;
+      }
+      finish_record(r, steps);
+      // Work done for this member (its segment of the path), not the rows it shares with others.
+      r.stats["newton_iterations"] = newton;
+      r.stats["krylov_iterations"] = krylov;
+      r.stats["cutbacks"] = cutbacks;
+      newton_computed += long(newton);
+      r.stats["wall_time_s"] = std::chrono::duration<double>(Clock::now() - t0).count();
+      if (store[k]) {
         std::lock_guard<std::mutex> lock(mu);
         --running;
         if (!stop) results.push_back(std::move(r));
         cv.notify_all();
       }
+      if (failed) {
+        for (int j = k + 1; j <= last; ++j) run_chain({members[j]}, {store[j]}, 0);
+        return;
+      }
+    }
+  };
+
+  auto worker = [&]() {
+    omp_set_num_threads(tpj);
+    while (true) {
+      std::size_t ci;
+      {
+        std::lock_guard<std::mutex> lock(mu);
+        if (stop || next_chain >= chains.size()) break;
+        ci = next_chain++;
+      }
+      run_chain(chains[ci].members, chains[ci].store, chains[ci].last);
     }
     std::lock_guard<std::mutex> lock(mu);
     --workers_alive;
@@ -750,6 +860,7 @@ SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& 
   }
   for (auto& t : threads) t.join();
   report.wall_time_s = std::chrono::duration<double>(Clock::now() - start).count();
+  report.newton_iterations = newton_computed;
   return report;
 }
 

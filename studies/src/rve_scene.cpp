@@ -2,6 +2,7 @@
 #include "softhom/studies/rve_scene.hpp"
 
 #include <cmath>
+#include <functional>
 
 #include "softhom/io/fields.hpp"
 #include "softhom/io/scene.hpp"
@@ -27,6 +28,156 @@ std::vector<int> grid_of(const toml::table& t, const std::string& path) {
   return n;
 }
 
+std::string dims_string(const std::vector<std::size_t>& d) {
+  std::string s = "[";
+  for (std::size_t i = 0; i < d.size(); ++i) s += (i ? ", " : "") + std::to_string(d[i]);
+  return s + "]";
+}
+
+std::string voxel_string(const rve::PhaseImage& im, std::size_t v) {
+  const std::size_t n1 = std::size_t(im.n[0]), n2 = std::size_t(im.n[1]);
+  return "voxel (i1, i2, i3) = (" + std::to_string(v % n1) + ", " + std::to_string((v / n1) % n2) + ", " +
+         std::to_string(v / (n1 * n2)) + ")";
+}
+
+/// A number or a list of three positive numbers (x, y, z order) → 3 values; `field` names errors.
+std::array<double, 3> triple_of(const std::vector<double>& v, const std::string& field) {
+  if (v.size() != 1 && v.size() != 3) throw InputError(field, std::to_string(v.size()) + " values", "give one number or three (x, y, z)");
+  std::array<double, 3> out{v[0], v.size() == 3 ? v[1] : v[0], v.size() == 3 ? v[2] : v[0]};
+  for (double x : out)
+    if (!(std::isfinite(x) && x > 0.0)) throw InputError(field, std::to_string(x), "must be finite and > 0");
+  return out;
+}
+
+std::vector<double> numbers_of(const toml::node& node, const std::string& field) {
+  std::vector<double> v;
+  if (const auto x = node.value<double>()) return {*x};
+  const auto* arr = node.as_array();
+  if (!arr) throw InputError(field, "", "must be a number or an array of numbers");
+  for (const auto& e : *arr) {
+    const auto x = e.value<double>();
+    if (!x) throw InputError(field, "", "must be a number or an array of numbers");
+    v.push_back(*x);
+  }
+  return v;
+}
+
+/// Reads one dataset of the image file, turning I/O failures into InputErrors on `field`.
+io::Dataset read_image_dataset(const std::filesystem::path& file, const std::string& name, const std::string& field) {
+  try {
+    return io::read_dataset(file, name);
+  } catch (const std::runtime_error& e) {
+    throw InputError(field, name, e.what());
+  }
+}
+
+/// Reads a per-voxel vector dataset (dims = image dims + [3]) into unit vectors (zero vectors kept
+/// where `zero_ok(v)`), or throws InputError on `field`.
+std::vector<Eigen::Vector3d> read_vector_field(const std::filesystem::path& file, const std::string& name,
+                                               const std::string& field, const std::vector<std::size_t>& image_dims,
+                                               const rve::PhaseImage& im, const std::function<bool(std::size_t)>& zero_ok) {
+  const io::Dataset d = read_image_dataset(file, name, field);
+  std::vector<std::size_t> want = image_dims;
+  want.push_back(3);
+  if (d.dims != want) throw InputError(field, name + " " + dims_string(d.dims), "expected dims " + dims_string(want) + " (image dims + 3 components)");
+  std::vector<Eigen::Vector3d> out(im.voxels());
+  for (std::size_t v = 0; v < out.size(); ++v) {
+    const Eigen::Vector3d a(d.values[3 * v], d.values[3 * v + 1], d.values[3 * v + 2]);
+    const double len = a.norm();
+    if (!std::isfinite(len)) throw InputError(field, name, "non-finite vector at " + voxel_string(im, v));
+    if (len > 0.0) out[v] = a / len;
+    else if (zero_ok(v)) out[v].setZero();
+    else throw InputError(field, name, "zero vector at " + voxel_string(im, v) + " (fiber fraction " + std::to_string(im.fiber_fraction[v]) + ")");
+  }
+  return out;
+}
+
+}  // namespace
+
+rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p, std::string& geometry_note) {
+  io::check_keys(img, p, {"file", "dataset", "matrix_id", "fiber_id", "normal_dataset", "direction_dataset", "voxel_size",
+                          "cell_size", "size"});
+  std::filesystem::path file = io::get_string_or(img, "file", p, "");
+  if (file.empty()) throw InputError(p + ".file", "", "missing: the HDF5 file of the phase image");
+  // Relative paths are relative to the scene file (when the scene came from a file).
+  if (file.is_relative() && img.source().path && !img.source().path->empty())
+    file = std::filesystem::path(*img.source().path).parent_path() / file;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) throw InputError(p + ".file", file.string(), "no such file");
+  const std::string dataset = io::get_string_or(img, "dataset", p, "/phase");
+  const io::Dataset d = read_image_dataset(file, dataset, p + ".dataset");
+
+  rve::PhaseImage im;
+  // C order: [n3][n2][n1] or [n2][n1] → i1 fastest, as in PhaseImage.
+  if (d.dims.size() == 2) im.n = {int(d.dims[1]), int(d.dims[0]), 1};
+  else if (d.dims.size() == 3) im.n = {int(d.dims[2]), int(d.dims[1]), int(d.dims[0])};
+  else throw InputError(p + ".dataset", dataset + " " + dims_string(d.dims), "must be 2D [n2][n1] (a section) or 3D [n3][n2][n1]");
+  for (std::size_t k : d.dims)
+    if (k == 0) throw InputError(p + ".dataset", dataset + " " + dims_string(d.dims), "has an empty dimension");
+
+  // Integer datasets hold phase ids; floating-point datasets hold fiber volume fractions in [0, 1].
+  im.fiber_fraction.resize(d.values.size());
+  if (d.integer) {
+    const double matrix_id = io::get_number_or(img, "matrix_id", p, 0.0), fiber_id = io::get_number_or(img, "fiber_id", p, 1.0);
+    if (matrix_id == fiber_id) throw InputError(p + ".fiber_id", std::to_string(int(fiber_id)), "must differ from matrix_id");
+    for (std::size_t v = 0; v < d.values.size(); ++v) {
+      const double id = d.values[v];
+      if (id == matrix_id) im.fiber_fraction[v] = 0.0;
+      else if (id == fiber_id) im.fiber_fraction[v] = 1.0;
+      else
+        throw InputError(p + ".dataset", "phase id " + std::to_string(static_cast<long long>(id)) + " at " + voxel_string(im, v),
+                         "unknown phase id (matrix_id = " + std::to_string(int(matrix_id)) + ", fiber_id = " +
+                             std::to_string(int(fiber_id)) + ")");
+    }
+  } else {
+    if (img.contains("matrix_id") || img.contains("fiber_id"))
+      throw InputError(p + (img.contains("matrix_id") ? ".matrix_id" : ".fiber_id"), dataset,
+                       "phase ids need an integer dataset (this one holds floating-point fiber fractions)");
+    for (std::size_t v = 0; v < d.values.size(); ++v) {
+      const double f = d.values[v];
+      if (!(f >= 0.0 && f <= 1.0))
+        throw InputError(p + ".dataset", std::to_string(f) + " at " + voxel_string(im, v),
+                         "fiber fractions must lie in [0, 1] (store phase ids as an integer dataset)");
+      im.fiber_fraction[v] = f;
+    }
+  }
+
+  // Voxel size: scene key voxel_size or cell_size, else the dataset's attribute of the same names (as
+  // written by `softhom rve` with microstructure_only), else cubic voxels with L1 = 1.
+  const bool has_voxel = img.contains("voxel_size"), has_cell = img.contains("cell_size") || img.contains("size");
+  if (has_voxel && has_cell) throw InputError(p + ".cell_size", "", "give either voxel_size or cell_size, not both");
+  std::array<double, 3> h{1.0 / im.n[0], 1.0 / im.n[0], 1.0 / im.n[0]};
+  auto from_cell = [&](const std::array<double, 3>& L) {
+    for (int k = 0; k < 3; ++k) h[k] = L[k] / im.n[k];
+  };
+  if (has_voxel) h = triple_of(numbers_of(*img.get("voxel_size"), p + ".voxel_size"), p + ".voxel_size");
+  else if (has_cell) {
+    const std::string key = img.contains("cell_size") ? "cell_size" : "size";
+    const std::vector<double> L = numbers_of(*img.get(key), p + "." + key);
+    if (L.size() == 1) h = triple_of({L[0] / im.n[0]}, p + "." + key);  // L1; cubic voxels
+    else from_cell(triple_of(L, p + "." + key));
+  } else if (auto it = d.attributes.find("voxel_size"); it != d.attributes.end()) {
+    h = triple_of(it->second, p + ".dataset attribute voxel_size");
+  } else if (auto it2 = d.attributes.find("cell_size"); it2 != d.attributes.end()) {
+    from_cell(triple_of(it2->second, p + ".dataset attribute cell_size"));
+  }
+  for (int k = 0; k < 3; ++k) im.size[k] = h[k] * im.n[k];
+
+  // Interface normals of composite voxels (optional; without them the solver estimates −∇φ).
+  if (const std::string normals = io::get_string_or(img, "normal_dataset", p, ""); !normals.empty()) {
+    if (d.integer) throw InputError(p + ".normal_dataset", normals, "normals apply to fiber-fraction images only");
+    im.normal = read_vector_field(file, normals, p + ".normal_dataset", d.dims, im, [](std::size_t) { return true; });
+  }
+  // Per-voxel fiber direction (grid frame): required non-zero wherever there is fiber.
+  if (const std::string dirs = io::get_string_or(img, "direction_dataset", p, ""); !dirs.empty())
+    im.fiber_direction = read_vector_field(file, dirs, p + ".direction_dataset", d.dims, im,
+                                           [&](std::size_t v) { return im.fiber_fraction[v] == 0.0; });
+  geometry_note = "imported " + file.string() + ":" + dataset + (d.integer ? " (phase ids)" : " (fiber fractions)");
+  return im;
+}
+
+namespace {
+
 /// The phase image (grid frame) of [microstructure]; `target_vf` is the requested fraction.
 rve::PhaseImage build_phase_image_impl(const toml::table& t, double& target_vf, std::string& geometry_note) {
   const std::string p = "microstructure";
@@ -34,23 +185,16 @@ rve::PhaseImage build_phase_image_impl(const toml::table& t, double& target_vf, 
                         "section_rotation_deg", "fiber_count", "min_gap", "seed", "fiber_angle_deg", "grid", "image"});
   const std::vector<int> n = grid_of(t, p);
   if (const auto* img = t["image"].as_table()) {
-    io::check_keys(*img, p + ".image", {"file", "dataset", "size"});
-    const std::string file = io::get_string_or(*img, "file", p + ".image", "");
-    const std::string dataset = io::get_string_or(*img, "dataset", p + ".image", "/phase");
-    if (file.empty()) throw InputError(p + ".image.file", "", "missing");
-    const io::Dataset d = io::read_dataset(file, dataset);
-    rve::PhaseImage im;
-    // C order: [n3][n2][n1] or [n2][n1] → i1 fastest, as in PhaseImage.
-    if (d.dims.size() == 2) im.n = {int(d.dims[1]), int(d.dims[0]), 1};
-    else if (d.dims.size() == 3) im.n = {int(d.dims[2]), int(d.dims[1]), int(d.dims[0])};
-    else throw InputError(p + ".image.dataset", dataset, "must be 2D or 3D");
-    im.fiber_fraction = d.values;
-    for (double& v : im.fiber_fraction)
-      if (!(v >= 0.0 && v <= 1.0)) throw InputError(p + ".image.dataset", dataset, "values must be fiber fractions in [0, 1]");
-    const double h = 1.0 / im.n[0];
-    im.size = {1.0, im.n[1] * h, im.n[2] * h};
+    rve::PhaseImage im = import_phase_image(*img, p + ".image", geometry_note);
+    // An explicit grid must agree with the image (it is otherwise taken from the image).
+    if (t.contains("grid")) {
+      const std::array<int, 3> g{n[0], n[1], n.size() == 3 ? n[2] : 1};
+      if (g != im.n)
+        throw InputError(p + ".grid", "[" + std::to_string(g[0]) + ", " + std::to_string(g[1]) + ", " + std::to_string(g[2]) + "]",
+                         "contradicts the image grid [" + std::to_string(im.n[0]) + ", " + std::to_string(im.n[1]) + ", " +
+                             std::to_string(im.n[2]) + "] (omit grid with an image)");
+    }
     target_vf = im.volume_fraction();
-    geometry_note = "imported " + file + ":" + dataset;
     return im;
   }
   target_vf = io::get_number_or(t, "volume_fraction", p, 0.0);
@@ -110,7 +254,7 @@ rve::FftSolverOptions parse_fft_solver_options(const toml::table& scene, std::fi
   if (!t) return o;
   const std::string p = "solver";
   io::check_keys(*t, p, {"discretization", "scheme", "reference", "tolerance", "krylov_tolerance", "max_newton_iterations",
-                         "max_krylov_iterations", "max_fixed_point_iterations", "max_cutbacks", "fftw", "fftw_wisdom", "mixed_pressure"});
+                         "max_krylov_iterations", "max_fixed_point_iterations", "max_cutbacks", "max_continuation_iterations", "fftw", "fftw_wisdom", "mixed_pressure"});
   const std::string d = io::get_string_or(*t, "discretization", p, "rotated");
   try {
     o.discretization = fft::parse_discretization(d);
@@ -133,6 +277,10 @@ rve::FftSolverOptions parse_fft_solver_options(const toml::table& scene, std::fi
   o.max_krylov_iterations = int(io::get_number_or(*t, "max_krylov_iterations", p, o.max_krylov_iterations));
   o.max_fixed_point_iterations = int(io::get_number_or(*t, "max_fixed_point_iterations", p, o.max_fixed_point_iterations));
   o.max_cutbacks = int(io::get_number_or(*t, "max_cutbacks", p, o.max_cutbacks));
+  o.max_continuation_iterations =
+      int(io::get_number_or(*t, "max_continuation_iterations", p, o.max_continuation_iterations));
+  if (o.max_continuation_iterations < 0)
+    throw InputError(p + ".max_continuation_iterations", std::to_string(o.max_continuation_iterations), "must be >= 0");
   o.mixed_pressure = io::get_bool_or(*t, "mixed_pressure", p, o.mixed_pressure);
   if (o.max_newton_iterations < 1) throw InputError(p + ".max_newton_iterations", "", "must be >= 1");
   if (o.max_cutbacks < 0) throw InputError(p + ".max_cutbacks", "", "must be >= 0");
@@ -203,6 +351,10 @@ RveSceneSetup parse_rve_scene(const toml::table& scene, bool with_load) {
   s.fiber = fiber_table ? build_material(io::parse_material(*fiber_table, "phases.fiber")) : s.matrix;
   s.image = build_phase_image(*micro, s.target_vf, s.geometry_note);
   if (s.target_vf > 0.0 && !fiber_table) throw InputError("phases.fiber", "", "missing (the cell has fibers)");
+  // Per-voxel fiber directions only steer the fiber-rotation measure: the solver has no per-voxel
+  // material frames, so phases with fiber families of their own would silently ignore them.
+  if (!s.image.fiber_direction.empty() && (!s.matrix->fiber_directions().empty() || !s.fiber->fiber_directions().empty()))
+    throw InputError("microstructure.image.direction_dataset", "", "per-voxel fiber directions need isotropic phases (a phase has fiber families)");
   s.fiber_angle_deg = io::get_number_or(*micro, "fiber_angle_deg", "microstructure", 0.0);
   if (with_load) {
     const auto* load_table = scene["load"].as_table();

@@ -140,3 +140,110 @@ TEST(Gradient, DivergenceIsAdjointAndReferenceSolveInverts) {
     }
   }
 }
+
+// Section plans that transform only the i1/i2 columns give the same spectra as the full plan on
+// those fields and leave the i3 columns alone (the solver's 6-of-9-field transforms).
+TEST(FftPlan, ColumnSubsetMatchesFullPlan) {
+  const Grid g{{8, 6, 1}, {1.0, 1.0, 0.2}};
+  const int fields = 18;  // two 3×3 tensors (two quadrature points)
+  BatchedFFT full(g, fields, {PlanRigor::estimate, 1, {}}), part(g, fields, {PlanRigor::estimate, 1, {}}, 2);
+  EXPECT_EQ(part.transformed_fields(), 12);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> U(-1, 1);
+  for (std::size_t i = 0; i < fields * g.voxels(); ++i) full.real(0)[i] = part.real(0)[i] = U(rng);
+  for (std::size_t i = 0; i < fields * g.modes(); ++i) part.spectrum(0)[i] = Complex(7.0, -7.0);  // marker
+  full.forward();
+  part.forward();
+  for (int f = 0; f < fields; ++f)
+    for (std::size_t k = 0; k < g.modes(); ++k) {
+      if (f % 3 < 2)
+        EXPECT_NEAR(std::abs(part.spectrum(f)[k] - full.spectrum(f)[k]), 0.0, 1e-13) << f;
+      else
+        EXPECT_EQ(part.spectrum(f)[k], Complex(7.0, -7.0)) << f;  // untouched
+    }
+  for (std::size_t i = 0; i < fields * g.voxels(); ++i) part.real(0)[i] = -1.0;
+  part.backward();
+  for (int f = 0; f < fields; ++f)
+    for (std::size_t v = 0; v < g.voxels(); ++v)
+      if (f % 3 < 2)  // c2r of the r2c spectrum: voxels() times the field
+        EXPECT_NEAR(part.real(f)[v], double(g.voxels()) * full.real(f)[v], 1e-12) << f;
+      else
+        EXPECT_EQ(part.real(f)[v], -1.0);
+  EXPECT_THROW(BatchedFFT(g, 4, {PlanRigor::estimate, 1, {}}, 2), std::invalid_argument);
+}
+
+// The tabulated Green operator and the fused CG kernels equal the plain operators they replace
+// (round-off only), on a 3D grid and on a section, for every discretization.
+TEST(Gradient, TabulatedGreenAndFusedKernelsMatchPlainOperators) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(-1, 1);
+  Matrix9 C0 = Matrix9::Zero();
+  {
+    Eigen::Matrix<double, 9, 9> B;
+    for (int a = 0; a < 9; ++a)
+      for (int b = 0; b < 9; ++b) B(a, b) = U(rng);
+    C0 = B * B.transpose() + 9.0 * Matrix9::Identity();  // symmetric positive definite, anisotropic
+  }
+  for (const Grid& g : {Grid{{6, 4, 5}, {1.0, 1.0, 1.2}}, Grid{{8, 6, 1}, {1.0, 0.8, 0.1}}})
+    for (Discretization d : {Discretization::spectral, Discretization::rotated, Discretization::hex}) {
+      GradientOperator op(g, d);
+      const int nq = op.points(), nc = op.columns();
+      EXPECT_EQ(nc, g.is_section() ? 2 : 3);
+      const std::size_t nm = g.modes();
+      auto random_spectrum = [&](std::size_t n) {
+        std::vector<Complex> x(n);
+        for (auto& c : x) c = Complex(U(rng), U(rng));
+        return x;
+      };
+      auto wdot = [&](const std::vector<Complex>& a, const std::vector<Complex>& b) {
+        double s = 0.0;
+        for (int i = 0; i < 3; ++i)
+          for (std::size_t k = 0; k < nm; ++k) s += g.mode_weight(k) * std::real(std::conj(a[i * nm + k]) * b[i * nm + k]);
+        return s;
+      };
+      const auto r = random_spectrum(3 * nm);
+      std::vector<Complex> ref(3 * nm), z(3 * nm);
+      op.solve_reference(C0, r.data(), ref.data());
+      ReferenceGreen green(op);
+      green.set(C0);
+      const double rz = green.apply_dot(r.data(), z.data(), 2.0);
+      for (std::size_t i = 0; i < z.size(); ++i) EXPECT_NEAR(std::abs(2.0 * z[i] - ref[i]), 0.0, 1e-12 * (1.0 + std::abs(ref[i])));
+      EXPECT_NEAR(rz, wdot(r, z), 1e-12 * std::abs(rz));
+
+      // p ← z + β p and ∇p in one pass.
+      auto p = random_spectrum(3 * nm);
+      const auto p0 = p;
+      std::vector<Complex> grad(9 * nq * nm, 0.0), grad_ref(9 * nq * nm, 0.0);
+      op.gradient_of_update(z.data(), 0.5, p.data(), grad.data());
+      std::vector<Complex> p_ref(3 * nm);
+      for (std::size_t i = 0; i < p.size(); ++i) p_ref[i] = z[i] + 0.5 * p0[i];
+      op.gradient(p_ref.data(), grad_ref.data());
+      for (std::size_t i = 0; i < p.size(); ++i) EXPECT_EQ(p[i], p_ref[i]);
+      for (int f = 0; f < 9 * nq; ++f)
+        for (std::size_t k = 0; k < nm; ++k)
+          if (f % 3 < nc) {
+            EXPECT_NEAR(std::abs(grad[f * nm + k] - grad_ref[f * nm + k]), 0.0, 1e-12);
+          }
+      // Div with ⟨p, Div s⟩.
+      const auto s = random_spectrum(9 * nq * nm);
+      std::vector<Complex> div(3 * nm), div_ref(3 * nm);
+      op.divergence(s.data(), div_ref.data(), 0.25);
+      const double pd = op.divergence_dot(s.data(), div.data(), 0.25, p.data());
+      for (std::size_t i = 0; i < div.size(); ++i) EXPECT_EQ(div[i], div_ref[i]);
+      EXPECT_NEAR(pd, wdot(p, div_ref), 1e-12 * (1.0 + std::abs(pd)));
+      // x += α p, r −= α Ap, z = G r / scale, ⟨r, z⟩.
+      auto x = random_spectrum(3 * nm), rr = r;
+      const auto x0 = x, Ap = random_spectrum(3 * nm);
+      std::vector<Complex> z2(3 * nm), z_ref(3 * nm);
+      const double rz2 = green.cg_update(0.3, p.data(), Ap.data(), x.data(), rr.data(), z2.data(), 1.5);
+      std::vector<Complex> r_ref(3 * nm);
+      for (std::size_t i = 0; i < r_ref.size(); ++i) {
+        r_ref[i] = r[i] - 0.3 * Ap[i];
+        EXPECT_NEAR(std::abs(x[i] - (x0[i] + 0.3 * p[i])), 0.0, 1e-15);
+        EXPECT_NEAR(std::abs(rr[i] - r_ref[i]), 0.0, 1e-15);
+      }
+      green.apply(r_ref.data(), z_ref.data(), 1.5);
+      for (std::size_t i = 0; i < z2.size(); ++i) EXPECT_NEAR(std::abs(z2[i] - z_ref[i]), 0.0, 1e-14 * (1.0 + std::abs(z_ref[i])));
+      EXPECT_NEAR(rz2, wdot(r_ref, z_ref), 1e-12 * std::abs(rz2));
+    }
+}

@@ -206,6 +206,36 @@ TEST(NeoHookean, GlassTangentAndStressMatchFiniteDifferences) {
   for (int n = 0; n < 10; ++n) check_law_at(stiff, random_F(rng, random_J(rng), 0.5), "neo-Hookean");
 }
 
+// The Lamé-log form (NeoHookeanForm::lame_log, FANS's CompressibleNeoHookean): FD tangent and energy
+// gradient at finite strain, the closed form S = μ(I − C⁻¹) + λ ln J C⁻¹ written independently here,
+// and the same tangent as the isochoric form at F = I (same small-strain moduli, to rounding).
+TEST(NeoHookean, LameLogFormMatchesFiniteDifferencesAndItsClosedForm) {
+  std::mt19937 rng(41);
+  for (const NeoHookeanParams base : {NeoHookeanParams::from_young(10.0, 0.3), NeoHookeanParams{0.017, 17.0}}) {
+    NeoHookeanParams p = base;
+    p.form = NeoHookeanForm::lame_log;
+    const auto law = make_neo_hookean(p);
+    for (int n = 0; n < 15; ++n) check_law_at(law, random_F(rng, random_J(rng), 0.5), "neo-Hookean lame-log");
+    const double lambda = p.K - 2.0 / 3.0 * p.mu;
+    for (int n = 0; n < 5; ++n) {
+      const Mat3 F = random_F(rng, random_J(rng), 0.5);
+      const Mat3 C = F.transpose() * F, Ci = C.inverse();
+      const double J = F.determinant();
+      const Mat3 S_ref = p.mu * (Mat3::Identity() - Ci) + lambda * std::log(J) * Ci;
+      Mat3 S;
+      ASSERT_EQ(law->second_piola(F, C, J, S, nullptr), MaterialStatus::ok);
+      EXPECT_TRUE(matrices_close(S, S_ref, kExactTol, "S vs FANS closed form"));
+    }
+    const HyperelasticMaterial a(law), b(make_neo_hookean(base));
+    Mat3 P;
+    Mat9 Aa, Ab;
+    ASSERT_EQ(a.evaluate(Mat3::Identity(), nullptr, nullptr, 0.0, P, &Aa), MaterialStatus::ok);
+    ASSERT_EQ(b.evaluate(Mat3::Identity(), nullptr, nullptr, 0.0, P, &Ab), MaterialStatus::ok);
+    EXPECT_TRUE(matrices_close(Aa, Ab, kExactTol, "tangent at F = I, lame-log vs isochoric"));
+    EXPECT_DOUBLE_EQ(a.volumetric_modulus(), p.K);
+  }
+}
+
 TEST(Yeoh, TangentAndStressMatchFiniteDifferences) {
   std::mt19937 rng(15);
   for (const double K : {2000.0, 0.05}) {

@@ -19,10 +19,12 @@ struct DirichletGroup {
   PiecewiseLinear value = PiecewiseLinear::constant(0.0);
 };
 
-/// Follower pressure p(t) on quads (outward normals of the solid): the load −p n da acts on the solid.
+/// Follower pressure p(t) on quads and 6-node triangles (outward normals of the solid): the load
+/// −p n da acts on the solid.
 struct PressureLoad {
   std::vector<Quad> faces;
   PiecewiseLinear pressure;
+  std::vector<Tri6> tris;
 };
 
 /// Dead (configuration-independent) nodal forces f_dof(t) = scale_k · value(t), e.g. the consistent
@@ -42,6 +44,7 @@ struct CavityControl {
   std::vector<Quad> faces;
   Vec3 mask{1.0, 1.0, 1.0};
   PiecewiseLinear volume_ratio;
+  std::vector<Tri6> tris;  ///< 6-node triangle faces (tet meshes), in addition to `faces`
 };
 
 struct FeModel {
@@ -58,6 +61,7 @@ struct FeModel {
 };
 
 /// Enclosed volume of a cavity bounded by `faces` in configuration x (see CavityControl).
-double cavity_volume(const std::vector<Vec3>& x, const std::vector<Quad>& faces, const Vec3& mask);
+double cavity_volume(const std::vector<Vec3>& x, const std::vector<Quad>& faces, const Vec3& mask,
+                     const std::vector<Tri6>& tris = {});
 
 }  // namespace softhom::fe

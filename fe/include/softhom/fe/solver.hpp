@@ -17,6 +17,7 @@
 
 #include "softhom/fe/model.hpp"
 #include "softhom/fe/sparse.hpp"
+#include "softhom/fe/tet10_element.hpp"
 
 namespace softhom::fe {
 
@@ -30,6 +31,7 @@ struct NewtonOptions {
   bool mixed = true;          ///< three-field (u, θ, p) iteration for laws with a volumetric modulus
   int refactor_after = 8;     ///< refresh the factorization after a solve needing more GMRES iterations
   int krylov_max = 40;        ///< GMRES iterations before a solve refactorizes and retries
+  bool extrapolate = true;    ///< secant predictor from the last converged increment (see try_step)
   bool verbose = false;       ///< iteration log on stderr
 };
 
@@ -97,6 +99,8 @@ class Simulation {
 
   /// Element residual and tangent at the current state (for diagnostics and tests).
   MaterialStatus element_force(int e, const Mat83& u, Vec24& r, Mat24* K) const;
+  /// The same for a tet10 element e (≥ mesh.num_hexes()).
+  MaterialStatus element_force(int e, const Tet10Coords& u, Vec30& r, Mat30* K) const;
 
  private:
   struct Assembly;
@@ -119,14 +123,21 @@ class Simulation {
   long k_version_ = 0, factor_version_ = -1;  ///< tangent assemblies; the one last factorized
   double last_factor_time_ = 0.0, last_factor_flops_ = 0.0;
   std::vector<Hex8Geometry> geometry_;
+  std::vector<Tet10Geometry> tet_geometry_;  ///< per tet (element e − num_hexes)
   std::vector<std::vector<int>> colors_;  ///< element colours: no shared node within one colour
   std::vector<std::array<long, 64>> block_;  ///< per element, node pair (a, b): K position of (a_0, b_0), −1 if absent
+  std::vector<std::array<long, 100>> tet_block_;  ///< the same per tet (10 × 10 node pairs)
   std::vector<std::array<signed char, 3>> free_rank_;  ///< per node: rank of each free component (−1 fixed)
   // Three-field iteration (per element; bulk 0 = plain F-bar): iterate, converged and linearization data.
   std::vector<double> mix_bulk_, mix_theta_, mix_p_, mix_theta_conv_, mix_p_conv_, mix_theta_u_;
   std::vector<double> mix_theta_base_, mix_p_base_, mix_dtheta_, mix_dp_;
   std::vector<Vec24> mix_d_;
-  std::vector<double> u_, u_prev_step_;
+  std::vector<Vec30> mix_d_tet_;  ///< ∂θ_e/∂u per tet
+  std::vector<double> u_, u_prev_step_;  ///< converged displacement and the one before it (secant predictor)
+  double prev_step_time_ = 0.0;            ///< time of u_prev_step_
+  bool extrapolate_step_ = true;           ///< false while a step is retried without the secant predictor
+  bool extrapolated_ = false;              ///< the last try_step started from the secant predictor
+  double stiffness_time_ = -1.0;           ///< ≥ 0: time of the pressure in the load stiffness (assemble)
   std::vector<double> state_old_, state_new_;
   std::vector<double> cauchy_;     ///< element-mean Cauchy stress of the last converged state
   std::vector<int> state_offset_;  ///< per element into the state arrays (−1: elastic)

@@ -56,10 +56,21 @@ class GradientOperator {
   /// Σ_q w_q |D_q(k)|², the symbol of −Δ for this discretization (0 on the kernel).
   double laplacian(std::size_t mode) const;
 
-  /// grad[9q + 3i + j] = D_qj u[i] (all modes, OpenMP over modes). `stride` = spacing of the fields.
-  void gradient(const Complex* u, Complex* grad) const;
-  /// out[i] = scale Σ_q w_q Σ_j conj(D_qj) stress[9q + 3i + j] (the adjoint of gradient()).
+  /// Columns j of the gradient that can be non-zero: 2 on a section grid (D_q3 = 0), else 3.
+  int columns() const { return grid_.is_section() ? 2 : 3; }
+
+  /// grad[9q + 3i + j] = D_qj u[i] (all modes, OpenMP over modes). With `all_columns` false the
+  /// identically zero columns j ≥ columns() are not written (see BatchedFFT's `columns`).
+  void gradient(const Complex* u, Complex* grad, bool all_columns = true) const;
+  /// Fused CG direction update and gradient: p ← z + β p (p ← z when β = 0, whatever p held), then
+  /// grad = ∇p on the columns j < columns() only. One pass over the spectra.
+  void gradient_of_update(const Complex* z, double beta, Complex* p, Complex* grad) const;
+  /// out[i] = scale Σ_q w_q Σ_j conj(D_qj) stress[9q + 3i + j] (the adjoint of gradient(); reads the
+  /// columns j < columns() only).
   void divergence(const Complex* stress, Complex* out, double scale) const;
+  /// divergence() fused with the weighted inner product Σ_k m_k Re(x̄_k · out_k) (m_k: mode_weight),
+  /// which it returns.
+  double divergence_dot(const Complex* stress, Complex* out, double scale, const Complex* x) const;
   /// out = K0(k)⁻¹ r(k) with K0_ik = Σ_q w_q Σ_jl conj(D_qj) C0_(3i+j)(3k+l) D_ql, the stiffness of a
   /// homogeneous reference medium with (major-symmetric, elliptic) tangent C0; 0 on the kernel.
   /// This is the Green operator of the reference problem: the preconditioner of the Newton–Krylov
@@ -67,12 +78,43 @@ class GradientOperator {
   void solve_reference(const Matrix9& C0, const Complex* r, Complex* out) const;
 
  private:
+  friend class ReferenceGreen;
+  /// Calls body(mode, D, mode_weight) for the modes of this thread's share of the spectrum rows
+  /// (an orphaned `omp for`, static schedule: call it inside a parallel region). D is computed per row
+  /// from the separable 1D tables, without index divisions.
+  template <class Body>
+  void for_modes(Body&& body) const;
+
   Grid grid_;
   Discretization disc_;
   std::vector<QuadraturePoint> quadrature_;
   std::array<int, 3> points_per_dim_{1, 1, 1};
   std::array<std::vector<Complex>, 3> deriv_;   ///< d_m(k_m) per dim
   std::array<std::vector<Complex>, 3> value_;   ///< v_m(ξ_p, k_m), index p * n_m + k_m
+};
+
+/// The reference-medium Green operator K0(k)⁻¹ of GradientOperator::solve_reference, tabulated per
+/// mode for one C0 (a Hermitian 3×3 inverse, 9 doubles per mode). The preconditioner is applied
+/// every Krylov iteration with the same C0, so the 3×3 assembly and inversion (≈ 800 flops per mode)
+/// are paid once per linear solve instead of once per iteration.
+class ReferenceGreen {
+ public:
+  explicit ReferenceGreen(const GradientOperator& op) : op_(op) {}
+  /// Tabulates K0⁻¹ for `C0` (major-symmetric, elliptic). Same values as solve_reference().
+  void set(const Matrix9& C0);
+  bool ready() const { return !table_.empty(); }
+  /// out = K0⁻¹ r / scale. `r` and `out` may alias.
+  void apply(const Complex* r, Complex* out, double scale = 1.0) const;
+  /// out = K0⁻¹ r / scale, returns Σ_k m_k Re(r̄_k · out_k). `r` and `out` must not alias.
+  double apply_dot(const Complex* r, Complex* out, double scale = 1.0) const;
+  /// Fused CG update: x += α p, r −= α Ap, z = K0⁻¹ r / scale; returns Σ_k m_k Re(r̄_k · z_k).
+  double cg_update(double alpha, const Complex* p, const Complex* Ap, Complex* x, Complex* r, Complex* z,
+                   double scale = 1.0) const;
+  std::size_t memory_bytes() const { return table_.size() * sizeof(double); }
+
+ private:
+  const GradientOperator& op_;
+  std::vector<double> table_;  ///< per mode: G00 G11 G22 (real), Re/Im G01, G02, G12
 };
 
 }  // namespace softhom::fft

@@ -27,13 +27,19 @@ struct PlanOptions {
 class BatchedFFT {
  public:
   /// `fields` real fields of grid.voxels() values each; spectra of grid.modes() values each.
-  BatchedFFT(const Grid& grid, int fields, const PlanOptions& options = {});
+  /// `columns` < 3: the fields are 3×3 tensors (field = 9 t + 3 i + j, fields % 9 == 0) and only the
+  /// columns j < `columns` are transformed; the others are left untouched in both buffers. On a
+  /// section grid the gradient has no j = 3 column and the divergence does not read it, so the
+  /// solver transforms 6 of 9 fields.
+  BatchedFFT(const Grid& grid, int fields, const PlanOptions& options = {}, int columns = 3);
   ~BatchedFFT();
   BatchedFFT(const BatchedFFT&) = delete;
   BatchedFFT& operator=(const BatchedFFT&) = delete;
 
   const Grid& grid() const { return grid_; }
   int fields() const { return fields_; }
+  /// Fields actually transformed per forward()/backward() (fields · columns / 3).
+  int transformed_fields() const { return fields_ / 3 * columns_ + (columns_ == 3 ? fields_ % 3 : 0); }
   double* real(int field = 0) { return real_ + std::size_t(field) * grid_.voxels(); }
   Complex* spectrum(int field = 0) { return spectrum_ + std::size_t(field) * grid_.modes(); }
 
@@ -50,6 +56,7 @@ class BatchedFFT {
   Grid grid_;
   int fields_ = 0;
   int threads_ = 1;
+  int columns_ = 3;
   PlanRigor rigor_;
   double* real_ = nullptr;
   Complex* spectrum_ = nullptr;

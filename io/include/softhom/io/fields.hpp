@@ -3,6 +3,7 @@
 // Both are written under temporary names and renamed on close(); an unfinished writer leaves nothing.
 #include <array>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <span>
 #include <string>
@@ -54,11 +55,32 @@ class FieldWriter {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Reads an HDF5 dataset as doubles (any numeric type converted) with its dimensions (C order).
+/// Reads an HDF5 dataset as doubles (any numeric type converted) with its dimensions (C order), whether
+/// it is stored as integers, and its numeric attributes (name → values, flattened).
 struct Dataset {
   std::vector<double> values;
   std::vector<std::size_t> dims;
+  bool integer = false;
+  std::map<std::string, std::vector<double>> attributes;
 };
+/// Throws std::runtime_error naming the file and dataset when the file is missing, not HDF5, has no
+/// such dataset, or the dataset is not numeric.
 Dataset read_dataset(const std::filesystem::path& file, const std::string& dataset);
+
+/// One dataset of a voxel image: `components` (1 or 3) values per voxel, x fastest; stored as uint8
+/// when `as_uint8` (values must be integers in [0, 255]), else as float64.
+struct VoxelImageDataset {
+  std::string name;
+  std::vector<double> values;
+  int components = 1;
+  bool as_uint8 = false;
+};
+/// Writes a static voxel image (no time steps) for ParaView and for re-import: stem.h5 with each
+/// dataset at the root, C-order dims [n3][n2][n1] (+ [components]), every dataset carrying the
+/// attributes `voxel_size` and `cell_size` (x, y, z order) and `permute_order = "zyx"` (the layout tag
+/// FANS reads, so a uint8 phase dataset is a FANS microstructure as is), and an XDMF sidecar stem.xdmf. Atomic like
+/// FieldWriter (temporary names, renamed when complete).
+void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
+                       const std::vector<VoxelImageDataset>& datasets);
 
 }  // namespace softhom::io

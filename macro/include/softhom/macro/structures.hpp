@@ -2,7 +2,9 @@
 // Structure-scale problems assembled from a plain description (no file I/O): the generators of
 // geometry.hpp, boundary conditions for each structure kind, fiber frames, loads and the probes
 // reported in response.csv.
+#include <array>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -17,6 +19,7 @@ enum class StructureKind {
   tube,      ///< inflated tube; plane-strain ends (u_z = 0 at both ends) or clamped at z = 0 (capped)
   sphere,    ///< 1/8 sphere with symmetry planes, inflated
   actuator,  ///< capped two-material tube clamped at z = 0 (dissertation Fig. 30)
+  imported,  ///< a mesh from outside (Gmsh) with constraints and loads on its named surfaces
 };
 
 /// Frame in which the material's fiber directions are given.
@@ -32,11 +35,28 @@ enum class LoadControl {
   volume,    ///< cavity volume V(t) = ratio(t) · V0, pressure is the unknown (passes limit points)
 };
 
+/// An imported mesh (fe::read_gmsh by the caller: the macro library does no file I/O) and what acts on
+/// its physical groups.
+struct ImportedSpec {
+  fe::Mesh mesh;
+  struct Fix {
+    std::string surface;
+    std::array<bool, 3> components{false, false, false};  ///< u_i = 0 on the surface's nodes
+  };
+  std::vector<Fix> fixed;
+  std::vector<std::string> load_surfaces;  ///< follower pressure, or the cavity under volume control
+  Vec3 cavity_mask{1.0, 1.0, 1.0};        ///< see fe::CavityControl
+  std::string probe_surface;               ///< optional: its mean displacement is reported
+  std::map<std::string, MaterialPtr> region_materials;  ///< by physical volume name (others: material)
+};
+
 struct StructureSpec {
   StructureKind kind = StructureKind::tube;
   PlateSpec plate;
   TubeSpec tube;
   SphereSpec sphere;
+  ImportedSpec imported;
+  bool tet10 = false;                 ///< split the generated hexes into 10-node tets (mid nodes on curved surfaces)
   bool plane_strain = false;          ///< tube without cap: u_z = 0 on both ends
   MaterialPtr material;               ///< region 0
   MaterialPtr material_region1;       ///< actuator's stiffer lower half (y < 0); defaults to material

@@ -29,10 +29,18 @@ struct GentHGOParams {
   bool tension_only = true;  ///< a family contributes only while I*_i > 1
 };
 
-/// Compressible neo-Hookean: W = (μ/2)(Ī1 − 3) + W_V(J).
+/// Energy form of the compressible neo-Hookean law. Both have the small-strain moduli (μ, K).
+///   isochoric: W = (μ/2)(Ī1 − 3) + W_V(J)                       (spec §3, the default)
+///   lame_log:  W = (μ/2)(I1 − 3 − 2 ln J) + (λ/2)(ln J)², λ = K − 2μ/3
+///              (S = μ(I − C⁻¹) + λ ln J C⁻¹: the CompressibleNeoHookean of FANS, Bonet & Wood),
+///              used to solve exactly the problem of that code in side-by-side runs.
+enum class NeoHookeanForm { isochoric, lame_log };
+
+/// Compressible neo-Hookean (form above; default W = (μ/2)(Ī1 − 3) + W_V(J)).
 struct NeoHookeanParams {
   double mu = 0.0;
   double K = 0.0;
+  NeoHookeanForm form = NeoHookeanForm::isochoric;
   static NeoHookeanParams from_young(double E, double nu) {
     return {E / (2.0 * (1.0 + nu)), E / (3.0 * (1.0 - 2.0 * nu))};
   }

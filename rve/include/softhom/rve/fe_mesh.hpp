@@ -28,6 +28,13 @@ struct SectionMeshOptions {
   double grading = 0.3;          ///< size growth per unit distance from the nearest interface
   double min_angle_deg = 20.7;   ///< CGAL termination is guaranteed up to 20.7°
   bool curved_interfaces = true; ///< mid-side nodes on the exact circle
+  /// Rectangular fibers: graded refinement toward the corners, h(r) = interface_size (r / R)^β with
+  /// r the distance to the nearest corner, R = half the shorter side, β = corner_exponent (the
+  /// classical grading for a stress singularity ~ r^(λ−1) with P2 elements: β = 1 − μ, μ < λ/2;
+  /// λ ≈ 0.6 at a 90° glass corner in a soft matrix → β = 0.7), floored at R (interface_size/R)^(1/(1−β)).
+  /// Corners shared with a periodic image (layers touching across the cell) are not refined.
+  bool corner_refinement = true;
+  double corner_exponent = 0.7;
 };
 
 struct SectionMeshQuality {
@@ -38,6 +45,8 @@ struct SectionMeshQuality {
   int mirrored_points = 0;       ///< Steiner points mirrored onto opposite edges
   double max_pairing_error = 0.0;  ///< largest coordinate mismatch of paired boundary nodes
   double fiber_area_error = 0.0;   ///< |mesh fiber area − exact| / exact (0 without fibers)
+  int refined_corners = 0;         ///< fiber corners with graded corner refinement
+  double min_corner_size = 0.0;    ///< smallest target size at a corner (0: none)
 };
 
 struct SectionMesh {
@@ -70,5 +79,67 @@ Eigen::Matrix<double, 6, 2> tri6_shape_derivatives(double xi, double eta);
 /// Recomputes the periodic masters by coordinate matching and returns the largest mismatch; throws
 /// std::runtime_error if a node on y1 = L1 or y2 = L2 has no partner (used by tests to verify).
 double verify_periodic_pairing(const SectionMesh& mesh);
+
+// ---------------------------------------------------------------------------------------------
+// 3D variant: periodic conforming tetrahedral meshes of the cell (fibers along y3).
+//
+// The cell [0, L1] × [0, L2] × [0, L3] is meshed with CGAL's Periodic_3_mesh_3 (a Delaunay mesh of
+// the flat torus, refined against a labeling function matrix / fiber, with the sizing field of the
+// section mesher). CGAL meshes a cube: other cell shapes (hexagonal arrangements, L3 ≠ L1) are meshed
+// in the unit cube and mapped affinely, which stretches the elements by the aspect ratio of the cell
+// (reported in the quality). Every tetrahedron of the torus mesh becomes one 10-node element
+// (fe/tet10.hpp node order) with unwrapped vertex positions: a vertex used by elements on both sides
+// of a cell face appears as several nodes (its periodic copies), all mapped to one master. So the
+// pairing of opposite faces is exact by construction; verify_periodic_cell_mesh checks it.
+// Vertices on the fiber surfaces are projected onto the exact cylinder and so are the mid-edge nodes
+// of the surface triangles (isoparametric geometry). Rectangular fibers: the corner edges are not
+// protected features in this version (CGAL rounds them at the scale of the interface size).
+
+struct CellMeshOptions {
+  double mesh_size = 0.0;        ///< element size away from interfaces; 0: L1 / 6
+  double interface_size = 0.0;   ///< element size at fiber surfaces; 0: mesh_size / 2
+  double grading = 0.3;          ///< size growth per unit distance from the nearest interface
+  double length = 0.0;           ///< L3 (along the fibers); 0: L1
+  double facet_angle_deg = 25.0;
+  double radius_edge_ratio = 2.0;
+  bool curved_interfaces = true;
+  unsigned seed = 1;             ///< CGAL's random generator (reproducible meshes)
+};
+
+struct CellMeshQuality {
+  double min_dihedral_deg = 0.0, max_dihedral_deg = 0.0;
+  double min_radius_ratio = 0.0, mean_radius_ratio = 0.0;  ///< 3 r_in / r_circ (1 = regular)
+  double min_edge = 0.0, max_edge = 0.0;
+  double max_pairing_error = 0.0;  ///< largest |x_node − x_master − k L| over all periodic copies
+  double fiber_volume_error = 0.0; ///< |mesh fiber volume − exact| / exact
+  double aspect_stretch = 1.0;     ///< max(L) / min(L) of the affine map from CGAL's cube
+  int periodic_copies = 0;         ///< nodes that are copies of another node
+};
+
+struct CellMesh {
+  double L1 = 1.0, L2 = 1.0, L3 = 1.0;
+  std::vector<Eigen::Vector3d> nodes;         ///< unwrapped positions (periodic copies included)
+  std::vector<std::array<int, 10>> elements;  ///< Tet10 connectivity (Gmsh order), positively oriented
+  std::vector<int> phase;                     ///< per element: 0 matrix, 1 fiber
+  std::vector<int> master;                    ///< periodic master of every node
+  int vertices = 0;                           ///< distinct vertices of the torus mesh
+  CellMeshQuality quality;
+
+  int num_nodes() const { return int(nodes.size()); }
+  int num_elements() const { return int(elements.size()); }
+  int num_masters() const;
+  double volume(int phase_id) const;          ///< exact (curved) volume of the phase
+};
+
+/// Meshes the 3D cell of the section. Throws InputError (fields "solver.mesh_size",
+/// "solver.interface_size", "solver.length") on bad sizes and std::runtime_error if CGAL fails.
+CellMesh mesh_cell(const Section& section, const CellMeshOptions& options = {});
+
+/// Checks the periodic structure independently of the mesher: every node lies at its master's
+/// position plus a lattice vector (returns the largest mismatch), and every triangular face of the
+/// torus mesh (vertices identified by master) is shared by exactly two elements with opposite
+/// orientation (no gaps, no overlaps, no unmatched face on the cell boundary). Throws
+/// std::runtime_error on a violation.
+double verify_periodic_cell_mesh(const CellMesh& mesh);
 
 }  // namespace softhom::rve

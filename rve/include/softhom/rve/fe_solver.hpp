@@ -2,6 +2,12 @@
 // Finite-element homogenization of a periodic cell of straight continuous fibers on a conforming
 // section mesh (fe_mesh.hpp): the accuracy reference of the FFT engine (fft_solver.hpp).
 //
+// Two element families share one implementation (assembly, periodic dof map, condensation, Newton,
+// macro control, outputs): 6-node triangles on a section mesh and 10-node tetrahedra on a 3D cell
+// mesh (fe_mesh.hpp, mesh_cell). The 3D variant has the full fluctuation ũ(y1, y2, y3) (no
+// restriction on ∂ũ/∂y3) and the P2/P0 pressure; everything below about the section applies to it
+// with "area" read as "volume".
+//
 // Kinematics (as the FFT engine's section grids): the fluctuation ũ(y1, y2) has three components and
 // does not depend on y3, so at every point F = F̄_grid + ∇ũ with (∇ũ)_i3 = 0 and F̄_grid = Rᵀ F̄_load R
 // (R = grid_rotation(α)). ũ is periodic: paired boundary nodes share their degrees of freedom, and
@@ -67,6 +73,10 @@ class FeRveSolver {
   /// `mesh` in the grid frame (y3 = fiber axis); materials in the global frame of `load_frame`.
   FeRveSolver(SectionMesh mesh, MaterialPtr matrix, MaterialPtr fiber, double fiber_angle_deg,
               const Mat3& load_frame, const FeSolverOptions& options = {});
+  /// 3D variant on a periodic tetrahedral cell mesh (Tet10, P2/P0 mixed pressure only: the 3D
+  /// fluctuation ũ(y1, y2, y3) is unrestricted).
+  FeRveSolver(CellMesh mesh, MaterialPtr matrix, MaterialPtr fiber, double fiber_angle_deg,
+              const Mat3& load_frame, const FeSolverOptions& options = {});
   ~FeRveSolver();
   FeRveSolver(const FeRveSolver&) = delete;
   FeRveSolver& operator=(const FeRveSolver&) = delete;
@@ -75,7 +85,10 @@ class FeRveSolver {
                    const std::function<void(const RveStep&, const FeFields*)>& on_step = {},
                    const std::function<bool(double)>& want_fields = {});
 
-  const SectionMesh& mesh() const;
+  bool is_3d() const;
+  const SectionMesh& mesh() const;   ///< section solver only (std::logic_error otherwise)
+  const CellMesh& cell_mesh() const; ///< 3D solver only
+  int num_elements() const;
   int num_equations() const;       ///< fluctuation + free macro unknowns of the last step
   double achieved_volume_fraction() const;
   std::size_t memory_bytes() const;

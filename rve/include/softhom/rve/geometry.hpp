@@ -67,6 +67,10 @@ struct PhaseImage {
   std::vector<Eigen::Vector3d> fiber_direction;
   double volume_fraction() const;
   std::size_t voxels() const { return std::size_t(n[0]) * n[1] * n[2]; }
+  /// Mean fiber axis (grid frame, unit): y3 without per-voxel directions, else the principal axis of the
+  /// fiber-fraction-weighted orientation tensor Σ φ d⊗d (sign-free, as ±d is the same fiber), signed so
+  /// that its largest component is positive. The solvers measure the fiber rotation along it.
+  Eigen::Vector3d mean_fiber_direction() const;
 };
 
 /// Pixelises the section on an n1 × n2 grid (n3 = 1, L3 = L1 / n1 so voxels are cubes), with each

@@ -14,7 +14,11 @@
 //            (g_inf = 1 − Σ g derived).
 //   [[curves]] name, file = "data.csv" (relative to the calibration file) | run = "DIR" (a `softhom
 //            point`/`rve` output directory: DIR/response.csv, and the [load] from DIR/summary.json
-//            unless a [curves.load] is given), x = "t" | "F11" | ... (model quantity, a response.csv
+//            unless a [curves.load] is given) | campaign = "DIR" (a `softhom sweep` store: DIR or
+//            DIR/campaign.h5) with case = "ID" (its response table; the case scene's [load] unless
+//            [curves.load] is given), load_rotation_deg = β (turns the load frame by β about e3: an
+//            RVE case with fibers at α is the model with fibers at α0 loaded at β = α − α0),
+//            x = "t" | "F11" | ... (model quantity, a response.csv
 //            column name), y = "P11" | ..., x_column / y_column (CSV columns, default x / y),
 //            weight = 1, role = "fit" | "holdout", [curves.load] as a `softhom point` [load] table.
 //   [solver] method = "levenberg_marquardt" | "dogleg", starts, seed, max_iterations,

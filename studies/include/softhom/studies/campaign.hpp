@@ -31,10 +31,17 @@
 // "columns"; the `softhom rve` response.csv layout); DIR/cases.csv: one row per case and step with
 // every parameter as a column. A case whose id and scene hash are in the store is skipped on a rerun.
 //
-// Warm starts: within one microstructure (same scene but [load]) of elastic phases, a case whose load
-// path begins with another case's whole path (e.g. tension to λ = 1.5 and to 1.8 with the same output
-// times up to 1.5) continues from that case's converged state instead of starting from F = I. Chains
-// are always recomputed from their first case, so a rerun gives the same numbers.
+// Warm starts (on by default; --no-warm-start or [campaign] warm_start = false): cases of one
+// microstructure (same scene but [load]) whose load paths lie on each other's form a chain and the
+// longest path is run once. Elastic phases: the response depends on the path of the controlled values
+// only, so "tension to λ = 1.5" lies on "tension to λ = 1.8" whatever the durations and step counts;
+// the path is run with the union of the members' output points and each case reads its rows off it
+// (equal to a cold run to the solver tolerance). History-dependent phases (QLV): only exact prefixes
+// (same output times up to the shorter case's end), which add no steps. Each segment of the path
+// continues from the converged state at the end of the previous case (the solver object keeps it
+// between runs; rve::FftRveState is that state made explicit, for restarts). A chain is
+// always recomputed from its start (its finished members are not stored again), so a resumed run gives
+// the same numbers as an uninterrupted one.
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -125,6 +132,7 @@ struct SweepReport {
   int threads_per_job = 1;
   double wall_time_s = 0.0;
   double case_time_s = 0.0;  ///< sum of the wall times of the cases run now
+  long newton_iterations = 0; ///< Newton iterations computed now (a shared load path counts once)
   std::filesystem::path store, csv;
 };
 

@@ -27,6 +27,15 @@ namespace softhom::studies {
 rve::FiberCellSpec parse_fiber_cell_spec(const toml::table& microstructure, const std::string& path, std::string& label);
 rve::PhaseImage build_phase_image(const toml::table& microstructure, double& target_vf, std::string& geometry_note);
 
+/// [microstructure.image] (path `p`): a voxel image from HDF5 (io::read_dataset). Keys: file (relative to
+/// the scene file), dataset (default "/phase"; C-order [n2][n1] section or [n3][n2][n1] volume; integer
+/// = phase ids, matrix_id = 0 / fiber_id = 1 by default, any other id is an error; floating point =
+/// fiber fractions in [0, 1]), normal_dataset (optional interface normals, dims + [3]),
+/// direction_dataset (optional per-voxel fiber direction, grid frame, dims + [3], non-zero in fiber),
+/// voxel_size or cell_size (number or [x, y, z]; default: the dataset's attributes of those names, else
+/// cubic voxels with L1 = 1). Every problem is an InputError naming the key.
+rve::PhaseImage import_phase_image(const toml::table& image, const std::string& p, std::string& geometry_note);
+
 /// [solver] table → options (defaults when absent); `wisdom` receives solver.fftw_wisdom.
 rve::FftSolverOptions parse_fft_solver_options(const toml::table& scene, std::filesystem::path& wisdom);
 

@@ -1,0 +1,33 @@
+#pragma once
+// Gmsh mesh import (MSH file format version 4.1, ASCII).
+//
+// Read: $MeshFormat, $PhysicalNames, $Entities (entity tag → physical tags), $Nodes, $Elements; other
+// sections are skipped. Volume elements: 4-node tetrahedra (type 4, promoted to tet10 with straight
+// mid-edge nodes shared between neighbours), 10-node tetrahedra (11) and 8-node hexahedra (5).
+// Boundary elements on surfaces that belong to a physical group: 3- and 6-node triangles (2, 9) and
+// 4-node quadrilaterals (3); points and lines (15, 1, 8) are ignored.
+//
+// Mapping: every volume physical group is an element region (Mesh::region_names[id] is its name, or
+// its tag as text when $PhysicalNames has none; elements of volumes without a physical group form the
+// region ""). Every surface physical group is a named surface: each of its faces is matched to the
+// face of a volume element with the same vertices and stored in that element's orientation, so
+// normals point out of the solid. Tets are oriented positively; elements must have positive
+// Jacobians at their Gauss points.
+//
+// Errors are InputError("FILE:LINE", token, problem): unsupported version or binary file, unknown or
+// unsupported element type, reference to a missing node or entity, a face that is no element's
+// face, an inverted element.
+#include <filesystem>
+#include <istream>
+#include <string>
+
+#include "softhom/fe/mesh.hpp"
+
+namespace softhom::fe {
+
+/// Parses MSH 4.1 text; `source` names the file in error messages.
+Mesh parse_gmsh(std::istream& in, const std::string& source);
+/// Reads a .msh file (InputError when it cannot be opened).
+Mesh read_gmsh(const std::filesystem::path& file);
+
+}  // namespace softhom::fe

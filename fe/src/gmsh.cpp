@@ -1,0 +1,458 @@
+#include "softhom/fe/gmsh.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <unordered_map>
+
+#include "softhom/fe/hex8.hpp"
+#include "softhom/fe/tet10_element.hpp"
+#include "softhom/materials/errors.hpp"
+
+namespace softhom::fe {
+namespace {
+
+/// Whitespace-separated tokens with line numbers (for error messages); quoted strings are one token.
+class Tokens {
+ public:
+  Tokens(std::string text, std::string source) : text_(std::move(text)), source_(std::move(source)) {}
+
+  bool at_end() {
+    skip_space();
+    return pos_ >= text_.size();
+  }
+  int line() const { return line_; }
+  /// Next token (empty at the end of the text).
+  std::string_view next() {
+    skip_space();
+    token_line_ = line_;
+    if (pos_ >= text_.size()) return {};
+    const std::size_t start = pos_;
+    if (text_[pos_] == '"') {
+      const std::size_t close = text_.find('"', pos_ + 1);
+      if (close == std::string::npos) fail(text_.substr(start, 20), "unterminated quoted name");
+      pos_ = close + 1;
+      return std::string_view(text_).substr(start + 1, close - start - 1);
+    }
+    while (pos_ < text_.size() && !std::isspace(static_cast<unsigned char>(text_[pos_]))) ++pos_;
+    return std::string_view(text_).substr(start, pos_ - start);
+  }
+  std::string_view expect_token(const char* what) {
+    const std::string_view t = next();
+    if (t.empty()) fail("", std::string("unexpected end of file, expected ") + what);
+    return t;
+  }
+  long integer(const char* what) {
+    const std::string_view t = expect_token(what);
+    long v = 0;
+    const auto res = std::from_chars(t.data(), t.data() + t.size(), v);
+    if (res.ec != std::errc() || res.ptr != t.data() + t.size())
+      fail(std::string(t), std::string("expected an integer (") + what + ")");
+    return v;
+  }
+  double real(const char* what) {
+    const std::string_view t = expect_token(what);
+    const std::string s(t);
+    char* end = nullptr;
+    const double v = std::strtod(s.c_str(), &end);
+    if (end != s.c_str() + s.size() || !std::isfinite(v))
+      fail(s, std::string("expected a finite number (") + what + ")");
+    return v;
+  }
+  void expect(std::string_view word) {
+    const std::string_view t = next();
+    if (t != word) fail(std::string(t), "expected " + std::string(word));
+  }
+  /// Skips to the line after `$End<name>`.
+  void skip_section(const std::string& name) {
+    const std::string end = "$End" + name;
+    while (true) {
+      const std::string_view t = next();
+      if (t.empty()) fail("", "missing " + end);
+      if (t == end) return;
+    }
+  }
+  [[noreturn]] void fail(const std::string& token, const std::string& why) const {
+    throw InputError(source_ + ":" + std::to_string(token_line_), token, why);
+  }
+  [[noreturn]] void fail_at(int line, const std::string& token, const std::string& why) const {
+    throw InputError(source_ + ":" + std::to_string(line), token, why);
+  }
+  const std::string& source() const { return source_; }
+
+ private:
+  void skip_space() {
+    while (pos_ < text_.size() && std::isspace(static_cast<unsigned char>(text_[pos_]))) {
+      if (text_[pos_] == '\n') ++line_;
+      ++pos_;
+    }
+  }
+  std::string text_, source_;
+  std::size_t pos_ = 0;
+  int line_ = 1, token_line_ = 1;
+};
+
+/// Nodes per element of the Gmsh types this reader knows (0 when unknown).
+int gmsh_nodes(long type) {
+  switch (type) {
+    case 15: return 1;   // point
+    case 1: return 2;    // line
+    case 8: return 3;    // line3
+    case 2: return 3;    // triangle
+    case 9: return 6;    // triangle6
+    case 3: return 4;    // quadrangle
+    case 16: return 8;   // quadrangle8
+    case 10: return 9;   // quadrangle9
+    case 4: return 4;    // tetrahedron
+    case 11: return 10;  // tetrahedron10
+    case 5: return 8;    // hexahedron
+    case 17: return 20;  // hexahedron20
+    case 12: return 27;  // hexahedron27
+    case 6: return 6;    // prism
+    case 7: return 5;    // pyramid
+    case 29: return 20;  // tetrahedron20
+    default: return 0;
+  }
+}
+
+const char* gmsh_name(long type) {
+  switch (type) {
+    case 16: return "8-node quadrangle";
+    case 10: return "9-node quadrangle";
+    case 17: return "20-node hexahedron";
+    case 12: return "27-node hexahedron";
+    case 6: return "prism";
+    case 7: return "pyramid";
+    case 29: return "20-node tetrahedron";
+    default: return "element";
+  }
+}
+
+struct SurfaceElement {
+  long tag;
+  int line;
+  int entity;
+  std::vector<int> nodes;  ///< mesh node indices (3, 4 or 6)
+};
+
+struct VolumeElement {
+  long tag;
+  int line;
+  long entity;
+  long type;
+  std::vector<int> nodes;
+};
+
+struct ArrayHash {
+  template <std::size_t N>
+  std::size_t operator()(const std::array<int, N>& k) const {
+    std::size_t h = 1469598103934665603ull;
+    for (int v : k) h = (h ^ std::size_t(v)) * 1099511628211ull;
+    return h;
+  }
+};
+
+}  // namespace
+
+Mesh parse_gmsh(std::istream& in, const std::string& source) {
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  Tokens tk(buffer.str(), source);
+
+  bool have_format = false, have_nodes = false, have_elements = false;
+  std::map<long, std::string> physical_names[4];          // by dimension: tag → name
+  std::map<long, std::vector<long>> entity_physicals[4];  // by dimension: entity tag → physical tags
+  bool have_entities = false;
+  std::vector<Vec3> nodes;
+  std::unordered_map<long, int> node_index;
+  std::vector<VolumeElement> volumes;
+  std::vector<SurfaceElement> surfaces;
+
+  auto node_of = [&](long tag) {
+    const auto it = node_index.find(tag);
+    if (it == node_index.end()) tk.fail(std::to_string(tag), "element refers to a node that is not in $Nodes");
+    return it->second;
+  };
+
+  while (!tk.at_end()) {
+    const std::string section(tk.next());
+    if (section == "$MeshFormat") {
+      const std::string version(tk.expect_token("version"));
+      const int line = tk.line();
+      const long file_type = tk.integer("file-type");
+      tk.integer("data-size");
+      if (version.rfind("4.1", 0) != 0)
+        tk.fail_at(line, version,
+                   "unsupported MSH version (only 4.1 is read): re-export with Mesh.MshFileVersion = 4.1 "
+                   "(gmsh -format msh41)");
+      if (file_type != 0)
+        tk.fail_at(line, std::to_string(file_type), "binary MSH files are not supported: save as ASCII (Mesh.Binary = 0)");
+      tk.expect("$EndMeshFormat");
+      have_format = true;
+    } else if (!have_format) {
+      tk.fail(section, "the file must start with $MeshFormat (is this a Gmsh .msh file?)");
+    } else if (section == "$PhysicalNames") {
+      const long n = tk.integer("number of physical names");
+      for (long k = 0; k < n; ++k) {
+        const long dim = tk.integer("physical dimension");
+        const long tag = tk.integer("physical tag");
+        if (dim < 0 || dim > 3) tk.fail(std::to_string(dim), "physical dimension must be 0..3");
+        physical_names[dim][tag] = std::string(tk.expect_token("physical name"));
+      }
+      tk.expect("$EndPhysicalNames");
+    } else if (section == "$Entities") {
+      long count[4];
+      for (long& c : count) c = tk.integer("number of entities");
+      for (int dim = 0; dim < 4; ++dim)
+        for (long k = 0; k < count[dim]; ++k) {
+          const long tag = tk.integer("entity tag");
+          for (int c = 0; c < (dim == 0 ? 3 : 6); ++c) tk.real("entity bounding box");
+          const long np = tk.integer("number of physical tags");
+          auto& phys = entity_physicals[dim][tag];
+          for (long p = 0; p < np; ++p) phys.push_back(std::labs(tk.integer("physical tag")));
+          if (dim > 0) {
+            const long nb = tk.integer("number of bounding entities");
+            for (long b = 0; b < nb; ++b) tk.integer("bounding entity tag");
+          }
+        }
+      tk.expect("$EndEntities");
+      have_entities = true;
+    } else if (section == "$Nodes") {
+      const long blocks = tk.integer("number of node blocks");
+      const long total = tk.integer("number of nodes");
+      tk.integer("min node tag");
+      tk.integer("max node tag");
+      if (total < 0) tk.fail(std::to_string(total), "negative node count");
+      nodes.reserve(total);
+      node_index.reserve(total);
+      for (long b = 0; b < blocks; ++b) {
+        const long dim = tk.integer("entity dimension");
+        tk.integer("entity tag");
+        const long parametric = tk.integer("parametric flag");
+        const long n = tk.integer("nodes in block");
+        std::vector<long> tags(n);
+        for (long& t : tags) t = tk.integer("node tag");
+        for (long k = 0; k < n; ++k) {
+          Vec3 x;
+          for (int i = 0; i < 3; ++i) x[i] = tk.real("node coordinate");
+          if (parametric)
+            for (long i = 0; i < dim; ++i) tk.real("parametric coordinate");
+          if (!node_index.emplace(tags[k], int(nodes.size())).second)
+            tk.fail(std::to_string(tags[k]), "node tag defined twice");
+          nodes.push_back(x);
+        }
+      }
+      if (long(nodes.size()) != total) tk.fail(std::to_string(total), "node count does not match the blocks");
+      tk.expect("$EndNodes");
+      have_nodes = true;
+    } else if (section == "$Elements") {
+      if (!have_nodes) tk.fail(section, "$Elements before $Nodes");
+      const long blocks = tk.integer("number of element blocks");
+      tk.integer("number of elements");
+      tk.integer("min element tag");
+      tk.integer("max element tag");
+      for (long b = 0; b < blocks; ++b) {
+        const long dim = tk.integer("entity dimension");
+        const long entity = tk.integer("entity tag");
+        const long type = tk.integer("element type");
+        const int type_line = tk.line();
+        const long n = tk.integer("elements in block");
+        const int nn = gmsh_nodes(type);
+        if (nn == 0)
+          tk.fail_at(type_line, std::to_string(type), "unknown Gmsh element type");
+        const bool ignored = dim < 2;
+        const bool volume_ok = dim == 3 && (type == 4 || type == 11 || type == 5);
+        const bool surface_ok = dim == 2 && (type == 2 || type == 9 || type == 3);
+        if (!ignored && !volume_ok && !surface_ok)
+          tk.fail_at(type_line, std::to_string(type),
+                     std::string("unsupported element type (") + gmsh_name(type) + ", dimension " +
+                         std::to_string(dim) + "): volumes must be tetrahedra (4, 11) or hexahedra (5), " +
+                         "surfaces triangles (2, 9) or quadrangles (3)");
+        if (dim == 3 && have_entities && !entity_physicals[3].count(entity))
+          tk.fail_at(type_line, std::to_string(entity), "volume entity not listed in $Entities");
+        for (long k = 0; k < n; ++k) {
+          const long tag = tk.integer("element tag");
+          const int line = tk.line();
+          std::vector<int> en(nn);
+          for (int& v : en) v = ignored ? (tk.integer("node tag"), 0) : node_of(tk.integer("node tag"));
+          if (ignored) continue;
+          if (dim == 3) volumes.push_back({tag, line, entity, type, std::move(en)});
+          else surfaces.push_back({tag, line, int(entity), std::move(en)});
+        }
+      }
+      tk.expect("$EndElements");
+      have_elements = true;
+    } else if (!section.empty() && section[0] == '$' && section.rfind("$End", 0) != 0) {
+      tk.skip_section(section.substr(1));  // $NodeData, $Periodic, $PartitionedEntities, ...
+    } else {
+      tk.fail(section, "expected a section name ($Nodes, $Elements, ...)");
+    }
+  }
+  if (!have_format) tk.fail("", "empty file or no $MeshFormat");
+  if (!have_nodes || !have_elements) tk.fail("", "missing $Nodes or $Elements");
+  if (volumes.empty())
+    tk.fail("", "no volume elements (tetrahedra or hexahedra): mesh the volume (gmsh -3) and make sure its "
+                "physical group is saved");
+
+  Mesh mesh;
+  mesh.nodes = std::move(nodes);
+  // Regions: volume physical groups in order of first appearance ("" for volumes without one).
+  auto physical_name = [&](int dim, long tag) {
+    const auto it = physical_names[dim].find(tag);
+    return it != physical_names[dim].end() ? it->second : std::to_string(tag);
+  };
+  std::map<long, int> region_of_physical;
+  auto region_of_entity = [&](long entity) {
+    const auto it = entity_physicals[3].find(entity);
+    const long phys = (it == entity_physicals[3].end() || it->second.empty()) ? 0 : it->second.front();
+    auto r = region_of_physical.find(phys);
+    if (r == region_of_physical.end()) {
+      r = region_of_physical.emplace(phys, int(mesh.region_names.size())).first;
+      mesh.region_names.push_back(phys == 0 ? std::string() : physical_name(3, phys));
+    }
+    return r->second;
+  };
+  // Mid-edge nodes: those of tet10 elements first, then new straight ones for promoted tet4s (shared
+  // between neighbours through the edge map).
+  std::unordered_map<std::array<int, 2>, int, ArrayHash> mid;
+  auto edge_key = [](int a, int b) { return a < b ? std::array<int, 2>{a, b} : std::array<int, 2>{b, a}; };
+  for (const VolumeElement& v : volumes)
+    if (v.type == 11)
+      for (int e = 0; e < 6; ++e)
+        mid.emplace(edge_key(v.nodes[kTet10Edges[e][0]], v.nodes[kTet10Edges[e][1]]), v.nodes[4 + e]);
+  auto mid_node = [&](int a, int b) {
+    const auto key = edge_key(a, b);
+    const auto it = mid.find(key);
+    if (it != mid.end()) return it->second;
+    const int id = int(mesh.nodes.size());
+    mesh.nodes.push_back(0.5 * (mesh.nodes[a] + mesh.nodes[b]));
+    mid.emplace(key, id);
+    return id;
+  };
+  // Volume elements: hexes first, then tets (the Mesh numbering); lines kept for messages.
+  std::vector<int> hex_line, tet_line, hex_region, tet_region;
+  for (const VolumeElement& v : volumes) {
+    const int region = region_of_entity(v.entity);
+    if (v.type == 5) {
+      Hex h;
+      std::copy(v.nodes.begin(), v.nodes.end(), h.begin());
+      mesh.hexes.push_back(h);
+      hex_line.push_back(v.line);
+      hex_region.push_back(region);
+    } else {
+      Tet10 t;
+      for (int a = 0; a < 4; ++a) t[a] = v.nodes[a];
+      for (int e = 0; e < 6; ++e)
+        t[4 + e] = v.type == 11 ? v.nodes[4 + e] : mid_node(t[kTet10Edges[e][0]], t[kTet10Edges[e][1]]);
+      mesh.tets.push_back(t);
+      tet_line.push_back(v.line);
+      tet_region.push_back(region);
+    }
+  }
+  mesh.region = hex_region;
+  mesh.region.insert(mesh.region.end(), tet_region.begin(), tet_region.end());
+  orient_hexes(mesh);
+  orient_tets(mesh);
+  for (std::size_t k = 0; k < mesh.hexes.size(); ++k) {
+    Mat83 X;
+    for (int a = 0; a < 8; ++a) X.row(a) = mesh.nodes[mesh.hexes[k][a]].transpose();
+    if (!hex8_geometry(X).valid)
+      tk.fail_at(hex_line[k], "", "hexahedron with a non-positive Jacobian (distorted or wrongly numbered)");
+  }
+  for (std::size_t k = 0; k < mesh.tets.size(); ++k) {
+    Tet10Coords X;
+    for (int a = 0; a < 10; ++a) X.row(a) = mesh.nodes[mesh.tets[k][a]].transpose();
+    if (!tet10_geometry(X).valid)
+      tk.fail_at(tet_line[k], "",
+                 "tetrahedron with a non-positive Jacobian (degenerate, or mid-edge nodes far off their edges)");
+  }
+
+  // Element faces by their sorted vertices → (element, local face); interior faces keep the first.
+  std::unordered_map<std::array<int, 3>, std::pair<int, int>, ArrayHash> tri_faces;
+  std::unordered_map<std::array<int, 4>, std::pair<int, int>, ArrayHash> quad_faces;
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t)
+    for (int f = 0; f < 4; ++f) {
+      std::array<int, 3> k;
+      for (int i = 0; i < 3; ++i) k[i] = mesh.tets[t][kTetFaces[f][i]];
+      std::sort(k.begin(), k.end());
+      tri_faces.emplace(k, std::pair<int, int>(int(t), f));
+    }
+  for (std::size_t h = 0; h < mesh.hexes.size(); ++h)
+    for (int f = 0; f < 6; ++f) {
+      std::array<int, 4> k;
+      for (int i = 0; i < 4; ++i) k[i] = mesh.hexes[h][kHexFaces[f][i]];
+      std::sort(k.begin(), k.end());
+      quad_faces.emplace(k, std::pair<int, int>(int(h), f));
+    }
+  for (const SurfaceElement& s : surfaces) {
+    const auto it = entity_physicals[2].find(s.entity);
+    if (have_entities && it == entity_physicals[2].end())
+      tk.fail_at(s.line, std::to_string(s.entity), "surface entity not listed in $Entities");
+    if (it == entity_physicals[2].end() || it->second.empty()) continue;  // not in a physical group
+    if (s.nodes.size() == 4) {
+      std::array<int, 4> k{s.nodes[0], s.nodes[1], s.nodes[2], s.nodes[3]};
+      std::sort(k.begin(), k.end());
+      const auto f = quad_faces.find(k);
+      if (f == quad_faces.end())
+        tk.fail_at(s.line, std::to_string(s.tag), "quadrangle is not the face of any hexahedron");
+      Quad q;
+      for (int i = 0; i < 4; ++i) q[i] = mesh.hexes[f->second.first][kHexFaces[f->second.second][i]];
+      for (long phys : it->second) mesh.surfaces[physical_name(2, phys)].push_back(q);
+      continue;
+    }
+    std::array<int, 3> k{s.nodes[0], s.nodes[1], s.nodes[2]};
+    std::sort(k.begin(), k.end());
+    const auto f = tri_faces.find(k);
+    if (f == tri_faces.end())
+      tk.fail_at(s.line, std::to_string(s.tag), "triangle is not the face of any tetrahedron");
+    Tri6 q;
+    for (int i = 0; i < 6; ++i) q[i] = mesh.tets[f->second.first][kTet10Faces[f->second.second][i]];
+    if (s.nodes.size() == 6) {
+      // Its mid-edge nodes must be the tetrahedron's (same edges, same nodes).
+      std::array<int, 3> given{s.nodes[3], s.nodes[4], s.nodes[5]}, own{q[3], q[4], q[5]};
+      std::sort(given.begin(), given.end());
+      std::sort(own.begin(), own.end());
+      if (given != own)
+        tk.fail_at(s.line, std::to_string(s.tag), "6-node triangle's mid-edge nodes differ from its tetrahedron's");
+    }
+    for (long phys : it->second) mesh.tri_surfaces[physical_name(2, phys)].push_back(q);
+  }
+  // Drop nodes no volume element uses (geometry points, nodes of unsaved entities): they would carry
+  // degrees of freedom without stiffness.
+  std::vector<int> renumber(mesh.nodes.size(), -1);
+  int used = 0;
+  for (int e = 0; e < mesh.num_elements(); ++e)
+    for (int a = 0; a < mesh.element_size(e); ++a) {
+      int& r = renumber[mesh.element_nodes(e)[a]];
+      if (r < 0) r = used++;
+    }
+  if (used < int(mesh.nodes.size())) {
+    std::vector<Vec3> kept(used);
+    for (std::size_t n = 0; n < mesh.nodes.size(); ++n)
+      if (renumber[n] >= 0) kept[renumber[n]] = mesh.nodes[n];
+    mesh.nodes = std::move(kept);
+    for (Hex& h : mesh.hexes)
+      for (int& n : h) n = renumber[n];
+    for (Tet10& t : mesh.tets)
+      for (int& n : t) n = renumber[n];
+    for (auto& [name, faces] : mesh.surfaces)
+      for (Quad& q : faces)
+        for (int& n : q) n = renumber[n];
+    for (auto& [name, faces] : mesh.tri_surfaces)
+      for (Tri6& q : faces)
+        for (int& n : q) n = renumber[n];
+  }
+  return mesh;
+}
+
+Mesh read_gmsh(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  if (!in) throw InputError("mesh file", file.string(), "cannot open");
+  return parse_gmsh(in, file.string());
+}
+
+}  // namespace softhom::fe

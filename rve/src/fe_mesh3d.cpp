@@ -1,0 +1,425 @@
+// Periodic conforming 10-node tetrahedral meshes of a fiber cell with CGAL's Periodic_3_mesh_3
+// (see fe_mesh.hpp). The only translation unit that includes CGAL's 3D mesher (slow to compile).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
+#include <limits>
+#include <map>
+#include <set>
+#include <stdexcept>
+#include <tuple>
+#include <unordered_map>
+
+#include <Eigen/Dense>
+
+// Must come first: turns off structural filtering, which the periodic traits do not support.
+#include <CGAL/Periodic_3_mesh_3/config.h>
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Labeled_mesh_domain_3.h>
+#include <CGAL/Mesh_complex_3_in_triangulation_3.h>
+#include <CGAL/Mesh_criteria_3.h>
+#include <CGAL/Periodic_3_mesh_triangulation_3.h>
+#include <CGAL/make_periodic_3_mesh_3.h>
+
+#include "fiber_placement.hpp"
+#include "softhom/fe/tet10.hpp"
+#include "softhom/materials/errors.hpp"
+#include "softhom/rve/fe_mesh.hpp"
+
+namespace softhom::rve {
+namespace {
+
+using Vec2 = Eigen::Vector2d;
+using Vec3d = Eigen::Vector3d;
+using detail::PlacedFiber;
+using detail::signed_distance;
+constexpr double kPi = 3.14159265358979323846;
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Domain = CGAL::Labeled_mesh_domain_3<Kernel>;
+using Tr = CGAL::Periodic_3_mesh_triangulation_3<Domain>::type;
+using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr>;
+using Criteria = CGAL::Mesh_criteria_3<Tr>;
+using FacetCriteria = Criteria::Facet_criteria;
+using CellCriteria = Criteria::Cell_criteria;
+
+/// Position-dependent element size for CGAL (in the coordinates of CGAL's unit cube).
+struct SizeField {
+  const std::function<double(const Vec3d&)>* h;
+  Kernel::FT operator()(const Kernel::Point_3& p, int, const Domain::Index&) const {
+    return (*h)(Vec3d(p.x(), p.y(), p.z()));
+  }
+};
+
+double wrap(double x, double L) {
+  double y = std::fmod(x, L);
+  if (y < 0.0) y += L;
+  return y;
+}
+
+/// Degree-3 rule on the reference tetrahedron (5 points, one negative weight; weights sum to 1/6):
+/// the Jacobian of a P2 tetrahedron is cubic, so volumes of curved elements are exact with it.
+struct Rule3 {
+  std::array<Vec3d, 5> xi{Vec3d(0.25, 0.25, 0.25), Vec3d(0.5, 1.0 / 6, 1.0 / 6), Vec3d(1.0 / 6, 0.5, 1.0 / 6),
+                          Vec3d(1.0 / 6, 1.0 / 6, 0.5), Vec3d(1.0 / 6, 1.0 / 6, 1.0 / 6)};
+  std::array<double, 5> w{-2.0 / 15.0, 3.0 / 40.0, 3.0 / 40.0, 3.0 / 40.0, 3.0 / 40.0};
+};
+
+Eigen::Matrix3d tet10_jacobian(const CellMesh& m, int e, const Vec3d& xi) {
+  const fe::Tet10Grad dN = fe::tet10_shape_derivatives(xi);
+  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();  // J(i, r) = ∂x_i/∂ξ_r
+  for (int a = 0; a < 10; ++a) J += m.nodes[m.elements[e][a]] * dN.row(a);
+  return J;
+}
+
+/// Smallest Jacobian determinant of an element over the vertices, mid-edge nodes and the rules.
+double min_jacobian(const CellMesh& m, int e) {
+  static const std::array<Vec3d, 11> pts{Vec3d(0, 0, 0), Vec3d(1, 0, 0), Vec3d(0, 1, 0), Vec3d(0, 0, 1),
+                                         Vec3d(0.5, 0, 0), Vec3d(0.5, 0.5, 0), Vec3d(0, 0.5, 0), Vec3d(0, 0, 0.5),
+                                         Vec3d(0, 0.5, 0.5), Vec3d(0.5, 0, 0.5), Vec3d(0.25, 0.25, 0.25)};
+  double d = std::numeric_limits<double>::infinity();
+  for (const Vec3d& xi : pts) d = std::min(d, tet10_jacobian(m, e, xi).determinant());
+  for (const auto& q : fe::tet_rule_degree2()) d = std::min(d, tet10_jacobian(m, e, q.xi).determinant());
+  return d;
+}
+
+}  // namespace
+
+int CellMesh::num_masters() const {
+  int n = 0;
+  for (int i = 0; i < num_nodes(); ++i) n += master[i] == i;
+  return n;
+}
+
+double CellMesh::volume(int phase_id) const {
+  const Rule3 r;
+  double v = 0.0;
+  for (int e = 0; e < num_elements(); ++e) {
+    if (phase[e] != phase_id) continue;
+    for (int q = 0; q < 5; ++q) v += r.w[q] * tet10_jacobian(*this, e, r.xi[q]).determinant();
+  }
+  return v;
+}
+
+double verify_periodic_cell_mesh(const CellMesh& m) {
+  const Vec3d L(m.L1, m.L2, m.L3);
+  const double tol = 1e-9 * L.maxCoeff();
+  double worst = 0.0;
+  for (int i = 0; i < m.num_nodes(); ++i) {
+    const int k = m.master[i];
+    if (k < 0 || k >= m.num_nodes() || m.master[k] != k)
+      throw std::runtime_error("periodic cell mesh: node " + std::to_string(i) + " has an invalid master");
+    Vec3d d = m.nodes[i] - m.nodes[k];
+    for (int c = 0; c < 3; ++c) d[c] -= L[c] * std::round(d[c] / L[c]);
+    worst = std::max(worst, d.cwiseAbs().maxCoeff());
+  }
+  if (worst > tol) throw std::runtime_error("periodic cell mesh: a node is not at a periodic image of its master");
+  // Faces of the torus mesh: each (sorted master triple) twice, with opposite orientations.
+  std::map<std::array<int, 3>, std::pair<int, int>> faces;  // → (count, orientation sum)
+  for (const auto& el : m.elements)
+    for (const auto& f : fe::kTetFaces) {
+      std::array<int, 3> v{m.master[el[f[0]]], m.master[el[f[1]]], m.master[el[f[2]]]};
+      // Orientation sign of the cyclic order relative to the sorted order.
+      int swaps = 0;
+      for (int a = 0; a < 3; ++a)
+        for (int b = a + 1; b < 3; ++b) swaps += v[a] > v[b];
+      std::sort(v.begin(), v.end());
+      if (v[0] == v[1] || v[1] == v[2]) throw std::runtime_error("periodic cell mesh: degenerate face");
+      auto& s = faces[v];
+      s.first += 1;
+      s.second += swaps % 2 ? -1 : 1;
+    }
+  for (const auto& kv : faces)
+    if (kv.second.first != 2 || kv.second.second != 0)
+      throw std::runtime_error("periodic cell mesh: a face is shared by " + std::to_string(kv.second.first) +
+                               " elements (expected 2, opposite orientations)");
+  // Mid-edge nodes: the master of a mid-edge node is the mid-edge node of the master edge.
+  double total = m.volume(0) + m.volume(1);
+  if (std::abs(total - m.L1 * m.L2 * m.L3) > 1e-9 * m.L1 * m.L2 * m.L3)
+    throw std::runtime_error("periodic cell mesh: element volumes do not add up to the cell volume");
+  return worst;
+}
+
+CellMesh mesh_cell(const Section& section, const CellMeshOptions& options) {
+  CellMeshOptions o = options;
+  const double L1 = section.L1, L2 = section.L2;
+  if (o.length == 0.0) o.length = L1;
+  if (!(o.length > 0.0)) throw InputError("solver.length", std::to_string(o.length), "must be positive");
+  const double L3 = o.length;
+  if (o.mesh_size == 0.0) o.mesh_size = L1 / 6.0;
+  if (!(o.mesh_size > 0.0)) throw InputError("solver.mesh_size", std::to_string(o.mesh_size), "must be positive");
+  if (o.interface_size == 0.0) o.interface_size = o.mesh_size / 2.0;
+  if (!(o.interface_size > 0.0))
+    throw InputError("solver.interface_size", std::to_string(o.interface_size), "must be positive");
+  o.interface_size = std::min(o.interface_size, o.mesh_size);
+  if (L1 * L2 * L3 / std::pow(o.interface_size, 3) > 2e6)
+    throw InputError("solver.interface_size", std::to_string(o.interface_size),
+                     "too small for the cell (3D mesh > ~1e7 elements)");
+  const Vec3d L(L1, L2, L3);
+  const double Lmax = L.maxCoeff();
+
+  const std::vector<PlacedFiber> fibers = detail::placed_fibers(section, o.mesh_size + 0.5 * Lmax);
+  auto nearest = [&](const Vec2& x, double& dist) {
+    int best = -1;
+    dist = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < fibers.size(); ++k) {
+      const double d = std::abs(signed_distance(fibers[k], x));
+      if (d < dist) {
+        dist = d;
+        best = int(k);
+      }
+    }
+    return best;
+  };
+  auto inside = [&](const Vec2& x) {
+    for (const auto& p : fibers)
+      if (signed_distance(p, x) < 0.0) return true;
+    return false;
+  };
+  // Physical point of CGAL's unit cube, wrapped into the cell.
+  auto physical = [&](const Vec3d& X) { return Vec3d(wrap(X[0], 1.0) * L1, wrap(X[1], 1.0) * L2, wrap(X[2], 1.0) * L3); };
+  const std::function<double(const Vec3d&)> size = [&](const Vec3d& X) {
+    double h = o.mesh_size;
+    if (!fibers.empty()) {
+      const Vec3d x = physical(X);
+      double d;
+      nearest(Vec2(x[0], x[1]), d);
+      h = std::min(o.mesh_size, o.interface_size + o.grading * d);
+    }
+    // CGAL bounds circumradii (cells) and surface Delaunay ball radii (facets); the options give
+    // edge lengths as in the section mesher: a regular tetrahedron of edge h has circumradius
+    // h √(3/8) = 0.61 h. The affine map stretches cube lengths by at most Lmax.
+    return 0.61 * h / Lmax;
+  };
+  std::function<int(const Kernel::Point_3&)> label = [&](const Kernel::Point_3& p) {
+    const Vec3d x = physical(Vec3d(p.x(), p.y(), p.z()));
+    return inside(Vec2(x[0], x[1])) ? 2 : 1;
+  };
+
+  CGAL::Random rng(o.seed);
+  Domain domain(label, Kernel::Iso_cuboid_3(0, 0, 0, 1, 1, 1), 1e-10, CGAL::Null_subdomain_index(), &rng);
+  const SizeField sf{&size};
+  // Facet distance: a fraction of the interface size (the curved mid-edge nodes then make the
+  // geometry error O(h³)); facet angle and radius-edge ratio: CGAL's usual quality bounds.
+  const FacetCriteria facet(o.facet_angle_deg, sf, 0.1 * o.interface_size / Lmax);
+  const CellCriteria cell(o.radius_edge_ratio, sf);
+  const Criteria criteria(facet, cell);
+  CGAL::get_default_random() = CGAL::Random(o.seed);
+  C3t3 c3t3 = CGAL::make_periodic_3_mesh_3<C3t3>(domain, criteria);
+  const Tr& tr = c3t3.triangulation();
+  if (!tr.is_1_cover()) throw std::runtime_error("periodic cell mesh: CGAL's triangulation is not a 1-cover");
+
+  // Canonical vertices, their physical positions, and surface vertices projected onto circles.
+  std::unordered_map<Tr::Vertex_handle, int> vid;
+  std::vector<Vec3d> canon;
+  for (auto v = tr.finite_vertices_begin(); v != tr.finite_vertices_end(); ++v) {
+    vid[v] = int(canon.size());
+    const auto& p = tr.point(v);
+    canon.emplace_back(p.x() * L1, p.y() * L2, p.z() * L3);
+  }
+  using Key3 = std::tuple<int, int, int>;
+  auto edge_key = [](int va, std::array<int, 3> oa, int vb, std::array<int, 3> ob) {
+    if (va > vb) {
+      std::swap(va, vb);
+      std::swap(oa, ob);
+    }
+    const int code = (ob[0] - oa[0] + 1) + 3 * (ob[1] - oa[1] + 1) + 9 * (ob[2] - oa[2] + 1);
+    return Key3(va, vb, code);
+  };
+  auto offset_of = [&](Tr::Cell_handle c, int i) {
+    const auto off = tr.int_to_off(c->offset(i));
+    return std::array<int, 3>{off.x(), off.y(), off.z()};
+  };
+  std::vector<char> on_surface(canon.size(), 0);
+  std::map<Key3, char> interface_edges;
+  for (auto f = c3t3.facets_in_complex_begin(); f != c3t3.facets_in_complex_end(); ++f) {
+    const Tr::Cell_handle c = f->first;
+    // Fiber interfaces only: cells CGAL left outside the complex (subdomain 0) also bound complex
+    // facets, which are not on a fiber surface.
+    const int s0 = int(c3t3.subdomain_index(c)), s1 = int(c3t3.subdomain_index(c->neighbor(f->second)));
+    if (!((s0 == 1 && s1 == 2) || (s0 == 2 && s1 == 1))) continue;
+    std::array<int, 3> idx;
+    int n = 0;
+    for (int i = 0; i < 4; ++i)
+      if (i != f->second) idx[n++] = i;
+    for (int a = 0; a < 3; ++a) {
+      on_surface[vid.at(c->vertex(idx[a]))] = 1;
+      const int b = (a + 1) % 3;
+      interface_edges[edge_key(vid.at(c->vertex(idx[a])), offset_of(c, idx[a]), vid.at(c->vertex(idx[b])),
+                               offset_of(c, idx[b]))] = 1;
+    }
+  }
+  // In-plane projection onto the nearest circular fiber (points given unwrapped: wrapped first, the
+  // same shift added back, so every periodic copy moves identically).
+  auto project = [&](Vec3d& x) {
+    Vec3d w(wrap(x[0], L1), wrap(x[1], L2), x[2]);
+    const Vec3d shift = x - w;
+    double d;
+    const int k = nearest(Vec2(w[0], w[1]), d);
+    if (k < 0 || fibers[k].f.shape != SectionShape::circle) return false;
+    // Surface vertices are on the surface to CGAL's error bound; mid-edge nodes of an interface chord
+    // are inside by the sagitta ≤ h²/(8r). Anything farther is not an interface node.
+    if (d > 0.25 * fibers[k].f.radius) return false;
+    const Vec2 c = fibers[k].f.center, r = Vec2(w[0], w[1]) - c;
+    if (r.norm() == 0.0) return false;
+    const Vec2 q = c + fibers[k].f.radius * r.normalized();
+    x = Vec3d(q[0], q[1], w[2]) + shift;
+    return true;
+  };
+  if (o.curved_interfaces)
+    for (std::size_t v = 0; v < canon.size(); ++v)
+      if (on_surface[v]) project(canon[v]);
+
+  CellMesh m;
+  m.L1 = L1;
+  m.L2 = L2;
+  m.L3 = L3;
+  m.vertices = int(canon.size());
+  std::unordered_map<long, int> copy_node;  // vertex * 27 + offset code → node
+  std::vector<int> first_copy(canon.size(), -1);
+  auto vertex_node = [&](int v, const std::array<int, 3>& off) {
+    const long key = long(v) * 27 + (off[0] + 1) + 3 * (off[1] + 1) + 9 * (off[2] + 1);
+    auto it = copy_node.find(key);
+    if (it != copy_node.end()) return it->second;
+    const int id = int(m.nodes.size());
+    m.nodes.push_back(canon[v] + Vec3d(off[0] * L1, off[1] * L2, off[2] * L3));
+    if (first_copy[v] < 0) first_copy[v] = id;
+    m.master.push_back(first_copy[v]);
+    copy_node.emplace(key, id);
+    return id;
+  };
+  struct Corner {
+    int v;
+    std::array<int, 3> off;
+  };
+  std::vector<std::array<Corner, 4>> cells;
+  int unlabeled = 0;
+  for (auto c = tr.finite_cells_begin(); c != tr.finite_cells_end(); ++c) {
+    std::array<Corner, 4> cs;
+    for (int i = 0; i < 4; ++i) cs[i] = {vid.at(c->vertex(i)), offset_of(c, i)};
+    // Phase: CGAL's subdomain of the cell; cells CGAL left out of the complex (none in a periodic
+    // domain normally, but dummy-point cells may remain) get the label at their centroid.
+    int sd = int(c3t3.subdomain_index(c));
+    if (sd == 0) {
+      ++unlabeled;
+      Vec3d g = Vec3d::Zero();
+      for (int i = 0; i < 4; ++i)
+        g += 0.25 * (canon[cs[i].v] + Vec3d(cs[i].off[0] * L1, cs[i].off[1] * L2, cs[i].off[2] * L3));
+      g = Vec3d(wrap(g[0], L1), wrap(g[1], L2), g[2]);
+      sd = inside(Vec2(g[0], g[1])) ? 2 : 1;
+    }
+    std::array<int, 10> el;
+    for (int i = 0; i < 4; ++i) el[i] = vertex_node(cs[i].v, cs[i].off);
+    // CGAL's cells are positively oriented (exact predicates); a floating-point determinant of a
+    // flat cell may have either sign, so the order is kept as CGAL gives it.
+    m.elements.push_back(el);
+    m.phase.push_back(sd == 2 ? 1 : 0);
+    cells.push_back(cs);
+  }
+  // Mid-edge nodes: one per unwrapped edge (pair of vertex copies), master = the first mid-edge node
+  // of the same periodic edge.
+  std::map<std::pair<int, int>, int> mid;
+  std::map<Key3, int> periodic_mid;
+  std::vector<char> curved;  // per node: mid-edge node on a circle
+  for (std::size_t e = 0; e < m.elements.size(); ++e) {
+    auto& el = m.elements[e];
+    for (int k = 0; k < 6; ++k) {
+      const int a = fe::kTet10Edges[k][0], b = fe::kTet10Edges[k][1];
+      const auto key = std::minmax(el[a], el[b]);
+      auto it = mid.find(key);
+      if (it != mid.end()) {
+        el[4 + k] = it->second;
+        continue;
+      }
+      const int id = int(m.nodes.size());
+      m.nodes.push_back(0.5 * (m.nodes[el[a]] + m.nodes[el[b]]));
+      const Key3 pk = edge_key(cells[e][a].v, cells[e][a].off, cells[e][b].v, cells[e][b].off);
+      auto pm = periodic_mid.find(pk);
+      if (pm == periodic_mid.end()) pm = periodic_mid.emplace(pk, id).first;
+      m.master.push_back(pm->second);
+      curved.resize(m.nodes.size(), 0);
+      if (o.curved_interfaces && interface_edges.count(pk)) curved[id] = project(m.nodes[id]);
+      mid.emplace(key, id);
+      el[4 + k] = id;
+    }
+  }
+  // An element folded by the curved mid-edge nodes (possible where CGAL leaves a flat element on a
+  // strongly curved surface patch) gets those mid-edge nodes back on the chords, for every periodic
+  // copy of the edge.
+  for (int pass = 0; pass < 3; ++pass) {
+    std::set<int> straighten;  // masters of mid-edge nodes
+    for (int e = 0; e < m.num_elements(); ++e)
+      if (min_jacobian(m, e) <= 0.0)
+        for (int k = 0; k < 6; ++k)
+          if (curved[m.elements[e][4 + k]]) straighten.insert(m.master[m.elements[e][4 + k]]);
+    if (straighten.empty()) break;
+    for (const auto& kv : mid)
+      if (curved[kv.second] && straighten.count(m.master[kv.second])) {
+        m.nodes[kv.second] = 0.5 * (m.nodes[kv.first.first] + m.nodes[kv.first.second]);
+        curved[kv.second] = 0;
+      }
+  }
+  for (int e = 0; e < m.num_elements(); ++e)
+    if (!(min_jacobian(m, e) > 0.0))
+      throw std::runtime_error("periodic cell mesh: element " + std::to_string(e) + " has a non-positive Jacobian");
+
+  // Quality of the straight-sided (vertex) tetrahedra.
+  CellMeshQuality& q = m.quality;
+  q.min_dihedral_deg = 180.0;
+  q.max_dihedral_deg = 0.0;
+  q.min_radius_ratio = 1.0;
+  q.min_edge = std::numeric_limits<double>::infinity();
+  double sum_rr = 0.0;
+  for (const auto& el : m.elements) {
+    const std::array<Vec3d, 4> x{m.nodes[el[0]], m.nodes[el[1]], m.nodes[el[2]], m.nodes[el[3]]};
+    // Area-weighted outward normals of the faces opposite each vertex.
+    std::array<Vec3d, 4> n;
+    double area_sum = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      const Vec3d &a = x[(k + 1) % 4], &b = x[(k + 2) % 4], &c = x[(k + 3) % 4];
+      n[k] = 0.5 * (b - a).cross(c - a);
+      if (n[k].dot(x[k] - a) > 0.0) n[k] = -n[k];
+      area_sum += n[k].norm();
+    }
+    for (int k = 0; k < 4; ++k)
+      for (int l = k + 1; l < 4; ++l) {
+        const double c = std::clamp(n[k].dot(n[l]) / (n[k].norm() * n[l].norm()), -1.0, 1.0);
+        const double ang = 180.0 - std::acos(c) * 180.0 / kPi;
+        q.min_dihedral_deg = std::min(q.min_dihedral_deg, ang);
+        q.max_dihedral_deg = std::max(q.max_dihedral_deg, ang);
+        const double len = (x[k] - x[l]).norm();
+        q.min_edge = std::min(q.min_edge, len);
+        q.max_edge = std::max(q.max_edge, len);
+      }
+    const double V = std::abs((x[1] - x[0]).cross(x[2] - x[0]).dot(x[3] - x[0])) / 6.0;
+    const double r_in = 3.0 * V / area_sum;
+    Eigen::Matrix3d A;
+    Vec3d rhs;
+    for (int k = 0; k < 3; ++k) {
+      const Vec3d d = x[k + 1] - x[0];
+      A.row(k) = 2.0 * d.transpose();
+      rhs[k] = d.squaredNorm();
+    }
+    const double R = A.fullPivLu().solve(rhs).norm();
+    const double rr = 3.0 * r_in / R;
+    q.min_radius_ratio = std::min(q.min_radius_ratio, rr);
+    sum_rr += rr;
+  }
+  q.mean_radius_ratio = m.elements.empty() ? 0.0 : sum_rr / double(m.elements.size());
+  q.aspect_stretch = Lmax / L.minCoeff();
+  if (std::getenv("SOFTHOM_MESH3D_DEBUG"))
+    std::fprintf(stderr, "mesh_cell: %d cells outside CGAL's complex (phase from the centroid)\n", unlabeled);
+  for (int i = 0; i < m.num_nodes(); ++i) q.periodic_copies += m.master[i] != i;
+  q.max_pairing_error = verify_periodic_cell_mesh(m);
+  double exact = 0.0;
+  for (const auto& f : section.fibers)
+    exact += f.shape == SectionShape::circle ? kPi * f.radius * f.radius : f.width * f.height;
+  exact *= L3;
+  q.fiber_volume_error = exact > 0.0 ? std::abs(m.volume(1) - exact) / exact : 0.0;
+  return m;
+}
+
+}  // namespace softhom::rve
