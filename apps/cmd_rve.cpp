@@ -154,24 +154,7 @@ int run_rve(const CommandOptions& options) {
   summary["tolerance"] = solver_options.tolerance;
   summary["fft"] = solver.fft_description();
   summary["fft_planning_s"] = solver.planning_seconds();
-  summary["completed"] = result.completed;
-  summary["error"] = result.error;
-  summary["steps"] = step_log;
-  summary["newton_iterations"] = result.total_newton_iterations;
-  summary["krylov_iterations"] = result.total_krylov_iterations;
-  summary["cutbacks"] = result.cutbacks;
-  summary["warnings"] = result.log;
-  summary["solver_memory_bytes"] = solver.memory_bytes();
-  summary["peak_memory_bytes"] = io::peak_memory_bytes();
-  summary["solve_time_s"] = result.wall_seconds;
-  summary["wall_time_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  io::write_summary(options.out, summary);
-
-  if (!result.completed) {
-    std::cerr << "softhom rve: stopped early: " << result.error << "\nsofthom rve: " << result.steps.size()
-              << " converged rows kept in " << (options.out / "response.csv").string() << "\n";
-    return 1;
-  }
+  if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start)) return 1;
   if (!options.quiet)
     std::cerr << "softhom rve: " << result.steps.size() - 1 << " steps, " << result.total_newton_iterations
               << " Newton / " << result.total_krylov_iterations << " Krylov iterations, " << result.wall_seconds

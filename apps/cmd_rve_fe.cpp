@@ -374,27 +374,10 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   summary["fft"] = nullptr;
   summary["fft_planning_s"] = 0.0;
   summary["mesh"] = mesh_json;
-  summary["completed"] = result.completed;
-  summary["error"] = result.error;
-  summary["steps"] = step_log;
-  summary["newton_iterations"] = result.total_newton_iterations;
-  summary["krylov_iterations"] = result.total_krylov_iterations;
   summary["factorizations"] = solver.factorizations();
   summary["linear_solver_time_s"] = solver.factorization_seconds();
   summary["assembly_time_s"] = solver.assembly_seconds();
-  summary["cutbacks"] = result.cutbacks;
-  summary["warnings"] = result.log;
-  summary["solver_memory_bytes"] = solver.memory_bytes();
-  summary["peak_memory_bytes"] = io::peak_memory_bytes();
-  summary["solve_time_s"] = result.wall_seconds;
-  summary["wall_time_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  io::write_summary(options.out, summary);
-
-  if (!result.completed) {
-    std::cerr << "softhom rve: stopped early: " << result.error << "\nsofthom rve: " << result.steps.size()
-              << " converged rows kept in " << (options.out / "response.csv").string() << "\n";
-    return 1;
-  }
+  if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start)) return 1;
   if (!options.quiet)
     std::cerr << "softhom rve (fe): " << num_elements << " " << element_name << " elements, " << result.steps.size() - 1
               << " steps, " << result.total_newton_iterations << " Newton iterations, " << result.wall_seconds << " s → "
