@@ -812,22 +812,8 @@ struct Model {
   }
 
   RveStep record(double t, double angle0) const {
-    RveStep s;
-    s.t = t;
-    s.F = Fbar;
-    s.P = to_load(sums.P) / cell_area;
-    s.sigma = cauchy_from_piola(s.F, s.P);
-    for (int x = 0; x < 2; ++x) {
-      const double w = sums.phase_w[x];
-      if (w > 0.0) {
-        (x ? s.P_fiber : s.P_matrix) = to_load(sums.phase_P[x] / w);
-        (x ? s.sigma_fiber : s.sigma_matrix) = to_load(sums.phase_PFt[x] / sums.phase_J[x]);
-      }
-    }
-    const Mat3 Ff = sums.phase_w[1] > 0.0 ? to_load(sums.phase_F[1] / sums.phase_w[1]) : s.F;
-    s.fiber_angle_deg = fiber_angle_deg(Ff, a0_load);
-    s.fiber_angle_change_deg = s.fiber_angle_deg - angle0;
-    return s;
+    return detail::record_step(t, angle0, Fbar, to_load(sums.P) / cell_area, sums,
+                               [this](const Mat3& A) { return to_load(A); }, a0_load);
   }
 
   /// Element fields of the current (converged) state; history is not advanced (state_new scratch).

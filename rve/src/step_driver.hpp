@@ -15,6 +15,30 @@
 
 namespace softhom::rve::detail {
 
+/// Output row of a converged state: macro F and P (load frame) and the phase means of an engine's
+/// pass sums (phase_w, phase_P, phase_F, phase_PFt, phase_J in the grid frame, rotated by `to_load`);
+/// the fiber angle is that of the mean fiber-phase F applied to a0 (spec §7).
+template <class Sums, class ToLoad>
+RveStep record_step(double t, double angle0, const Mat3& F, const Mat3& P, const Sums& sums, const ToLoad& to_load,
+                    const Vec3& a0_load) {
+  RveStep s;
+  s.t = t;
+  s.F = F;
+  s.P = P;
+  s.sigma = cauchy_from_piola(s.F, s.P);
+  for (int x = 0; x < 2; ++x) {
+    const double w = sums.phase_w[x];
+    if (w > 0.0) {
+      (x ? s.P_fiber : s.P_matrix) = to_load(sums.phase_P[x] / w);
+      (x ? s.sigma_fiber : s.sigma_matrix) = to_load(sums.phase_PFt[x] / sums.phase_J[x]);
+    }
+  }
+  const Mat3 Ff = sums.phase_w[1] > 0.0 ? to_load(sums.phase_F[1] / sums.phase_w[1]) : s.F;
+  s.fiber_angle_deg = fiber_angle_deg(Ff, a0_load);
+  s.fiber_angle_change_deg = s.fiber_angle_deg - angle0;
+  return s;
+}
+
 /// Result of one sub-step attempt of an engine.
 struct SubstepOutcome {
   bool ok = false;
