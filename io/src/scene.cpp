@@ -181,7 +181,7 @@ void check_keys(const toml::table& table, const std::string& path, std::initiali
 
 MaterialSpec parse_material(const toml::table& t, const std::string& path) {
   check_keys(t, path, {"preset", "law", "G", "Jm", "K", "mu", "E", "nu", "C1", "C2", "C3", "alpha", "k1", "k2",
-                       "fiber_invariant", "tension_only", "fibers", "viscoelastic", "form"});
+                       "kappa", "fiber_invariant", "tension_only", "fibers", "viscoelastic", "form"});
   MaterialSpec s;
   s.field_prefix = path;
   const std::string preset = get_string_or(t, "preset", path, "");
@@ -257,6 +257,7 @@ MaterialSpec parse_material(const toml::table& t, const std::string& path) {
   // Fiber families (Gent-HGO only).
   k1 = get_number_or(t, "k1", path, k1);
   k2 = get_number_or(t, "k2", path, k2);
+  const double kappa = get_number_or(t, "kappa", path, 0.0);  // GOH dispersion, default for every family
   if (const toml::node* fibers = t.get("fibers")) {
     if (s.law != LawKind::gent_hgo) throw InputError(join(path, "fibers"), "", "fiber families need law = \"gent\"");
     const auto* arr = fibers->as_array();
@@ -265,7 +266,7 @@ MaterialSpec parse_material(const toml::table& t, const std::string& path) {
       const std::string fp = join(path, "fibers[" + std::to_string(i) + "]");
       const auto* ft = arr->get(i)->as_table();
       if (!ft) throw InputError(fp, show(*arr->get(i)), "must be a table");
-      check_keys(*ft, fp, {"direction", "angle_deg", "k1", "k2"});
+      check_keys(*ft, fp, {"direction", "angle_deg", "k1", "k2", "kappa"});
       FiberFamily f;
       if (ft->contains("direction") == ft->contains("angle_deg"))
         throw InputError(fp, "", "give exactly one of direction = [x, y, z] or angle_deg (spec §7: from e2 toward e1)");
@@ -277,6 +278,7 @@ MaterialSpec parse_material(const toml::table& t, const std::string& path) {
       }
       f.k1 = get_number_or(*ft, "k1", fp, k1);
       f.k2 = get_number_or(*ft, "k2", fp, k2);
+      f.kappa = get_number_or(*ft, "kappa", fp, kappa);
       s.gent.fibers.push_back(f);
     }
   }

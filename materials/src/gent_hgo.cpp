@@ -9,6 +9,9 @@
 //   isochoric invariant: S_f = 2ψ' ∂Ī4/∂C = 2ψ' J^(-2/3)(M − (I4/3) C⁻¹), i.e. the fiber stress passes
 //                        through the deviatoric projector (spec erratum to eq. 2.9); CC_f from
 //                        isochoric_invariant_terms() exactly as for Ī1.
+// Fiber dispersion (Gasser, Ogden & Holzapfel 2006): with κ > 0 the family's invariant is H : C,
+// H = κ I + (1 − 3κ) M, i.e. κ I1 + (1 − 3κ) I4 (isochoric: of Ī1 and Ī4); every formula above holds
+// with M replaced by H. κ = 0 is the aligned HGO family, κ = 1/3 an isotropic distribution.
 #include <cmath>
 #include <sstream>
 
@@ -29,8 +32,14 @@ struct Fiber {
   Vec3 a0;
   Mat3 M;  // a0 ⊗ a0, precomputed
   double k1, k2;
-  double a0_sq;  // |a0|², 1 up to rounding
+  double kappa;   // GOH dispersion: structure tensor H = κ I + (1 − 3κ) M
+  double H_trace;  // tr H = 3κ + (1 − 3κ)|a0|², 1 up to rounding (the invariant's value at C = I)
 };
+
+// The family's invariant before the isochoric scaling: H : C = κ tr C + (1 − 3κ) |F a0|².
+inline double structure_invariant(const Fiber& f, const Mat3& C, double a_sq) {
+  return f.kappa == 0.0 ? a_sq : f.kappa * C.trace() + (1.0 - 3.0 * f.kappa) * a_sq;
+}
 
 class GentHGOLaw final : public ElasticLaw {
  public:
@@ -43,7 +52,12 @@ class GentHGOLaw final : public ElasticLaw {
                          "fiber direction must be a finite non-zero vector");
       const Vec3 a0 = p.fibers[i].direction / n;
       p_.fibers[i].direction = a0;
-      fibers_.push_back({a0, a0 * a0.transpose(), p.fibers[i].k1, p.fibers[i].k2, a0.squaredNorm()});
+      const double kappa = p.fibers[i].kappa;
+      if (!(kappa >= 0.0 && kappa <= 1.0 / 3.0))
+        throw InputError("fibers[" + std::to_string(i) + "].kappa", std::to_string(kappa),
+                         "fiber dispersion must lie in [0, 1/3]");
+      fibers_.push_back({a0, a0 * a0.transpose(), p.fibers[i].k1, p.fibers[i].k2, kappa,
+                         3.0 * kappa + (1.0 - 3.0 * kappa) * a0.squaredNorm()});
     }
   }
 
@@ -56,9 +70,11 @@ class GentHGOLaw final : public ElasticLaw {
       s << "; " << fibers_.size() << " fiber famil" << (fibers_.size() == 1 ? "y" : "ies") << ", "
         << (p_.invariant == FiberInvariant::full ? "full" : "isochoric") << " invariant, "
         << (p_.tension_only ? "tension only" : "tension and compression");
-      for (const auto& f : fibers_)
-        s << "; k1=" << f.k1 << " MPa k2=" << f.k2 << " a0=(" << f.a0.x() << ", " << f.a0.y() << ", "
-          << f.a0.z() << ")";
+      for (const auto& f : fibers_) {
+        s << "; k1=" << f.k1 << " MPa k2=" << f.k2;
+        if (f.kappa > 0.0) s << " kappa=" << f.kappa;
+        s << " a0=(" << f.a0.x() << ", " << f.a0.y() << ", " << f.a0.z() << ")";
+      }
     }
     s << ")";
     return s.str();
@@ -85,9 +101,9 @@ class GentHGOLaw final : public ElasticLaw {
     if (!(x < p_.Jm)) return std::nan("");
     double W = -0.5 * p_.G * p_.Jm * std::log1p(-x / p_.Jm) + volumetric_energy(p_.K, J);
     for (const auto& f : fibers_) {
-      double I = f.a0.dot(C * f.a0);
+      double I = structure_invariant(f, C, f.a0.dot(C * f.a0));
       if (p_.invariant == FiberInvariant::isochoric) I *= j23;
-      const double E = I - f.a0_sq;  // as in compute()
+      const double E = I - f.H_trace;  // as in compute()
       if (p_.tension_only && !(E > 0.0)) continue;
       // k1/(2k2)(exp(k2 E²) − 1) → k1 E²/2 as k2 → 0; expm1 keeps it accurate for small k2 E².
       W += f.k2 > 0.0 ? 0.5 * f.k1 / f.k2 * std::expm1(f.k2 * E * E) : 0.5 * f.k1 * E * E;
@@ -132,11 +148,11 @@ class GentHGOLaw final : public ElasticLaw {
     double check = 0.0;  // sum of the fiber coefficients: non-finite iff one of them is
     for (const auto& f : fibers_) {
       const Vec3 a = F * f.a0;
-      const double I4 = a.squaredNorm();
+      const double I4 = structure_invariant(f, C, a.squaredNorm());
       const double Is = p_.invariant == FiberInvariant::full ? I4 : j23 * I4;
-      // E = I* − 1 with "1" taken as |a0|² (= 1 up to rounding): exactly 0 at F = I, so the tension-only
+      // E = I* − 1 with "1" taken as tr H (= 1 up to rounding): exactly 0 at F = I, so the tension-only
       // switch gives the same reference tangent whatever the rounding of the normalised a0.
-      const double E = Is - f.a0_sq;
+      const double E = Is - f.H_trace;
       if (p_.tension_only && !(E > 0.0)) continue;  // fibers carry no compression
       const double x = f.k2 * E * E;
       if (!(x <= kMaxExponent)) return MaterialStatus::not_finite;
@@ -144,11 +160,24 @@ class GentHGOLaw final : public ElasticLaw {
       const double psi1 = f.k1 * E * ex;
       const double psi2 = f.k1 * ex * (1.0 + 2.0 * x);
       check += psi2;  // |ψ'| ≤ ψ'' for k2 ≥ 0 up to the factor E: overflow shows here first
+      // The structure tensor enters only through (sX, cXX, cXC); aligned fibers take the cheaper
+      // a ⊗ a0 push-forward.
+      auto add = [&](double sX, double cXX, double cXC) {
+        if (f.kappa == 0.0) {
+          assembler.add_fiber(f.a0, a, f.M, sX, cXX, cXC);
+        } else {
+          const double w = 1.0 - 3.0 * f.kappa;
+          Mat3 H = w * f.M;
+          H.diagonal().array() += f.kappa;
+          const Mat3 FH = f.kappa * F + w * a * f.a0.transpose();
+          assembler.add_structure(H, FH, sX, cXX, cXC);
+        }
+      };
       if (p_.invariant == FiberInvariant::full) {
-        assembler.add_fiber(f.a0, a, f.M, 2.0 * psi1, 4.0 * psi2, 0.0);
+        add(2.0 * psi1, 4.0 * psi2, 0.0);
       } else {
         const IsochoricTerms t = isochoric_invariant_terms(psi1, psi2, j23, Is);
-        assembler.add_fiber(f.a0, a, f.M, t.sX, t.cXX, t.cXC);
+        add(t.sX, t.cXX, t.cXC);
         sC += t.sC;
         cCC += t.cCC;
         cS += t.cS;

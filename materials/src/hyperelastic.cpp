@@ -68,6 +68,22 @@ void InvariantAssembler::add_fiber(const Vec3& a0, const Vec3& a, const Mat3& M,
   z_ += cMC * m;
 }
 
+void InvariantAssembler::add_structure(const Mat3& H, const Mat3& FH, double sH, double cHH, double cHC) {
+  S_fibers_ += sH * H;
+  if (!T_) return;
+  Vec9 m;
+  if (form_ == Form::material) {
+    m = Eigen::Map<const Vec9>(H.data());  // symmetric
+  } else {
+    for (int i = 0; i < 3; ++i)
+      for (int J = 0; J < 3; ++J) m[voigt9(i, J)] = FH(i, J);
+  }
+  if (T_written_) T_->noalias() += (cHH * m) * m.transpose();
+  else T_->noalias() = (cHH * m) * m.transpose();
+  T_written_ = true;
+  z_ += cHC * m;
+}
+
 void InvariantAssembler::finish(double sI, double sC, double cII, double cIC, double cCC, double cS,
                                 Mat3& stress) {
   // Material stress in every form: the Piola tangent needs it for the geometric term δ_ik S_JL.

@@ -83,6 +83,8 @@ void validate(const MaterialSpec& s) {
         const std::string f = "fibers[" + std::to_string(i) + "]";
         require(p.fibers[i].k1 >= 0.0, pre, f + ".k1", p.fibers[i].k1, "must be >= 0");
         require(p.fibers[i].k2 >= 0.0, pre, f + ".k2", p.fibers[i].k2, "must be >= 0");
+        require(p.fibers[i].kappa >= 0.0 && p.fibers[i].kappa <= 1.0 / 3.0, pre, f + ".kappa", p.fibers[i].kappa,
+                "fiber dispersion must lie in [0, 1/3] (0: aligned, 1/3: isotropic)");
         const double norm = p.fibers[i].direction.norm();
         if (!(norm > 1e-12) || !std::isfinite(norm))
           throw InputError(pre + "." + f + ".direction", "[" + num(p.fibers[i].direction.x()) + ", " +

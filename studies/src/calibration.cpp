@@ -321,10 +321,11 @@ MaterialSpec CalibrationModel::spec(const std::vector<double>& v) const {
   s.gent.K = v[K];
   s.gent.invariant = invariant;
   s.gent.tension_only = tension_only;
+  const double dispersion = kappa >= 0 ? v[kappa] : 0.0;
   for (const CalFiber& f : fibers) {
     const double a = v[f.angle_parameter] * std::numbers::pi / 180.0;
-    s.gent.fibers.push_back({Vec3(std::sin(a), std::cos(a), 0.0), v[k1], v[k2]});
-    if (f.plus_minus) s.gent.fibers.push_back({Vec3(-std::sin(a), std::cos(a), 0.0), v[k1], v[k2]});
+    s.gent.fibers.push_back({Vec3(std::sin(a), std::cos(a), 0.0), v[k1], v[k2], dispersion});
+    if (f.plus_minus) s.gent.fibers.push_back({Vec3(-std::sin(a), std::cos(a), 0.0), v[k1], v[k2], dispersion});
   }
   if (viscoelastic) {
     PronySeries pr;
@@ -451,7 +452,7 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
   // [model]
   const auto* mt = root["model"].as_table();
   if (!mt) throw InputError("model", "", "missing [model] table");
-  io::check_keys(*mt, "model", {"law", "G", "Jm", "K", "k1", "k2", "fiber_invariant", "tension_only", "fibers", "viscoelastic"});
+  io::check_keys(*mt, "model", {"law", "G", "Jm", "K", "k1", "k2", "kappa", "fiber_invariant", "tension_only", "fibers", "viscoelastic"});
   const std::string law = io::get_string_or(*mt, "law", "model", "gent");
   if (law != "gent" && law != "gent-hgo")
     throw InputError("model.law", law, "calibration supports the Gent + HGO (+ QLV) model only: law = \"gent\"");
@@ -465,6 +466,8 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
     if (!arr || arr->empty()) throw InputError("model.fibers", show(*fibers), "must be a non-empty array of tables ([[model.fibers]])");
     m.k1 = add_parameter(m, *mt, "k1", "model", "k1", false, 0.0, inf);
     m.k2 = add_parameter(m, *mt, "k2", "model", "k2", false, 0.0, inf);
+    // Optional GOH fiber dispersion, shared by all families; absent = aligned fibers (κ = 0, no parameter).
+    if (mt->contains("kappa")) m.kappa = add_parameter(m, *mt, "kappa", "model", "kappa", false, 0.0, 1.0 / 3.0);
     for (std::size_t i = 0; i < arr->size(); ++i) {
       const std::string fp = "model.fibers[" + std::to_string(i) + "]";
       const auto* ft = arr->get(i)->as_table();
@@ -483,7 +486,7 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
     else throw InputError("model.fiber_invariant", inv, "must be \"full\" or \"isochoric\"");
     m.tension_only = get_bool_or(*mt, "tension_only", "model", true);
   } else {
-    for (const char* k : {"k1", "k2", "fiber_invariant", "tension_only"})
+    for (const char* k : {"k1", "k2", "kappa", "fiber_invariant", "tension_only"})
       if (mt->contains(k)) throw InputError(join("model", k), show(*mt->get(k)), "only meaningful with [[model.fibers]]");
   }
   if (const toml::node* ve = mt->get("viscoelastic")) {
@@ -969,6 +972,7 @@ std::string material_toml(const CalibrationModel& model, const std::vector<doubl
     s << "tension_only = " << (model.tension_only ? "true" : "false") << "\n";
     s << "k1 = " << num(v[model.k1]) << "\n";
     s << "k2 = " << num(v[model.k2]) << "\n";
+    if (model.kappa >= 0) s << "kappa = " << num(v[model.kappa]) << "\n";
     for (const CalFiber& f : model.fibers) {
       s << "\n[[material.fibers]]\nangle_deg = " << num(v[f.angle_parameter]) << "\n";
       if (f.plus_minus) s << "\n[[material.fibers]]\nangle_deg = " << num(-v[f.angle_parameter]) << "\n";
@@ -1054,7 +1058,6 @@ nlohmann::json result_json(const CalibrationInput& in, const CalibrationResult& 
   j["curve_evaluations"] = res.curve_evaluations;
   j["wall_time_s"] = res.wall_time_s;
   j["warnings"] = res.warnings;
-  j["not_implemented"] = {"fiber dispersion (needs a GOH kappa in materials/)"};
   return j;
 }
 

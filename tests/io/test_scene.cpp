@@ -73,6 +73,15 @@ TEST(Scene, ErrorsNameTheField) {
                        "direction = [0, 0, 0]\nk1 = 1\nk2 = 1\n")
                 .find("material.fibers[0].direction"),
             std::string::npos);
+  // Fiber dispersion κ outside [0, 1/3], given per family or as the material-wide default.
+  EXPECT_NE(load_error("[material]\nlaw = \"gent\"\nG = 0.1\nJm = 3\nK = 1\nfiber_invariant = \"full\"\n[[material.fibers]]\n"
+                       "angle_deg = 30\nk1 = 1\nk2 = 1\nkappa = 0.5\n")
+                .find("material.fibers[0].kappa = 0.5"),
+            std::string::npos);
+  EXPECT_NE(load_error("[material]\nlaw = \"gent\"\nG = 0.1\nJm = 3\nK = 1\nkappa = -0.1\nfiber_invariant = \"full\"\n"
+                       "[[material.fibers]]\nangle_deg = 30\nk1 = 1\nk2 = 1\n")
+                .find("material.fibers[0].kappa = -0.1"),
+            std::string::npos);
   EXPECT_NE(load_error("[load]\ntype = \"uniaxial\"\nstretch = [[0, 1], [0, 2]]\n").find("load.stretch[1][0]"),
             std::string::npos);
   EXPECT_NE(load_error("[load]\ntype = \"mixed\"\npath = [[0, 0], [1, 1]]\n"

@@ -57,7 +57,7 @@ std::string as_subtable(const std::string& load) { return "[curves.load]\n" + lo
 
 // The known anisotropic material: spec §2 Gent + one HGO family at 45° (full invariant).
 struct Truth {
-  double G = 0.02, Jm = 10.0, K = 2000.0, k1 = 0.05, k2 = 2.0, angle = 45.0;
+  double G = 0.02, Jm = 10.0, K = 2000.0, k1 = 0.05, k2 = 2.0, angle = 45.0, kappa = 0.0;
   MaterialPtr material() const {
     MaterialSpec s;
     s.law = LawKind::gent_hgo;
@@ -65,7 +65,7 @@ struct Truth {
     s.gent.Jm = Jm;
     s.gent.K = K;
     const double a = angle * std::numbers::pi / 180.0;
-    s.gent.fibers = {{Vec3(std::sin(a), std::cos(a), 0.0), k1, k2}};
+    s.gent.fibers = {{Vec3(std::sin(a), std::cos(a), 0.0), k1, k2, kappa}};
     s.gent.invariant = FiberInvariant::full;
     return build_material(s);
   }
@@ -86,11 +86,11 @@ angle_deg = {value = 40.0, min = 0.0, max = 90.0}
 // Curves for the anisotropic recovery: uniaxial tension at load directions −20°, 0°, +20° (fiber at
 // 65°, 45°, 25° in the load frame, spec §7) fitted in x = F11, equibiaxial fitted in x = t, and
 // uniaxial compression held out. Returns the calibration TOML.
-std::string make_aniso_case(const fs::path& dir, double holdout_scale = 1.0) {
-  const Truth truth;
+std::string make_aniso_case(const fs::path& dir, double holdout_scale = 1.0, const Truth& truth = {},
+                            const std::string& model = kAnisoModel) {
   const auto m = truth.material();
   std::ostringstream toml;
-  toml << kAnisoModel << "\n[solver]\nstarts = 1\n";
+  toml << model << "\n[solver]\nstarts = 1\n";
   const double betas[] = {-20.0, 0.0, 20.0};
   for (int k = 0; k < 3; ++k) {
     const std::string load = uniaxial_load(betas[k], 1.4, 16);
@@ -153,6 +153,32 @@ TEST(Calibration, RecoversGentHgoParametersFromDriverCurves) {
     }
   for (int k = 0; k < res.correlation.rows(); ++k) EXPECT_NEAR(res.correlation(k, k), 1.0, 1e-12);
   EXPECT_GT(res.model_evaluations, 0);
+  fs::remove_all(dir);
+}
+
+// Optional GOH fiber dispersion: the same recovery criterion with κ free (truth κ = 0.1, start 0.05).
+// Tension at three load angles and equibiaxial tension separate κ (it moves stiffness from the fiber
+// direction to all directions) from k1, so all six parameters come back to 1e-4.
+TEST(Calibration, RecoversFiberDispersionKappa) {
+  const fs::path dir = temp_dir("kappa");
+  Truth truth;
+  truth.kappa = 0.1;
+  // kappa must sit in [model], before [[model.fibers]]: insert it after the k2 line.
+  std::string text = kAnisoModel;
+  text.insert(text.find("fiber_invariant"), "kappa = {value = 0.05, min = 0.0, max = 0.3}\n");
+  const auto input = studies::parse_calibration(parse(make_aniso_case(dir, 1.0, truth, text)), dir);
+  ASSERT_EQ(input.model.free_indices().size(), 6u);
+  const auto res = studies::calibrate(input);
+  ASSERT_TRUE(res.success);
+  for (const auto& [name, value] : std::vector<std::pair<std::string, double>>{
+           {"G", truth.G}, {"Jm", truth.Jm}, {"k1", truth.k1}, {"k2", truth.k2}, {"kappa", truth.kappa},
+           {"fibers[0].angle_deg", truth.angle}})
+    EXPECT_NEAR(param(res, name), value, 1e-4 * std::abs(value)) << name;
+  // The written material carries κ to `softhom point` / `softhom macro`.
+  const toml::table written = io::parse_scene(studies::material_toml(input.model, res.values, ""), "<material>");
+  const MaterialSpec s = io::parse_material(*written["material"].as_table(), "material");
+  ASSERT_EQ(s.gent.fibers.size(), 1u);
+  EXPECT_NEAR(s.gent.fibers[0].kappa, truth.kappa, 1e-4 * truth.kappa);
   fs::remove_all(dir);
 }
 
@@ -360,6 +386,10 @@ TEST(Calibration, BadInputNamesTheField) {
   EXPECT_EQ(input_error_field("[model]\nG = {value = 0.02, mn = 0.0, max = 1.0}\nJm = 10\nK = 2000\n" + curve, dir), "model.G.mn");
   EXPECT_EQ(input_error_field(model + "k1 = 0.1\n" + curve, dir), "model.k1");
   EXPECT_EQ(input_error_field(model + "[[model.fibers]]\nangle_deg = 30\n" + curve, dir), "model.k1");
+  EXPECT_EQ(input_error_field(model + "kappa = 0.1\n" + curve, dir), "model.kappa");  // no fibers
+  EXPECT_EQ(input_error_field(model + "k1 = 0.1\nk2 = 1\nkappa = {value = 0.1, min = 0, max = 0.5}\nfiber_invariant = \"full\"\n"
+                              "[[model.fibers]]\nangle_deg = 30\n" + curve, dir),
+            "model.kappa.max");  // κ ≤ 1/3
   EXPECT_EQ(input_error_field(model + "[model.viscoelastic]\ng_inf = {value = 0.5, min = 0.1, max = 1.0}\ntau = 1\n" + curve, dir),
             "model.viscoelastic.g_inf.max");
   EXPECT_EQ(input_error_field(model, dir), "curves");

@@ -71,6 +71,10 @@ class InvariantAssembler {
   InvariantAssembler(Form form, const Mat3& F, const Mat3& C_inv, Mat9* T);
   /// One fiber family: `a0` reference direction, `a` = F a0, `M` = a0 ⊗ a0.
   void add_fiber(const Vec3& a0, const Vec3& a, const Mat3& M, double sM, double cMM, double cMC);
+  /// A general symmetric structure tensor H in place of M (e.g. the dispersed-fiber tensor
+  /// κ I + (1 − 3κ) M of Gasser–Ogden–Holzapfel): S += sH H, CC += cHH H⊗H + cHC (H⊗C⁻¹ + C⁻¹⊗H).
+  /// `FH` = F H (its Piola push-forward, used in Piola form only).
+  void add_structure(const Mat3& H, const Mat3& FH, double sH, double cHH, double cHC);
   /// Adds the isotropic terms and writes S (material form) or P (piola form) into `stress`.
   void finish(double sI, double sC, double cII, double cIC, double cCC, double cS, Mat3& stress);
 

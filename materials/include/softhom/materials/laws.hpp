@@ -17,6 +17,10 @@ struct FiberFamily {
   Vec3 direction{1.0, 0.0, 0.0};  ///< reference direction a0 (normalised on construction)
   double k1 = 0.0;                ///< stress-like [MPa]
   double k2 = 0.0;                ///< dimensionless
+  /// Fiber dispersion of Gasser, Ogden & Holzapfel (2006), 0 ≤ κ ≤ 1/3: the family's invariant is
+  /// κ I1 + (1 − 3κ) I4 (isochoric variant: of the isochoric invariants). 0 = perfectly aligned (HGO),
+  /// 1/3 = isotropic distribution.
+  double kappa = 0.0;
 };
 
 /// Compressible Gent matrix + any number of HGO fiber families (spec §2, dissertation eq. 2.4).

@@ -9,7 +9,8 @@
 //   [model]  law = "gent" (optional); G, Jm, K, k1, k2: a number (fixed) or {value, min, max} (free)
 //            or {value, fixed = true}; fiber_invariant, tension_only as in a scene's [material];
 //            [[model.fibers]] angle_deg = number | {value, min, max}, plus_minus = false (true: two
-//            families at +θ and −θ sharing one angle parameter); all families share k1, k2.
+//            families at +θ and −θ sharing one angle parameter); all families share k1, k2 and the
+//            optional fiber dispersion kappa (Gasser–Ogden–Holzapfel κ in [0, 1/3]; absent = 0).
 //            [model.viscoelastic] g_inf, tau (one term, g = 1 − g_inf)  or  terms = [{g, tau}, ...]
 //            (g_inf = 1 − Σ g derived).
 //   [[curves]] name, file = "data.csv" (relative to the calibration file) | run = "DIR" (a `softhom
@@ -28,8 +29,6 @@
 //
 // Residual of curve c at data row i: sqrt(w_c / N_c) (model(x_i) − y_i) / range(y_c), so that the cost
 // is ½ Σ_c w_c NRMSE_c²: curves of different magnitude and length weigh equally unless weighted.
-//
-// Not implemented: fiber dispersion (a Gasser–Ogden–Holzapfel κ needs a law change in materials/).
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -66,6 +65,7 @@ struct CalFiber {
 struct CalibrationModel {
   std::vector<CalParameter> parameters;
   int G = -1, Jm = -1, K = -1, k1 = -1, k2 = -1;  ///< indices into parameters (k1, k2: -1 without fibers)
+  int kappa = -1;  ///< GOH fiber dispersion shared by all families; -1: aligned fibers (κ = 0)
   std::vector<CalFiber> fibers;
   FiberInvariant invariant = FiberInvariant::full;
   bool tension_only = true;
