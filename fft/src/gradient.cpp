@@ -47,7 +47,11 @@ GradientOperator::GradientOperator(const Grid& grid, Discretization discretizati
     for (int k = 0; k < n; ++k) {
       const int f = grid.frequency(m, k);
       const double angle = kTwoPi * f / n;
-      const Complex e(std::cos(angle), std::sin(angle));
+      // e^{ikh}; exactly −1 on the Nyquist index (sin π ≠ 0 in floating point): the hourglass modes of the
+      // rotated scheme (v(½, π) = 0) then have D = 0 exactly, i.e. trace 0 and a zero Green operator, as
+      // in the real-space stencil (stencil.hpp). With sin π ≈ 1.2e-16 the Green operator there was ~1e32
+      // and amplified the round-off of any other evaluation of the same operator.
+      const Complex e = grid.is_nyquist(m, k) ? Complex(-1.0, 0.0) : Complex(std::cos(angle), std::sin(angle));
       if (disc_ == Discretization::spectral) {
         deriv_[m][k] = grid.is_nyquist(m, k) ? Complex(0.0) : Complex(0.0, kTwoPi * f / grid.size[m]);
         for (std::size_t p = 0; p < xi[m].size(); ++p) value_[m][p * n + k] = 1.0;
@@ -313,11 +317,12 @@ double ReferenceGreen::apply_dot(const Complex* r, Complex* out, double scale) c
 }
 
 double ReferenceGreen::cg_update(double alpha, const Complex* p, const Complex* Ap, Complex* x, Complex* r, Complex* z,
-                                 double scale) const {
+                                 double scale, double ap_scale) const {
   const Grid& g = op_.grid();
   const std::size_t nm = g.modes(), m1 = std::size_t(g.half_n1()), rows = nm / m1;
   const bool even1 = g.n[0] % 2 == 0;
   const double inv = 1.0 / scale;
+  const double alpha_ap = alpha * ap_scale;  // = alpha when ap_scale = 1 (bit-identical to the plain update)
   const double* T = table_.data();
   double s = 0.0;
 #pragma omp parallel for schedule(static) reduction(+ : s)
@@ -329,7 +334,7 @@ double ReferenceGreen::cg_update(double alpha, const Complex* p, const Complex* 
       for (int i = 0; i < 3; ++i) {
         const std::size_t a = std::size_t(i) * nm + k;
         x[a] += alpha * p[a];
-        r[a] -= alpha * Ap[a];
+        r[a] -= alpha_ap * Ap[a];
         rk[i] = r[a];
       }
       Complex zk[3];

@@ -20,6 +20,14 @@
 //
 // Field layouts: a "gradient set" is 9·nq spectra, field index 9 q + 3 i + j; a displacement is three
 // spectra (i = 0, 1, 2). Spectra are normalised Fourier coefficients (real field = Σ_k x̂_k e^{ik·x}).
+//
+// Rotated and hex are exactly local stencils on the nodal displacement (the shifts e^{ik_m h_m}); the
+// Newton–Krylov operator of the FFT solver applies them in real space (stencil.hpp, StencilGradient),
+// so per Krylov iteration only the 3 displacement fields go back and the 3 nodal forces forward; the
+// per-mode gradient()/divergence() below remain for the residual, the spectral scheme and as the
+// reference of the stencil form (tests/fft/test_stencil.cpp). On the Nyquist index e^{ikh} is taken as
+// exactly −1, so that the rotated scheme's hourglass modes have D = 0 exactly (kernel of the Green
+// operator) in both forms.
 #include <array>
 #include <string>
 #include <vector>
@@ -107,9 +115,10 @@ class ReferenceGreen {
   void apply(const Complex* r, Complex* out, double scale = 1.0) const;
   /// out = K0⁻¹ r / scale, returns Σ_k m_k Re(r̄_k · out_k). `r` and `out` must not alias.
   double apply_dot(const Complex* r, Complex* out, double scale = 1.0) const;
-  /// Fused CG update: x += α p, r −= α Ap, z = K0⁻¹ r / scale; returns Σ_k m_k Re(r̄_k · z_k).
+  /// Fused CG update: x += α p, r −= α ap_scale Ap, z = K0⁻¹ r / scale; returns Σ_k m_k Re(r̄_k · z_k).
+  /// (`ap_scale`: Ap may be handed over unnormalised, straight from an FFT buffer.)
   double cg_update(double alpha, const Complex* p, const Complex* Ap, Complex* x, Complex* r, Complex* z,
-                   double scale = 1.0) const;
+                   double scale = 1.0, double ap_scale = 1.0) const;
   std::size_t memory_bytes() const { return table_.size() * sizeof(double); }
 
  private:

@@ -12,6 +12,10 @@
 // The preconditioner is the exact inverse of the same system for a homogeneous reference medium C0
 // (the volume-averaged current tangent): block-diagonal, 3×3 per Fourier mode plus the macro block —
 // the FE-based reference preconditioner of Ladecký et al. 2023 when the discretization is "hex".
+// CG vectors live in Fourier space (the preconditioner is local there); for rotated/hex the operator
+// K p is applied with real-space stencils (KrylovOperator::stencil): p̂ → 3 fields back, ∇p, δP = A:(δF̄
+// + ∇p) and the nodal forces Bᵀ δP in real space (gather, no write races), 3 fields forward. Tangents
+// are then stored in blocks of 8 points (SIMD across points).
 // Prescribed load increments enter through the tangent predictor (first Newton iteration linearised
 // at the previous converged state), so steps are warm-started and the fibers are not loaded
 // homogeneously.
@@ -42,8 +46,15 @@ enum class FftScheme { newton_cg, moulinec_suquet };
 /// phase is stiffer in shear and the other in bulk (glass in ecoflex); isotropic = the fixed
 /// Moulinec–Suquet choice from the initial moduli.
 enum class ReferenceMedium { mean_tangent, isotropic, geometric };
+/// Form of the Krylov operator K p = Dᴴ A (δF̄ + D p) of the Newton–CG scheme (same values to round-off):
+/// stencil = the rotated/hex gradient and its adjoint as local stencils in real space, 3 displacement
+/// fields transformed back and 3 nodal-force fields forward per iteration (fft/stencil.hpp); fourier =
+/// gradient and divergence per Fourier mode, 9·nq stress/strain fields transformed (6·nq on sections).
+/// The spectral discretization has no local stencil and always takes the Fourier form.
+enum class KrylovOperator { stencil, fourier };
 const char* to_string(FftScheme s);
 const char* to_string(ReferenceMedium r);
+const char* to_string(KrylovOperator k);
 
 struct FftSolverOptions {
   fft::Discretization discretization = fft::Discretization::rotated;
@@ -74,6 +85,7 @@ struct FftSolverOptions {
   /// O(K θ²) volumetric error of finite rotations θ. Same converged solution as the plain iteration.
   bool mixed_pressure = true;
   double mixed_pressure_ratio = 100.0;
+  KrylovOperator krylov_operator = KrylovOperator::stencil;
   fft::PlanOptions plan;         ///< FFTW rigor, threads, wisdom cache
 };
 

@@ -1,0 +1,163 @@
+#pragma once
+// Real-space form of the finite-element gradients of gradient.hpp (rotated, hex) and of their adjoint.
+//
+// The rotated and hex symbols D_qj(k) = d_j(k_j) Π_{m≠j} v_m(ξ_qm, k_m) are products of one-step
+// shifts (e^{ik_m h_m} ↔ u(x + h_m e_m)), so the gradient at point q of the voxel with lower corner x is
+// an exactly local stencil on the nodal displacement (nodes = voxel corners = the real-field samples):
+//
+//   ∇u_q(x)_ij = Σ_c B_qcj u_i(x + c),   c ∈ {0,1}^d (the 2^d voxel corners),
+//   B_qcj = (c_j ? 1 : −1)/h_j · Π_{m≠j} (c_m ? ξ_qm : 1 − ξ_qm)
+//
+// (the trilinear shape-function derivatives at ξ_q), and its adjoint, the nodal force of a stress field,
+//
+//   f_i(y) = Σ_q w_q Σ_c Σ_j B_qcj S_qij(y − c)       (Fourier: Σ_q w_q Σ_j conj(D_qj) Ŝ_qij).
+//
+// With these the Krylov operator of the FFT solver transforms only the three displacement fields back
+// and the three nodal-force fields forward (6 field transforms instead of 12–18 for rotated or 48–144
+// for hex), and the per-mode gradient/divergence passes disappear (the structure of Ladecký et al. 2023).
+// Same values as the Fourier operators to round-off (tests/fft: StencilGradient.*). The spectral
+// discretization has no local stencil and keeps the Fourier path.
+//
+// Only grids with n1, n2 > 1 are handled (sections n3 = 1: d = 2, columns j < 2; else d = 3).
+#include <algorithm>
+#include <array>
+#include <cstddef>
+#include <stdexcept>
+
+#include "softhom/fft/gradient.hpp"
+
+namespace softhom::fft {
+
+class StencilGradient {
+ public:
+  /// True when `op` has a local stencil handled here (rotated/hex, n1 > 1 and n2 > 1).
+  static bool supported(const GradientOperator& op);
+  /// Throws std::invalid_argument when !supported(op).
+  explicit StencilGradient(const GradientOperator& op);
+
+  const Grid& grid() const { return grid_; }
+  int dims() const { return dims_; }
+  int points() const { return nq_; }
+  /// Values per voxel that gradient_pass() writes to `store` and divergence_pass() reads: one point
+  /// (rotated): its stress columns j < dims (3·dims); several points (hex): the nodal forces of the
+  /// voxel's 2^d corners (3·2^d), i.e. the quadrature sum done once per voxel instead of once per node.
+  int stored_values() const { return nq_ == 1 ? 3 * dims_ : 3 << dims_; }
+  /// B_qcj (0 for j ≥ dims).
+  double coefficient(int q, int c, int j) const { return B_[(q * 8 + c) * 3 + j]; }
+
+  /// Material points per batch of gradient_pass() (8: one 512-bit register of doubles per component).
+  static constexpr int kBatch = 8;
+
+  /// Pass 1, to be called inside a parallel region (orphaned `omp for`, static schedule over batches of
+  /// kBatch consecutive material points p = v·nq + q, i.e. kBatch/nq voxels: the same voxel partition as
+  /// a static loop over voxels up to one batch). `u`: three real displacement fields (component i at
+  /// u + i·voxels()). For each batch: body(p0, count, grad, stress) with p0 a multiple of kBatch, count ≤
+  /// kBatch points, grad[(3i + j)·kBatch + l] = ∇u_q(v)_ij of point p0 + l (structure of arrays, columns
+  /// j ≥ dims are 0, lanes l ≥ count are 0); body must write stress in the same layout (columns j ≥ dims
+  /// are not read). The pass then writes stored_values() per voxel (voxel-major: store[v·stored_values()
+  /// + …]) for divergence_pass().
+  template <class Body>
+  void gradient_pass(const double* u, double* store, Body&& body) const;
+
+  /// Pass 2 (own parallel region): f_i(y) = Σ_q w_q Σ_c Σ_j B_qcj S_qij(y − c) from `store`; returns
+  /// Σ_y Σ_i dot_with_i(y) f_i(y) (0 when dot_with is null). `f` (3 fields) may alias `dot_with`.
+  double divergence_pass(const double* store, double* f, const double* dot_with) const;
+
+ private:
+  template <int D, int NQ, class Body>
+  void gradient_pass_impl(const double* u, double* store, Body& body) const;
+  template <int D, int NQ>
+  double divergence_pass_impl(const double* store, double* f, const double* dot_with) const;
+
+  Grid grid_;
+  int dims_ = 2;
+  int nq_ = 1;
+  std::array<double, 8> weight_{};
+  std::array<double, 8 * 8 * 3> B_{};  ///< B_qcj at (q·8 + c)·3 + j
+};
+
+// ---------------------------------------------------------------------------------------------------
+
+template <class Body>
+void StencilGradient::gradient_pass(const double* u, double* store, Body&& body) const {
+  if (dims_ == 2) {
+    if (nq_ == 1) return gradient_pass_impl<2, 1>(u, store, body);
+    return gradient_pass_impl<2, 4>(u, store, body);
+  }
+  if (nq_ == 1) return gradient_pass_impl<3, 1>(u, store, body);
+  return gradient_pass_impl<3, 8>(u, store, body);
+}
+
+template <int D, int NQ, class Body>
+void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& body) const {
+  constexpr int NCOR = 1 << D;         // voxel corners
+  constexpr int NROW = NCOR / 2;       // corner rows (c2, c3)
+  constexpr bool kNodal = NQ > 1;      // store nodal forces (hex) or the stress columns (rotated)
+  constexpr int L = kNodal ? 3 * NCOR : 3 * D;
+  constexpr int VB = kBatch / NQ;      // voxels per batch
+  const int n1 = grid_.n[0], n2 = grid_.n[1], n3 = grid_.n[2];
+  const std::size_t N = grid_.voxels();
+  double B[NQ][NCOR][D];
+  for (int q = 0; q < NQ; ++q)
+    for (int c = 0; c < NCOR; ++c)
+      for (int j = 0; j < D; ++j) B[q][c][j] = coefficient(q, c, j);
+  double w[NQ];
+  for (int q = 0; q < NQ; ++q) w[q] = weight_[q];
+  const long batches = long((N + VB - 1) / VB);
+#pragma omp for schedule(static)
+  for (long b = 0; b < batches; ++b) {
+    const std::size_t v0 = std::size_t(b) * VB;
+    const int nv = int(std::min<std::size_t>(VB, N - v0));
+    int i1 = int(v0 % n1), i2 = int((v0 / n1) % n2), i3 = int(v0 / (std::size_t(n1) * n2));
+    alignas(64) double g[9][kBatch] = {}, s[9][kBatch];
+    for (int a = 0; a < nv; ++a) {
+      // Nodes of the voxel's corners: rows (i2 + c2, i3 + c3), columns i1 and i1 + 1 (periodic).
+      const int i1p = i1 + 1 == n1 ? 0 : i1 + 1;
+      double uc[3][NCOR];
+      for (int r = 0; r < NROW; ++r) {
+        const int j2 = i2 + (r & 1) == n2 ? 0 : i2 + (r & 1);
+        const int j3 = D == 3 ? (i3 + (r >> 1) == n3 ? 0 : i3 + (r >> 1)) : i3;
+        const std::size_t base = std::size_t(n1) * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
+        for (int i = 0; i < 3; ++i) {
+          uc[i][2 * r] = u[i * N + base + i1];
+          uc[i][2 * r + 1] = u[i * N + base + i1p];
+        }
+      }
+      for (int q = 0; q < NQ; ++q)
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < D; ++j) {
+            double acc = 0.0;
+            for (int c = 0; c < NCOR; ++c) acc += B[q][c][j] * uc[i][c];
+            g[3 * i + j][a * NQ + q] = acc;
+          }
+      if (++i1 == n1) {
+        i1 = 0;
+        if (++i2 == n2) {
+          i2 = 0;
+          ++i3;
+        }
+      }
+    }
+    body(v0 * NQ, nv * NQ, &g[0][0], &s[0][0]);
+    for (int a = 0; a < nv; ++a) {
+      double* o = store + L * (v0 + a);
+      if constexpr (kNodal) {
+        double out[L];
+        for (int k = 0; k < L; ++k) out[k] = 0.0;
+        for (int q = 0; q < NQ; ++q)
+          for (int c = 0; c < NCOR; ++c)
+            for (int i = 0; i < 3; ++i) {
+              double acc = 0.0;
+              for (int j = 0; j < D; ++j) acc += B[q][c][j] * s[3 * i + j][a * NQ + q];
+              out[3 * c + i] += w[q] * acc;
+            }
+        for (int k = 0; k < L; ++k) o[k] = out[k];
+      } else {
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < D; ++j) o[D * i + j] = s[3 * i + j][a];
+      }
+    }
+  }
+}
+
+}  // namespace softhom::fft

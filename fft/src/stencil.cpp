@@ -1,0 +1,87 @@
+// Real-space stencils of the rotated and hex gradients and their adjoint (see stencil.hpp).
+#include "softhom/fft/stencil.hpp"
+
+namespace softhom::fft {
+
+bool StencilGradient::supported(const GradientOperator& op) {
+  const Grid& g = op.grid();
+  return op.discretization() != Discretization::spectral && g.n[0] > 1 && g.n[1] > 1;
+}
+
+StencilGradient::StencilGradient(const GradientOperator& op) : grid_(op.grid()), nq_(op.points()) {
+  if (!supported(op))
+    throw std::invalid_argument(std::string("StencilGradient: no local stencil for the ") +
+                                to_string(op.discretization()) + " discretization on this grid");
+  dims_ = grid_.is_section() ? 2 : 3;
+  // Quadrature points of gradient.hpp: 1 (rotated) or 2 per active dimension (hex), so 1, 4 or 8.
+  if (!(nq_ == 1 || nq_ == (1 << dims_)))
+    throw std::invalid_argument("StencilGradient: unexpected number of quadrature points");
+  for (int q = 0; q < nq_; ++q) {
+    const QuadraturePoint& qp = op.quadrature()[q];
+    weight_[q] = qp.weight;
+    for (int c = 0; c < (1 << dims_); ++c)
+      for (int j = 0; j < dims_; ++j) {
+        double b = 1.0;
+        for (int m = 0; m < dims_; ++m) {
+          const bool upper = (c >> m) & 1;
+          if (m == j)
+            b *= (upper ? 1.0 : -1.0) / grid_.spacing(m);
+          else
+            b *= upper ? qp.xi[m] : 1.0 - qp.xi[m];
+        }
+        B_[(q * 8 + c) * 3 + j] = b;
+      }
+  }
+}
+
+double StencilGradient::divergence_pass(const double* store, double* f, const double* dot_with) const {
+  if (dims_ == 2) return nq_ == 1 ? divergence_pass_impl<2, 1>(store, f, dot_with) : divergence_pass_impl<2, 4>(store, f, dot_with);
+  return nq_ == 1 ? divergence_pass_impl<3, 1>(store, f, dot_with) : divergence_pass_impl<3, 8>(store, f, dot_with);
+}
+
+template <int D, int NQ>
+double StencilGradient::divergence_pass_impl(const double* store, double* f, const double* dot_with) const {
+  constexpr int NCOR = 1 << D, NROW = NCOR / 2;
+  constexpr bool kNodal = NQ > 1;
+  constexpr int L = kNodal ? 3 * NCOR : 3 * D;
+  const int n1 = grid_.n[0], n2 = grid_.n[1], n3 = grid_.n[2];
+  const std::size_t N = grid_.voxels();
+  double B[NCOR][D];  // one point (rotated): its weight is 1
+  for (int c = 0; c < NCOR; ++c)
+    for (int j = 0; j < D; ++j) B[c][j] = weight_[0] * coefficient(0, c, j);
+  const long rows = long(n2) * n3;
+  double dot = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : dot)
+  for (long row = 0; row < rows; ++row) {
+    const int i2 = int(row % n2), i3 = int(row / n2);
+    const double* vrow[NROW];  // voxel row (i2 − c2, i3 − c3) of the corner rows
+    for (int r = 0; r < NROW; ++r) {
+      const int j2 = (i2 - (r & 1) + n2) % n2, j3 = D == 3 ? (i3 - (r >> 1) + n3) % n3 : i3;
+      vrow[r] = store + std::size_t(L) * std::size_t(n1) * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
+    }
+    double local = 0.0;
+    for (int i1 = 0; i1 < n1; ++i1) {
+      const int i1m = i1 == 0 ? n1 - 1 : i1 - 1;
+      double acc[3] = {0.0, 0.0, 0.0};
+      for (int r = 0; r < NROW; ++r)
+        for (int c1 = 0; c1 < 2; ++c1) {
+          const int c = 2 * r + c1;
+          const double* o = vrow[r] + std::size_t(L) * std::size_t(c1 ? i1m : i1);
+          if constexpr (kNodal) {
+            for (int i = 0; i < 3; ++i) acc[i] += o[3 * c + i];
+          } else {
+            for (int i = 0; i < 3; ++i)
+              for (int j = 0; j < D; ++j) acc[i] += B[c][j] * o[D * i + j];
+          }
+        }
+      const std::size_t y = std::size_t(row) * n1 + i1;
+      if (dot_with)
+        for (int i = 0; i < 3; ++i) local += dot_with[i * N + y] * acc[i];
+      for (int i = 0; i < 3; ++i) f[i * N + y] = acc[i];
+    }
+    dot += local;
+  }
+  return dot;
+}
+
+}  // namespace softhom::fft

@@ -1,0 +1,148 @@
+// Real-space stencil operator (stencil.hpp) against the Fourier operators it replaces in the Krylov loop.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "softhom/fft/gradient.hpp"
+#include "softhom/fft/plan.hpp"
+#include "softhom/fft/stencil.hpp"
+
+using namespace softhom::fft;
+
+namespace {
+
+// Symmetric 9×9 "tangent" per point, packed as the solver does (upper triangle, row by row).
+void sym_product(const double* S, const double* x, double* y) {
+  for (int a = 0; a < 9; ++a) y[a] = 0.0;
+  int idx = 0;
+  for (int a = 0; a < 9; ++a) {
+    y[a] += S[idx++] * x[a];
+    for (int b = a + 1; b < 9; ++b, ++idx) {
+      y[a] += S[idx] * x[b];
+      y[b] += S[idx] * x[a];
+    }
+  }
+}
+
+double max_abs(const std::vector<Complex>& x) {
+  double m = 0.0;
+  for (const auto& c : x) m = std::max(m, std::abs(c));
+  return m;
+}
+
+}  // namespace
+
+// K x = Dᴴ A (F̄ + D x) through the Fourier path (gradient per mode, 9·nq-field FFTs, divergence per
+// mode) and through the stencil path (3 fields back, gradient/tangent/nodal forces in real space, 3
+// fields forward) on a random real displacement and random tangents: equal to round-off, and so are
+// the ⟨x, Kx⟩ products (Parseval on the real fields) and the gradients themselves. Even grids exercise
+// the Nyquist modes, odd ones the plain half spectrum; sections and 3D; rotated and hex.
+TEST(StencilGradient, KrylovOperatorEqualsFourierOperator) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> U(-1, 1);
+  for (const Grid& g : {Grid{{8, 6, 1}, {1.0, 0.8, 0.1}}, Grid{{7, 5, 1}, {1.3, 1.0, 0.2}},
+                        Grid{{6, 4, 5}, {1.0, 1.0, 1.2}}, Grid{{5, 6, 3}, {0.7, 1.0, 0.9}}})
+    for (Discretization d : {Discretization::rotated, Discretization::hex}) {
+      const std::string label = std::string(to_string(d)) + " " + std::to_string(g.n[0]) + "x" +
+                                std::to_string(g.n[1]) + "x" + std::to_string(g.n[2]);
+      GradientOperator op(g, d);
+      ASSERT_TRUE(StencilGradient::supported(op));
+      StencilGradient st(op);
+      const int nq = op.points(), nc = op.columns();
+      const std::size_t N = g.voxels(), nm = g.modes(), NP = N * nq;
+      std::vector<double> T(45 * NP);
+      for (auto& t : T) t = U(rng);
+      double dFbar[9];
+      for (double& x : dFbar) x = U(rng);
+
+      // Random real displacement → normalised half spectrum (Hermitian-consistent, as the CG vectors).
+      BatchedFFT f3(g, 3, {PlanRigor::estimate, 1, {}});
+      for (std::size_t i = 0; i < 3 * N; ++i) f3.real(0)[i] = U(rng);
+      f3.forward();
+      std::vector<Complex> uh(f3.spectrum(0), f3.spectrum(0) + 3 * nm);
+      for (auto& c : uh) c /= double(N);
+
+      // Fourier path (the solver's apply()).
+      BatchedFFT fs(g, 9 * nq, {PlanRigor::estimate, 1, {}}, nc);
+      op.gradient(uh.data(), fs.spectrum(0), false);
+      fs.backward();
+      std::vector<double> grad_fourier(9 * NP, 0.0);
+      for (std::size_t v = 0; v < N; ++v)
+        for (int q = 0; q < nq; ++q) {
+          double dF[9], dP[9];
+          for (int c = 0; c < 9; ++c) {
+            const double gc = c % 3 < nc ? fs.real(9 * q + c)[v] : 0.0;
+            grad_fourier[9 * (v * nq + q) + c] = gc;
+            dF[c] = dFbar[c] + gc;
+          }
+          sym_product(&T[45 * (v * nq + q)], dF, dP);
+          for (int c = 0; c < 9; ++c)
+            if (c % 3 < nc) fs.real(9 * q + c)[v] = dP[c];
+        }
+      fs.forward();
+      std::vector<Complex> Ku_fourier(3 * nm);
+      const double dot_fourier = op.divergence_dot(fs.spectrum(0), Ku_fourier.data(), 1.0 / double(N), uh.data());
+
+      // Stencil path.
+      std::copy(uh.begin(), uh.end(), f3.spectrum(0));
+      f3.backward();  // the real nodal displacement
+      std::vector<double> store(std::size_t(st.stored_values()) * N), grad_stencil(9 * NP, 0.0);
+#pragma omp parallel
+      st.gradient_pass(f3.real(0), store.data(), [&](std::size_t p0, int count, const double* grad, double* stress) {
+        constexpr int B = StencilGradient::kBatch;
+        EXPECT_EQ(p0 % B, 0u);
+        for (int l = 0; l < count; ++l) {
+          double dF[9], dP[9];
+          for (int c = 0; c < 9; ++c) {
+            grad_stencil[9 * (p0 + l) + c] = grad[c * B + l];
+            dF[c] = dFbar[c] + grad[c * B + l];
+          }
+          sym_product(&T[45 * (p0 + l)], dF, dP);
+          for (int c = 0; c < 9; ++c) stress[c * B + l] = dP[c];
+        }
+      });
+      const double dot_stencil = st.divergence_pass(store.data(), f3.real(0), f3.real(0)) / double(N);
+      f3.forward();
+      std::vector<Complex> Ku_stencil(f3.spectrum(0), f3.spectrum(0) + 3 * nm);
+      for (auto& c : Ku_stencil) c /= double(N);
+
+      // Round-off: both are O(10²) flops per output on O(1) data, plus the FFTs (ε log N).
+      double grad_scale = 0.0, grad_diff = 0.0;
+      for (std::size_t i = 0; i < grad_fourier.size(); ++i) {
+        grad_scale = std::max(grad_scale, std::abs(grad_fourier[i]));
+        grad_diff = std::max(grad_diff, std::abs(grad_fourier[i] - grad_stencil[i]));
+      }
+      EXPECT_GT(grad_scale, 0.1) << label;
+      EXPECT_LE(grad_diff, 1e-12 * grad_scale) << label;
+      double diff = 0.0;
+      for (std::size_t i = 0; i < Ku_fourier.size(); ++i) diff = std::max(diff, std::abs(Ku_fourier[i] - Ku_stencil[i]));
+      const double scale = max_abs(Ku_fourier);
+      EXPECT_GT(scale, 0.1) << label;
+      EXPECT_LE(diff, 1e-12 * scale) << label;
+      EXPECT_NEAR(dot_stencil, dot_fourier, 1e-12 * std::abs(dot_fourier)) << label;
+    }
+}
+
+// The stencil coefficients are the trilinear shape-function derivatives: they sum to zero over the
+// corners (rigid translations have no gradient) and reproduce a linear field's gradient exactly.
+TEST(StencilGradient, ReproducesLinearFieldsAndRejectsSpectral) {
+  const Grid g{{4, 6, 5}, {2.0, 3.0, 1.0}};
+  for (Discretization d : {Discretization::rotated, Discretization::hex}) {
+    GradientOperator op(g, d);
+    StencilGradient st(op);
+    for (int q = 0; q < st.points(); ++q)
+      for (int j = 0; j < 3; ++j) {
+        double sum = 0.0, lin[3] = {0.0, 0.0, 0.0};
+        for (int c = 0; c < 8; ++c) {
+          sum += st.coefficient(q, c, j);
+          for (int m = 0; m < 3; ++m) lin[m] += st.coefficient(q, c, j) * ((c >> m) & 1) * g.spacing(m);
+        }
+        EXPECT_NEAR(sum, 0.0, 1e-12);
+        for (int m = 0; m < 3; ++m) EXPECT_NEAR(lin[m], m == j ? 1.0 : 0.0, 1e-12);
+      }
+  }
+  EXPECT_FALSE(StencilGradient::supported(GradientOperator(g, Discretization::spectral)));
+  EXPECT_THROW(StencilGradient(GradientOperator(g, Discretization::spectral)), std::invalid_argument);
+}
