@@ -52,6 +52,8 @@ PiecewiseLinear parse_path(const toml::table& t, const std::string& path) {
 int get_int(const toml::table& t, const char* key, const std::string& path, int fallback) {
   const double v = io::get_number_or(t, key, path, fallback);
   if (v != std::floor(v) || v < 1) throw InputError(path + "." + key, std::to_string(v), "must be a positive integer");
+  // int(v) of a larger value is undefined (it produced negative cell counts and a failed allocation).
+  if (v > 1e7) throw InputError(path + "." + key, std::to_string(v), "too large (at most 1e7)");
   return int(v);
 }
 
@@ -175,7 +177,10 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
     if (!cells || cells->size() != 3) throw InputError("geometry.cells", "", "need [nx, ny, nz]");
     for (int d = 0; d < 3; ++d) {
       s.plate.size[d] = (*size)[d].value<double>().value_or(-1.0);
-      s.plate.cells[d] = int((*cells)[d].value<double>().value_or(0.0));
+      const double c = (*cells)[d].value<double>().value_or(0.0);
+      if (!(c >= 1.0 && c <= 1e7 && c == std::floor(c)))
+        throw InputError("geometry.cells", std::to_string(c), "cell counts must be integers in [1, 1e7]");
+      s.plate.cells[d] = int(c);
     }
   } else if (type == "gmsh") {
     parse_imported(scene, *g, scene_file, s);

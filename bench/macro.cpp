@@ -7,10 +7,14 @@
 //     --threads LIST   comma-separated OpenMP thread counts to run each size with (default 2)
 //     --solver S       auto | cholmod | umfpack (default auto: the symmetric-preconditioned path)
 //     --pressure P     final pressure [MPa] (default 0.01, the ecoflex scenes)
+//     --only K         run only the first K of the load steps (cost of one step at sizes where the
+//                      whole ramp takes too long)
 //   bench_macro --orderings DOFS...    CHOLMOD symbolic analysis only (no factorization): fill nnz(L),
 //                                      flops per factorization and analysis time for AMD, METIS and
 //                                      NESDIS on the tube's stiffness pattern (what the direct solver
 //                                      would cost at 1e6 DOFs without running it)
+//   bench_macro --factor DOFS...      CHOLMOD numeric factorization + one solve (METIS) of an SPD matrix with
+//                                      the tube's pattern for several supernode amalgamation settings
 //   bench_macro --kernel [N]           micro benchmark of the hex8 kernel: µs per element evaluation
 //                                      (residual + F-bar/three-field tangent) and per material call, on a
 //                                      distorted, loaded element of the helix material, N repetitions
@@ -179,6 +183,76 @@ void ordering_benchmark(double target) {
   }
 }
 
+/// Numeric CHOLMOD factorizations (METIS ordering) of an SPD matrix with the tube's free-dof pattern
+/// (diagonally dominant values: supernodal LLᵀ does no pivoting, so its cost depends on the pattern
+/// only), for several supernode amalgamation settings (nrelax, zrelax): achieved GFlop/s vs fill.
+void factor_benchmark(double target) {
+  const Structure s = build_structure(helix_spec(target, 0.01));
+  const fe::Mesh& mesh = s.model.mesh;
+  std::vector<char> constrained(mesh.num_dofs(), 0);
+  for (const auto& g : s.model.dirichlet)
+    for (int d : g.dofs) constrained[d] = 1;
+  const fe::DofMap dofs = fe::DofMap::from_constrained(mesh.num_dofs(), constrained);
+  const fe::CscMatrix K = fe::build_pattern(mesh, dofs);
+  std::vector<int> colptr(K.n + 1, 0), rows;
+  std::vector<double> vals;
+  for (int c = 0; c < K.n; ++c) {
+    for (int k = K.colptr[c]; k < K.colptr[c + 1]; ++k)
+      if (K.rowind[k] <= c) {
+        rows.push_back(K.rowind[k]);
+        vals.push_back(K.rowind[k] == c ? double(K.colptr[c + 1] - K.colptr[c]) + 1.0 : -1.0);
+      }
+    colptr[c + 1] = int(rows.size());
+  }
+  struct Relax {
+    std::size_t n[3];
+    double z[3];
+  };
+  const Relax settings[] = {{{4, 16, 48}, {0.8, 0.1, 0.05}},  // CHOLMOD's defaults
+                            {{8, 32, 96}, {0.8, 0.2, 0.1}},
+                            {{16, 64, 192}, {0.9, 0.3, 0.15}},
+                            {{32, 128, 384}, {0.9, 0.4, 0.2}}};
+  for (const Relax& r : settings) {
+    cholmod_common cm;
+    cholmod_start(&cm);
+    cm.supernodal = CHOLMOD_SUPERNODAL;
+    cm.nmethods = 1;
+    cm.method[0].ordering = CHOLMOD_METIS;
+    cm.postorder = 1;
+    for (int k = 0; k < 3; ++k) {
+      cm.nrelax[k] = r.n[k];
+      cm.zrelax[k] = r.z[k];
+    }
+    cholmod_sparse* A = cholmod_allocate_sparse(K.n, K.n, rows.size(), 1, 1, 1, CHOLMOD_REAL, &cm);
+    std::copy(colptr.begin(), colptr.end(), static_cast<int*>(A->p));
+    std::copy(rows.begin(), rows.end(), static_cast<int*>(A->i));
+    std::copy(vals.begin(), vals.end(), static_cast<double*>(A->x));
+    cholmod_factor* L = cholmod_analyze(A, &cm);
+    double best = 1e300, solve = 1e300;
+    for (int rep = 0; rep < 2; ++rep) {
+      const auto t0 = std::chrono::steady_clock::now();
+      cholmod_factorize(A, L, &cm);
+      best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    }
+    cholmod_dense* B = cholmod_ones(K.n, 1, CHOLMOD_REAL, &cm);
+    for (int rep = 0; rep < 3; ++rep) {
+      const auto t0 = std::chrono::steady_clock::now();
+      cholmod_dense* X = cholmod_solve(CHOLMOD_A, L, B, &cm);
+      solve = std::min(solve, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      cholmod_free_dense(&X, &cm);
+    }
+    std::printf("  %8d nrelax %3zu %3zu %3zu zrelax %.2f %.2f %.2f | nnz(L) %7.2f M  %8.2f GFlop  factorize %6.2f s  %6.2f GFlop/s"
+                "  solve %6.3f s  status %d\n",
+                K.n, r.n[0], r.n[1], r.n[2], r.z[0], r.z[1], r.z[2], cm.lnz / 1e6, cm.fl / 1e9, best, cm.fl / best / 1e9, solve,
+                cm.status);
+    std::fflush(stdout);
+    cholmod_free_dense(&B, &cm);
+    cholmod_free_factor(&L, &cm);
+    cholmod_free_sparse(&A, &cm);
+    cholmod_finish(&cm);
+  }
+}
+
 std::vector<std::string> split(const std::string& s) {
   std::vector<std::string> out;
   std::stringstream in(s);
@@ -190,7 +264,7 @@ std::vector<std::string> split(const std::string& s) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int steps = 20;
+  int steps = 20, only = 0;
   double pressure = 0.01;
   std::vector<int> threads{2};
   fe::SolverKind solver = fe::SolverKind::automatic;
@@ -202,8 +276,14 @@ int main(int argc, char** argv) {
       for (int k = i + 1; k < argc; ++k) ordering_benchmark(std::atof(argv[k]));
       return 0;
     }
+    if (a == "--factor") {
+      std::printf("# CHOLMOD numeric factorization (METIS) of the helix tube pattern, %d threads\n", omp_get_max_threads());
+      for (int k = i + 1; k < argc; ++k) factor_benchmark(std::atof(argv[k]));
+      return 0;
+    }
     if (a == "--kernel") return kernel_benchmark(i + 1 < argc ? std::atoi(argv[i + 1]) : 20000);
     if (a == "--steps" && i + 1 < argc) steps = std::atoi(argv[++i]);
+    else if (a == "--only" && i + 1 < argc) only = std::atoi(argv[++i]);
     else if (a == "--pressure" && i + 1 < argc) pressure = std::atof(argv[++i]);
     else if (a == "--threads" && i + 1 < argc) {
       threads.clear();
@@ -218,9 +298,9 @@ int main(int argc, char** argv) {
   if (sizes.empty()) sizes = {1e4, 3e4, 1e5};
   std::printf("# helix tube +/-45 deg, ecoflex-anisotropic, p = %g MPa in %d load steps, solver %s\n", pressure, steps,
               fe::to_string(solver));
-  std::printf("# %8s %7s %3s %5s %5s %4s | %8s %8s %8s %8s %8s | %7s %9s %7s %8s %s\n", "dofs", "elems", "thr", "steps",
-              "newton", "cut", "wall_s", "assem_s", "analys_s", "factor_s", "solve_s", "nnzL/M", "GFlop/fac", "GFlop/s",
-              "peak_MiB", "result");
+  std::printf("# %8s %7s %3s %5s %5s %4s | %8s %8s %8s %8s %8s %8s | %4s %6s %6s | %7s %9s %7s %8s %s\n", "dofs", "elems",
+              "thr", "steps", "newton", "cut", "wall_s", "assem_s", "analys_s", "factor_s", "solve_s", "krylov_s", "nfac",
+              "solves", "gmres", "nnzL/M", "GFlop/fac", "GFlop/s", "peak_MiB", "result");
   for (double target : sizes)
     for (int nt : threads) {
       omp_set_num_threads(nt);
@@ -232,9 +312,10 @@ int main(int argc, char** argv) {
       fe::Simulation sim(s.model, o);
       std::string result = "ok";
       try {
-        for (int k = 1; k <= steps; ++k) sim.advance_to(180.0 * k / steps);
+        for (int k = 1; k <= (only > 0 ? std::min(only, steps) : steps); ++k) sim.advance_to(180.0 * k / steps);
         const auto v = probe_values(s, sim);  // time, pressure, volume, inner_radius, stretch, axial, twist
         std::ostringstream r;
+        r.precision(9);
         r << "ok axial_stretch " << v[5] << " stretch " << v[4];
         result = r.str();
       } catch (const std::exception& e) {
@@ -243,9 +324,10 @@ int main(int argc, char** argv) {
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const fe::RunStats st = sim.stats();
       const double fac = st.linear.factorizations ? st.linear.flops / st.linear.factorizations : 0.0;
-      std::printf("  %8d %7d %3d %5d %5d %4d | %8.2f %8.2f %8.2f %8.2f %8.2f | %7.2f %9.3f %7.2f %8.0f %s\n",
+      std::printf("  %8d %7d %3d %5d %5d %4d | %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f | %4d %6d %6d | %7.2f %9.3f %7.2f %8.0f %s\n",
                   sim.num_free_dofs(), s.model.mesh.num_elements(), nt, st.steps, st.newton_iterations, st.cutbacks, wall,
-                  st.assembly_time, st.linear.analysis, st.linear.factorization, st.linear.solve, st.linear.factor_nnz / 1e6,
+                  st.assembly_time, st.linear.analysis, st.linear.factorization, st.linear.solve, st.krylov_time,
+                  st.linear.factorizations, st.linear.solves, st.krylov_iterations, st.linear.factor_nnz / 1e6,
                   fac / 1e9, st.linear.factorization > 0 ? st.linear.flops / st.linear.factorization / 1e9 : 0.0,
                   double(io::peak_memory_bytes()) / (1 << 20), result.c_str());
       std::fflush(stdout);

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -63,6 +65,29 @@ class Tokens {
       fail(s, std::string("expected a finite number (") + what + ")");
     return v;
   }
+  /// Binary sections (file-type 1): the data starts right after the line break that ends the header line.
+  void begin_binary() {
+    if (pos_ < text_.size() && text_[pos_] == '\r') ++pos_;
+    if (pos_ >= text_.size() || text_[pos_] != '\n') fail("", "expected a line break before binary data");
+    ++pos_;
+    ++line_;
+  }
+  /// Next sizeof(T) bytes as a T, byte-swapped when the file's endianness differs from ours.
+  template <class T>
+  T raw(const char* what) {
+    if (text_.size() - pos_ < sizeof(T)) fail("", std::string("unexpected end of binary data (") + what + ")");
+    unsigned char b[sizeof(T)];
+    std::memcpy(b, text_.data() + pos_, sizeof(T));
+    if (swap_bytes) std::reverse(b, b + sizeof(T));
+    T v;
+    std::memcpy(&v, b, sizeof(T));
+    pos_ += sizeof(T);
+    return v;
+  }
+  /// Bytes left (a bound for counts read from the file, so that a corrupt count fails cleanly instead
+  /// of allocating).
+  std::size_t remaining() const { return text_.size() - pos_; }
+  bool swap_bytes = false;
   void expect(std::string_view word) {
     const std::string_view t = next();
     if (t != word) fail(std::string(t), "expected " + std::string(word));
@@ -171,6 +196,32 @@ Mesh parse_gmsh(std::istream& in, const std::string& source) {
   std::unordered_map<long, int> node_index;
   std::vector<VolumeElement> volumes;
   std::vector<SurfaceElement> surfaces;
+  // Binary files (MSH 4.1 file-type 1): the same fields as the ASCII ones, as int (tags, dimensions,
+  // types, flags), size_t of `size_bytes` (counts, node and element tags) or double, in the writer's
+  // byte order; $PhysicalNames stays text.
+  bool binary = false;
+  int size_bytes = 8;
+  auto int_field = [&](const char* what) -> long { return binary ? long(tk.raw<std::int32_t>(what)) : tk.integer(what); };
+  auto size_field = [&](const char* what) -> long {
+    if (!binary) return tk.integer(what);
+    const std::uint64_t v = size_bytes == 8 ? tk.raw<std::uint64_t>(what) : tk.raw<std::uint32_t>(what);
+    if (v > (std::uint64_t(1) << 53)) tk.fail(std::to_string(v), std::string("implausible value in binary data (") + what + ")");
+    return long(v);
+  };
+  auto real_field = [&](const char* what) -> double {
+    if (!binary) return tk.real(what);
+    const double v = tk.raw<double>(what);
+    if (!std::isfinite(v)) tk.fail("", std::string("non-finite number in binary data (") + what + ")");
+    return v;
+  };
+  // A count read from the file: non-negative and not more items than bytes left (each takes at least
+  // one), so a corrupt or truncated file is an InputError, not a huge allocation.
+  auto count_field = [&](const char* what, bool size_type) -> long {
+    const long n = size_type ? size_field(what) : int_field(what);
+    if (n < 0 || std::size_t(n) > tk.remaining())
+      tk.fail(std::to_string(n), std::string("invalid count (") + what + "): negative or beyond the end of the file");
+    return n;
+  };
 
   auto node_of = [&](long tag) {
     const auto it = node_index.find(tag);
@@ -184,13 +235,31 @@ Mesh parse_gmsh(std::istream& in, const std::string& source) {
       const std::string version(tk.expect_token("version"));
       const int line = tk.line();
       const long file_type = tk.integer("file-type");
-      tk.integer("data-size");
+      const long data_size = tk.integer("data-size");
       if (version.rfind("4.1", 0) != 0)
         tk.fail_at(line, version,
                    "unsupported MSH version (only 4.1 is read): re-export with Mesh.MshFileVersion = 4.1 "
                    "(gmsh -format msh41)");
-      if (file_type != 0)
-        tk.fail_at(line, std::to_string(file_type), "binary MSH files are not supported: save as ASCII (Mesh.Binary = 0)");
+      if (file_type != 0 && file_type != 1)
+        tk.fail_at(line, std::to_string(file_type), "file-type must be 0 (ASCII) or 1 (binary)");
+      binary = file_type == 1;
+      if (binary) {
+        if (data_size != 4 && data_size != 8)
+          tk.fail_at(line, std::to_string(data_size), "data-size (bytes of size_t) must be 4 or 8 in a binary file");
+        size_bytes = int(data_size);
+        // The integer 1 written in the writer's byte order tells the endianness.
+        tk.begin_binary();
+        const std::int32_t one = tk.raw<std::int32_t>("endianness marker");
+        if (one != 1) {
+          std::int32_t swapped;
+          unsigned char b[4];
+          std::memcpy(b, &one, 4);
+          std::reverse(b, b + 4);
+          std::memcpy(&swapped, b, 4);
+          if (swapped != 1) tk.fail_at(line, std::to_string(one), "binary MSH: endianness marker is not the integer 1");
+          tk.swap_bytes = true;
+        }
+      }
       tk.expect("$EndMeshFormat");
       have_format = true;
     } else if (!have_format) {
@@ -205,42 +274,43 @@ Mesh parse_gmsh(std::istream& in, const std::string& source) {
       }
       tk.expect("$EndPhysicalNames");
     } else if (section == "$Entities") {
+      if (binary) tk.begin_binary();
       long count[4];
-      for (long& c : count) c = tk.integer("number of entities");
+      for (long& c : count) c = count_field("number of entities", true);
       for (int dim = 0; dim < 4; ++dim)
         for (long k = 0; k < count[dim]; ++k) {
-          const long tag = tk.integer("entity tag");
-          for (int c = 0; c < (dim == 0 ? 3 : 6); ++c) tk.real("entity bounding box");
-          const long np = tk.integer("number of physical tags");
+          const long tag = int_field("entity tag");
+          for (int c = 0; c < (dim == 0 ? 3 : 6); ++c) real_field("entity bounding box");
+          const long np = count_field("number of physical tags", true);
           auto& phys = entity_physicals[dim][tag];
-          for (long p = 0; p < np; ++p) phys.push_back(std::labs(tk.integer("physical tag")));
+          for (long p = 0; p < np; ++p) phys.push_back(std::labs(int_field("physical tag")));
           if (dim > 0) {
-            const long nb = tk.integer("number of bounding entities");
-            for (long b = 0; b < nb; ++b) tk.integer("bounding entity tag");
+            const long nb = count_field("number of bounding entities", true);
+            for (long b = 0; b < nb; ++b) int_field("bounding entity tag");
           }
         }
       tk.expect("$EndEntities");
       have_entities = true;
     } else if (section == "$Nodes") {
-      const long blocks = tk.integer("number of node blocks");
-      const long total = tk.integer("number of nodes");
-      tk.integer("min node tag");
-      tk.integer("max node tag");
-      if (total < 0) tk.fail(std::to_string(total), "negative node count");
+      if (binary) tk.begin_binary();
+      const long blocks = count_field("number of node blocks", true);
+      const long total = count_field("number of nodes", true);
+      size_field("min node tag");
+      size_field("max node tag");
       nodes.reserve(total);
       node_index.reserve(total);
       for (long b = 0; b < blocks; ++b) {
-        const long dim = tk.integer("entity dimension");
-        tk.integer("entity tag");
-        const long parametric = tk.integer("parametric flag");
-        const long n = tk.integer("nodes in block");
+        const long dim = int_field("entity dimension");
+        int_field("entity tag");
+        const long parametric = int_field("parametric flag");
+        const long n = count_field("nodes in block", true);
         std::vector<long> tags(n);
-        for (long& t : tags) t = tk.integer("node tag");
+        for (long& t : tags) t = size_field("node tag");
         for (long k = 0; k < n; ++k) {
           Vec3 x;
-          for (int i = 0; i < 3; ++i) x[i] = tk.real("node coordinate");
+          for (int i = 0; i < 3; ++i) x[i] = real_field("node coordinate");
           if (parametric)
-            for (long i = 0; i < dim; ++i) tk.real("parametric coordinate");
+            for (long i = 0; i < dim; ++i) real_field("parametric coordinate");
           if (!node_index.emplace(tags[k], int(nodes.size())).second)
             tk.fail(std::to_string(tags[k]), "node tag defined twice");
           nodes.push_back(x);
@@ -251,16 +321,17 @@ Mesh parse_gmsh(std::istream& in, const std::string& source) {
       have_nodes = true;
     } else if (section == "$Elements") {
       if (!have_nodes) tk.fail(section, "$Elements before $Nodes");
-      const long blocks = tk.integer("number of element blocks");
-      tk.integer("number of elements");
-      tk.integer("min element tag");
-      tk.integer("max element tag");
+      if (binary) tk.begin_binary();
+      const long blocks = count_field("number of element blocks", true);
+      count_field("number of elements", true);
+      size_field("min element tag");
+      size_field("max element tag");
       for (long b = 0; b < blocks; ++b) {
-        const long dim = tk.integer("entity dimension");
-        const long entity = tk.integer("entity tag");
-        const long type = tk.integer("element type");
+        const long dim = int_field("entity dimension");
+        const long entity = int_field("entity tag");
+        const long type = int_field("element type");
         const int type_line = tk.line();
-        const long n = tk.integer("elements in block");
+        const long n = count_field("elements in block", true);
         const int nn = gmsh_nodes(type);
         if (nn == 0)
           tk.fail_at(type_line, std::to_string(type), "unknown Gmsh element type");
@@ -275,10 +346,10 @@ Mesh parse_gmsh(std::istream& in, const std::string& source) {
         if (dim == 3 && have_entities && !entity_physicals[3].count(entity))
           tk.fail_at(type_line, std::to_string(entity), "volume entity not listed in $Entities");
         for (long k = 0; k < n; ++k) {
-          const long tag = tk.integer("element tag");
+          const long tag = size_field("element tag");
           const int line = tk.line();
           std::vector<int> en(nn);
-          for (int& v : en) v = ignored ? (tk.integer("node tag"), 0) : node_of(tk.integer("node tag"));
+          for (int& v : en) v = ignored ? (size_field("node tag"), 0) : node_of(size_field("node tag"));
           if (ignored) continue;
           if (dim == 3) volumes.push_back({tag, line, entity, type, std::move(en)});
           else surfaces.push_back({tag, line, int(entity), std::move(en)});
@@ -450,7 +521,7 @@ Mesh parse_gmsh(std::istream& in, const std::string& source) {
 }
 
 Mesh read_gmsh(const std::filesystem::path& file) {
-  std::ifstream in(file);
+  std::ifstream in(file, std::ios::binary);
   if (!in) throw InputError("mesh file", file.string(), "cannot open");
   return parse_gmsh(in, file.string());
 }

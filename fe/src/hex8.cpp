@@ -59,10 +59,11 @@ MaterialStatus hex8_internal_force(const Hex8Geometry& g, const Mat83& u, const 
   return detail::solid_internal_force<8, 8>(g, u, material, state_old, state_new, dt, f, r, K, cauchy_mean, mixed);
 }
 
-void quad4_pressure(const Mat43& x, const Vec3& mask, Vec12& a, Mat12* da, double& flux) {
+void quad4_pressure(const Mat43& x, const Vec3& mask, Vec12& a, Mat12* da, double& flux, Vec12* dflux) {
   static const double s[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
   a.setZero();
   if (da) da->setZero();
+  if (dflux) dflux->setZero();
   flux = 0.0;
   for (int gi = 0; gi < 2; ++gi)
     for (int gj = 0; gj < 2; ++gj) {
@@ -75,8 +76,12 @@ void quad4_pressure(const Mat43& x, const Vec3& mask, Vec12& a, Mat12* da, doubl
       }
       const Vec3 xp = x.transpose() * N, x_xi = x.transpose() * Nxi, x_eta = x.transpose() * Neta;
       const Vec3 n = x_xi.cross(x_eta);  // area vector density (weights are 1)
-      flux += mask.cwiseProduct(xp).dot(n);
+      const Vec3 wv = mask.cwiseProduct(xp);
+      flux += wv.dot(n);
       for (int k = 0; k < 4; ++k) a.segment<3>(3 * k) += N[k] * n;
+      if (dflux)  // δ(w·(x_ξ × x_η)) = δw·n + δx_ξ·(x_η × w) + δx_η·(w × x_ξ)
+        for (int k = 0; k < 4; ++k)
+          dflux->segment<3>(3 * k) += N[k] * mask.cwiseProduct(n) + Nxi[k] * x_eta.cross(wv) + Neta[k] * wv.cross(x_xi);
       if (!da) continue;
       auto skew = [](const Vec3& v) {
         Mat3 m;

@@ -136,6 +136,7 @@ class CholmodSolver final : public LinearSolver {
     cholmod_finish(&common_);
   }
   SolverKind kind() const override { return SolverKind::cholmod; }
+  double predicted_flops() const override { return factor_ ? common_.fl : 0.0; }
 
   void analyze(const CscMatrix& A) override {
     const auto t0 = std::chrono::steady_clock::now();

@@ -42,7 +42,7 @@ MaterialStatus tet10_internal_force(const Tet10Geometry& g, const Tet10Coords& u
   return detail::solid_internal_force<10, 4>(g, u, material, state_old, state_new, dt, f, r, K, cauchy_mean, mixed);
 }
 
-void tri6_pressure(const Mat63& x, const Vec3& mask, Vec18& a, Mat18* da, double& flux) {
+void tri6_pressure(const Mat63& x, const Vec3& mask, Vec18& a, Mat18* da, double& flux, Vec18* dflux) {
   // Dunavant's 6-point degree-4 rule (weights for unit area; the reference triangle has area 1/2):
   // N_a (quadratic) × n (quadratic in ξ) is degree 4, so a_a and the flux are integrated exactly.
   static const double kPts[6][3] = {
@@ -53,6 +53,7 @@ void tri6_pressure(const Mat63& x, const Vec3& mask, Vec18& a, Mat18* da, double
                                0.109951743655322, 0.109951743655322, 0.109951743655322};
   a.setZero();
   if (da) da->setZero();
+  if (dflux) dflux->setZero();
   flux = 0.0;
   for (int g = 0; g < 6; ++g) {
     const double L0 = kPts[g][0], L1 = kPts[g][1], L2 = kPts[g][2], w = 0.5 * kW[g];
@@ -63,8 +64,12 @@ void tri6_pressure(const Mat63& x, const Vec3& mask, Vec18& a, Mat18* da, double
     Neta << -(4 * L0 - 1), 0.0, 4 * L2 - 1, -4 * L1, 4 * L1, 4 * (L0 - L2);
     const Vec3 xp = x.transpose() * N, x_xi = x.transpose() * Nxi, x_eta = x.transpose() * Neta;
     const Vec3 n = w * x_xi.cross(x_eta);
-    flux += mask.cwiseProduct(xp).dot(n);
+    const Vec3 wv = mask.cwiseProduct(xp);
+    flux += wv.dot(n);
     for (int k = 0; k < 6; ++k) a.segment<3>(3 * k) += N[k] * n;
+    if (dflux)  // see quad4_pressure (n carries the weight w)
+      for (int k = 0; k < 6; ++k)
+        dflux->segment<3>(3 * k) += N[k] * mask.cwiseProduct(n) + w * (Nxi[k] * x_eta.cross(wv) + Neta[k] * wv.cross(x_xi));
     if (!da) continue;
     const Mat3 sx = w * skew(x_xi), se = w * skew(x_eta);
     for (int k = 0; k < 6; ++k)

@@ -12,6 +12,12 @@ using fe::Mesh;
 
 /// Appends a structured block of n0 × n1 × n2 hexes whose nodes are map(i/n0, j/n1, k/n2).
 void add_block(Mesh& mesh, std::array<int, 3> n, const std::function<Vec3(double, double, double)>& map, int region = 0) {
+  // Node ids and dof numbers are ints (3 per node) and every hex costs ~1 KB of solver memory: refuse
+  // meshes beyond 5e7 nodes with a message instead of overflowing an index or failing an allocation.
+  const double nodes = double(mesh.num_nodes()) + double(n[0] + 1) * double(n[1] + 1) * double(n[2] + 1);
+  if (nodes > 5e7)
+    throw InputError("geometry", std::to_string(n[0]) + " x " + std::to_string(n[1]) + " x " + std::to_string(n[2]) + " cells",
+                     "mesh too large (" + std::to_string(nodes) + " nodes; at most 5e7)");
   const int base = mesh.num_nodes();
   auto id = [&](int i, int j, int k) { return base + i + (n[0] + 1) * (j + (n[1] + 1) * k); };
   for (int k = 0; k <= n[2]; ++k)

@@ -153,7 +153,7 @@ TEST(Gmsh, ErrorsNameFileLineAndProblem) {
   // MSH 2 is refused with the remedy.
   EXPECT_NE(error_of("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n").find("inline.msh:2"), std::string::npos);
   EXPECT_NE(error_of("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n").find("msh41"), std::string::npos);
-  // Binary.
+  // Binary header without the endianness marker (binary files themselves: test_gmsh_binary.cpp).
   EXPECT_NE(error_of("$MeshFormat\n4.1 1 8\n$EndMeshFormat\n").find("binary"), std::string::npos);
   // Unknown element type 99 on line 26 (the block header).
   const std::string unknown = std::string(kHeader) + kOneTet + "$Elements\n1 1 1 1\n3 1 99 1\n1 1 2 3 4\n$EndElements\n";

@@ -1,5 +1,5 @@
 #pragma once
-// Gmsh mesh import (MSH file format version 4.1, ASCII).
+// Gmsh mesh import (MSH file format version 4.1, ASCII or binary).
 //
 // Read: $MeshFormat, $PhysicalNames, $Entities (entity tag → physical tags), $Nodes, $Elements; other
 // sections are skipped. Volume elements: 4-node tetrahedra (type 4, promoted to tet10 with straight
@@ -14,7 +14,11 @@
 // normals point out of the solid. Tets are oriented positively; elements must have positive
 // Jacobians at their Gauss points.
 //
-// Errors are InputError("FILE:LINE", token, problem): unsupported version or binary file, unknown or
+// Binary files (file-type 1, Mesh.Binary = 1): the same sections with ints, size_t (data-size 4 or 8
+// bytes) and doubles in the writer's byte order, which the endianness marker (the int 1 after the
+// header) tells; other byte orders are swapped. Lines in error messages are then the section's.
+//
+// Errors are InputError("FILE:LINE", token, problem): unsupported version, unknown or
 // unsupported element type, reference to a missing node or entity, a face that is no element's
 // face, an inverted element.
 #include <filesystem>

@@ -81,6 +81,8 @@ MaterialStatus hex8_internal_force(const Hex8Geometry& g, const Mat83& u, const 
 /// Unit-pressure area vector of a bilinear quad in the current configuration, a_a = ∫ N_a n da
 /// (n along x_ξ × x_η), its derivative ∂a/∂x (12x12, when non-null), and the flux
 /// Φ = ∫ (c ⊙ x) · n da used for enclosed volumes (exact with 2×2 Gauss for bilinear faces).
-void quad4_pressure(const Mat43& x, const Vec3& mask, Vec12& a, Mat12* da, double& flux);
+/// dflux (optional): ∂Φ/∂x_a, the exact gradient of the flux (the enclosed-volume derivative; it equals
+/// the sum of a over a closed surface, but not on an open one whose closing plane moves).
+void quad4_pressure(const Mat43& x, const Vec3& mask, Vec12& a, Mat12* da, double& flux, Vec12* dflux = nullptr);
 
 }  // namespace softhom::fe

@@ -6,8 +6,9 @@
 // Performance design (issue #4): elements are coloured so that no two elements of one colour share a
 // node, and assembly scatters into precomputed CSC positions without atomics; the linear systems are
 // solved by GMRES right-preconditioned with a sparse direct factorization that is kept across Newton
-// iterations and load steps and refreshed only when GMRES needs more than `refactor_after` iterations
-// (a fresh factor converges in one). The factor is CHOLMOD's LLᵀ of the tangent's symmetric part
+// iterations and load steps and refreshed when its GMRES iterations cost half a factorization, or at the
+// first iteration of a load step when the last step's lagged factor failed there (a fresh factor of a
+// symmetric tangent solves directly). The factor is CHOLMOD's LLᵀ of the tangent's symmetric part
 // (the follower-pressure stiffness is the only unsymmetric term), falling back to UMFPACK LU when the
 // symmetric part is not positive definite (past a limit point).
 #include <array>
@@ -29,7 +30,8 @@ struct NewtonOptions {
   int initial_substeps = 1;   ///< sub-steps per output interval at the start
   SolverKind solver = SolverKind::automatic;  ///< umfpack: always LU; otherwise Cholesky first
   bool mixed = true;          ///< three-field (u, θ, p) iteration for laws with a volumetric modulus
-  int refactor_after = 8;     ///< refresh the factorization after a solve needing more GMRES iterations
+  int refactor_after = 8;     ///< refresh the factorization after a solve needing 3× more GMRES iterations
+                              ///< (or whose iterations cost half a factorization)
   int krylov_max = 40;        ///< GMRES iterations before a solve refactorizes and retries
   bool extrapolate = true;    ///< secant predictor from the last converged increment (see try_step)
   bool verbose = false;       ///< iteration log on stderr
@@ -72,7 +74,8 @@ class Simulation {
   std::vector<Vec3> current_positions() const;
   /// Pressure of the cavity control (or 0 without one).
   double cavity_pressure() const { return cavity_pressure_; }
-  /// Reaction force: Σ of internal forces over `dofs` (e.g. a loaded face's x-dofs).
+  /// Reaction force: Σ of the converged state's internal forces over `dofs` (e.g. a loaded face's
+  /// x-dofs). Evaluates no material (so it never advances a viscoelastic history).
   double reaction(const std::vector<int>& dofs) const;
   ElementFields element_fields() const;
   /// Statistics so far (linear-solver times of the current solver object).
@@ -118,10 +121,13 @@ class Simulation {
   CscMatrix K_;
   std::unique_ptr<LinearSolver> chol_, lu_;  ///< Cholesky of the symmetric part; LU (created on demand)
   LinearSolver* linear_ = nullptr;            ///< the one holding the current factor
-  bool lu_this_step_ = false;                 ///< the symmetric part was indefinite in this step: LU
+  bool lu_this_step_ = false;
+  bool refactor_first_ = false;               ///< the lagged factor failed at the last step's first iteration                 ///< the symmetric part was indefinite in this step: LU
   bool chol_analyzed_ = false, lu_analyzed_ = false, factor_valid_ = false, factor_stale_ = false, factor_exact_ = false;
   long k_version_ = 0, factor_version_ = -1;  ///< tangent assemblies; the one last factorized
   double last_factor_time_ = 0.0, last_factor_flops_ = 0.0;
+  double iteration_time_ = 0.0;                  ///< running mean cost of one GMRES iteration [s]
+  std::vector<std::vector<double>> krylov_basis_;  ///< GMRES basis, kept between solves
   std::vector<Hex8Geometry> geometry_;
   std::vector<Tet10Geometry> tet_geometry_;  ///< per tet (element e − num_hexes)
   std::vector<std::vector<int>> colors_;  ///< element colours: no shared node within one colour
@@ -140,6 +146,7 @@ class Simulation {
   double stiffness_time_ = -1.0;           ///< ≥ 0: time of the pressure in the load stiffness (assemble)
   std::vector<double> state_old_, state_new_;
   std::vector<double> cauchy_;     ///< element-mean Cauchy stress of the last converged state
+  std::vector<double> fint_;       ///< internal forces (all dofs) of the last converged state
   std::vector<int> state_offset_;  ///< per element into the state arrays (−1: elastic)
   double time_ = 0.0, last_dt_ = 0.0;
   bool recent_cutback_ = false;

@@ -64,6 +64,8 @@ class LinearSolver {
   /// x = A⁻¹ b with the last factorization (may be called several times per factorization).
   virtual void solve(const std::vector<double>& b, std::vector<double>& x) = 0;
   virtual SolverKind kind() const = 0;
+  /// Floating-point operations of one numeric factorization as predicted by the analysis (0: unknown).
+  virtual double predicted_flops() const { return 0.0; }
   const SolverTimes& times() const { return times_; }
 
  protected:

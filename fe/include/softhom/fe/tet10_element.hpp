@@ -65,6 +65,7 @@ MaterialStatus tet10_internal_force(const Tet10Geometry& g, const Tet10Coords& u
 /// Unit-pressure area vector of a 6-node triangle in the current configuration, a_a = ∫ N_a n da
 /// (n along x_ξ × x_η, outward for kTet10Faces), its derivative ∂a/∂x (18x18, when non-null), and the
 /// flux Φ = ∫ (c ⊙ x) · n da used for enclosed volumes (see quad4_pressure).
-void tri6_pressure(const Mat63& x, const Vec3& mask, Vec18& a, Mat18* da, double& flux);
+/// dflux (optional): ∂Φ/∂x_a (see quad4_pressure).
+void tri6_pressure(const Mat63& x, const Vec3& mask, Vec18& a, Mat18* da, double& flux, Vec18* dflux = nullptr);
 
 }  // namespace softhom::fe
