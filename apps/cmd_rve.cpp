@@ -151,6 +151,8 @@ int run_rve(const CommandOptions& options) {
   summary["quadrature_points"] = solver.quadrature_points();
   summary["solver"] = rve::to_string(solver_options.scheme);
   summary["reference_medium"] = rve::to_string(solver_options.reference);
+  summary["krylov_operator"] = rve::to_string(solver_options.krylov_operator);
+  summary["indefinite_solver"] = solver_options.indefinite_solver == rve::IndefiniteSolver::minres ? "minres" : "shift";
   summary["tolerance"] = solver_options.tolerance;
   summary["fft"] = solver.fft_description();
   summary["fft_planning_s"] = solver.planning_seconds();

@@ -63,6 +63,7 @@ inline nlohmann::json rve_step_log_entry(const rve::RveStep& s) {
           {"substeps", s.substeps},
           {"cutbacks", s.cutbacks},
           {"shifted_solves", s.shifted_solves},
+          {"minres_solves", s.minres_solves},
           {"continuation_iterations", s.continuation_iterations},
           {"residuals", s.residuals},
           {"wall_time_s", s.wall_seconds}};

@@ -886,6 +886,105 @@ struct FftRveSolver::Impl {
     return it;
   }
 
+  /// Σ_k m_k Re(āᵤ · bᵤ) + a_f · b_f: the inner product of the Krylov space (half spectrum, mode weights).
+  double dot(const KVec& a, const KVec& b) const {
+    double s = 0.0;
+#pragma omp parallel for reduction(+ : s) schedule(static)
+    for (std::size_t k = 0; k < NM; ++k) {
+      const double m = grid.mode_weight(k);
+      for (int c = 0; c < 3; ++c) s += m * std::real(std::conj(a.u[c * NM + k]) * b.u[c * NM + k]);
+    }
+    return s + a.f.dot(b.f);
+  }
+  /// y ← α x + β y (both parts).
+  static void axpby(double alpha, const KVec& x, double beta, KVec& y) {
+    const std::size_t n = x.u.size();
+#pragma omp parallel for schedule(static)
+    for (std::size_t i = 0; i < n; ++i) y.u[i] = alpha * x.u[i] + beta * y.u[i];
+    y.f = alpha * x.f + beta * y.f;
+  }
+
+  /// Preconditioned MINRES (Paige–Saunders; the Lanczos form of Elman, Silvester & Wathen, Alg. 2.4)
+  /// on K x = b, with the same SPD preconditioner (reference Green operator + macro block) as pcg().
+  /// Used where CG meets negative curvature: past a bifurcation of the cell (fiber micro-buckling in
+  /// compression) the tangent at the equilibrium is indefinite, and a Levenberg–Marquardt shift then
+  /// stalls Newton just above the tolerance, while MINRES returns the Newton step itself. Stops when the
+  /// preconditioned residual norm |η| ≤ rel_tol γ₁; returns iterations, `converged` false otherwise.
+  int pminres(const KVec& b, const std::array<bool, 9>& free, double rel_tol, KVec& x, bool& converged) {
+    const auto start = Clock::now();
+    converged = false;
+    std::vector<int> free_idx;
+    for (int c = 0; c < 9; ++c)
+      if (free[c]) free_idx.push_back(c);
+    const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
+    const std::size_t n = 3 * NM;
+    auto zero = [n](KVec& v) {
+      v.u.assign(n, 0.0);
+      v.f.setZero();
+    };
+    KVec v_old, v = b, z, Az, w_old, w, w_new;
+    for (KVec* q : {&v_old, &z, &Az, &w_old, &w, &w_new}) zero(*q);
+    zero(x);
+    precondition(v, Minv, free_idx, z);
+    double gamma = std::sqrt(std::max(dot(z, v), 0.0)), gamma_old = 1.0;
+    const double gamma1 = gamma;
+    double eta = gamma, s_old = 0.0, s = 0.0, c_old = 1.0, c = 1.0;
+    int it = 0;
+    if (gamma1 > 0.0) {
+      while (it < opt.max_krylov_iterations) {
+        ++it;
+        for (auto& e : z.u) e /= gamma;
+        z.f /= gamma;
+        apply(z, free, Az);
+        const double delta = dot(Az, z);
+        // v_new = A z − (δ/γ) v − (γ/γ_old) v_old, written into v_old (then swapped).
+        axpby(1.0, Az, -gamma / gamma_old, v_old);
+        axpby(-delta / gamma, v, 1.0, v_old);
+        std::swap(v_old, v);  // v_old ← v (current), v ← v_new
+        const double a3 = s_old * gamma, a2_base = gamma;
+        KVec& z_next = Az;  // A z no longer needed
+        precondition(v, Minv, free_idx, z_next);
+        const double gamma_next = std::sqrt(std::max(dot(z_next, v), 0.0));
+        const double a0 = c * delta - c_old * s * a2_base;
+        const double a1 = std::hypot(a0, gamma_next);
+        const double a2 = s * delta + c_old * c * a2_base;
+        if (!(a1 > 0.0)) break;
+        const double c_new = a0 / a1, s_new = gamma_next / a1;
+        // w_new = (z − a3 w_old − a2 w) / a1
+        const std::size_t nu = z.u.size();
+#pragma omp parallel for schedule(static)
+        for (std::size_t i = 0; i < nu; ++i) {
+          w_new.u[i] = (z.u[i] - a3 * w_old.u[i] - a2 * w.u[i]) / a1;
+          x.u[i] += c_new * eta * w_new.u[i];
+        }
+        w_new.f = (z.f - a3 * w_old.f - a2 * w.f) / a1;
+        x.f += c_new * eta * w_new.f;
+        std::swap(w_old, w);
+        std::swap(w, w_new);
+        eta = -s_new * eta;
+        std::swap(z, z_next);
+        gamma_old = gamma;
+        gamma = gamma_next;
+        c_old = c;
+        c = c_new;
+        s_old = s;
+        s = s_new;
+        if (std::abs(eta) <= rel_tol * gamma1) {
+          converged = true;
+          break;
+        }
+        if (!(gamma > 0.0)) {  // invariant subspace: x is the exact solution in it
+          converged = true;
+          break;
+        }
+      }
+    } else {
+      converged = true;
+    }
+    krylov_seconds += std::chrono::duration<double>(Clock::now() - start).count();
+    return it;
+  }
+
   // ---------------------------------------------------------------------------------------------
   // One (sub)step from the committed state to t_new.
 
@@ -911,6 +1010,9 @@ struct FftRveSolver::Impl {
     // Pseudo-transient continuation (FftSolverOptions::max_continuation_iterations), entered when
     // Newton stagnates: shift δ of the reference medium, residual of the previous iterate.
     bool continuation = false;
+    // MINRES for negative curvature near the solution: always (indefinite_solver = minres), or once the
+    // shifted iteration has stalled (minres_fallback).
+    bool minres_mode = opt.indefinite_solver == IndefiniteSolver::minres;
     double ptc_shift = 0.0, ptc_err = 0.0;
     std::vector<Complex> u_prev;
     Mat3 Fbar_prev = Fbar, step_macro = Mat3::Zero();
@@ -1011,7 +1113,18 @@ struct FftRveSolver::Impl {
         ptc_err = err;
         max_it = it + opt.max_continuation_iterations;
       }
-      if (it == max_it) break;
+      if (it == max_it) {
+        if (!minres_mode && !continuation && opt.minres_fallback && prescribed_reached && err < opt.minres_below) {
+          // The shifted iteration stalls just above the tolerance next to a bifurcation point of the
+          // cell (singular tangent): take the exact Newton steps there (MINRES on negative curvature).
+          minres_mode = true;
+          lm_shift = 0.0;
+          max_it = it + opt.max_newton_iterations;
+          ++out.minres_fallbacks;
+        } else {
+          break;
+        }
+      }
       if (prescribed_reached) {
         if (first_err < 0.0) first_err = err;
         if (err > 1e6 * std::max(first_err, opt.tolerance)) {
@@ -1038,9 +1151,22 @@ struct FftRveSolver::Impl {
       // on each breakdown and starts the next Newton iteration ten times smaller.
       bool breakdown = false;
       double shift = continuation ? ptc_shift : lm_shift;
+      const double lin_tol = prescribed_reached ? eta : std::min(eta, 1e-3);
       for (int attempt = 0; attempt < 8; ++attempt) {
-        out.krylov += pcg(b, free, prescribed_reached ? eta : std::min(eta, 1e-3), dx, shift, breakdown);
+        out.krylov += pcg(b, free, lin_tol, dx, shift, breakdown);
         if (!breakdown) break;
+        // Negative curvature near the solution (the residual is already small): an indefinite
+        // equilibrium tangent, not a transient of the iteration — solve it as it is (MINRES).
+        if (minres_mode && shift == 0.0 && prescribed_reached &&
+            err < opt.minres_below) {
+          bool converged = false;
+          out.krylov += pminres(b, free, lin_tol, dx, converged);
+          ++out.minres_solves;
+          if (converged) {
+            breakdown = false;
+            break;
+          }
+        }
         shift = shift == 0.0 ? 1e-3 : 10.0 * shift;
         ++out.shifted_solves;
       }

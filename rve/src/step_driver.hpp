@@ -43,7 +43,7 @@ RveStep record_step(double t, double angle0, const Mat3& F, const Mat3& P, const
 struct SubstepOutcome {
   bool ok = false;
   std::string why;
-  int newton = 0, krylov = 0, line_search_cuts = 0, shifted_solves = 0, continuation = 0;
+  int newton = 0, krylov = 0, line_search_cuts = 0, shifted_solves = 0, minres_solves = 0, minres_fallbacks = 0, continuation = 0;
   std::vector<double> residuals;
 };
 
@@ -78,9 +78,18 @@ void run_output_steps(const MixedControl& control, int max_cutbacks, Engine& eng
       agg.krylov_iterations += o.krylov;
       agg.shifted_solves += o.shifted_solves;
       result.shifted_solves += o.shifted_solves;
+      agg.minres_solves += o.minres_solves;
+      result.minres_solves += o.minres_solves;
       agg.continuation_iterations += o.continuation;
       result.continuation_iterations += o.continuation;
       if (o.ok) {
+        if (o.minres_solves > 0) {
+          std::ostringstream msg;
+          msg << "t = " << t << " → " << t_new << ": tangent indefinite near equilibrium (" << o.minres_solves
+              << " MINRES solves" << (o.minres_fallbacks > 0 ? " after the shifted iteration stalled" : "")
+              << "): the cell is past a bifurcation (e.g. fiber micro-buckling) and this branch is unstable";
+          result.log.push_back(msg.str());
+        }
         if (o.continuation > 0) {
           std::ostringstream msg;
           msg << "t = " << t << " → " << t_new << ": Newton stalled (the equilibrium branch ends: fold or "
@@ -122,6 +131,7 @@ void run_output_steps(const MixedControl& control, int max_cutbacks, Engine& eng
     s.newton_iterations = agg.newton_iterations;
     s.krylov_iterations = agg.krylov_iterations;
     s.shifted_solves = agg.shifted_solves;
+    s.minres_solves = agg.minres_solves;
     s.continuation_iterations = agg.continuation_iterations;
     s.substeps = agg.substeps;
     s.cutbacks = agg.cutbacks;

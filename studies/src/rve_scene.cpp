@@ -254,7 +254,7 @@ rve::FftSolverOptions parse_fft_solver_options(const toml::table& scene, std::fi
   if (!t) return o;
   const std::string p = "solver";
   io::check_keys(*t, p, {"discretization", "scheme", "reference", "tolerance", "krylov_tolerance", "max_newton_iterations",
-                         "max_krylov_iterations", "max_fixed_point_iterations", "max_cutbacks", "max_continuation_iterations", "fftw", "fftw_wisdom", "mixed_pressure"});
+                         "max_krylov_iterations", "max_fixed_point_iterations", "max_cutbacks", "max_continuation_iterations", "indefinite_solver", "minres_below", "minres_fallback", "krylov_operator", "fftw", "fftw_wisdom", "mixed_pressure"});
   const std::string d = io::get_string_or(*t, "discretization", p, "rotated");
   try {
     o.discretization = fft::parse_discretization(d);
@@ -281,6 +281,17 @@ rve::FftSolverOptions parse_fft_solver_options(const toml::table& scene, std::fi
       int(io::get_number_or(*t, "max_continuation_iterations", p, o.max_continuation_iterations));
   if (o.max_continuation_iterations < 0)
     throw InputError(p + ".max_continuation_iterations", std::to_string(o.max_continuation_iterations), "must be >= 0");
+  const std::string kop = io::get_string_or(*t, "krylov_operator", p, "stencil");
+  if (kop == "stencil") o.krylov_operator = rve::KrylovOperator::stencil;
+  else if (kop == "fourier") o.krylov_operator = rve::KrylovOperator::fourier;
+  else throw InputError(p + ".krylov_operator", kop, "stencil or fourier");
+  const std::string ind = io::get_string_or(*t, "indefinite_solver", p, "minres");
+  if (ind == "minres") o.indefinite_solver = rve::IndefiniteSolver::minres;
+  else if (ind == "shift") o.indefinite_solver = rve::IndefiniteSolver::shift;
+  else throw InputError(p + ".indefinite_solver", ind, "minres or shift");
+  o.minres_below = io::get_number_or(*t, "minres_below", p, o.minres_below);
+  o.minres_fallback = io::get_bool_or(*t, "minres_fallback", p, o.minres_fallback);
+  if (!(o.minres_below >= 0.0)) throw InputError(p + ".minres_below", std::to_string(o.minres_below), "must be >= 0");
   o.mixed_pressure = io::get_bool_or(*t, "mixed_pressure", p, o.mixed_pressure);
   if (o.max_newton_iterations < 1) throw InputError(p + ".max_newton_iterations", "", "must be >= 1");
   if (o.max_cutbacks < 0) throw InputError(p + ".max_cutbacks", "", "must be >= 0");

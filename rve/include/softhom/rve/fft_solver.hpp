@@ -52,6 +52,9 @@ enum class ReferenceMedium { mean_tangent, isotropic, geometric };
 /// gradient and divergence per Fourier mode, 9·nq stress/strain fields transformed (6·nq on sections).
 /// The spectral discretization has no local stencil and always takes the Fourier form.
 enum class KrylovOperator { stencil, fourier };
+/// What the Newton–CG solver does when CG meets negative curvature near the solution (see
+/// FftSolverOptions::indefinite_solver).
+enum class IndefiniteSolver { minres, shift };
 const char* to_string(FftScheme s);
 const char* to_string(ReferenceMedium r);
 const char* to_string(KrylovOperator k);
@@ -80,6 +83,22 @@ struct FftSolverOptions {
   /// sub-steps (23–99 iterations) but not the run (the stall sits at a residual floor ≈ 1e-6, not at a
   /// fold), and switched on by default it slowed ordinary Newton stalls (357 vs 132 Newton at K/G = 1.2e5).
   int max_continuation_iterations = 0;
+  /// Negative curvature in CG at a Newton residual below `minres_below` means an indefinite tangent at
+  /// the equilibrium: the cell is past a bifurcation (fiber micro-buckling in compression) and the
+  /// principal (unbuckled) branch it is on is unstable. `minres` solves the Newton step as it is
+  /// (preconditioned MINRES): Newton converges on the principal branch — the solution of the
+  /// imperfection-free problem, as an implicit FE code follows it — and each such step is logged as
+  /// unstable. `shift` takes Levenberg–Marquardt steps (K + μ K0) instead, which drift off the principal
+  /// branch onto a buckled one where they can (ecoflex circle VF 0.23, α = 45°: F31 → −0.17 and 7 % lower
+  /// |P11| at λ = 0.6, 599 Newton / 167 s against 113 / 8 s) and may stall at the bifurcation point
+  /// (α = 60°, 32²), where `minres_fallback` then finishes the step with MINRES. Farther from the solution
+  /// negative curvature is a transient of the iteration (pressure errors of a nearly incompressible
+  /// matrix) and is always shifted.
+  IndefiniteSolver indefinite_solver = IndefiniteSolver::minres;
+  double minres_below = 1e-3;
+  /// With `shift`: when the shifted Newton iteration stalls (max_newton_iterations reached at a
+  /// residual below minres_below), continue the step for max_newton_iterations more with MINRES.
+  bool minres_fallback = true;
   /// Mixed (u, p) Newton iteration in phases with K ≥ mixed_pressure_ratio · G (Newton–CG only): the
   /// pressure is carried linearized between iterations, so the Newton steps are not limited by the
   /// O(K θ²) volumetric error of finite rotations θ. Same converged solution as the plain iteration.
@@ -106,6 +125,7 @@ struct RveStep {
   int substeps = 0;
   int cutbacks = 0;
   int shifted_solves = 0;              ///< Levenberg–Marquardt retries of indefinite linear solves
+  int minres_solves = 0;               ///< indefinite linear solves by MINRES (FftSolverOptions::indefinite_solver)
   int continuation_iterations = 0;     ///< pseudo-transient iterations (FftSolverOptions::max_continuation_iterations)
   std::vector<double> residuals;       ///< Newton residual history of the last sub-step
   double wall_seconds = 0.0;
@@ -124,6 +144,7 @@ struct RveRunResult {
   int total_krylov_iterations = 0;
   int cutbacks = 0;
   int shifted_solves = 0;
+  int minres_solves = 0;
   int continuation_iterations = 0;
   std::vector<std::string> log;
   double wall_seconds = 0.0;
