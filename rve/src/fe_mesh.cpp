@@ -287,6 +287,11 @@ double assign_masters(SectionMesh& m, double tol) {
   return worst;
 }
 
+/// Corner size field of mesh_section (h(r) = max(h_min, min(h_i (r/R)^β, h_min + r/2)) for r < R).
+double corner_size(double r, double R, double h_i, double h_min, double beta) {
+  return std::max(h_min, std::min(h_i * std::pow(r / R, beta), h_min + 0.5 * r));
+}
+
 }  // namespace
 
 double verify_periodic_pairing(const SectionMesh& mesh) {
@@ -335,6 +340,8 @@ SectionMesh mesh_section(const Section& section, const SectionMeshOptions& optio
   if (o.corner_refinement) {
     if (!(o.corner_exponent > 0.0 && o.corner_exponent < 1.0))
       throw InputError("solver.corner_exponent", std::to_string(o.corner_exponent), "must lie in (0, 1)");
+    if (!(o.corner_min_size_ratio > 0.0 && o.corner_min_size_ratio <= 1.0))
+      throw InputError("solver.corner_min_size_ratio", std::to_string(o.corner_min_size_ratio), "must lie in (0, 1]");
     for (std::size_t k = 0; k < fibers.size(); ++k) {
       if (fibers[k].f.shape != SectionShape::rectangle) continue;
       const double R = 0.5 * std::min(fibers[k].f.width, fibers[k].f.height);
@@ -344,7 +351,8 @@ SectionMesh mesh_section(const Section& section, const SectionMeshOptions& optio
           if (j != k && signed_distance(fibers[j], c) <= 1e-9 * std::max(L1, L2)) shared = true;
         if (shared || c.x() < -R || c.x() > L1 + R || c.y() < -R || c.y() > L2 + R) continue;
         const double ratio = std::min(1.0, o.interface_size / R);
-        const double h_min = std::max(R * std::pow(ratio, 1.0 / (1.0 - o.corner_exponent)), 1e-5 * std::max(L1, L2));
+        const double h_min = std::max({R * std::pow(ratio, 1.0 / (1.0 - o.corner_exponent)), 1e-5 * std::max(L1, L2),
+                                 o.corner_min_size_ratio * o.interface_size});
         corners.push_back({c, R, h_min});
       }
     }
@@ -356,8 +364,7 @@ SectionMesh mesh_section(const Section& section, const SectionMeshOptions& optio
       const double r = (Vec2(x, y) - c.x).norm();
       if (r >= c.R) continue;
       // Power grading, and at most 0.5 growth per unit distance so neighbours stay comparable.
-      h = std::min(h, std::max(c.h_min, std::min(o.interface_size * std::pow(r / c.R, o.corner_exponent),
-                                                  c.h_min + 0.5 * r)));
+      h = std::min(h, corner_size(r, c.R, o.interface_size, c.h_min, o.corner_exponent));
     }
     return h;
   };

@@ -1,6 +1,7 @@
 // Periodic conforming 10-node tetrahedral meshes of a fiber cell with CGAL's Periodic_3_mesh_3
 // (see fe_mesh.hpp). The only translation unit that includes CGAL's 3D mesher (slow to compile).
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -208,7 +209,18 @@ CellMesh mesh_cell(const Section& section, const CellMeshOptions& options) {
   const CellCriteria cell(o.radius_edge_ratio, sf);
   const Criteria criteria(facet, cell);
   CGAL::get_default_random() = CGAL::Random(o.seed);
-  C3t3 c3t3 = CGAL::make_periodic_3_mesh_3<C3t3>(domain, criteria);
+  namespace P = CGAL::parameters;
+  if (o.smoothing_iterations < 0)
+    throw InputError("solver.smoothing_iterations", std::to_string(o.smoothing_iterations), "must be ≥ 0");
+  const auto t_mesh = std::chrono::steady_clock::now();
+  // Smoothers with an iteration cap and no time limit (reproducible); perturber and exuder as CGAL's
+  // defaults (no sliver bound: improve the smallest dihedral angles as long as they can).
+  C3t3 c3t3 = CGAL::make_periodic_3_mesh_3<C3t3>(
+      domain, criteria,
+      o.odt ? P::odt(P::max_iteration_number = o.smoothing_iterations) : P::no_odt(),
+      o.lloyd ? P::lloyd(P::max_iteration_number = o.smoothing_iterations) : P::no_lloyd(),
+      o.perturb ? P::perturb() : P::no_perturb(), o.exude ? P::exude() : P::no_exude());
+  const double mesher_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_mesh).count();
   const Tr& tr = c3t3.triangulation();
   if (!tr.is_1_cover()) throw std::runtime_error("periodic cell mesh: CGAL's triangulation is not a 1-cover");
 
@@ -233,138 +245,212 @@ CellMesh mesh_cell(const Section& section, const CellMeshOptions& options) {
     const auto off = tr.int_to_off(c->offset(i));
     return std::array<int, 3>{off.x(), off.y(), off.z()};
   };
+  // Phase of every cell: CGAL's subdomain; cells CGAL left out of its complex (dummy-point cells of
+  // the periodic triangulation) get the label at their centroid.
+  std::unordered_map<Tr::Cell_handle, int> cell_phase;
+  int unlabeled = 0;
+  for (auto c = tr.finite_cells_begin(); c != tr.finite_cells_end(); ++c) {
+    int sd = int(c3t3.subdomain_index(c));
+    if (sd == 0) {
+      ++unlabeled;
+      Vec3d g = Vec3d::Zero();
+      for (int i = 0; i < 4; ++i) {
+        const auto off = offset_of(c, i);
+        g += 0.25 * (canon[vid.at(c->vertex(i))] + Vec3d(off[0] * L1, off[1] * L2, off[2] * L3));
+      }
+      g = Vec3d(wrap(g[0], L1), wrap(g[1], L2), g[2]);
+      sd = inside(Vec2(g[0], g[1])) ? 2 : 1;
+    }
+    cell_phase[c] = sd == 2 ? 1 : 0;
+  }
+  // Phase labels and interface (curved) facets. repair = true: the geometric repairs below; false:
+  // CGAL's labels and surface facets as they are (the fallback when a repaired mesh folds).
+  const auto cgal_phase = cell_phase;
+  int relabeled = 0, facets_not_in_complex = 0;
   std::vector<char> on_surface(canon.size(), 0);
   std::map<Key3, char> interface_edges;
-  for (auto f = c3t3.facets_in_complex_begin(); f != c3t3.facets_in_complex_end(); ++f) {
-    const Tr::Cell_handle c = f->first;
-    // Fiber interfaces only: cells CGAL left outside the complex (subdomain 0) also bound complex
-    // facets, which are not on a fiber surface.
-    const int s0 = int(c3t3.subdomain_index(c)), s1 = int(c3t3.subdomain_index(c->neighbor(f->second)));
-    if (!((s0 == 1 && s1 == 2) || (s0 == 2 && s1 == 1))) continue;
-    std::array<int, 3> idx;
-    int n = 0;
-    for (int i = 0; i < 4; ++i)
-      if (i != f->second) idx[n++] = i;
-    for (int a = 0; a < 3; ++a) {
-      on_surface[vid.at(c->vertex(idx[a]))] = 1;
-      const int b = (a + 1) % 3;
-      interface_edges[edge_key(vid.at(c->vertex(idx[a])), offset_of(c, idx[a]), vid.at(c->vertex(idx[b])),
-                               offset_of(c, idx[b]))] = 1;
+  auto classify = [&](bool repair) {
+    cell_phase = cgal_phase;
+    relabeled = facets_not_in_complex = 0;
+    on_surface.assign(canon.size(), 0);
+    interface_edges.clear();
+    // A matrix cell whose four vertices all lie on one circular fiber surface is inside that fiber (the
+    // convex hull of points on a convex surface): CGAL labels cells by their circumcentre, which for
+    // such flat surface cells can lie outside. Relabelled as fiber, so the phase volumes follow the
+    // geometry (measured: up to 4e-4 of the fiber volume in 1–4 such cells at L/3–L/5).
+    if (repair) {
+      auto surface_fiber = [&](const Vec3d& x) {
+        const Vec2 w(wrap(x[0], L1), wrap(x[1], L2));
+        double d;
+        const int k = nearest(w, d);
+        return k >= 0 && fibers[k].f.shape == SectionShape::circle && d <= 1e-6 * fibers[k].f.radius ? k : -1;
+      };
+      for (auto c = tr.finite_cells_begin(); c != tr.finite_cells_end(); ++c) {
+        if (cell_phase.at(c) != 0) continue;
+        int k0 = surface_fiber(canon[vid.at(c->vertex(0))]);
+        bool all = k0 >= 0;
+        for (int i = 1; i < 4 && all; ++i) all = surface_fiber(canon[vid.at(c->vertex(i))]) == k0;
+        if (all) {
+          cell_phase[c] = 1;
+          ++relabeled;
+        }
+      }
     }
-  }
+    // Interface facets: every facet between a fiber and a matrix cell (not only CGAL's complex facets:
+    // the centroid-labelled cells and the sliver exuder's relabelled cells also bound the phases, and
+    // the curved geometry must follow the phase boundary the solver sees).
+    for (auto c = tr.finite_cells_begin(); c != tr.finite_cells_end(); ++c) {
+      if (cell_phase.at(c) != 1) continue;
+      for (int fi = 0; fi < 4; ++fi) {
+        if (cell_phase.at(c->neighbor(fi)) != 0) continue;
+        if (!c3t3.is_in_complex(c, fi)) {
+          ++facets_not_in_complex;
+          if (!repair) continue;  // the mesher's own surface facets only
+        }
+        std::array<int, 3> idx;
+        int n = 0;
+        for (int i = 0; i < 4; ++i)
+          if (i != fi) idx[n++] = i;
+        for (int a = 0; a < 3; ++a) {
+          on_surface[vid.at(c->vertex(idx[a]))] = 1;
+          const int b = (a + 1) % 3;
+          interface_edges[edge_key(vid.at(c->vertex(idx[a])), offset_of(c, idx[a]), vid.at(c->vertex(idx[b])),
+                                   offset_of(c, idx[b]))] = 1;
+        }
+      }
+    }
+  };
   // In-plane projection onto the nearest circular fiber (points given unwrapped: wrapped first, the
   // same shift added back, so every periodic copy moves identically).
-  auto project = [&](Vec3d& x) {
+  auto project = [&](Vec3d& x, double max_distance) {
     Vec3d w(wrap(x[0], L1), wrap(x[1], L2), x[2]);
     const Vec3d shift = x - w;
     double d;
     const int k = nearest(Vec2(w[0], w[1]), d);
     if (k < 0 || fibers[k].f.shape != SectionShape::circle) return false;
-    // Surface vertices are on the surface to CGAL's error bound; mid-edge nodes of an interface chord
-    // are inside by the sagitta ≤ h²/(8r). Anything farther is not an interface node.
-    if (d > 0.25 * fibers[k].f.radius) return false;
+    if (d > max_distance * fibers[k].f.radius) return false;
     const Vec2 c = fibers[k].f.center, r = Vec2(w[0], w[1]) - c;
     if (r.norm() == 0.0) return false;
     const Vec2 q = c + fibers[k].f.radius * r.normalized();
     x = Vec3d(q[0], q[1], w[2]) + shift;
     return true;
   };
-  if (o.curved_interfaces)
-    for (std::size_t v = 0; v < canon.size(); ++v)
-      if (on_surface[v]) project(canon[v]);
+  // Interface vertices: CGAL's surface vertices lie on the surface to its error bound, but a phase
+  // boundary facet can keep a vertex CGAL did not insert on the surface (measured: a vertex 0.27 r
+  // outside the cylinder shared by four fiber cells at mesh_size L/4, every seed, +1.3e-3 fiber
+  // volume, P11 6e-4 too stiff). Those are moved onto the surface as well (up to 0.5 r); if that
+  // folds an element the mesh is rebuilt with the 0.25 r limit of the mid-edge nodes. Mid-edge nodes of an interface chord are
+  // inside by the sagitta ≤ h²/(8r); anything farther than 0.25 r is not an interface node.
+  // Builds the Tet10 mesh with interface vertices projected from up to vertex_limit · r; false if an
+  // element folds (then the caller retries with the safe limit).
+  const std::vector<Vec3d> canon_raw = canon;
+  double max_offset = 0.0;
+  auto build = [&](double vertex_limit, bool repair, CellMesh& m) -> bool {
+    canon = canon_raw;
+    classify(repair);
+    if (o.curved_interfaces)
+      for (std::size_t v = 0; v < canon.size(); ++v)
+        if (on_surface[v]) project(canon[v], vertex_limit);
+    // Largest distance of an interface vertex from the fiber surface (relative to the radius; circles):
+    // CGAL puts surface vertices on the surface, so anything above round-off is a vertex of a phase
+    // boundary facet that is not a surface facet (a geometry error of the phase volumes).
+    max_offset = 0.0;
+    for (std::size_t v = 0; v < canon.size(); ++v) {
+      if (!on_surface[v]) continue;
+      const Vec2 w(wrap(canon[v][0], L1), wrap(canon[v][1], L2));
+      double d;
+      const int k = nearest(w, d);
+      if (k >= 0 && fibers[k].f.shape == SectionShape::circle) max_offset = std::max(max_offset, d / fibers[k].f.radius);
+    }
 
-  CellMesh m;
-  m.L1 = L1;
-  m.L2 = L2;
-  m.L3 = L3;
-  m.vertices = int(canon.size());
-  std::unordered_map<long, int> copy_node;  // vertex * 27 + offset code → node
-  std::vector<int> first_copy(canon.size(), -1);
-  auto vertex_node = [&](int v, const std::array<int, 3>& off) {
-    const long key = long(v) * 27 + (off[0] + 1) + 3 * (off[1] + 1) + 9 * (off[2] + 1);
-    auto it = copy_node.find(key);
-    if (it != copy_node.end()) return it->second;
-    const int id = int(m.nodes.size());
-    m.nodes.push_back(canon[v] + Vec3d(off[0] * L1, off[1] * L2, off[2] * L3));
-    if (first_copy[v] < 0) first_copy[v] = id;
-    m.master.push_back(first_copy[v]);
-    copy_node.emplace(key, id);
-    return id;
-  };
-  struct Corner {
-    int v;
-    std::array<int, 3> off;
-  };
-  std::vector<std::array<Corner, 4>> cells;
-  int unlabeled = 0;
-  for (auto c = tr.finite_cells_begin(); c != tr.finite_cells_end(); ++c) {
-    std::array<Corner, 4> cs;
-    for (int i = 0; i < 4; ++i) cs[i] = {vid.at(c->vertex(i)), offset_of(c, i)};
-    // Phase: CGAL's subdomain of the cell; cells CGAL left out of the complex (none in a periodic
-    // domain normally, but dummy-point cells may remain) get the label at their centroid.
-    int sd = int(c3t3.subdomain_index(c));
-    if (sd == 0) {
-      ++unlabeled;
-      Vec3d g = Vec3d::Zero();
-      for (int i = 0; i < 4; ++i)
-        g += 0.25 * (canon[cs[i].v] + Vec3d(cs[i].off[0] * L1, cs[i].off[1] * L2, cs[i].off[2] * L3));
-      g = Vec3d(wrap(g[0], L1), wrap(g[1], L2), g[2]);
-      sd = inside(Vec2(g[0], g[1])) ? 2 : 1;
-    }
-    std::array<int, 10> el;
-    for (int i = 0; i < 4; ++i) el[i] = vertex_node(cs[i].v, cs[i].off);
-    // CGAL's cells are positively oriented (exact predicates); a floating-point determinant of a
-    // flat cell may have either sign, so the order is kept as CGAL gives it.
-    m.elements.push_back(el);
-    m.phase.push_back(sd == 2 ? 1 : 0);
-    cells.push_back(cs);
-  }
-  // Mid-edge nodes: one per unwrapped edge (pair of vertex copies), master = the first mid-edge node
-  // of the same periodic edge.
-  std::map<std::pair<int, int>, int> mid;
-  std::map<Key3, int> periodic_mid;
-  std::vector<char> curved;  // per node: mid-edge node on a circle
-  for (std::size_t e = 0; e < m.elements.size(); ++e) {
-    auto& el = m.elements[e];
-    for (int k = 0; k < 6; ++k) {
-      const int a = fe::kTet10Edges[k][0], b = fe::kTet10Edges[k][1];
-      const auto key = std::minmax(el[a], el[b]);
-      auto it = mid.find(key);
-      if (it != mid.end()) {
-        el[4 + k] = it->second;
-        continue;
-      }
+    m = CellMesh{};
+    m.L1 = L1;
+    m.L2 = L2;
+    m.L3 = L3;
+    m.vertices = int(canon.size());
+    std::unordered_map<long, int> copy_node;  // vertex * 27 + offset code → node
+    std::vector<int> first_copy(canon.size(), -1);
+    auto vertex_node = [&](int v, const std::array<int, 3>& off) {
+      const long key = long(v) * 27 + (off[0] + 1) + 3 * (off[1] + 1) + 9 * (off[2] + 1);
+      auto it = copy_node.find(key);
+      if (it != copy_node.end()) return it->second;
       const int id = int(m.nodes.size());
-      m.nodes.push_back(0.5 * (m.nodes[el[a]] + m.nodes[el[b]]));
-      const Key3 pk = edge_key(cells[e][a].v, cells[e][a].off, cells[e][b].v, cells[e][b].off);
-      auto pm = periodic_mid.find(pk);
-      if (pm == periodic_mid.end()) pm = periodic_mid.emplace(pk, id).first;
-      m.master.push_back(pm->second);
-      curved.resize(m.nodes.size(), 0);
-      if (o.curved_interfaces && interface_edges.count(pk)) curved[id] = project(m.nodes[id]);
-      mid.emplace(key, id);
-      el[4 + k] = id;
+      m.nodes.push_back(canon[v] + Vec3d(off[0] * L1, off[1] * L2, off[2] * L3));
+      if (first_copy[v] < 0) first_copy[v] = id;
+      m.master.push_back(first_copy[v]);
+      copy_node.emplace(key, id);
+      return id;
+    };
+    struct Corner {
+      int v;
+      std::array<int, 3> off;
+    };
+    std::vector<std::array<Corner, 4>> cells;
+    for (auto c = tr.finite_cells_begin(); c != tr.finite_cells_end(); ++c) {
+      std::array<Corner, 4> cs;
+      for (int i = 0; i < 4; ++i) cs[i] = {vid.at(c->vertex(i)), offset_of(c, i)};
+      const int sd = cell_phase.at(c) == 1 ? 2 : 1;
+      std::array<int, 10> el;
+      for (int i = 0; i < 4; ++i) el[i] = vertex_node(cs[i].v, cs[i].off);
+      // CGAL's cells are positively oriented (exact predicates); a floating-point determinant of a
+      // flat cell may have either sign, so the order is kept as CGAL gives it.
+      m.elements.push_back(el);
+      m.phase.push_back(sd == 2 ? 1 : 0);
+      cells.push_back(cs);
     }
-  }
-  // An element folded by the curved mid-edge nodes (possible where CGAL leaves a flat element on a
-  // strongly curved surface patch) gets those mid-edge nodes back on the chords, for every periodic
-  // copy of the edge.
-  for (int pass = 0; pass < 3; ++pass) {
-    std::set<int> straighten;  // masters of mid-edge nodes
-    for (int e = 0; e < m.num_elements(); ++e)
-      if (min_jacobian(m, e) <= 0.0)
-        for (int k = 0; k < 6; ++k)
-          if (curved[m.elements[e][4 + k]]) straighten.insert(m.master[m.elements[e][4 + k]]);
-    if (straighten.empty()) break;
-    for (const auto& kv : mid)
-      if (curved[kv.second] && straighten.count(m.master[kv.second])) {
-        m.nodes[kv.second] = 0.5 * (m.nodes[kv.first.first] + m.nodes[kv.first.second]);
-        curved[kv.second] = 0;
+    // Mid-edge nodes: one per unwrapped edge (pair of vertex copies), master = the first mid-edge node
+    // of the same periodic edge.
+    std::map<std::pair<int, int>, int> mid;
+    std::map<Key3, int> periodic_mid;
+    std::vector<char> curved;  // per node: mid-edge node on a circle
+    for (std::size_t e = 0; e < m.elements.size(); ++e) {
+      auto& el = m.elements[e];
+      for (int k = 0; k < 6; ++k) {
+        const int a = fe::kTet10Edges[k][0], b = fe::kTet10Edges[k][1];
+        const auto key = std::minmax(el[a], el[b]);
+        auto it = mid.find(key);
+        if (it != mid.end()) {
+          el[4 + k] = it->second;
+          continue;
+        }
+        const int id = int(m.nodes.size());
+        m.nodes.push_back(0.5 * (m.nodes[el[a]] + m.nodes[el[b]]));
+        const Key3 pk = edge_key(cells[e][a].v, cells[e][a].off, cells[e][b].v, cells[e][b].off);
+        auto pm = periodic_mid.find(pk);
+        if (pm == periodic_mid.end()) pm = periodic_mid.emplace(pk, id).first;
+        m.master.push_back(pm->second);
+        curved.resize(m.nodes.size(), 0);
+        if (o.curved_interfaces && interface_edges.count(pk)) curved[id] = project(m.nodes[id], 0.25);
+        mid.emplace(key, id);
+        el[4 + k] = id;
       }
-  }
-  for (int e = 0; e < m.num_elements(); ++e)
-    if (!(min_jacobian(m, e) > 0.0))
-      throw std::runtime_error("periodic cell mesh: element " + std::to_string(e) + " has a non-positive Jacobian");
+    }
+    // An element folded by the curved mid-edge nodes (possible where CGAL leaves a flat element on a
+    // strongly curved surface patch) gets those mid-edge nodes back on the chords, for every periodic
+    // copy of the edge.
+    for (int pass = 0; pass < 3; ++pass) {
+      std::set<int> straighten;  // masters of mid-edge nodes
+      for (int e = 0; e < m.num_elements(); ++e)
+        if (min_jacobian(m, e) <= 0.0)
+          for (int k = 0; k < 6; ++k)
+            if (curved[m.elements[e][4 + k]]) straighten.insert(m.master[m.elements[e][4 + k]]);
+      if (straighten.empty()) break;
+      for (const auto& kv : mid)
+        if (curved[kv.second] && straighten.count(m.master[kv.second])) {
+          m.nodes[kv.second] = 0.5 * (m.nodes[kv.first.first] + m.nodes[kv.first.second]);
+          curved[kv.second] = 0;
+        }
+    }
+    for (int e = 0; e < m.num_elements(); ++e)
+      if (!(min_jacobian(m, e) > 0.0)) return false;
+    return true;
+  };
+  CellMesh m;
+  // Repaired geometry first (far interface vertices projected, surface cells relabelled); if that
+  // folds an element, the 0.25 r limit; then CGAL's labels and surface facets unchanged (measured on
+  // the VF 0.23 cell, seeds 1–3, L/3–L/6: 4 of 12 meshes need a fallback).
+  if (!build(0.5, true, m) && !build(0.25, true, m) && !build(0.25, false, m))
+    throw std::runtime_error("periodic cell mesh: an element has a non-positive Jacobian");
 
   // Quality of the straight-sided (vertex) tetrahedra.
   CellMeshQuality& q = m.quality;
@@ -410,6 +496,11 @@ CellMesh mesh_cell(const Section& section, const CellMeshOptions& options) {
   }
   q.mean_radius_ratio = m.elements.empty() ? 0.0 : sum_rr / double(m.elements.size());
   q.aspect_stretch = Lmax / L.minCoeff();
+  q.unlabeled_cells = unlabeled;
+  q.relabeled_cells = relabeled;
+  q.interface_facets_not_in_complex = facets_not_in_complex;
+  q.max_interface_offset = max_offset;
+  q.mesh_seconds = mesher_seconds;
   if (std::getenv("SOFTHOM_MESH3D_DEBUG"))
     std::fprintf(stderr, "mesh_cell: %d cells outside CGAL's complex (phase from the centroid)\n", unlabeled);
   for (int i = 0; i < m.num_nodes(); ++i) q.periodic_copies += m.master[i] != i;

@@ -74,17 +74,54 @@ struct TriElement {
   static double measure(const Mesh& m) { return m.L1 * m.L2; }
 };
 
-/// 10-node tetrahedra of the 3D cell (fe/tet10.hpp), 4-point degree-2 rule; P2/P0 only (no bubble).
-struct TetElement {
+/// Positive-weight 14-point rule on the reference tetrahedron, exact for degree 5 (Walkington's rule;
+/// weights sum to 1/6). Points in barycentric orbits (a, a, a, 1 − 3a) and (c, c, ½ − c, ½ − c).
+std::array<fe::TetRulePoint, 14> tet_rule_degree5() {
+  constexpr double a1 = 0.0927352503108912264, w1 = 0.01224884051939365826;
+  constexpr double a2 = 0.3108859192633006097, w2 = 0.01878132095300264180;
+  constexpr double c = 0.0455037041256496494, d = 0.5 - c, w3 = 0.007091003462846911;
+  std::array<fe::TetRulePoint, 14> r;
+  int n = 0;
+  for (const auto& [a, w] : {std::pair{a1, w1}, std::pair{a2, w2}})
+    for (int k = 0; k < 4; ++k) {
+      double b[4] = {a, a, a, a};
+      b[k] = 1.0 - 3.0 * a;
+      r[n++] = {Eigen::Vector3d(b[1], b[2], b[3]), w};
+    }
+  constexpr int pairs[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  for (const auto& pr : pairs) {
+    double b[4] = {d, d, d, d};
+    b[pr[0]] = b[pr[1]] = c;
+    r[n++] = {Eigen::Vector3d(b[1], b[2], b[3]), w3};
+  }
+  return r;
+}
+
+/// 10-node tetrahedra of the 3D cell (fe/tet10.hpp); P2/P0 only (no bubble). QpT = 4: the standard
+/// degree-2 rule; QpT = 14: the degree-5 rule above. The degree-2 rule integrates the stiffness of
+/// straight elements at small strain exactly, but not the cubic Jacobian of the curved interface
+/// elements (their volumes, hence the phase volumes and the P0 mean dilatation) nor the rational
+/// finite-strain integrand.
+template <int QpT>
+struct TetElementT {
   using Mesh = CellMesh;
-  static constexpr int kNodes = 10, kDim = 3, kQp = 4;
+  static constexpr int kNodes = 10, kDim = 3, kQp = QpT;
   static constexpr bool kHasBubble = false;
   using Geometry = ElementGeometryT<kNodes, kDim, kQp>;
+  static const std::array<fe::TetRulePoint, QpT>& rule() {
+    if constexpr (QpT == 4) {
+      static const auto r = fe::tet_rule_degree2();
+      return r;
+    } else {
+      static const auto r = tet_rule_degree5();
+      return r;
+    }
+  }
   static Geometry geometry(const Mesh& m, int e) {
     Geometry g;
-    const auto rule = fe::tet_rule_degree2();
+    const auto& rl = rule();
     for (int q = 0; q < kQp; ++q) {
-      const fe::Tet10Grad dR = fe::tet10_shape_derivatives(rule[q].xi);
+      const fe::Tet10Grad dR = fe::tet10_shape_derivatives(rl[q].xi);
       Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
       for (int a = 0; a < 10; ++a) J += m.nodes[m.elements[e][a]] * dR.row(a);
       const double det = J.determinant();
@@ -92,7 +129,7 @@ struct TetElement {
         throw std::runtime_error("FE RVE mesh: element " + std::to_string(e) + " has a non-positive Jacobian");
       g.dN[q] = dR * J.inverse();
       g.dB[q].setZero();
-      g.w[q] = rule[q].w * det;
+      g.w[q] = rl[q].w * det;
       g.area += g.w[q];
     }
     return g;
@@ -101,6 +138,8 @@ struct TetElement {
   static Vec3 position(const Mesh& m, int i) { return m.nodes[i]; }
   static double measure(const Mesh& m) { return m.L1 * m.L2 * m.L3; }
 };
+using TetElement4 = TetElementT<4>;
+using TetElement14 = TetElementT<14>;
 
 /// Internal (condensed) unknowns of a mixed element, at most 9: bubble displacement (3, P2+/P1 only),
 /// dilatation θ and pressure p coefficients (1 each for P0, 3 each for P1 in the basis L0, L1, L2).
@@ -951,10 +990,11 @@ struct Model {
 /// One of the two element families (the other pointer is empty).
 struct FeRveSolver::Impl {
   std::unique_ptr<Model<TriElement>> tri;
-  std::unique_ptr<Model<TetElement>> tet;
+  std::unique_ptr<Model<TetElement4>> tet4;
+  std::unique_ptr<Model<TetElement14>> tet14;
   template <class F>
   decltype(auto) visit(F&& f) const {
-    return tri ? f(*tri) : f(*tet);
+    return tri ? f(*tri) : tet4 ? f(*tet4) : f(*tet14);
   }
 };
 
@@ -967,19 +1007,26 @@ FeRveSolver::FeRveSolver(SectionMesh mesh, MaterialPtr matrix, MaterialPtr fiber
 FeRveSolver::FeRveSolver(CellMesh mesh, MaterialPtr matrix, MaterialPtr fiber, double fiber_angle_deg,
                          const Mat3& load_frame, const FeSolverOptions& options)
     : impl_(std::make_unique<Impl>()) {
-  impl_->tet = std::make_unique<Model<TetElement>>(std::move(mesh), std::move(matrix), std::move(fiber),
-                                                   fiber_angle_deg, load_frame, options);
+  if (options.tet_quadrature_points != 4 && options.tet_quadrature_points != 14)
+    throw InputError("solver.tet_quadrature_points", std::to_string(options.tet_quadrature_points),
+                     "must be 4 (degree-2 rule) or 14 (degree-5 rule)");
+  if (options.tet_quadrature_points == 4)
+    impl_->tet4 = std::make_unique<Model<TetElement4>>(std::move(mesh), std::move(matrix), std::move(fiber),
+                                                      fiber_angle_deg, load_frame, options);
+  else
+    impl_->tet14 = std::make_unique<Model<TetElement14>>(std::move(mesh), std::move(matrix), std::move(fiber),
+                                                        fiber_angle_deg, load_frame, options);
 }
 FeRveSolver::~FeRveSolver() = default;
 
-bool FeRveSolver::is_3d() const { return bool(impl_->tet); }
+bool FeRveSolver::is_3d() const { return !impl_->tri; }
 const SectionMesh& FeRveSolver::mesh() const {
   if (!impl_->tri) throw std::logic_error("FeRveSolver::mesh(): the solver runs on a 3D cell mesh (cell_mesh())");
   return impl_->tri->mesh;
 }
 const CellMesh& FeRveSolver::cell_mesh() const {
-  if (!impl_->tet) throw std::logic_error("FeRveSolver::cell_mesh(): the solver runs on a section mesh (mesh())");
-  return impl_->tet->mesh;
+  if (impl_->tri) throw std::logic_error("FeRveSolver::cell_mesh(): the solver runs on a section mesh (mesh())");
+  return impl_->tet4 ? impl_->tet4->mesh : impl_->tet14->mesh;
 }
 int FeRveSolver::num_elements() const {
   return impl_->visit([](const auto& m) { return m.ne; });
@@ -1017,7 +1064,8 @@ RveRunResult FeRveSolver::run(const MixedControl& control,
                               const std::function<void(const RveStep&, const FeFields*)>& on_step,
                               const std::function<bool(double)>& want_fields) {
   if (impl_->tri) return impl_->tri->run(control, on_step, want_fields);
-  return impl_->tet->run(control, on_step, want_fields);
+  if (impl_->tet4) return impl_->tet4->run(control, on_step, want_fields);
+  return impl_->tet14->run(control, on_step, want_fields);
 }
 
 }  // namespace softhom::rve

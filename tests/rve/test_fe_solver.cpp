@@ -234,3 +234,44 @@ TEST(FeRve, NoLockingForNearlyIncompressibleMatrix) {
   EXPECT_NEAR(P[0](0, 0) / P[1](0, 0), 1.0, 3e-3);
   EXPECT_NEAR(F[0](1, 1), 0.81662, 0.003 * 0.81662);
 }
+
+// Ecoflex FFT–FE difference (issue #6): on the ecoflex + glass cell (shear contrast 226) the FFT engine
+// is 1.2e-3 off the FE engine at 32² and still 1.1e-3 at 64². That difference is the FFT engine's
+// composite-voxel discretization error, not an incompressibility effect of either engine: with the
+// matrix bulk modulus lowered from K/G = 1.2e5 to 100 (same G) the gap at 32² is the same (measured
+// 1.24e-3 and 1.25e-3; required within 10 %), and at K/G = 100, where fine grids are cheap, it
+// falls at first order with the grid (48² 1.40e-3, 96² 6.8e-4, 192² 3.5e-4, 384² 1.9e-4, 512² 1.5e-4;
+// the 256²/512² Richardson limit is 1e-6 from the FE value). FE: P2+bubble/P1 at L/4, 6e-6 from its
+// own limit. Required: the 96² gap below 0.6 × the 48² gap, both gaps positive (FFT stiffer).
+TEST(FeRve, EcoflexFftGapIsTheVoxelErrorNotIncompressibility) {
+  const Section s = circle_cell();
+  const MaterialPtr glass = preset("glass");
+  MaterialSpec soft = preset_spec("ecoflex");
+  soft.gent.K = 100.0 * soft.gent.G;
+  const MaterialPtr ecoflex = preset("ecoflex"), ecoflex_kg100 = build_material(soft);
+  const MixedControl control = uniaxial_ramp(1.5, 8);
+  auto fe_p11 = [&](const MaterialPtr& m) {
+    FeRveSolver fe(mesh_of(s, s.L1 / 4, s.L1 / 12), m, glass, 45.0, control.frame);
+    const RveRunResult r = fe.run(control);
+    EXPECT_TRUE(r.completed) << r.error;
+    return r.steps.back().P(0, 0);
+  };
+  auto fft_p11 = [&](const MaterialPtr& m, int n) {
+    FftSolverOptions o;
+    o.tolerance = 1e-8;
+    o.plan.rigor = fft::PlanRigor::estimate;
+    FftRveSolver fft(voxelize_section(s, n, n), m, glass, 45.0, control.frame, o);
+    const RveRunResult r = fft.run(control);
+    EXPECT_TRUE(r.completed) << r.error;
+    return r.steps.back().P(0, 0);
+  };
+  const double fe_hi = fe_p11(ecoflex), fe_lo = fe_p11(ecoflex_kg100);
+  const double gap_hi = fft_p11(ecoflex, 32) / fe_hi - 1.0, gap_lo = fft_p11(ecoflex_kg100, 32) / fe_lo - 1.0;
+  const double gap48 = fft_p11(ecoflex_kg100, 48) / fe_lo - 1.0, gap96 = fft_p11(ecoflex_kg100, 96) / fe_lo - 1.0;
+  std::printf("FFT - FE at 32^2: K/G 1.2e5 %.3e, K/G 100 %.3e; K/G 100 at 48^2 %.3e, 96^2 %.3e\n", gap_hi, gap_lo,
+              gap48, gap96);
+  EXPECT_NEAR(gap_hi / gap_lo, 1.0, 0.1);
+  EXPECT_GT(gap48, 0.0);
+  EXPECT_GT(gap96, 0.0);
+  EXPECT_LT(gap96, 0.6 * gap48);
+}

@@ -35,6 +35,11 @@ struct SectionMeshOptions {
   /// Corners shared with a periodic image (layers touching across the cell) are not refined.
   bool corner_refinement = true;
   double corner_exponent = 0.7;
+  /// Cap of the corner grading: the smallest corner size is at least corner_min_size_ratio ·
+  /// interface_size. The uncapped floor R (h_i/R)^(1/(1−β)) falls as h_i^3.3 (3e-5 mm = 1.5e-4 L at
+  /// L/16), far below what the singular corner field needs for the homogenized stress; the element
+  /// count is set by the power grading itself (∝ (R/h_i)², about 7× the unrefined mesh at any level).
+  double corner_min_size_ratio = 0.05;
 };
 
 struct SectionMeshQuality {
@@ -104,6 +109,14 @@ struct CellMeshOptions {
   double radius_edge_ratio = 2.0;
   bool curved_interfaces = true;
   unsigned seed = 1;             ///< CGAL's random generator (reproducible meshes)
+  /// Vertex smoothing of CGAL's refined mesh before its sliver perturber and exuder:
+  /// ODT (optimal Delaunay triangulation) and/or Lloyd relaxation, at most `smoothing_iterations`
+  /// sweeps each (no time limit: the mesh depends only on the inputs and the seed).
+  bool odt = false;
+  bool lloyd = false;
+  int smoothing_iterations = 20;
+  bool perturb = true;           ///< CGAL's sliver perturber
+  bool exude = true;             ///< CGAL's sliver exuder
 };
 
 struct CellMeshQuality {
@@ -114,6 +127,12 @@ struct CellMeshQuality {
   double fiber_volume_error = 0.0; ///< |mesh fiber volume − exact| / exact
   double aspect_stretch = 1.0;     ///< max(L) / min(L) of the affine map from CGAL's cube
   int periodic_copies = 0;         ///< nodes that are copies of another node
+  int unlabeled_cells = 0;         ///< cells CGAL left outside its complex (phase from the centroid)
+  int relabeled_cells = 0;         ///< matrix cells with all vertices on a fiber surface, made fiber
+  int interface_facets_not_in_complex = 0;  ///< phase-boundary facets that are not CGAL surface facets
+  double max_interface_offset = 0.0;  ///< largest |distance to the fiber surface| / radius of an
+                                      ///< interface vertex after projection (circles; 0 = exact)
+  double mesh_seconds = 0.0;       ///< wall time of CGAL's mesher (refinement + optimizers)
 };
 
 struct CellMesh {

@@ -58,6 +58,8 @@ struct FeSolverOptions {
   double mixed_pressure_ratio = 100.0;
   FePressure pressure = FePressure::p1_bubble;
   bool use_umfpack = false;  ///< force the unsymmetric solver (default: CHOLMOD, UMFPACK fallback)
+  /// Quadrature of the 3D Tet10 elements: 4 (the degree-2 rule) or 14 (a positive degree-5 rule).
+  int tet_quadrature_points = 4;
 };
 
 /// Per-element fields of a converged step (quadrature-point means), tensors in the load frame;
