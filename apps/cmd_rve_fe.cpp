@@ -294,7 +294,8 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
                  {"periodic_copies", q.periodic_copies},
                  {"max_pairing_error", q.max_pairing_error},
                  {"fiber_volume_error", q.fiber_volume_error},
-                 {"aspect_stretch", q.aspect_stretch}};
+                 {"aspect_stretch", q.aspect_stretch},
+                 {"mesh_seed", q.seed_used}};
     fmesh = field_mesh(mesh);
     phase = mesh.phase;
     fiber_measure = mesh.volume(1);

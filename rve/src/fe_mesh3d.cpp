@@ -144,7 +144,28 @@ double verify_periodic_cell_mesh(const CellMesh& m) {
   return worst;
 }
 
+namespace {
+constexpr const char* kFoldedElement = "periodic cell mesh: an element has a non-positive Jacobian";
+CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& options);
+}  // namespace
+
 CellMesh mesh_cell(const Section& section, const CellMeshOptions& options) {
+  if (options.seed_retries < 0)
+    throw InputError("solver.seed_retries", std::to_string(options.seed_retries), "must be >= 0");
+  CellMeshOptions o = options;
+  for (int attempt = 0;; ++attempt, ++o.seed) {
+    try {
+      CellMesh m = mesh_cell_with_seed(section, o);
+      m.quality.seed_used = o.seed;
+      return m;
+    } catch (const std::runtime_error& e) {
+      if (std::string(e.what()) != kFoldedElement || attempt >= options.seed_retries) throw;
+    }
+  }
+}
+
+namespace {
+CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& options) {
   CellMeshOptions o = options;
   const double L1 = section.L1, L2 = section.L2;
   if (o.length == 0.0) o.length = L1;
@@ -450,7 +471,7 @@ CellMesh mesh_cell(const Section& section, const CellMeshOptions& options) {
   // folds an element, the 0.25 r limit; then CGAL's labels and surface facets unchanged (measured on
   // the VF 0.23 cell, seeds 1–3, L/3–L/6: 4 of 12 meshes need a fallback).
   if (!build(0.5, true, m) && !build(0.25, true, m) && !build(0.25, false, m))
-    throw std::runtime_error("periodic cell mesh: an element has a non-positive Jacobian");
+    throw std::runtime_error(kFoldedElement);
 
   // Quality of the straight-sided (vertex) tetrahedra.
   CellMeshQuality& q = m.quality;
@@ -512,5 +533,6 @@ CellMesh mesh_cell(const Section& section, const CellMeshOptions& options) {
   q.fiber_volume_error = exact > 0.0 ? std::abs(m.volume(1) - exact) / exact : 0.0;
   return m;
 }
+}  // namespace
 
 }  // namespace softhom::rve

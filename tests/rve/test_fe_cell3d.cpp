@@ -267,3 +267,21 @@ TEST(FeMesh3d, PhaseVolumesFollowTheCylinder) {
     EXPECT_LT(m.quality.max_interface_offset, 1e-9);
   }
 }
+
+// Some seeds still fold an element after the repairs (measured by the session-4 engineer on this cell:
+// L/5 with seeds 1 and 3, L/6 with seed 2); mesh_cell then remakes the mesh with the next seeds
+// (CellMeshOptions::seed_retries, default 3) and reports the seed it used. CGAL's output is not
+// bit-reproducible between runs, so the test asks for a valid mesh from seed 1 within the retries,
+// not for a particular seed.
+TEST(FeMesh3d, FoldedMeshIsRemadeWithTheNextSeed) {
+  const Section s = circle_cell();
+  const CellMesh m = cell_mesh_of(s, s.L1 / 5.0, s.L1 / 10.0);
+  std::printf("L/5: seed used %u, %d Tet10, fiber volume error %.2e\n", m.quality.seed_used, m.num_elements(),
+              m.quality.fiber_volume_error);
+  EXPECT_GE(m.quality.seed_used, 1u);
+  EXPECT_LE(m.quality.seed_used, 4u);
+  EXPECT_LT(m.quality.fiber_volume_error, 1e-4);
+  CellMeshOptions bad;
+  bad.seed_retries = -1;
+  EXPECT_THROW(mesh_cell(s, bad), InputError);
+}

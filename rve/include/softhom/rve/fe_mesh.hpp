@@ -109,6 +109,9 @@ struct CellMeshOptions {
   double radius_edge_ratio = 2.0;
   bool curved_interfaces = true;
   unsigned seed = 1;             ///< CGAL's random generator (reproducible meshes)
+  /// A mesh that still folds an element after the repairs of mesh_cell is remade with the next seeds,
+  /// at most this many times (the fold depends on where CGAL puts its interface vertices).
+  int seed_retries = 3;
   /// Vertex smoothing of CGAL's refined mesh before its sliver perturber and exuder:
   /// ODT (optimal Delaunay triangulation) and/or Lloyd relaxation, at most `smoothing_iterations`
   /// sweeps each (no time limit: the mesh depends only on the inputs and the seed).
@@ -133,6 +136,7 @@ struct CellMeshQuality {
   double max_interface_offset = 0.0;  ///< largest |distance to the fiber surface| / radius of an
                                       ///< interface vertex after projection (circles; 0 = exact)
   double mesh_seconds = 0.0;       ///< wall time of CGAL's mesher (refinement + optimizers)
+  unsigned seed_used = 0;          ///< the seed of the mesh returned (options.seed + retries)
 };
 
 struct CellMesh {
