@@ -144,15 +144,20 @@ int kernel_benchmark(int n) {
   return 0;
 }
 
-/// Symbolic CHOLMOD analysis of the tube's free-dof pattern with one ordering at a time.
-void ordering_benchmark(double target) {
-  const Structure s = build_structure(helix_spec(target, 0.01));
+/// Sparsity pattern of the tube's stiffness on its free (not Dirichlet-constrained) dofs.
+fe::CscMatrix free_dof_pattern(const Structure& s) {
   const fe::Mesh& mesh = s.model.mesh;
   std::vector<char> constrained(mesh.num_dofs(), 0);
   for (const auto& g : s.model.dirichlet)
     for (int d : g.dofs) constrained[d] = 1;
-  const fe::DofMap dofs = fe::DofMap::from_constrained(mesh.num_dofs(), constrained);
-  const fe::CscMatrix K = fe::build_pattern(mesh, dofs);
+  return fe::build_pattern(mesh, fe::DofMap::from_constrained(mesh.num_dofs(), constrained));
+}
+
+/// Symbolic CHOLMOD analysis of the tube's free-dof pattern with one ordering at a time.
+void ordering_benchmark(double target) {
+  const Structure s = build_structure(helix_spec(target, 0.01));
+  const fe::Mesh& mesh = s.model.mesh;
+  const fe::CscMatrix K = free_dof_pattern(s);
   std::vector<int> colptr(K.n + 1, 0), rows;
   for (int c = 0; c < K.n; ++c) {
     for (int k = K.colptr[c]; k < K.colptr[c + 1]; ++k)
@@ -188,12 +193,7 @@ void ordering_benchmark(double target) {
 /// only), for several supernode amalgamation settings (nrelax, zrelax): achieved GFlop/s vs fill.
 void factor_benchmark(double target) {
   const Structure s = build_structure(helix_spec(target, 0.01));
-  const fe::Mesh& mesh = s.model.mesh;
-  std::vector<char> constrained(mesh.num_dofs(), 0);
-  for (const auto& g : s.model.dirichlet)
-    for (int d : g.dofs) constrained[d] = 1;
-  const fe::DofMap dofs = fe::DofMap::from_constrained(mesh.num_dofs(), constrained);
-  const fe::CscMatrix K = fe::build_pattern(mesh, dofs);
+  const fe::CscMatrix K = free_dof_pattern(s);
   std::vector<int> colptr(K.n + 1, 0), rows;
   std::vector<double> vals;
   for (int c = 0; c < K.n; ++c) {

@@ -52,20 +52,8 @@ InvariantAssembler::InvariantAssembler(Form form, const Mat3& F, const Mat3& C_i
 
 void InvariantAssembler::add_fiber(const Vec3& a0, const Vec3& a, const Mat3& M, double sM, double cMM,
                                    double cMC) {
-  S_fibers_ += sM * M;
-  if (!T_) return;
-  // The structure tensor as a 9-vector: vec(M) in material form, vec(F M) = vec(a ⊗ a0) in Piola form.
-  Vec9 m;
-  if (form_ == Form::material) {
-    m = Eigen::Map<const Vec9>(M.data());  // M is symmetric: column-major storage = row-major layout
-  } else {
-    for (int i = 0; i < 3; ++i)
-      for (int J = 0; J < 3; ++J) m[voigt9(i, J)] = a[i] * a0[J];
-  }
-  if (T_written_) T_->noalias() += (cMM * m) * m.transpose();
-  else T_->noalias() = (cMM * m) * m.transpose();
-  T_written_ = true;
-  z_ += cMC * m;
+  // F M = (F a0) ⊗ a0 = a ⊗ a0.
+  add_structure(M, a * a0.transpose(), sM, cMM, cMC);
 }
 
 void InvariantAssembler::add_structure(const Mat3& H, const Mat3& FH, double sH, double cHH, double cHC) {

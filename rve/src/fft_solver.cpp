@@ -789,6 +789,14 @@ struct FftRveSolver::Impl {
     precondition_macro(r.f, macro_inverse, free_idx, z.f, scale);
   }
 
+  /// Indices of the stress-controlled (free) macro components.
+  static std::vector<int> free_indices(const std::array<bool, 9>& free) {
+    std::vector<int> idx;
+    for (int c = 0; c < 9; ++c)
+      if (free[c]) idx.push_back(c);
+    return idx;
+  }
+
   Eigen::MatrixXd macro_block_inverse(const std::vector<int>& free_idx) const {
     const Mat9 Cl = T_load * C0 * T_load.transpose();
     const int m = int(free_idx.size());
@@ -838,9 +846,7 @@ struct FftRveSolver::Impl {
   int pcg(const KVec& b, const std::array<bool, 9>& free, double rel_tol, KVec& x, double shift, bool& breakdown) {
     const auto start = Clock::now();
     breakdown = false;
-    std::vector<int> free_idx;
-    for (int c = 0; c < 9; ++c)
-      if (free[c]) free_idx.push_back(c);
+    const std::vector<int> free_idx = free_indices(free);
     const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
     const double scale = 1.0 + shift;
     KVec &r = cg_r, &z = cg_z, &p = cg_p, &Ap = cg_Ap;
@@ -913,9 +919,7 @@ struct FftRveSolver::Impl {
   int pminres(const KVec& b, const std::array<bool, 9>& free, double rel_tol, KVec& x, bool& converged) {
     const auto start = Clock::now();
     converged = false;
-    std::vector<int> free_idx;
-    for (int c = 0; c < 9; ++c)
-      if (free[c]) free_idx.push_back(c);
+    const std::vector<int> free_idx = free_indices(free);
     const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
     const std::size_t n = 3 * NM;
     auto zero = [n](KVec& v) {
@@ -1191,9 +1195,7 @@ struct FftRveSolver::Impl {
     for (int c = 0; c < 9; ++c)
       if (!free[c]) Fbar(c / 3, c % 3) = target(c / 3, c % 3);
     set_reference();
-    std::vector<int> free_idx;
-    for (int c = 0; c < 9; ++c)
-      if (free[c]) free_idx.push_back(c);
+    const std::vector<int> free_idx = free_indices(free);
     const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
     KVec z{std::vector<Complex>(3 * NM), Vec9::Zero()};
     double err = 0.0;
