@@ -380,6 +380,7 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   summary["solver"] = std::string("newton-") + solver.linear_solver();
   summary["reference_medium"] = nullptr;
   summary["krylov_operator"] = nullptr;  // FFT-engine keys: same summary contract
+  summary["tangent_precision"] = nullptr;
   summary["indefinite_solver"] = nullptr;
   summary["tolerance"] = settings.solver.tolerance;
   summary["fft"] = nullptr;

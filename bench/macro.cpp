@@ -7,6 +7,8 @@
 //     --threads LIST   comma-separated OpenMP thread counts to run each size with (default 2)
 //     --solver S       auto | cholmod | umfpack (default auto: the symmetric-preconditioned path)
 //     --pressure P     final pressure [MPa] (default 0.01, the ecoflex scenes)
+//     --policy P       session5 (default) | session4: the Newton/Krylov policy of session 4 (condensed
+//                      GMRES, secant predictor, no per-step refactorization, no residual-first test)
 //     --only K         run only the first K of the load steps (cost of one step at sizes where the
 //                      whole ramp takes too long)
 //   bench_macro --orderings DOFS...    CHOLMOD symbolic analysis only (no factorization): fill nnz(L),
@@ -15,6 +17,9 @@
 //                                      would cost at 1e6 DOFs without running it)
 //   bench_macro --factor DOFS...      CHOLMOD numeric factorization + one solve (METIS) of an SPD matrix with
 //                                      the tube's pattern for several supernode amalgamation settings
+//   bench_macro --factor-once DOFS...  one numeric factorization + one solve (METIS, default settings), lean
+//                                      in memory (1e6 dofs: ≈ 11 GiB peak, 10 GiB of it the factor): the
+//                                      unit costs of the 1e6 estimate
 //   bench_macro --kernel [N]           micro benchmark of the hex8 kernel: µs per element evaluation
 //                                      (residual + F-bar/three-field tangent) and per material call, on a
 //                                      distorted, loaded element of the helix material, N repetitions
@@ -253,6 +258,75 @@ void factor_benchmark(double target) {
   }
 }
 
+/// One CHOLMOD numeric factorization and one solve (METIS, CHOLMOD's default amalgamation) of an SPD
+/// matrix with the tube's free-dof pattern, built lean for the largest sizes: the mesh and the full
+/// pattern are released before the analysis, so the peak is the factor (1e6 dofs: 1.34e9 entries,
+/// 10 GiB) plus the upper-triangle matrix (≈ 0.5 GB) and CHOLMOD's workspace. Times the unit costs the
+/// ramp estimate at 1e6 needs (factorization, triangular solve) without running the ramp.
+void factor_once_benchmark(double target) {
+  std::vector<int> colptr, rows;
+  int n = 0, elements = 0;
+  {
+    const Structure s = build_structure(helix_spec(target, 0.01));
+    elements = s.model.mesh.num_elements();
+    const fe::CscMatrix K = free_dof_pattern(s);
+    n = K.n;
+    colptr.assign(n + 1, 0);
+    long nnz_upper = 0;
+    for (int c = 0; c < n; ++c)
+      for (int k = K.colptr[c]; k < K.colptr[c + 1]; ++k) nnz_upper += K.rowind[k] <= c;
+    rows.reserve(nnz_upper);
+    for (int c = 0; c < n; ++c) {
+      for (int k = K.colptr[c]; k < K.colptr[c + 1]; ++k)
+        if (K.rowind[k] <= c) rows.push_back(K.rowind[k]);
+      colptr[c + 1] = int(rows.size());
+    }
+  }
+  std::printf("  %8d dofs %7d elements | pattern built, peak %6.0f MiB\n", n, elements,
+              double(io::peak_memory_bytes()) / (1 << 20));
+  std::fflush(stdout);
+  cholmod_common cm;
+  cholmod_start(&cm);
+  cm.supernodal = CHOLMOD_SUPERNODAL;
+  cm.nmethods = 1;
+  cm.method[0].ordering = CHOLMOD_METIS;
+  cm.postorder = 1;
+  cholmod_sparse* A = cholmod_allocate_sparse(n, n, rows.size(), 1, 1, 1, CHOLMOD_REAL, &cm);
+  if (!A) throw std::runtime_error("CHOLMOD: out of memory allocating the matrix");
+  std::copy(colptr.begin(), colptr.end(), static_cast<int*>(A->p));
+  std::copy(rows.begin(), rows.end(), static_cast<int*>(A->i));
+  double* x = static_cast<double*>(A->x);
+  for (int c = 0; c < n; ++c)  // diagonally dominant: no pivoting in LLᵀ, so the cost depends on the pattern only
+    for (int k = colptr[c]; k < colptr[c + 1]; ++k) x[k] = rows[k] == c ? 100.0 : -1.0;
+  std::vector<int>().swap(rows);
+  std::vector<int>().swap(colptr);
+  auto t0 = std::chrono::steady_clock::now();
+  cholmod_factor* L = cholmod_analyze(A, &cm);
+  const double t_analysis = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (!L || cm.status != CHOLMOD_OK) throw std::runtime_error("CHOLMOD: analysis failed (status " + std::to_string(cm.status) + ")");
+  std::printf("  %8d dofs | METIS nnz(L) %9.2f M (%.0f MiB)  %9.2f GFlop/factorization  analysis %7.2f s  peak %6.0f MiB\n", n,
+              cm.lnz / 1e6, cm.lnz * 8.0 / (1 << 20), cm.fl / 1e9, t_analysis, double(io::peak_memory_bytes()) / (1 << 20));
+  std::fflush(stdout);
+  t0 = std::chrono::steady_clock::now();
+  const std::clock_t c0 = std::clock();
+  cholmod_factorize(A, L, &cm);
+  const double t_fac = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double cpu_fac = double(std::clock() - c0) / CLOCKS_PER_SEC;
+  if (cm.status != CHOLMOD_OK) throw std::runtime_error("CHOLMOD: factorization failed (status " + std::to_string(cm.status) + ")");
+  cholmod_dense* B = cholmod_ones(n, 1, CHOLMOD_REAL, &cm);
+  t0 = std::chrono::steady_clock::now();
+  cholmod_dense* X = cholmod_solve(CHOLMOD_A, L, B, &cm);
+  const double t_solve = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("  %8d dofs | factorize %8.2f s wall %8.2f s cpu  %6.2f GFlop/s | solve %6.3f s | peak %6.0f MiB | %d threads\n", n,
+              t_fac, cpu_fac, cm.fl / t_fac / 1e9, t_solve, double(io::peak_memory_bytes()) / (1 << 20), omp_get_max_threads());
+  std::fflush(stdout);
+  cholmod_free_dense(&X, &cm);
+  cholmod_free_dense(&B, &cm);
+  cholmod_free_factor(&L, &cm);
+  cholmod_free_sparse(&A, &cm);
+  cholmod_finish(&cm);
+}
+
 std::vector<std::string> split(const std::string& s) {
   std::vector<std::string> out;
   std::stringstream in(s);
@@ -265,6 +339,7 @@ std::vector<std::string> split(const std::string& s) {
 
 int main(int argc, char** argv) {
   int steps = 20, only = 0;
+  bool session4_policy = false;
   double pressure = 0.01;
   std::vector<int> threads{2};
   fe::SolverKind solver = fe::SolverKind::automatic;
@@ -281,6 +356,11 @@ int main(int argc, char** argv) {
       for (int k = i + 1; k < argc; ++k) factor_benchmark(std::atof(argv[k]));
       return 0;
     }
+    if (a == "--factor-once") {
+      std::printf("# one CHOLMOD factorization + one solve (METIS, default amalgamation) of the helix tube pattern\n");
+      for (int k = i + 1; k < argc; ++k) factor_once_benchmark(std::atof(argv[k]));
+      return 0;
+    }
     if (a == "--kernel") return kernel_benchmark(i + 1 < argc ? std::atoi(argv[i + 1]) : 20000);
     if (a == "--steps" && i + 1 < argc) steps = std::atoi(argv[++i]);
     else if (a == "--only" && i + 1 < argc) only = std::atoi(argv[++i]);
@@ -288,6 +368,8 @@ int main(int argc, char** argv) {
     else if (a == "--threads" && i + 1 < argc) {
       threads.clear();
       for (const auto& t : split(argv[++i])) threads.push_back(std::atoi(t.c_str()));
+    } else if (a == "--policy" && i + 1 < argc) {
+      session4_policy = std::string(argv[++i]) == "session4";
     } else if (a == "--solver" && i + 1 < argc) {
       const std::string s = argv[++i];
       solver = s == "cholmod" ? fe::SolverKind::cholmod : s == "umfpack" ? fe::SolverKind::umfpack : fe::SolverKind::automatic;
@@ -298,9 +380,9 @@ int main(int argc, char** argv) {
   if (sizes.empty()) sizes = {1e4, 3e4, 1e5};
   std::printf("# helix tube +/-45 deg, ecoflex-anisotropic, p = %g MPa in %d load steps, solver %s\n", pressure, steps,
               fe::to_string(solver));
-  std::printf("# %8s %7s %3s %5s %5s %4s | %8s %8s %8s %8s %8s %8s | %4s %6s %6s | %7s %9s %7s %8s %s\n", "dofs", "elems",
-              "thr", "steps", "newton", "cut", "wall_s", "assem_s", "analys_s", "factor_s", "solve_s", "krylov_s", "nfac",
-              "solves", "gmres", "nnzL/M", "GFlop/fac", "GFlop/s", "peak_MiB", "result");
+  std::printf("# %8s %7s %3s %5s %5s %4s | %8s %8s %8s %8s %8s %8s | %4s %6s %6s %7s | %7s %9s %7s %8s %s\n", "dofs",
+              "elems", "thr", "steps", "newton", "cut", "wall_s", "assem_s", "analys_s", "factor_s", "solve_s", "krylov_s",
+              "nfac", "solves", "gmres", "asm_K/R", "nnzL/M", "GFlop/fac", "GFlop/s", "peak_MiB", "result");
   for (double target : sizes)
     for (int nt : threads) {
       omp_set_num_threads(nt);
@@ -309,6 +391,12 @@ int main(int argc, char** argv) {
       fe::NewtonOptions o;
       o.solver = solver;
       o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
+      if (session4_policy) {  // the iteration of session 4, for side-by-side timings with one binary
+        o.saddle_krylov = false;
+        o.extrapolate_order = 1;
+        o.refactor_each_step = false;
+        o.residual_first = false;
+      }
       fe::Simulation sim(s.model, o);
       std::string result = "ok";
       try {
@@ -324,10 +412,11 @@ int main(int argc, char** argv) {
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const fe::RunStats st = sim.stats();
       const double fac = st.linear.factorizations ? st.linear.flops / st.linear.factorizations : 0.0;
-      std::printf("  %8d %7d %3d %5d %5d %4d | %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f | %4d %6d %6d | %7.2f %9.3f %7.2f %8.0f %s\n",
+      const std::string asm_counts = std::to_string(st.tangent_assemblies) + "/" + std::to_string(st.residual_assemblies);
+      std::printf("  %8d %7d %3d %5d %5d %4d | %8.2f %8.2f %8.2f %8.2f %8.2f %8.2f | %4d %6d %6d %7s | %7.2f %9.3f %7.2f %8.0f %s\n",
                   sim.num_free_dofs(), s.model.mesh.num_elements(), nt, st.steps, st.newton_iterations, st.cutbacks, wall,
                   st.assembly_time, st.linear.analysis, st.linear.factorization, st.linear.solve, st.krylov_time,
-                  st.linear.factorizations, st.linear.solves, st.krylov_iterations, st.linear.factor_nnz / 1e6,
+                  st.linear.factorizations, st.linear.solves, st.krylov_iterations, asm_counts.c_str(), st.linear.factor_nnz / 1e6,
                   fac / 1e9, st.linear.factorization > 0 ? st.linear.flops / st.linear.factorization / 1e9 : 0.0,
                   double(io::peak_memory_bytes()) / (1 << 20), result.c_str());
       std::fflush(stdout);

@@ -5,11 +5,19 @@
 //   bench_rve bulk [n ...]         matrix K/G 10 … 1.2e5 at contrast 230, λ = 1.5 in 8 steps, mixed (u,p)
 //                                  Newton iteration on and off
 //   bench_rve fftcost [disc ...] [grid ...] [threads=1|2 ...] [operator=fourier|stencil ...] [repeat=N]
+//                    [precision=double|single ...] [fftw_threads=N]
 //                                  cost of one Krylov iteration (time in the linear solves / iterations)
 //                                  vs a 9-field FFT round trip (ratio-9) and vs the round trip of the fields
 //                                  the operator transforms (ratio-own), memory per voxel, 1 and 2 threads and
 //                                  both Krylov operators in one run. grid: "256" (256² section) or "64x64x64";
-//                                  disc: rotated|hex|spectral (default all); repeat: best of N measurements
+//                                  disc: rotated|hex|spectral (default all); repeat: best of N measurements;
+//                                  precision: tangent storage of the stencil operator (default double);
+//                                  fftw_threads: FFTW plan threads of the solver (default = OpenMP threads)
+//   bench_rve fftpasses [grid ...] [threads=1|2 ...] [calls=N]
+//                                  the passes of one stencil Krylov iteration (rotated) timed alone, min over
+//                                  N calls each (robust on a loaded box): gradient + tangent product + store
+//                                  with double and float tangents, gather (adjoint), 3-field FFT round trip
+//                                  with FFTW planned for the OpenMP thread count and for 1 thread
 //   bench_rve timeerror pdms|ecoflex 2|3 [disc ...] [n ...]
 //                                  time (CPU and wall) versus error of P11 at λ = 1.5 (preset materials,
 //                                  as bench_rve_fe) on n² sections (2) or n³ cells (3, the section extruded),
@@ -31,6 +39,7 @@
 #include <vector>
 
 #include "softhom/fft/gradient.hpp"
+#include "softhom/fft/stencil.hpp"
 #include "softhom/io/files.hpp"
 #include "softhom/materials/laws.hpp"
 #include "softhom/materials/library.hpp"
@@ -114,6 +123,34 @@ void solve_and_print(const char* label, double value, int n, fft::Discretization
   std::fflush(stdout);
 }
 
+// Replicas of the solver's batched packed-symmetric tangent products (rve/src/fft_solver.cpp, where they
+// are internal), for `fftpasses`: 8 points, S[idx·8 + lane], double or float entries.
+template <class T>
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void bench_batch_product(const T* __restrict S,
+                                                                                    const double* __restrict x,
+                                                                                    double* __restrict y) {
+  typedef double v4 __attribute__((vector_size(32), aligned(8)));
+  typedef T v4t __attribute__((vector_size(4 * sizeof(T)), aligned(sizeof(T))));
+  for (int h = 0; h < 2; ++h) {
+    v4 xv[9], out[9];
+    for (int a = 0; a < 9; ++a) {
+      xv[a] = *reinterpret_cast<const v4*>(x + a * 8 + 4 * h);
+      out[a] = v4{0.0, 0.0, 0.0, 0.0};
+    }
+    int idx = 0;
+    for (int a = 0; a < 9; ++a) {
+      out[a] += __builtin_convertvector(*reinterpret_cast<const v4t*>(S + idx * 8 + 4 * h), v4) * xv[a];
+      ++idx;
+      for (int b = a + 1; b < 9; ++b, ++idx) {
+        const v4 t = __builtin_convertvector(*reinterpret_cast<const v4t*>(S + idx * 8 + 4 * h), v4);
+        out[a] += t * xv[b];
+        out[b] += t * xv[a];
+      }
+    }
+    for (int a = 0; a < 9; ++a) *reinterpret_cast<v4*>(y + a * 8 + 4 * h) = out[a];
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -194,16 +231,23 @@ int main(int argc, char** argv) {
     std::vector<fft::Grid> grids;
     std::vector<int> thread_counts;
     std::vector<KrylovOperator> ops;
-    int repeats = 1;
+    std::vector<TangentPrecision> precisions;
+    int repeats = 1, fftw_threads = 0;
     for (int i = 2; i < argc; ++i) {
       if (std::strncmp(argv[i], "threads=", 8) == 0)
         thread_counts.push_back(std::atoi(argv[i] + 8));
+      else if (std::strncmp(argv[i], "fftw_threads=", 13) == 0)
+        fftw_threads = std::max(1, std::atoi(argv[i] + 13));
       else if (std::strncmp(argv[i], "repeat=", 7) == 0)
         repeats = std::max(1, std::atoi(argv[i] + 7));
       else if (std::strcmp(argv[i], "operator=fourier") == 0)
         ops.push_back(KrylovOperator::fourier);
       else if (std::strcmp(argv[i], "operator=stencil") == 0)
         ops.push_back(KrylovOperator::stencil);
+      else if (std::strcmp(argv[i], "precision=double") == 0)
+        precisions.push_back(TangentPrecision::double_precision);
+      else if (std::strcmp(argv[i], "precision=single") == 0)
+        precisions.push_back(TangentPrecision::single_precision);
       else if (is_discretization(argv[i]))
         discs.push_back(fft::parse_discretization(argv[i]));
       else
@@ -213,11 +257,13 @@ int main(int argc, char** argv) {
     if (grids.empty()) grids = {parse_grid("64"), parse_grid("256")};
     if (thread_counts.empty()) thread_counts = {1, 2};
     if (ops.empty()) ops = {KrylovOperator::fourier, KrylovOperator::stencil};
+    if (precisions.empty()) precisions = {TangentPrecision::double_precision};
     const int max_threads = omp_get_max_threads();
     for (const fft::Grid& g : grids)
       for (auto d : discs) {
-        // per [operator][threads]
-        double per_krylov[2][3] = {{0, 0, 0}, {0, 0, 0}}, per_total[2][3] = {{0, 0, 0}, {0, 0, 0}};
+        // per [operator: fourier, stencil double, stencil single][threads]
+        double per_krylov[3][3] = {}, per_total[3][3] = {};
+        const char* op_name[3] = {"fourier", "stencil", "stencil-single"};
         for (int threads : thread_counts) {
           if (threads < 1 || threads > 2) continue;
           omp_set_num_threads(threads);
@@ -247,9 +293,12 @@ int main(int argc, char** argv) {
           const int used_fields = 3 * op.points() * op.columns();
           const double fft_used_ms = roundtrip(9 * op.points(), op.columns(), cpu_used);
           const double fft3_ms = roundtrip(3, 3, cpu3);
-          for (KrylovOperator kop : ops) {
+          for (KrylovOperator kop : ops)
+          for (TangentPrecision prec : precisions) {
             const bool stencil = kop == KrylovOperator::stencil && d != fft::Discretization::spectral;
             if (kop == KrylovOperator::stencil && !stencil) continue;  // spectral: Fourier form only
+            // The Fourier operator always stores double: run it once.
+            if (!stencil && prec != precisions.front()) continue;
             // One Newton step with a fixed number of Krylov iterations (tolerance unreachable), twice: 10 and
             // 60 iterations. The difference is the cost of 50 Krylov iterations alone (the two material
             // evaluations and the setup cancel); CPU time as well as wall time, since the box is shared.
@@ -265,11 +314,12 @@ int main(int argc, char** argv) {
                 FftSolverOptions o;
                 o.discretization = d;
                 o.krylov_operator = kop;
+                o.tangent_precision = prec;
                 o.max_newton_iterations = 1;
                 o.max_cutbacks = 0;
                 o.krylov_tolerance = 1e-30;
                 o.max_krylov_iterations = pass == 0 ? 10 : 60;
-                o.plan.threads = threads;
+                o.plan.threads = fftw_threads > 0 ? std::min(fftw_threads, threads) : threads;
                 const std::size_t rss0 = resident_bytes();
                 FftRveSolver solver(cell_image(g), make_material(make_neo_hookean({1.0, 10.0})),
                                     make_material(make_neo_hookean({100.0, 1000.0})), 45.0, Mat3::Identity(), o);
@@ -290,32 +340,104 @@ int main(int argc, char** argv) {
               whole = std::min(whole, wall[1]);
               its1 = its[1];
             }
-            const int o = stencil ? 1 : 0;
+            const int o = stencil ? (prec == TangentPrecision::single_precision ? 2 : 1) : 0;
             per_krylov[o][threads] = kry_ms;
             per_total[o][threads] = whole;
             const double nv = double(g.voxels());
             // Transformed fields per Krylov iteration: stencil 3 back + 3 forward; Fourier 3·nq·columns each way.
             const double own_ms = stencil ? fft3_ms : fft_used_ms, own_cpu = stencil ? cpu3 : cpu_used;
-            std::printf("fftcost %4dx%4dx%4d %-9s %-8s threads %d per-krylov %8.3f ms (cpu %8.3f, in-solver %8.3f) | "
+            std::printf("fftcost %4dx%4dx%4d %-9s %-8s %-6s threads %d per-krylov %8.3f ms (cpu %8.3f, in-solver %8.3f) | "
                         "fft9 %7.3f ms (cpu %7.3f) ratio-9 %5.2f (cpu %5.2f) | own fft %7.3f ms (%d fields) ratio-own %5.2f "
                         "(cpu %5.2f) | whole step %.3f s (%d its) mem/voxel %5.0f B (rss %5.0f B) peak-rss %.0f MB load %s\n",
-                        g.n[0], g.n[1], g.n[2], fft::to_string(d), stencil ? "stencil" : "fourier", threads, kry_ms, kry_cpu_ms,
+                        g.n[0], g.n[1], g.n[2], fft::to_string(d), stencil ? "stencil" : "fourier",
+                        stencil ? to_string(prec) : "double", threads, kry_ms, kry_cpu_ms,
                         1e3 * kry_wall, fft9_ms, cpu9, kry_ms / fft9_ms, kry_cpu_ms / cpu9, own_ms,
                         stencil ? 3 : used_fields, kry_ms / own_ms, kry_cpu_ms / own_cpu, whole, its1, double(mem) / nv,
                         rss / nv, double(io::peak_memory_bytes()) / 1048576.0, load_average().c_str());
             std::fflush(stdout);
           }
         }
-        for (int o = 0; o < 2; ++o)
+        for (int o = 0; o < 3; ++o)
           if (per_krylov[o][1] > 0 && per_krylov[o][2] > 0)
-            std::printf("speedup %4dx%4dx%4d %-9s %-8s 2 threads: per-krylov %.2f, whole step %.2f\n", g.n[0], g.n[1],
-                        g.n[2], fft::to_string(d), o ? "stencil" : "fourier", per_krylov[o][1] / per_krylov[o][2],
+            std::printf("speedup %4dx%4dx%4d %-9s %-14s 2 threads: per-krylov %.2f, whole step %.2f\n", g.n[0], g.n[1],
+                        g.n[2], fft::to_string(d), op_name[o], per_krylov[o][1] / per_krylov[o][2],
                         per_total[o][1] / per_total[o][2]);
-        for (int t = 1; t <= 2; ++t)
+        for (int t = 1; t <= 2; ++t) {
+          if (per_krylov[1][t] > 0 && per_krylov[2][t] > 0)
+            std::printf("single/double %4dx%4dx%4d %-9s %d thread(s): per-krylov %.2fx faster, whole step %.2fx\n",
+                        g.n[0], g.n[1], g.n[2], fft::to_string(d), t, per_krylov[1][t] / per_krylov[2][t],
+                        per_total[1][t] / per_total[2][t]);
           if (per_krylov[0][t] > 0 && per_krylov[1][t] > 0)
             std::printf("stencil/fourier %4dx%4dx%4d %-9s %d thread(s): per-krylov %.2fx faster, whole step %.2fx\n",
                         g.n[0], g.n[1], g.n[2], fft::to_string(d), t, per_krylov[0][t] / per_krylov[1][t],
                         per_total[0][t] / per_total[1][t]);
+        }
+      }
+    omp_set_num_threads(max_threads);
+  } else if (mode == "fftpasses") {
+    std::vector<fft::Grid> grids;
+    std::vector<int> thread_counts;
+    int calls = 50;
+    for (int i = 2; i < argc; ++i) {
+      if (std::strncmp(argv[i], "threads=", 8) == 0)
+        thread_counts.push_back(std::atoi(argv[i] + 8));
+      else if (std::strncmp(argv[i], "calls=", 6) == 0)
+        calls = std::max(1, std::atoi(argv[i] + 6));
+      else
+        grids.push_back(parse_grid(argv[i]));
+    }
+    if (grids.empty()) grids = {parse_grid("64"), parse_grid("256")};
+    if (thread_counts.empty()) thread_counts = {1, 2};
+    const int max_threads = omp_get_max_threads();
+    for (const fft::Grid& g : grids)
+      for (int threads : thread_counts) {
+        omp_set_num_threads(threads);
+        fft::GradientOperator op(g, fft::Discretization::rotated);
+        fft::StencilGradient st(op);
+        const std::size_t N = g.voxels(), NB = (N + 7) / 8 * 8;
+        std::vector<double> u(3 * N), store(std::size_t(st.stored_values()) * N), f(3 * N), T(45 * NB);
+        std::vector<float> Tf(45 * NB);
+        unsigned seed = 1;
+        auto rnd = [&seed] { return (seed = seed * 1664525u + 1013904223u) * (1.0 / 4294967296.0) - 0.5; };
+        for (auto& x : u) x = rnd();
+        for (std::size_t i = 0; i < T.size(); ++i) Tf[i] = float(T[i] = rnd());
+        fft::BatchedFFT f3(g, 3, {fft::PlanRigor::measure, threads, {}}), f3one(g, 3, {fft::PlanRigor::measure, 1, {}});
+        auto best_of = [calls](auto&& fn) {
+          double best = 1e300;
+          for (int c = 0; c < calls; ++c) {
+            const auto t0 = std::chrono::steady_clock::now();
+            fn();
+            best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+          }
+          return 1e3 * best;
+        };
+        double sink = 0.0;
+        const double grad_d = best_of([&] {
+#pragma omp parallel
+          st.gradient_pass(u.data(), store.data(), [&](std::size_t p0, int, const double* grad, double* dP) {
+            bench_batch_product(T.data() + 45 * p0, grad, dP);
+          });
+        });
+        const double grad_f = best_of([&] {
+#pragma omp parallel
+          st.gradient_pass(u.data(), store.data(), [&](std::size_t p0, int, const double* grad, double* dP) {
+            bench_batch_product(Tf.data() + 45 * p0, grad, dP);
+          });
+        });
+        const double gather = best_of([&] { sink += st.divergence_pass(store.data(), f.data(), u.data()); });
+        const double fft_rt = best_of([&] {
+          f3.forward();
+          f3.backward();
+        });
+        const double fft_rt1 = best_of([&] {
+          f3one.forward();
+          f3one.backward();
+        });
+        std::printf("fftpasses %4dx%4dx%4d threads %d: grad+tangent double %.4f ms, float %.4f ms | gather %.4f ms | "
+                    "fft3 round trip %.4f ms (fftw 1 thread: %.4f ms) | tangent %0.f/%0.f B per point | load %s (%.3g)\n",
+                    g.n[0], g.n[1], g.n[2], threads, grad_d, grad_f, gather, fft_rt, fft_rt1, 360.0, 180.0,
+                    load_average().c_str(), sink);
+        std::fflush(stdout);
       }
     omp_set_num_threads(max_threads);
   } else if (mode == "timeerror") {

@@ -12,6 +12,8 @@
 #include <tuple>
 #include <type_traits>
 
+#include <Eigen/Dense>
+
 #include "softhom/materials/errors.hpp"
 
 namespace softhom::fe {
@@ -177,11 +179,30 @@ Simulation::Simulation(FeModel model, NewtonOptions options) : model_(std::move(
       mix_theta_u_ = mix_theta_conv_;
       mix_d_.assign(mesh.num_hexes(), Vec24::Zero());
       mix_d_tet_.assign(mesh.tets.size(), Vec30::Zero());
+      // Element pressure unknowns of the uncondensed Krylov space (linear_solve).
+      sad_off_.push_back(0);
+      for (int e = 0; e < mesh.num_elements(); ++e) {
+        if (mix_bulk_[e] <= 0.0) continue;
+        sad_elem_.push_back(e);
+        const int* en = mesh.element_nodes(e);
+        for (int a = 0; a < mesh.element_size(e); ++a)
+          for (int i = 0; i < 3; ++i) sad_eq_.push_back(dofs_.eq[3 * en[a] + i]);
+        sad_off_.push_back(int(sad_eq_.size()));
+      }
+      // The element colouring carried over to them: race-free parallel scatters of Σ_e d_e a_e.
+      std::vector<int> index(mesh.num_elements(), -1);
+      for (std::size_t k = 0; k < sad_elem_.size(); ++k) index[sad_elem_[k]] = int(k);
+      for (const auto& color : colors_) {
+        sad_colors_.emplace_back();
+        for (int e : color)
+          if (index[e] >= 0) sad_colors_.back().push_back(index[e]);
+      }
     }
   }
 
   u_.assign(ndof, 0.0);
   u_prev_step_ = u_;
+  u_prev2_step_ = u_;
   if (model_.cavity)
     cavity_v0_ = cavity_volume(mesh.nodes, model_.cavity->faces, model_.cavity->mask, model_.cavity->tris);
   if (model_.cavity && !(cavity_v0_ > 0.0))
@@ -231,6 +252,9 @@ MaterialStatus Simulation::assemble(double t, double dt, bool tangent, const std
   if (tangent) {
     K_.set_zero();
     ++k_version_;
+    ++stats_.tangent_assemblies;
+  } else {
+    ++stats_.residual_assemblies;
   }
   const bool predictor = !out.dirichlet_rhs.empty();
   std::vector<double> du_c;
@@ -276,7 +300,7 @@ MaterialStatus Simulation::assemble(double t, double dt, bool tangent, const std
       const MaterialStatus st = tet10_internal_force(
           tet_geometry_[t], ue, *model_.element_material[e], off >= 0 ? state_old_.data() + off : nullptr,
           off >= 0 ? state_new_.data() + off : nullptr, dt, model_.formulation, r10, tangent ? &K10 : nullptr,
-          tangent ? &sigma : nullptr, me ? &mv : nullptr);
+          &sigma, me ? &mv : nullptr);
       if (st != MaterialStatus::ok) {
         int expected = -1;
         if (failed.compare_exchange_strong(expected, e)) failed_status = int(st);
@@ -286,8 +310,7 @@ MaterialStatus Simulation::assemble(double t, double dt, bool tangent, const std
         mix_theta_u_[e] = mv.theta_u;
         mix_d_tet_[t] = mv.d;
       }
-      if (tangent)
-        for (int c = 0; c < 9; ++c) out.cauchy[9 * std::size_t(e) + c] = sigma(c / 3, c % 3);
+      for (int c = 0; c < 9; ++c) out.cauchy[9 * std::size_t(e) + c] = sigma(c / 3, c % 3);
       for (int a = 0; a < 10; ++a)
         for (int i = 0; i < 3; ++i) gdof10[3 * a + i] = 3 * tet[a] + i;
       for (int q = 0; q < 30; ++q) R[gdof10[q]] += r10[q];
@@ -339,7 +362,7 @@ MaterialStatus Simulation::assemble(double t, double dt, bool tangent, const std
         const MaterialStatus st = hex8_internal_force(
             geometry_[e], ue, *model_.element_material[e], off >= 0 ? state_old_.data() + off : nullptr,
             off >= 0 ? state_new_.data() + off : nullptr, dt, model_.formulation, r, tangent ? &Ke : nullptr,
-            tangent ? &sigma : nullptr, me ? &mv : nullptr);
+            &sigma, me ? &mv : nullptr);
         if (st != MaterialStatus::ok) {
           int expected = -1;
           if (failed.compare_exchange_strong(expected, e)) failed_status = int(st);
@@ -349,8 +372,7 @@ MaterialStatus Simulation::assemble(double t, double dt, bool tangent, const std
           mix_theta_u_[e] = mv.theta_u;
           mix_d_[e] = mv.d;
         }
-        if (tangent)
-          for (int c = 0; c < 9; ++c) out.cauchy[9 * std::size_t(e) + c] = sigma(c / 3, c % 3);
+        for (int c = 0; c < 9; ++c) out.cauchy[9 * std::size_t(e) + c] = sigma(c / 3, c % 3);
         for (int a = 0; a < 8; ++a)
           for (int i = 0; i < 3; ++i) gdof[3 * a + i] = 3 * hex[a] + i;
         for (int q = 0; q < 24; ++q) R[gdof[q]] += r[q];
@@ -538,6 +560,16 @@ bool Simulation::refactor(std::string& why) {
     linear_ = lu_.get();
   }
   last_factor_flops_ = linear_->times().flops - flops_before;
+  // The uncondensed preconditioner inverts the saddle system of the factorized tangent: keep its d_e, c_e
+  // (only where factors are lagged: > lag_flops, see linear_solve).
+  if (ok && options_.saddle_krylov && !sad_elem_.empty() && last_factor_flops_ >= options_.lag_flops) saddle_current();
+  if (ok && sad_b_version_ == k_version_) {
+    sad_da_ = sad_db_;
+    sad_ca_ = sad_cb_;
+    sad_a_valid_ = true;
+  } else {
+    sad_a_valid_ = false;
+  }
   factor_valid_ = ok;
   factor_stale_ = false;
   factor_version_ = k_version_;
@@ -553,9 +585,10 @@ bool Simulation::linear_solve(const std::vector<double>& b, std::vector<double>&
   x.assign(n, 0.0);
   if (bnorm == 0.0) return true;
   const ThreadScope scope(last_factor_flops_ < 2e9);
+  if (options_.saddle_krylov && !sad_elem_.empty() && last_factor_flops_ >= options_.lag_flops) saddle_current();
   // A cheap factorization (< 2 GFlop, well under a second) is simply redone for every new tangent:
   // a lagged one saves little there and costs GMRES iterations. Larger systems keep the factor.
-  const bool cheap = last_factor_flops_ < 2e9;
+  const bool cheap = last_factor_flops_ < options_.lag_flops;
   if (!factor_valid_ || factor_stale_ || (cheap && factor_version_ != k_version_))
     if (!refactor(why)) return false;
   // A factorization of this very tangent (LU, or Cholesky of a symmetric one) is a direct solve.
@@ -568,24 +601,78 @@ bool Simulation::linear_solve(const std::vector<double>& b, std::vector<double>&
   if (factor_version_ == k_version_ && factor_exact_) return direct();
   // Restarted GMRES(m), right-preconditioned by the lagged or symmetric-part factorization M ≈ K:
   // minimizes ‖b − K M⁻¹ y‖.
+  //
+  // Three-field iteration (saddle_krylov): the condensed tangent is K_c = A + Σ_e c_e d_e d_eᵀ with
+  // c_e = V_e U″(θ) ~ V_e κ, κ/G ≈ 1.2e5 for the ecoflex tube, and d_e = ∂θ_e/∂u moves with the geometry:
+  // a strain change δ moves K_c by ≈ κ δ ≫ G, so a factor of K_c at another iterate is a poor
+  // preconditioner of K_c (GMRES rates 0.25–0.65 per iteration, BENCHMARKS session 4). The uncondensed
+  // system in (u, t_e), t_e = c_e d_eᵀu − p_e,
+  //     [ K_c u − Σ_e d_e t_e ]   [ b ]        (u-row: A u + Σ d_e p_e)
+  //     [ w_e t_e             ] = [ 0 ]        (element row: the scaled constraint residual)
+  // has the same u (t = 0, K_c u = b), but its blocks move only by O(δ) relative to themselves. Its lagged
+  // version M_a (d_a, c_a of the factorized tangent) is inverted exactly with one solve of the lagged
+  // condensed factor S_a = K_c,a:  x = S_a⁻¹(f + Σ d_a,e g_e / w_e),  t_e = c_a,e d_a,eᵀ x − g_e / w_e.
+  // GMRES builds its Krylov space on the uncondensed system but minimizes the condensed residual
+  // b − K_c x_u = P r, P r = r_u + Σ_e d_e r_e / w_e (row weights w_e = |d_e|), through the Gram matrix of
+  // P V (see the least squares below). Measured on the 1e5-dof tube: with the previous step's factor,
+  // iteration 0 of a step (a residual dominated by the predictor's volume mismatch) reaches 2e-5 in 10–18
+  // GMRES iterations where the condensed iteration stalls at 1e-3 after 30; later iterations, whose
+  // residuals load the Q1/P0 pressure modes (weakly controlled by the inf-sup condition, so M_a⁻¹ is
+  // not bounded there), still need a factor of the same step — hence refactor_each_step.
+  const bool saddle = options_.saddle_krylov && !sad_elem_.empty() && sad_a_valid_ && sad_b_version_ == k_version_;
+  const int np = saddle ? int(sad_elem_.size()) : 0;
+  const int N = n + np;
+  std::vector<double> wgt;
+  if (saddle) {
+    wgt.resize(np);
+    for (int k = 0; k < np; ++k) {
+      double s = 0.0;
+      for (int q = sad_off_[k]; q < sad_off_[k + 1]; ++q) s += sad_db_[q] * sad_db_[q];
+      wgt[k] = s > 0.0 ? std::sqrt(s) : 1.0;
+    }
+  }
+  auto dot_e = [&](const std::vector<double>& d, int k, const double* v) {
+    double s = 0.0;
+    for (int q = sad_off_[k]; q < sad_off_[k + 1]; ++q)
+      if (sad_eq_[q] >= 0) s += d[q] * v[sad_eq_[q]];
+    return s;
+  };
+  // out[k] = c[k] · d_kᵀ v − sub[k] (c, sub optional), in parallel over the elements.
+  auto dots = [&](const std::vector<double>& d, const double* c, const double* v, const double* sub, double* out) {
+#pragma omp parallel for schedule(static) if (np >= 4000)
+    for (int k = 0; k < np; ++k) out[k] = (c ? c[k] : 1.0) * dot_e(d, k, v) - (sub ? sub[k] : 0.0);
+  };
+  // v += Σ_k a[k] d_k, colour by colour (elements of one colour share no dof).
+  auto scatter = [&](const std::vector<double>& d, const double* a, double* v) {
+#pragma omp parallel if (np >= 4000)
+    for (const std::vector<int>& color : sad_colors_) {
+#pragma omp for schedule(static)
+      for (std::size_t i = 0; i < color.size(); ++i) {
+        const int k = color[i];
+        for (int q = sad_off_[k]; q < sad_off_[k + 1]; ++q)
+          if (sad_eq_[q] >= 0) v[sad_eq_[q]] += a[k] * d[q];
+      }
+    }
+  };
+  std::vector<double> ek(np), tk(np);  // element work vectors
   // m = 30: a lagged factor may be given up to ~30 iterations (below), which GMRES(20) would restart.
   const int m = 30;
-  // The Krylov basis is kept between solves (31 vectors of n: 27 MB at 1e5 dofs) and grown lazily.
+  // The Krylov basis is kept between solves (31 vectors of N: 27 MB at 1e5 dofs) and grown lazily.
   std::vector<std::vector<double>>& V = krylov_basis_;
   if (V.size() != std::size_t(m + 1)) V.assign(m + 1, {});
-  std::vector<double> z, w(n), r(n), H((m + 1) * m), cs(m), sn(m), g(m + 1);
+  std::vector<double> w(N), r(N), zu, fu;
+  Eigen::MatrixXd Hm = Eigen::MatrixXd::Zero(m + 1, m), Gm = Eigen::MatrixXd::Zero(m + 1, m + 1);
+  std::vector<std::vector<double>>& Z = krylov_preconditioned_;  // M⁻¹ V
+  if (Z.size() != std::size_t(m)) Z.assign(m, {});
+  std::vector<std::vector<double>>& Wc = krylov_condensed_;  // condensed residuals P V of the basis (saddle)
+  if (saddle && Wc.size() != std::size_t(m + 1)) Wc.assign(m + 1, {});
   const auto t0 = std::chrono::steady_clock::now();
   double pre = 0.0;
-  auto precond = [&](const std::vector<double>& in, std::vector<double>& out) {
-    const auto tp = std::chrono::steady_clock::now();
-    linear_->solve(in, out);
-    pre += seconds_since(tp);
-  };
-  auto matvec = [&](const std::vector<double>& in, std::vector<double>& out) {
+  auto condensed_matvec = [&](const double* in, double* out) {
     // Row-parallel product only where it pays: on a loaded 2-core machine an OpenMP barrier can cost
     // a scheduler time slice.
     if (n >= 50000 && !K_.mirror.empty()) {
-      K_.multiply(in.data(), out.data());
+      K_.multiply(in, out);
       return;
     }
     for (int row = 0; row < n; ++row) {
@@ -594,18 +681,61 @@ bool Simulation::linear_solve(const std::vector<double>& b, std::vector<double>&
       out[row] = sum;
     }
   };
+  auto precond = [&](const std::vector<double>& in, std::vector<double>& out) {
+    const auto tp = std::chrono::steady_clock::now();
+    out.resize(N);
+    if (!saddle) {
+      linear_->solve(in, out);
+      pre += seconds_since(tp);
+      return;
+    }
+    fu.assign(in.begin(), in.begin() + n);
+    for (int k = 0; k < np; ++k) ek[k] = in[n + k] / wgt[k];
+    scatter(sad_da_, ek.data(), fu.data());
+    linear_->solve(fu, zu);
+    std::copy(zu.begin(), zu.end(), out.begin());
+    dots(sad_da_, sad_ca_.data(), zu.data(), ek.data(), out.data() + n);
+    pre += seconds_since(tp);
+  };
+  auto matvec = [&](const std::vector<double>& in, std::vector<double>& out) {
+    condensed_matvec(in.data(), out.data());
+    if (!saddle) return;
+    dots(sad_db_, sad_cb_.data(), in.data(), in.data() + n, tk.data());  // t_e = c_e d_eᵀ u − t-unknown
+    for (int k = 0; k < np; ++k) {
+      out[n + k] = wgt[k] * tk[k];
+      tk[k] = -tk[k];
+    }
+    scatter(sad_db_, tk.data(), out.data());
+  };
+  // Condensed residual b − K_c x_u of a saddle residual r: P r = r_u + Σ d_e r_e / w_e.
+  auto condensed_of = [&](const std::vector<double>& res, std::vector<double>& c) {
+    c.assign(res.begin(), res.begin() + n);
+    for (int k = 0; k < np; ++k) ek[k] = res[n + k] / wgt[k];
+    scatter(sad_db_, ek.data(), c.data());
+  };
+  std::vector<double> cres;
+  auto condensed_residual = [&](const std::vector<double>& res) {
+    if (!saddle) return norm(res);
+    condensed_of(res, cres);
+    return norm(cres);
+  };
+  auto dot = [](const std::vector<double>& a, const std::vector<double>& c) {
+    double s = 0.0;
+    for (std::size_t k = 0; k < a.size(); ++k) s += a[k] * c[k];
+    return s;
+  };
+  std::vector<double> xs(N, 0.0);
   int total = 0;
   for (int attempt = 0; attempt < 2; ++attempt) {
-    std::fill(x.begin(), x.end(), 0.0);
-    r = b;
+    std::fill(xs.begin(), xs.end(), 0.0);
+    std::fill(r.begin(), r.end(), 0.0);
+    std::copy(b.begin(), b.end(), r.begin());
     double beta = bnorm;
     bool done = false;
     int its = 0;
     const auto t_attempt = std::chrono::steady_clock::now();
     // A lagged factor gets as many iterations as cost 90 % of a fresh factorization (measured; at 1e5
-    // dofs a factorization is 3 s and an iteration 0.09 s, ~30 iterations), at least 15. Within a load
-    // step the lagged factor converges at rates of 0.25–0.6 per iteration: the near-incompressible
-    // condensed tangent (K/G ~ 1e5) changes by K × (strain change) ≫ G between iterations.
+    // dofs a factorization is 3 s and an iteration 0.09 s, ~30 iterations), at least 15.
     const bool lagged = factor_version_ != k_version_;
     int max_its = options_.krylov_max;
     if (lagged) {
@@ -613,72 +743,80 @@ bool Simulation::linear_solve(const std::vector<double>& b, std::vector<double>&
       max_its = std::clamp(affordable, 15, std::min(options_.krylov_max, m));
     }
     double checkpoint = 1.0;  // |r|/|b| at the last rate check
+    double rc = bnorm;        // condensed residual of the current iterate
     while (!done && its < max_its) {
-      V[0].resize(n);
-      for (int i = 0; i < n; ++i) V[0][i] = r[i] / beta;
-      std::fill(g.begin(), g.end(), 0.0);
-      g[0] = beta;
+      V[0].resize(N);
+      for (int i = 0; i < N; ++i) V[0][i] = r[i] / beta;
+      if (saddle) {
+        condensed_of(V[0], Wc[0]);
+        Gm(0, 0) = dot(Wc[0], Wc[0]);
+      }
       int j = 0;
+      Eigen::VectorXd y;
       while (j < m && its < max_its) {
-        precond(V[j], z);
-        matvec(z, w);
+        precond(V[j], Z[j]);  // kept: the update x += Σ y_j M⁻¹v_j then needs no extra triangular solve
+        matvec(Z[j], w);
         for (int i = 0; i <= j; ++i) {  // modified Gram–Schmidt
           double h = 0.0;
-          for (int k = 0; k < n; ++k) h += w[k] * V[i][k];
-          for (int k = 0; k < n; ++k) w[k] -= h * V[i][k];
-          H[i * m + j] = h;
+          for (int k = 0; k < N; ++k) h += w[k] * V[i][k];
+          for (int k = 0; k < N; ++k) w[k] -= h * V[i][k];
+          Hm(i, j) = h;
         }
         const double hn = norm(w);
-        H[(j + 1) * m + j] = hn;
-        V[j + 1].resize(n);
+        Hm(j + 1, j) = hn;
+        V[j + 1].resize(N);
         if (hn > 0.0)
-          for (int k = 0; k < n; ++k) V[j + 1][k] = w[k] / hn;
-        for (int i = 0; i < j; ++i) {  // apply the previous Givens rotations
-          const double a = H[i * m + j], c = H[(i + 1) * m + j];
-          H[i * m + j] = cs[i] * a + sn[i] * c;
-          H[(i + 1) * m + j] = -sn[i] * a + cs[i] * c;
-        }
-        const double a = H[j * m + j], c = H[(j + 1) * m + j];
-        const double d = std::hypot(a, c);
-        cs[j] = d > 0 ? a / d : 1.0;
-        sn[j] = d > 0 ? c / d : 0.0;
-        H[j * m + j] = d;
-        H[(j + 1) * m + j] = 0.0;
-        g[j + 1] = -sn[j] * g[j];
-        g[j] = cs[j] * g[j];
+          for (int k = 0; k < N; ++k) V[j + 1][k] = w[k] / hn;
+        else
+          std::fill(V[j + 1].begin(), V[j + 1].end(), 0.0);
         ++j;
         ++its;
-        if (std::abs(g[j]) <= tol * bnorm || hn == 0.0) break;
+        // Least squares over the Krylov space: min_y ‖P (β e₁ − H̄ y)‖ with P V the condensed residuals of
+        // the basis (saddle; Gram matrix G = (PV)ᵀ(PV) = RᵀR), or min_y ‖β e₁ − H̄ y‖ (plain GMRES, P = I).
+        const Eigen::MatrixXd Hj = Hm.topLeftCorner(j + 1, j);
+        Eigen::VectorXd e1 = Eigen::VectorXd::Zero(j + 1);
+        e1[0] = beta;
+        double res;
+        if (saddle) {
+          condensed_of(V[j], Wc[j]);
+          for (int i = 0; i <= j; ++i) Gm(i, j) = Gm(j, i) = dot(Wc[i], Wc[j]);
+          Eigen::MatrixXd G = Gm.topLeftCorner(j + 1, j + 1);
+          // The condensed residuals of the basis can be nearly dependent: a tiny diagonal shift keeps the
+          // Cholesky factor defined without changing the minimizer measurably.
+          G.diagonal().array() += 1e-14 * G.diagonal().maxCoeff();
+          const Eigen::MatrixXd R = G.llt().matrixU();
+          const Eigen::MatrixXd A = R * Hj;
+          const Eigen::VectorXd rhs = R * e1;
+          y = A.colPivHouseholderQr().solve(rhs);
+          res = (rhs - A * y).norm();
+        } else {
+          y = Hj.colPivHouseholderQr().solve(e1);
+          res = (e1 - Hj * y).norm();
+        }
+        if (res <= tol * bnorm || hn == 0.0) break;
         // A lagged factor whose convergence rate would not reach the tolerance within the budget (the
         // early Newton iterations of a step, where the tangent still moves a lot): refactorize now
         // instead of after the whole budget of wasted triangular solves (1e5 dofs: 0.09 s each).
-        // Checked every 5 iterations with the rate of the last 5 (GMRES with a lagged factor slows down:
-        // the 1e5-dof tube's first iteration of a step reached 0.05 in 10 iterations and 0.0017 in 30).
+        // Checked every 5 iterations with the rate of the last 5 (GMRES with a lagged factor slows down).
         if (lagged && its % 5 == 0) {
-          const double ratio = std::abs(g[j]) / bnorm;
+          const double ratio = res / bnorm;
           const double rate = std::pow(ratio / checkpoint, 0.2);
           checkpoint = ratio;
           if (!(rate < 1.0) || its + std::log(tol / ratio) / std::log(rate) > max_its) max_its = its;
         }
       }
-      // x += M⁻¹ V y with H y = g (upper triangular j x j).
-      std::vector<double> y(j);
-      for (int i = j - 1; i >= 0; --i) {
-        double sum = g[i];
-        for (int k = i + 1; k < j; ++k) sum -= H[i * m + k] * y[k];
-        y[i] = sum / H[i * m + i];
-      }
-      std::fill(w.begin(), w.end(), 0.0);
+      // xs += M⁻¹ V y = Σ y_i Z_i.
       for (int i = 0; i < j; ++i)
-        for (int k = 0; k < n; ++k) w[k] += y[i] * V[i][k];
-      precond(w, z);
-      for (int k = 0; k < n; ++k) x[k] += z[k];
+        for (int k = 0; k < N; ++k) xs[k] += y[i] * Z[i][k];
       // True residual (restart vector; guards against loss of orthogonality).
-      matvec(x, w);
-      for (int k = 0; k < n; ++k) r[k] = b[k] - w[k];
+      matvec(xs, w);
+      for (int k = 0; k < N; ++k) r[k] = (k < n ? b[k] : 0.0) - w[k];
       beta = norm(r);
-      done = beta <= 1.01 * tol * bnorm;  // else restart from the true residual
+      rc = condensed_residual(r);
+      done = rc <= 1.01 * tol * bnorm;  // else restart from the true residual
+      if (!done && beta == 0.0) break;
     }
+    std::copy(xs.begin(), xs.begin() + n, x.begin());
     total += its;
     stats_.krylov_iterations += its;
     if (its > 0) {  // running mean of the cost of one iteration (preconditioner solve + product + basis)
@@ -686,13 +824,12 @@ bool Simulation::linear_solve(const std::vector<double>& b, std::vector<double>&
       iteration_time_ = iteration_time_ > 0.0 ? 0.7 * iteration_time_ + 0.3 * t : t;
     }
     if (options_.verbose)
-      std::cerr << "      gmres " << its << " its, |r|/|b| = " << beta / bnorm << (factor_version_ == k_version_ ? " (fresh factor)" : " (lagged factor)") << "\n";
+      std::cerr << "      gmres" << (saddle ? " (u,p)" : "") << " " << its << " its, |r|/|b| = " << rc / bnorm
+                << (factor_version_ == k_version_ ? " (fresh factor)" : " (lagged factor)") << "\n";
     if (done) {
       stats_.krylov_time += seconds_since(t0) - pre;
       // Refresh a lagged factor once its iterations cost 3/4 of a factorization (measured), or in any case
-      // after 3 × `refactor_after` iterations. A count alone (8) refactorized after most second Newton
-      // iterations of the 1e5-dof tube although the remaining solves of the step need 2–15 iterations
-      // (0.09 s each) and a factorization costs 3 s.
+      // after 3 × `refactor_after` iterations.
       if (its > 3 * options_.refactor_after || (its > 2 && its * iteration_time_ > 0.75 * last_factor_time_)) {
         factor_stale_ = true;
         if (options_.verbose)
@@ -714,6 +851,26 @@ bool Simulation::linear_solve(const std::vector<double>& b, std::vector<double>&
   stats_.krylov_time += seconds_since(t0) - pre;
   if (why.empty()) why = "linear solver: GMRES did not converge with a fresh factorization";
   return false;
+}
+
+void Simulation::saddle_current() {
+  // d_e and c_e = V_e U″(θ) of the last tangent assembly (θ the iterate it used: mixed_update has not run
+  // yet when the linear solver is called). Only needed when a factor may be lagged.
+  if (sad_b_version_ == k_version_) return;
+  const Mesh& mesh = model_.mesh;
+  const int np = int(sad_elem_.size());
+  sad_db_.resize(sad_eq_.size());
+  sad_cb_.resize(np);
+#pragma omp parallel for schedule(static) if (np >= 4000)
+  for (int k = 0; k < np; ++k) {
+    const int e = sad_elem_[k];
+    const bool tet = mesh.is_tet(e);
+    const double* de = tet ? mix_d_tet_[e - mesh.num_hexes()].data() : mix_d_[e].data();
+    std::copy(de, de + (sad_off_[k + 1] - sad_off_[k]), sad_db_.begin() + sad_off_[k]);
+    const double V = tet ? tet_geometry_[e - mesh.num_hexes()].volume : geometry_[e].volume;
+    sad_cb_[k] = V * volumetric_d2U(mix_bulk_[e], mix_theta_[e]);
+  }
+  sad_b_version_ = k_version_;
 }
 
 void Simulation::mixed_update(const std::vector<double>& du, double alpha) {
@@ -803,8 +960,33 @@ bool Simulation::try_step(double t_new, double dt, std::string& why) {
     if (den > 0.0 && num > 0.999 * std::sqrt(nn * den)) {
       extrapolated_ = true;
       const double rho = std::min(num / den, 2.0);
-      for (int d = 0; d < ndof; ++d)
-        if (dofs_.eq[d] >= 0) u[d] += rho * (u_[d] - u_prev_step_[d]);
+      // Quadratic extrapolation (Lagrange through the last three converged states, in the load parameter
+      // s along the last increment, s = 0 at u_{n−1} and 1 at u_n): the predictor error drops from O(Δ²)
+      // to O(Δ³). At K/G ~ 1e5 the predictor's volume mismatch θ_e(u) − θ (O(Δ²) for the secant) is what
+      // the first Newton correction spends itself on, and the force error left after it sets the number
+      // of further iterations.
+      double a = 0.0;
+      if (options_.extrapolate_order >= 2 && stored_steps_ >= 2 && prev2_step_time_ < prev_step_time_) {
+        std::vector<double> l_old2;
+        loads(prev2_step_time_, l_old2);
+        double num2 = 0.0, nn2 = 0.0;
+        for (std::size_t k = 0; k < l_new.size(); ++k) {
+          num2 += (l_old[k] - l_old2[k]) * (l_now[k] - l_old[k]);
+          nn2 += (l_old[k] - l_old2[k]) * (l_old[k] - l_old2[k]);
+        }
+        if (nn2 > 0.0 && num2 > 0.999 * std::sqrt(nn2 * den)) a = -num2 / den;  // s of u_{n−2}
+        if (a < -4.0 || a > -0.25) a = 0.0;  // very uneven steps: secant
+      }
+      if (a < 0.0) {
+        const double tau = 1.0 + rho;
+        // Lagrange weights of u_{n−1} (s = 0) and u_{n−2} (s = a) at s = τ; u_n's is 1 minus both.
+        const double c1 = (tau - a) * (tau - 1.0) / a, c2 = tau * (tau - 1.0) / (a * (a - 1.0));
+        for (int d = 0; d < ndof; ++d)
+          if (dofs_.eq[d] >= 0) u[d] += c1 * (u_prev_step_[d] - u_[d]) + c2 * (u_prev2_step_[d] - u_[d]);
+      } else {
+        for (int d = 0; d < ndof; ++d)
+          if (dofs_.eq[d] >= 0) u[d] += rho * (u_[d] - u_prev_step_[d]);
+      }
     }
   }
 
@@ -827,7 +1009,28 @@ bool Simulation::try_step(double t_new, double dt, std::string& why) {
     // tube (bending modes of stiffness ~ G (t/L)² against p: the capped ecoflex tube at p/G = 0.03), which
     // forced UMFPACK LU for the whole first step. From a secant start the new pressure belongs there.
     stiffness_time_ = (it == 0 && !extrapolated_) ? time_ : -1.0;
-    MaterialStatus st = assemble(t_new, dt, true, u, p, as);
+    // Late iterations (it ≥ 2, where most steps converge) first evaluate the residual alone: the element
+    // tangent and its scatter are ~85 % of an assembly (hex8 kernel 12 µs with the tangent, 1.6 µs
+    // without), and the converging iteration needs no tangent. When the residual does not pass, the
+    // tangent assembly follows at the same point (the residual pass is then ~15 % extra).
+    bool converged_early = false;
+    if (options_.residual_first && it >= 2 && !predictor) {
+      if (assemble(t_new, dt, false, u, p, as) == MaterialStatus::ok) {
+        double r2 = 0.0;
+        for (int d = 0; d < ndof; ++d)
+          if (dofs_.eq[d] >= 0) {
+            const double v = mixed ? as.R_true[d] : as.R[d];
+            r2 += v * v;
+          }
+        const double rc_pre = std::sqrt(r2);
+        const double scale_pre = std::max({as.fint_norm, as.fext_norm, 1e-300});
+        const double vres_pre = model_.cavity ? std::abs(as.volume - v_target) / cavity_v0_ : 0.0;
+        const bool floor_pre = (rc_pre <= 100 * options_.tolerance * scale_pre && rc_pre >= 0.5 * r_prev) ||
+                               (rc_pre <= 1e-4 * scale_pre && last_du <= 1e-10 * u_max);
+        converged_early = std::isfinite(rc_pre) && (rc_pre <= options_.tolerance * scale_pre || floor_pre) && vres_pre <= 1e-9;
+      }
+    }
+    MaterialStatus st = converged_early ? MaterialStatus::ok : assemble(t_new, dt, true, u, p, as);
     stiffness_time_ = -1.0;
     // Line search on the full assembly of the trial point (most steps accept α = 1, so no extra
     // residual evaluation): backtrack when the trial is inadmissible (material failure) or, without a
@@ -891,8 +1094,13 @@ bool Simulation::try_step(double t_new, double dt, std::string& why) {
     const double rc_last = r_prev;
     r_prev = rc;
     if (!predictor && it > 0 && (rc <= options_.tolerance * scale || floor) && vres <= 1e-9) {
+      if (options_.extrapolate_order >= 2) {
+        u_prev2_step_.swap(u_prev_step_);
+        prev2_step_time_ = prev_step_time_;
+      }
       u_prev_step_.swap(u_);
       prev_step_time_ = time_;
+      stored_steps_ = std::min(stored_steps_ + 1, 2);
       u_ = std::move(u);
       cavity_pressure_ = p;
       std::swap(state_old_, state_new_);
@@ -925,12 +1133,18 @@ bool Simulation::try_step(double t_new, double dt, std::string& why) {
     // (Not under cavity control: its pressure increment comes from the same solves, and the volume
     // tolerance 1e-9 needs them accurate.)
     const double eta = model_.cavity ? eta_fast
-                                     : std::max(eta_fast, std::min(0.1, 0.1 * options_.tolerance * scale / std::max(rn, rc)));
+                                     : std::max(eta_fast, std::min(0.1, options_.forcing_safeguard * options_.tolerance * scale / std::max(rn, rc)));
     std::string lwhy;
     // A lagged factor that failed at the first iteration of the last step (the tangent moved too far
     // over a load step) is not tried again there: its wasted GMRES iterations (5 to 30 at 1e5 dofs)
     // cost up to a factorization. Every fourth step it is tried again, in case the steps got smaller.
     if (it == 0 && refactor_first_ && (stats_.steps % 4) != 0 && factor_valid_ && factor_version_ != k_version_)
+      factor_stale_ = true;
+    // From a (quadratic) extrapolated start the tangent of iteration 0 is within the predictor error of the
+    // step's solution: its fresh factor solves iteration 0 directly and preconditions the remaining two or
+    // three corrections in a few GMRES iterations each, while the previous step's factor needs 10–30
+    // there and fails at iteration 1 (κ/G ~ 1e5: the tangent moves by κ × the strain of a load step).
+    if (it == 0 && extrapolated_ && options_.refactor_each_step && factor_valid_ && factor_version_ != k_version_)
       factor_stale_ = true;
     // Nor while Newton is far from its quadratic phase (the residual did not halve: the tangent still
     // moves a lot, e.g. the first load step of the tube, whose lagged GMRES ran 15 iterations per solve
@@ -939,7 +1153,7 @@ bool Simulation::try_step(double t_new, double dt, std::string& why) {
     const int factorizations_before = linear_->times().factorizations;
     const bool lagged_before = factor_valid_ && !factor_stale_ && factor_version_ != k_version_;
     if (!linear_solve(rhs, x1, eta, lwhy)) return fail(lwhy);
-    if (it == 0 && last_factor_flops_ >= 2e9) {
+    if (it == 0 && last_factor_flops_ >= options_.lag_flops) {
       if (lagged_before && linear_->times().factorizations > factorizations_before) refactor_first_ = true;
       else if (lagged_before) refactor_first_ = false;
     }

@@ -25,6 +25,7 @@ const char* to_string(ReferenceMedium r) {
   return r == ReferenceMedium::mean_tangent ? "mean-tangent" : r == ReferenceMedium::geometric ? "geometric" : "isotropic";
 }
 const char* to_string(KrylovOperator k) { return k == KrylovOperator::stencil ? "stencil" : "fourier"; }
+const char* to_string(TangentPrecision t) { return t == TangentPrecision::single_precision ? "single" : "double"; }
 
 Mat3 grid_rotation(double fiber_angle_deg) {
   const double a = fiber_angle_deg * 3.14159265358979323846 / 180.0;
@@ -39,6 +40,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr double kPhaseEps = 1e-12;  // fractions closer than this to 0/1 are pure voxels
+constexpr double kLockingMargin = 0.02;  // failure diagnosis: a matrix point this close to its limit is "locked"
 
 /// 9×9 operator of X ↦ R X Rᵀ on row-major flattened tensors.
 Mat9 rotation_operator(const Mat3& R) {
@@ -121,6 +123,36 @@ __attribute__((target_clones("arch=x86-64-v3", "default"))) void symmetric_produ
   }
 }
 
+/// symmetric_product_batch() with the tangents stored in float (same layout, S[idx·8 + l]); x, y and the
+/// sums stay double, the entries are widened on load. Half the tangent stream of the double version.
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void symmetric_product_batch_f(
+    const float* __restrict S, const double* __restrict x, double* __restrict y) {
+  typedef double v4 __attribute__((vector_size(32), aligned(8)));
+  typedef float v4f __attribute__((vector_size(16), aligned(4)));
+  for (int h = 0; h < 2; ++h) {
+    v4 xv[9], out[9];
+#pragma GCC unroll 9
+    for (int a = 0; a < 9; ++a) {
+      xv[a] = *reinterpret_cast<const v4*>(x + a * 8 + 4 * h);
+      out[a] = v4{0.0, 0.0, 0.0, 0.0};
+    }
+    int idx = 0;
+#pragma GCC unroll 9
+    for (int a = 0; a < 9; ++a) {
+      out[a] += __builtin_convertvector(*reinterpret_cast<const v4f*>(S + idx * 8 + 4 * h), v4) * xv[a];
+      ++idx;
+#pragma GCC unroll 8
+      for (int b = a + 1; b < 9; ++b, ++idx) {
+        const v4 t = __builtin_convertvector(*reinterpret_cast<const v4f*>(S + idx * 8 + 4 * h), v4);
+        out[a] += t * xv[b];
+        out[b] += t * xv[a];
+      }
+    }
+#pragma GCC unroll 9
+    for (int a = 0; a < 9; ++a) *reinterpret_cast<v4*>(y + a * 8 + 4 * h) = out[a];
+  }
+}
+
 /// Running sums of one evaluation pass (per thread, then reduced).
 struct PassSums {
   Vec9 P = Vec9::Zero();
@@ -188,6 +220,7 @@ struct FftRveSolver::Impl {
   std::vector<double> lam_a, lam_a_trial;     // laminate jump vector per composite point (3 each)
   std::vector<double> hist_old[2], hist_new[2];
   std::vector<double> tangent;      // packed symmetric tangent per material point p = v nq + q (45 each)
+  std::vector<float> tangent_f;     // the same in float (stencil operator, TangentPrecision::single_precision)
   double krylov_seconds = 0.0;      // time in the linear solves (operator, preconditioner, vector ops)
   KVec cg_r, cg_z, cg_p, cg_Ap;     // CG work vectors, kept between solves (no allocation per solve)
   // Mixed (pressure) Newton iteration for nearly incompressible phases (see pressure_correction()).
@@ -296,7 +329,13 @@ struct FftRveSolver::Impl {
     }
     // Stencil operator: tangents in blocks of 8 points (structure of arrays, symmetric_product_batch()),
     // zero-padded to whole blocks; Fourier operator: per point.
-    if (opt.scheme == FftScheme::newton_cg) tangent.assign(45 * (stencil ? (NP + 7) / 8 * 8 : NP), 0.0);
+    // Single precision (stencil only): tangent_f instead of tangent.
+    if (opt.scheme == FftScheme::newton_cg) {
+      if (stencil && opt.tangent_precision == TangentPrecision::single_precision)
+        tangent_f.assign(45 * ((NP + 7) / 8 * 8), 0.0f);
+      else
+        tangent.assign(45 * (stencil ? (NP + 7) / 8 * 8 : NP), 0.0);
+    }
     u.assign(3 * NM, 0.0);
     u_committed = u;
     r_u.assign(3 * NM, 0.0);
@@ -446,6 +485,11 @@ struct FftRveSolver::Impl {
     if (!stencil) return pack_symmetric(A, &tangent[45 * p]);
     double S[45];
     pack_symmetric(A, S);
+    if (!tangent_f.empty()) {
+      float* block = &tangent_f[45 * (p - p % 8)] + p % 8;
+      for (int idx = 0; idx < 45; ++idx) block[8 * idx] = float(S[idx]);
+      return;
+    }
     double* block = &tangent[45 * (p - p % 8)] + p % 8;
     for (int idx = 0; idx < 45; ++idx) block[8 * idx] = S[idx];
   }
@@ -679,6 +723,7 @@ struct FftRveSolver::Impl {
     double wq[8];
     for (int q = 0; q < nq; ++q) wq[q] = op.quadrature()[q].weight;
     const double* T = tangent.data();
+    const float* Tf = tangent_f.empty() ? nullptr : tangent_f.data();
 #pragma omp parallel
     {
       double local[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
@@ -688,7 +733,10 @@ struct FftRveSolver::Impl {
         alignas(64) double dF[9 * B];
         for (int c = 0; c < 9; ++c)
           for (int l = 0; l < B; ++l) dF[c * B + l] = dFbar[c] + grad[c * B + l];
-        symmetric_product_batch(T + 45 * p0, dF, dP);  // block p0/8 starts at 360·p0/8
+        if (Tf)
+          symmetric_product_batch_f(Tf + 45 * p0, dF, dP);
+        else
+          symmetric_product_batch(T + 45 * p0, dF, dP);  // block p0/8 starts at 360·p0/8
         for (int l = 0; l < count; ++l) {
           if (shift != 0.0)
             for (int a = 0; a < 9; ++a) {
@@ -990,6 +1038,99 @@ struct FftRveSolver::Impl {
   }
 
   // ---------------------------------------------------------------------------------------------
+  // Failure diagnosis.
+
+  /// Extremes of the current iterate (ũ, F̄ and the laminate vectors as they are now): the
+  /// smallest domain margin of the matrix (Material::limit_margin, Gent: 1 − (Ī1 − 3)/Jm) over pure
+  /// matrix points and the matrix side of composite points, J extremes of the matrix, the mixed
+  /// pressure, and where the nodal force residual `r` is largest. Destroys the real buffer.
+  struct HotSpots {
+    double margin = 1.0, J_min = 1.0, J_max = 1.0, p_max = 0.0, force_max = 0.0, force_rms = 0.0;
+    std::size_t v_margin = 0, v_J_min = 0, v_force = 0, v_p = 0;
+    bool margin_composite = false;
+    int near_limit = 0;  // matrix points with margin < 0.1
+  };
+  HotSpots hot_spots(const KVec& r) {
+    HotSpots h;
+    gradient_to_real(u);
+    const Mat3 Fg = to_grid(Fbar);
+    const int ncol = op.columns();
+    for (std::size_t v = 0; v < N; ++v)
+      for (int q = 0; q < nq; ++q) {
+        const std::size_t p = v * nq + q;
+        const double f = phi[v];
+        if (f >= 1.0) continue;
+        Mat3 F;
+        for (int c = 0; c < 9; ++c)
+          F(c / 3, c % 3) = Fg(c / 3, c % 3) + (c % 3 < ncol ? fft->real(9 * q + c)[v] : 0.0);
+        const bool composite = comp_id[v] >= 0;
+        if (composite && comp_normal[comp_id[v]].squaredNorm() > 0.0) {
+          const std::size_t c = std::size_t(comp_id[v]) * nq + q;
+          const Vec3 a(lam_a_trial[3 * c], lam_a_trial[3 * c + 1], lam_a_trial[3 * c + 2]);
+          F -= f * a * comp_normal[comp_id[v]].transpose();
+        }
+        const double m = mat[0]->limit_margin(F), J = F.determinant();
+        if (m < h.margin) {
+          h.margin = m;
+          h.v_margin = v;
+          h.margin_composite = composite;
+        }
+        if (m < 0.1) ++h.near_limit;
+        if (J < h.J_min) {
+          h.J_min = J;
+          h.v_J_min = v;
+        }
+        h.J_max = std::max(h.J_max, J);
+        if (mixed[0] && !composite && std::abs(p_trial[p]) > h.p_max) {
+          h.p_max = std::abs(p_trial[p]);
+          h.v_p = v;
+        }
+      }
+    // Nodal forces Dᴴ P in real space: the three components into fields 0, 3, 6 (transformed for any
+    // number of columns).
+    for (int i = 0; i < 3; ++i) std::copy(r.u.begin() + i * NM, r.u.begin() + (i + 1) * NM, fft->spectrum(3 * i));
+    fft->backward();
+    double s2 = 0.0;
+    for (std::size_t v = 0; v < N; ++v) {
+      double f2 = 0.0;
+      for (int i = 0; i < 3; ++i) f2 += fft->real(3 * i)[v] * fft->real(3 * i)[v];
+      s2 += f2;
+      if (f2 > h.force_max) {
+        h.force_max = f2;
+        h.v_force = v;
+      }
+    }
+    h.force_max = std::sqrt(h.force_max);
+    h.force_rms = std::sqrt(s2 / double(N));
+    return h;
+  }
+  std::string voxel_name(std::size_t v) const {
+    std::ostringstream s;
+    s << "voxel (" << v % grid.n[0] << ", " << (v / grid.n[0]) % grid.n[1];
+    if (grid.n[2] > 1) s << ", " << v / (std::size_t(grid.n[0]) * grid.n[1]);
+    s << ", fiber fraction " << phi[v] << ")";
+    return s.str();
+  }
+  /// The hot spots as a sentence for the failure message; names a reached domain limit (Gent locking).
+  std::string describe(const HotSpots& h) const {
+    std::ostringstream s;
+    s.precision(3);
+    s << "last iterate: matrix limit margin " << h.margin << " (1 at F = I, 0 at the law's limit, e.g. Gent "
+      << "locking Ī1 − 3 = Jm) at " << voxel_name(h.v_margin) << (h.margin_composite ? " [composite]" : "") << ", "
+      << h.near_limit << " matrix points below 0.1; matrix J − 1 in [" << h.J_min - 1.0 << ", " << h.J_max - 1.0 << "]";
+    if (mixed[0]) s << "; max |p| " << h.p_max << " at " << voxel_name(h.v_p);
+    s << "; largest nodal force residual at " << voxel_name(h.v_force) << ", " << h.force_max / std::max(h.force_rms, 1e-300)
+      << "× its rms";
+    if (!(h.J_min > 0.0))
+      s << ". The matrix inverts (J ≤ 0) at " << voxel_name(h.v_J_min);
+    else if (h.margin < kLockingMargin)
+      s << ". The matrix is at its limit there (Gent locking): if that persists through the cut-backs, the cell has no "
+        << "solution beyond F11 = " << Fbar_committed(0, 0) << " (last converged, load frame)";
+    return s.str();
+  }
+
+
+  // ---------------------------------------------------------------------------------------------
   // One (sub)step from the committed state to t_new.
 
   using StepOutcome = detail::SubstepOutcome;
@@ -1081,6 +1222,11 @@ struct FftRveSolver::Impl {
         if (!accepted) {
           out.why = last != MaterialStatus::ok ? std::string("material call failed (") + to_string(last) + ")"
                                                : std::string("line search failed");
+          // Diagnose the last accepted iterate, not the rejected trial (an overshooting full step of a
+          // nearly incompressible matrix can be arbitrarily far from anything the cell can reach).
+          u = u_prev;
+          Fbar = Fbar_prev;
+          out.why += "; " + describe(hot_spots(r));
           return out;
         }
       }
@@ -1184,7 +1330,7 @@ struct FftRveSolver::Impl {
     }
     out.why = "no convergence in " + std::to_string(opt.max_newton_iterations) + " Newton iterations" +
               (continuation ? " + " + std::to_string(out.continuation) + " continuation iterations" : std::string()) +
-              " (residual " + std::to_string(err) + ")";
+              " (residual " + std::to_string(err) + "); " + describe(hot_spots(r));
     return out;
   }
 
@@ -1302,7 +1448,7 @@ std::size_t FftRveSolver::memory_bytes() const {
   const Impl& m = *impl_;
   std::size_t b = m.fft->fields() * (m.N * sizeof(double) + m.NM * sizeof(Complex));
   if (m.fft3) b += m.fft3->fields() * (m.N * sizeof(double) + m.NM * sizeof(Complex));
-  b += m.tangent.size() * sizeof(double) + m.green.memory_bytes();
+  b += m.tangent.size() * sizeof(double) + m.tangent_f.size() * sizeof(float) + m.green.memory_bytes();
   for (int x = 0; x < 2; ++x) b += 2 * m.hist_old[x].size() * sizeof(double);
   b += 2 * m.lam_a.size() * sizeof(double) + m.N * (sizeof(double) + sizeof(int));
   // Mixed (u, p) iteration: two linearizations (10 each), three pressures, P_full − P̂ (9) per point.

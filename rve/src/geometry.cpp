@@ -462,6 +462,40 @@ void paint_circle(Grid& g, const Vec2& c, double r) {
   }
 }
 
+/// Length of the segment p0 → p1 inside the box [−a, a] × [−b, b] (Liang–Barsky clipping).
+double segment_length_in_box(const Vec2& p0, const Vec2& p1, double a, double b) {
+  const Vec2 d = p1 - p0;
+  double t0 = 0.0, t1 = 1.0;
+  const double pk[4] = {-d.x(), d.x(), -d.y(), d.y()};
+  const double qk[4] = {p0.x() + a, a - p0.x(), p0.y() + b, b - p0.y()};
+  for (int k = 0; k < 4; ++k) {
+    if (pk[k] == 0.0) {
+      if (qk[k] < 0.0) return 0.0;  // parallel to this side and outside it
+      continue;
+    }
+    const double t = qk[k] / pk[k];
+    if (pk[k] < 0.0) t0 = std::max(t0, t);
+    else t1 = std::min(t1, t);
+  }
+  return t1 > t0 ? (t1 - t0) * d.norm() : 0.0;
+}
+
+/// ∫ n ds over the part of the boundary of [−a, a] × [−b, b] inside the convex quad `q`
+/// (counter-clockwise): −Σ_edges (length inside the box) · (outward edge normal).
+Vec2 mean_boundary_normal(const std::array<Vec2, 4>& q, double a, double b) {
+  Vec2 m = Vec2::Zero();
+  for (int k = 0; k < 4; ++k) {
+    const Vec2& p0 = q[k];
+    const Vec2& p1 = q[(k + 1) % 4];
+    const Vec2 d = p1 - p0;
+    const double len = d.norm();
+    if (!(len > 0.0)) continue;
+    const Vec2 outward(d.y() / len, -d.x() / len);  // right of a counter-clockwise edge
+    m -= segment_length_in_box(p0, p1, a, b) * outward;
+  }
+  return m;
+}
+
 void paint_rect(Grid& g, const OrientedRect& R) {
   const auto cs = R.corners();
   double xmin = cs[0].x(), xmax = xmin, ymin = cs[0].y(), ymax = ymin;
@@ -498,7 +532,8 @@ void paint_rect(Grid& g, const OrientedRect& R) {
       if (area <= 0.0) continue;
       g.frac[idx] += area / pixel_area;
       // Outward normal at the boundary point closest to the pixel centre: the distance-field gradient
-      // (face normal, or the corner-to-point direction in a corner's Voronoi region).
+      // (face normal, or the corner-to-point direction in a corner's Voronoi region). `dist` ranks the
+      // offers of several fibers; the direction is replaced below by the interface average.
       const Vec2 pc = local(0.5 * (x0 + x1), 0.5 * (y0 + y1));
       const double su = pc.x() >= 0.0 ? 1.0 : -1.0, sv = pc.y() >= 0.0 ? 1.0 : -1.0;
       const double du = std::abs(pc.x()) - R.a, dv = std::abs(pc.y()) - R.b;
@@ -513,6 +548,16 @@ void paint_rect(Grid& g, const OrientedRect& R) {
       } else {
         nl = Vec2(0.0, sv), dist = dv;
       }
+      // Laminate normal: the mean outward normal of the fiber boundary inside the pixel,
+      // ∫_{∂R ∩ pixel} n ds = −∫_{∂pixel ∩ R} n_pixel ds (divergence theorem on R ∩ pixel), i.e. minus
+      // the pixel edges' lengths inside the rectangle times their outward normals. It equals the face
+      // normal on a face pixel and is the length-weighted bisector of the two faces on a corner pixel.
+      // The distance gradient alone is ambiguous on a corner pixel whose centre lies inside the fiber
+      // on the corner's diagonal (equidistant faces): its tie was broken by round-off, differently at
+      // different corners, which gave mirror-image corners different laminates, broke the mirror
+      // symmetry of the cell and left a spurious soft mode (ecoflex square fibers, 32², issue #3).
+      const Vec2 mean = mean_boundary_normal(q, R.a, R.b);
+      if (mean.norm() > 1e-6 * (g.dx + g.dy)) nl = mean.normalized();
       g.offer_normal(idx, dist, nl.x() * R.u + nl.y() * R.v);
     }
 }

@@ -254,7 +254,7 @@ rve::FftSolverOptions parse_fft_solver_options(const toml::table& scene, std::fi
   if (!t) return o;
   const std::string p = "solver";
   io::check_keys(*t, p, {"discretization", "scheme", "reference", "tolerance", "krylov_tolerance", "max_newton_iterations",
-                         "max_krylov_iterations", "max_fixed_point_iterations", "max_cutbacks", "max_continuation_iterations", "indefinite_solver", "minres_below", "minres_fallback", "krylov_operator", "fftw", "fftw_wisdom", "mixed_pressure"});
+                         "max_krylov_iterations", "max_fixed_point_iterations", "max_cutbacks", "max_continuation_iterations", "indefinite_solver", "minres_below", "minres_fallback", "krylov_operator", "tangent_precision", "fftw", "fftw_wisdom", "mixed_pressure"});
   const std::string d = io::get_string_or(*t, "discretization", p, "rotated");
   try {
     o.discretization = fft::parse_discretization(d);
@@ -285,6 +285,10 @@ rve::FftSolverOptions parse_fft_solver_options(const toml::table& scene, std::fi
   if (kop == "stencil") o.krylov_operator = rve::KrylovOperator::stencil;
   else if (kop == "fourier") o.krylov_operator = rve::KrylovOperator::fourier;
   else throw InputError(p + ".krylov_operator", kop, "stencil or fourier");
+  const std::string tp = io::get_string_or(*t, "tangent_precision", p, rve::to_string(o.tangent_precision));
+  if (tp == "double") o.tangent_precision = rve::TangentPrecision::double_precision;
+  else if (tp == "single") o.tangent_precision = rve::TangentPrecision::single_precision;
+  else throw InputError(p + ".tangent_precision", tp, "double or single");
   const std::string ind = io::get_string_or(*t, "indefinite_solver", p, "minres");
   if (ind == "minres") o.indefinite_solver = rve::IndefiniteSolver::minres;
   else if (ind == "shift") o.indefinite_solver = rve::IndefiniteSolver::shift;

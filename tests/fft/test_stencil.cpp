@@ -43,7 +43,11 @@ TEST(StencilGradient, KrylovOperatorEqualsFourierOperator) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> U(-1, 1);
   for (const Grid& g : {Grid{{8, 6, 1}, {1.0, 0.8, 0.1}}, Grid{{7, 5, 1}, {1.3, 1.0, 0.2}},
-                        Grid{{6, 4, 5}, {1.0, 1.0, 1.2}}, Grid{{5, 6, 3}, {0.7, 1.0, 0.9}}})
+                        Grid{{6, 4, 5}, {1.0, 1.0, 1.2}}, Grid{{5, 6, 3}, {0.7, 1.0, 0.9}},
+                        // n1 ≥ 8: the rotated gradient's SIMD path along i1 (batches inside a row, the
+                        // periodic wrap of the last batch; n1 = 12, 19: batches across rows, scalar path)
+                        Grid{{16, 6, 1}, {1.0, 0.8, 0.1}}, Grid{{12, 5, 1}, {1.1, 0.9, 0.1}},
+                        Grid{{16, 4, 3}, {1.0, 0.5, 0.6}}, Grid{{19, 3, 4}, {1.2, 0.4, 0.5}}})
     for (Discretization d : {Discretization::rotated, Discretization::hex}) {
       const std::string label = std::string(to_string(d)) + " " + std::to_string(g.n[0]) + "x" +
                                 std::to_string(g.n[1]) + "x" + std::to_string(g.n[2]);

@@ -6,9 +6,10 @@
 // Performance design (issue #4): elements are coloured so that no two elements of one colour share a
 // node, and assembly scatters into precomputed CSC positions without atomics; the linear systems are
 // solved by GMRES right-preconditioned with a sparse direct factorization that is kept across Newton
-// iterations and load steps and refreshed when its GMRES iterations cost half a factorization, or at the
-// first iteration of a load step when the last step's lagged factor failed there (a fresh factor of a
-// symmetric tangent solves directly). The factor is CHOLMOD's LLᵀ of the tangent's symmetric part
+// iterations and refreshed when its GMRES iterations cost 3/4 of a factorization, and at the first
+// iteration of every step started from the (quadratic) load predictor (a fresh factor of a symmetric
+// tangent solves directly). With the three-field iteration GMRES runs in the uncondensed (u, p_e) space
+// (linear_solve). Late Newton iterations test the residual before assembling a tangent. The factor is CHOLMOD's LLᵀ of the tangent's symmetric part
 // (the follower-pressure stiffness is the only unsymmetric term), falling back to UMFPACK LU when the
 // symmetric part is not positive definite (past a limit point).
 #include <array>
@@ -34,6 +35,22 @@ struct NewtonOptions {
                               ///< (or whose iterations cost half a factorization)
   int krylov_max = 40;        ///< GMRES iterations before a solve refactorizes and retries
   bool extrapolate = true;    ///< secant predictor from the last converged increment (see try_step)
+  int extrapolate_order = 2;  ///< 2: quadratic through the last three converged states when available, 1: secant
+  /// Three-field iteration with a lagged factor: GMRES on the uncondensed (u, p_e) system, preconditioned
+  /// by the exact inverse of the lagged uncondensed system (one solve with the lagged condensed factor +
+  /// element operations). false: GMRES on the condensed u system (the condensed K/G ~ 1e5 tangent goes
+  /// stale within a Newton step; see solver.cpp, linear_solve).
+  bool saddle_krylov = true;
+  /// Factorizations predicted to cost more than this many flops are kept across Newton iterations and
+  /// load steps (GMRES with the lagged factor); cheaper ones are redone for every tangent (direct solves).
+  double lag_flops = 2e9;
+  /// Large (lagged) factors: a fresh factorization at the first iteration of every extrapolated step.
+  bool refactor_each_step = true;
+  /// From the third Newton iteration on, evaluate the residual alone first and assemble the tangent only
+  /// when it does not pass the convergence test (the converging iteration needs no tangent).
+  bool residual_first = true;
+  /// Kelley's safeguard: the linear tolerance is never tighter than this × tolerance·scale / ‖R‖.
+  double forcing_safeguard = 0.1;
   bool verbose = false;       ///< iteration log on stderr
 };
 
@@ -44,6 +61,8 @@ struct RunStats {
   int cutbacks = 0;
   int line_search_backtracks = 0;
   int krylov_iterations = 0;  ///< GMRES iterations (one preconditioner solve each)
+  int tangent_assemblies = 0;   ///< assemblies with the tangent (residual + K)
+  int residual_assemblies = 0;  ///< residual-only assemblies (the residual-first convergence test)
   double assembly_time = 0.0;
   double krylov_time = 0.0;   ///< GMRES without its preconditioner solves (matrix products, orthogonalization)
   SolverTimes linear;         ///< analysis / factorization / solve times
@@ -128,6 +147,17 @@ class Simulation {
   double last_factor_time_ = 0.0, last_factor_flops_ = 0.0;
   double iteration_time_ = 0.0;                  ///< running mean cost of one GMRES iteration [s]
   std::vector<std::vector<double>> krylov_basis_;  ///< GMRES basis, kept between solves
+  std::vector<std::vector<double>> krylov_preconditioned_;  ///< M⁻¹ of the basis vectors (no extra solve per cycle)
+  std::vector<std::vector<double>> krylov_condensed_;  ///< condensed residuals of the basis (uncondensed Krylov space)
+  // Uncondensed (u, p_e) Krylov space of the three-field iteration (linear_solve): per mixed element k,
+  // its element number, the free equation of each element dof (−1 fixed) at sad_off_[k] .. sad_off_[k+1],
+  // and d_e = ∂θ_e/∂u, c_e = V_e U″(θ) of the current tangent (b) and of the factorized one (a).
+  std::vector<int> sad_elem_, sad_off_, sad_eq_;
+  std::vector<std::vector<int>> sad_colors_;  ///< the element colours, as mixed-element indices k
+  std::vector<double> sad_db_, sad_cb_, sad_da_, sad_ca_;
+  bool sad_a_valid_ = false;
+  long sad_b_version_ = -1;  ///< k_version_ of sad_db_, sad_cb_
+  void saddle_current();  ///< fills sad_db_, sad_cb_ from the last tangent assembly
   std::vector<Hex8Geometry> geometry_;
   std::vector<Tet10Geometry> tet_geometry_;  ///< per tet (element e − num_hexes)
   std::vector<std::vector<int>> colors_;  ///< element colours: no shared node within one colour
@@ -141,6 +171,9 @@ class Simulation {
   std::vector<Vec30> mix_d_tet_;  ///< ∂θ_e/∂u per tet
   std::vector<double> u_, u_prev_step_;  ///< converged displacement and the one before it (secant predictor)
   double prev_step_time_ = 0.0;            ///< time of u_prev_step_
+  std::vector<double> u_prev2_step_;       ///< the converged displacement before u_prev_step_ (quadratic predictor)
+  double prev2_step_time_ = 0.0;           ///< its time (valid when stored_steps_ ≥ 2)
+  int stored_steps_ = 0;                   ///< converged steps behind u_ (capped at 2)
   bool extrapolate_step_ = true;           ///< false while a step is retried without the secant predictor
   bool extrapolated_ = false;              ///< the last try_step started from the secant predictor
   double stiffness_time_ = -1.0;           ///< ≥ 0: time of the pressure in the load stiffness (assemble)
