@@ -17,7 +17,7 @@
 //                                      would cost at 1e6 DOFs without running it)
 //   bench_macro --factor DOFS...      CHOLMOD numeric factorization + one solve (METIS) of an SPD matrix with
 //                                      the tube's pattern for several supernode amalgamation settings
-//   bench_macro --factor-once DOFS...  one numeric factorization + one solve (METIS, default settings), lean
+//   bench_macro --factor-once DOFS...  one numeric factorization + one solve (METIS, the solver's settings), lean
 //                                      in memory (1e6 dofs: ≈ 11 GiB peak, 10 GiB of it the factor): the
 //                                      unit costs of the 1e6 estimate
 //   bench_macro --kernel [N]           micro benchmark of the hex8 kernel: µs per element evaluation
@@ -258,13 +258,14 @@ void factor_benchmark(double target) {
   }
 }
 
-/// One CHOLMOD numeric factorization and one solve (METIS, CHOLMOD's default amalgamation) of an SPD
+/// One CHOLMOD numeric factorization and one solve (METIS, the amalgamation of fe::CholmodSolver) of an SPD
 /// matrix with the tube's free-dof pattern, built lean for the largest sizes: the mesh and the full
 /// pattern are released before the analysis, so the peak is the factor (1e6 dofs: 1.34e9 entries,
 /// 10 GiB) plus the upper-triangle matrix (≈ 0.5 GB) and CHOLMOD's workspace. Times the unit costs the
 /// ramp estimate at 1e6 needs (factorization, triangular solve) without running the ramp.
 void factor_once_benchmark(double target) {
   std::vector<int> colptr, rows;
+  std::vector<double> diagonal;
   int n = 0, elements = 0;
   {
     const Structure s = build_structure(helix_spec(target, 0.01));
@@ -276,7 +277,9 @@ void factor_once_benchmark(double target) {
     for (int c = 0; c < n; ++c)
       for (int k = K.colptr[c]; k < K.colptr[c + 1]; ++k) nnz_upper += K.rowind[k] <= c;
     rows.reserve(nnz_upper);
+    diagonal.resize(n);
     for (int c = 0; c < n; ++c) {
+      diagonal[c] = double(K.colptr[c + 1] - K.colptr[c]) + 1.0;  // > the row's off-diagonal sum: SPD
       for (int k = K.colptr[c]; k < K.colptr[c + 1]; ++k)
         if (K.rowind[k] <= c) rows.push_back(K.rowind[k]);
       colptr[c + 1] = int(rows.size());
@@ -291,13 +294,20 @@ void factor_once_benchmark(double target) {
   cm.nmethods = 1;
   cm.method[0].ordering = CHOLMOD_METIS;
   cm.postorder = 1;
+  const std::size_t nrelax[3] = {16, 64, 192};  // the amalgamation of fe::CholmodSolver (fe/src/sparse.cpp)
+  const double zrelax[3] = {0.9, 0.3, 0.15};
+  for (int k = 0; k < 3; ++k) {
+    cm.nrelax[k] = nrelax[k];
+    cm.zrelax[k] = zrelax[k];
+  }
   cholmod_sparse* A = cholmod_allocate_sparse(n, n, rows.size(), 1, 1, 1, CHOLMOD_REAL, &cm);
   if (!A) throw std::runtime_error("CHOLMOD: out of memory allocating the matrix");
   std::copy(colptr.begin(), colptr.end(), static_cast<int*>(A->p));
   std::copy(rows.begin(), rows.end(), static_cast<int*>(A->i));
   double* x = static_cast<double*>(A->x);
-  for (int c = 0; c < n; ++c)  // diagonally dominant: no pivoting in LLᵀ, so the cost depends on the pattern only
-    for (int k = colptr[c]; k < colptr[c + 1]; ++k) x[k] = rows[k] == c ? 100.0 : -1.0;
+  for (int c = 0; c < n; ++c)  // strictly diagonally dominant (the cap's axis nodes have > 100 neighbours' dofs)
+    for (int k = colptr[c]; k < colptr[c + 1]; ++k) x[k] = rows[k] == c ? diagonal[c] : -1.0;
+  std::vector<double>().swap(diagonal);
   std::vector<int>().swap(rows);
   std::vector<int>().swap(colptr);
   auto t0 = std::chrono::steady_clock::now();
@@ -314,8 +324,11 @@ void factor_once_benchmark(double target) {
   const double cpu_fac = double(std::clock() - c0) / CLOCKS_PER_SEC;
   if (cm.status != CHOLMOD_OK) throw std::runtime_error("CHOLMOD: factorization failed (status " + std::to_string(cm.status) + ")");
   cholmod_dense* B = cholmod_ones(n, 1, CHOLMOD_REAL, &cm);
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);  // as fe::CholmodSolver::solve
   t0 = std::chrono::steady_clock::now();
   cholmod_dense* X = cholmod_solve(CHOLMOD_A, L, B, &cm);
+  omp_set_num_threads(threads);
   const double t_solve = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("  %8d dofs | factorize %8.2f s wall %8.2f s cpu  %6.2f GFlop/s | solve %6.3f s | peak %6.0f MiB | %d threads\n", n,
               t_fac, cpu_fac, cm.fl / t_fac / 1e9, t_solve, double(io::peak_memory_bytes()) / (1 << 20), omp_get_max_threads());
@@ -357,7 +370,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (a == "--factor-once") {
-      std::printf("# one CHOLMOD factorization + one solve (METIS, default amalgamation) of the helix tube pattern\n");
+      std::printf("# one CHOLMOD factorization + one solve (METIS, the solver's amalgamation) of the helix tube pattern\n");
       for (int k = i + 1; k < argc; ++k) factor_once_benchmark(std::atof(argv[k]));
       return 0;
     }

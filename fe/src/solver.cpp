@@ -504,6 +504,11 @@ namespace {
 /// Runs a scope with one OpenMP thread (so one BLAS thread with OpenBLAS-OpenMP): small supernodes
 /// gain nothing from threads, and a threaded BLAS on a loaded machine spins (measured 7x slower
 /// factorizations of a 1152-dof tube at load 8 on 2 cores).
+/// Factorizations below this many flops run on one thread. With the coarse supernodes of
+/// fe::CholmodSolver a second BLAS thread does not pay below ~50 GFlop on the 2-core box (idle,
+/// passive wait policy, `bench_macro --factor`): 3e4-dof tube (5.9 GFlop) 0.39 s on 1 thread vs
+/// 0.53 s on 2; 1e5 dofs (52 GFlop) 2.29 s on 1 vs 2.29–2.47 s on 2; 1e6 (5.6 TFlop) 39 GFlop/s on 2.
+constexpr double kThreadedFactorFlops = 2e10;
 struct ThreadScope {
   int saved;
   explicit ThreadScope(bool one) : saved(omp_get_max_threads()) {
@@ -523,7 +528,7 @@ bool Simulation::refactor(std::string& why) {
     }
     last_factor_flops_ = chol_->predicted_flops();
   }
-  const ThreadScope scope(last_factor_flops_ < 2e9);
+  const ThreadScope scope(last_factor_flops_ < kThreadedFactorFlops);
   const auto t0 = std::chrono::steady_clock::now();
   // Is K symmetric (no follower pressure, hyperelastic law)? Then a Cholesky factor is exact.
   double asym = 0.0, big = 0.0;
@@ -584,7 +589,7 @@ bool Simulation::linear_solve(const std::vector<double>& b, std::vector<double>&
   const double bnorm = norm(b);
   x.assign(n, 0.0);
   if (bnorm == 0.0) return true;
-  const ThreadScope scope(last_factor_flops_ < 2e9);
+  const ThreadScope scope(last_factor_flops_ < kThreadedFactorFlops);
   if (options_.saddle_krylov && !sad_elem_.empty() && last_factor_flops_ >= options_.lag_flops) saddle_current();
   // A cheap factorization (< 2 GFlop, well under a second) is simply redone for every new tangent:
   // a lagged one saves little there and costs GMRES iterations. Larger systems keep the factor.
