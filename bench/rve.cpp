@@ -123,34 +123,6 @@ void solve_and_print(const char* label, double value, int n, fft::Discretization
   std::fflush(stdout);
 }
 
-// Replicas of the solver's batched packed-symmetric tangent products (rve/src/fft_solver.cpp, where they
-// are internal), for `fftpasses`: 8 points, S[idx·8 + lane], double or float entries.
-template <class T>
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void bench_batch_product(const T* __restrict S,
-                                                                                    const double* __restrict x,
-                                                                                    double* __restrict y) {
-  typedef double v4 __attribute__((vector_size(32), aligned(8)));
-  typedef T v4t __attribute__((vector_size(4 * sizeof(T)), aligned(sizeof(T))));
-  for (int h = 0; h < 2; ++h) {
-    v4 xv[9], out[9];
-    for (int a = 0; a < 9; ++a) {
-      xv[a] = *reinterpret_cast<const v4*>(x + a * 8 + 4 * h);
-      out[a] = v4{0.0, 0.0, 0.0, 0.0};
-    }
-    int idx = 0;
-    for (int a = 0; a < 9; ++a) {
-      out[a] += __builtin_convertvector(*reinterpret_cast<const v4t*>(S + idx * 8 + 4 * h), v4) * xv[a];
-      ++idx;
-      for (int b = a + 1; b < 9; ++b, ++idx) {
-        const v4 t = __builtin_convertvector(*reinterpret_cast<const v4t*>(S + idx * 8 + 4 * h), v4);
-        out[a] += t * xv[b];
-        out[b] += t * xv[a];
-      }
-    }
-    for (int a = 0; a < 9; ++a) *reinterpret_cast<v4*>(y + a * 8 + 4 * h) = out[a];
-  }
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -415,13 +387,13 @@ int main(int argc, char** argv) {
         const double grad_d = best_of([&] {
 #pragma omp parallel
           st.gradient_pass(u.data(), store.data(), [&](std::size_t p0, int, const double* grad, double* dP) {
-            bench_batch_product(T.data() + 45 * p0, grad, dP);
+            fft::symmetric_product_batch(T.data() + 45 * p0, grad, dP);
           });
         });
         const double grad_f = best_of([&] {
 #pragma omp parallel
           st.gradient_pass(u.data(), store.data(), [&](std::size_t p0, int, const double* grad, double* dP) {
-            bench_batch_product(Tf.data() + 45 * p0, grad, dP);
+            fft::symmetric_product_batch(Tf.data() + 45 * p0, grad, dP);
           });
         });
         const double gather = best_of([&] { sink += st.divergence_pass(store.data(), f.data(), u.data()); });

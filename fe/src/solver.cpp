@@ -567,7 +567,7 @@ bool Simulation::refactor(std::string& why) {
   last_factor_flops_ = linear_->times().flops - flops_before;
   // The uncondensed preconditioner inverts the saddle system of the factorized tangent: keep its d_e, c_e
   // (only where factors are lagged: > lag_flops, see linear_solve).
-  if (ok && options_.saddle_krylov && !sad_elem_.empty() && last_factor_flops_ >= options_.lag_flops) saddle_current();
+  if (ok && saddle_lagged()) saddle_current();
   if (ok && sad_b_version_ == k_version_) {
     sad_da_ = sad_db_;
     sad_ca_ = sad_cb_;
@@ -590,7 +590,7 @@ bool Simulation::linear_solve(const std::vector<double>& b, std::vector<double>&
   x.assign(n, 0.0);
   if (bnorm == 0.0) return true;
   const ThreadScope scope(last_factor_flops_ < kThreadedFactorFlops);
-  if (options_.saddle_krylov && !sad_elem_.empty() && last_factor_flops_ >= options_.lag_flops) saddle_current();
+  if (saddle_lagged()) saddle_current();
   // A cheap factorization (< 2 GFlop, well under a second) is simply redone for every new tangent:
   // a lagged one saves little there and costs GMRES iterations. Larger systems keep the factor.
   const bool cheap = last_factor_flops_ < options_.lag_flops;
@@ -1004,6 +1004,21 @@ bool Simulation::try_step(double t_new, double dt, std::string& why) {
   double p_base = p, dp = 0.0, alpha = 1.0, s0 = 0.0;
   double r0 = -1.0, r_prev = 1e300, last_du = 1e300, u_max = 0.0;
   int backtracks = 0;
+  const auto force_scale = [](const Assembly& a) { return std::max({a.fint_norm, a.fext_norm, 1e-300}); };
+  const auto volume_residual = [&](const Assembly& a) {
+    return model_.cavity ? std::abs(a.volume - v_target) / cavity_v0_ : 0.0;
+  };
+  // Newton's convergence test on the residual norm rc of assembly `a` at iteration `iter`: below
+  // tolerance, or stagnating within 100× of it (round-off floor of a nearly incompressible tangent,
+  // K/G ~ 1e5, where ‖R‖/scale cannot drop much below 1e-8), or the last correction was at round-off
+  // level of the displacement (the residual then only measures the noise of K·(J − 1) in double
+  // precision); and the cavity volume on target.
+  const auto converged_at = [&](double rc, const Assembly& a, int iter) {
+    const double scale = force_scale(a);
+    const bool floor = iter > 1 && ((rc <= 100 * options_.tolerance * scale && rc >= 0.5 * r_prev) ||
+                                    (rc <= 1e-4 * scale && last_du <= 1e-10 * u_max));
+    return std::isfinite(rc) && (rc <= options_.tolerance * scale || floor) && volume_residual(a) <= 1e-9;
+  };
   for (int it = 0;; ++it) {
     const bool predictor = it == 0 && !du_c.empty();
     if (predictor) as.dirichlet_rhs = du_c;
@@ -1027,12 +1042,7 @@ bool Simulation::try_step(double t_new, double dt, std::string& why) {
             const double v = mixed ? as.R_true[d] : as.R[d];
             r2 += v * v;
           }
-        const double rc_pre = std::sqrt(r2);
-        const double scale_pre = std::max({as.fint_norm, as.fext_norm, 1e-300});
-        const double vres_pre = model_.cavity ? std::abs(as.volume - v_target) / cavity_v0_ : 0.0;
-        const bool floor_pre = (rc_pre <= 100 * options_.tolerance * scale_pre && rc_pre >= 0.5 * r_prev) ||
-                               (rc_pre <= 1e-4 * scale_pre && last_du <= 1e-10 * u_max);
-        converged_early = std::isfinite(rc_pre) && (rc_pre <= options_.tolerance * scale_pre || floor_pre) && vres_pre <= 1e-9;
+        converged_early = converged_at(std::sqrt(r2), as, it);
       }
     }
     MaterialStatus st = converged_early ? MaterialStatus::ok : assemble(t_new, dt, true, u, p, as);
@@ -1083,22 +1093,17 @@ bool Simulation::try_step(double t_new, double dt, std::string& why) {
     // Convergence is judged on the F-bar residual itself, so the converged state is the F-bar
     // solution whatever the iteration (the condensed residual differs by O(K (θ_e − θ)²)).
     const double rc = mixed ? std::sqrt(rn_true) : rn;
-    const double scale = std::max({as.fint_norm, as.fext_norm, 1e-300});
-    const double vres = model_.cavity ? std::abs(as.volume - v_target) / cavity_v0_ : 0.0;
+    const double scale = force_scale(as);
+    const double vres = volume_residual(as);
     if (!std::isfinite(rn) || !std::isfinite(rc)) return fail("non-finite residual");
     if (options_.verbose)
       std::cerr << "    it " << it << " |R| = " << rc << (mixed ? " (condensed " + std::to_string(rn) + ")" : "")
                 << " scale " << scale << (model_.cavity ? " |dV|/V0 = " + std::to_string(vres) : "")
                 << (alpha < 1 ? " alpha " + std::to_string(alpha) : "") << "\n";
-    // Converged: below tolerance, or stagnating within 100× of it (round-off floor of a nearly
-    // incompressible tangent, K/G ~ 1e5, where ‖R‖/scale cannot drop much below 1e-8).
-    // Also converged when the last correction was at round-off level of the displacement (the
-    // residual then only measures the noise of K·(J − 1) in double precision).
-    const bool floor = it > 1 && ((rc <= 100 * options_.tolerance * scale && rc >= 0.5 * r_prev) ||
-                                  (rc <= 1e-4 * scale && last_du <= 1e-10 * u_max));
+    const bool converged = !predictor && it > 0 && converged_at(rc, as, it);
     const double rc_last = r_prev;
     r_prev = rc;
-    if (!predictor && it > 0 && (rc <= options_.tolerance * scale || floor) && vres <= 1e-9) {
+    if (converged) {
       if (options_.extrapolate_order >= 2) {
         u_prev2_step_.swap(u_prev_step_);
         prev2_step_time_ = prev_step_time_;

@@ -84,4 +84,44 @@ double StencilGradient::divergence_pass_impl(const double* store, double* f, con
   return dot;
 }
 
+namespace {
+template <class T>
+[[gnu::always_inline]] inline void batch_product(const T* __restrict S, const double* __restrict x, double* __restrict y) {
+  typedef double v4 __attribute__((vector_size(32), aligned(8)));
+  typedef T v4t __attribute__((vector_size(4 * sizeof(T)), aligned(sizeof(T))));
+  for (int h = 0; h < 2; ++h) {
+    v4 xv[9], out[9];
+#pragma GCC unroll 9
+    for (int a = 0; a < 9; ++a) {
+      xv[a] = *reinterpret_cast<const v4*>(x + a * 8 + 4 * h);
+      out[a] = v4{0.0, 0.0, 0.0, 0.0};
+    }
+    int idx = 0;
+#pragma GCC unroll 9
+    for (int a = 0; a < 9; ++a) {
+      out[a] += __builtin_convertvector(*reinterpret_cast<const v4t*>(S + idx * 8 + 4 * h), v4) * xv[a];
+      ++idx;
+#pragma GCC unroll 8
+      for (int b = a + 1; b < 9; ++b, ++idx) {
+        const v4 t = __builtin_convertvector(*reinterpret_cast<const v4t*>(S + idx * 8 + 4 * h), v4);
+        out[a] += t * xv[b];
+        out[b] += t * xv[a];
+      }
+    }
+#pragma GCC unroll 9
+    for (int a = 0; a < 9; ++a) *reinterpret_cast<v4*>(y + a * 8 + 4 * h) = out[a];
+  }
+}
+}  // namespace
+
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void symmetric_product_batch(
+    const double* __restrict S, const double* __restrict x, double* __restrict y) {
+  batch_product(S, x, y);
+}
+
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void symmetric_product_batch(
+    const float* __restrict S, const double* __restrict x, double* __restrict y) {
+  batch_product(S, x, y);
+}
+
 }  // namespace softhom::fft

@@ -90,69 +90,6 @@ inline void symmetric_product(const double* __restrict S, const double* __restri
   for (int a = 0; a < 9; ++a) y[a] = out[a];
 }
 
-/// y = S x for a batch of fft::StencilGradient::kBatch (8) points: S their packed symmetric tangents
-/// as a structure of arrays (S[idx·8 + l], idx as pack_symmetric()), x and y [9][8]. The lanes are the
-/// SIMD vector (4 doubles, two halves), fully unrolled so that x and y stay in registers: the per-point
-/// symmetric_product() is scalar and was compute-bound; this one is bound by the tangent stream
-/// (measured 256² rotated, 1 thread: 0.33 ms of arithmetic, 1.1 ms of memory). Compiled for x86-64-v3
-/// (AVX2 + FMA) as well, chosen at run time (the default build targets plain x86-64).
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void symmetric_product_batch(
-    const double* __restrict S, const double* __restrict x, double* __restrict y) {
-  typedef double v4 __attribute__((vector_size(32), aligned(8)));
-  for (int h = 0; h < 2; ++h) {
-    v4 xv[9], out[9];
-#pragma GCC unroll 9
-    for (int a = 0; a < 9; ++a) {
-      xv[a] = *reinterpret_cast<const v4*>(x + a * 8 + 4 * h);
-      out[a] = v4{0.0, 0.0, 0.0, 0.0};
-    }
-    int idx = 0;
-#pragma GCC unroll 9
-    for (int a = 0; a < 9; ++a) {
-      out[a] += *reinterpret_cast<const v4*>(S + idx * 8 + 4 * h) * xv[a];
-      ++idx;
-#pragma GCC unroll 8
-      for (int b = a + 1; b < 9; ++b, ++idx) {
-        const v4 t = *reinterpret_cast<const v4*>(S + idx * 8 + 4 * h);
-        out[a] += t * xv[b];
-        out[b] += t * xv[a];
-      }
-    }
-#pragma GCC unroll 9
-    for (int a = 0; a < 9; ++a) *reinterpret_cast<v4*>(y + a * 8 + 4 * h) = out[a];
-  }
-}
-
-/// symmetric_product_batch() with the tangents stored in float (same layout, S[idx·8 + l]); x, y and the
-/// sums stay double, the entries are widened on load. Half the tangent stream of the double version.
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void symmetric_product_batch_f(
-    const float* __restrict S, const double* __restrict x, double* __restrict y) {
-  typedef double v4 __attribute__((vector_size(32), aligned(8)));
-  typedef float v4f __attribute__((vector_size(16), aligned(4)));
-  for (int h = 0; h < 2; ++h) {
-    v4 xv[9], out[9];
-#pragma GCC unroll 9
-    for (int a = 0; a < 9; ++a) {
-      xv[a] = *reinterpret_cast<const v4*>(x + a * 8 + 4 * h);
-      out[a] = v4{0.0, 0.0, 0.0, 0.0};
-    }
-    int idx = 0;
-#pragma GCC unroll 9
-    for (int a = 0; a < 9; ++a) {
-      out[a] += __builtin_convertvector(*reinterpret_cast<const v4f*>(S + idx * 8 + 4 * h), v4) * xv[a];
-      ++idx;
-#pragma GCC unroll 8
-      for (int b = a + 1; b < 9; ++b, ++idx) {
-        const v4 t = __builtin_convertvector(*reinterpret_cast<const v4f*>(S + idx * 8 + 4 * h), v4);
-        out[a] += t * xv[b];
-        out[b] += t * xv[a];
-      }
-    }
-#pragma GCC unroll 9
-    for (int a = 0; a < 9; ++a) *reinterpret_cast<v4*>(y + a * 8 + 4 * h) = out[a];
-  }
-}
-
 /// Running sums of one evaluation pass (per thread, then reduced).
 struct PassSums {
   Vec9 P = Vec9::Zero();
@@ -327,7 +264,7 @@ struct FftRveSolver::Impl {
       if (stencil->stored_values() > 9 * nq) throw std::logic_error("stencil values do not fit the FFT buffer");
       fft3 = std::make_unique<fft::BatchedFFT>(grid, 3, opt.plan);
     }
-    // Stencil operator: tangents in blocks of 8 points (structure of arrays, symmetric_product_batch()),
+    // Stencil operator: tangents in blocks of 8 points (structure of arrays, fft::symmetric_product_batch()),
     // zero-padded to whole blocks; Fourier operator: per point.
     // Single precision (stencil only): tangent_f instead of tangent.
     if (opt.scheme == FftScheme::newton_cg) {
@@ -728,15 +665,15 @@ struct FftRveSolver::Impl {
     {
       double local[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
       constexpr int B = fft::StencilGradient::kBatch;
-      static_assert(B == 8, "symmetric_product_batch() and the tangent blocks hold 8 points");
+      static_assert(B == 8, "fft::symmetric_product_batch() and the tangent blocks hold 8 points");
       stencil->gradient_pass(fft3->real(0), fft->real(0), [&](std::size_t p0, int count, const double* grad, double* dP) {
         alignas(64) double dF[9 * B];
         for (int c = 0; c < 9; ++c)
           for (int l = 0; l < B; ++l) dF[c * B + l] = dFbar[c] + grad[c * B + l];
         if (Tf)
-          symmetric_product_batch_f(Tf + 45 * p0, dF, dP);
+          fft::symmetric_product_batch(Tf + 45 * p0, dF, dP);
         else
-          symmetric_product_batch(T + 45 * p0, dF, dP);  // block p0/8 starts at 360·p0/8
+          fft::symmetric_product_batch(T + 45 * p0, dF, dP);  // block p0/8 starts at 360·p0/8
         for (int l = 0; l < count; ++l) {
           if (shift != 0.0)
             for (int a = 0; a < 9; ++a) {

@@ -158,6 +158,10 @@ class Simulation {
   bool sad_a_valid_ = false;
   long sad_b_version_ = -1;  ///< k_version_ of sad_db_, sad_cb_
   void saddle_current();  ///< fills sad_db_, sad_cb_ from the last tangent assembly
+  /// The uncondensed Krylov space is in use: three-field elements and factors large enough to be lagged.
+  bool saddle_lagged() const {
+    return options_.saddle_krylov && !sad_elem_.empty() && last_factor_flops_ >= options_.lag_flops;
+  }
   std::vector<Hex8Geometry> geometry_;
   std::vector<Tet10Geometry> tet_geometry_;  ///< per tet (element e − num_hexes)
   std::vector<std::vector<int>> colors_;  ///< element colours: no shared node within one colour
