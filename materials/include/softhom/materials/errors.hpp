@@ -1,10 +1,19 @@
 #pragma once
 // Typed errors. InputError names the offending field and value so that every front end can report
 // "field = value: reason" and exit non-zero without a crash.
+#include <charconv>
 #include <stdexcept>
 #include <string>
 
 namespace softhom {
+
+/// A number as the user wrote it: the shortest text that reads back to the same double ("1e+300",
+/// "1e-300", "0.1", "nan", "inf"), for messages; never std::to_string's fixed six decimals.
+inline std::string format_number(double value) {
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+  return std::string(buffer, result.ptr);
+}
 
 class InputError : public std::runtime_error {
  public:
