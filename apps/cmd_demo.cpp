@@ -22,12 +22,16 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <numbers>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "demo_report.hpp"
 #include "embedded_scenes.hpp"
 #include "point_output.hpp"
 #include "softhom/io/files.hpp"
@@ -41,8 +45,8 @@ namespace softhom::app {
 namespace {
 
 // ---- Demo choice -------------------------------------------------------------------------------
-// "ecoflex" (default: the chapter-IV soft matrix, issue #5; converges since the mixed (u,p) Newton
-// iteration, see BENCHMARKS.md "FFT RVE") or "pdms" (stiffer matrix, a few Newton iterations per step).
+// "ecoflex" (default: the chapter-IV soft matrix; the mixed (u, p) Newton iteration makes it converge,
+// BENCHMARKS.md "FFT RVE") or "pdms" (stiffer matrix, a few Newton iterations per step).
 constexpr const char* kDemoMatrix = "ecoflex";
 constexpr int kDemoGrid = 24;          // 24² section pixels: a few % from the converged curve, fast
 constexpr double kDemoStretch = 1.5;   // tension; compression (held out) goes to 0.8
@@ -172,210 +176,310 @@ int run_point_checks(const CommandOptions& options, std::ostream& report) {
   return failures;
 }
 
-}  // namespace
+// ---- The steps of the chain --------------------------------------------------------------------
 
-int run_demo(const CommandOptions& options) {
-  namespace fs = std::filesystem;
-  const auto t_start = std::chrono::steady_clock::now();
-  auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(); };
-  fs::create_directories(options.out);
+/// State shared by the steps: the options, the growing report, problems (failed steps: exit 1) and
+/// notes (facts a reader should know that are not failures, e.g. a parameter at its bound).
+struct DemoRun {
+  explicit DemoRun(const CommandOptions& o) : options(o) {}
+  const CommandOptions& options;
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
   std::ostringstream report;
-  report << "# softhom demo\n\n";
   int problems = 0;
-
-  // 0. Material-point checks.
-  std::cout << "softhom demo: 0. material-point checks\n";
-  {
-    std::ostringstream r0;
-    problems += run_point_checks(options, r0);
-    std::cout << r0.str();
-    report << "## 0. Material-point checks (`DIR/point/`)\n\n```\n" << r0.str() << "```\n\n";
+  std::vector<std::string> notes;
+  double seconds() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
+};
 
-  // 1. Campaign.
-  const double t1 = seconds();
-  toml::table campaign_table;
-  std::string campaign_source;
+/// The converged composite curves of the campaign (pointers into `store`; a moved std::map keeps its
+/// nodes, so they stay valid when the outcome is returned).
+struct CampaignOutcome {
+  std::map<std::string, studies::CaseRecord> store;
+  std::vector<const studies::CaseRecord*> curves;
+  std::string matrix_name;
+  io::PlotSpec plot{"RVE campaign: nominal stress vs stretch", "stretch F11", "nominal stress P11 [MPa]", {}};
+  int fitted_curves = 0;
+  double seconds = 0.0;
+};
+
+void run_point_step(DemoRun& run) {
+  std::cout << "softhom demo: 0. material-point checks\n";
+  std::ostringstream r0;
+  run.problems += run_point_checks(run.options, r0);
+  std::cout << r0.str();
+  run.report << "## 0. Material-point checks (`DIR/point/`)\n\n```\n" << r0.str() << "```\n\n";
+}
+
+/// The campaign file given on the command line, or the embedded demo campaign (written to
+/// DIR/campaign.toml so that the run can be repeated from it).
+studies::Campaign load_demo_campaign(const CommandOptions& options, std::string& source) {
+  namespace fs = std::filesystem;
+  toml::table table;
   if (!options.scene.empty()) {
-    campaign_table = io::load_scene(options.scene);
-    campaign_source = options.scene.string();
+    table = io::load_scene(options.scene);
+    source = options.scene.string();
   } else {
     const std::string text = demo_campaign(kDemoMatrix, kDemoGrid);
     io::write_file_atomic(options.out / "campaign.toml", text);
-    campaign_table = io::parse_scene(text, "<demo campaign>");
-    campaign_source = (options.out / "campaign.toml").string() + " (embedded demo campaign)";
+    table = io::parse_scene(text, "<demo campaign>");
+    source = (options.out / "campaign.toml").string() + " (embedded demo campaign)";
   }
-  const studies::Campaign campaign = studies::expand_campaign(
-      campaign_table, options.scene.empty() ? fs::current_path() : fs::absolute(options.scene).parent_path());
-  std::cout << "softhom demo: 1. RVE campaign, " << campaign.cases.size() << " cases from " << campaign_source << "\n";
-  studies::SweepOptions so;
-  so.jobs = options.jobs;
-  so.threads = options.threads;
-  so.warm_start = !options.no_warm_start;
-  so.quiet = options.quiet;
-  const fs::path campaign_dir = options.out / "campaign";
-  const studies::SweepReport sweep = studies::run_campaign(campaign, campaign_dir, so);
-  const auto store = studies::read_store(sweep.store);
-  const double t_campaign = seconds() - t1;
+  return studies::expand_campaign(table,
+                                  options.scene.empty() ? fs::current_path() : fs::absolute(options.scene).parent_path());
+}
 
-  // Curves of the composite cases (F11, P11) for calibration and plots.
-  std::vector<const studies::CaseRecord*> curves;
-  const fs::path curve_dir = campaign_dir / "curves";
-  io::PlotSpec campaign_plot{"RVE campaign: nominal stress vs stretch", "stretch F11", "nominal stress P11 [MPa]", {}};
-  report << "## 1. RVE campaign (`campaign/campaign.h5`, `campaign/cases.csv`)\n\n"
-         << "| case | status | final F11 | final P11 [MPa] | fiber rotation [deg] | Newton its | wall [s] |\n"
-         << "|---|---|---|---|---|---|---|\n";
-  std::string matrix_name;
+void report_case_row(std::ostream& report, const studies::CaseRecord& r) {
+  const std::size_t last = r.rows() ? r.rows() - 1 : 0;
+  report << "| " << r.id << " | " << r.status << " | " << (r.rows() ? fmt(column_value(r, last, "F11")) : "-") << " | "
+         << (r.rows() ? fmt(column_value(r, last, "P11")) : "-") << " | "
+         << (r.rows() ? fmt(column_value(r, last, "delta_fiber_angle_deg"), 3) : "-") << " | "
+         << fmt(r.stats.count("newton_iterations") ? r.stats.at("newton_iterations") : 0) << " | "
+         << fmt(r.stats.count("wall_time_s") ? r.stats.at("wall_time_s") : 0, 3) << " |\n";
+}
+
+/// Writes the (F11, P11) curve of a converged composite case for the calibration and the plot.
+void write_case_curve(const studies::CaseRecord& r, const std::filesystem::path& file) {
+  std::string csv = "F11,P11\n";
+  for (std::size_t i = 0; i < r.rows(); ++i)
+    csv += fmt(column_value(r, i, "F11"), 17) + "," + fmt(column_value(r, i, "P11"), 17) + "\n";
+  io::write_file_atomic(file, csv);
+}
+
+CampaignOutcome run_campaign_step(DemoRun& run) {
+  const double t0 = run.seconds();
+  std::string source;
+  const studies::Campaign campaign = load_demo_campaign(run.options, source);
+  std::cout << "softhom demo: 1. RVE campaign, " << campaign.cases.size() << " cases from " << source << "\n";
+  studies::SweepOptions so;
+  so.jobs = run.options.jobs;
+  so.threads = run.options.threads;
+  so.warm_start = !run.options.no_warm_start;
+  so.quiet = run.options.quiet;
+  const std::filesystem::path campaign_dir = run.options.out / "campaign";
+  const studies::SweepReport sweep = studies::run_campaign(campaign, campaign_dir, so);
+
+  CampaignOutcome out;
+  out.store = studies::read_store(sweep.store);
+  const std::filesystem::path curve_dir = campaign_dir / "curves";
+  run.report << "## 1. RVE campaign (`campaign/campaign.h5`, `campaign/cases.csv`)\n\n"
+             << "| case | status | final F11 | final P11 [MPa] | fiber rotation [deg] | Newton its | wall [s] |\n"
+             << "|---|---|---|---|---|---|---|\n";
   for (const auto& c : campaign.cases) {
-    const auto it = store.find(c.id);
-    if (it == store.end()) continue;
+    const auto it = out.store.find(c.id);
+    if (it == out.store.end()) continue;
     const studies::CaseRecord& r = it->second;
-    const std::size_t last = r.rows() ? r.rows() - 1 : 0;
-    report << "| " << r.id << " | " << r.status << " | " << (r.rows() ? fmt(column_value(r, last, "F11")) : "-") << " | "
-           << (r.rows() ? fmt(column_value(r, last, "P11")) : "-") << " | "
-           << (r.rows() ? fmt(column_value(r, last, "delta_fiber_angle_deg"), 3) : "-") << " | "
-           << fmt(r.stats.count("newton_iterations") ? r.stats.at("newton_iterations") : 0) << " | "
-           << fmt(r.stats.count("wall_time_s") ? r.stats.at("wall_time_s") : 0, 3) << " |\n";
+    report_case_row(run.report, r);
     if (r.status != "ok") {
-      ++problems;
+      ++run.problems;
       std::cout << "  " << r.id << " failed: " << r.error << "\n";
       continue;
     }
-    if (param_number(r, "volume_fraction") == 0.0) continue;
-    std::string csv = "F11,P11\n";
-    for (std::size_t i = 0; i < r.rows(); ++i)
-      csv += fmt(column_value(r, i, "F11"), 17) + "," + fmt(column_value(r, i, "P11"), 17) + "\n";
-    io::write_file_atomic(curve_dir / (r.id + ".csv"), csv);
-    curves.push_back(&r);
-    if (matrix_name.empty()) matrix_name = param_text(r, "matrix");
-    campaign_plot.series.push_back({r.id, curve_dir / (r.id + ".csv"), "F11", "P11"});
+    if (param_number(r, "volume_fraction") == 0.0) continue;  // the matrix alone: not a composite curve
+    write_case_curve(r, curve_dir / (r.id + ".csv"));
+    out.curves.push_back(&r);
+    if (out.matrix_name.empty()) out.matrix_name = param_text(r, "matrix");
+    out.plot.series.push_back({r.id, curve_dir / (r.id + ".csv"), "F11", "P11"});
+    if (param_text(r, "load") == "tension") ++out.fitted_curves;
   }
-  report << "\n" << sweep.finished << " cases run now (" << sweep.skipped << " already stored, " << sweep.warm_started
-         << " warm-started), " << fmt(t_campaign, 3) << " s.\n\n";
-  std::cout << "  " << curves.size() << " curves, " << fmt(t_campaign, 3) << " s\n";
-  int n_fit = 0;
-  for (const auto* r : curves) n_fit += param_text(*r, "load") == "tension" ? 1 : 0;
-  if (n_fit == 0) {
-    io::write_file_atomic(options.out / "report.md", report.str());
-    std::cerr << "softhom demo: no converged tension case to calibrate to; see " << (options.out / "report.md").string() << "\n";
-    return 1;
-  }
+  out.seconds = run.seconds() - t0;
+  run.report << "\n" << sweep.finished << " cases run now (" << sweep.skipped << " already stored, "
+             << sweep.warm_started << " warm-started), " << fmt(out.seconds, 3) << " s.\n\n";
+  std::cout << "  " << out.curves.size() << " curves, " << fmt(out.seconds, 3) << " s\n";
+  return out;
+}
 
-  // 2. Calibration.
-  const double t2 = seconds();
-  const fs::path cal_dir = options.out / "calibration";
-  {
-    const toml::table first_scene = io::parse_scene(curves.front()->scene_text, curves.front()->id);
-    const toml::table matrix_table = *first_scene["phases"]["matrix"].as_table();
-    if (matrix_table.contains("viscoelastic"))
-      std::cout << "  note: the matrix is viscoelastic; the demo fits the elastic Gent + HGO part only\n";
-    toml::table elastic = matrix_table;
-    elastic.erase("viscoelastic");
-    io::write_file_atomic(cal_dir / "calibration.toml",
-                          calibration_file(curves, elastic, fs::absolute(curve_dir), matrix_name));
-  }
-  std::cout << "softhom demo: 2. calibration of Gent + HGO to " << n_fit << " tension curves\n";
-  CommandOptions cal = options;
-  cal.scene = cal_dir / "calibration.toml";
-  cal.out = cal_dir;
-  cal.quiet = true;
-  const int cal_rc = run_calibrate(cal);
-  const double t_cal = seconds() - t2;
-  nlohmann::json cal_summary;
-  {
-    std::ifstream in(cal_dir / "summary.json");
-    cal_summary = nlohmann::json::parse(in);
-  }
-  report << "## 2. Calibration (`calibration/material.toml`, `calibration/fit.png`)\n\n| parameter | value | std. error |\n|---|---|---|\n";
-  for (const auto& p : cal_summary["parameters"]) {
-    std::string se = "fixed";
-    if (p["free"].get<bool>()) se = p["std_error"].is_null() ? "n/a" : fmt(p["std_error"].get<double>());
-    report << "| " << p["name"].get<std::string>() << " | " << fmt(p["value"].get<double>(), 6) << " | " << se << " |\n";
+/// Writes DIR/calibration/calibration.toml for the campaign's curves (elastic part of the matrix).
+void write_calibration_input(const CampaignOutcome& campaign, const std::filesystem::path& cal_dir) {
+  const toml::table first_scene = io::parse_scene(campaign.curves.front()->scene_text, campaign.curves.front()->id);
+  const toml::table matrix_table = *first_scene["phases"]["matrix"].as_table();
+  if (matrix_table.contains("viscoelastic"))
+    std::cout << "  note: the matrix is viscoelastic; the demo fits the elastic Gent + HGO part only\n";
+  toml::table elastic = matrix_table;
+  elastic.erase("viscoelastic");
+  const auto curve_dir = std::filesystem::absolute(cal_dir.parent_path() / "campaign" / "curves");
+  io::write_file_atomic(cal_dir / "calibration.toml",
+                        calibration_file(campaign.curves, elastic, curve_dir, campaign.matrix_name));
+}
+
+void report_calibration(DemoRun& run, const nlohmann::json& summary, double seconds) {
+  run.report << "## 2. Calibration (`calibration/material.toml`, `calibration/fit.png`)\n\n"
+             << "| parameter | value | std. error | range |\n|---|---|---|---|\n";
+  for (const auto& p : summary["parameters"]) {
+    const bool free = p["free"].get<bool>();
+    std::string se = "fixed", range = "-";
+    if (free) {
+      se = p["std_error"].is_null() ? "n/a" : fmt(p["std_error"].get<double>());
+      range = "[" + format_number(p["min"].get<double>()) + ", " + format_number(p["max"].get<double>()) + "]";
+    }
+    run.report << "| " << p["name"].get<std::string>() << " | " << fmt(p["value"].get<double>(), 6) << " | " << se
+               << " | " << range << " |\n";
     std::cout << "  " << p["name"].get<std::string>() << " = " << fmt(p["value"].get<double>(), 6)
-              << (p["free"].get<bool>() ? "" : " (fixed)") << "\n";
+              << (free ? "" : " (fixed)") << "\n";
   }
-  report << "\n| curve | role | R² | NRMSE |\n|---|---|---|---|\n";
-  for (const auto& c : cal_summary["curves"]) {
+  run.report << "\n| curve | role | R² | NRMSE |\n|---|---|---|---|\n";
+  for (const auto& c : summary["curves"]) {
     const bool ok = c["ok"].get<bool>();
-    report << "| " << c["name"].get<std::string>() << " | " << c["role"].get<std::string>() << " | "
-           << (ok ? fmt(c["r2"].get<double>(), 5) : "-") << " | " << (ok ? fmt(100 * c["nrmse"].get<double>(), 3) + " %" : "failed")
-           << " |\n";
+    run.report << "| " << c["name"].get<std::string>() << " | " << c["role"].get<std::string>() << " | "
+               << (ok ? fmt(c["r2"].get<double>(), 5) : "-") << " | "
+               << (ok ? fmt(100 * c["nrmse"].get<double>(), 3) + " %" : "failed") << " |\n";
     std::cout << "  " << c["role"].get<std::string>() << " " << c["name"].get<std::string>() << ": "
               << (ok ? "R² = " + fmt(c["r2"].get<double>(), 5) + ", NRMSE = " + fmt(100 * c["nrmse"].get<double>(), 3) + " %"
                      : std::string("not evaluable"))
               << "\n";
   }
-  report << "\n" << cal_summary["model_evaluations"].get<long>() << " model evaluations, " << fmt(t_cal, 3) << " s.\n\n";
-  if (cal_rc != 0) {
-    ++problems;
+  const std::vector<std::string> notes = bound_notes(summary);
+  if (!notes.empty()) {
+    run.report << "\n";
+    for (const auto& n : notes) {
+      run.report << "Note: " << n << ".\n";
+      std::cout << "  note: " << n << "\n";
+    }
+    run.notes.insert(run.notes.end(), notes.begin(), notes.end());
+  }
+  run.report << "\n" << summary["model_evaluations"].get<long>() << " model evaluations, " << fmt(seconds, 3)
+             << " s.\n\n";
+}
+
+void run_calibration_step(DemoRun& run, const CampaignOutcome& campaign) {
+  const double t0 = run.seconds();
+  const std::filesystem::path cal_dir = run.options.out / "calibration";
+  write_calibration_input(campaign, cal_dir);
+  std::cout << "softhom demo: 2. calibration of Gent + HGO to " << campaign.fitted_curves << " tension curves\n";
+  CommandOptions cal = run.options;
+  cal.scene = cal_dir / "calibration.toml";
+  cal.out = cal_dir;
+  cal.quiet = true;
+  const int rc = run_calibrate(cal);
+  nlohmann::json summary;
+  {
+    std::ifstream in(cal_dir / "summary.json");
+    summary = nlohmann::json::parse(in);
+  }
+  report_calibration(run, summary, run.seconds() - t0);
+  if (rc != 0) {
+    ++run.problems;
     std::cout << "  calibration did not converge; the tube runs with the initial values\n";
   }
+}
 
-  // 3. Tube with the calibrated material (double helix ±45° from the axis, the embedded macro scene).
-  const double t3 = seconds();
-  const std::string tube_scene_name =
+/// DIR/tube/scene.toml: the embedded helix-tube scene with [material] = the calibrated material and
+/// two fiber families at ±45° from the tube axis. Returns the name of the embedded scene used.
+std::string write_tube_scene(const CommandOptions& options, const std::string& matrix_name) {
+  const std::string name =
       std::string("macro_tube_helix45_") + (matrix_name.find("ecoflex") != std::string::npos ? "ecoflex" : "pdms");
-  toml::table tube = io::parse_scene(embedded_scenes().at(tube_scene_name), "<embedded " + tube_scene_name + ".toml>");
-  {
-    const toml::table mat_file = io::load_scene(cal_dir / "material.toml");
-    toml::table material = *mat_file["material"].as_table();
-    toml::array fibers;
-    for (double a : {45.0, -45.0}) fibers.push_back(toml::table{{"angle_deg", a}});
-    material.insert_or_assign("fibers", fibers);
-    tube.insert_or_assign("material", material);
-    tube.insert_or_assign("description", "Double-helix tube (+/-45 deg from the axis) with the material calibrated "
-                                         "by softhom demo from the RVE campaign; load and mesh of " + tube_scene_name);
-    std::ostringstream text;
-    text << "# Generated by softhom demo from the embedded " << tube_scene_name
-         << " scene; [material] = calibration/material.toml with two fiber families at +/-45 deg.\n"
-         << tube << "\n";
-    io::write_file_atomic(options.out / "tube" / "scene.toml", text.str());
-  }
-  std::cout << "softhom demo: 3. double-helix tube (" << tube_scene_name << " load and mesh, calibrated material)\n";
+  toml::table tube = io::parse_scene(embedded_scenes().at(name), "<embedded " + name + ".toml>");
+  const toml::table mat_file = io::load_scene(options.out / "calibration" / "material.toml");
+  toml::table material = *mat_file["material"].as_table();
+  toml::array fibers;
+  for (double a : {45.0, -45.0}) fibers.push_back(toml::table{{"angle_deg", a}});
+  material.insert_or_assign("fibers", fibers);
+  tube.insert_or_assign("material", material);
+  tube.insert_or_assign("description", "Double-helix tube (+/-45 deg from the axis) with the material calibrated "
+                                       "by softhom demo from the RVE campaign; load and mesh of " + name);
+  std::ostringstream text;
+  text << "# Generated by softhom demo from the embedded " << name
+       << " scene; [material] = calibration/material.toml with two fiber families at +/-45 deg.\n"
+       << tube << "\n";
+  io::write_file_atomic(options.out / "tube" / "scene.toml", text.str());
+  return name;
+}
+
+/// Header and last data row of a response.csv (empty strings when the file is missing).
+std::pair<std::string, std::string> last_response_row(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  std::string header, line, last;
+  std::getline(in, header);
+  while (std::getline(in, line))
+    if (!line.empty()) last = line;
+  return {header, last};
+}
+
+void run_tube_step(DemoRun& run, const std::string& matrix_name) {
+  const double t0 = run.seconds();
+  const std::filesystem::path tube_dir = run.options.out / "tube";
+  const std::string scene_name = write_tube_scene(run.options, matrix_name);
+  std::cout << "softhom demo: 3. double-helix tube (" << scene_name << " load and mesh, calibrated material)\n";
   // `softhom macro` as a child process: the FE run gets a fresh process (its own OpenMP, CHOLMOD and
   // allocator state after the campaign's threads and the calibration), exactly as a user would run it.
-  const int tube_rc = run_self({"macro", (options.out / "tube" / "scene.toml").string(), "--out",
-                                (options.out / "tube").string(), "-q", "-j", std::to_string(options.threads)});
-  if (tube_rc != 0) ++problems;
-  const double t_tube = seconds() - t3;
-  report << "## 3. Double-helix tube (`tube/response.csv`, `tube/fields.xdmf`)\n\n";
-  {
-    std::ifstream in(options.out / "tube" / "response.csv");
-    std::string header, line, last;
-    std::getline(in, header);
-    while (std::getline(in, line))
-      if (!line.empty()) last = line;
-    report << "Last row:\n\n```\n" << header << "\n" << last << "\n```\n\n" << (tube_rc == 0 ? "completed" : "stopped early")
-           << " in " << fmt(t_tube, 3) << " s.\n\n";
-    std::cout << "  " << header << "\n  " << last << "\n  " << fmt(t_tube, 3) << " s\n";
-  }
+  const int rc = run_self({"macro", (tube_dir / "scene.toml").string(), "--out", tube_dir.string(), "-q", "-j",
+                           std::to_string(run.options.threads)});
+  if (rc != 0) ++run.problems;
+  const double seconds = run.seconds() - t0;
+  const auto [header, last] = last_response_row(tube_dir / "response.csv");
+  const auto state = tube_final_state(header, last);
+  run.report << "## 3. Double-helix tube (`tube/response.csv`, `tube/fields.xdmf`)\n\n"
+             << (rc == 0 ? "Completed" : "Stopped early") << " in " << fmt(seconds, 3) << " s. State at the last "
+             << (rc == 0 ? "" : "converged ") << "step:\n\n| quantity | value |\n|---|---|\n";
+  for (const auto& [label, value] : state) run.report << "| " << label << " | " << value << " |\n";
+  run.report << "\n";
+  std::cout << "  " << (rc == 0 ? "completed" : "stopped early") << ": " << join_state(state) << "; "
+            << fmt(seconds, 3) << " s\n";
+}
 
-  // 4. Plots.
+/// The two PNG plots made here (the fit plot comes from the calibration); returns the files made.
+std::vector<std::string> write_plots(const CommandOptions& options, const io::PlotSpec& campaign_plot) {
   std::string why;
   std::vector<std::string> pngs;
   if (io::plot_curves(options.out / "campaign_curves.png", campaign_plot, &why)) pngs.push_back("campaign_curves.png");
+  const auto response = options.out / "tube" / "response.csv";
   io::PlotSpec tube_plot{"Double-helix tube, calibrated material", "pressure [MPa]", "stretch",
-                         {{"axial stretch", options.out / "tube" / "response.csv", "pressure", "axial_stretch"},
-                          {"inner-radius stretch", options.out / "tube" / "response.csv", "pressure", "stretch"}}};
+                         {{"axial stretch", response, "pressure", "axial_stretch"},
+                          {"inner-radius stretch", response, "pressure", "stretch"}}};
   if (io::plot_curves(options.out / "tube_response.png", tube_plot, &why)) pngs.push_back("tube_response.png");
-  if (fs::exists(cal_dir / "fit.png")) pngs.push_back("calibration/fit.png");
+  if (std::filesystem::exists(options.out / "calibration" / "fit.png")) pngs.push_back("calibration/fit.png");
   if (pngs.size() < 3 && !why.empty()) std::cerr << "softhom demo: some PNG plots missing: " << why << "\n";
+  return pngs;
+}
 
-  const double total = seconds();
-  report << "## Files\n\n";
-  for (const auto& p : pngs) report << "- `" << p << "`\n";
-  report << "- `campaign/campaign.h5`, `campaign/cases.csv`, `campaign/curves/*.csv`\n"
-         << "- `calibration/material.toml` (a `[material]` table for `softhom point` / `softhom macro`), "
-            "`calibration/summary.json`\n"
-         << "- `tube/scene.toml`, `tube/response.csv`, `tube/fields.xdmf` + `tube/fields.h5` (ParaView)\n\n"
-         << "Wall time: campaign " << fmt(t_campaign, 3) << " s, calibration " << fmt(t_cal, 3) << " s, tube "
-         << fmt(t_tube, 3) << " s, total " << fmt(total, 3) << " s.\n";
-  io::write_file_atomic(options.out / "report.md", report.str());
+/// The closing line: "all steps ok" or the number of problems, then the notes themselves.
+std::string outcome_line(int problems, const std::vector<std::string>& notes) {
+  std::string s = problems ? std::to_string(problems) + " problem(s)" : "all steps ok";
+  for (const auto& n : notes) s += "; note: " + n;
+  return s;
+}
+
+/// DIR/report.md: the title, the outcome, then the sections the steps wrote.
+void write_report(const DemoRun& run) {
+  io::write_file_atomic(run.options.out / "report.md", "# softhom demo\n\nOutcome: " +
+                                                           outcome_line(run.problems, run.notes) + ".\n\n" +
+                                                           run.report.str());
+}
+
+void finish_report(DemoRun& run, const std::vector<std::string>& pngs, double t_campaign) {
+  const double total = run.seconds();
+  run.report << "## Files\n\n";
+  for (const auto& p : pngs) run.report << "- `" << p << "`\n";
+  run.report << "- `campaign/campaign.h5`, `campaign/cases.csv`, `campaign/curves/*.csv`\n"
+             << "- `calibration/material.toml` (a `[material]` table for `softhom point` / `softhom macro`), "
+                "`calibration/summary.json`\n"
+             << "- `tube/scene.toml`, `tube/response.csv`, `tube/fields.xdmf` + `tube/fields.h5` (ParaView)\n\n"
+             << "Wall time: campaign " << fmt(t_campaign, 3) << " s, total " << fmt(total, 3) << " s.\n";
+  write_report(run);
   std::cout << "softhom demo: 4. plots: ";
-  for (const auto& p : pngs) std::cout << (options.out / p).string() << " ";
-  std::cout << "\nsofthom demo: report " << (options.out / "report.md").string() << "; total " << fmt(total, 3) << " s ("
-            << (problems ? std::to_string(problems) + " problem(s)" : "all steps ok") << ")\n";
-  return problems == 0 ? 0 : 1;
+  for (const auto& p : pngs) std::cout << (run.options.out / p).string() << " ";
+  std::cout << "\nsofthom demo: report " << (run.options.out / "report.md").string() << "; total " << fmt(total, 3)
+            << " s (" << outcome_line(run.problems, run.notes) << ")\n";
+}
+
+}  // namespace
+
+int run_demo(const CommandOptions& options) {
+  std::filesystem::create_directories(options.out);
+  DemoRun run(options);
+  run_point_step(run);
+  const CampaignOutcome campaign = run_campaign_step(run);
+  if (campaign.fitted_curves == 0) {
+    ++run.problems;
+    write_report(run);
+    std::cerr << "softhom demo: no converged tension case to calibrate to; see "
+              << (options.out / "report.md").string() << "\n";
+    return 1;
+  }
+  run_calibration_step(run, campaign);
+  run_tube_step(run, campaign.matrix_name);
+  finish_report(run, write_plots(options, campaign.plot), campaign.seconds);
+  return run.problems == 0 ? 0 : 1;
 }
 
 }  // namespace softhom::app
