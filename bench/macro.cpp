@@ -1,4 +1,4 @@
-// Macro FE benchmark: DOFs versus wall time of a double-helix tube inflation (issue #4), split into
+// Macro FE benchmark: DOFs versus wall time of a double-helix tube inflation, split into
 // assembly, symbolic analysis, numeric factorization and solve, with Newton iterations, factor fill,
 // achieved factorization rate and peak memory. Plain program (one run is seconds to minutes).
 //

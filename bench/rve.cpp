@@ -261,7 +261,7 @@ int main(int argc, char** argv) {
             return best;
           };
           double cpu9 = 0, cpu_used = 0, cpu3 = 0;
-          const double fft9_ms = roundtrip(9, 3, cpu9);  // the brief's floor: a 9-component round trip
+          const double fft9_ms = roundtrip(9, 3, cpu9);  // the floor: a 9-component round trip
           const int used_fields = 3 * op.points() * op.columns();
           const double fft_used_ms = roundtrip(9 * op.points(), op.columns(), cpu_used);
           const double fft3_ms = roundtrip(3, 3, cpu3);

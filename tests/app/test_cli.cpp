@@ -46,7 +46,7 @@ TEST(Cli, UniaxialEcoflexSceneMatchesClosedForm) {
   ASSERT_EQ(csv.rows.size(), 101u);  // t = 0 plus 100 steps
   const double l = csv.at(100, "F11");
   EXPECT_NEAR(l, 3.0, 1e-12);
-  // spec §5 eq. 3.2 at λ = 3; K = 2000 vs K → ∞ differs by O(G/K): 1e-3 relative is the bound.
+  // spec §5 eq. 3.2 at λ = 3; K = 2000 vs K → ∞ differs by O(G/K): 1e-3 relative is the required bound.
   const double expected = (l * l - 1 / l) * mu_eff(0.017, 14.0, l * l + 2 / l);
   EXPECT_NEAR(csv.at(100, "sigma11") / expected, 1.0, 1e-3);
   const auto summary = read_json(out / "summary.json");

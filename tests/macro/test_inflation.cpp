@@ -51,7 +51,7 @@ TEST(Inflation, PlaneStrainTubeMatchesClosedFormAndConverges) {
   std::cerr << "tube: r_i = " << fine.ri << " p_FE = " << fine.p_fe << " p_exact = " << fine.p_exact
             << " rel.err = " << e_fine << " (coarse " << e_coarse << "), Newton iterations " << fine.iterations << "\n";
   EXPECT_NEAR(fine.ri / 5.0, 2.0, 1e-3);
-  EXPECT_LT(e_fine, 5e-3);          // issue: ≤ 0.5 % on the shipped mesh
+  EXPECT_LT(e_fine, 5e-3);          // required: ≤ 0.5 % on the shipped mesh
   EXPECT_LT(e_fine, 0.6 * e_coarse);  // and shrinking under refinement (O(h²) would give 0.25)
 }
 
@@ -95,5 +95,5 @@ TEST(Inflation, BalloonPassesPressureMaximumUnderVolumeControl) {
   EXPECT_GT(l_at_max, 1.1);
   EXPECT_LT(l_at_max, 2.0);
   EXPECT_NEAR(v[2], 2.5, 2e-3);
-  EXPECT_LT(worst, 5e-3);             // issue: ≤ 0.5 % through and past the maximum
+  EXPECT_LT(worst, 5e-3);             // required: ≤ 0.5 % through and past the maximum
 }

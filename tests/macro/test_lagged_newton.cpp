@@ -1,4 +1,4 @@
-// Issue #4 performance path on a small capped ecoflex helix tube (K/G ≈ 1.2e5, three-field iteration):
+// The large-mesh Newton path on a small capped ecoflex helix tube (K/G ≈ 1.2e5, three-field iteration):
 // the quadratic load predictor, the residual-first convergence test and the lagged factor with GMRES in
 // the uncondensed (u, p_e) space must change the iteration only, never the converged state. The lagged
 // path normally starts at 2 GFlop per factorization (1e5-dof tubes); lag_flops = 0 forces it here.

@@ -36,7 +36,7 @@ TEST(Plate, HomogeneousUniaxialEqualsMaterialPoint) {
   ASSERT_TRUE(point.completed) << point.error;
   const double P11 = point.steps.back().P(0, 0);
   std::cerr << "plate: FE nominal stress " << v[3] << ", material point P11 " << P11 << "\n";
-  // Both solve the same homogeneous problem to ~1e-10: 1e-6 relative is the bound.
+  // Both solve the same homogeneous problem to ~1e-10: 1e-6 relative is the required bound.
   EXPECT_NEAR(v[3] / P11, 1.0, 1e-6);
 }
 
@@ -44,7 +44,7 @@ TEST(Plate, HomogeneousUniaxialEqualsMaterialPoint) {
 // step, not the stress after one more relaxation interval (reaction() must not advance the history).
 // The FE run and the material point take the same time steps (one per output time, no cut-backs), so
 // both integrate the same exponential QLV recursion and agree to the Newton tolerances (1e-11 here,
-// 1e-10 in the point driver), far inside the 1e-6.
+// 1e-10 in the point driver), far inside the required 1e-6.
 TEST(Plate, QlvRampHoldReactionEqualsMaterialPoint) {
   GentHGOParams p;
   p.G = 0.017;

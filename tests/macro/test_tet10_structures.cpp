@@ -148,7 +148,7 @@ TEST(Tet10Structures, PlaneStrainTubeMatchesClosedFormAndConverges) {
             << fine.dofs << " dofs) rel.err " << e_fine << " (" << fine.iterations << " its, " << fine.seconds
             << " s), observed order " << std::log2(e_coarse / e_fine) << "\n";
   EXPECT_NEAR(fine.ri / 5.0, 2.0, 1e-3);
-  EXPECT_LT(e_fine, 5e-3);            // the 0.5 % at r_i/R_i = 2
+  EXPECT_LT(e_fine, 5e-3);            // the required 0.5 % at r_i/R_i = 2
   EXPECT_LT(e_fine, 0.5 * e_coarse);  // shrinking under refinement (P2: faster than O(h²))
 }
 

@@ -30,7 +30,7 @@ MaterialPtr anisotropic(const Vec3& direction) {
 }
 
 // The closed forms are for K → ∞; at K = 2000 and stresses ≤ 40 MPa the compressible response differs
-// by O(G/K, σ/K) ≈ 1e-5 … 1e-4 relative, so 1e-3 (the issue's tolerance) has a 10x margin.
+// by O(G/K, σ/K) ≈ 1e-5 … 1e-4 relative, so 1e-3 (the required accuracy) has a 10x margin.
 constexpr double kClosedFormTol = 1e-3;
 
 }  // namespace
@@ -222,7 +222,7 @@ TEST(PointDriver, RelaxationMatchesConvolutionReferenceAndConverges) {
   const double e200 = relaxation_error(200);
   const double e400 = relaxation_error(400, &sigma);
   const double e800 = relaxation_error(800);
-  // Issue: ≤ 1e-3 relative with ≥ 200 steps. (The reference's own error, O(h²) with 40000 steps, and
+  // Required: ≤ 1e-3 relative with ≥ 200 steps. (The reference's own error, O(h²) with 40000 steps, and
   // the compressibility O(G/K) ≈ 1e-5 are far below.)
   EXPECT_LT(e200, 1e-3);
   EXPECT_LT(e400, e200);

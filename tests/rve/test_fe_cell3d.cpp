@@ -248,7 +248,7 @@ TEST(FeRve3d, DegreeFiveRuleIntegratesCurvedVolumesExactly) {
   EXPECT_THROW(FeRveSolver(m, preset("pdms"), preset("glass"), 45.0, Mat3::Identity(), o), InputError);
 }
 
-// Phase volumes of the 3D mesh follow the cylinder (issue #6, session 4). CGAL's labelled-domain mesh
+// Phase volumes of the 3D mesh follow the cylinder. CGAL's labelled-domain mesh
 // can bound the fiber by a facet whose vertex is off the surface (L/4, every seed: a vertex 0.27 r
 // outside shared by four fiber cells, +1.3e-3 fiber volume, 3D P11 6e-4 too stiff) and labels flat
 // surface cells (all four vertices on the cylinder, hence inside it) by their circumcentre as matrix
@@ -268,7 +268,7 @@ TEST(FeMesh3d, PhaseVolumesFollowTheCylinder) {
   }
 }
 
-// Some seeds still fold an element after the repairs (measured by the session-4 engineer on this cell:
+// Some seeds still fold an element after the repairs (measured on this cell:
 // L/5 with seeds 1 and 3, L/6 with seed 2); mesh_cell then remakes the mesh with the next seeds
 // (CellMeshOptions::seed_retries, default 3) and reports the seed it used. CGAL's output is not
 // bit-reproducible between runs, so the test asks for a valid mesh from seed 1 within the retries,

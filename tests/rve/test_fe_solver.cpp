@@ -235,7 +235,7 @@ TEST(FeRve, NoLockingForNearlyIncompressibleMatrix) {
   EXPECT_NEAR(F[0](1, 1), 0.81662, 0.003 * 0.81662);
 }
 
-// Ecoflex FFT–FE difference (issue #6): on the ecoflex + glass cell (shear contrast 226) the FFT engine
+// Ecoflex FFT–FE difference: on the ecoflex + glass cell (shear contrast 226) the FFT engine
 // is 1.2e-3 off the FE engine at 32² and still 1.1e-3 at 64². That difference is the FFT engine's
 // composite-voxel discretization error, not an incompressibility effect of either engine: with the
 // matrix bulk modulus lowered from K/G = 1.2e5 to 100 (same G) the gap at 32² is the same (measured

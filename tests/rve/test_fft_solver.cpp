@@ -41,7 +41,7 @@ double rel(const Mat3& a, const Mat3& b) { return (a - b).norm() / std::max(b.no
 // A cell whose two phases are the same material (with composite voxels everywhere, so the laminate
 // rule is exercised) must reproduce the material-point driver: the fluctuation is exactly zero and
 // the macro Newton solves the same mixed control, here rotated by α = 30° into the grid frame.
-// Tolerance 1e-8 (issue): both solvers converge to ≤ 1e-10 relative stress residual.
+// Tolerance 1e-8: both solvers converge to ≤ 1e-10 relative stress residual.
 TEST(FftRve, HomogeneousCellEqualsMaterialPoint) {
   PhaseImage im = circle_image(8, 0.3);
   const MaterialPtr m = ecoflex();
@@ -181,7 +181,7 @@ TEST(FftRve, MixedPressureIterationSameSolutionFewerNewtonSteps) {
 // array (T = (1 + c)/(1 − c), c = μf/μm):
 //   μL/μm = 1 − 2f / (T + f − 0.305827 f⁴ T / (T² − 1.402958 f⁸) − 0.013362 f⁸),
 // accurate to far better than 0.1 % at f = 0.4. The FFT result (64², rotated, composite voxels) must
-// lie inside the 2D Hashin–Shtrikman bounds and within 1 % of that value (issue #3); shear strain 1e-4
+// lie inside the 2D Hashin–Shtrikman bounds and within 1 % of that value; shear strain 1e-4
 // keeps the finite-strain response linear to ~1e-4.
 TEST(FftRve, SmallStrainLongitudinalShearMatchesRayleighSquareArray) {
   const double f = 0.4, mu_m = 1.0, mu_f = 10.0, gamma = 1e-4;
@@ -275,7 +275,7 @@ TEST(FftRve, CompressionPastMicroBucklingConvergesOnPrincipalBranchWithMinres) {
             << ", MINRES solves " << r.minres_solves << ", P11 " << r.steps.back().P(0, 0) << "\n";
 }
 
-// Issue #3, chapter-IV campaign: ecoflex + square glass fibers (0.07 mm, VF 0.23, generated section,
+// Chapter-IV campaign: ecoflex + square glass fibers (0.07 mm, VF 0.23, generated section,
 // 32², rotated, tolerance 1e-6), α = 30°, uniaxial tension. With the corner pixels' laminate normals
 // tie-broken by round-off (different at mirror-image corners) the cell lost its mirror symmetry about
 // the plate normal: the out-of-plane shears F31, F32 drifted to 1e-4 by λ = 1.5, a spurious soft mode

@@ -339,7 +339,7 @@ TEST(Geometry, RectangleNormalsPointOutward) {
 // pixel's centre lies inside the fiber on the corner's diagonal, where the distance gradient used
 // before is ambiguous: round-off picked (0, −1) at one corner and (−1, 0) at its mirror image (measured
 // mirror error 1.41), which broke the cell's mirror symmetry (ecoflex α = 30° tension then drifted to
-// out-of-plane shear and stopped at λ ≈ 1.52, issue #3). Now the image is mirror-symmetric in both
+// out-of-plane shear and stopped at λ ≈ 1.52). Now the image is mirror-symmetric in both
 // axes (normals to 1e-12: round-off of the clipping) and the corner pixels carry the diagonal
 // (±1, ±1)/√2 (equal legs 0.67 pixel inside each corner pixel); face pixels keep the face normal.
 TEST(Geometry, SquareFiberCornerPixelNormalsAreMirrorSymmetricBisectors) {

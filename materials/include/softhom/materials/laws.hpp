@@ -1,5 +1,5 @@
 #pragma once
-// The constitutive laws of spec §2–§4 (../shared/spec/model.md). Units: MPa, mm, s.
+// The constitutive laws of spec §2–§4 (docs/model.md; "spec §N" is its section N). Units: MPa, mm, s.
 // Every law shares the volumetric energy W_V(J) = (K/4)(J² − 1 − 2 ln J), so K is the small-strain
 // bulk modulus for all of them.
 #include <optional>
