@@ -194,6 +194,11 @@ bool is_count_stat(const std::string& name) {
   return counts.count(name) > 0;
 }
 
+/// Whole-number parameters (the grid resolution) are int64 too.
+bool is_count_parameter(const std::string& name) { return name == "resolution"; }
+
+bool whole(double v) { return std::isfinite(v) && v == std::round(v) && std::abs(v) < 9e15; }
+
 void write_case(hid_t cases, const CaseRecord& r) {
   if (const std::string problem = case_id_problem(r.id); !problem.empty())
     throw std::runtime_error("case id '" + r.id + "' " + problem);
@@ -205,6 +210,7 @@ void write_case(hid_t cases, const CaseRecord& r) {
     if (reserved_attributes().count(p.name) || r.stats.count(p.name) || r.info.count(p.name))
       throw std::runtime_error("parameter name clashes with an attribute: " + p.name);
     if (p.is_string()) attr_string(g, p.name, std::get<std::string>(p.value));
+    else if (is_count_parameter(p.name) && whole(std::get<double>(p.value))) attr_int(g, p.name, std::int64_t(std::get<double>(p.value)));
     else attr_double(g, p.name, std::get<double>(p.value));
   }
   attr_string(g, "status", r.status);
@@ -212,7 +218,7 @@ void write_case(hid_t cases, const CaseRecord& r) {
   attr_string(g, "scene", r.scene_text);
   attr_string(g, "scene_hash", r.scene_hash);
   for (const auto& [k, v] : r.stats) {
-    if (is_count_stat(k) && std::isfinite(v) && v == std::round(v)) attr_int(g, k, std::int64_t(v));
+    if (is_count_stat(k) && whole(v)) attr_int(g, k, std::int64_t(v));
     else attr_double(g, k, v);
   }
   for (const auto& [k, v] : r.info) attr_string(g, k, v);
@@ -250,7 +256,13 @@ void write_index(hid_t file, const std::map<std::string, CaseRecord>& records) {
     Kind kind;
   };
   std::vector<Field> fields{{"case", Kind::text}, {"status", Kind::text}};
-  for (const auto& p : params) fields.push_back({p.name, p.is_string ? Kind::text : Kind::number});
+  for (const auto& p : params) {
+    bool all_whole = true;
+    for (const auto& [id, r] : records)
+      for (const auto& q : r.parameters)
+        if (q.name == p.name && (q.is_string() || !whole(std::get<double>(q.value)))) all_whole = false;
+    fields.push_back({p.name, p.is_string ? Kind::text : is_count_parameter(p.name) && all_whole ? Kind::count : Kind::number});
+  }
   for (const char* c : {"rows", "steps", "newton_iterations"}) fields.push_back({c, Kind::count});
   fields.push_back({"error", Kind::text});
   fields.push_back({"scene_hash", Kind::text});
@@ -294,10 +306,11 @@ void write_index(hid_t file, const std::map<std::string, CaseRecord>& records) {
       else if (f.name == "error") put_text(k, r.error);
       else if (f.name == "scene_hash") put_text(k, r.scene_hash);
       else if (f.name == "rows") put_count(k, std::int64_t(r.rows()));
-      else if (f.kind == Kind::count) put_count(k, stat(f.name.c_str()));
+      else if (f.kind == Kind::count && !is_count_parameter(f.name)) put_count(k, stat(f.name.c_str()));
       else {
         const auto it = std::find_if(r.parameters.begin(), r.parameters.end(), [&](const CaseParameter& p) { return p.name == f.name; });
         if (f.kind == Kind::text) put_text(k, it == r.parameters.end() ? std::string() : it->text());
+        else if (f.kind == Kind::count) put_count(k, it == r.parameters.end() ? 0 : std::int64_t(std::get<double>(it->value)));
         else put_number(k, it == r.parameters.end() ? std::nan("") : std::get<double>(it->value));
       }
     }
@@ -381,8 +394,14 @@ std::string parameter_csv(const CaseParameter& p) {
   return p.is_string() ? csv_field(std::get<std::string>(p.value)) : shortest(std::get<double>(p.value));
 }
 
-void write_store_file(const fs::path& tmp, const std::map<std::string, CaseRecord>& records, const std::string& description) {
-  H f(check(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), "creating " + tmp.string()), H5Fclose);
+/// The whole store as an HDF5 file image, built in memory (core driver without backing store): HDF5
+/// never writes to the disk, so a full disk or a read-only directory shows up in our own checked
+/// write(2) calls, never as a half-closed HDF5 file (whose close HDF5 retries, and crashes in, at exit).
+std::vector<unsigned char> store_image(const fs::path& store, const std::map<std::string, CaseRecord>& records,
+                                       const std::string& description) {
+  H fapl(check(H5Pcreate(H5P_FILE_ACCESS), "file access properties"), H5Pclose);
+  check_status(H5Pset_fapl_core(fapl, 1 << 20, 0), "in-memory file driver");
+  H f(check(H5Fcreate(store.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl), "creating the image of " + store.string()), H5Fclose);
   attr_string(f, "format", kFormat);
   attr_string(f, "description", description);
   attr_string(f, "softhom_version", io::softhom_version());
@@ -391,23 +410,42 @@ void write_store_file(const fs::path& tmp, const std::map<std::string, CaseRecor
     H cases(check(H5Gcreate2(f, "cases", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "creating /cases"), H5Gclose);
     for (const auto& [id, r] : records) write_case(cases, r);
   }
-  if (write_fault()) write_fault()(tmp);
-  check_status(H5Fflush(f, H5F_SCOPE_GLOBAL), "flushing " + tmp.string());
-  f.close("closing " + tmp.string());
+  check_status(H5Fflush(f, H5F_SCOPE_GLOBAL), "flushing the image");
+  const ssize_t size = H5Fget_file_image(f, nullptr, 0);
+  if (size <= 0) hdf5_fail("size of the image");
+  std::vector<unsigned char> image(static_cast<std::size_t>(size));
+  if (H5Fget_file_image(f, image.data(), image.size()) != size) hdf5_fail("copying the image");
+  f.close("closing the image");
+  return image;
 }
 
 [[noreturn]] void sys_fail(const std::string& what, int err) { throw std::runtime_error(what + " (" + std::strerror(err) + ")"); }
 
-/// fsync before the rename, so that a crash cannot leave a renamed but empty file.
-void sync_file(const fs::path& p) {
-  const int fd = ::open(p.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) sys_fail("reopening " + p.string(), errno);
-  if (::fsync(fd) != 0) {
-    const int err = errno;
+/// Writes `bytes` to `tmp` (created), fsyncs and closes it, every call checked. The fault hook runs
+/// half way, with the temporary open and partly written.
+void write_temporary(const fs::path& tmp, const std::vector<unsigned char>& bytes) {
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) sys_fail("creating " + tmp.string(), errno);
+  try {
+    std::size_t done = 0;
+    auto write_up_to = [&](std::size_t end) {
+      while (done < end) {
+        const ssize_t n = ::write(fd, bytes.data() + done, end - done);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) sys_fail("writing " + tmp.string(), errno);
+        done += std::size_t(n);
+      }
+    };
+    write_up_to(bytes.size() / 2);
+    if (write_fault()) write_fault()(tmp);
+    write_up_to(bytes.size());
+    // fsync before the rename, so that a crash cannot leave a renamed but empty file.
+    if (::fsync(fd) != 0) sys_fail("fsync of " + tmp.string(), errno);
+  } catch (...) {
     ::close(fd);
-    sys_fail("fsync of " + p.string(), err);
+    throw;
   }
-  ::close(fd);
+  if (::close(fd) != 0) sys_fail("closing " + tmp.string(), errno);
 }
 
 void sync_directory(const fs::path& dir) {  // best effort: makes the rename durable
@@ -544,8 +582,8 @@ void write_store(const std::filesystem::path& store, const std::map<std::string,
     std::error_code ec;
     fs::create_directories(dir, ec);
     if (ec) throw std::runtime_error("cannot create directory '" + dir.string() + "' (" + ec.message() + ")");
-    write_store_file(tmp, records, description);
-    sync_file(tmp);
+    const std::vector<unsigned char> image = store_image(store, records, description);
+    write_temporary(tmp, image);
     fs::rename(tmp, store, ec);
     if (ec) throw std::runtime_error("renaming " + tmp.string() + " into place (" + ec.message() + ")");
     sync_directory(dir);

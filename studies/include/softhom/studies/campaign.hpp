@@ -37,11 +37,11 @@
 // rewritten in format 2):
 //   /                 attributes format, description (of the last campaign written), softhom_version
 //   /index            compound dataset, one row per case sorted by id: case, status, one column per
-//                     parameter (strings or float64), rows, steps, newton_iterations (int64), error,
-//                     scene_hash. pandas: pd.DataFrame(h5py.File(p)["index"][()]) (strings as bytes).
-//   /cases/<id>       group per case. Attributes: parameters (names in column order), one attribute per
-//                     parameter (string or float64; angle is NaN for the matrix alone), status ("ok" or
-//                     "failed"), error, scene (the case's TOML), scene_hash, counts as int64 (steps,
+//                     parameter (strings, float64; resolution int64), rows, steps, newton_iterations
+//                     (int64), error, scene_hash. pandas: pd.DataFrame(h5py.File(p)["index"][()]) (strings as bytes).
+//   /cases/<id>       group per case. Attributes: parameters (names in column order), one attribute
+//                     per parameter (string, float64, int64 for resolution; angle NaN for the matrix
+//                     alone), status ("ok" or "failed"), error, scene (the case's TOML), scene_hash, counts as int64 (steps,
 //                     newton_iterations, krylov_iterations, cutbacks, voxels, threads), other statistics
 //                     as float64 (timings, volume_fraction_achieved), notes as strings (geometry, fft,
 //                     log, warm_start_from, on_path_of).
@@ -203,8 +203,8 @@ class CampaignStore {
 };
 
 namespace testing {
-/// Called with the temporary's path while the store is being written, before it is closed and
-/// renamed (a throwing fault simulates a full disk); empty function: none.
+/// Called with the temporary's path half way through writing the store (the temporary exists, open
+/// and partly written; before fsync and rename): a throwing fault simulates a full disk. Empty: none.
 void set_store_write_fault(std::function<void(const std::filesystem::path&)> fault);
 }  // namespace testing
 
