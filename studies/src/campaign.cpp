@@ -969,14 +969,16 @@ SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& 
       std::vector<CaseRecord> batch;
       while (scheduler.wait(batch, running, std::chrono::milliseconds(100))) {
         if (batch.empty()) continue;
+        std::vector<std::string> ids;
         for (auto& r : batch) {
           count_and_log(report, r, options.quiet);
+          ids.push_back(r.id);
           store.add(std::move(r));
         }
         store.write(campaign);
         committed += int(batch.size());
         if (options.on_case_stored)
-          for (const auto& r : batch) options.on_case_stored(store.records().at(r.id));
+          for (const auto& id : ids) options.on_case_stored(store.records().at(id));
         if (!options.quiet) log_progress(report, to_run, running, start);
         if (options.max_new_cases > 0 && committed >= options.max_new_cases) scheduler.cancel();  // a simulated kill
       }

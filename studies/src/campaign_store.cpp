@@ -702,9 +702,9 @@ std::vector<std::filesystem::path> remove_stale_temporaries(const std::filesyste
   return removed;
 }
 
-namespace testing {
-void set_store_write_fault(std::function<void(const std::filesystem::path&)> fault) { write_fault() = std::move(fault); }
-}  // namespace testing
+void set_store_write_fault_for_testing(std::function<void(const std::filesystem::path&)> fault) {
+  write_fault() = std::move(fault);
+}
 
 // ---------------------------------------------------------------------------------------------
 // The store of one directory as its one writer holds it.

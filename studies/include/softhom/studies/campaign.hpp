@@ -202,11 +202,10 @@ class CampaignStore {
   std::vector<std::filesystem::path> removed_temporaries_;
 };
 
-namespace testing {
-/// Called with the temporary's path half way through writing the store (the temporary exists, open
-/// and partly written; before fsync and rename): a throwing fault simulates a full disk. Empty: none.
-void set_store_write_fault(std::function<void(const std::filesystem::path&)> fault);
-}  // namespace testing
+/// Tests only: called with the temporary's path half way through writing the store (the temporary
+/// exists, open and partly written; before fsync and rename): a throwing fault simulates a full
+/// disk. An empty function: no fault.
+void set_store_write_fault_for_testing(std::function<void(const std::filesystem::path&)> fault);
 
 struct SweepOptions {
   int jobs = 1;           ///< cases in parallel (threads); 0: one single-threaded job per thread
