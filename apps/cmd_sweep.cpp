@@ -3,7 +3,10 @@
 // Runs every case of a campaign (studies/campaign.hpp: Cartesian products and explicit lists of RVE
 // scenes) with the FFT RVE engine into DIR/campaign.h5 (one group per case) and DIR/cases.csv (one
 // row per case and step). Rerunning the same command skips the finished cases. Writes
-// DIR/summary.json (counts, timings). Exit code 0 when every case is ok, 1 when some failed.
+// DIR/summary.json (counts, timings). Exit code 0 when every case is ok; 1 when some failed, when
+// SIGINT/SIGTERM interrupted the run (finished cases are stored, "interrupted": true in the summary;
+// rerun to complete), when another sweep holds DIR (campaign.lock) or when a file cannot be written
+// (the previous files stay); 2 for bad input.
 #include <iostream>
 
 #include "commands.hpp"
@@ -41,6 +44,8 @@ int run_sweep(const CommandOptions& options) {
   const studies::SweepReport r = studies::run_campaign(campaign, options.out, so);
 
   nlohmann::json summary = io::summary_base("sweep", options.scene, table);
+  summary["interrupted"] = r.interrupted;
+  summary["removed_stale_temporaries"] = int(r.removed_temporaries.size());
   summary["cases"] = r.total;
   summary["skipped"] = r.skipped;
   summary["finished"] = r.finished;
@@ -62,10 +67,10 @@ int run_sweep(const CommandOptions& options) {
   summary["stored_failed"] = failed;
   io::write_summary(options.out, summary);
   if (!options.quiet)
-    std::cerr << "softhom sweep: " << ok << " ok, " << failed << " failed of " << r.total << " cases ("
+    std::cerr << "softhom sweep: " << (r.interrupted ? "interrupted, " : "") << ok << " ok, " << failed << " failed of " << r.total << " cases ("
               << r.finished << " run now in " << r.wall_time_s << " s) → " << r.store.string() << ", "
               << r.csv.string() << "\n";
-  return failed == 0 && ok == r.total ? 0 : 1;
+  return !r.interrupted && failed == 0 && ok == r.total ? 0 : 1;
 }
 
 }  // namespace softhom::app

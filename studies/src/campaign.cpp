@@ -22,6 +22,7 @@
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/materials/errors.hpp"
+#include "softhom/materials/interrupt.hpp"
 #include "softhom/studies/rve_scene.hpp"
 
 namespace softhom::studies {
@@ -514,12 +515,6 @@ MixedControl shifted(const MixedControl& B, double t0) {
   return s;
 }
 
-struct Chain {
-  std::vector<int> members;  // indices into campaign.cases; each one's path is the beginning of the next's
-  std::vector<bool> store;   // member must be (re)stored
-  int last = 0;              // run up to this member (the last one to store)
-};
-
 std::string hms(double s) {
   if (!(s >= 0) || !std::isfinite(s)) return "?";
   const long t = std::lround(s);
@@ -530,10 +525,108 @@ std::string hms(double s) {
   return buf;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Schedule: which cases run, grouped into chains that share one load path.
+
+struct Chain {
+  std::vector<int> members;  // indices into campaign.cases; each one's path is the beginning of the next's
+  std::vector<bool> store;   // member must be (re)stored
+  int last = 0;              // run up to this member (the last one to store)
+};
+
+/// Case ids are HDF5 group names and file-name-like keys: refused before anything runs or is written.
+void check_case_ids(const Campaign& campaign) {
+  for (const auto& c : campaign.cases)
+    if (const std::string problem = case_id_problem(c.id); !problem.empty())
+      throw InputError("case id", "\"" + escape_control_characters(c.id) + "\"",
+                       problem + " (ids name HDF5 groups; rename the case or the axis value)");
+}
+
+/// What must run: absent, changed, or failed with --retry-failed.
+std::vector<bool> cases_to_run(const Campaign& campaign, const std::map<std::string, CaseRecord>& stored, bool retry_failed) {
+  std::vector<bool> todo(campaign.cases.size(), false);
+  for (std::size_t i = 0; i < campaign.cases.size(); ++i) {
+    const auto& c = campaign.cases[i];
+    const auto it = stored.find(c.id);
+    todo[i] = it == stored.end() || it->second.scene_hash != c.scene_hash || (retry_failed && it->second.status != "ok");
+  }
+  return todo;
+}
+
+/// Chains within one microstructure: cases whose load paths lie on each other's (path_scale) run as
+/// one path. Deterministic from the campaign alone, so a resumed run computes each case the same way.
+std::vector<Chain> plan_chains(const Campaign& campaign, const std::vector<bool>& todo, bool warm) {
+  std::vector<Chain> chains;
+  std::map<std::string, std::vector<int>> groups;
+  std::vector<std::string> group_order;
+  for (std::size_t i = 0; i < campaign.cases.size(); ++i) {
+    const auto& c = campaign.cases[i];
+    const std::string key = warm ? c.microstructure_hash : "single:" + c.id;
+    if (!groups.count(key)) group_order.push_back(key);
+    groups[key].push_back(int(i));
+  }
+  for (const auto& key : group_order) {
+    std::vector<int> members = groups[key];
+    std::vector<double> extent(campaign.cases.size(), 0.0);
+    for (int m : members) extent[m] = path_extent(campaign.cases[m].control);
+    std::stable_sort(members.begin(), members.end(), [&](int a, int b) {
+      if (extent[a] != extent[b]) return extent[a] < extent[b];
+      return campaign.cases[a].control.times.back() < campaign.cases[b].control.times.back();
+    });
+    std::vector<Chain> local;
+    for (int m : members) {
+      const CampaignCase& c = campaign.cases[m];
+      bool placed = false;
+      for (auto& ch : local) {
+        const CampaignCase& last = campaign.cases[ch.members.back()];
+        // Every member must lie on the final path: check against the chain's first member too.
+        if (path_scale(last.control, c.control, c.elastic) &&
+            path_scale(campaign.cases[ch.members.front()].control, c.control, c.elastic)) {
+          ch.members.push_back(m);
+          placed = true;
+          break;
+        }
+      }
+      if (!placed) local.push_back(Chain{{m}, {}, 0});
+    }
+    for (auto& ch : local) {
+      // Run up to the last member that must be stored; earlier finished members are recomputed
+      // (not stored) only because they are on the way. The later members still shape the path's
+      // output steps, so a resumed run computes every case exactly as an uninterrupted one.
+      int last = -1;
+      for (std::size_t k = 0; k < ch.members.size(); ++k) {
+        ch.store.push_back(todo[ch.members[k]]);
+        if (todo[ch.members[k]]) last = int(k);
+      }
+      if (last < 0) continue;
+      ch.last = last;
+      chains.push_back(std::move(ch));
+    }
+  }
+  std::stable_sort(chains.begin(), chains.end(),
+                   [](const Chain& a, const Chain& b) { return a.members.front() < b.members.front(); });
+  return chains;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Run one chain (and so one case).
+
+/// The record's parameters: the case's, with the fiber angle NaN for the matrix alone (it has none).
+std::vector<CaseParameter> record_parameters(const CampaignCase& c) {
+  std::vector<CaseParameter> p = c.parameters;
+  bool matrix_only = false;
+  for (const auto& q : p)
+    if (q.name == "volume_fraction" && !q.is_string() && std::get<double>(q.value) == 0.0) matrix_only = true;
+  if (matrix_only)
+    for (auto& q : p)
+      if (q.name == "angle" && !q.is_string()) q.value = std::nan("");
+  return p;
+}
+
 CaseRecord base_record(const CampaignCase& c) {
   CaseRecord r;
   r.id = c.id;
-  r.parameters = c.parameters;
+  r.parameters = record_parameters(c);
   r.scene_text = c.scene_text;
   r.scene_hash = c.scene_hash;
   r.columns = rve_response_columns();
@@ -556,86 +649,298 @@ void finish_record(CaseRecord& r, const std::vector<rve::RveStep>& steps) {
   r.stats["cutbacks"] = cutbacks;
 }
 
+/// The output times of a chain on its final path (the union of all members', mapped by path_scale)
+/// and, per member, the index in it of each of the member's own output times.
+struct PathPlan {
+  std::vector<double> times;                  // S
+  std::vector<std::vector<std::size_t>> idx;  // idx[k][i]: S index of member k's i-th output time
+};
+
+std::optional<PathPlan> plan_path(const Campaign& campaign, const std::vector<int>& members) {
+  const std::size_t K = members.size();
+  const CampaignCase& fin = campaign.cases[members.back()];
+  std::vector<double> scale(K, 1.0);
+  for (std::size_t k = 0; k + 1 < K; ++k) {
+    const CampaignCase& c = campaign.cases[members[k]];
+    const auto sc = path_scale(c.control, fin.control, c.elastic);
+    if (!sc) return std::nullopt;
+    scale[k] = *sc;
+  }
+  PathPlan plan;
+  std::vector<double> S;
+  for (std::size_t k = 0; k < K; ++k)
+    for (double t : campaign.cases[members[k]].control.times) S.push_back(k + 1 == K ? t : scale[k] * t);
+  std::sort(S.begin(), S.end());
+  for (double t : S)
+    if (plan.times.empty() || !near(plan.times.back(), t)) plan.times.push_back(t);
+  const auto& U = plan.times;
+  plan.idx.resize(K);
+  for (std::size_t k = 0; k < K; ++k)
+    for (double t : campaign.cases[members[k]].control.times) {
+      const double x = k + 1 == K ? t : scale[k] * t;
+      std::size_t j = std::size_t(std::lower_bound(U.begin(), U.end(), x) - U.begin());
+      if (j == U.size() || (j > 0 && std::abs(U[j - 1] - x) < std::abs(U[j] - x))) --j;
+      plan.idx[k].push_back(j);
+    }
+  return plan;
+}
+
+/// What a chain needs besides its members: where results go and whether to stop.
+struct ChainContext {
+  const Campaign& campaign;
+  std::filesystem::path dir;
+  int threads_per_job = 1;
+  std::function<bool()> stopping;                   // abandon the chain before its next member
+  std::function<void()> case_started;               // a member to be stored starts
+  std::function<void(CaseRecord&&)> case_finished;  // ... and ends (its record)
+  std::atomic<long>* newton_computed = nullptr;
+};
+
+/// The solver of a chain's microstructure (made for its first member).
+std::unique_ptr<rve::FftRveSolver> make_solver(const ChainContext& ctx, const CampaignCase& c, CaseRecord& r) {
+  RveSceneSetup setup;
+  {
+    // Imported phase images are read with HDF5.
+    std::lock_guard<std::mutex> lock(hdf5_mutex());
+    setup = parse_rve_scene(c.scene);
+  }
+  setup.solver.plan.threads = ctx.threads_per_job;
+  // FFTW_MEASURE picks plans by timing, so two runs can differ in round-off; the campaign's
+  // wisdom file makes a resumed run reuse the plans of the first one (and skips measuring).
+  if (setup.solver.plan.wisdom_file.empty()) setup.solver.plan.wisdom_file = ctx.dir / "fftw.wisdom";
+  auto solver = std::make_unique<rve::FftRveSolver>(setup.image, setup.matrix, setup.fiber, setup.fiber_angle_deg,
+                                                    setup.control.frame, setup.solver);
+  r.stats["fft_planning_s"] = solver->planning_seconds();
+  r.info["geometry"] = setup.geometry_note;
+  r.info["fft"] = solver->fft_description();
+  return solver;
+}
+
+/// Member k of a chain: continues the shared path up to the member's last output time (if not
+/// reached yet) and reads the member's rows off it. Returns its record; `failed` when the path ended
+/// before the member's end.
+CaseRecord run_member(const ChainContext& ctx, const std::vector<int>& members, const PathPlan& plan, int k,
+                      std::unique_ptr<rve::FftRveSolver>& solver, std::vector<rve::RveStep>& path, bool& failed) {
+  const Campaign& campaign = ctx.campaign;
+  const CampaignCase& c = campaign.cases[members[k]];
+  const CampaignCase& fin = campaign.cases[members.back()];
+  const std::vector<double>& S = plan.times;
+  const std::vector<std::size_t>& idx = plan.idx[k];
+  CaseRecord r = base_record(c);
+  r.stats["threads"] = ctx.threads_per_job;
+  const auto t0 = Clock::now();
+  std::vector<rve::RveStep> steps;
+  double newton = 0, krylov = 0, cutbacks = 0;
+  failed = false;
+  try {
+    const std::size_t done = path.empty() ? 0 : path.size() - 1;  // entries of S reached
+    if (k > 0) r.info["warm_start_from"] = campaign.cases[members[k - 1]].id;
+    if (members.size() > 1 && k + 1 < int(members.size())) r.info["on_path_of"] = fin.id;
+    rve::RveRunResult result;
+    result.completed = true;
+    if (idx.back() + 1 > done) {
+      MixedControl seg = done == 0 ? fin.control : shifted(fin.control, S[done - 1]);
+      seg.times.clear();
+      for (std::size_t j = done; j <= idx.back(); ++j) seg.times.push_back(done == 0 ? S[j] : S[j] - S[done - 1]);
+      if (!solver) solver = make_solver(ctx, c, r);
+      result = solver->run(seg);
+      for (std::size_t st = done == 0 ? 0 : 1; st < result.steps.size(); ++st) {
+        path.push_back(result.steps[st]);
+        newton += result.steps[st].newton_iterations;
+        krylov += result.steps[st].krylov_iterations;
+        cutbacks += result.steps[st].cutbacks;
+      }
+      for (const auto& line : result.log) r.info["log"] += line + "\n";
+    }
+    r.stats["voxels"] = double(solver->grid().voxels());
+    r.stats["volume_fraction_achieved"] = solver->achieved_volume_fraction();
+    if (!path.empty()) steps.push_back(path[0]);
+    for (std::size_t i = 0; i < idx.size() && idx[i] + 1 < path.size(); ++i) {
+      rve::RveStep st = path[idx[i] + 1];
+      st.t = c.control.times[i];  // the exact output time of a cold run
+      steps.push_back(st);
+    }
+    failed = !result.completed || steps.size() != idx.size() + 1;
+    r.status = failed ? "failed" : "ok";
+    r.error = result.completed ? (failed ? "the shared load path ended early" : "") : result.error;
+  } catch (const std::exception& e) {
+    r.status = "failed";
+    r.error = e.what();
+    failed = true;
+  }
+  finish_record(r, steps);
+  // Work done for this member (its segment of the path), not the rows it shares with others.
+  r.stats["newton_iterations"] = newton;
+  r.stats["krylov_iterations"] = krylov;
+  r.stats["cutbacks"] = cutbacks;
+  if (ctx.newton_computed) *ctx.newton_computed += long(newton);
+  r.stats["wall_time_s"] = std::chrono::duration<double>(Clock::now() - t0).count();
+  return r;
+}
+
+/// One chain: the final member's load path is run once, in segments that end at each member's last
+/// output time. A segment continues from the solver's converged state at the end of the previous one
+/// (the warm start). A member that fails ends the shared path; the members after it then run cold,
+/// each on its own.
+void run_chain(const ChainContext& ctx, const std::vector<int>& members, const std::vector<bool>& store, int last) {
+  const std::optional<PathPlan> plan = plan_path(ctx.campaign, members);
+  if (!plan) {  // not expected (chains are built with path_scale); run the members on their own
+    for (int j = 0; j <= last; ++j) run_chain(ctx, {members[j]}, {store[j]}, 0);
+    return;
+  }
+  std::unique_ptr<rve::FftRveSolver> solver;
+  std::vector<rve::RveStep> path;  // path[0]: t = 0; path[j + 1]: at plan->times[j]
+  for (int k = 0; k <= last; ++k) {
+    if (ctx.stopping()) return;
+    if (store[k]) ctx.case_started();
+    bool failed = false;
+    CaseRecord r = run_member(ctx, members, *plan, k, solver, path, failed);
+    if (store[k]) ctx.case_finished(std::move(r));
+    if (failed) {
+      for (int j = k + 1; j <= last; ++j) run_chain(ctx, {members[j]}, {store[j]}, 0);
+      return;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The scheduler: `jobs` threads take chains in order; finished records queue up for the writer.
+
+class ChainScheduler {
+ public:
+  ChainScheduler(const Campaign& campaign, const std::filesystem::path& dir, std::vector<Chain> chains, int jobs,
+                 int threads_per_job, std::atomic<long>& newton)
+      : chains_(std::move(chains)),
+        ctx_{campaign, dir, threads_per_job, [this] { return stopping(); }, [this] { case_started(); },
+             [this](CaseRecord&& r) { case_finished(std::move(r)); }, &newton},
+        workers_alive_(jobs) {
+    for (int j = 0; j < jobs; ++j) threads_.emplace_back([this, threads_per_job] { work(threads_per_job); });
+  }
+  ~ChainScheduler() {
+    cancel();
+    join();
+  }
+  ChainScheduler(const ChainScheduler&) = delete;
+  ChainScheduler& operator=(const ChainScheduler&) = delete;
+
+  /// Waits (at most `poll`) for finished records and moves them to `batch`; false once every worker
+  /// ended and nothing is left. `running`: the members being computed.
+  bool wait(std::vector<CaseRecord>& batch, int& running, std::chrono::milliseconds poll) {
+    std::unique_lock<std::mutex> lock(mu_);
+    cv_.wait_for(lock, poll, [&] { return !results_.empty() || workers_alive_ == 0; });
+    batch.clear();
+    while (!results_.empty()) {
+      batch.push_back(std::move(results_.front()));
+      results_.pop_front();
+    }
+    running = running_;
+    return !batch.empty() || workers_alive_ > 0;
+  }
+  /// No new chain or member starts; records still arriving are dropped (a simulated kill, a write
+  /// failure).
+  void cancel() {
+    std::lock_guard<std::mutex> lock(mu_);
+    cancelled_ = true;
+    results_.clear();
+  }
+  void join() {
+    for (auto& t : threads_)
+      if (t.joinable()) t.join();
+  }
+
+ private:
+  bool stopping() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return cancelled_ || stop_requested();
+  }
+  void case_started() {
+    std::lock_guard<std::mutex> lock(mu_);
+    ++running_;
+  }
+  void case_finished(CaseRecord&& r) {
+    std::lock_guard<std::mutex> lock(mu_);
+    --running_;
+    // On a signal the case in flight is abandoned unless it finished (the engine stops at its next
+    // check and reports the interruption, which must not be stored as a failure).
+    const bool keep = !cancelled_ && !(stop_requested() && r.status != "ok");
+    if (keep) results_.push_back(std::move(r));
+    cv_.notify_all();
+  }
+  void work(int threads_per_job) {
+    omp_set_num_threads(threads_per_job);
+    while (true) {
+      std::size_t ci;
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        if (cancelled_ || stop_requested() || next_chain_ >= chains_.size()) break;
+        ci = next_chain_++;
+      }
+      run_chain(ctx_, chains_[ci].members, chains_[ci].store, chains_[ci].last);
+    }
+    std::lock_guard<std::mutex> lock(mu_);
+    --workers_alive_;
+    cv_.notify_all();
+  }
+
+  std::vector<Chain> chains_;
+  ChainContext ctx_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<CaseRecord> results_;
+  std::size_t next_chain_ = 0;
+  int running_ = 0, workers_alive_ = 0;
+  bool cancelled_ = false;
+  std::vector<std::thread> threads_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Record: counts and progress lines of the finished cases.
+
+void count_and_log(SweepReport& report, const CaseRecord& r, bool quiet) {
+  ++report.finished;
+  if (r.status != "ok") ++report.failed;
+  if (r.info.count("warm_start_from")) ++report.warm_started;
+  const auto wall = r.stats.find("wall_time_s");
+  const double seconds = wall == r.stats.end() ? 0.0 : wall->second;
+  report.case_time_s += seconds;
+  if (quiet) return;
+  std::cerr << "[sweep] " << r.id << ": " << r.status;
+  if (r.status != "ok") std::cerr << " (" << r.error << ")";
+  const auto warm = r.info.find("warm_start_from");
+  std::cerr << ", " << r.rows() << " rows, " << hms(seconds) << (warm != r.info.end() ? ", warm from " + warm->second : "")
+            << "\n";
+}
+
+void log_progress(const SweepReport& report, int to_run, int running, Clock::time_point start) {
+  const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  const int left = to_run - report.finished;
+  const double eta = report.finished > 0 ? elapsed / report.finished * left : -1.0;
+  std::cerr << "[sweep] done " << report.finished << "/" << to_run << " (failed " << report.failed << "), running "
+            << running << ", skipped " << report.skipped << " | elapsed " << hms(elapsed) << ", ETA "
+            << (left == 0 ? "0s" : hms(eta)) << "\n";
+}
+
 }  // namespace
 
 SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& dir, const SweepOptions& options) {
   const auto start = Clock::now();
+  check_case_ids(campaign);
   SweepReport report;
   report.total = int(campaign.cases.size());
-  std::filesystem::create_directories(dir);
-  report.store = dir / "campaign.h5";
-  report.csv = dir / "cases.csv";
 
-  std::map<std::string, CaseRecord> records;
-  {
-    std::lock_guard<std::mutex> lock(hdf5_mutex());
-    records = read_store(report.store);
-  }
-  // What must run: absent, changed, or failed with --retry-failed.
-  std::vector<bool> todo(campaign.cases.size(), false);
-  for (std::size_t i = 0; i < campaign.cases.size(); ++i) {
-    const auto& c = campaign.cases[i];
-    const auto it = records.find(c.id);
-    todo[i] = it == records.end() || it->second.scene_hash != c.scene_hash ||
-              (options.retry_failed && it->second.status != "ok");
-    if (!todo[i]) ++report.skipped;
-  }
+  // Write: the directory is ours until `store` goes (lock, stale temporaries removed, store read).
+  CampaignStore store(dir);
+  report.store = store.store_path();
+  report.csv = store.csv_path();
+  report.removed_temporaries = store.removed_temporaries();
+  if (!options.quiet)
+    for (const auto& p : report.removed_temporaries) std::cerr << "[sweep] removed stale temporary " << p.string() << "\n";
 
-  // Chains (deterministic from the campaign alone, so a resumed run computes each case the same way):
-  // within one microstructure, cases whose load paths lie on each other's (path_scale) run as one path.
-  std::vector<Chain> chains;
+  // Schedule.
+  const std::vector<bool> todo = cases_to_run(campaign, store.records(), options.retry_failed);
+  report.skipped = int(std::count(todo.begin(), todo.end(), false));
   const bool warm = options.warm_start && campaign.warm_start;
-  {
-    std::map<std::string, std::vector<int>> groups;
-    std::vector<std::string> group_order;
-    for (std::size_t i = 0; i < campaign.cases.size(); ++i) {
-      const auto& c = campaign.cases[i];
-      const std::string key = warm ? c.microstructure_hash : "single:" + c.id;
-      if (!groups.count(key)) group_order.push_back(key);
-      groups[key].push_back(int(i));
-    }
-    for (const auto& key : group_order) {
-      std::vector<int> members = groups[key];
-      std::vector<double> extent(campaign.cases.size(), 0.0);
-      for (int m : members) extent[m] = path_extent(campaign.cases[m].control);
-      std::stable_sort(members.begin(), members.end(), [&](int a, int b) {
-        if (extent[a] != extent[b]) return extent[a] < extent[b];
-        return campaign.cases[a].control.times.back() < campaign.cases[b].control.times.back();
-      });
-      std::vector<Chain> local;
-      for (int m : members) {
-        const CampaignCase& c = campaign.cases[m];
-        bool placed = false;
-        for (auto& ch : local) {
-          const CampaignCase& last = campaign.cases[ch.members.back()];
-          // Every member must lie on the final path: check against the chain's first member too.
-          if (path_scale(last.control, c.control, c.elastic) &&
-              path_scale(campaign.cases[ch.members.front()].control, c.control, c.elastic)) {
-            ch.members.push_back(m);
-            placed = true;
-            break;
-          }
-        }
-        if (!placed) local.push_back(Chain{{m}, {}, 0});
-      }
-      for (auto& ch : local) {
-        // Run up to the last member that must be stored; earlier finished members are recomputed
-        // (not stored) only because they are on the way. The later members still shape the path's
-        // output steps, so a resumed run computes every case exactly as an uninterrupted one.
-        int last = -1;
-        for (std::size_t k = 0; k < ch.members.size(); ++k) {
-          ch.store.push_back(todo[ch.members[k]]);
-          if (todo[ch.members[k]]) last = int(k);
-        }
-        if (last < 0) continue;
-        ch.last = last;
-        chains.push_back(std::move(ch));
-      }
-    }
-    std::stable_sort(chains.begin(), chains.end(),
-                     [](const Chain& a, const Chain& b) { return a.members.front() < b.members.front(); });
-  }
-
+  std::vector<Chain> chains = plan_chains(campaign, todo, warm);
   int to_run = 0;
   for (const auto& ch : chains)
     for (bool s : ch.store) to_run += s ? 1 : 0;
@@ -652,213 +957,46 @@ SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& 
     std::cerr << "[sweep] " << report.total << " cases: " << report.skipped << " already in the store, " << to_run
               << " to run in " << chains.size() << " chains, " << jobs << " job(s) x " << tpj << " thread(s)"
               << (warm ? ", warm starts on" : ", warm starts off") << "\n";
+  if (chains.empty()) store.write(campaign);  // a finished campaign: refresh cases.csv (e.g. after edits)
 
-  // Work queue of chains, results queue of records.
-  std::mutex mu;
-  std::condition_variable cv;
-  std::size_t next_chain = 0;
-  std::deque<CaseRecord> results;
-  std::atomic<bool> stop{false};
-  int running = 0, workers_alive = jobs;
-
-  // One chain: the final member's load path is run once, in segments that end at each member's last
-  // output time. Its output times are the union of all members' (mapped onto the final path by
-  // path_scale) and every member's rows are read off the path at its own times. A segment continues
-  // from the solver's converged state at the end of the previous one (the warm start). A member that
-  // fails ends the shared path; the members after it then run cold, each on its own.
   std::atomic<long> newton_computed{0};
-  std::function<void(const std::vector<int>&, const std::vector<bool>&, int)> run_chain =
-      [&](const std::vector<int>& members, const std::vector<bool>& store, int last) {
-    const std::size_t K = members.size();
-    const CampaignCase& fin = campaign.cases[members.back()];
-    std::vector<double> scale(K, 1.0);
-    for (std::size_t k = 0; k + 1 < K; ++k) {
-      const CampaignCase& c = campaign.cases[members[k]];
-      const auto sc = path_scale(c.control, fin.control, c.elastic);
-      if (!sc) {  // not expected (chains are built with path_scale); run the members on their own
-        for (int j = 0; j <= last; ++j) run_chain({members[j]}, {store[j]}, 0);
-        return;
-      }
-      scale[k] = *sc;
-    }
-    std::vector<double> S;  // output times on the final path
-    for (std::size_t k = 0; k < K; ++k)
-      for (double t : campaign.cases[members[k]].control.times) S.push_back(k + 1 == K ? t : scale[k] * t);
-    std::sort(S.begin(), S.end());
-    std::vector<double> U;
-    for (double t : S)
-      if (U.empty() || !near(U.back(), t)) U.push_back(t);
-    S.swap(U);
-    std::vector<std::vector<std::size_t>> idx(K);
-    for (std::size_t k = 0; k < K; ++k)
-      for (double t : campaign.cases[members[k]].control.times) {
-        const double x = k + 1 == K ? t : scale[k] * t;
-        std::size_t j = std::size_t(std::lower_bound(S.begin(), S.end(), x) - S.begin());
-        if (j == S.size() || (j > 0 && std::abs(S[j - 1] - x) < std::abs(S[j] - x))) --j;
-        idx[k].push_back(j);
-      }
-
-    std::unique_ptr<rve::FftRveSolver> solver;
-    std::vector<rve::RveStep> path;  // path[0]: t = 0; path[j + 1]: at S[j]
-    for (int k = 0; k <= last; ++k) {
-      if (stop) return;
-      const CampaignCase& c = campaign.cases[members[k]];
-      if (store[k]) {
-        std::lock_guard<std::mutex> lock(mu);
-        ++running;
-      }
-      CaseRecord r = base_record(c);
-      r.stats["threads"] = tpj;
-      const auto t0 = Clock::now();
-      std::vector<rve::RveStep> steps;
-      bool failed = false;
-      double newton = 0, krylov = 0, cutbacks = 0;
-      try {
-        const std::size_t done = path.empty() ? 0 : path.size() - 1;  // entries of S reached
-        if (k > 0) r.info["warm_start_from"] = campaign.cases[members[k - 1]].id;
-        if (K > 1 && k + 1 < int(K)) r.info["on_path_of"] = fin.id;
-        rve::RveRunResult result;
-        result.completed = true;
-        if (idx[k].back() + 1 > done) {
-          MixedControl seg = done == 0 ? fin.control : shifted(fin.control, S[done - 1]);
-          seg.times.clear();
-          for (std::size_t j = done; j <= idx[k].back(); ++j) seg.times.push_back(done == 0 ? S[j] : S[j] - S[done - 1]);
-          if (!solver) {
-            RveSceneSetup setup;
-            {
-              // Imported phase images are read with HDF5.
-              std::lock_guard<std::mutex> lock(hdf5_mutex());
-              setup = parse_rve_scene(c.scene);
-            }
-            setup.solver.plan.threads = tpj;
-            // FFTW_MEASURE picks plans by timing, so two runs can differ in round-off; the campaign's
-            // wisdom file makes a resumed run reuse the plans of the first one (and skips measuring).
-            if (setup.solver.plan.wisdom_file.empty()) setup.solver.plan.wisdom_file = dir / "fftw.wisdom";
-            solver = std::make_unique<rve::FftRveSolver>(setup.image, setup.matrix, setup.fiber, setup.fiber_angle_deg,
-                                                         setup.control.frame, setup.solver);
-            r.stats["fft_planning_s"] = solver->planning_seconds();
-            r.info["geometry"] = setup.geometry_note;
-            r.info["fft"] = solver->fft_description();
-          }
-          result = solver->run(seg);
-          for (std::size_t st = done == 0 ? 0 : 1; st < result.steps.size(); ++st) {
-            path.push_back(result.steps[st]);
-            newton += result.steps[st].newton_iterations;
-            krylov += result.steps[st].krylov_iterations;
-            cutbacks += result.steps[st].cutbacks;
-          }
-          for (const auto& line : result.log) r.info["log"] += line + "\n";
+  const bool stop_was_requested = stop_requested();
+  {
+    const int workers = chains.empty() ? 0 : jobs;
+    ChainScheduler scheduler(campaign, dir, std::move(chains), workers, tpj, newton_computed);
+    try {
+      int committed = 0, running = 0;
+      std::vector<CaseRecord> batch;
+      while (scheduler.wait(batch, running, std::chrono::milliseconds(100))) {
+        if (batch.empty()) continue;
+        std::vector<std::string> ids;
+        for (auto& r : batch) {
+          count_and_log(report, r, options.quiet);
+          ids.push_back(r.id);
+          store.add(std::move(r));
         }
-        r.stats["voxels"] = double(solver->grid().voxels());
-        r.stats["volume_fraction_achieved"] = solver->achieved_volume_fraction();
-        if (!path.empty()) steps.push_back(path[0]);
-        for (std::size_t i = 0; i < idx[k].size() && idx[k][i] + 1 < path.size(); ++i) {
-          rve::RveStep st = path[idx[k][i] + 1];
-          st.t = c.control.times[i];  // the exact output time of a cold run
-          steps.push_back(st);
-        }
-        failed = !result.completed || steps.size() != idx[k].size() + 1;
-        r.status = failed ? "failed" : "ok";
-        r.error = result.completed ? (failed ? "the shared load path ended early" : "") : result.error;
-      } catch (const std::exception& e) {
-        r.status = "failed";
-        r.error = e.what();
-        failed = true;
+        store.write(campaign);
+        committed += int(batch.size());
+        if (options.on_case_stored)
+          for (const auto& id : ids) options.on_case_stored(store.records().at(id));
+        if (!options.quiet) log_progress(report, to_run, running, start);
+        if (options.max_new_cases > 0 && committed >= options.max_new_cases) scheduler.cancel();  // a simulated kill
       }
-      finish_record(r, steps);
-      // Work done for this member (its segment of the path), not the rows it shares with others.
-      r.stats["newton_iterations"] = newton;
-      r.stats["krylov_iterations"] = krylov;
-      r.stats["cutbacks"] = cutbacks;
-      newton_computed += long(newton);
-      r.stats["wall_time_s"] = std::chrono::duration<double>(Clock::now() - t0).count();
-      if (store[k]) {
-        std::lock_guard<std::mutex> lock(mu);
-        --running;
-        if (!stop) results.push_back(std::move(r));
-        cv.notify_all();
-      }
-      if (failed) {
-        for (int j = k + 1; j <= last; ++j) run_chain({members[j]}, {store[j]}, 0);
-        return;
-      }
+    } catch (...) {
+      // A file that cannot be written ends the run: the engines stop at their next check (the
+      // process-wide flag, restored afterwards unless a signal asked for the stop too).
+      scheduler.cancel();
+      if (!stop_was_requested) request_stop();
+      scheduler.join();
+      if (!stop_was_requested && stop_signal() == 0) clear_stop_request();
+      throw;
     }
-  };
-
-  auto worker = [&]() {
-    omp_set_num_threads(tpj);
-    while (true) {
-      std::size_t ci;
-      {
-        std::lock_guard<std::mutex> lock(mu);
-        if (stop || next_chain >= chains.size()) break;
-        ci = next_chain++;
-      }
-      run_chain(chains[ci].members, chains[ci].store, chains[ci].last);
-    }
-    std::lock_guard<std::mutex> lock(mu);
-    --workers_alive;
-    cv.notify_all();
-  };
-
-  std::vector<std::thread> threads;
-  for (int j = 0; j < jobs; ++j) threads.emplace_back(worker);
-
-  auto write_outputs = [&] {
-    std::vector<const CaseRecord*> ordered;
-    // cases.csv follows the campaign order; store groups are sorted by id.
-    for (const auto& c : campaign.cases)
-      if (const auto it = records.find(c.id); it != records.end()) ordered.push_back(&it->second);
-    {
-      std::lock_guard<std::mutex> lock(hdf5_mutex());
-      write_store(report.store, records, campaign.description);
-    }
-    io::write_file_atomic(report.csv, cases_csv(ordered));
-  };
-  if (chains.empty()) write_outputs();  // a finished campaign: refresh cases.csv (e.g. after edits)
-
-  int committed = 0;
-  while (true) {
-    std::unique_lock<std::mutex> lock(mu);
-    cv.wait(lock, [&] { return !results.empty() || workers_alive == 0; });
-    if (results.empty() && workers_alive == 0) break;
-    std::vector<CaseRecord> batch;
-    while (!results.empty()) {
-      batch.push_back(std::move(results.front()));
-      results.pop_front();
-    }
-    const int now_running = running;
-    lock.unlock();
-    for (auto& r : batch) {
-      ++report.finished;
-      if (r.status != "ok") ++report.failed;
-      if (r.info.count("warm_start_from")) ++report.warm_started;
-      report.case_time_s += r.stats["wall_time_s"];
-      if (!options.quiet) {
-        std::cerr << "[sweep] " << r.id << ": " << r.status;
-        if (r.status != "ok") std::cerr << " (" << r.error << ")";
-        std::cerr << ", " << r.rows() << " rows, " << hms(r.stats["wall_time_s"])
-                  << (r.info.count("warm_start_from") ? ", warm from " + r.info["warm_start_from"] : "") << "\n";
-      }
-      records[r.id] = std::move(r);
-    }
-    write_outputs();
-    committed += int(batch.size());
-    if (!options.quiet) {
-      const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-      const int left = to_run - report.finished;
-      const double eta = report.finished > 0 ? elapsed / report.finished * left : -1.0;
-      std::cerr << "[sweep] done " << report.finished << "/" << to_run << " (failed " << report.failed << "), running "
-                << now_running << ", skipped " << report.skipped << " | elapsed " << hms(elapsed) << ", ETA "
-                << (left == 0 ? "0s" : hms(eta)) << "\n";
-    }
-    if (options.max_new_cases > 0 && committed >= options.max_new_cases) {
-      stop = true;  // a simulated kill: cases in flight are dropped
-      std::lock_guard<std::mutex> l2(mu);
-      results.clear();
-    }
+    scheduler.join();
   }
-  for (auto& t : threads) t.join();
+  report.interrupted = stop_requested() && report.finished < to_run;
+  if (report.interrupted && !options.quiet)
+    std::cerr << "[sweep] interrupted: " << report.finished << " of " << to_run
+              << " cases finished and stored; rerun the same command to complete the campaign\n";
   report.wall_time_s = std::chrono::duration<double>(Clock::now() - start).count();
   report.newton_iterations = newton_computed;
   return report;

@@ -26,11 +26,31 @@
 //   volume_fraction = 0 is the matrix alone (section and arrangement then do not matter).
 //   [campaign] warm_start = true   see below.
 //
-// Store (DIR/campaign.h5, rebuilt atomically after every finished case): /cases/<id> groups with the
-// parameters and status as attributes and the response table (dataset "response", attribute
-// "columns"; the `softhom rve` response.csv layout); DIR/cases.csv: one row per case and step with
-// every parameter as a column. A case whose id and scene hash are in the store is skipped on a rerun.
+// Output directory (one writer at a time: `campaign.lock` holds an advisory flock for the whole run
+// and the holder's pid and host; a second writer is refused at once, StoreBusy, exit code 1).
+// Every file is written under a temporary name (.NAME.tmp-PID), synced and renamed, after every
+// finished case; temporaries of dead writers are removed when the next writer takes the lock.
+// A case whose id and scene hash are in the store is skipped on a rerun; cases of other campaigns
+// run into the same directory stay (the store merges, never replaces).
 //
+// DIR/campaign.h5 (format "softhom-campaign-2"; stores of format 1 are read for resume and
+// rewritten in format 2):
+//   /                 attributes format, description (of the last campaign written), softhom_version
+//   /index            compound dataset, one row per case sorted by id: case, status, one column per
+//                     parameter (strings, float64; resolution int64), rows, steps, newton_iterations
+//                     (int64), error, scene_hash. pandas: pd.DataFrame(h5py.File(p)["index"][()]) (strings as bytes).
+//   /cases/<id>       group per case. Attributes: parameters (names in column order), one attribute
+//                     per parameter (string, float64, int64 for resolution; angle NaN for the matrix
+//                     alone), status ("ok" or "failed"), error, scene (the case's TOML), scene_hash, counts as int64 (steps,
+//                     newton_iterations, krylov_iterations, cutbacks, voxels, threads), other statistics
+//                     as float64 (timings, volume_fraction_achieved), notes as strings (geometry, fft,
+//                     log, warm_start_from, on_path_of).
+//   /cases/<id>/response  float64 rows x columns (the `softhom rve` response.csv table, 0 rows for a
+//                     case that failed before its first converged state); attribute columns.
+// DIR/cases.csv: one row per case and step (the campaign's cases in campaign order, then the store's
+// other cases by id) with every parameter as a column; angle "NaN" for the matrix alone.
+// Case ids are HDF5 group names: no control characters, no '/', not empty, "." or "..".
+
 // Warm starts (on by default; --no-warm-start or [campaign] warm_start = false): cases of one
 // microstructure (same scene but [load]) whose load paths lie on each other's form a chain and the
 // longest path is run once. Elastic phases: the response depends on the path of the controlled values
@@ -46,6 +66,9 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
+#include <set>
+#include <stdexcept>
 #include <string>
 #include <variant>
 #include <vector>
@@ -107,14 +130,82 @@ struct CaseRecord {
 /// except for these.
 bool is_timing_stat(const std::string& name);
 
-/// Reads DIR/campaign.h5 (empty map when absent). Throws std::runtime_error on a corrupt store.
+/// Why `id` cannot be a case id (an HDF5 group name), or "" when it can.
+std::string case_id_problem(const std::string& id);
+/// `s` with control characters written as \xNN (for messages).
+std::string escape_control_characters(const std::string& s);
+
+/// Reads DIR/campaign.h5 (empty map when absent). Throws std::runtime_error naming the file on a
+/// corrupt store or one of an unknown format.
 std::map<std::string, CaseRecord> read_store(const std::filesystem::path& store);
-/// Writes all records (sorted by id) to `store` atomically (temporary file + rename).
+/// Writes all records (sorted by id) to `store` atomically (temporary file + fsync + rename). On any
+/// failure (full disk, read-only directory, HDF5 error) throws std::runtime_error with the path and
+/// the reason, after removing the temporary: the previous store is unchanged.
 void write_store(const std::filesystem::path& store, const std::map<std::string, CaseRecord>& records,
                  const std::string& description);
 /// The tidy table: case, status, every parameter (union over cases, first-seen order), step, then the
 /// response columns. A failed case without a converged row still has one row (empty response).
 std::string cases_csv(const std::vector<const CaseRecord*>& records);
+
+/// A second writer of a campaign directory: names the directory and the holder (pid, host).
+struct StoreBusy : std::runtime_error {
+  StoreBusy(const std::filesystem::path& dir, const std::string& holder);
+};
+
+/// The advisory lock of a campaign directory (flock on DIR/campaign.lock, which records pid and
+/// host), held while the object lives. Throws StoreBusy when another open file holds it (another
+/// process, or another StoreLock of this one), std::runtime_error when it cannot be created.
+class StoreLock {
+ public:
+  explicit StoreLock(const std::filesystem::path& dir);
+  ~StoreLock();
+  StoreLock(const StoreLock&) = delete;
+  StoreLock& operator=(const StoreLock&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  long previous_pid() const { return previous_pid_; }               ///< the last holder (0: none)
+  const std::string& previous_host() const { return previous_host_; }
+
+ private:
+  int fd_ = -1;
+  std::filesystem::path path_;
+  long previous_pid_ = 0;
+  std::string previous_host_;
+};
+
+/// Removes DIR/.NAME.tmp-PID files whose process is gone; only when `writer_host` (the host of the
+/// last lock holder) is this host or unknown, since other hosts' pids cannot be checked. Call with
+/// the lock held. Returns the removed paths.
+std::vector<std::filesystem::path> remove_stale_temporaries(const std::filesystem::path& dir, const std::string& writer_host);
+
+/// The store of one campaign directory, owned by this object: takes the lock, removes stale
+/// temporaries, reads the store. add() then write() rewrites campaign.h5 and cases.csv; a store that
+/// changed on disk meanwhile is merged (its cases kept, the ones added here win).
+class CampaignStore {
+ public:
+  explicit CampaignStore(const std::filesystem::path& dir);
+  ~CampaignStore();
+  const std::map<std::string, CaseRecord>& records() const { return records_; }
+  void add(CaseRecord record);
+  void write(const Campaign& campaign);
+  const std::filesystem::path& store_path() const { return store_path_; }
+  const std::filesystem::path& csv_path() const { return csv_path_; }
+  const std::vector<std::filesystem::path>& removed_temporaries() const { return removed_temporaries_; }
+
+ private:
+  struct Stamp;
+  std::filesystem::path dir_;
+  StoreLock lock_;
+  std::filesystem::path store_path_, csv_path_;
+  std::map<std::string, CaseRecord> records_;
+  std::set<std::string> mine_;
+  std::unique_ptr<Stamp> stamp_;
+  std::vector<std::filesystem::path> removed_temporaries_;
+};
+
+/// Tests only: called with the temporary's path half way through writing the store (the temporary
+/// exists, open and partly written; before fsync and rename): a throwing fault simulates a full
+/// disk. An empty function: no fault.
+void set_store_write_fault_for_testing(std::function<void(const std::filesystem::path&)> fault);
 
 struct SweepOptions {
   int jobs = 1;           ///< cases in parallel (threads); 0: one single-threaded job per thread
@@ -124,6 +215,8 @@ struct SweepOptions {
   bool quiet = false;     ///< no progress on stderr
   /// Stop after this many newly finished cases (0: no limit); simulates an interrupted run in tests.
   int max_new_cases = 0;
+  /// Called in the writing thread after each finished case is in the store (tests: request_stop()).
+  std::function<void(const CaseRecord&)> on_case_stored;
 };
 
 struct SweepReport {
@@ -133,11 +226,16 @@ struct SweepReport {
   double wall_time_s = 0.0;
   double case_time_s = 0.0;  ///< sum of the wall times of the cases run now
   long newton_iterations = 0; ///< Newton iterations computed now (a shared load path counts once)
+  bool interrupted = false;   ///< stop_requested() (SIGINT/SIGTERM): finished cases are stored
+  std::vector<std::filesystem::path> removed_temporaries;  ///< stale ones of killed runs
   std::filesystem::path store, csv;
 };
 
-/// Runs the campaign's unfinished cases into DIR/campaign.h5 and DIR/cases.csv. Failed cases are
-/// recorded with their error; only bad input (before any case runs) throws.
+/// Runs the campaign's unfinished cases into DIR/campaign.h5 and DIR/cases.csv, holding the
+/// directory's lock. Failed cases are recorded with their error. Throws InputError for bad input
+/// (a case id that cannot be a group name) before anything runs, StoreBusy when another writer holds
+/// the directory, std::runtime_error when a file cannot be written (the previous files stay). On
+/// stop_requested() the cases in flight are abandoned and the report says interrupted.
 SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& dir, const SweepOptions& options);
 
 }  // namespace softhom::studies
