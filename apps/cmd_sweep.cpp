@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "run_control.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/materials/errors.hpp"
@@ -60,12 +61,14 @@ int run_sweep(const CommandOptions& options) {
     if (const auto it = stored.find(c.id); it != stored.end()) (it->second.status == "ok" ? ok : failed)++;
   summary["stored_ok"] = ok;
   summary["stored_failed"] = failed;
+  const bool all_ok = failed == 0 && ok == r.total;
+  io::set_run_status(summary, all_ok, all_ok ? "" : stop_requested() ? interruption_message() : "some cases failed");
   io::write_summary(options.out, summary);
   if (!options.quiet)
     std::cerr << "softhom sweep: " << ok << " ok, " << failed << " failed of " << r.total << " cases ("
               << r.finished << " run now in " << r.wall_time_s << " s) → " << r.store.string() << ", "
               << r.csv.string() << "\n";
-  return failed == 0 && ok == r.total ? 0 : 1;
+  return run_exit_code(all_ok);
 }
 
 }  // namespace softhom::app

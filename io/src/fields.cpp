@@ -15,6 +15,7 @@
 
 #include <fcntl.h>
 #include <hdf5.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
 #include "softhom/io/files.hpp"
@@ -88,6 +89,11 @@ class Handle {
   ~Handle() { reset(); }
   hid_t get() const { return id_; }
   bool valid() const { return id_ >= 0; }
+  hid_t release() {
+    const hid_t id = id_;
+    id_ = -1;
+    return id;
+  }
   // Returns false if HDF5 reported an error while closing (for a file: data may not be flushed).
   bool reset() {
     bool ok = true;
@@ -109,6 +115,47 @@ Handle checked(hid_t id, herr_t (*close)(hid_t), const std::string& what) {
 Handle checked_write(hid_t id, herr_t (*close)(hid_t), const fs::path& target, const std::string& what) {
   if (id < 0) hdf5_write_fail(target, what);
   return Handle(id, close);
+}
+
+// Closes a file whose content is to be discarded (an unfinished or failed writer). A file that met a
+// full disk cannot be closed: its closing flush fails again, the identifier stays open, and HDF5's
+// exit handler then crashes closing it. So the file's descriptor is first pointed at an anonymous
+// in-memory file (sparse: only the small closing writes take memory), where the flush succeeds.
+void abandon_file(hid_t file) {
+  void* handle = nullptr;
+  if (H5Fget_vfd_handle(file, H5P_DEFAULT, &handle) >= 0 && handle) {
+    const int fd = *static_cast<int*>(handle);
+    const int scratch = ::memfd_create("softhom-abandoned-h5", MFD_CLOEXEC);
+    if (scratch >= 0) {
+      ::dup2(scratch, fd);
+      ::close(scratch);
+    }
+  }
+  H5Fclose(file);
+}
+
+herr_t abandon_close(hid_t file) {
+  abandon_file(file);
+  return 0;
+}
+
+// Flushes and closes a finished file (flush is where a full disk shows). On failure the file is
+// abandoned and WriteError thrown, naming `target`.
+void finish_file(Handle& file, const fs::path& target, const fs::path& tmp) {
+  const std::string what = "cannot finish temporary '" + tmp.string() + "'";
+  if (H5Fflush(file.get(), H5F_SCOPE_GLOBAL) < 0) {
+    const int err = hdf5_errno();
+    const std::string detail = hdf5_error_detail();
+    abandon_file(file.release());
+    throw WriteError(target, err ? what : what + " (HDF5: " + detail + ")", err);
+  }
+  const hid_t id = file.release();
+  if (H5Fclose(id) < 0) {
+    const int err = hdf5_errno();
+    const std::string detail = hdf5_error_detail();
+    abandon_file(id);
+    throw WriteError(target, err ? what : what + " (HDF5: " + detail + ")", err);
+  }
 }
 
 // A variable-length string attribute on `loc` (file, group or dataset).
@@ -245,7 +292,7 @@ struct FieldWriter::Impl {
     if (finished) return;
     // Unfinished writer: drop everything, so no half-written result is left behind.
     group.reset();
-    file.reset();
+    if (file.valid()) abandon_file(file.release());
     std::error_code ec;
     fs::remove(h5_tmp, ec);
   }
@@ -456,7 +503,7 @@ void FieldWriter::close() {
                            "    <Grid Name=\"" + xml_escape(m.xdmf_final.stem().string()) +
                            "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n" +
                            m.steps_xml + "    </Grid>\n  </Domain>\n</Xdmf>\n";
-  if (!m.file.reset()) hdf5_write_fail(m.h5_final, "cannot finish temporary '" + m.h5_tmp.string() + "'");
+  finish_file(m.file, m.h5_final, m.h5_tmp);
   fsync_file(m.h5_tmp, m.h5_final);
   std::error_code ec;
   fs::rename(m.h5_tmp, m.h5_final, ec);
@@ -565,7 +612,8 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
   const std::string href_file = xml_escape(h5_final.filename().string());
   std::string attrs_xml;
   {
-    Handle file = checked_write(H5Fcreate(h5_tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
+    // Closed by finish_file() when complete; an exception before that abandons it (abandon_file).
+    Handle file = checked_write(H5Fcreate(h5_tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), abandon_close,
                                 h5_final, "cannot create temporary '" + h5_tmp.string() + "'");
     write_string_attribute(file.get(), "softhom_version", softhom_version(), h5_final);
     std::set<std::string> names;
@@ -615,7 +663,7 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
                    (ds.as_uint8 ? "UChar\" Precision=\"1" : "Float\" Precision=\"8") + "\" Format=\"HDF\">" + href_file +
                    ":/" + ds.name + "</DataItem>\n      </Attribute>\n";
     }
-    if (!file.reset()) hdf5_write_fail(h5_final, "cannot finish temporary '" + h5_tmp.string() + "'");
+    finish_file(file, h5_final, h5_tmp);
   }
   const std::vector<hsize_t> node_dims{hsize_t(grid.cells[2] + 1), hsize_t(grid.cells[1] + 1), hsize_t(grid.cells[0] + 1)};
   const std::string xdmf =
