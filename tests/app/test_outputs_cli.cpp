@@ -263,3 +263,32 @@ TEST(OutputsCli, ProgressInAFileIsPlainLines) {
   EXPECT_EQ(r.output.find("0,0,0"), std::string::npos) << r.output;
   fs::remove_all(out);
 }
+
+TEST(OutputsCli, MacroSpeaksTheSharedVocabularyAndStopsOnSignal) {
+  const auto out = fresh_dir("outputs_macro");
+  const CommandResult r =
+      run_env("SOFTHOM_TEST_SIGTERM_AFTER_STEPS=3", "macro " + scene("macro_plate_uniaxial") + " -q -o " + out.string());
+  EXPECT_EQ(r.exit_code, 128 + SIGTERM) << r.output;
+  const Csv csv = read_csv(out / "response.csv");
+  ASSERT_FALSE(csv.columns.empty());
+  EXPECT_EQ(csv.columns.front(), "t");  // not "time": one vocabulary across subcommands
+  EXPECT_EQ(csv.rows.size(), 4u);       // undeformed state + three converged output times
+  const auto s = read_json(out / "summary.json");
+  EXPECT_EQ(s["status"], "interrupted");
+  for (const auto& c : csv.columns) EXPECT_FALSE(s["columns"][c]["unit"].get<std::string>().empty()) << c;
+  EXPECT_TRUE(temporaries(out).empty());
+  fs::remove_all(out);
+}
+
+TEST(OutputsCli, EveryRveAndPointColumnHasAUnit) {
+  for (const std::string command : {"point", "rve"}) {
+    const auto out = fresh_dir("outputs_units_" + command);
+    ASSERT_EQ(run_softhom(command + " -q -o " + out.string()).exit_code, 0);
+    const Csv csv = read_csv(out / "response.csv");
+    const auto s = read_json(out / "summary.json");
+    EXPECT_EQ(s["status"], "completed");
+    EXPECT_EQ(s["columns"].size(), csv.columns.size());
+    for (const auto& c : csv.columns) EXPECT_FALSE(s["columns"][c]["unit"].get<std::string>().empty()) << command << " " << c;
+    fs::remove_all(out);
+  }
+}
