@@ -17,6 +17,7 @@
 #include "embedded_scenes.hpp"
 #include "scene_source.hpp"
 #include "run_control.hpp"
+#include "softhom/io/fields.hpp"
 #include "softhom/io/files.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
@@ -143,6 +144,7 @@ int main(int argc, char** argv) {
       "written; 2 bad command line or scene; 128+N interrupted by signal N (130 Ctrl-C, 143 SIGTERM), "
       "converged rows and summary.json (status \"interrupted\") kept.");
   install_stop_handlers();
+  io::silence_hdf5_errors();
 
   app::CommandOptions options;
   struct Sub {

@@ -513,6 +513,8 @@ void FieldWriter::close() {
   write_file_atomic(m.xdmf_final, xdmf);
 }
 
+void silence_hdf5_errors() { silence_hdf5(); }
+
 Dataset read_dataset(const std::filesystem::path& file, const std::string& dataset) {
   silence_hdf5();
   std::error_code ec;
@@ -572,11 +574,11 @@ namespace softhom::io {
 
 namespace {
 
-void write_attribute(hid_t loc, const char* name, const std::array<double, 3>& v, const std::string& what) {
+void write_attribute(hid_t loc, const char* name, const std::array<double, 3>& v, const std::string& what, const fs::path& target) {
   const hsize_t n = 3;
-  Handle space = checked(H5Screate_simple(1, &n, nullptr), H5Sclose, what);
-  Handle attr = checked(H5Acreate2(loc, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, what);
-  if (H5Awrite(attr.get(), H5T_NATIVE_DOUBLE, v.data()) < 0) hdf5_fail(what);
+  Handle space = checked_write(H5Screate_simple(1, &n, nullptr), H5Sclose, target, what);
+  Handle attr = checked_write(H5Acreate2(loc, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, target, what);
+  if (H5Awrite(attr.get(), H5T_NATIVE_DOUBLE, v.data()) < 0) hdf5_write_fail(target, what);
 }
 
 }  // namespace
@@ -646,16 +648,16 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
                                         std::to_string(i));
         write_dataset(file.get(), ds.name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, ds.values.data(), dims, h5_final);
       }
-      Handle set = checked(H5Dopen2(file.get(), ds.name.c_str(), H5P_DEFAULT), H5Dclose, what);
-      write_attribute(set.get(), "voxel_size", grid.spacing, what);
-      write_attribute(set.get(), "cell_size", cell, what);
+      Handle set = checked_write(H5Dopen2(file.get(), ds.name.c_str(), H5P_DEFAULT), H5Dclose, h5_final, what);
+      write_attribute(set.get(), "voxel_size", grid.spacing, what, h5_final);
+      write_attribute(set.get(), "cell_size", cell, what, h5_final);
       {  // Layout tag in the convention of FANS (variable-length string; "zyx": file dims z, y, x)
-        Handle str = checked(H5Tcopy(H5T_C_S1), H5Tclose, what);
-        if (H5Tset_size(str.get(), H5T_VARIABLE) < 0) hdf5_fail(what);
-        Handle scalar = checked(H5Screate(H5S_SCALAR), H5Sclose, what);
-        Handle attr = checked(H5Acreate2(set.get(), "permute_order", str.get(), scalar.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, what);
+        Handle str = checked_write(H5Tcopy(H5T_C_S1), H5Tclose, h5_final, what);
+        if (H5Tset_size(str.get(), H5T_VARIABLE) < 0) hdf5_write_fail(h5_final, what);
+        Handle scalar = checked_write(H5Screate(H5S_SCALAR), H5Sclose, h5_final, what);
+        Handle attr = checked_write(H5Acreate2(set.get(), "permute_order", str.get(), scalar.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, h5_final, what);
         const char* zyx = "zyx";
-        if (H5Awrite(attr.get(), str.get(), &zyx) < 0) hdf5_fail(what);
+        if (H5Awrite(attr.get(), str.get(), &zyx) < 0) hdf5_write_fail(h5_final, what);
       }
       const char* type = ds.components == 1 ? "Scalar" : "Vector";
       attrs_xml += "      <Attribute Name=\"" + ds.name + "\" AttributeType=\"" + type + "\" Center=\"Cell\">\n" +

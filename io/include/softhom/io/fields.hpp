@@ -63,6 +63,10 @@ class FieldWriter {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Turns HDF5's automatic error-stack printing off for the whole process (main() calls it first):
+/// every HDF5 call of softhom checks its result and reports a failure as one message.
+void silence_hdf5_errors();
+
 /// Reads an HDF5 dataset as doubles (any numeric type converted) with its dimensions (C order), whether
 /// it is stored as integers, and its numeric attributes (name → values, flattened).
 struct Dataset {
