@@ -93,6 +93,7 @@ int run_rve(const CommandOptions& options) {
     nlohmann::json summary = io::summary_base("rve", scene.file, scene.table);
     summary["files"] = {"microstructure.h5", "microstructure.xdmf"};
     summary["microstructure_only"] = true;
+    io::set_run_status(summary, true, "");
     summary["grid"] = image.n;
     summary["cell_size"] = image.size;
     summary["volume_fraction_target"] = target_vf;

@@ -314,6 +314,7 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
     nlohmann::json summary = io::summary_base("rve", scene.file, scene.table);
     summary["engine"] = "fe";
     summary["microstructure_only"] = true;
+    io::set_run_status(summary, true, "");
     summary["cell_size"] = {section.L1, section.L2};
     summary["volume_fraction_target"] = target_vf;
     summary["volume_fraction_achieved"] = fiber_measure / cell_measure;
