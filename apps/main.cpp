@@ -8,7 +8,9 @@
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
+#include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <fstream>
 #include <iostream>
 #include <thread>
@@ -31,6 +33,14 @@ namespace fs = std::filesystem;
 /// Runs one subcommand: clears stale temporaries in --out first, maps every exception to its documented
 /// exit code with one clear message, and removes this process's temporaries on every way out.
 int run_command(const char* name, int (*run)(const CommandOptions&), const CommandOptions& options) {
+  // An exception that escapes where it cannot be caught (an OpenMP region) ends in std::terminate,
+  // which unwinds nothing: remove this process's temporaries there too.
+  static fs::path out_for_terminate;
+  out_for_terminate = options.out;
+  std::set_terminate([] {
+    io::remove_own_temporaries(out_for_terminate);
+    std::abort();
+  });
   std::error_code ec;
   if (fs::exists(options.out, ec) && !fs::is_directory(options.out, ec)) {
     std::cerr << "softhom " << name << ": input error: --out '" << options.out.string()
