@@ -19,6 +19,7 @@
 #include "softhom/fe/gmsh.hpp"
 
 #include "commands.hpp"
+#include "run_control.hpp"
 #include "scene_source.hpp"
 #include "softhom/io/fields.hpp"
 #include "softhom/io/files.hpp"
@@ -267,15 +268,24 @@ io::UnstructuredMesh field_mesh(const fe::Mesh& mesh) {
   return out;
 }
 
+// Field names follow the response vocabulary of every subcommand (files.hpp): sigma is the Cauchy stress.
 void write_fields(io::FieldWriter& w, const fe::Simulation& sim) {
   const fe::ElementFields f = sim.element_fields();
   w.begin_step(sim.time());
-  w.add("displacement", sim.displacement(), 3, io::Centering::node);
-  w.add("cauchy_stress", f.cauchy, 9, io::Centering::cell);
-  w.add("von_mises", f.von_mises, 1, io::Centering::cell);
-  w.add("J", f.J, 1, io::Centering::cell);
-  w.add("fiber_direction", f.fiber, 3, io::Centering::cell);
+  w.add("displacement", sim.displacement(), 3, io::Centering::node, "mm");
+  w.add("sigma", f.cauchy, 9, io::Centering::cell, "MPa");
+  w.add("von_mises", f.von_mises, 1, io::Centering::cell, "MPa");
+  w.add("J", f.J, 1, io::Centering::cell, "1");
+  w.add("fiber_direction", f.fiber, 3, io::Centering::cell, "1");
   w.end_step();
+}
+
+// The structure's probe columns in the shared vocabulary: time is `t` as in every response.csv.
+std::vector<std::string> response_columns(const macro::Structure& structure) {
+  std::vector<std::string> columns = macro::probe_names(structure);
+  for (auto& c : columns)
+    if (c == "time") c = "t";
+  return columns;
 }
 
 }  // namespace
@@ -292,39 +302,45 @@ int run_macro(const CommandOptions& options) {
               << sim.num_free_dofs() << " free dofs, "
               << fe::to_string(sim.solver_kind()) << "\n";
 
-  io::CsvTable table(macro::probe_names(structure));
+  io::ProgressiveCsv table(options.out / "response.csv", response_columns(structure));
   table.add_row(macro::probe_values(structure, sim));
   std::unique_ptr<io::FieldWriter> writer;
   if (ms.fields) {
     writer = std::make_unique<io::FieldWriter>(options.out / "fields", field_mesh(structure.model.mesh));
+    writer->set_attribute("frame", "global Cartesian frame of the structure's mesh (x, y, z); tensors row-major");
     write_fields(*writer, sim);
   }
   std::string error;
   std::size_t done = 0;
+  Progress progress(options.quiet);
   try {
     for (double t : ms.times) {
+      if (stop_requested()) break;  // between output times; the Newton loops poll inside a step
       sim.advance_to(t);
       table.add_row(macro::probe_values(structure, sim));
       if (writer) write_fields(*writer, sim);
       ++done;
-      if (!options.quiet)
-        std::cerr << "\r" << tag << "t = " << t << " / " << ms.times.back() << " (" << sim.stats().newton_iterations
-                  << " Newton iterations, " << sim.stats().cutbacks << " cut-backs)   " << std::flush;
+      progress.update(tag + "t = " + format_number(t) + " / " + format_number(ms.times.back()) + " (" +
+                      std::to_string(sim.stats().newton_iterations) + " Newton iterations, " +
+                      std::to_string(sim.stats().cutbacks) + " cut-backs)");
+      raise_test_signal_after(done);
     }
   } catch (const ConvergenceError& e) {
     error = e.what();
   }
-  if (!options.quiet) std::cerr << "\n";
+  const bool completed = error.empty() && done == ms.times.size();
+  if (!completed && stop_requested()) error = interruption_message();
+  progress.finish();
   for (const auto& line : sim.stats().log)
     if (!options.quiet) std::cerr << tag << line << "\n";
-  table.write(options.out / "response.csv");
+  table.flush();
   if (writer) writer->close();
 
   const fe::RunStats st = sim.stats();
   nlohmann::json summary = io::summary_base("macro", scene.file, scene.table);
   summary["material"] = ms.spec.material->describe();
-  summary["completed"] = error.empty();
-  summary["error"] = error;
+  io::set_run_status(summary, completed, error);
+  summary["columns"] = io::columns_json(table.table().columns());
   summary["output_steps"] = done;
   summary["steps"] = st.steps;
   summary["newton_iterations"] = st.newton_iterations;
@@ -346,9 +362,10 @@ int run_macro(const CommandOptions& options) {
   summary["warnings"] = st.log;
   summary["wall_time_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   io::write_summary(options.out, summary);
-  if (!error.empty()) {
-    std::cerr << "softhom macro: stopped early: " << error << "\n";
-    return 1;
+  if (!completed) {
+    std::cerr << "softhom macro: stopped early: " << error << "\nsofthom macro: " << table.rows()
+              << " converged rows kept in " << table.path().string() << "\n";
+    return run_exit_code(false);
   }
   if (!options.quiet)
     std::cerr << "softhom macro: " << st.steps << " steps, " << st.newton_iterations << " Newton iterations → "

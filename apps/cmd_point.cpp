@@ -4,6 +4,7 @@
 
 #include "commands.hpp"
 #include "point_output.hpp"
+#include "run_control.hpp"
 #include "scene_source.hpp"
 #include "softhom/io/files.hpp"
 #include "softhom/io/scene.hpp"
@@ -58,25 +59,40 @@ PointRun run_point_scene(const LoadedScene& scene, const std::filesystem::path& 
   const PointSolverOptions options = parse_point_solver(scene.table);
 
   const double t_end = control.times.back();
+  // Rows reach response.csv as the steps converge (io::ProgressiveCsv), so a stopped or killed run
+  // keeps them; the progress shows every tenth of the load.
+  io::ProgressiveCsv csv(out / "response.csv", point_table(material->fiber_directions().size()).columns());
+  std::vector<PointState> converged;
+  Progress progress(quiet);
+  int tenths_shown = -1;
   auto on_step = [&](const PointState& s) {
-    if (!quiet && (s.t == t_end || int(s.t / t_end * 10) != int((s.t - 1e-300) / t_end * 10)))
-      std::cerr << "\r[point " << scene.name << "] t = " << s.t << " / " << t_end << "   " << std::flush;
+    csv.add_row(point_row(s));
+    converged.push_back(s);
+    const int tenths = t_end > 0.0 ? int(s.t / t_end * 10) : 10;
+    if (tenths != tenths_shown || s.t == t_end) {
+      progress.update("[point " + scene.name + "] t = " + format_number(s.t) + " / " + format_number(t_end));
+      tenths_shown = tenths;
+    }
+    stop_point(converged.size() - 1);
   };
   PointRun run;
-  run.result = run_material_point(*material, control, options, on_step);
-  if (!quiet) std::cerr << "\n";
+  try {
+    run.result = run_material_point(*material, control, options, on_step);
+  } catch (const RunInterrupted&) {
+    run.result.steps = std::move(converged);
+    run.result.completed = false;
+  }
+  if (!run.result.completed && stop_requested()) run.result.error = interruption_message();
+  progress.finish();
   for (const auto& line : run.result.log)
     if (!quiet) std::cerr << "[point " << scene.name << "] " << line << "\n";
-
-  io::CsvTable table = point_table(material->fiber_directions().size());
-  for (const auto& s : run.result.steps) table.add_row(point_row(s));
-  table.write(out / "response.csv");
+  csv.flush();
 
   nlohmann::json summary = io::summary_base("point", scene.file, scene.table);
   summary["material"] = material->describe();
   summary["load"] = control.name;
-  summary["completed"] = run.result.completed;
-  summary["error"] = run.result.error;
+  io::set_run_status(summary, run.result.completed, run.result.error);
+  summary["columns"] = io::columns_json(csv.table().columns());
   summary["steps"] = run.result.steps.empty() ? 0 : run.result.steps.size() - 1;
   summary["newton_iterations"] = run.result.total_newton_iterations;
   summary["cutbacks"] = run.result.cutbacks;
@@ -93,7 +109,7 @@ int run_point(const CommandOptions& options) {
     std::cerr << "softhom point: stopped early: " << run.result.error << "\n"
               << "softhom point: " << run.result.steps.size() << " converged rows kept in "
               << (options.out / "response.csv").string() << "\n";
-    return 1;
+    return run_exit_code(false);
   }
   if (!options.quiet)
     std::cerr << "softhom point: " << run.result.steps.size() - 1 << " steps, "

@@ -93,6 +93,7 @@ int run_rve(const CommandOptions& options) {
     nlohmann::json summary = io::summary_base("rve", scene.file, scene.table);
     summary["files"] = {"microstructure.h5", "microstructure.xdmf"};
     summary["microstructure_only"] = true;
+    io::set_run_status(summary, true, "");
     summary["grid"] = image.n;
     summary["cell_size"] = image.size;
     summary["volume_fraction_target"] = target_vf;
@@ -109,32 +110,42 @@ int run_rve(const CommandOptions& options) {
   rve::FftRveSolver solver(image, matrix, fiber, alpha, control.frame, solver_options);
   const double t_end = control.times.back();
   std::unique_ptr<io::FieldWriter> writer;
-  if (fields_mode != "none") writer = std::make_unique<io::FieldWriter>(options.out / "fields", voxel_grid(image));
+  if (fields_mode != "none") {
+    writer = std::make_unique<io::FieldWriter>(options.out / "fields", voxel_grid(image));
+    set_rve_field_attributes(*writer, alpha, "FFT voxels");
+  }
   auto want_fields = [&](double t) { return output.wants_fields(t, t_end); };
-  io::CsvTable table(studies::rve_response_columns());
-  nlohmann::json step_log = nlohmann::json::array();
+  RveRecorder record(options.out, studies::rve_response_columns());
+  Progress progress(options.quiet);
   auto on_step = [&](const rve::RveStep& s, const rve::RveFields* f) {
-    table.add_row(studies::rve_response_row(s));
-    step_log.push_back(rve_step_log_entry(s));
+    record.record(s, studies::rve_response_row(s));
     if (f && writer) {
       writer->begin_step(s.t);
-      writer->add("F", f->F, 9, io::Centering::cell);
-      writer->add("P", f->P, 9, io::Centering::cell);
-      writer->add("sigma", f->sigma, 9, io::Centering::cell);
-      writer->add("von_mises", f->von_mises, 1, io::Centering::cell);
-      writer->add("fiber_fraction", f->fiber_fraction, 1, io::Centering::cell);
+      writer->add("F", f->F, 9, io::Centering::cell, "1");
+      writer->add("P", f->P, 9, io::Centering::cell, "MPa");
+      writer->add("sigma", f->sigma, 9, io::Centering::cell, "MPa");
+      writer->add("von_mises", f->von_mises, 1, io::Centering::cell, "MPa");
+      writer->add("fiber_fraction", f->fiber_fraction, 1, io::Centering::cell, "1");
       writer->end_step();
     }
-    if (!options.quiet)
-      std::cerr << "\r[rve " << scene.name << "] t = " << s.t << " / " << t_end << "  P11 = " << s.P(0, 0)
-                << "  Newton " << s.newton_iterations << ", Krylov " << s.krylov_iterations << "      " << std::flush;
+    progress.update(rve_progress_line("[rve " + scene.name + "] ", s, t_end));
+    stop_point(record.steps.size() - 1);
   };
-  const rve::RveRunResult result = solver.run(control, on_step, want_fields);
-  if (!options.quiet) std::cerr << "\n";
+  const auto solve_start = std::chrono::steady_clock::now();
+  rve::RveRunResult result;
+  try {
+    result = solver.run(control, on_step, want_fields);
+  } catch (const RunInterrupted&) {
+    result = interrupted_rve_result(std::move(record.steps),
+                                    std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count());
+  }
+  if (!result.completed && stop_requested()) result.error = interruption_message();
+  progress.finish();
   for (const auto& line : result.log)
     if (!options.quiet) std::cerr << "[rve " << scene.name << "] " << line << "\n";
-  table.write(options.out / "response.csv");
+  record.csv.flush();
   if (writer) writer->close();
+  const nlohmann::json& step_log = record.step_log;
 
   nlohmann::json summary = io::summary_base("rve", scene.file, scene.table);
   summary["grid"] = image.n;
@@ -157,7 +168,9 @@ int run_rve(const CommandOptions& options) {
   summary["tolerance"] = solver_options.tolerance;
   summary["fft"] = solver.fft_description();
   summary["fft_planning_s"] = solver.planning_seconds();
-  if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start)) return 1;
+  summary["columns"] = io::columns_json(record.csv.table().columns());
+  if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start))
+    return run_exit_code(false);
   if (!options.quiet)
     std::cerr << "softhom rve: " << result.steps.size() - 1 << " steps, " << result.total_newton_iterations
               << " Newton / " << result.total_krylov_iterations << " Krylov iterations, " << result.wall_seconds

@@ -314,6 +314,7 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
     nlohmann::json summary = io::summary_base("rve", scene.file, scene.table);
     summary["engine"] = "fe";
     summary["microstructure_only"] = true;
+    io::set_run_status(summary, true, "");
     summary["cell_size"] = {section.L1, section.L2};
     summary["volume_fraction_target"] = target_vf;
     summary["volume_fraction_achieved"] = fiber_measure / cell_measure;
@@ -330,34 +331,44 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   rve::FeRveSolver& solver = *solver_ptr;
   const double t_end = control.times.back();
   std::unique_ptr<io::FieldWriter> writer;
-  if (fields_mode != "none") writer = std::make_unique<io::FieldWriter>(options.out / "fields", fmesh);
+  if (fields_mode != "none") {
+    writer = std::make_unique<io::FieldWriter>(options.out / "fields", fmesh);
+    set_rve_field_attributes(*writer, alpha, std::string(element_name) + " mesh, node coordinates in the grid frame");
+  }
   auto want_fields = [&](double t) { return output.wants_fields(t, t_end); };
-  io::CsvTable table(studies::rve_response_columns());
-  nlohmann::json step_log = nlohmann::json::array();
+  RveRecorder record(options.out, studies::rve_response_columns());
+  Progress progress(options.quiet);
   auto on_step = [&](const rve::RveStep& s, const rve::FeFields* f) {
-    table.add_row(studies::rve_response_row(s));
-    step_log.push_back(rve_step_log_entry(s));
+    record.record(s, studies::rve_response_row(s));
     if (f && writer) {
       writer->begin_step(s.t);
-      writer->add("displacement", f->displacement, 3, io::Centering::node);
-      writer->add("F", f->F, 9, io::Centering::cell);
-      writer->add("P", f->P, 9, io::Centering::cell);
-      writer->add("sigma", f->sigma, 9, io::Centering::cell);
-      writer->add("von_mises", f->von_mises, 1, io::Centering::cell);
-      writer->add("J", f->J, 1, io::Centering::cell);
+      writer->add("displacement", f->displacement, 3, io::Centering::node, "mm");
+      writer->add("F", f->F, 9, io::Centering::cell, "1");
+      writer->add("P", f->P, 9, io::Centering::cell, "MPa");
+      writer->add("sigma", f->sigma, 9, io::Centering::cell, "MPa");
+      writer->add("von_mises", f->von_mises, 1, io::Centering::cell, "MPa");
+      writer->add("J", f->J, 1, io::Centering::cell, "1");
       writer->add("phase", std::span<const int>(f->phase), io::Centering::cell);
       writer->end_step();
     }
-    if (!options.quiet)
-      std::cerr << "\r[rve fe " << scene.name << "] t = " << s.t << " / " << t_end << "  P11 = " << s.P(0, 0)
-                << "  Newton " << s.newton_iterations << "      " << std::flush;
+    progress.update(rve_progress_line("[rve fe " + scene.name + "] ", s, t_end));
+    stop_point(record.steps.size() - 1);
   };
-  const rve::RveRunResult result = solver.run(control, on_step, want_fields);
-  if (!options.quiet) std::cerr << "\n";
+  const auto solve_start = std::chrono::steady_clock::now();
+  rve::RveRunResult result;
+  try {
+    result = solver.run(control, on_step, want_fields);
+  } catch (const RunInterrupted&) {
+    result = interrupted_rve_result(std::move(record.steps),
+                                    std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count());
+  }
+  if (!result.completed && stop_requested()) result.error = interruption_message();
+  progress.finish();
   for (const auto& line : result.log)
     if (!options.quiet) std::cerr << "[rve fe " << scene.name << "] " << line << "\n";
-  table.write(options.out / "response.csv");
+  record.csv.flush();
   if (writer) writer->close();
+  const nlohmann::json& step_log = record.step_log;
 
   mesh_json["equations"] = solver.num_equations();
   mesh_json["matrix_nonzeros"] = solver.matrix_nonzeros();
@@ -389,7 +400,9 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   summary["factorizations"] = solver.factorizations();
   summary["linear_solver_time_s"] = solver.factorization_seconds();
   summary["assembly_time_s"] = solver.assembly_seconds();
-  if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start)) return 1;
+  summary["columns"] = io::columns_json(record.csv.table().columns());
+  if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start))
+    return run_exit_code(false);
   if (!options.quiet)
     std::cerr << "softhom rve (fe): " << num_elements << " " << element_name << " elements, " << result.steps.size() - 1
               << " steps, " << result.total_newton_iterations << " Newton iterations, " << result.wall_seconds << " s → "

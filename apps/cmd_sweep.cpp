@@ -4,12 +4,13 @@
 // scenes) with the FFT RVE engine into DIR/campaign.h5 (one group per case) and DIR/cases.csv (one
 // row per case and step). Rerunning the same command skips the finished cases. Writes
 // DIR/summary.json (counts, timings). Exit code 0 when every case is ok; 1 when some failed, when
-// SIGINT/SIGTERM interrupted the run (finished cases are stored, "interrupted": true in the summary;
-// rerun to complete), when another sweep holds DIR (campaign.lock) or when a file cannot be written
-// (the previous files stay); 2 for bad input.
+// another sweep holds DIR (campaign.lock) or when a file cannot be written (the previous files stay);
+// 128 + N when signal N (SIGINT, SIGTERM) interrupted the run (finished cases are stored,
+// "interrupted": true in the summary; rerun to complete); 2 for bad input.
 #include <iostream>
 
 #include "commands.hpp"
+#include "run_control.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/materials/errors.hpp"
@@ -65,12 +66,14 @@ int run_sweep(const CommandOptions& options) {
     if (const auto it = stored.find(c.id); it != stored.end()) (it->second.status == "ok" ? ok : failed)++;
   summary["stored_ok"] = ok;
   summary["stored_failed"] = failed;
+  const bool all_ok = !r.interrupted && failed == 0 && ok == r.total;
+  io::set_run_status(summary, all_ok, all_ok ? "" : stop_requested() ? interruption_message() : "some cases failed");
   io::write_summary(options.out, summary);
   if (!options.quiet)
     std::cerr << "softhom sweep: " << (r.interrupted ? "interrupted, " : "") << ok << " ok, " << failed << " failed of " << r.total << " cases ("
               << r.finished << " run now in " << r.wall_time_s << " s) → " << r.store.string() << ", "
               << r.csv.string() << "\n";
-  return !r.interrupted && failed == 0 && ok == r.total ? 0 : 1;
+  return run_exit_code(all_ok);
 }
 
 }  // namespace softhom::app

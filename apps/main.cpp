@@ -1,17 +1,76 @@
 // softhom: multiscale mechanics of soft fiber composites. One program, one subcommand per job.
+// Exit codes: see run_control.hpp (0 completed, 1 stopped early or write failure, 2 bad input,
+// 128 + signal when interrupted).
 #include <omp.h>
+#include <sys/stat.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <fstream>
 #include <iostream>
+#include <thread>
 
 #include "commands.hpp"
 #include "embedded_scenes.hpp"
 #include "scene_source.hpp"
+#include "run_control.hpp"
+#include "softhom/io/fields.hpp"
+#include "softhom/io/files.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/materials/errors.hpp"
+#include "softhom/materials/interrupt.hpp"
 
 namespace softhom::app {
+
+namespace fs = std::filesystem;
+
+/// Runs one subcommand: clears stale temporaries in --out first, maps every exception to its documented
+/// exit code with one clear message, and removes this process's temporaries on every way out.
+int run_command(const char* name, int (*run)(const CommandOptions&), const CommandOptions& options) {
+  // An exception that escapes where it cannot be caught (an OpenMP region) ends in std::terminate,
+  // which unwinds nothing: remove this process's temporaries there too.
+  static fs::path out_for_terminate;
+  out_for_terminate = options.out;
+  std::set_terminate([] {
+    io::remove_own_temporaries(out_for_terminate);
+    std::abort();
+  });
+  std::error_code ec;
+  if (fs::exists(options.out, ec) && !fs::is_directory(options.out, ec)) {
+    std::cerr << "softhom " << name << ": input error: --out '" << options.out.string()
+              << "' exists and is not a directory\n";
+    return 2;
+  }
+  for (const auto& p : io::remove_stale_temporaries(options.out))
+    if (!options.quiet) std::cerr << "softhom " << name << ": removed stale temporary " << p.string() << "\n";
+  int code = 1;
+  try {
+    code = run(options);
+  } catch (const InputError& e) {
+    std::cerr << "softhom " << name << ": input error: " << e.what() << "\n";
+    code = 2;
+  } catch (const io::WriteError& e) {
+    std::cerr << "softhom " << name << ": error: " << e.what() << "\n";
+    code = stop_requested() ? run_exit_code(false) : 1;
+  } catch (const RunInterrupted&) {
+    std::cerr << "softhom " << name << ": " << interruption_message() << "\n";
+    code = run_exit_code(false);
+  } catch (const std::exception& e) {
+    std::cerr << "softhom " << name << ": error: " << e.what() << "\n";
+    code = 1;
+  } catch (...) {
+    std::cerr << "softhom " << name << ": error: unknown exception\n";
+    code = 1;
+  }
+  io::remove_own_temporaries(options.out);
+  return code;
+}
 
 LoadedScene load_scene_or_default(const CommandOptions& options, const std::string& default_name) {
   LoadedScene s;
@@ -29,6 +88,59 @@ LoadedScene load_scene_or_default(const CommandOptions& options, const std::stri
   return s;
 }
 
+namespace {
+
+// A scene is a small hand-written TOML file. Larger files are not scenes (a mesh, an image or a log
+// given by mistake), and reading them whole would only waste time and memory before the parse fails.
+constexpr std::uintmax_t kMaxSceneBytes = 4u << 20;
+
+// Refuses anything but a regular, text-sized file, without opening it: opening a FIFO blocks until a
+// writer appears, and reading a device may never end.
+std::string check_scene_path(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return "'" + path + "': " + std::strerror(errno);
+  if (S_ISDIR(st.st_mode)) return "'" + path + "' is a directory; a scene is a TOML file";
+  if (S_ISFIFO(st.st_mode)) return "'" + path + "' is a FIFO (named pipe); a scene is a regular TOML file";
+  if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)) return "'" + path + "' is a device; a scene is a regular TOML file";
+  if (S_ISSOCK(st.st_mode)) return "'" + path + "' is a socket; a scene is a regular TOML file";
+  if (!S_ISREG(st.st_mode)) return "'" + path + "' is not a regular file";
+  if (static_cast<std::uintmax_t>(st.st_size) > kMaxSceneBytes)
+    return "'" + path + "' has " + std::to_string(st.st_size) + " bytes; a scene has at most " +
+           std::to_string(kMaxSceneBytes) + " (4 MiB)";
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return "'" + path + "': cannot be opened for reading";
+  char head[4096];
+  in.read(head, sizeof head);
+  if (std::find(head, head + in.gcount(), '\0') != head + in.gcount())
+    return "'" + path + "' is a binary file (NUL bytes); a scene is a TOML text file";
+  return {};
+}
+
+// More threads (or jobs) than a few per hardware thread only oversubscribe the cores (OpenMP barriers
+// spin) and each OpenMP thread reserves a stack: a huge count exhausts memory before any work is done.
+int max_parallelism() {
+  const unsigned hw = std::thread::hardware_concurrency();
+  return 4 * static_cast<int>(std::max(1u, hw));
+}
+
+CLI::Validator parallelism_range(const std::string& zero_means) {
+  const int max = max_parallelism();
+  return CLI::Validator(
+      [max](std::string& text) -> std::string {
+        long v = 0;
+        const auto r = std::from_chars(text.data(), text.data() + text.size(), v);
+        if (r.ec != std::errc{} || r.ptr != text.data() + text.size())
+          return "'" + text + "' is not a whole number";
+        if (v < 0 || v > max)
+          return text + " is out of range: 0 to " + std::to_string(max) + " (4 x the " +
+                 std::to_string(max / 4) + " hardware threads of this machine)";
+        return {};
+      },
+      "INT in [0, " + std::to_string(max) + "] (0: " + zero_means + ")");
+}
+
+}  // namespace
+
 }  // namespace softhom::app
 
 int main(int argc, char** argv) {
@@ -37,6 +149,12 @@ int main(int argc, char** argv) {
                ": multiscale mechanics of soft fiber composites (materials, FFT/FE RVE, macro FE)"};
   cli.set_version_flag("--version", "softhom " + io::softhom_version());
   cli.require_subcommand(1);
+  cli.footer(
+      "Exit codes: 0 completed; 1 stopped early (converged rows kept) or an output file could not be "
+      "written; 2 bad command line or scene; 128+N interrupted by signal N (130 Ctrl-C, 143 SIGTERM), "
+      "converged rows and summary.json (status \"interrupted\") kept.");
+  install_stop_handlers();
+  io::silence_hdf5_errors();
 
   app::CommandOptions options;
   struct Sub {
@@ -56,14 +174,15 @@ int main(int argc, char** argv) {
   for (const Sub& s : subs) {
     CLI::App* sub = cli.add_subcommand(s.name, s.help);
     sub->add_option("scene", options.scene, "scene file (TOML); omitted: the embedded default scene")
-        ->check(CLI::ExistingFile);
+        ->check(CLI::Validator(app::check_scene_path, "FILE"));
     sub->add_option("-o,--out", options.out, "output directory (created if needed)")->capture_default_str();
-    sub->add_option("-j,--threads", options.threads, "threads (0: all cores)")->check(CLI::NonNegativeNumber);
+    sub->add_option("-j,--threads", options.threads, "threads (0: all cores)")
+        ->check(app::parallelism_range("all cores"));
     sub->add_flag("-q,--quiet", options.quiet, "no progress on stderr");
     if (std::string(s.name) == "sweep" || std::string(s.name) == "demo") {
       sub->add_option("--jobs", options.jobs,
                       "cases run in parallel, the threads split between them (0: one single-threaded job per thread)")
-          ->check(CLI::NonNegativeNumber)
+          ->check(app::parallelism_range("one single-threaded job per thread"))
           ->capture_default_str();
       sub->add_flag("--no-warm-start", options.no_warm_start, "run every case from the undeformed state");
     }
@@ -77,16 +196,11 @@ int main(int argc, char** argv) {
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return cli.exit(e);
+    if (e.get_exit_code() == 0) return cli.exit(e);  // --help, --version
+    // CLI11's own codes (105, 109, ...) are one documented code here: bad command line = bad input.
+    std::cerr << "softhom: command line: " << e.what() << "\nRun 'softhom --help' for the options.\n";
+    return 2;
   }
   if (options.threads > 0) omp_set_num_threads(options.threads);
-  try {
-    return chosen->run(options);
-  } catch (const InputError& e) {
-    std::cerr << "softhom " << chosen->name << ": input error: " << e.what() << "\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "softhom " << chosen->name << ": error: " << e.what() << "\n";
-    return 1;
-  }
+  return app::run_command(chosen->name, chosen->run, options);
 }

@@ -13,6 +13,8 @@
 #include <nlohmann/json.hpp>
 #include <toml++/toml.h>
 
+#include "run_control.hpp"
+#include "softhom/io/fields.hpp"
 #include "softhom/io/files.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
@@ -69,13 +71,62 @@ inline nlohmann::json rve_step_log_entry(const rve::RveStep& s) {
           {"wall_time_s", s.wall_seconds}};
 }
 
+/// The result of a run whose step callback threw RunInterrupted: the converged steps recorded so far,
+/// their iteration totals, and the interruption as the error.
+inline rve::RveRunResult interrupted_rve_result(std::vector<rve::RveStep> steps, double wall_seconds) {
+  rve::RveRunResult r;
+  r.steps = std::move(steps);
+  r.completed = false;
+  r.error = interruption_message();
+  for (const auto& s : r.steps) {
+    r.total_newton_iterations += s.newton_iterations;
+    r.total_krylov_iterations += s.krylov_iterations;
+    r.cutbacks += s.cutbacks;
+  }
+  r.wall_seconds = wall_seconds;
+  return r;
+}
+
+/// The step callback's own record of a run: rows on disk as they converge, the summary step log, and
+/// the converged steps (kept for an interrupted run, whose solver result is lost in the unwinding).
+struct RveRecorder {
+  io::ProgressiveCsv csv;
+  nlohmann::json step_log = nlohmann::json::array();
+  std::vector<rve::RveStep> steps;
+
+  RveRecorder(const std::filesystem::path& out, std::vector<std::string> columns)
+      : csv(out / "response.csv", std::move(columns)) {}
+  void record(const rve::RveStep& s, const std::vector<double>& row) {
+    csv.add_row(row);
+    step_log.push_back(rve_step_log_entry(s));
+    steps.push_back(s);
+  }
+};
+
+/// One progress line of an RVE step.
+inline std::string rve_progress_line(const std::string& tag, const rve::RveStep& s, double t_end) {
+  return tag + "t = " + format_number(s.t) + " / " + format_number(t_end) + "  P11 = " + progress_number(s.P(0, 0)) +
+         "  Newton " + std::to_string(s.newton_iterations) + ", Krylov " + std::to_string(s.krylov_iterations);
+}
+
+/// Root attributes of an RVE fields.h5 beyond the ones every field file has (fields.hpp): where the
+/// cells sit and in which frame the tensors are given.
+inline void set_rve_field_attributes(io::FieldWriter& w, double fiber_angle_deg, const std::string& engine) {
+  const std::string a = format_number(fiber_angle_deg);
+  w.set_attribute("frame",
+                  "tensor and vector components in the load frame (e1 load direction, e2 in-plane transverse, "
+                  "e3 plate normal); cells on the fiber-aligned grid (" + engine +
+                  "): grid axes g1 = (cos a, -sin a, 0), g2 = (0, 0, -1), g3 = fiber = (sin a, cos a, 0) in "
+                  "load-frame coordinates, a = fiber_angle_deg = " + a);
+  w.set_attribute("fiber_angle_deg", a);
+}
+
 /// The run-result keys of summary.json common to both engines; writes summary.json (atomically) and,
 /// when the run stopped early, says so on stderr. Returns whether the run completed.
 inline bool finish_rve_summary(nlohmann::json& summary, const rve::RveRunResult& result, const nlohmann::json& step_log,
                                std::size_t solver_memory_bytes, const std::filesystem::path& out,
                                std::chrono::steady_clock::time_point wall_start) {
-  summary["completed"] = result.completed;
-  summary["error"] = result.error;
+  io::set_run_status(summary, result.completed, result.error);
   summary["steps"] = step_log;
   summary["newton_iterations"] = result.total_newton_iterations;
   summary["krylov_iterations"] = result.total_krylov_iterations;

@@ -7,15 +7,19 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <set>
 #include <stdexcept>
 #include <system_error>
 
 #include <fcntl.h>
 #include <hdf5.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
 #include "softhom/io/files.hpp"
+#include "softhom/io/summary.hpp"
 
 namespace softhom::io {
 
@@ -47,6 +51,27 @@ std::string hdf5_error_detail() {
   throw std::runtime_error(what + " (HDF5: " + hdf5_error_detail() + ")");
 }
 
+// HDF5's file-driver messages embed the OS error as "errno = N"; 0 when the stack carries none.
+int hdf5_errno() {
+  int found = 0;
+  auto cb = [](unsigned, const H5E_error2_t* e, void* data) -> herr_t {
+    const char* desc = e ? e->desc : nullptr;
+    const char* at = desc ? std::strstr(desc, "errno = ") : nullptr;
+    if (at && *static_cast<int*>(data) == 0) *static_cast<int*>(data) = std::atoi(at + 8);
+    return 0;
+  };
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, cb, &found);
+  return found;
+}
+
+// A failed HDF5 write of `target`: a WriteError naming the file the user asked for and the OS reason
+// (e.g. "No space left on device"), or HDF5's own short reason when the stack carries no errno.
+[[noreturn]] void hdf5_write_fail(const fs::path& target, const std::string& what) {
+  const int err = hdf5_errno();
+  if (err != 0) throw WriteError(target, what, err);
+  throw WriteError(target, what + " (HDF5: " + hdf5_error_detail() + ")", 0);
+}
+
 // Owns one HDF5 identifier and closes it with the matching H5?close.
 class Handle {
  public:
@@ -64,6 +89,11 @@ class Handle {
   ~Handle() { reset(); }
   hid_t get() const { return id_; }
   bool valid() const { return id_ >= 0; }
+  hid_t release() {
+    const hid_t id = id_;
+    id_ = -1;
+    return id;
+  }
   // Returns false if HDF5 reported an error while closing (for a file: data may not be flushed).
   bool reset() {
     bool ok = true;
@@ -82,13 +112,84 @@ Handle checked(hid_t id, herr_t (*close)(hid_t), const std::string& what) {
   return Handle(id, close);
 }
 
+Handle checked_write(hid_t id, herr_t (*close)(hid_t), const fs::path& target, const std::string& what) {
+  if (id < 0) hdf5_write_fail(target, what);
+  return Handle(id, close);
+}
+
+// Closes a file whose content is to be discarded (an unfinished or failed writer). A file that met a
+// full disk cannot be closed: its closing flush fails again, the identifier stays open, and HDF5's
+// exit handler then crashes closing it. So the file's descriptor is first pointed at an anonymous
+// in-memory file (sparse: only the small closing writes take memory), where the flush succeeds.
+void abandon_file(hid_t file) {
+  void* handle = nullptr;
+  if (H5Fget_vfd_handle(file, H5P_DEFAULT, &handle) >= 0 && handle) {
+    const int fd = *static_cast<int*>(handle);
+    const int scratch = ::memfd_create("softhom-abandoned-h5", MFD_CLOEXEC);
+    if (scratch >= 0) {
+      ::dup2(scratch, fd);
+      ::close(scratch);
+    }
+  }
+  H5Fclose(file);
+}
+
+herr_t abandon_close(hid_t file) {
+  abandon_file(file);
+  return 0;
+}
+
+// Flushes and closes a finished file (flush is where a full disk shows). On failure the file is
+// abandoned and WriteError thrown, naming `target`.
+void finish_file(Handle& file, const fs::path& target, const fs::path& tmp) {
+  const std::string what = "cannot finish temporary '" + tmp.string() + "'";
+  if (H5Fflush(file.get(), H5F_SCOPE_GLOBAL) < 0) {
+    const int err = hdf5_errno();
+    const std::string detail = hdf5_error_detail();
+    abandon_file(file.release());
+    throw WriteError(target, err ? what : what + " (HDF5: " + detail + ")", err);
+  }
+  const hid_t id = file.release();
+  if (H5Fclose(id) < 0) {
+    const int err = hdf5_errno();
+    const std::string detail = hdf5_error_detail();
+    abandon_file(id);
+    throw WriteError(target, err ? what : what + " (HDF5: " + detail + ")", err);
+  }
+}
+
+// A variable-length string attribute on `loc` (file, group or dataset).
+void write_string_attribute(hid_t loc, const char* name, const std::string& value, const fs::path& target) {
+  const std::string what = std::string("cannot write attribute '") + name + "'";
+  Handle str = checked_write(H5Tcopy(H5T_C_S1), H5Tclose, target, what);
+  if (H5Tset_size(str.get(), H5T_VARIABLE) < 0 || H5Tset_cset(str.get(), H5T_CSET_UTF8) < 0)
+    hdf5_write_fail(target, what);
+  Handle scalar = checked_write(H5Screate(H5S_SCALAR), H5Sclose, target, what);
+  Handle attr = checked_write(H5Acreate2(loc, name, str.get(), scalar.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+                                 target, what);
+  const char* text = value.c_str();
+  if (H5Awrite(attr.get(), str.get(), &text) < 0) hdf5_write_fail(target, what);
+}
+
+void write_double_attribute(hid_t loc, const char* name, double value, const fs::path& target) {
+  const std::string what = std::string("cannot write attribute '") + name + "'";
+  Handle scalar = checked_write(H5Screate(H5S_SCALAR), H5Sclose, target, what);
+  Handle attr = checked_write(H5Acreate2(loc, name, H5T_IEEE_F64LE, scalar.get(), H5P_DEFAULT, H5P_DEFAULT),
+                                 H5Aclose, target, what);
+  if (H5Awrite(attr.get(), H5T_NATIVE_DOUBLE, &value) < 0) hdf5_write_fail(target, what);
+}
+
 void write_dataset(hid_t loc, const std::string& name, hid_t file_type, hid_t mem_type, const void* data,
-                   const std::vector<hsize_t>& dims, const std::string& file) {
-  const std::string what = "cannot write dataset '" + name + "' to '" + file + "'";
-  Handle space = checked(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose, what);
-  Handle set = checked(H5Dcreate2(loc, name.c_str(), file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-                       H5Dclose, what);
-  if (H5Dwrite(set.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) hdf5_fail(what);
+                   const std::vector<hsize_t>& dims, const fs::path& target, const std::string& unit = "") {
+  const std::string what = "cannot write dataset '" + name + "'";
+  if (write_failure_injected(target)) throw WriteError(target, what, ENOSPC);
+  Handle space =
+      checked_write(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose, target, what);
+  Handle set = checked_write(
+      H5Dcreate2(loc, name.c_str(), file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose, target,
+      what);
+  if (H5Dwrite(set.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) hdf5_write_fail(target, what);
+  if (!unit.empty()) write_string_attribute(set.get(), "unit", unit, target);
 }
 
 std::string number(double x) {
@@ -147,11 +248,27 @@ CellInfo cell_info(CellType t) {
 }
 
 // rename() only moves directory entries: fsync first so the renamed file is complete after a crash.
-void fsync_file(const fs::path& p) {
+// A failing fsync (EIO, ENOSPC on delayed allocation) means the data may not be on disk.
+void fsync_file(const fs::path& p, const fs::path& target) {
   const int fd = ::open(p.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return;
-  ::fsync(fd);
+  if (fd < 0) throw WriteError(target, "cannot reopen temporary '" + p.string() + "' to sync it", errno);
+  if (::fsync(fd) != 0) {
+    const int err = errno;
+    ::close(fd);
+    throw WriteError(target, "fsync failed", err);
+  }
   ::close(fd);
+}
+
+// Attributes every field file carries at its root, so that a file read on its own says what it holds.
+void write_file_attributes(hid_t file, const fs::path& target) {
+  write_string_attribute(file, "softhom_version", softhom_version(), target);
+  write_string_attribute(file, "units", "length mm, stress MPa, time s (F, J, fractions dimensionless)", target);
+  write_string_attribute(file, "tensor_component_order",
+                         "row-major: 11 12 13 21 22 23 31 32 33 (index 3*i + j), last dataset dimension", target);
+  write_string_attribute(file, "layout",
+                         "one group /step_<k> per output step with attribute time [s]; cell data of a voxel "
+                         "grid with dims z y x (x fastest)", target);
 }
 
 }  // namespace
@@ -175,7 +292,7 @@ struct FieldWriter::Impl {
     if (finished) return;
     // Unfinished writer: drop everything, so no half-written result is left behind.
     group.reset();
-    file.reset();
+    if (file.valid()) abandon_file(file.release());
     std::error_code ec;
     fs::remove(h5_tmp, ec);
   }
@@ -190,12 +307,12 @@ struct FieldWriter::Impl {
     std::error_code ec;
     if (!h5_final.parent_path().empty()) {
       fs::create_directories(h5_final.parent_path(), ec);
-      if (ec)
-        throw std::runtime_error("FieldWriter: cannot create directory '" + h5_final.parent_path().string() +
-                                 "' (" + ec.message() + ")");
+      if (ec) throw WriteError(h5_final, "cannot create directory '" + h5_final.parent_path().string() + "'", ec.value());
     }
-    file = checked(H5Fcreate(h5_tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-                   "FieldWriter: cannot create '" + h5_tmp.string() + "'");
+    if (write_failure_injected(h5_final)) throw WriteError(h5_final, "cannot create temporary", ENOSPC);
+    file = checked_write(H5Fcreate(h5_tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, h5_final,
+                         "cannot create temporary '" + h5_tmp.string() + "'");
+    write_file_attributes(file.get(), h5_final);
   }
 
   std::string href(const std::string& dataset) const {
@@ -304,11 +421,11 @@ FieldWriter::FieldWriter(const std::filesystem::path& stem, const UnstructuredMe
   m.open(stem);
 
   // The mesh is written once; every step's grid refers to the same two datasets.
-  const std::string file = m.h5_tmp.string();
-  Handle g = checked(H5Gcreate2(m.file.get(), "mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-                     "FieldWriter: cannot create group /mesh in '" + file + "'");
+  const fs::path& file = m.h5_final;
+  Handle g = checked_write(H5Gcreate2(m.file.get(), "mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, file,
+                           "cannot create group /mesh");
   write_dataset(g.get(), "coordinates", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, mesh.coordinates.data(),
-                {hsize_t(nodes), 3}, file);
+                {hsize_t(nodes), 3}, file, "mm");
   write_dataset(g.get(), "connectivity", H5T_STD_I64LE, H5T_NATIVE_LONG, mesh.connectivity.data(),
                 {hsize_t(m.n_cells), hsize_t(info.nodes)}, file);
   m.mesh_xml = "        <Topology TopologyType=\"" + std::string(info.xdmf) + "\" NumberOfElements=\"" +
@@ -333,36 +450,45 @@ void FieldWriter::begin_step(double time) {
   if (m.in_step) throw std::logic_error("FieldWriter::begin_step: step " + std::to_string(m.step) + " not ended");
   if (!std::isfinite(time)) throw std::invalid_argument("FieldWriter::begin_step: time is not finite");
   const std::string name = "step_" + std::to_string(m.step);
-  m.group = checked(H5Gcreate2(m.file.get(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-                    "FieldWriter: cannot create group /" + name + " in '" + m.h5_tmp.string() + "'");
+  m.group = checked_write(H5Gcreate2(m.file.get(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                          m.h5_final, "cannot create group /" + name);
+  write_double_attribute(m.group.get(), "time", time, m.h5_final);
   m.in_step = true;
   m.time = time;
   m.step_xml.clear();
   m.step_names.clear();
 }
 
-void FieldWriter::add(const std::string& name, std::span<const double> data, int components, Centering centering) {
+void FieldWriter::set_attribute(const std::string& name, const std::string& value) {
+  auto& m = *impl_;
+  m.require_open("set_attribute");
+  check_name(name);
+  write_string_attribute(m.file.get(), name.c_str(), value, m.h5_final);
+}
+
+void FieldWriter::add(const std::string& name, std::span<const double> data, int components, Centering centering,
+                      const std::string& unit) {
   auto& m = *impl_;
   const auto dims = m.dims_for(name, data.size(), components, centering);
   for (std::size_t i = 0; i < data.size(); ++i)
     if (!std::isfinite(data[i]))
       throw std::invalid_argument("FieldWriter: field '" + name + "' has a non-finite value at index " +
                                   std::to_string(i));
-  write_dataset(m.group.get(), name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, data.data(), dims, m.h5_tmp.string());
+  write_dataset(m.group.get(), name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, data.data(), dims, m.h5_final, unit);
   m.add_attribute(name, dims, components, centering, "Float", 8);
 }
 
 void FieldWriter::add(const std::string& name, std::span<const int> data, Centering centering) {
   auto& m = *impl_;
   const auto dims = m.dims_for(name, data.size(), 1, centering);
-  write_dataset(m.group.get(), name, H5T_STD_I32LE, H5T_NATIVE_INT, data.data(), dims, m.h5_tmp.string());
+  write_dataset(m.group.get(), name, H5T_STD_I32LE, H5T_NATIVE_INT, data.data(), dims, m.h5_final);
   m.add_attribute(name, dims, 1, centering, "Int", 4);
 }
 
 void FieldWriter::end_step() {
   auto& m = *impl_;
   m.require_step("end_step");
-  if (!m.group.reset()) hdf5_fail("FieldWriter: cannot close group /step_" + std::to_string(m.step));
+  if (!m.group.reset()) hdf5_write_fail(m.h5_final, "cannot close group /step_" + std::to_string(m.step));
   m.steps_xml += "      <Grid Name=\"step_" + std::to_string(m.step) + "\" GridType=\"Uniform\">\n" +
                  "        <Time Value=\"" + number(m.time) + "\"/>\n" + m.mesh_xml + m.step_xml + "      </Grid>\n";
   m.in_step = false;
@@ -377,17 +503,17 @@ void FieldWriter::close() {
                            "    <Grid Name=\"" + xml_escape(m.xdmf_final.stem().string()) +
                            "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n" +
                            m.steps_xml + "    </Grid>\n  </Domain>\n</Xdmf>\n";
-  if (!m.file.reset()) hdf5_fail("FieldWriter: cannot close '" + m.h5_tmp.string() + "'");
-  fsync_file(m.h5_tmp);
+  finish_file(m.file, m.h5_final, m.h5_tmp);
+  fsync_file(m.h5_tmp, m.h5_final);
   std::error_code ec;
   fs::rename(m.h5_tmp, m.h5_final, ec);
-  if (ec)
-    throw std::runtime_error("FieldWriter: cannot rename '" + m.h5_tmp.string() + "' to '" + m.h5_final.string() +
-                             "' (" + ec.message() + ")");
+  if (ec) throw WriteError(m.h5_final, "cannot rename temporary '" + m.h5_tmp.string() + "' into place", ec.value());
   // From here on the temporary is gone; the XDMF goes last so it never refers to a missing file.
   m.finished = true;
   write_file_atomic(m.xdmf_final, xdmf);
 }
+
+void silence_hdf5_errors() { silence_hdf5(); }
 
 Dataset read_dataset(const std::filesystem::path& file, const std::string& dataset) {
   silence_hdf5();
@@ -448,11 +574,11 @@ namespace softhom::io {
 
 namespace {
 
-void write_attribute(hid_t loc, const char* name, const std::array<double, 3>& v, const std::string& what) {
+void write_attribute(hid_t loc, const char* name, const std::array<double, 3>& v, const std::string& what, const fs::path& target) {
   const hsize_t n = 3;
-  Handle space = checked(H5Screate_simple(1, &n, nullptr), H5Sclose, what);
-  Handle attr = checked(H5Acreate2(loc, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, what);
-  if (H5Awrite(attr.get(), H5T_NATIVE_DOUBLE, v.data()) < 0) hdf5_fail(what);
+  Handle space = checked_write(H5Screate_simple(1, &n, nullptr), H5Sclose, target, what);
+  Handle attr = checked_write(H5Acreate2(loc, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, target, what);
+  if (H5Awrite(attr.get(), H5T_NATIVE_DOUBLE, v.data()) < 0) hdf5_write_fail(target, what);
 }
 
 }  // namespace
@@ -470,7 +596,11 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
   fs::path h5_final = stem, xdmf_final = stem;
   h5_final += ".h5";
   xdmf_final += ".xdmf";
-  if (!h5_final.parent_path().empty()) fs::create_directories(h5_final.parent_path());
+  if (!h5_final.parent_path().empty()) {
+    std::error_code ec;
+    fs::create_directories(h5_final.parent_path(), ec);
+    if (ec) throw WriteError(h5_final, "cannot create directory '" + h5_final.parent_path().string() + "'", ec.value());
+  }
   const fs::path h5_tmp = temporary_path(h5_final);
   // Removes the temporary on any exception below.
   struct Cleanup {
@@ -484,8 +614,10 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
   const std::string href_file = xml_escape(h5_final.filename().string());
   std::string attrs_xml;
   {
-    Handle file = checked(H5Fcreate(h5_tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-                          "write_voxel_image: cannot create '" + h5_tmp.string() + "'");
+    // Closed by finish_file() when complete; an exception before that abandons it (abandon_file).
+    Handle file = checked_write(H5Fcreate(h5_tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), abandon_close,
+                                h5_final, "cannot create temporary '" + h5_tmp.string() + "'");
+    write_string_attribute(file.get(), "softhom_version", softhom_version(), h5_final);
     std::set<std::string> names;
     for (const VoxelImageDataset& ds : datasets) {
       check_name(ds.name);
@@ -508,24 +640,24 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
                                         " at index " + std::to_string(i) + " is not an integer in [0, 255]");
           bytes[i] = static_cast<unsigned char>(v);
         }
-        write_dataset(file.get(), ds.name, H5T_STD_U8LE, H5T_NATIVE_UCHAR, bytes.data(), dims, h5_tmp.string());
+        write_dataset(file.get(), ds.name, H5T_STD_U8LE, H5T_NATIVE_UCHAR, bytes.data(), dims, h5_final);
       } else {
         for (std::size_t i = 0; i < ds.values.size(); ++i)
           if (!std::isfinite(ds.values[i]))
             throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' has a non-finite value at index " +
                                         std::to_string(i));
-        write_dataset(file.get(), ds.name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, ds.values.data(), dims, h5_tmp.string());
+        write_dataset(file.get(), ds.name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, ds.values.data(), dims, h5_final);
       }
-      Handle set = checked(H5Dopen2(file.get(), ds.name.c_str(), H5P_DEFAULT), H5Dclose, what);
-      write_attribute(set.get(), "voxel_size", grid.spacing, what);
-      write_attribute(set.get(), "cell_size", cell, what);
+      Handle set = checked_write(H5Dopen2(file.get(), ds.name.c_str(), H5P_DEFAULT), H5Dclose, h5_final, what);
+      write_attribute(set.get(), "voxel_size", grid.spacing, what, h5_final);
+      write_attribute(set.get(), "cell_size", cell, what, h5_final);
       {  // Layout tag in the convention of FANS (variable-length string; "zyx": file dims z, y, x)
-        Handle str = checked(H5Tcopy(H5T_C_S1), H5Tclose, what);
-        if (H5Tset_size(str.get(), H5T_VARIABLE) < 0) hdf5_fail(what);
-        Handle scalar = checked(H5Screate(H5S_SCALAR), H5Sclose, what);
-        Handle attr = checked(H5Acreate2(set.get(), "permute_order", str.get(), scalar.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, what);
+        Handle str = checked_write(H5Tcopy(H5T_C_S1), H5Tclose, h5_final, what);
+        if (H5Tset_size(str.get(), H5T_VARIABLE) < 0) hdf5_write_fail(h5_final, what);
+        Handle scalar = checked_write(H5Screate(H5S_SCALAR), H5Sclose, h5_final, what);
+        Handle attr = checked_write(H5Acreate2(set.get(), "permute_order", str.get(), scalar.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, h5_final, what);
         const char* zyx = "zyx";
-        if (H5Awrite(attr.get(), str.get(), &zyx) < 0) hdf5_fail(what);
+        if (H5Awrite(attr.get(), str.get(), &zyx) < 0) hdf5_write_fail(h5_final, what);
       }
       const char* type = ds.components == 1 ? "Scalar" : "Vector";
       attrs_xml += "      <Attribute Name=\"" + ds.name + "\" AttributeType=\"" + type + "\" Center=\"Cell\">\n" +
@@ -533,7 +665,7 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
                    (ds.as_uint8 ? "UChar\" Precision=\"1" : "Float\" Precision=\"8") + "\" Format=\"HDF\">" + href_file +
                    ":/" + ds.name + "</DataItem>\n      </Attribute>\n";
     }
-    if (!file.reset()) hdf5_fail("write_voxel_image: cannot close '" + h5_tmp.string() + "'");
+    finish_file(file, h5_final, h5_tmp);
   }
   const std::vector<hsize_t> node_dims{hsize_t(grid.cells[2] + 1), hsize_t(grid.cells[1] + 1), hsize_t(grid.cells[0] + 1)};
   const std::string xdmf =
@@ -546,12 +678,10 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
       "        <DataItem Name=\"Spacing\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" +
       number(grid.spacing[2]) + " " + number(grid.spacing[1]) + " " + number(grid.spacing[0]) + "</DataItem>\n" +
       "      </Geometry>\n" + attrs_xml + "    </Grid>\n  </Domain>\n</Xdmf>\n";
-  fsync_file(h5_tmp);
+  fsync_file(h5_tmp, h5_final);
   std::error_code ec;
   fs::rename(h5_tmp, h5_final, ec);
-  if (ec)
-    throw std::runtime_error("write_voxel_image: cannot rename '" + h5_tmp.string() + "' to '" + h5_final.string() +
-                             "' (" + ec.message() + ")");
+  if (ec) throw WriteError(h5_final, "cannot rename temporary '" + h5_tmp.string() + "' into place", ec.value());
   cleanup.armed = false;
   write_file_atomic(xdmf_final, xdmf);
 }

@@ -4,8 +4,11 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <csignal>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <stdexcept>
 #include <system_error>
 
@@ -25,12 +28,60 @@ std::filesystem::path temporary_path(const std::filesystem::path& path) {
   return path.parent_path() / name;
 }
 
+WriteError::WriteError(const std::filesystem::path& path, const std::string& what, int os_error)
+    : std::runtime_error("cannot write '" + path.string() + "': " + what +
+                         (os_error ? std::string(" (") + std::strerror(os_error) + ")" : std::string())),
+      path_(path),
+      os_error_(os_error) {}
+
+long temporary_owner(const std::filesystem::path& file) {
+  const std::string name = file.filename().string();
+  const std::size_t tag = name.rfind(".tmp-");
+  if (name.size() < 2 || name[0] != '.' || tag == std::string::npos || tag == 0) return 0;
+  long pid = 0;
+  const char* first = name.data() + tag + 5;
+  const char* last = name.data() + name.size();
+  const auto r = std::from_chars(first, last, pid);
+  return (r.ec == std::errc{} && r.ptr == last && first != last && pid > 0) ? pid : 0;
+}
+
 namespace {
 
-[[noreturn]] void fail(const fs::path& path, const std::string& what, int err) {
-  throw std::runtime_error("cannot write '" + path.string() + "': " + what +
-                           (err ? std::string(" (") + std::strerror(err) + ")" : std::string()));
+// kill(pid, 0) probes a process without signalling it; EPERM means it exists under another user.
+bool process_alive(long pid) { return ::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM; }
+
+template <class Pred>
+std::vector<fs::path> remove_temporaries_if(const fs::path& dir, Pred remove_it) {
+  std::vector<fs::path> removed;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const long pid = temporary_owner(it->path());
+    if (pid == 0 || !remove_it(pid)) continue;
+    std::error_code rm;
+    // A stale HDF5 temporary is a file; remove_all also copes with a directory of that name.
+    if (fs::remove_all(it->path(), rm) > 0 && !rm) removed.push_back(it->path());
+  }
+  return removed;
 }
+
+}  // namespace
+
+std::vector<std::filesystem::path> remove_stale_temporaries(const std::filesystem::path& dir) {
+  return remove_temporaries_if(dir, [](long pid) { return pid != ::getpid() && !process_alive(pid); });
+}
+
+std::vector<std::filesystem::path> remove_own_temporaries(const std::filesystem::path& dir) {
+  return remove_temporaries_if(dir, [](long pid) { return pid == ::getpid(); });
+}
+
+bool write_failure_injected(const std::filesystem::path& target) {
+  const char* name = std::getenv("SOFTHOM_INJECT_WRITE_FAILURE");
+  return name && *name && target.filename() == name;
+}
+
+namespace {
+
+[[noreturn]] void fail(const fs::path& path, const std::string& what, int err) { throw WriteError(path, what, err); }
 
 // Writes all of `content` to `tmp` and fsyncs it, so that after the rename the data is on disk and
 // a crash can leave either the old file or the new one, never a truncated one.
@@ -39,8 +90,10 @@ void write_and_sync(const fs::path& target, const fs::path& tmp, std::string_vie
   if (fd < 0) fail(target, "cannot create temporary '" + tmp.string() + "'", errno);
   const char* p = content.data();
   std::size_t left = content.size();
-  while (left > 0) {
-    const ssize_t n = ::write(fd, p, left);
+  const bool inject = write_failure_injected(target);
+  if (inject) left /= 2;  // half the data reaches the temporary, then the "disk is full"
+  while (left > 0 || inject) {
+    const ssize_t n = inject && left == 0 ? (errno = ENOSPC, -1) : ::write(fd, p, left);
     if (n < 0) {
       if (errno == EINTR) continue;
       const int err = errno;
@@ -61,18 +114,17 @@ void write_and_sync(const fs::path& target, const fs::path& tmp, std::string_vie
 }  // namespace
 
 void write_file_atomic(const std::filesystem::path& path, std::string_view content) {
-  if (path.filename().empty()) throw std::runtime_error("cannot write '" + path.string() + "': not a file name");
+  if (path.filename().empty()) throw WriteError(path, "not a file name", 0);
   std::error_code ec;
   if (!path.parent_path().empty()) {
     fs::create_directories(path.parent_path(), ec);
-    if (ec) throw std::runtime_error("cannot write '" + path.string() + "': cannot create directory '" +
-                                     path.parent_path().string() + "' (" + ec.message() + ")");
+    if (ec) throw WriteError(path, "cannot create directory '" + path.parent_path().string() + "'", ec.value());
   }
   const fs::path tmp = temporary_path(path);
   try {
     write_and_sync(path, tmp, content);
     fs::rename(tmp, path, ec);
-    if (ec) fail(path, "cannot rename temporary into place (" + ec.message() + ")", 0);
+    if (ec) fail(path, "cannot rename temporary into place", ec.value());
   } catch (...) {
     fs::remove(tmp, ec);  // best effort: never leave a half-written temporary behind
     throw;
@@ -111,6 +163,85 @@ std::string CsvTable::to_string() const {
     out += ((i + 1) % columns_.size() == 0) ? '\n' : ',';
   }
   return out;
+}
+
+ProgressiveCsv::ProgressiveCsv(std::filesystem::path path, std::vector<std::string> columns, double cost_ratio)
+    : path_(std::move(path)), table_(std::move(columns)), cost_ratio_(cost_ratio) {}
+
+void ProgressiveCsv::add_row(const std::vector<double>& row) {
+  table_.add_row(row);
+  const auto now = std::chrono::steady_clock::now();
+  if (!written_ || std::chrono::duration<double>(now - last_end_).count() >= cost_ratio_ * last_cost_s_) flush();
+}
+
+void ProgressiveCsv::flush() {
+  const auto start = std::chrono::steady_clock::now();
+  table_.write(path_);
+  last_end_ = std::chrono::steady_clock::now();
+  last_cost_s_ = std::chrono::duration<double>(last_end_ - start).count();
+  rows_on_disk_ = table_.rows();
+  written_ = true;
+}
+
+namespace {
+
+// "P_matrix_12" → {"P_matrix_", 1, 2}; false unless the name is PREFIX + two digits in 1..3.
+bool split_tensor_component(const std::string& c, std::string& prefix, int& i, int& j) {
+  if (c.size() < 3) return false;
+  const char a = c[c.size() - 2], b = c[c.size() - 1];
+  if (a < '1' || a > '3' || b < '1' || b > '3') return false;
+  prefix = c.substr(0, c.size() - 2);
+  i = a - '0';
+  j = b - '0';
+  return true;
+}
+
+}  // namespace
+
+ColumnInfo column_info(const std::string& column) {
+  std::string prefix;
+  int i = 0, j = 0;
+  if (split_tensor_component(column, prefix, i, j)) {
+    const std::string ij = std::to_string(i) + std::to_string(j);
+    static const std::map<std::string, ColumnInfo> tensors{
+        {"F", {"1", "deformation gradient (macro average for an RVE)"}},
+        {"P", {"MPa", "first Piola-Kirchhoff stress (macro average for an RVE)"}},
+        {"sigma", {"MPa", "Cauchy stress (macro average for an RVE)"}},
+        {"P_matrix_", {"MPa", "first Piola-Kirchhoff stress averaged over the matrix phase"}},
+        {"P_fiber_", {"MPa", "first Piola-Kirchhoff stress averaged over the fiber phase"}},
+        {"sigma_matrix_", {"MPa", "Cauchy stress averaged over the matrix phase"}},
+        {"sigma_fiber_", {"MPa", "Cauchy stress averaged over the fiber phase"}},
+    };
+    if (const auto it = tensors.find(prefix); it != tensors.end())
+      return {it->second.unit, it->second.description + ", component " + ij + " (row-major, load frame)"};
+  }
+  static const std::map<std::string, ColumnInfo> scalars{
+      {"t", {"s", "time of the load history"}},
+      {"fiber_angle_deg", {"deg", "current fiber angle to the load direction (e1)"}},
+      {"delta_fiber_angle_deg", {"deg", "fiber rotation since the undeformed state"}},
+      {"newton_iterations", {"count", "Newton iterations of the step"}},
+      {"krylov_iterations", {"count", "Krylov iterations of the step"}},
+      {"substeps", {"count", "sub-steps the step took (1: no cut-back)"}},
+      {"stretch", {"1", "applied or measured stretch"}},
+      {"axial_stretch", {"1", "axial stretch of the free end"}},
+      {"force", {"N", "reaction force on the loaded face (MPa x mm^2)"}},
+      {"nominal_stress", {"MPa", "force per undeformed loaded area"}},
+      {"pressure", {"MPa", "cavity (internal) pressure"}},
+      {"volume", {"mm^3", "cavity volume"}},
+      {"inner_radius", {"mm", "mean inner radius"}},
+      {"mean_radius", {"mm", "mean radius of the cavity surface"}},
+      {"twist_deg", {"deg", "twist of the free end"}},
+      {"tip_angle_deg", {"deg", "bending angle of the tip"}},
+      {"tip_deflection", {"mm", "deflection of the tip"}},
+      {"probe_ux", {"mm", "displacement x of the probe node"}},
+      {"probe_uy", {"mm", "displacement y of the probe node"}},
+      {"probe_uz", {"mm", "displacement z of the probe node"}},
+  };
+  if (const auto it = scalars.find(column); it != scalars.end()) return it->second;
+  // fiber<k>_angle_deg of the material-point driver (one per fiber family)
+  if (column.rfind("fiber", 0) == 0 && column.size() > 15 && column.compare(column.size() - 10, 10, "_angle_deg") == 0)
+    return {"deg", "current angle of fiber family " + column.substr(5, column.size() - 15) + " to the load direction (e1)"};
+  return {};
 }
 
 std::size_t peak_memory_bytes() {

@@ -56,22 +56,28 @@ bool plot_curves(const std::filesystem::path& png, const PlotSpec& spec, std::st
       break;
     }
   }
+  std::error_code ec;  // clean-up is best effort: a failed removal must not hide the plot's outcome
   if (python.empty()) {
-    std::filesystem::remove(script);
-    std::filesystem::remove(json);
+    std::filesystem::remove(script, ec);
+    std::filesystem::remove(json, ec);
     if (why) *why = "no python3 with matplotlib found (Debian: python3-matplotlib; or set SOFTHOM_PYTHON)";
     return false;
   }
   const std::string cmd = "'" + python + "' '" + script.string() + "' '" + json.string() + "' '" + tmp.string() + "' > /dev/null 2>&1";
   const int rc = std::system(cmd.c_str());
-  std::filesystem::remove(script);
-  std::filesystem::remove(json);
-  if (rc != 0 || !std::filesystem::exists(tmp)) {
-    std::filesystem::remove(tmp);
+  std::filesystem::remove(script, ec);
+  std::filesystem::remove(json, ec);
+  if (rc != 0 || !std::filesystem::exists(tmp, ec)) {
+    std::filesystem::remove(tmp, ec);
     if (why) *why = "python3 with matplotlib (Debian: python3-matplotlib) not available or the plot failed";
     return false;
   }
-  std::filesystem::rename(tmp, png);
+  std::filesystem::rename(tmp, png, ec);
+  if (ec) {
+    const int err = ec.value();
+    std::filesystem::remove(tmp, ec);
+    throw WriteError(png, "cannot rename temporary into place", err);
+  }
   return true;
 }
 

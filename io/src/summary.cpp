@@ -9,6 +9,9 @@
 #include <omp.h>
 
 #include "softhom/io/files.hpp"
+#include "softhom/materials/interrupt.hpp"
+
+#include <csignal>
 
 namespace softhom::io {
 
@@ -51,6 +54,37 @@ nlohmann::json summary_base(const std::string& command, const std::filesystem::p
   j["scene"] = nlohmann::json::parse(scene_json.str());
   j["threads"] = omp_get_max_threads();  // what the OpenMP solvers will use (honours OMP_NUM_THREADS)
   j["started_utc"] = utc_now_iso8601();
+  return j;
+}
+
+std::string run_status(bool completed) {
+  if (completed) return "completed";
+  return stop_requested() ? "interrupted" : "stopped";
+}
+
+std::string signal_name(int signal) {
+  switch (signal) {
+    case SIGTERM: return "SIGTERM";
+    case SIGINT: return "SIGINT";
+    case SIGHUP: return "SIGHUP";
+    case SIGQUIT: return "SIGQUIT";
+    default: return "signal " + std::to_string(signal);
+  }
+}
+
+void set_run_status(nlohmann::json& summary, bool completed, const std::string& error) {
+  summary["status"] = run_status(completed);
+  summary["completed"] = completed;
+  summary["error"] = error;
+  if (!completed && stop_requested() && stop_signal() > 0) summary["signal"] = signal_name(stop_signal());
+}
+
+nlohmann::json columns_json(const std::vector<std::string>& columns) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& c : columns) {
+    const ColumnInfo info = column_info(c);
+    j[c] = {{"unit", info.unit}, {"description", info.description}};
+  }
   return j;
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 // Fields for ParaView: one HDF5 file with the heavy data and an XDMF sidecar describing a time series.
 // Both are written under temporary names and renamed on close(); an unfinished writer leaves nothing.
+// HDF5's automatic error printing is off: every HDF5 call is checked and failures become exceptions.
 #include <array>
 #include <filesystem>
 #include <map>
@@ -44,16 +45,27 @@ class FieldWriter {
   /// node-centred 3-component field named "displacement" (ParaView: Warp By Vector).
   void begin_step(double time);
   /// `components` is 1 (scalar), 3 (vector) or 9 (tensor, row-major); data has components × count.
-  void add(const std::string& name, std::span<const double> data, int components, Centering centering);
+  /// A non-empty `unit` is stored as the dataset's string attribute "unit" (e.g. "MPa", "1").
+  void add(const std::string& name, std::span<const double> data, int components, Centering centering,
+           const std::string& unit = "");
   void add(const std::string& name, std::span<const int> data, Centering centering);
   void end_step();
-  /// Finishes both files and renames them into place.
+  /// A string attribute on the file's root (e.g. "frame"). Every file already carries
+  /// "softhom_version", "units", "tensor_component_order" and "layout"; every /step_<k> group a
+  /// float64 attribute "time" (s).
+  void set_attribute(const std::string& name, const std::string& value);
+  /// Finishes both files and renames them into place. Write failures throw io::WriteError naming
+  /// DIR/name.h5 (files.hpp); the temporary is removed and an earlier DIR/name.h5 stays as it was.
   void close();
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// Turns HDF5's automatic error-stack printing off for the whole process (main() calls it first):
+/// every HDF5 call of softhom checks its result and reports a failure as one message.
+void silence_hdf5_errors();
 
 /// Reads an HDF5 dataset as doubles (any numeric type converted) with its dimensions (C order), whether
 /// it is stored as integers, and its numeric attributes (name → values, flattened).

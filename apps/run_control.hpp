@@ -1,0 +1,99 @@
+#pragma once
+// How a command ends a run early and reports progress.
+//
+// Exit codes of `softhom` (also in `softhom --help`):
+//   0    the run completed;
+//   1    the run stopped early (locking, cut-backs exhausted, wall-time budget) or an output file could
+//        not be written (full disk, permissions, read-only file system); converged rows are kept;
+//   2    bad input: command line or scene (the option or the TOML path is named);
+//   128 + N  interrupted by signal N (130: SIGINT / Ctrl-C, 143: SIGTERM from `timeout`, Slurm,
+//        `kill`), as shells report a process killed by N; converged rows and a summary.json with
+//        "status": "interrupted" are kept. A second signal ends the process at once (temporaries of
+//        that process are then removed at the next start in the same --out).
+#include <unistd.h>
+
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <iostream>
+#include <string>
+
+#include "softhom/io/summary.hpp"
+#include "softhom/materials/interrupt.hpp"
+
+namespace softhom::app {
+
+/// Thrown from a step callback when a stop was requested: the solver unwinds at once and the command
+/// writes what converged (the solver loops also poll stop_requested() inside a step).
+struct RunInterrupted : std::exception {
+  const char* what() const noexcept override { return "interrupted"; }
+};
+
+/// Test hook: SOFTHOM_TEST_SIGTERM_AFTER_STEPS=N raises a real SIGTERM in this process once N output
+/// steps have converged, so that the interrupt path is tested deterministically.
+inline void raise_test_signal_after(std::size_t steps_done) {
+  static const long after = [] {
+    const char* v = std::getenv("SOFTHOM_TEST_SIGTERM_AFTER_STEPS");
+    return v ? std::atol(v) : -1L;
+  }();
+  if (after >= 0 && steps_done >= static_cast<std::size_t>(after) && !stop_requested()) std::raise(SIGTERM);
+}
+
+/// Called after each converged output step has been recorded: throws RunInterrupted on a stop request.
+inline void stop_point(std::size_t steps_done) {
+  raise_test_signal_after(steps_done);
+  if (stop_requested()) throw RunInterrupted{};
+}
+
+/// "interrupted by SIGTERM" (or "interrupted" without a signal).
+inline std::string interruption_message() {
+  return stop_signal() > 0 ? "interrupted by " + io::signal_name(stop_signal()) : std::string("interrupted");
+}
+
+/// The documented exit code of a run that ended with `completed`.
+inline int run_exit_code(bool completed) {
+  if (completed) return 0;
+  if (stop_requested() && stop_signal() > 0) return 128 + stop_signal();
+  return 1;
+}
+
+/// A computed value in a progress line: 6 significant digits (the row in response.csv has them all).
+inline std::string progress_number(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", x);
+  return buf;
+}
+
+/// Progress lines on stderr: on a terminal one line rewritten in place (\r); in a file or a pipe
+/// (Slurm logs, `2> log`) one plain line per update, so logs stay line-oriented.
+class Progress {
+ public:
+  explicit Progress(bool quiet) : quiet_(quiet), tty_(::isatty(STDERR_FILENO) == 1) {}
+  ~Progress() { finish(); }
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
+
+  void update(const std::string& line) {
+    if (quiet_) return;
+    if (tty_) {
+      std::cerr << '\r' << line << "\033[K" << std::flush;  // erase what a longer previous line left
+      open_ = true;
+    } else {
+      std::cerr << line << '\n';
+    }
+  }
+  /// Ends an in-place line (call before printing anything else).
+  void finish() {
+    if (open_) std::cerr << '\n' << std::flush;
+    open_ = false;
+  }
+  bool quiet() const { return quiet_; }
+
+ private:
+  bool quiet_;
+  bool tty_;
+  bool open_ = false;
+};
+
+}  // namespace softhom::app
