@@ -115,6 +115,8 @@ double mean_radius(const std::vector<Vec3>& x, const std::vector<int>& nodes, bo
 
 Structure build_structure(const StructureSpec& spec) {
   if (!spec.material) throw InputError("material", "", "missing material");
+  // Refused before any of it is allocated when the machine cannot hold the mesh and its factorization.
+  refuse_if_too_large(spec, available_memory_bytes(), size_field(spec));
   Structure s;
   s.spec = spec;
   fe::FeModel& m = s.model;
