@@ -16,7 +16,7 @@
 #include <chrono>
 #include <iostream>
 
-#include "softhom/fe/gmsh.hpp"
+#include "softhom/io/gmsh.hpp"
 
 #include "commands.hpp"
 #include "scene_source.hpp"
@@ -102,7 +102,7 @@ void parse_imported(const toml::table& scene, const toml::table& g, const std::f
   if (path.is_relative() && !scene_file.empty()) path = scene_file.parent_path() / path;
   if (!std::filesystem::exists(path)) throw InputError("geometry.file", path.string(), "no such file");
   auto& im = s.imported;
-  im.mesh = fe::read_gmsh(path);
+  im.mesh = io::read_gmsh(path);
   if (const auto* arr = scene["boundary"].as_array()) {
     for (std::size_t k = 0; k < arr->size(); ++k) {
       const std::string field = "boundary[" + std::to_string(k) + "]";

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cmath>
 
+#include "softhom/io/gmsh.hpp"
 #include "softhom/macro/structures.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/interrupt.hpp"
@@ -97,6 +98,24 @@ TEST(StepLoop, UnconstrainedBodyIsRefusedByItsFreeMotions) {
   EXPECT_FALSE(has(some, "translation along z") || has(some, "rotation about x") || has(some, "rotation about y"))
       << some;
   EXPECT_TRUE(refusal(s.model).empty()) << "the plate's own constraints hold every rigid motion";
+}
+
+TEST(StepLoop, GmshTubeWithoutItsBoundaryIsRefusedBeforeSolving) {
+  // The shipped quarter tube with its symmetry planes' fixes lost: only u_z = 0 on both ends is left,
+  // so the in-plane motions are free. (Such a run used to end many cut-backs later in "Gent locking".)
+  StructureSpec spec;
+  spec.kind = StructureKind::imported;
+  spec.imported.mesh = io::read_gmsh(std::string(SOFTHOM_SOURCE_DIR) + "/studies/meshes/tube_quarter_tet10.msh");
+  spec.imported.fixed = {{"zmin", {false, false, true}}, {"zmax", {false, false, true}}};
+  spec.imported.load_surfaces = {"inner"};
+  spec.material = gent();
+  spec.control = LoadControl::pressure;
+  spec.load = {{0.0, 1.0}, {0.0, 0.01}};
+  const Structure s = build_structure(spec);
+  const std::string why = refusal(s.model);
+  EXPECT_TRUE(has(why, "translation along x") && has(why, "translation along y") && has(why, "rotation about z"))
+      << why;
+  EXPECT_FALSE(has(why, "translation along z")) << why;
 }
 
 TEST(StepLoop, DisconnectedPartStopsAtTheFirstFactorization) {

@@ -35,7 +35,7 @@ enum class LoadControl {
   volume,    ///< cavity volume V(t) = ratio(t) · V0, pressure is the unknown (passes limit points)
 };
 
-/// An imported mesh (fe::read_gmsh by the caller: the macro library does no file I/O) and what acts on
+/// An imported mesh (io::read_gmsh by the caller: the macro library does no file I/O) and what acts on
 /// its physical groups.
 struct ImportedSpec {
   fe::Mesh mesh;
