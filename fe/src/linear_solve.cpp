@@ -15,6 +15,7 @@
 
 #include <Eigen/Dense>
 
+#include "softhom/fe/krylov.hpp"
 #include "softhom/materials/errors.hpp"
 
 namespace softhom::fe {
@@ -120,11 +121,46 @@ bool Simulation::Impl::refactor(std::string& why) {
   return ok;
 }
 
+namespace {
+/// The element operations of the uncondensed (u, p_e) space: per mixed element k, its free equations
+/// eq[off[k] .. off[k+1]) and the row weight w_k = |d_k| of the current tangent.
+struct SaddleSpace {
+  int n = 0, np = 0;
+  const std::vector<int>& off;
+  const std::vector<int>& eq;
+  const std::vector<std::vector<int>>& colors;
+  std::vector<double> wgt;
+
+  double dot_e(const std::vector<double>& d, int k, const double* v) const {
+    double s = 0.0;
+    for (int q = off[k]; q < off[k + 1]; ++q)
+      if (eq[q] >= 0) s += d[q] * v[eq[q]];
+    return s;
+  }
+  /// out[k] = c[k] · d_kᵀ v − sub[k] (c, sub optional), in parallel over the elements.
+  void dots(const std::vector<double>& d, const double* c, const double* v, const double* sub, double* out) const {
+#pragma omp parallel for schedule(static) if (np >= 4000)
+    for (int k = 0; k < np; ++k) out[k] = (c ? c[k] : 1.0) * dot_e(d, k, v) - (sub ? sub[k] : 0.0);
+  }
+  /// v += Σ_k a[k] d_k, colour by colour (elements of one colour share no dof).
+  void scatter(const std::vector<double>& d, const double* a, double* v) const {
+#pragma omp parallel if (np >= 4000)
+    for (const std::vector<int>& color : colors) {
+#pragma omp for schedule(static)
+      for (std::size_t i = 0; i < color.size(); ++i) {
+        const int k = color[i];
+        for (int q = off[k]; q < off[k + 1]; ++q)
+          if (eq[q] >= 0) v[eq[q]] += a[k] * d[q];
+      }
+    }
+  }
+};
+}  // namespace
+
 bool Simulation::Impl::linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why) {
   const int n = dofs_.num_free;
-  const double bnorm = norm(b);
   x.assign(n, 0.0);
-  if (bnorm == 0.0) return true;
+  if (norm(b) == 0.0) return true;
   const ThreadScope scope(last_factor_flops_ < kThreadedFactorFlops);
   if (saddle_lagged()) saddle_current();
   // A cheap factorization (< 2 GFlop, well under a second) is simply redone for every new tangent:
@@ -135,18 +171,21 @@ bool Simulation::Impl::linear_solve(const std::vector<double>& b, std::vector<do
   // A factorization of this very tangent (LU, or Cholesky of a symmetric one) is a direct solve.
   // Near a limit point K is nearly singular and its solutions are inaccurate along the null vector;
   // the cavity's bordered elimination cancels that component, so no residual check here.
-  auto direct = [&]() {
+  if (factor_version_ == k_version_ && factor_exact_) {
     linear_->solve(b, x);
     return true;
-  };
-  if (factor_version_ == k_version_ && factor_exact_) return direct();
+  }
+  return krylov_solve(b, x, tol, why);
+}
+
+bool Simulation::Impl::krylov_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why) {
   // Restarted GMRES(m), right-preconditioned by the lagged or symmetric-part factorization M ≈ K:
   // minimizes ‖b − K M⁻¹ y‖.
   //
   // Three-field iteration (saddle_krylov): the condensed tangent is K_c = A + Σ_e c_e d_e d_eᵀ with
   // c_e = V_e U″(θ) ~ V_e κ, κ/G ≈ 1.2e5 for the ecoflex tube, and d_e = ∂θ_e/∂u moves with the geometry:
   // a strain change δ moves K_c by ≈ κ δ ≫ G, so a factor of K_c at another iterate is a poor
-  // preconditioner of K_c (GMRES rates 0.25–0.65 per iteration, BENCHMARKS session 4). The uncondensed
+  // preconditioner of K_c (GMRES rates 0.25–0.65 per iteration, BENCHMARKS.md). The uncondensed
   // system in (u, t_e), t_e = c_e d_eᵀu − p_e,
   //     [ K_c u − Σ_e d_e t_e ]   [ b ]        (u-row: A u + Σ d_e p_e)
   //     [ w_e t_e             ] = [ 0 ]        (element row: the scaled constraint residual)
@@ -160,53 +199,22 @@ bool Simulation::Impl::linear_solve(const std::vector<double>& b, std::vector<do
   // GMRES iterations where the condensed iteration stalls at 1e-3 after 30; later iterations, whose
   // residuals load the Q1/P0 pressure modes (weakly controlled by the inf-sup condition, so M_a⁻¹ is
   // not bounded there), still need a factor of the same step — hence refactor_each_step.
+  const int n = dofs_.num_free;
+  const double bnorm = norm(b);
   const bool saddle = options_.saddle_krylov && !sad_elem_.empty() && sad_a_valid_ && sad_b_version_ == k_version_;
-  const int np = saddle ? int(sad_elem_.size()) : 0;
+  SaddleSpace sp{n, saddle ? int(sad_elem_.size()) : 0, sad_off_, sad_eq_, sad_colors_, {}};
+  const int np = sp.np;
   const int N = n + np;
-  std::vector<double> wgt;
   if (saddle) {
-    wgt.resize(np);
+    sp.wgt.resize(np);
     for (int k = 0; k < np; ++k) {
       double s = 0.0;
       for (int q = sad_off_[k]; q < sad_off_[k + 1]; ++q) s += sad_db_[q] * sad_db_[q];
-      wgt[k] = s > 0.0 ? std::sqrt(s) : 1.0;
+      sp.wgt[k] = s > 0.0 ? std::sqrt(s) : 1.0;
     }
   }
-  auto dot_e = [&](const std::vector<double>& d, int k, const double* v) {
-    double s = 0.0;
-    for (int q = sad_off_[k]; q < sad_off_[k + 1]; ++q)
-      if (sad_eq_[q] >= 0) s += d[q] * v[sad_eq_[q]];
-    return s;
-  };
-  // out[k] = c[k] · d_kᵀ v − sub[k] (c, sub optional), in parallel over the elements.
-  auto dots = [&](const std::vector<double>& d, const double* c, const double* v, const double* sub, double* out) {
-#pragma omp parallel for schedule(static) if (np >= 4000)
-    for (int k = 0; k < np; ++k) out[k] = (c ? c[k] : 1.0) * dot_e(d, k, v) - (sub ? sub[k] : 0.0);
-  };
-  // v += Σ_k a[k] d_k, colour by colour (elements of one colour share no dof).
-  auto scatter = [&](const std::vector<double>& d, const double* a, double* v) {
-#pragma omp parallel if (np >= 4000)
-    for (const std::vector<int>& color : sad_colors_) {
-#pragma omp for schedule(static)
-      for (std::size_t i = 0; i < color.size(); ++i) {
-        const int k = color[i];
-        for (int q = sad_off_[k]; q < sad_off_[k + 1]; ++q)
-          if (sad_eq_[q] >= 0) v[sad_eq_[q]] += a[k] * d[q];
-      }
-    }
-  };
-  std::vector<double> ek(np), tk(np);  // element work vectors
-  // m = 30: a lagged factor may be given up to ~30 iterations (below), which GMRES(20) would restart.
-  const int m = 30;
-  // The Krylov basis is kept between solves (31 vectors of N: 27 MB at 1e5 dofs) and grown lazily.
-  std::vector<std::vector<double>>& V = krylov_basis_;
-  if (V.size() != std::size_t(m + 1)) V.assign(m + 1, {});
-  std::vector<double> w(N), r(N), zu, fu;
-  Eigen::MatrixXd Hm = Eigen::MatrixXd::Zero(m + 1, m), Gm = Eigen::MatrixXd::Zero(m + 1, m + 1);
-  std::vector<std::vector<double>>& Z = krylov_preconditioned_;  // M⁻¹ V
-  if (Z.size() != std::size_t(m)) Z.assign(m, {});
-  std::vector<std::vector<double>>& Wc = krylov_condensed_;  // condensed residuals P V of the basis (saddle)
-  if (saddle && Wc.size() != std::size_t(m + 1)) Wc.assign(m + 1, {});
+  const std::vector<double>& wgt = sp.wgt;
+  std::vector<double> ek(np), tk(np), zu, fu;  // element and u work vectors
   const auto t0 = std::chrono::steady_clock::now();
   double pre = 0.0;
   auto condensed_matvec = [&](const double* in, double* out) {
@@ -232,142 +240,73 @@ bool Simulation::Impl::linear_solve(const std::vector<double>& b, std::vector<do
     }
     fu.assign(in.begin(), in.begin() + n);
     for (int k = 0; k < np; ++k) ek[k] = in[n + k] / wgt[k];
-    scatter(sad_da_, ek.data(), fu.data());
+    sp.scatter(sad_da_, ek.data(), fu.data());
     linear_->solve(fu, zu);
     std::copy(zu.begin(), zu.end(), out.begin());
-    dots(sad_da_, sad_ca_.data(), zu.data(), ek.data(), out.data() + n);
+    sp.dots(sad_da_, sad_ca_.data(), zu.data(), ek.data(), out.data() + n);
     pre += seconds_since(tp);
   };
   auto matvec = [&](const std::vector<double>& in, std::vector<double>& out) {
+    out.resize(N);
     condensed_matvec(in.data(), out.data());
     if (!saddle) return;
-    dots(sad_db_, sad_cb_.data(), in.data(), in.data() + n, tk.data());  // t_e = c_e d_eᵀ u − t-unknown
+    sp.dots(sad_db_, sad_cb_.data(), in.data(), in.data() + n, tk.data());  // t_e = c_e d_eᵀ u − t-unknown
     for (int k = 0; k < np; ++k) {
       out[n + k] = wgt[k] * tk[k];
       tk[k] = -tk[k];
     }
-    scatter(sad_db_, tk.data(), out.data());
+    sp.scatter(sad_db_, tk.data(), out.data());
   };
   // Condensed residual b − K_c x_u of a saddle residual r: P r = r_u + Σ d_e r_e / w_e.
   auto condensed_of = [&](const std::vector<double>& res, std::vector<double>& c) {
     c.assign(res.begin(), res.begin() + n);
     for (int k = 0; k < np; ++k) ek[k] = res[n + k] / wgt[k];
-    scatter(sad_db_, ek.data(), c.data());
+    sp.scatter(sad_db_, ek.data(), c.data());
   };
-  std::vector<double> cres;
-  auto condensed_residual = [&](const std::vector<double>& res) {
-    if (!saddle) return norm(res);
-    condensed_of(res, cres);
-    return norm(cres);
-  };
-  auto dot = [](const std::vector<double>& a, const std::vector<double>& c) {
-    double s = 0.0;
-    for (std::size_t k = 0; k < a.size(); ++k) s += a[k] * c[k];
-    return s;
-  };
-  std::vector<double> xs(N, 0.0);
-  int total = 0;
+  std::vector<double> b_full(N, 0.0), xs;  // the right-hand side in the (u, t) space: (b, 0)
+  std::copy(b.begin(), b.end(), b_full.begin());
   for (int attempt = 0; attempt < 2; ++attempt) {
-    std::fill(xs.begin(), xs.end(), 0.0);
-    std::fill(r.begin(), r.end(), 0.0);
-    std::copy(b.begin(), b.end(), r.begin());
-    double beta = bnorm;
-    bool done = false;
-    int its = 0;
     const auto t_attempt = std::chrono::steady_clock::now();
+    // m = 30: a lagged factor may be given up to ~30 iterations (below), which GMRES(20) would restart.
+    // The basis is kept between solves (31 vectors of N: 27 MB at 1e5 dofs).
+    krylov::GmresOptions go;
+    go.restart = 30;
+    go.tolerance = tol;
     // A lagged factor gets as many iterations as cost 90 % of a fresh factorization (measured; at 1e5
     // dofs a factorization is 3 s and an iteration 0.09 s, ~30 iterations), at least 15.
     const bool lagged = factor_version_ != k_version_;
-    int max_its = options_.krylov_max;
+    go.max_iterations = options_.krylov_max;
     if (lagged) {
       const int affordable = iteration_time_ > 0.0 ? int(0.9 * last_factor_time_ / iteration_time_) : 15;
-      max_its = std::clamp(affordable, 15, std::min(options_.krylov_max, m));
+      go.max_iterations = std::clamp(affordable, 15, std::min(options_.krylov_max, go.restart));
     }
+    // A lagged factor whose convergence rate would not reach the tolerance within the budget (the early
+    // Newton iterations of a step, where the tangent still moves a lot): refactorize now instead of after
+    // the whole budget of wasted triangular solves (1e5 dofs: 0.09 s each). Checked every 5 iterations
+    // with the rate of the last 5 (GMRES with a lagged factor slows down).
     double checkpoint = 1.0;  // |r|/|b| at the last rate check
-    double rc = bnorm;        // condensed residual of the current iterate
-    while (!done && its < max_its) {
-      V[0].resize(N);
-      for (int i = 0; i < N; ++i) V[0][i] = r[i] / beta;
-      if (saddle) {
-        condensed_of(V[0], Wc[0]);
-        Gm(0, 0) = dot(Wc[0], Wc[0]);
-      }
-      int j = 0;
-      Eigen::VectorXd y;
-      while (j < m && its < max_its) {
-        precond(V[j], Z[j]);  // kept: the update x += Σ y_j M⁻¹v_j then needs no extra triangular solve
-        matvec(Z[j], w);
-        for (int i = 0; i <= j; ++i) {  // modified Gram–Schmidt
-          double h = 0.0;
-          for (int k = 0; k < N; ++k) h += w[k] * V[i][k];
-          for (int k = 0; k < N; ++k) w[k] -= h * V[i][k];
-          Hm(i, j) = h;
-        }
-        const double hn = norm(w);
-        Hm(j + 1, j) = hn;
-        V[j + 1].resize(N);
-        if (hn > 0.0)
-          for (int k = 0; k < N; ++k) V[j + 1][k] = w[k] / hn;
-        else
-          std::fill(V[j + 1].begin(), V[j + 1].end(), 0.0);
-        ++j;
-        ++its;
-        // Least squares over the Krylov space: min_y ‖P (β e₁ − H̄ y)‖ with P V the condensed residuals of
-        // the basis (saddle; Gram matrix G = (PV)ᵀ(PV) = RᵀR), or min_y ‖β e₁ − H̄ y‖ (plain GMRES, P = I).
-        const Eigen::MatrixXd Hj = Hm.topLeftCorner(j + 1, j);
-        Eigen::VectorXd e1 = Eigen::VectorXd::Zero(j + 1);
-        e1[0] = beta;
-        double res;
-        if (saddle) {
-          condensed_of(V[j], Wc[j]);
-          for (int i = 0; i <= j; ++i) Gm(i, j) = Gm(j, i) = dot(Wc[i], Wc[j]);
-          Eigen::MatrixXd G = Gm.topLeftCorner(j + 1, j + 1);
-          // The condensed residuals of the basis can be nearly dependent: a tiny diagonal shift keeps the
-          // Cholesky factor defined without changing the minimizer measurably.
-          G.diagonal().array() += 1e-14 * G.diagonal().maxCoeff();
-          const Eigen::MatrixXd R = G.llt().matrixU();
-          const Eigen::MatrixXd A = R * Hj;
-          const Eigen::VectorXd rhs = R * e1;
-          y = A.colPivHouseholderQr().solve(rhs);
-          res = (rhs - A * y).norm();
-        } else {
-          y = Hj.colPivHouseholderQr().solve(e1);
-          res = (e1 - Hj * y).norm();
-        }
-        if (res <= tol * bnorm || hn == 0.0) break;
-        // A lagged factor whose convergence rate would not reach the tolerance within the budget (the
-        // early Newton iterations of a step, where the tangent still moves a lot): refactorize now
-        // instead of after the whole budget of wasted triangular solves (1e5 dofs: 0.09 s each).
-        // Checked every 5 iterations with the rate of the last 5 (GMRES with a lagged factor slows down).
-        if (lagged && its % 5 == 0) {
-          const double ratio = res / bnorm;
-          const double rate = std::pow(ratio / checkpoint, 0.2);
-          checkpoint = ratio;
-          if (!(rate < 1.0) || its + std::log(tol / ratio) / std::log(rate) > max_its) max_its = its;
-        }
-      }
-      // xs += M⁻¹ V y = Σ y_i Z_i.
-      for (int i = 0; i < j; ++i)
-        for (int k = 0; k < N; ++k) xs[k] += y[i] * Z[i][k];
-      // True residual (restart vector; guards against loss of orthogonality).
-      matvec(xs, w);
-      for (int k = 0; k < N; ++k) r[k] = (k < n ? b[k] : 0.0) - w[k];
-      beta = norm(r);
-      rc = condensed_residual(r);
-      done = rc <= 1.01 * tol * bnorm;  // else restart from the true residual
-      if (!done && beta == 0.0) break;
-    }
+    auto rate_can_reach = [&](int its, double res) {
+      if (!lagged || its % 5 != 0) return true;
+      const double ratio = res / bnorm;
+      const double rate = std::pow(ratio / checkpoint, 0.2);
+      checkpoint = ratio;
+      return rate < 1.0 && its + std::log(tol / ratio) / std::log(rate) <= go.max_iterations;
+    };
+    const krylov::GmresResult g =
+        saddle ? krylov::gmres(b_full, bnorm, xs, matvec, precond, go, krylov_, krylov::projection(condensed_of),
+                               rate_can_reach)
+               : krylov::gmres(b_full, bnorm, xs, matvec, precond, go, krylov_, krylov::NoProjection{}, rate_can_reach);
+    const int its = g.iterations;
     std::copy(xs.begin(), xs.begin() + n, x.begin());
-    total += its;
     stats_.krylov_iterations += its;
     if (its > 0) {  // running mean of the cost of one iteration (preconditioner solve + product + basis)
       const double t = seconds_since(t_attempt) / its;
       iteration_time_ = iteration_time_ > 0.0 ? 0.7 * iteration_time_ + 0.3 * t : t;
     }
     if (options_.verbose)
-      std::cerr << "      gmres" << (saddle ? " (u,p)" : "") << " " << its << " its, |r|/|b| = " << rc / bnorm
+      std::cerr << "      gmres" << (saddle ? " (u,p)" : "") << " " << its << " its, |r|/|b| = " << g.residual / bnorm
                 << (factor_version_ == k_version_ ? " (fresh factor)" : " (lagged factor)") << "\n";
-    if (done) {
+    if (g.converged) {
       stats_.krylov_time += seconds_since(t0) - pre;
       // Refresh a lagged factor once its iterations cost 3/4 of a factorization (measured), or in any case
       // after 3 × `refactor_after` iterations.
@@ -385,7 +324,8 @@ bool Simulation::Impl::linear_solve(const std::vector<double>& b, std::vector<do
       if (!refactor(why)) break;
       if (factor_exact_) {
         stats_.krylov_time += seconds_since(t0) - pre;
-        return direct();
+        linear_->solve(b, x);
+        return true;
       }
     }
   }

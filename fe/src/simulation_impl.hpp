@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "softhom/fe/krylov.hpp"
 #include "softhom/fe/solver.hpp"
 
 namespace softhom::fe {
@@ -118,6 +119,9 @@ struct Simulation::Impl {
   // Linear algebra (linear_solve.cpp).
   /// x = K⁻¹ b (free dofs) to relative residual `tol`; false when no factorization works.
   bool linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why);
+  /// GMRES with the current factor as preconditioner (uncondensed (u, p_e) space for three-field
+  /// elements with a lagged factor); refactorizes and retries once.
+  bool krylov_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why);
   bool refactor(std::string& why);
   void saddle_current();  ///< fills sad_db_, sad_cb_ from the last tangent assembly
   void mixed_update(const std::vector<double>& du, double alpha);
@@ -148,9 +152,7 @@ struct Simulation::Impl {
   long k_version_ = 0, factor_version_ = -1;  ///< tangent assemblies; the one last factorized
   double last_factor_time_ = 0.0, last_factor_flops_ = 0.0;
   double iteration_time_ = 0.0;                  ///< running mean cost of one GMRES iteration [s]
-  std::vector<std::vector<double>> krylov_basis_;  ///< GMRES basis, kept between solves
-  std::vector<std::vector<double>> krylov_preconditioned_;  ///< M⁻¹ of the basis vectors (no extra solve per cycle)
-  std::vector<std::vector<double>> krylov_condensed_;  ///< condensed residuals of the basis (uncondensed Krylov space)
+  krylov::GmresWorkspace<std::vector<double>> krylov_;  ///< GMRES basis, M⁻¹ of it, condensed residuals; kept between solves
   // Uncondensed (u, p_e) Krylov space of the three-field iteration (linear_solve): per mixed element k,
   // its element number, the free equation of each element dof (−1 fixed) at sad_off_[k] .. sad_off_[k+1],
   // and d_e = ∂θ_e/∂u, c_e = V_e U″(θ) of the current tangent (b) and of the factorized one (a).
