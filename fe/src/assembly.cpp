@@ -48,6 +48,26 @@ MaterialStatus Simulation::Impl::assemble(double t, double dt, bool tangent, con
     du_c.swap(out.dirichlet_rhs);
     out.dirichlet_rhs.assign(ndof, 0.0);
   }
+  assemble_elements(dt, tangent, u, du_c, out);
+  if (out.status != MaterialStatus::ok) {
+    stats_.assembly_time += seconds_since(t0);
+    return out.status;
+  }
+  out.fint_norm = norm(out.R);
+  out.fint = mixed ? out.R_true : out.R;  // before the loads: the internal forces alone
+
+  assemble_loads(t, tangent, u, cavity_p, du_c, out);
+  stats_.assembly_time += seconds_since(t0);
+  return MaterialStatus::ok;
+}
+
+void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vector<double>& u,
+                                         const std::vector<double>& du_c, Assembly& out) {
+  // Element residuals (and tangents) scattered colour by colour; the first failed material call
+  // (the first to claim it among the threads) is reported in out.failed_element / out.status.
+  const Mesh& mesh = model_.mesh;
+  const bool mixed = !mix_bulk_.empty();
+  const bool predictor = !du_c.empty();
   std::atomic<int> failed{-1};
   std::atomic<int> failed_status{0};
   const std::vector<int>& eq = dofs_.eq;
@@ -200,13 +220,20 @@ MaterialStatus Simulation::Impl::assemble(double t, double dt, bool tangent, con
   }
   out.failed_element = failed.load();
   out.status = out.failed_element >= 0 ? MaterialStatus(failed_status.load()) : MaterialStatus::ok;
-  if (out.status != MaterialStatus::ok) {
-    stats_.assembly_time += seconds_since(t0);
-    return out.status;
-  }
-  out.fint_norm = norm(out.R);
-  out.fint = mixed ? out.R_true : out.R;  // before the loads: the internal forces alone
+}
 
+void Simulation::Impl::assemble_loads(double t, bool tangent, const std::vector<double>& u, double cavity_p,
+                                      const std::vector<double>& du_c, Assembly& out) {
+  const Mesh& mesh = model_.mesh;
+  const int ndof = mesh.num_dofs();
+  const bool mixed = !mix_bulk_.empty();
+  const bool predictor = !du_c.empty();
+  const std::vector<int>& eq = dofs_.eq;
+  double* kv = K_.values.data();
+  double* R = out.R.data();
+  double* Rt = mixed ? out.R_true.data() : nullptr;
+  double* Ru = mixed ? out.R_u.data() : nullptr;
+  double* drhs = predictor ? out.dirichlet_rhs.data() : nullptr;
   // Follower pressures: R += p a(x), K += p ∂a/∂x (unsymmetric load stiffness).
   std::vector<double> fext(ndof, 0.0);
   // Quads (bilinear) and 6-node triangles (tet faces): the same steps with nf nodes per face.
@@ -282,8 +309,6 @@ MaterialStatus Simulation::Impl::assemble(double t, double dt, bool tangent, con
     add_faces(model_.cavity->tris, cavity_p, true, cavity_p);
   }
   out.fext_norm = norm(fext);
-  stats_.assembly_time += seconds_since(t0);
-  return MaterialStatus::ok;
 }
 
 }  // namespace softhom::fe

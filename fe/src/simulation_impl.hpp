@@ -83,11 +83,13 @@ struct Simulation::Impl {
   Impl(FeModel model, NewtonOptions options);
 
   // Set-up (solver.cpp).
-  void build_dofs();
-  void build_geometry();
-  void build_history();
-  void build_colouring_and_scatter();
-  void build_mixed();
+  void build_dofs();            ///< equation numbers, stiffness pattern; refuses unconstrained bodies
+  void build_geometry();        ///< Gauss-point geometry per element; refuses inverted elements
+  void build_history();         ///< history blocks of the inelastic elements
+  void build_linear_solvers();  ///< Cholesky first (LU on demand), or LU when asked
+  void build_colouring();       ///< element colours: no shared node within one colour
+  void build_scatter();         ///< CSC positions of every element's node-pair blocks
+  void build_mixed();           ///< three-field element unknowns and the uncondensed Krylov space
 
   // One sub-step (solver.cpp): predictor, Newton iteration with line search, commit.
   StepAttempt try_step(double t_new, double dt);
@@ -115,6 +117,12 @@ struct Simulation::Impl {
   // Assembly (assembly.cpp).
   MaterialStatus assemble(double t, double dt, bool tangent, const std::vector<double>& u, double cavity_p,
                           Assembly& out);
+  /// Element loop: internal forces, three-field residuals, tangent, predictor rhs K_fc Δu_c.
+  void assemble_elements(double dt, bool tangent, const std::vector<double>& u, const std::vector<double>& du_c,
+                         Assembly& out);
+  /// Follower pressures (with their load stiffness), nodal forces and the cavity's pressure and volume.
+  void assemble_loads(double t, bool tangent, const std::vector<double>& u, double cavity_p,
+                      const std::vector<double>& du_c, Assembly& out);
 
   // Linear algebra (linear_solve.cpp).
   /// x = K⁻¹ b (free dofs) to relative residual `tol`; false when no factorization works.

@@ -20,6 +20,25 @@ using namespace detail;
 
 Simulation::Impl::Impl(FeModel model, NewtonOptions options) : model_(std::move(model)), options_(options) {
   model_.validate();
+  build_dofs();
+  build_geometry();
+  build_history();
+  build_linear_solvers();
+  build_colouring();
+  build_scatter();
+  build_mixed();
+  const Mesh& mesh = model_.mesh;
+  const int ndof = mesh.num_dofs();
+  u_.assign(ndof, 0.0);
+  u_prev_step_ = u_;
+  u_prev2_step_ = u_;
+  if (model_.cavity)
+    cavity_v0_ = cavity_volume(mesh.nodes, model_.cavity->faces, model_.cavity->mask, model_.cavity->tris);
+  if (model_.cavity && !(cavity_v0_ > 0.0))
+    throw InputError("cavity", format_number(cavity_v0_), "enclosed volume must be positive (check face orientation)");
+}
+
+void Simulation::Impl::build_dofs() {
   const Mesh& mesh = model_.mesh;
   const int ndof = mesh.num_dofs();
   std::vector<char> constrained(ndof, 0);
@@ -38,6 +57,10 @@ Simulation::Impl::Impl(FeModel model, NewtonOptions options) : model_(std::move(
   }
   K_ = build_pattern(mesh, dofs_);
 
+}
+
+void Simulation::Impl::build_geometry() {
+  const Mesh& mesh = model_.mesh;
   geometry_.resize(mesh.num_hexes());
   int bad = -1;
   for (int e = 0; e < mesh.num_hexes(); ++e) {
@@ -55,6 +78,10 @@ Simulation::Impl::Impl(FeModel model, NewtonOptions options) : model_(std::move(
   }
   if (bad >= 0) throw InputError("mesh", "element " + std::to_string(bad), "non-positive Jacobian at a Gauss point");
 
+}
+
+void Simulation::Impl::build_history() {
+  const Mesh& mesh = model_.mesh;
   state_offset_.assign(mesh.num_elements(), -1);
   std::size_t total = 0;
   for (int e = 0; e < mesh.num_elements(); ++e) {
@@ -72,6 +99,9 @@ Simulation::Impl::Impl(FeModel model, NewtonOptions options) : model_(std::move(
     }
   state_new_ = state_old_;
 
+}
+
+void Simulation::Impl::build_linear_solvers() {
   SolverKind kind = options_.solver;
   // Automatic: Cholesky of the symmetric part (exact without follower pressure, a GMRES
   // preconditioner with it); refactor() switches to LU if that part is not positive definite.
@@ -80,6 +110,10 @@ Simulation::Impl::Impl(FeModel model, NewtonOptions options) : model_(std::move(
   else chol_ = make_linear_solver(SolverKind::cholmod);
   linear_ = chol_ ? chol_.get() : lu_.get();
 
+}
+
+void Simulation::Impl::build_colouring() {
+  const Mesh& mesh = model_.mesh;
   // Greedy element colouring: elements of one colour share no node, so assembly needs no atomics.
   {
     std::vector<std::vector<int>> node_elems(mesh.num_nodes());
@@ -100,6 +134,10 @@ Simulation::Impl::Impl(FeModel model, NewtonOptions options) : model_(std::move(
       colors_[c].push_back(e);
     }
   }
+}
+
+void Simulation::Impl::build_scatter() {
+  const Mesh& mesh = model_.mesh;
   // Scatter positions: build_pattern stores the rows of the three columns of node b identically
   // (node-major, components ascending), so one offset per node pair locates a 3x3 block.
   free_rank_.resize(mesh.num_nodes());
@@ -127,6 +165,10 @@ Simulation::Impl::Impl(FeModel model, NewtonOptions options) : model_(std::move(
   for (int e = 0; e < mesh.num_hexes(); ++e) block_offsets(mesh.hexes[e].data(), 8, block_[e].data());
   tet_block_.resize(mesh.tets.size());
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) block_offsets(mesh.tets[t].data(), 10, tet_block_[t].data());
+}
+
+void Simulation::Impl::build_mixed() {
+  const Mesh& mesh = model_.mesh;
   if (model_.formulation == Formulation::fbar && options_.mixed) {
     mix_bulk_.assign(mesh.num_elements(), 0.0);
     bool any = false;
@@ -165,13 +207,6 @@ Simulation::Impl::Impl(FeModel model, NewtonOptions options) : model_(std::move(
     }
   }
 
-  u_.assign(ndof, 0.0);
-  u_prev_step_ = u_;
-  u_prev2_step_ = u_;
-  if (model_.cavity)
-    cavity_v0_ = cavity_volume(mesh.nodes, model_.cavity->faces, model_.cavity->mask, model_.cavity->tris);
-  if (model_.cavity && !(cavity_v0_ > 0.0))
-    throw InputError("cavity", std::to_string(cavity_v0_), "enclosed volume must be positive (check face orientation)");
 }
 
 
