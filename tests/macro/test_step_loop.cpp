@@ -171,7 +171,9 @@ TEST(StepLoop, PerStepCountsAddUpToTheRun) {
     ASSERT_TRUE(r.reached()) << r.message;
     EXPECT_GE(r.counts.newton_iterations, 1);
     EXPECT_GE(r.counts.solves, r.counts.newton_iterations) << "one solve per Newton correction at least";
-    if (r.substeps == 1) EXPECT_EQ(sim.last_step_counts().newton_iterations, r.counts.newton_iterations);
+    if (r.substeps == 1) {
+      EXPECT_EQ(sim.last_step_counts().newton_iterations, r.counts.newton_iterations);
+    }
     sum += r.counts;
   }
   const fe::RunStats st = sim.stats();
@@ -204,6 +206,19 @@ TEST(StepLoop, CutBacksKeepTheConvergedAnswer) {
   EXPECT_NEAR(a / b, 1.0, 1e-8);
   // One logged line per kind of cut-back, however many there were.
   EXPECT_LE(hard.stats().log.size(), 2u);
+}
+
+TEST(StepLoop, WallTimeBudgetEndsTheCutBacks) {
+  const Structure s = build_structure(plate_spec(1.6));
+  fe::NewtonOptions o;
+  o.max_iterations = 3;        // the whole step fails and would be cut back ...
+  o.max_step_seconds = 1e-12;  // ... but its budget is spent by the first attempt
+  fe::Simulation sim(s.model, o);
+  const fe::AdvanceResult r = sim.advance_to(1.0);
+  EXPECT_EQ(r.status, IntervalStatus::time_budget);
+  EXPECT_EQ(r.counts.cutbacks, 1);
+  EXPECT_TRUE(has(r.message, "max_step_seconds")) << r.message;
+  EXPECT_EQ(sim.time(), 0.0);
 }
 
 TEST(SizeEstimate, ThousandByThousandBoxIsRefusedBeforeBuilding) {

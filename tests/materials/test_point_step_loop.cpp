@@ -65,3 +65,18 @@ TEST(PointStepLoop, StopRequestKeepsTheConvergedRows) {
   ASSERT_EQ(r.steps.size(), 4u);
   EXPECT_DOUBLE_EQ(r.steps.back().t, 0.3);
 }
+
+TEST(PointStepLoop, WallTimeBudgetEndsTheCutBacks) {
+  const auto m = build_material(preset_spec("ecoflex"));
+  MixedControl c = uniaxial_control(ramp(2.5));
+  c.times = {1.0};
+  PointSolverOptions o;
+  o.max_iterations = 3;        // the whole step fails and would be cut back ...
+  o.max_step_seconds = 1e-12;  // ... but its budget is spent by the first attempt
+  const PointRunResult r = run_material_point(*m, c, o);
+  EXPECT_FALSE(r.completed);
+  EXPECT_EQ(r.stop, IntervalStatus::time_budget);
+  EXPECT_EQ(r.cutbacks, 1);
+  EXPECT_TRUE(has(r.error, "max_step_seconds")) << r.error;
+  ASSERT_EQ(r.steps.size(), 1u) << "only the t = 0 row converged";
+}

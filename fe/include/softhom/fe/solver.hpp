@@ -1,17 +1,24 @@
 #pragma once
 // Quasi-static Newton driver: consistent linearization (including the Dirichlet increment predictor
-// and the follower-pressure load stiffness), backtracking line search, adaptive sub-stepping with
-// cut-back on divergence or failed material calls, history committed only after convergence.
+// and the follower-pressure load stiffness), backtracking line search, sub-stepping by the shared loop
+// of step_control.hpp (halving cut-backs on divergence or failed material calls, growth after
+// successes, wall-time budget, stop on signal), history committed only after convergence.
+//
+// Clean stops: a body whose constraints leave a rigid motion free is refused when the Simulation is
+// built (InputError naming the motions); a singular first factorization (a mechanism, a disconnected
+// part) ends the run at once; a stop request ends it between Newton iterations. advance_to reports
+// every such stop in its result, with the converged state kept.
 //
 // Performance design: elements are coloured so that no two elements of one colour share a
 // node, and assembly scatters into precomputed CSC positions without atomics; the linear systems are
-// solved by GMRES right-preconditioned with a sparse direct factorization that is kept across Newton
-// iterations and refreshed when its GMRES iterations cost 3/4 of a factorization, and at the first
-// iteration of every step started from the (quadratic) load predictor (a fresh factor of a symmetric
-// tangent solves directly). With the three-field iteration GMRES runs in the uncondensed (u, p_e) space
-// (linear_solve). Late Newton iterations test the residual before assembling a tangent. The factor is CHOLMOD's LLᵀ of the tangent's symmetric part
-// (the follower-pressure stiffness is the only unsymmetric term), falling back to UMFPACK LU when the
-// symmetric part is not positive definite (past a limit point).
+// solved by GMRES (krylov.hpp) right-preconditioned with a sparse direct factorization that is kept
+// across Newton iterations and refreshed when its GMRES iterations cost 3/4 of a factorization, and at
+// the first iteration of every step started from the (quadratic) load predictor (a fresh factor of a
+// symmetric tangent solves directly). With the three-field iteration GMRES runs in the uncondensed
+// (u, p_e) space (linear_solve.cpp). Late Newton iterations test the residual before assembling a
+// tangent. The factor is CHOLMOD's LLᵀ of the tangent's symmetric part (the follower-pressure stiffness
+// is the only unsymmetric term), falling back to UMFPACK LU when the symmetric part is not positive
+// definite (past a limit point).
 #include <array>
 #include <functional>
 #include <memory>
