@@ -293,9 +293,9 @@ bool Simulation::Impl::krylov_solve(const std::vector<double>& b, std::vector<do
       return rate < 1.0 && its + std::log(tol / ratio) / std::log(rate) <= go.max_iterations;
     };
     const krylov::GmresResult g =
-        saddle ? krylov::gmres(b_full, bnorm, xs, matvec, precond, go, krylov_, krylov::projection(condensed_of),
+        saddle ? krylov::gmres(b_full, bnorm, xs, matvec, precond, go, krylov_, krylov::gmres_projection(condensed_of),
                                rate_can_reach)
-               : krylov::gmres(b_full, bnorm, xs, matvec, precond, go, krylov_, krylov::NoProjection{}, rate_can_reach);
+               : krylov::gmres(b_full, bnorm, xs, matvec, precond, go, krylov_, krylov::GmresNoProjection{}, rate_can_reach);
     const int its = g.iterations;
     std::copy(xs.begin(), xs.begin() + n, x.begin());
     stats_.krylov_iterations += its;

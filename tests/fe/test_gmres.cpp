@@ -49,7 +49,7 @@ TEST(Gmres, UnpreconditionedReachesTheToleranceWithoutRestart) {
   o.restart = n;
   o.max_iterations = n;
   o.tolerance = 1e-12;
-  const double bn = krylov::StdVectorOps::norm(b);
+  const double bn = krylov::GmresStdOps::norm(b);
   const auto r = krylov::gmres(b, bn, x, [&](const Vector& in, Vector& out) { out = apply(A, in); },
                                [](const Vector& in, Vector& out) { out = in; }, o, ws);
   ASSERT_TRUE(r.converged);
@@ -69,7 +69,7 @@ TEST(Gmres, RestartsAndAnExactPreconditionerConvergeInOneIteration) {
   o.tolerance = 1e-10;
   o.restart = 3;  // restarted GMRES(3) on a 20 × 20 system: several cycles
   o.max_iterations = 200;
-  const double bn = krylov::StdVectorOps::norm(b);
+  const double bn = krylov::GmresStdOps::norm(b);
   auto A_op = [&](const Vector& in, Vector& out) { out = apply(A, in); };
   const auto restarted = krylov::gmres(b, bn, x, A_op, [](const Vector& in, Vector& out) { out = in; }, o, ws);
   ASSERT_TRUE(restarted.converged);
@@ -95,18 +95,18 @@ TEST(Gmres, ProjectedResidualAndMonitorStop) {
   o.tolerance = 1e-10;
   o.restart = n;
   o.max_iterations = n;
-  const double bn = krylov::StdVectorOps::norm(b);
+  const double bn = krylov::GmresStdOps::norm(b);
   auto A_op = [&](const Vector& in, Vector& out) { out = apply(A, in); };
   auto identity = [](const Vector& in, Vector& out) { out = in; };
   // P = 2 I: the projected least squares has the same minimizer, and ‖P r‖ = 2 ‖r‖ is what is reported.
-  const auto p = krylov::gmres(b, 2.0 * bn, x, A_op, identity, o, ws, krylov::projection([](const Vector& in, Vector& out) {
+  const auto p = krylov::gmres(b, 2.0 * bn, x, A_op, identity, o, ws, krylov::gmres_projection([](const Vector& in, Vector& out) {
                                  out = in;
                                  for (double& v : out) v *= 2.0;
                                }));
   ASSERT_TRUE(p.converged);
   EXPECT_NEAR(p.residual, 2.0 * residual(A, x, b), 1e-12 * bn);
   // A monitor that refuses to go on after 2 iterations ends the run there, unconverged.
-  const auto stopped = krylov::gmres(b, bn, x, A_op, identity, o, ws, krylov::NoProjection{},
+  const auto stopped = krylov::gmres(b, bn, x, A_op, identity, o, ws, krylov::GmresNoProjection{},
                                      [](int its, double) { return its < 2; });
   EXPECT_FALSE(stopped.converged);
   EXPECT_EQ(stopped.iterations, 2);

@@ -1,11 +1,11 @@
 #pragma once
-// Krylov solvers templated on the operator, the preconditioner and the vector operations, so that a
-// distributed vector (with its own reductions) can replace std::vector<double> without touching the
-// iterations. Each solver's section is self-contained (its own includes).
-
 // ---------------------------------------------------------------------------------------------------
 // GMRES
 // ---------------------------------------------------------------------------------------------------
+// Templated on the operator, the preconditioner and the vector operations, so that a distributed
+// vector (with its own reductions) can replace std::vector<double> without touching the iterations.
+// This section is self-contained (its own includes and names).
+//
 // Restarted GMRES(m), right-preconditioned: minimizes ‖b − A M⁻¹ y‖ over the Krylov space of A M⁻¹,
 // with modified Gram–Schmidt. The preconditioned basis Z = M⁻¹ V is kept, so the update x += Z y needs
 // no extra preconditioner application (and M may change between iterations: flexible GMRES).
@@ -16,6 +16,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -24,7 +26,7 @@ namespace softhom::krylov {
 
 /// Vector operations of std::vector<double> (shared memory). A distributed vector supplies the same
 /// static functions with global reductions in dot().
-struct StdVectorOps {
+struct GmresStdOps {
   using Vector = std::vector<double>;
   static double dot(const Vector& a, const Vector& b) {
     double s = 0.0;
@@ -50,7 +52,7 @@ struct StdVectorOps {
 };
 
 /// The plain residual norm (no projection).
-struct NoProjection {
+struct GmresNoProjection {
   static constexpr bool active = false;
   template <class Vector>
   void operator()(const Vector&, Vector&) const {}
@@ -58,17 +60,17 @@ struct NoProjection {
 
 /// A projected residual ‖P r‖: `apply(in, out)` computes out = P in.
 template <class Apply>
-struct Projection {
+struct GmresProjection {
   static constexpr bool active = true;
   Apply apply;
   template <class Vector>
   void operator()(const Vector& in, Vector& out) const { apply(in, out); }
 };
 template <class Apply>
-Projection<Apply> projection(Apply apply) { return {std::move(apply)}; }
+GmresProjection<Apply> gmres_projection(Apply apply) { return {std::move(apply)}; }
 
 /// Always continue (no early stop).
-struct NoMonitor {
+struct GmresNoMonitor {
   bool operator()(int, double) const { return true; }
 };
 
@@ -92,10 +94,10 @@ struct GmresWorkspace {
 
 /// Solves A x = b from x = 0. `b_norm` is the norm the tolerance refers to (‖b‖, or ‖P b‖ when the
 /// projected residual of b is meant). `A(in, out)`: out = A in; `M(in, out)`: out = M⁻¹ in;
-/// `project`: NoProjection or projection(...); `keep_going(iterations, residual)` may end the run early
+/// `project`: GmresNoProjection or gmres_projection(...); `keep_going(iterations, residual)` may end the run early
 /// (false: stop after this iteration, e.g. when the convergence rate cannot reach the tolerance).
-template <class Ops = StdVectorOps, class Operator, class Preconditioner, class Project = NoProjection,
-          class Monitor = NoMonitor>
+template <class Ops = GmresStdOps, class Operator, class Preconditioner, class Project = GmresNoProjection,
+          class Monitor = GmresNoMonitor>
 GmresResult gmres(const typename Ops::Vector& b, double b_norm, typename Ops::Vector& x, Operator&& A,
                   Preconditioner&& M, const GmresOptions& options, GmresWorkspace<typename Ops::Vector>& ws,
                   Project&& project = {}, Monitor&& keep_going = {}) {
