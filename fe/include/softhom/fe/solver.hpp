@@ -151,7 +151,7 @@ class Simulation {
   /// The same for a tet10 element e (≥ mesh.num_hexes()).
   MaterialStatus element_force(int e, const Tet10Coords& u, Vec30& r, Mat30* K) const;
 
-  struct Impl;
+  struct Impl;  ///< the state and the steps (fe/src/simulation_impl.hpp)
 
  private:
   std::unique_ptr<Impl> impl_;
