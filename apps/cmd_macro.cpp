@@ -16,7 +16,7 @@
 #include <chrono>
 #include <iostream>
 
-#include "softhom/fe/gmsh.hpp"
+#include "softhom/io/gmsh.hpp"
 
 #include "commands.hpp"
 #include "run_control.hpp"
@@ -103,7 +103,7 @@ void parse_imported(const toml::table& scene, const toml::table& g, const std::f
   if (path.is_relative() && !scene_file.empty()) path = scene_file.parent_path() / path;
   if (!std::filesystem::exists(path)) throw InputError("geometry.file", path.string(), "no such file");
   auto& im = s.imported;
-  im.mesh = fe::read_gmsh(path);
+  im.mesh = io::read_gmsh(path);
   if (const auto* arr = scene["boundary"].as_array()) {
     for (std::size_t k = 0; k < arr->size(); ++k) {
       const std::string field = "boundary[" + std::to_string(k) + "]";
@@ -313,20 +313,21 @@ int run_macro(const CommandOptions& options) {
   std::string error;
   std::size_t done = 0;
   Progress progress(options.quiet);
-  try {
-    for (double t : ms.times) {
-      if (stop_requested()) break;  // between output times; the Newton loops poll inside a step
-      sim.advance_to(t);
-      table.add_row(macro::probe_values(structure, sim));
-      if (writer) write_fields(*writer, sim);
-      ++done;
-      progress.update(tag + "t = " + format_number(t) + " / " + format_number(ms.times.back()) + " (" +
-                      std::to_string(sim.stats().newton_iterations) + " Newton iterations, " +
-                      std::to_string(sim.stats().cutbacks) + " cut-backs)");
-      raise_test_signal_after(done);
+  for (double t : ms.times) {
+    if (stop_requested()) break;  // between output times; the Newton loops poll inside a step
+    const fe::AdvanceResult step = sim.advance_to(t);
+    if (!step.reached()) {
+      error = step.message;
+      break;
     }
-  } catch (const ConvergenceError& e) {
-    error = e.what();
+    table.add_row(macro::probe_values(structure, sim));
+    if (writer) write_fields(*writer, sim);
+    ++done;
+    progress.update(tag + "t = " + format_number(t) + " / " + format_number(ms.times.back()) + " (" +
+                    std::to_string(step.counts.newton_iterations) + " Newton iterations in " +
+                    std::to_string(step.substeps) + " sub-steps, " + std::to_string(step.counts.cutbacks) +
+                    " cut-backs)");
+    raise_test_signal_after(done);
   }
   const bool completed = error.empty() && done == ms.times.size();
   if (!completed && stop_requested()) error = interruption_message();
