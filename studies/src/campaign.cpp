@@ -809,8 +809,10 @@ void run_chain(const ChainContext& ctx, const std::vector<int>& members, const s
 class ChainScheduler {
  public:
   ChainScheduler(const Campaign& campaign, const std::filesystem::path& dir, std::vector<Chain> chains, int jobs,
-                 int threads_per_job, std::atomic<long>& newton)
+                 int threads_per_job, std::atomic<long>& newton,
+                 std::function<void(const CaseRecord&)> on_case_finished = {})
       : chains_(std::move(chains)),
+        on_case_finished_(std::move(on_case_finished)),
         ctx_{campaign, dir, threads_per_job, [this] { return stopping(); }, [this] { case_started(); },
              [this](CaseRecord&& r) { case_finished(std::move(r)); }, &newton},
         workers_alive_(jobs) {
@@ -858,6 +860,7 @@ class ChainScheduler {
     ++running_;
   }
   void case_finished(CaseRecord&& r) {
+    if (on_case_finished_) on_case_finished_(r);
     std::lock_guard<std::mutex> lock(mu_);
     --running_;
     // On a signal the case in flight is abandoned unless it finished (the engine stops at its next
@@ -883,6 +886,7 @@ class ChainScheduler {
   }
 
   std::vector<Chain> chains_;
+  std::function<void(const CaseRecord&)> on_case_finished_;
   ChainContext ctx_;
   std::mutex mu_;
   std::condition_variable cv_;
@@ -963,7 +967,7 @@ SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& 
   const bool stop_was_requested = stop_requested();
   {
     const int workers = chains.empty() ? 0 : jobs;
-    ChainScheduler scheduler(campaign, dir, std::move(chains), workers, tpj, newton_computed);
+    ChainScheduler scheduler(campaign, dir, std::move(chains), workers, tpj, newton_computed, options.on_case_finished);
     try {
       int committed = 0, running = 0;
       std::vector<CaseRecord> batch;

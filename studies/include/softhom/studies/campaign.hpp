@@ -217,6 +217,9 @@ struct SweepOptions {
   int max_new_cases = 0;
   /// Called in the writing thread after each finished case is in the store (tests: request_stop()).
   std::function<void(const CaseRecord&)> on_case_stored;
+  /// Called in the worker thread as each case finishes, before the worker takes the next one (tests:
+  /// request_stop() here stops a one-job run after exactly that case).
+  std::function<void(const CaseRecord&)> on_case_finished;
 };
 
 struct SweepReport {
