@@ -159,8 +159,8 @@ int run_rve(const CommandOptions& options) {
   summary["fft_planning_s"] = solver.planning_seconds();
   if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start)) return 1;
   if (!options.quiet)
-    std::cerr << "softhom rve: " << result.steps.size() - 1 << " steps, " << result.total_newton_iterations
-              << " Newton / " << result.total_krylov_iterations << " Krylov iterations, " << result.wall_seconds
+    std::cerr << "softhom rve: " << result.steps.size() - 1 << " steps, " << result.newton_iterations
+              << " Newton / " << result.krylov_iterations << " Krylov iterations, " << result.wall_seconds
               << " s → " << options.out.string() << "\n";
   return 0;
 }

@@ -392,7 +392,7 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start)) return 1;
   if (!options.quiet)
     std::cerr << "softhom rve (fe): " << num_elements << " " << element_name << " elements, " << result.steps.size() - 1
-              << " steps, " << result.total_newton_iterations << " Newton iterations, " << result.wall_seconds << " s → "
+              << " steps, " << result.newton_iterations << " Newton iterations, " << result.wall_seconds << " s → "
               << options.out.string() << "\n";
   return 0;
 }

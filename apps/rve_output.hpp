@@ -77,8 +77,8 @@ inline bool finish_rve_summary(nlohmann::json& summary, const rve::RveRunResult&
   summary["completed"] = result.completed;
   summary["error"] = result.error;
   summary["steps"] = step_log;
-  summary["newton_iterations"] = result.total_newton_iterations;
-  summary["krylov_iterations"] = result.total_krylov_iterations;
+  summary["newton_iterations"] = result.newton_iterations;
+  summary["krylov_iterations"] = result.krylov_iterations;
   summary["cutbacks"] = result.cutbacks;
   summary["warnings"] = result.log;
   summary["solver_memory_bytes"] = solver_memory_bytes;

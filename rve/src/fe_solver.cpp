@@ -779,7 +779,6 @@ struct Model {
           const double mnew = merit();
           if (!std::isfinite(mnew)) continue;
           accepted = had_prescribed_step || mnew < (1.0 - 1e-4 * scale) * merit_old || ls == 7;
-          if (ls > 0 && accepted) ++out.line_search_cuts;
         }
         if (!accepted) {
           out.why = last != MaterialStatus::ok ? std::string("material call failed (") + to_string(last) + ")"
@@ -830,7 +829,7 @@ struct Model {
       in0 = internal;
       F0 = Fbar;
       had_prescribed_step = !reached;
-      ++out.newton;
+      ++out.newton_iterations;
     }
     out.why = "no convergence in " + std::to_string(opt.max_newton_iterations) + " Newton iterations (residual " +
               std::to_string(err) + ")";
@@ -980,7 +979,10 @@ struct Model {
         }
       }
     } engine{*this, control, angle0, on_step, want_fields};
-    detail::run_output_steps(control, opt.max_cutbacks, engine, result, run_start);
+    StepControlOptions steps;
+    steps.max_cutbacks = opt.max_cutbacks;
+    steps.max_step_seconds = opt.max_step_seconds;
+    detail::run_output_steps(control, steps, engine, result, run_start);
     return result;
   }
 };

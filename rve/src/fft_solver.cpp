@@ -12,7 +12,9 @@
 
 #include <Eigen/Dense>
 
+#include "softhom/fe/krylov.hpp"
 #include "softhom/fft/stencil.hpp"
+#include "softhom/materials/interrupt.hpp"
 #include "softhom/materials/errors.hpp"
 #include "step_driver.hpp"
 
@@ -126,10 +128,6 @@ struct KVec {
 };
 
 }  // namespace
-
-struct FftSolverStats {
-  int krylov = 0;
-};
 
 struct FftRveSolver::Impl {
   FftSolverOptions opt;
@@ -824,57 +822,96 @@ struct FftRveSolver::Impl {
       C0 = isotropic_tangent(lambda_ref, mu_ref);
   }
 
-  /// PCG on K x = b; returns iterations. x starts at zero.
-  /// With `shift` > 0 it solves (K + shift K0) x = b, K0 the reference-medium operator (a
-  /// Levenberg–Marquardt step, used when K is indefinite away from the solution). Sets `breakdown`
-  /// when a direction of non-positive curvature stops it.
+  /// The Krylov space of the Newton system for krylov::pcg: half spectra of ũ with mode weights and
+  /// the free macro components; the direction update is fused with the operator and the solution
+  /// update with the preconditioner and ⟨r, z⟩ (one pass each over the spectra).
+  struct CgSpace {
+    Impl& m;
+    const std::array<bool, 9>& free;
+    const Eigen::MatrixXd& Minv;
+    const std::vector<int>& free_idx;
+    double scale, shift;
+    void start(const KVec& b, KVec& x, KVec& r) {
+      r.u = b.u;
+      r.f = b.f;
+      x.u.assign(3 * m.NM, 0.0);
+      x.f.setZero();
+    }
+    double precondition_dot(const KVec& r, KVec& z) {
+      precondition_macro(r.f, Minv, free_idx, z.f, scale);
+      return m.green.apply_dot(r.u.data(), z.u.data(), scale) + r.f.dot(z.f);
+    }
+    double direction(const KVec& z, double beta, KVec& p, KVec& Ap) {
+      return m.apply_direction(z, beta, p, free, Ap, shift);
+    }
+    double update(double alpha, const KVec& p, const KVec& Ap, KVec& x, KVec& r, KVec& z) {
+      double rz_new = m.stencil ? m.green.cg_update(alpha, p.u.data(), m.fft3->spectrum(0), x.u.data(), r.u.data(),
+                                                    z.u.data(), scale, 1.0 / double(m.N))
+                                : m.green.cg_update(alpha, p.u.data(), Ap.u.data(), x.u.data(), r.u.data(), z.u.data(), scale);
+      x.f += alpha * p.f;
+      r.f -= alpha * Ap.f;
+      precondition_macro(r.f, Minv, free_idx, z.f, scale);
+      return rz_new + r.f.dot(z.f);
+    }
+  };
+
+  /// The same space for krylov::pminres (unfused operations, shift-free operator and preconditioner).
+  struct MinresSpace {
+    Impl& m;
+    const std::array<bool, 9>& free;
+    const Eigen::MatrixXd& Minv;
+    const std::vector<int>& free_idx;
+    KVec zero_like(const KVec& b) const { return KVec{std::vector<Complex>(b.u.size(), 0.0), Vec9::Zero()}; }
+    void precondition(const KVec& r, KVec& z) { m.precondition(r, Minv, free_idx, z); }
+    void apply(const KVec& x, KVec& y) { m.apply(x, free, y); }
+    double dot(const KVec& a, const KVec& b) const { return m.dot(a, b); }
+    void axpby(double alpha, const KVec& x, double beta, KVec& y) const { Impl::axpby(alpha, x, beta, y); }
+    void divide(KVec& x, double s) const {
+      for (auto& e : x.u) e /= s;
+      x.f /= s;
+    }
+    void combine(const KVec& z, double a3, const KVec& w_old, double a2, const KVec& w, double a1, KVec& w_new, double c,
+                 KVec& x) const {
+      const std::size_t nu = z.u.size();
+#pragma omp parallel for schedule(static)
+      for (std::size_t i = 0; i < nu; ++i) {
+        w_new.u[i] = (z.u[i] - a3 * w_old.u[i] - a2 * w.u[i]) / a1;
+        x.u[i] += c * w_new.u[i];
+      }
+      w_new.f = (z.f - a3 * w_old.f - a2 * w.f) / a1;
+      x.f += c * w_new.f;
+    }
+  };
+
+  krylov::Controls krylov_controls(double rel_tol) const {
+    krylov::Controls c;
+    c.rel_tol = rel_tol;
+    c.max_iterations = opt.max_krylov_iterations;
+    c.stop = &stop_requested;
+    return c;
+  }
+
+  /// PCG on K x = b (x starts at zero); returns iterations. With `shift` > 0 it solves
+  /// (K + shift K0) x = b, K0 the reference-medium operator (a Levenberg–Marquardt step, used when K
+  /// is indefinite away from the solution). Sets `breakdown` when a direction of non-positive
+  /// curvature stops it.
   int pcg(const KVec& b, const std::array<bool, 9>& free, double rel_tol, KVec& x, double shift, bool& breakdown) {
     const auto start = Clock::now();
-    breakdown = false;
     const std::vector<int> free_idx = free_indices(free);
     const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
-    const double scale = 1.0 + shift;
-    KVec &r = cg_r, &z = cg_z, &p = cg_p, &Ap = cg_Ap;
-    r.u = b.u;
-    r.f = b.f;
-    for (KVec* v : {&z, &p}) v->u.resize(3 * NM);
-    if (!stencil) Ap.u.resize(3 * NM);  // the stencil operator leaves Ap in fft3's spectrum buffer
-    x.u.assign(3 * NM, 0.0);
-    x.f.setZero();
+    for (KVec* v : {&cg_z, &cg_p}) v->u.resize(3 * NM);
+    if (!stencil) cg_Ap.u.resize(3 * NM);  // the stencil operator leaves Ap in fft3's spectrum buffer
     // Per iteration (Fourier operator): one fused pass p ← z + βp → ∇p, FFT⁻¹ of 6·nq (section) or 9·nq
     // fields, the tangent pass, FFT, one fused pass Div → Ap and ⟨p, Ap⟩, one fused pass x += αp,
     // r −= αAp, z = M⁻¹r and ⟨r, z⟩. Stencil operator (rotated/hex): p ← z + βp (+ copy), FFT⁻¹ of 3
     // fields, one real-space pass ∇p → δP → per-voxel nodal values (SIMD tangent product over 8
     // points), one gather pass Bᵀ δP with ⟨p, Ap⟩, FFT of 3 fields, the same CG update pass reading Ap
     // from the FFT buffer.
-    precondition_macro(r.f, Minv, free_idx, z.f, scale);
-    double rz = green.apply_dot(r.u.data(), z.u.data(), scale) + r.f.dot(z.f);
-    const double rz0 = rz;
-    int it = 0;
-    if (rz0 > 0.0) {
-      double beta = 0.0;
-      while (it < opt.max_krylov_iterations) {
-        const double pAp = apply_direction(z, beta, p, free, Ap, shift);
-        ++it;
-        if (!(pAp > 0.0)) {  // negative curvature: K is indefinite here
-          breakdown = true;
-          break;
-        }
-        const double alpha = rz / pAp;
-        double rz_new = stencil ? green.cg_update(alpha, p.u.data(), fft3->spectrum(0), x.u.data(), r.u.data(),
-                                                  z.u.data(), scale, 1.0 / double(N))
-                                : green.cg_update(alpha, p.u.data(), Ap.u.data(), x.u.data(), r.u.data(), z.u.data(), scale);
-        x.f += alpha * p.f;
-        r.f -= alpha * Ap.f;
-        precondition_macro(r.f, Minv, free_idx, z.f, scale);
-        rz_new += r.f.dot(z.f);
-        if (std::sqrt(std::max(rz_new, 0.0) / rz0) <= rel_tol) break;
-        beta = rz_new / rz;
-        rz = rz_new;
-      }
-    }
+    CgSpace space{*this, free, Minv, free_idx, 1.0 + shift, shift};
+    const krylov::CgResult res = krylov::pcg(space, b, x, cg_r, cg_z, cg_p, cg_Ap, krylov_controls(rel_tol));
+    breakdown = res.breakdown;
     krylov_seconds += std::chrono::duration<double>(Clock::now() - start).count();
-    return it;
+    return res.iterations;
   }
 
   /// Σ_k m_k Re(āᵤ · bᵤ) + a_f · b_f: the inner product of the Krylov space (half spectrum, mode weights).
@@ -895,83 +932,20 @@ struct FftRveSolver::Impl {
     y.f = alpha * x.f + beta * y.f;
   }
 
-  /// Preconditioned MINRES (Paige–Saunders; the Lanczos form of Elman, Silvester & Wathen, Alg. 2.4)
-  /// on K x = b, with the same SPD preconditioner (reference Green operator + macro block) as pcg().
-  /// Used where CG meets negative curvature: past a bifurcation of the cell (fiber micro-buckling in
-  /// compression) the tangent at the equilibrium is indefinite, and a Levenberg–Marquardt shift then
-  /// stalls Newton just above the tolerance, while MINRES returns the Newton step itself. Stops when the
-  /// preconditioned residual norm |η| ≤ rel_tol γ₁; returns iterations, `converged` false otherwise.
+  /// Preconditioned MINRES on K x = b with the SPD preconditioner of pcg() (reference Green operator +
+  /// macro block). Used where CG meets negative curvature: past a bifurcation of the cell (fiber
+  /// micro-buckling in compression) the tangent at the equilibrium is indefinite, and a
+  /// Levenberg–Marquardt shift then stalls Newton just above the tolerance, while MINRES returns the
+  /// Newton step itself. Returns iterations, `converged` false when it did not reach rel_tol.
   int pminres(const KVec& b, const std::array<bool, 9>& free, double rel_tol, KVec& x, bool& converged) {
     const auto start = Clock::now();
-    converged = false;
     const std::vector<int> free_idx = free_indices(free);
     const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
-    const std::size_t n = 3 * NM;
-    auto zero = [n](KVec& v) {
-      v.u.assign(n, 0.0);
-      v.f.setZero();
-    };
-    KVec v_old, v = b, z, Az, w_old, w, w_new;
-    for (KVec* q : {&v_old, &z, &Az, &w_old, &w, &w_new}) zero(*q);
-    zero(x);
-    precondition(v, Minv, free_idx, z);
-    double gamma = std::sqrt(std::max(dot(z, v), 0.0)), gamma_old = 1.0;
-    const double gamma1 = gamma;
-    double eta = gamma, s_old = 0.0, s = 0.0, c_old = 1.0, c = 1.0;
-    int it = 0;
-    if (gamma1 > 0.0) {
-      while (it < opt.max_krylov_iterations) {
-        ++it;
-        for (auto& e : z.u) e /= gamma;
-        z.f /= gamma;
-        apply(z, free, Az);
-        const double delta = dot(Az, z);
-        // v_new = A z − (δ/γ) v − (γ/γ_old) v_old, written into v_old (then swapped).
-        axpby(1.0, Az, -gamma / gamma_old, v_old);
-        axpby(-delta / gamma, v, 1.0, v_old);
-        std::swap(v_old, v);  // v_old ← v (current), v ← v_new
-        const double a3 = s_old * gamma, a2_base = gamma;
-        KVec& z_next = Az;  // A z no longer needed
-        precondition(v, Minv, free_idx, z_next);
-        const double gamma_next = std::sqrt(std::max(dot(z_next, v), 0.0));
-        const double a0 = c * delta - c_old * s * a2_base;
-        const double a1 = std::hypot(a0, gamma_next);
-        const double a2 = s * delta + c_old * c * a2_base;
-        if (!(a1 > 0.0)) break;
-        const double c_new = a0 / a1, s_new = gamma_next / a1;
-        // w_new = (z − a3 w_old − a2 w) / a1
-        const std::size_t nu = z.u.size();
-#pragma omp parallel for schedule(static)
-        for (std::size_t i = 0; i < nu; ++i) {
-          w_new.u[i] = (z.u[i] - a3 * w_old.u[i] - a2 * w.u[i]) / a1;
-          x.u[i] += c_new * eta * w_new.u[i];
-        }
-        w_new.f = (z.f - a3 * w_old.f - a2 * w.f) / a1;
-        x.f += c_new * eta * w_new.f;
-        std::swap(w_old, w);
-        std::swap(w, w_new);
-        eta = -s_new * eta;
-        std::swap(z, z_next);
-        gamma_old = gamma;
-        gamma = gamma_next;
-        c_old = c;
-        c = c_new;
-        s_old = s;
-        s = s_new;
-        if (std::abs(eta) <= rel_tol * gamma1) {
-          converged = true;
-          break;
-        }
-        if (!(gamma > 0.0)) {  // invariant subspace: x is the exact solution in it
-          converged = true;
-          break;
-        }
-      }
-    } else {
-      converged = true;
-    }
+    MinresSpace space{*this, free, Minv, free_idx};
+    const krylov::MinresResult res = krylov::pminres(space, b, x, krylov_controls(rel_tol));
+    converged = res.converged;
     krylov_seconds += std::chrono::duration<double>(Clock::now() - start).count();
-    return it;
+    return res.iterations;
   }
 
   // ---------------------------------------------------------------------------------------------
@@ -1153,7 +1127,6 @@ struct FftRveSolver::Impl {
           // Continuation accepts any admissible iterate: on the way from the end of one equilibrium
           // branch to the next the residual has to grow before it falls.
           accepted = continuation || had_prescribed_step || merit < (1.0 - 1e-4 * scale) * merit_old || ls == 7;
-          if (ls > 0 && accepted) ++out.line_search_cuts;
         }
         if (accepted) accept_linearization();
         if (!accepted) {
@@ -1191,7 +1164,7 @@ struct FftRveSolver::Impl {
         ptc_shift *= std::clamp(err / ptc_err, 0.2, 1.0);
         if (ptc_shift < 1e-9) ptc_shift = 0.0;
         ptc_err = err;
-        ++out.continuation;
+        ++out.continuation_iterations;
       } else if (prescribed_reached && opt.max_continuation_iterations > 0 && it >= 10 &&
                  (it == max_it || err > 0.3 * out.residuals[out.residuals.size() - 4])) {
         // Stagnation (less than a factor 3 in three iterations after ten): the branch has ended.
@@ -1227,7 +1200,7 @@ struct FftRveSolver::Impl {
       if (!prescribed_reached) {
         KVec e{std::vector<Complex>(3 * NM, 0.0), flatten(dFp)}, Ke{std::vector<Complex>(3 * NM), Vec9::Zero()};
         apply(e, free, Ke);
-        ++out.krylov;
+        ++out.krylov_iterations;
         axpy(-1.0, Ke, b);
       }
       // Forcing term (Eisenstat–Walker-like): loose while far from the solution, tight near it.
@@ -1240,14 +1213,14 @@ struct FftRveSolver::Impl {
       double shift = continuation ? ptc_shift : lm_shift;
       const double lin_tol = prescribed_reached ? eta : std::min(eta, 1e-3);
       for (int attempt = 0; attempt < 8; ++attempt) {
-        out.krylov += pcg(b, free, lin_tol, dx, shift, breakdown);
+        out.krylov_iterations += pcg(b, free, lin_tol, dx, shift, breakdown);
         if (!breakdown) break;
         // Negative curvature near the solution (the residual is already small): an indefinite
         // equilibrium tangent, not a transient of the iteration — solve it as it is (MINRES).
         if (minres_mode && shift == 0.0 && prescribed_reached &&
             err < opt.minres_below) {
           bool converged = false;
-          out.krylov += pminres(b, free, lin_tol, dx, converged);
+          out.krylov_iterations += pminres(b, free, lin_tol, dx, converged);
           ++out.minres_solves;
           if (converged) {
             breakdown = false;
@@ -1259,14 +1232,14 @@ struct FftRveSolver::Impl {
       }
       lm_shift = shift >= 1e-2 ? 0.1 * shift : 0.0;
       if (continuation) ptc_shift = shift;
-      ++out.newton;
+      ++out.newton_iterations;
       u_prev = u;
       Fbar_prev = Fbar;
       step_macro = dFp + unflatten(dx.f);
       had_prescribed_step = !prescribed_reached || (it == 0 && full_first_step);
     }
     out.why = "no convergence in " + std::to_string(opt.max_newton_iterations) + " Newton iterations" +
-              (continuation ? " + " + std::to_string(out.continuation) + " continuation iterations" : std::string()) +
+              (continuation ? " + " + std::to_string(out.continuation_iterations) + " continuation iterations" : std::string()) +
               " (residual " + std::to_string(err) + "); " + describe(hot_spots(r));
     return out;
   }
@@ -1303,7 +1276,7 @@ struct FftRveSolver::Impl {
       precondition(r, Minv, free_idx, z);
       for (std::size_t i = 0; i < u.size(); ++i) u[i] -= z.u[i];
       Fbar -= unflatten(z.f);
-      ++out.newton;
+      ++out.newton_iterations;
     }
     out.residuals.push_back(err);
     out.why = "fixed point: no convergence in " + std::to_string(opt.max_fixed_point_iterations) + " iterations";
@@ -1471,7 +1444,10 @@ RveRunResult FftRveSolver::run(const MixedControl& control,
     }
   } engine{m, control, angle0, on_step, want_fields};
   m.krylov_seconds = 0.0;
-  detail::run_output_steps(control, m.opt.max_cutbacks, engine, result, run_start);
+  StepControlOptions steps;
+  steps.max_cutbacks = m.opt.max_cutbacks;
+  steps.max_step_seconds = m.opt.max_step_seconds;
+  detail::run_output_steps(control, steps, engine, result, run_start);
   result.krylov_seconds = m.krylov_seconds;
   return result;
 }
