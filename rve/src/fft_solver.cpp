@@ -104,8 +104,19 @@ struct PassSums {
   Mat3 phase_PFt[2] = {Mat3::Zero(), Mat3::Zero()};
   double phase_J[2] = {0.0, 0.0};
   double phase_w[2] = {0.0, 0.0};
+  // Smallest Material::limit_margin of each phase over its points (composite points: its laminate
+  // side) and the voxel where it is; checked on converged states (a phase at its limit is fatal).
+  double margin[2] = {1.0, 1.0};
+  std::size_t v_margin[2] = {0, 0};
+  void see_margin(int x, double m, std::size_t v) {
+    if (m < margin[x]) {
+      margin[x] = m;
+      v_margin[x] = v;
+    }
+  }
   void add(const PassSums& o) {
     P += o.P;
+    for (int x = 0; x < 2; ++x) see_margin(x, o.margin[x], o.v_margin[x]);
     A += o.A;
     for (int x = 0; x < 2; ++x) {
       phase_A[x] += o.phase_A[x];
@@ -473,6 +484,7 @@ struct FftRveSolver::Impl {
               local.phase_PFt[x] += w * P * F.transpose();
               local.phase_J[x] += w * F.determinant();
               local.phase_w[x] += w;
+              local.see_margin(x, mat[x]->limit_margin(F), v);
             }
           } else {
             const std::size_t c = std::size_t(comp_id[v]) * nq + q;
@@ -504,6 +516,7 @@ struct FftRveSolver::Impl {
                 local.phase_PFt[x] += wx * Px[x] * Fx[x].transpose();
                 local.phase_J[x] += wx * Fx[x].determinant();
                 local.phase_w[x] += wx;
+                local.see_margin(x, mat[x]->limit_margin(Fx[x]), v);
               }
           }
           if (s != MaterialStatus::ok || !P.allFinite()) {
@@ -1046,6 +1059,19 @@ struct FftRveSolver::Impl {
 
   using StepOutcome = detail::SubstepOutcome;
 
+  static StepOutcome& fatal(StepOutcome& out, std::string why) {
+    out.fatal = true;
+    out.why = std::move(why);
+    return out;
+  }
+  /// A converged sub-step: ok unless a phase is at its material limit there (fatal).
+  StepOutcome& converged(StepOutcome& out) const {
+    const std::string where[2] = {voxel_name(sums.v_margin[0]), voxel_name(sums.v_margin[1])};
+    if (std::string why = detail::phase_limit_reached(sums.margin, where, Fbar); !why.empty()) return fatal(out, why);
+    out.ok = true;
+    return out;
+  }
+
   StepOutcome step(const MixedControl& control, double t_new, double dt) {
     StepOutcome out;
     std::array<bool, 9> free{};
@@ -1059,6 +1085,7 @@ struct FftRveSolver::Impl {
         target(c / 3, c % 3) = control.value[c](t_new);
     }
     KVec r{std::vector<Complex>(3 * NM), Vec9::Zero()}, dx;
+    if (std::string why = detail::target_inverts(control, t_new, Fbar_committed); !why.empty()) return fatal(out, why);
     if (opt.scheme == FftScheme::moulinec_suquet) return fixed_point(free, P_target, target, dt, r);
 
     int max_it = opt.max_newton_iterations;
@@ -1080,6 +1107,10 @@ struct FftRveSolver::Impl {
     double lm_shift = 0.0;
     bool full_first_step = false;
     for (int it = 0; it <= max_it; ++it) {
+      if (stop_requested()) {
+        out.why = "stopped by a signal";
+        return out;
+      }
       // Evaluate the new iterate. After a Newton update, a backtracking line search on the residual
       // norm: nearly incompressible matrices (K/G ~ 1e5) make full Newton steps overshoot in J.
       if (it == 0) {
@@ -1153,8 +1184,7 @@ struct FftRveSolver::Impl {
       // a relative tolerance below ε K / |P̄| cannot be reached; there the floor counts as convergence.
       const double floor = 64.0 * std::numeric_limits<double>::epsilon() * K_max / stress_scale(free, P_target);
       if (prescribed_reached && err <= std::max(opt.tolerance, floor)) {
-        out.ok = true;
-        return out;
+        return converged(out);
       }
       if (continuation) {
         // Switched evolution relaxation, one-sided: the shift follows a falling residual, so it
@@ -1256,6 +1286,10 @@ struct FftRveSolver::Impl {
     KVec z{std::vector<Complex>(3 * NM), Vec9::Zero()};
     double err = 0.0;
     for (int it = 0; it <= opt.max_fixed_point_iterations; ++it) {
+      if (stop_requested()) {
+        out.why = "stopped by a signal";
+        return out;
+      }
       gradient_to_real(u);
       const MaterialStatus s = evaluate_points(to_grid(Fbar), dt, false);
       if (s != MaterialStatus::ok) {
@@ -1269,9 +1303,8 @@ struct FftRveSolver::Impl {
         return out;
       }
       if (err <= opt.tolerance) {
-        out.ok = true;
         out.residuals.push_back(err);
-        return out;
+        return converged(out);
       }
       precondition(r, Minv, free_idx, z);
       for (std::size_t i = 0; i < u.size(); ++i) u[i] -= z.u[i];

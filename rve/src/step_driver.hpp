@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Eigenvalues>
+
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/loading.hpp"
 #include "softhom/materials/step_control.hpp"
@@ -70,12 +72,57 @@ inline std::vector<std::string> substep_notes(double t0, double t1, const Subste
   return notes;
 }
 
+/// A converged state with a phase's Material::limit_margin below this is refused as fatal (as the
+/// material-point driver's PointSolverOptions::limit_margin): the law is at its limit (Gent locking)
+/// and past it only the bulk term resists, so no further state of the path is physical.
+constexpr double kLimitMargin = 1e-3;
+
+/// A computed value in a message (4 significant digits; format_number is for numbers the user wrote).
+inline std::string approx(double v) {
+  std::ostringstream s;
+  s.precision(4);
+  s << v;
+  return s.str();
+}
+
+/// Largest principal stretch of F (the stretch a locking message names).
+inline double largest_stretch(const Mat3& F) {
+  const Eigen::SelfAdjointEigenSolver<Mat3> es(F.transpose() * F, Eigen::EigenvaluesOnly);
+  return std::sqrt(std::max(es.eigenvalues().maxCoeff(), 0.0));
+}
+
+/// The fatal reason when a phase of a converged state is at its material limit (empty otherwise):
+/// `margin[x]` the smallest Material::limit_margin of phase x (0 matrix, 1 fiber), `where[x]` where.
+inline std::string phase_limit_reached(const double margin[2], const std::string where[2], const Mat3& F_load) {
+  const int x = margin[1] < margin[0] ? 1 : 0;
+  if (!(margin[x] < kLimitMargin)) return {};
+  std::ostringstream s;
+  s << "the " << (x ? "fiber" : "matrix") << " phase reaches its material limit (e.g. Gent locking, Ī1 − 3 → Jm: "
+    << "limit margin " << approx(margin[x]) << " < " << format_number(kLimitMargin) << " at " << where[x]
+    << ") at the macro stretch " << approx(largest_stretch(F_load)) << " (F11 = " << approx(F_load(0, 0))
+    << ", load frame); the cell has no physical state beyond the last converged one";
+  return s.str();
+}
+
+/// The fatal reason when a sub-step's target inverts the cell (empty otherwise): det F̄ ≤ 0 for the
+/// prescribed components at t_new with the free components of the committed state (which carry any
+/// rotation the path took). No sub-step of the path can pass det F̄ = 0, so halving cannot help.
+inline std::string target_inverts(const MixedControl& control, double t_new, const Mat3& F_committed) {
+  Mat3 F = F_committed;
+  for (int c = 0; c < 9; ++c)
+    if (control.kind[c] == ControlKind::deformation) F(c / 3, c % 3) = control.value[c](t_new);
+  const double J = F.determinant();
+  if (J > 0.0) return {};
+  return "the prescribed deformation inverts the cell: det F̄ = " + approx(J) + " ≤ 0 at t = " + approx(t_new) +
+         " (F11 = " + approx(F(0, 0)) + ", load frame, free components of the last converged state)";
+}
+
 /// RveStop of an interval that did not reach its end.
 inline RveStop stop_of(IntervalStatus s) {
   switch (s) {
     case IntervalStatus::reached: return RveStop::none;
     case IntervalStatus::cutbacks_exhausted: return RveStop::failed;
-    case IntervalStatus::fatal: return RveStop::material_limit;
+    case IntervalStatus::fatal: return RveStop::fatal;
     case IntervalStatus::time_budget: return RveStop::time_budget;
     case IntervalStatus::interrupted: return RveStop::interrupted;
   }

@@ -165,7 +165,7 @@ struct RveFields {
 };
 
 /// How a run ended early (none when it completed).
-enum class RveStop { none, failed, material_limit, time_budget, interrupted };
+enum class RveStop { none, failed, fatal, time_budget, interrupted };  /// fatal: a phase at its material limit, an inverted cell
 
 /// A run; its counts are totals over all sub-step attempts.
 struct RveRunResult : RveCounts {
