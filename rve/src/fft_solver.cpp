@@ -16,6 +16,7 @@
 #include "softhom/fft/stencil.hpp"
 #include "softhom/materials/interrupt.hpp"
 #include "softhom/materials/errors.hpp"
+#include "memory_budget.hpp"
 #include "step_driver.hpp"
 
 namespace softhom::rve {
@@ -203,9 +204,6 @@ struct FftRveSolver::Impl {
         N(grid.voxels()),
         NM(grid.modes()),
         NP(N * std::size_t(op.points())) {
-    if (image.fiber_fraction.size() != N)
-      throw InputError("microstructure", "", "phase image has " + std::to_string(image.fiber_fraction.size()) +
-                                                 " values for " + std::to_string(N) + " voxels");
     R = grid_rotation(angle);
     T_load = rotation_operator(R);
     a0_load = R * image.mean_fiber_direction();  // y3 unless the image gives per-voxel directions
@@ -223,6 +221,18 @@ struct FftRveSolver::Impl {
     mu_ref = 0.5 * (G0 + G1);
     lambda_ref = 0.5 * ((K0 - 2.0 / 3.0 * G0) + (K1 - 2.0 / 3.0 * G1));
 
+    for (int x = 0; x < 2; ++x) {
+      K_vol[x] = mat[x]->volumetric_modulus();
+      const double G = mat[x]->initial_shear_modulus();
+      mixed[x] = opt.scheme == FftScheme::newton_cg && opt.mixed_pressure && K_vol[x] > 0.0 &&
+                 K_vol[x] >= opt.mixed_pressure_ratio * G;
+      mixed_active = mixed_active || mixed[x];
+    }
+    // Refuse a grid that cannot fit before anything of its size is allocated.
+    detail::refuse_if_too_big(planned_bytes(), "microstructure.grid", grid_text(grid.n));
+    if (image.fiber_fraction.size() != N)
+      throw InputError("microstructure", "", "phase image has " + std::to_string(image.fiber_fraction.size()) +
+                                                 " values for " + std::to_string(N) + " voxels");
     phi = image.fiber_fraction;
     comp_id.assign(N, -1);
     double vf = 0.0;
@@ -248,13 +258,6 @@ struct FftRveSolver::Impl {
         for (std::size_t p = 0; p < NP; ++p) mat[x]->init_state(hist_old[x].data() + p * state_size[x]);
         hist_new[x] = hist_old[x];
       }
-    for (int x = 0; x < 2; ++x) {
-      K_vol[x] = mat[x]->volumetric_modulus();
-      const double G = mat[x]->initial_shear_modulus();
-      mixed[x] = opt.scheme == FftScheme::newton_cg && opt.mixed_pressure && K_vol[x] > 0.0 &&
-                 K_vol[x] >= opt.mixed_pressure_ratio * G;
-      mixed_active = mixed_active || mixed[x];
-    }
     if (mixed_active) {
       lin_cur.assign(10 * NP, 0.0);
       lin_next.assign(10 * NP, 0.0);
@@ -285,6 +288,28 @@ struct FftRveSolver::Impl {
     u.assign(3 * NM, 0.0);
     u_committed = u;
     r_u.assign(3 * NM, 0.0);
+  }
+
+  /// "[n1, n2]" (sections) or "[n1, n2, n3]", as the scene writes the grid.
+  static std::string grid_text(const std::array<int, 3>& n) {
+    return "[" + std::to_string(n[0]) + ", " + std::to_string(n[1]) + (n[2] > 1 ? ", " + std::to_string(n[2]) : "") + "]";
+  }
+
+  /// Bytes the solver will allocate for this grid and these options (the arrays of memory_bytes(),
+  /// counted before they exist; composite points counted as none, their 6 values per point are small).
+  std::size_t planned_bytes() const {
+    const double n = double(N), nm = double(NM), np = double(NP);
+    const bool newton = opt.scheme == FftScheme::newton_cg;
+    const bool with_stencil = newton && opt.krylov_operator == KrylovOperator::stencil && fft::StencilGradient::supported(op);
+    const double field = 8.0 * n + 16.0 * nm;  // one real field and its half spectrum
+    double b = 9.0 * nq * field + (with_stencil ? 3.0 * field : 0.0);
+    if (newton) b += 45.0 * np * (with_stencil && opt.tangent_precision == TangentPrecision::single_precision ? 4.0 : 8.0);
+    b += 9.0 * 8.0 * nm;                                     // reference Green operator per mode
+    b += 2.0 * 8.0 * np * double(state_size[0] + state_size[1]);  // history, old and new
+    if (mixed_active) b += 32.0 * 8.0 * np;                  // linearizations, pressures, P_full − P̂
+    b += 12.0 * n;                                           // fiber fraction, composite index
+    b += 3.0 * 16.0 * nm * (newton ? 12.0 : 4.0);            // ũ, its copies and the Krylov vectors
+    return detail::saturating_product({b});
   }
 
   // Normal of a composite voxel of an imported image without normals: −∇φ by central differences
