@@ -123,6 +123,7 @@ int run_rve(const CommandOptions& options) {
       writer->add("sigma", f->sigma, 9, io::Centering::cell);
       writer->add("von_mises", f->von_mises, 1, io::Centering::cell);
       writer->add("fiber_fraction", f->fiber_fraction, 1, io::Centering::cell);
+      writer->add("displacement", f->displacement, 3, io::Centering::node);
       writer->end_step();
     }
     if (!options.quiet)

@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 #include <tuple>
 #include <unordered_map>
@@ -29,6 +30,8 @@
 #include "softhom/fe/tet10.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/rve/fe_mesh.hpp"
+
+#include "memory_budget.hpp"
 
 namespace softhom::rve {
 namespace {
@@ -165,6 +168,46 @@ CellMesh mesh_cell(const Section& section, const CellMeshOptions& options) {
 }
 
 namespace {
+/// Tet10 elements CGAL makes for the cell (an estimate before meshing): the bulk at mesh_size plus,
+/// on both sides of every fiber surface, the band where the size grows from interface_size with
+/// `grading` per unit distance: ∫ dd / (0.118 (h_i + g d)³) = 1 / (0.236 g h_i²) per unit area
+/// (0.118 h³ is the volume of a regular tetrahedron of edge h).
+double estimated_cell_elements(const Section& section, const CellMeshOptions& o) {
+  constexpr double kTetVolume = 0.1178511;  // regular tetrahedron of unit edge
+  const double V = section.L1 * section.L2 * o.length;
+  double perimeter = 0.0;
+  for (const auto& f : section.fibers)
+    perimeter += f.shape == SectionShape::circle ? 2.0 * 3.14159265358979323846 * f.radius : 2.0 * (f.width + f.height);
+  const double g = std::max(o.grading, 1e-3), hi = o.interface_size;
+  const double band = 2.0 * perimeter * o.length / (2.0 * g * kTetVolume * hi * hi);
+  return V / (kTetVolume * std::pow(o.mesh_size, 3)) + band;
+}
+
+/// Refuses (InputError naming solver.mesh_size) a 3D cell whose FE solve cannot fit: bytes of the
+/// mesh, the element data and the sparse Cholesky factor of its tangent, estimated from the element
+/// count (nodes ≈ 1.4 elements for Tet10, 3 dofs each; nested-dissection fill of a 3D P2 mesh
+/// ≈ 5 n^(4/3) nonzeros for n dofs, 8 B each plus indices), against the available memory, and a
+/// factor beyond the 32-bit indices of the sparse solver (which otherwise fails in its symbolic
+/// analysis after minutes of meshing).
+void refuse_unsolvable_cell(const Section& section, const CellMeshOptions& o) {
+  const double elements = estimated_cell_elements(section, o);
+  const double dofs = 3.0 * 1.4 * elements;
+  const double factor_nnz = 5.0 * std::pow(dofs, 4.0 / 3.0);
+  const double bytes = 12.0 * factor_nnz + 2.0 * 12.0 * 40.0 * dofs + 3000.0 * elements;
+  std::ostringstream size;
+  size << o.mesh_size << " (interface_size " << o.interface_size << ")";
+  if (factor_nnz > double(std::numeric_limits<int>::max())) {
+    std::ostringstream why;
+    why.precision(2);
+    why << "about " << elements << " elements: the Cholesky factor of the tangent (about " << factor_nnz
+        << " nonzeros) exceeds the 32-bit indices of the sparse solver; coarsen the mesh";
+    throw InputError("solver.mesh_size", size.str(), why.str());
+  }
+  detail::refuse_if_too_big(detail::saturating_product({bytes}), "solver.mesh_size", size.str());
+}
+}  // namespace
+
+namespace {
 CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& options) {
   CellMeshOptions o = options;
   const double L1 = section.L1, L2 = section.L2;
@@ -180,6 +223,7 @@ CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& opti
   if (L1 * L2 * L3 / std::pow(o.interface_size, 3) > 2e6)
     throw InputError("solver.interface_size", std::to_string(o.interface_size),
                      "too small for the cell (3D mesh > ~1e7 elements)");
+  refuse_unsolvable_cell(section, o);
   const Vec3d L(L1, L2, L3);
   const double Lmax = L.maxCoeff();
 

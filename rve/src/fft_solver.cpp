@@ -1398,7 +1398,32 @@ struct FftRveSolver::Impl {
         f.sigma[9 * v + c] = Sm(c / 3, c % 3);
       }
     }
+    f.displacement = node_displacement();
     return f;
+  }
+
+  /// Displacement u = (F̄_grid − I) y + ũ(y) at the (n1+1)(n2+1)(n3+1) voxel corners y (grid frame,
+  /// y1 fastest; the corners of the last layer repeat ũ of the first, periodic, with the macro part
+  /// continued). ũ at the corners is the c2r transform of its spectrum (rotated/hex: the nodal
+  /// displacement of the discretization; spectral: the trigonometric interpolant). Uses fft's buffers.
+  std::vector<double> node_displacement() {
+    // The three components into fields 0, 3, 6, which are transformed for any number of columns.
+    for (int i = 0; i < 3; ++i) std::copy(u.begin() + i * NM, u.begin() + (i + 1) * NM, fft->spectrum(3 * i));
+    fft->backward();
+    const Mat3 G = to_grid(Fbar) - Mat3::Identity();
+    const std::array<int, 3>& n = grid.n;
+    const std::size_t m1 = n[0] + 1, m2 = n[1] + 1, m3 = n[2] + 1;
+    std::vector<double> out(3 * m1 * m2 * m3);
+    for (std::size_t i3 = 0; i3 < m3; ++i3)
+      for (std::size_t i2 = 0; i2 < m2; ++i2)
+        for (std::size_t i1 = 0; i1 < m1; ++i1) {
+          const std::size_t v = i1 % n[0] + std::size_t(n[0]) * (i2 % n[1] + std::size_t(n[1]) * (i3 % n[2]));
+          const Vec3 y(double(i1) * grid.spacing(0), double(i2) * grid.spacing(1), double(i3) * grid.spacing(2));
+          const Vec3 uy = G * y + Vec3(fft->real(0)[v], fft->real(3)[v], fft->real(6)[v]);
+          double* o = &out[3 * (i1 + m1 * (i2 + m2 * i3))];
+          for (int c = 0; c < 3; ++c) o[c] = uy[c];
+        }
+    return out;
   }
 };
 
@@ -1412,6 +1437,7 @@ int FftRveSolver::quadrature_points() const { return impl_->nq; }
 std::string FftRveSolver::fft_description() const { return impl_->fft->describe(); }
 double FftRveSolver::achieved_volume_fraction() const { return impl_->achieved_vf; }
 double FftRveSolver::planning_seconds() const { return impl_->fft->planning_seconds(); }
+std::vector<double> FftRveSolver::displacement() { return impl_->node_displacement(); }
 std::size_t FftRveSolver::memory_bytes() const {
   const Impl& m = *impl_;
   std::size_t b = m.fft->fields() * (m.N * sizeof(double) + m.NM * sizeof(Complex));

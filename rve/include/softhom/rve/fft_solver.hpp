@@ -159,9 +159,12 @@ struct RveStep : RveCounts {
   double wall_seconds = 0.0;
 };
 
-/// Per-voxel fields of a converged step (quadrature points averaged), load frame, 9 per voxel row-major.
+/// Per-voxel fields of a converged step (quadrature points averaged), load frame, 9 per voxel row-major;
+/// displacement per voxel corner (3 per node of the (n1+1)(n2+1)(n3+1) corner grid, y1 fastest, grid
+/// frame: u = (F̄_grid − I) y + ũ, so a viewer can warp the cell), see FftRveSolver::displacement().
 struct RveFields {
   std::vector<double> F, P, sigma, von_mises, fiber_fraction;
+  std::vector<double> displacement;
 };
 
 /// How a run ended early (none when it completed).
@@ -223,6 +226,10 @@ class FftRveSolver {
   std::size_t memory_bytes() const;
   /// Seconds spent planning FFTs (FFTW_MEASURE) at construction.
   double planning_seconds() const;
+  /// Displacement of the current state at the voxel corners (layout of RveFields::displacement): the
+  /// macro part (F̄_grid − I) y plus the periodic fluctuation ũ, transformed from its spectrum. Uses
+  /// the solver's FFT buffers (call between runs or from on_step, not concurrently with a run).
+  std::vector<double> displacement();
 
  private:
   struct Impl;
