@@ -7,10 +7,12 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include <Eigen/Dense>
 
+#include "softhom/fe/line_search.hpp"
 #include "softhom/fe/sparse.hpp"
 #include "softhom/fe/tet10.hpp"
 #include "softhom/materials/errors.hpp"
@@ -831,11 +833,8 @@ struct Model {
         }
         apply_targets(P_target);
       } else {
-        const double merit_old = merit();
-        double scale = 1.0;
-        bool accepted = false;
         MaterialStatus last = MaterialStatus::ok;
-        for (int ls = 0; ls < 8 && !accepted; ++ls, scale *= 0.5) {
+        auto trial = [&](double scale) -> std::optional<double> {
           for (int i = 0; i < nn; ++i)
             for (int c = 0; c < 3; ++c) {
               const int g = node_eq[3 * i + c];
@@ -851,12 +850,11 @@ struct Model {
           for (int c = 0; c < 9; ++c)
             if (!free[c]) dFp_now[c] = target(c / 3, c % 3) - Fbar(c / 3, c % 3);
           last = evaluate(dt, true, dFp_now);
-          if (last != MaterialStatus::ok) continue;
+          if (last != MaterialStatus::ok) return std::nullopt;
           apply_targets(P_target);
-          const double mnew = merit();
-          if (!std::isfinite(mnew)) continue;
-          accepted = had_prescribed_step || mnew < (1.0 - 1e-4 * scale) * merit_old || ls == 7;
-        }
+          return merit();
+        };
+        const bool accepted = fe::backtracking_line_search(merit(), had_prescribed_step, trial).accepted;
         if (!accepted) {
           out.why = last != MaterialStatus::ok ? std::string("material call failed (") + to_string(last) + ")"
                                                : std::string("line search failed");

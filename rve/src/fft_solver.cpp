@@ -7,12 +7,14 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
 #include <Eigen/Dense>
 
 #include "softhom/fe/krylov.hpp"
+#include "softhom/fe/line_search.hpp"
 #include "softhom/fft/stencil.hpp"
 #include "softhom/materials/interrupt.hpp"
 #include "softhom/materials/errors.hpp"
@@ -1168,22 +1170,20 @@ struct FftRveSolver::Impl {
         err = evaluate_residual(free, P_target, r);
         linearized_pressure = mixed_active;
       } else {
-        const double merit_old = merit;
-        double scale = 1.0;
-        bool accepted = false;
         MaterialStatus last = MaterialStatus::ok;
-        for (int ls = 0; ls < 8 && !accepted; ++ls, scale *= 0.5) {
+        auto trial = [&](double scale) -> std::optional<double> {
           for (std::size_t i = 0; i < u.size(); ++i) u[i] = u_prev[i] + scale * dx.u[i];
           Fbar = Fbar_prev + scale * step_macro;
           gradient_to_real(u);
           last = evaluate_points(to_grid(Fbar), dt, true);
-          if (last != MaterialStatus::ok) continue;
+          if (last != MaterialStatus::ok) return std::nullopt;
           err = evaluate_residual(free, P_target, r);
-          if (!std::isfinite(err)) continue;
-          // Continuation accepts any admissible iterate: on the way from the end of one equilibrium
-          // branch to the next the residual has to grow before it falls.
-          accepted = continuation || had_prescribed_step || merit < (1.0 - 1e-4 * scale) * merit_old || ls == 7;
-        }
+          if (!std::isfinite(err)) return std::nullopt;
+          return merit;
+        };
+        // Continuation accepts any admissible iterate: on the way from the end of one equilibrium
+        // branch to the next the residual has to grow before it falls.
+        const bool accepted = fe::backtracking_line_search(merit, continuation || had_prescribed_step, trial).accepted;
         if (accepted) accept_linearization();
         if (!accepted) {
           out.why = last != MaterialStatus::ok ? std::string("material call failed (") + to_string(last) + ")"
