@@ -18,6 +18,8 @@
 #include "softhom/fft/stencil.hpp"
 #include "softhom/materials/interrupt.hpp"
 #include "softhom/materials/errors.hpp"
+#include "diagnostics.hpp"
+#include "laminate.hpp"
 #include "memory_budget.hpp"
 #include "step_driver.hpp"
 
@@ -45,7 +47,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr double kPhaseEps = 1e-12;  // fractions closer than this to 0/1 are pure voxels
-constexpr double kLockingMargin = 0.02;  // failure diagnosis: a matrix point this close to its limit is "locked"
 
 /// 9×9 operator of X ↦ R X Rᵀ on row-major flattened tensors.
 Mat9 rotation_operator(const Mat3& R) {
@@ -247,7 +248,7 @@ struct FftRveSolver::Impl {
       if (f > 0.0 && f < 1.0) {
         comp_id[v] = int(comp_normal.size());
         Vec3 n = image.normal.size() == N ? image.normal[v] : Vec3::Zero();
-        if (!(n.norm() > 0.5)) n = estimate_normal(image, v);
+        if (!(n.norm() > 0.5)) n = detail::estimate_interface_normal(image, v);
         comp_normal.push_back(n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero());
       }
     }
@@ -314,95 +315,23 @@ struct FftRveSolver::Impl {
     return detail::saturating_product({b});
   }
 
-  // Normal of a composite voxel of an imported image without normals: −∇φ by central differences
-  // (points out of the fiber); zero when the neighbourhood is flat (then the Voigt rule is used).
-  static Vec3 estimate_normal(const PhaseImage& im, std::size_t v) {
-    const int n1 = im.n[0], n2 = im.n[1], n3 = im.n[2];
-    const int i1 = int(v % n1), i2 = int((v / n1) % n2), i3 = int(v / (std::size_t(n1) * n2));
-    auto at = [&](int a, int b, int c) {
-      a = (a + n1) % n1;
-      b = (b + n2) % n2;
-      c = (c + n3) % n3;
-      return im.fiber_fraction[a + std::size_t(n1) * (b + std::size_t(n2) * c)];
-    };
-    Vec3 g(n1 > 1 ? (at(i1 + 1, i2, i3) - at(i1 - 1, i2, i3)) * n1 / im.size[0] : 0.0,
-           n2 > 1 ? (at(i1, i2 + 1, i3) - at(i1, i2 - 1, i3)) * n2 / im.size[1] : 0.0,
-           n3 > 1 ? (at(i1, i2, i3 + 1) - at(i1, i2, i3 - 1)) * n3 / im.size[2] : 0.0);
-    return g.norm() > 0.0 ? Vec3(-g.normalized()) : Vec3::Zero();
-  }
-
   Mat3 to_grid(const Mat3& X_load) const { return R.transpose() * X_load * R; }
   Mat3 to_load(const Mat3& X_grid) const { return R * X_grid * R.transpose(); }
 
   // ---------------------------------------------------------------------------------------------
   // Material points.
 
-  /// Laminate rule for a composite point. `a` (in/out) is the jump vector, warm-started.
+  /// Laminate rule for a composite point (laminate.hpp). `a` (in/out) is the jump vector, warm-started.
   MaterialStatus laminate(const Mat3& F, double f, const Vec3& n, Vec3& a, std::size_t p, double dt, Mat3& P,
                           Mat9* A, Mat3 Px[2], Mat3 Fx[2]) const {
-    Mat9 Ax[2];
-    const double* ho[2];
-    double* hn[2];
+    detail::LaminatePoint pt;
     for (int x = 0; x < 2; ++x) {
-      ho[x] = state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr;
-      hn[x] = state_size[x] ? const_cast<double*>(hist_new[x].data()) + p * state_size[x] : nullptr;
+      pt.phase[x] = mat[x].get();
+      pt.state_old[x] = state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr;
+      pt.state_new[x] = state_size[x] ? const_cast<double*>(hist_new[x].data()) + p * state_size[x] : nullptr;
     }
-    Vec3 a_prev = a;
-    Eigen::Matrix3d Q;
-    bool have_previous = false;
-    double r_prev = std::numeric_limits<double>::infinity();
-    for (int it = 0; it < 40; ++it) {
-      Fx[1] = F + (1.0 - f) * a * n.transpose();
-      Fx[0] = F - f * a * n.transpose();
-      MaterialStatus s1 = mat[1]->evaluate(Fx[1], ho[1], hn[1], dt, Px[1], &Ax[1]);
-      MaterialStatus s0 = s1 == MaterialStatus::ok ? mat[0]->evaluate(Fx[0], ho[0], hn[0], dt, Px[0], &Ax[0]) : s1;
-      if (s0 != MaterialStatus::ok || s1 != MaterialStatus::ok) {
-        if (!have_previous) return s0 != MaterialStatus::ok ? s0 : s1;
-        a = a_prev + 0.5 * (a - a_prev);  // damp the laminate Newton step
-        continue;
-      }
-      const Vec3 r = (Px[1] - Px[0]) * n;
-      for (int i = 0; i < 3; ++i)
-        for (int k = 0; k < 3; ++k) {
-          double s = 0.0;
-          for (int j = 0; j < 3; ++j)
-            for (int l = 0; l < 3; ++l)
-              s += ((1.0 - f) * Ax[1](3 * i + j, 3 * k + l) + f * Ax[0](3 * i + j, 3 * k + l)) * n[j] * n[l];
-          Q(i, k) = s;
-        }
-      // Relative tolerance plus the round-off floor of stresses ~ K (J − 1) (K/G up to 1e5 here).
-      const double scale = (Px[1] * n).norm() + (Px[0] * n).norm();
-      const double floor = 32.0 * std::numeric_limits<double>::epsilon() * K_max * (1.0 + F.cwiseAbs().maxCoeff());
-      const double rn = r.norm();
-      if (rn <= 1e-13 * scale + floor) break;
-      // Stagnation at round-off level is convergence too.
-      if (it >= 3 && rn <= 1e-9 * scale && rn > 0.25 * r_prev) break;
-      r_prev = rn;
-      if (it == 39) return MaterialStatus::not_finite;  // no traction continuity: treat as a failed call  // no traction continuity: treat as a failed call
-      a_prev = a;
-      have_previous = true;
-      a -= Q.inverse() * r;
-    }
-    P = f * Px[1] + (1.0 - f) * Px[0];
-    if (A) {
-      const Mat9 D = Ax[1] - Ax[0];
-      Eigen::Matrix<double, 3, 9> Tm;   // (D dF) n
-      Eigen::Matrix<double, 9, 3> Um;   // D (da ⊗ n)
-      for (int i = 0; i < 3; ++i)
-        for (int c = 0; c < 9; ++c) {
-          double s = 0.0;
-          for (int j = 0; j < 3; ++j) s += D(3 * i + j, c) * n[j];
-          Tm(i, c) = s;
-        }
-      for (int c = 0; c < 9; ++c)
-        for (int k = 0; k < 3; ++k) {
-          double s = 0.0;
-          for (int l = 0; l < 3; ++l) s += D(c, 3 * k + l) * n[l];
-          Um(c, k) = s;
-        }
-      *A = f * Ax[1] + (1.0 - f) * Ax[0] - f * (1.0 - f) * Um * Q.inverse() * Tm;
-    }
-    return MaterialStatus::ok;
+    pt.K_max = K_max;
+    return detail::laminate_point(pt, F, f, n, a, dt, P, A, Px, Fx);
   }
 
   /// Mixed (u, p) Newton iteration at a pure point of a nearly incompressible phase x. The law's
@@ -991,18 +920,11 @@ struct FftRveSolver::Impl {
   // ---------------------------------------------------------------------------------------------
   // Failure diagnosis.
 
-  /// Extremes of the current iterate (ũ, F̄ and the laminate vectors as they are now): the
-  /// smallest domain margin of the matrix (Material::limit_margin, Gent: 1 − (Ī1 − 3)/Jm) over pure
-  /// matrix points and the matrix side of composite points, J extremes of the matrix, the mixed
-  /// pressure, and where the nodal force residual `r` is largest. Destroys the real buffer.
-  struct HotSpots {
-    double margin = 1.0, J_min = 1.0, J_max = 1.0, p_max = 0.0, force_max = 0.0, force_rms = 0.0;
-    std::size_t v_margin = 0, v_J_min = 0, v_force = 0, v_p = 0;
-    bool margin_composite = false;
-    int near_limit = 0;  // matrix points with margin < 0.1
-  };
-  HotSpots hot_spots(const KVec& r) {
-    HotSpots h;
+  /// The hot spots of the current iterate (ũ, F̄ and the laminate vectors as they are now; see
+  /// diagnostics.hpp): the matrix side of every non-fiber point, then the nodal forces of `r`.
+  /// Destroys the real buffer.
+  detail::HotSpots hot_spots(const KVec& r) {
+    detail::HotSpots h;
     gradient_to_real(u);
     const Mat3 Fg = to_grid(Fbar);
     const int ncol = op.columns();
@@ -1020,66 +942,20 @@ struct FftRveSolver::Impl {
           const Vec3 a(lam_a_trial[3 * c], lam_a_trial[3 * c + 1], lam_a_trial[3 * c + 2]);
           F -= f * a * comp_normal[comp_id[v]].transpose();
         }
-        const double m = mat[0]->limit_margin(F), J = F.determinant();
-        if (m < h.margin) {
-          h.margin = m;
-          h.v_margin = v;
-          h.margin_composite = composite;
-        }
-        if (m < 0.1) ++h.near_limit;
-        if (J < h.J_min) {
-          h.J_min = J;
-          h.v_J_min = v;
-        }
-        h.J_max = std::max(h.J_max, J);
-        if (mixed[0] && !composite && std::abs(p_trial[p]) > h.p_max) {
-          h.p_max = std::abs(p_trial[p]);
-          h.v_p = v;
-        }
+        h.see_matrix_point(v, mat[0]->limit_margin(F), F.determinant(), composite);
+        if (mixed[0] && !composite) h.see_pressure(v, p_trial[p]);
       }
     // Nodal forces Dᴴ P in real space: the three components into fields 0, 3, 6 (transformed for any
     // number of columns).
     for (int i = 0; i < 3; ++i) std::copy(r.u.begin() + i * NM, r.u.begin() + (i + 1) * NM, fft->spectrum(3 * i));
     fft->backward();
-    double s2 = 0.0;
-    for (std::size_t v = 0; v < N; ++v) {
-      double f2 = 0.0;
-      for (int i = 0; i < 3; ++i) f2 += fft->real(3 * i)[v] * fft->real(3 * i)[v];
-      s2 += f2;
-      if (f2 > h.force_max) {
-        h.force_max = f2;
-        h.v_force = v;
-      }
-    }
-    h.force_max = std::sqrt(h.force_max);
-    h.force_rms = std::sqrt(s2 / double(N));
+    h.see_forces(fft->real(0), fft->real(3), fft->real(6), N);
     return h;
   }
-  std::string voxel_name(std::size_t v) const {
-    std::ostringstream s;
-    s << "voxel (" << v % grid.n[0] << ", " << (v / grid.n[0]) % grid.n[1];
-    if (grid.n[2] > 1) s << ", " << v / (std::size_t(grid.n[0]) * grid.n[1]);
-    s << ", fiber fraction " << phi[v] << ")";
-    return s.str();
+  std::string voxel_name(std::size_t v) const { return detail::voxel_name(grid.n, phi, v); }
+  std::string describe(const detail::HotSpots& h) const {
+    return detail::describe_hot_spots(h, grid.n, phi, mixed[0], Fbar_committed(0, 0));
   }
-  /// The hot spots as a sentence for the failure message; names a reached domain limit (Gent locking).
-  std::string describe(const HotSpots& h) const {
-    std::ostringstream s;
-    s.precision(3);
-    s << "last iterate: matrix limit margin " << h.margin << " (1 at F = I, 0 at the law's limit, e.g. Gent "
-      << "locking Ī1 − 3 = Jm) at " << voxel_name(h.v_margin) << (h.margin_composite ? " [composite]" : "") << ", "
-      << h.near_limit << " matrix points below 0.1; matrix J − 1 in [" << h.J_min - 1.0 << ", " << h.J_max - 1.0 << "]";
-    if (mixed[0]) s << "; max |p| " << h.p_max << " at " << voxel_name(h.v_p);
-    s << "; largest nodal force residual at " << voxel_name(h.v_force) << ", " << h.force_max / std::max(h.force_rms, 1e-300)
-      << "× its rms";
-    if (!(h.J_min > 0.0))
-      s << ". The matrix inverts (J ≤ 0) at " << voxel_name(h.v_J_min);
-    else if (h.margin < kLockingMargin)
-      s << ". The matrix is at its limit there (Gent locking): if that persists through the cut-backs, the cell has no "
-        << "solution beyond F11 = " << Fbar_committed(0, 0) << " (last converged, load frame)";
-    return s.str();
-  }
-
 
   // ---------------------------------------------------------------------------------------------
   // One (sub)step from the committed state to t_new.
