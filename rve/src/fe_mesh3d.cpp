@@ -208,6 +208,60 @@ void refuse_unsolvable_cell(const Section& section, const CellMeshOptions& o) {
 }  // namespace
 
 namespace {
+/// Dihedral angles, edge lengths and radius ratios (3 r_in / r_circ) of the straight-sided (vertex)
+/// tetrahedra of `m`.
+void measure_tet_quality(const CellMesh& m, CellMeshQuality& q) {
+  q.min_dihedral_deg = 180.0;
+  q.max_dihedral_deg = 0.0;
+  q.min_radius_ratio = 1.0;
+  q.min_edge = std::numeric_limits<double>::infinity();
+  double sum_rr = 0.0;
+  for (const auto& el : m.elements) {
+    const std::array<Vec3d, 4> x{m.nodes[el[0]], m.nodes[el[1]], m.nodes[el[2]], m.nodes[el[3]]};
+    // Area-weighted outward normals of the faces opposite each vertex.
+    std::array<Vec3d, 4> n;
+    double area_sum = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      const Vec3d &a = x[(k + 1) % 4], &b = x[(k + 2) % 4], &c = x[(k + 3) % 4];
+      n[k] = 0.5 * (b - a).cross(c - a);
+      if (n[k].dot(x[k] - a) > 0.0) n[k] = -n[k];
+      area_sum += n[k].norm();
+    }
+    for (int k = 0; k < 4; ++k)
+      for (int l = k + 1; l < 4; ++l) {
+        const double c = std::clamp(n[k].dot(n[l]) / (n[k].norm() * n[l].norm()), -1.0, 1.0);
+        const double ang = 180.0 - std::acos(c) * 180.0 / kPi;
+        q.min_dihedral_deg = std::min(q.min_dihedral_deg, ang);
+        q.max_dihedral_deg = std::max(q.max_dihedral_deg, ang);
+        const double len = (x[k] - x[l]).norm();
+        q.min_edge = std::min(q.min_edge, len);
+        q.max_edge = std::max(q.max_edge, len);
+      }
+    const double V = std::abs((x[1] - x[0]).cross(x[2] - x[0]).dot(x[3] - x[0])) / 6.0;
+    const double r_in = 3.0 * V / area_sum;
+    Eigen::Matrix3d A;
+    Vec3d rhs;
+    for (int k = 0; k < 3; ++k) {
+      const Vec3d d = x[k + 1] - x[0];
+      A.row(k) = 2.0 * d.transpose();
+      rhs[k] = d.squaredNorm();
+    }
+    const double R = A.fullPivLu().solve(rhs).norm();
+    const double rr = 3.0 * r_in / R;
+    q.min_radius_ratio = std::min(q.min_radius_ratio, rr);
+    sum_rr += rr;
+  }
+  q.mean_radius_ratio = m.elements.empty() ? 0.0 : sum_rr / double(m.elements.size());
+}
+
+/// Exact fiber area of the section (circles and rectangles).
+double fiber_area(const Section& section) {
+  double exact = 0.0;
+  for (const auto& f : section.fibers)
+    exact += f.shape == SectionShape::circle ? kPi * f.radius * f.radius : f.width * f.height;
+  return exact;
+}
+
 CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& options) {
   CellMeshOptions o = options;
   const double L1 = section.L1, L2 = section.L2;
@@ -517,49 +571,8 @@ CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& opti
   if (!build(0.5, true, m) && !build(0.25, true, m) && !build(0.25, false, m))
     throw std::runtime_error(kFoldedElement);
 
-  // Quality of the straight-sided (vertex) tetrahedra.
   CellMeshQuality& q = m.quality;
-  q.min_dihedral_deg = 180.0;
-  q.max_dihedral_deg = 0.0;
-  q.min_radius_ratio = 1.0;
-  q.min_edge = std::numeric_limits<double>::infinity();
-  double sum_rr = 0.0;
-  for (const auto& el : m.elements) {
-    const std::array<Vec3d, 4> x{m.nodes[el[0]], m.nodes[el[1]], m.nodes[el[2]], m.nodes[el[3]]};
-    // Area-weighted outward normals of the faces opposite each vertex.
-    std::array<Vec3d, 4> n;
-    double area_sum = 0.0;
-    for (int k = 0; k < 4; ++k) {
-      const Vec3d &a = x[(k + 1) % 4], &b = x[(k + 2) % 4], &c = x[(k + 3) % 4];
-      n[k] = 0.5 * (b - a).cross(c - a);
-      if (n[k].dot(x[k] - a) > 0.0) n[k] = -n[k];
-      area_sum += n[k].norm();
-    }
-    for (int k = 0; k < 4; ++k)
-      for (int l = k + 1; l < 4; ++l) {
-        const double c = std::clamp(n[k].dot(n[l]) / (n[k].norm() * n[l].norm()), -1.0, 1.0);
-        const double ang = 180.0 - std::acos(c) * 180.0 / kPi;
-        q.min_dihedral_deg = std::min(q.min_dihedral_deg, ang);
-        q.max_dihedral_deg = std::max(q.max_dihedral_deg, ang);
-        const double len = (x[k] - x[l]).norm();
-        q.min_edge = std::min(q.min_edge, len);
-        q.max_edge = std::max(q.max_edge, len);
-      }
-    const double V = std::abs((x[1] - x[0]).cross(x[2] - x[0]).dot(x[3] - x[0])) / 6.0;
-    const double r_in = 3.0 * V / area_sum;
-    Eigen::Matrix3d A;
-    Vec3d rhs;
-    for (int k = 0; k < 3; ++k) {
-      const Vec3d d = x[k + 1] - x[0];
-      A.row(k) = 2.0 * d.transpose();
-      rhs[k] = d.squaredNorm();
-    }
-    const double R = A.fullPivLu().solve(rhs).norm();
-    const double rr = 3.0 * r_in / R;
-    q.min_radius_ratio = std::min(q.min_radius_ratio, rr);
-    sum_rr += rr;
-  }
-  q.mean_radius_ratio = m.elements.empty() ? 0.0 : sum_rr / double(m.elements.size());
+  measure_tet_quality(m, q);
   q.aspect_stretch = Lmax / L.minCoeff();
   q.unlabeled_cells = unlabeled;
   q.relabeled_cells = relabeled;
@@ -570,10 +583,7 @@ CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& opti
     std::fprintf(stderr, "mesh_cell: %d cells outside CGAL's complex (phase from the centroid)\n", unlabeled);
   for (int i = 0; i < m.num_nodes(); ++i) q.periodic_copies += m.master[i] != i;
   q.max_pairing_error = verify_periodic_cell_mesh(m);
-  double exact = 0.0;
-  for (const auto& f : section.fibers)
-    exact += f.shape == SectionShape::circle ? kPi * f.radius * f.radius : f.width * f.height;
-  exact *= L3;
+  const double exact = fiber_area(section) * L3;
   q.fiber_volume_error = exact > 0.0 ? std::abs(m.volume(1) - exact) / exact : 0.0;
   return m;
 }
