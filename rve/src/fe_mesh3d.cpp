@@ -262,22 +262,29 @@ double fiber_area(const Section& section) {
   return exact;
 }
 
-CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& options) {
+/// The options with their defaults filled in, checked (InputError naming the key), and the cell
+/// refused before meshing when its FE solve cannot fit (refuse_unsolvable_cell).
+CellMeshOptions normalized_cell_options(const Section& section, const CellMeshOptions& options) {
   CellMeshOptions o = options;
   const double L1 = section.L1, L2 = section.L2;
   if (o.length == 0.0) o.length = L1;
   if (!(o.length > 0.0)) throw InputError("solver.length", std::to_string(o.length), "must be positive");
-  const double L3 = o.length;
   if (o.mesh_size == 0.0) o.mesh_size = L1 / 6.0;
   if (!(o.mesh_size > 0.0)) throw InputError("solver.mesh_size", std::to_string(o.mesh_size), "must be positive");
   if (o.interface_size == 0.0) o.interface_size = o.mesh_size / 2.0;
   if (!(o.interface_size > 0.0))
     throw InputError("solver.interface_size", std::to_string(o.interface_size), "must be positive");
   o.interface_size = std::min(o.interface_size, o.mesh_size);
-  if (L1 * L2 * L3 / std::pow(o.interface_size, 3) > 2e6)
+  if (L1 * L2 * o.length / std::pow(o.interface_size, 3) > 2e6)
     throw InputError("solver.interface_size", std::to_string(o.interface_size),
                      "too small for the cell (3D mesh > ~1e7 elements)");
   refuse_unsolvable_cell(section, o);
+  return o;
+}
+
+CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& options) {
+  const CellMeshOptions o = normalized_cell_options(section, options);
+  const double L1 = section.L1, L2 = section.L2, L3 = o.length;
   const Vec3d L(L1, L2, L3);
   const double Lmax = L.maxCoeff();
 
