@@ -126,6 +126,7 @@ int run_rve(const CommandOptions& options) {
       writer->add("sigma", f->sigma, 9, io::Centering::cell, "MPa");
       writer->add("von_mises", f->von_mises, 1, io::Centering::cell, "MPa");
       writer->add("fiber_fraction", f->fiber_fraction, 1, io::Centering::cell, "1");
+      writer->add("displacement", f->displacement, 3, io::Centering::node, "cell_size unit");
       writer->end_step();
     }
     progress.update(rve_progress_line("[rve " + scene.name + "] ", s, t_end));
@@ -172,8 +173,8 @@ int run_rve(const CommandOptions& options) {
   if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start))
     return run_exit_code(false);
   if (!options.quiet)
-    std::cerr << "softhom rve: " << result.steps.size() - 1 << " steps, " << result.total_newton_iterations
-              << " Newton / " << result.total_krylov_iterations << " Krylov iterations, " << result.wall_seconds
+    std::cerr << "softhom rve: " << result.steps.size() - 1 << " steps, " << result.newton_iterations
+              << " Newton / " << result.krylov_iterations << " Krylov iterations, " << result.wall_seconds
               << " s → " << options.out.string() << "\n";
   return 0;
 }

@@ -405,7 +405,7 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
     return run_exit_code(false);
   if (!options.quiet)
     std::cerr << "softhom rve (fe): " << num_elements << " " << element_name << " elements, " << result.steps.size() - 1
-              << " steps, " << result.total_newton_iterations << " Newton iterations, " << result.wall_seconds << " s → "
+              << " steps, " << result.newton_iterations << " Newton iterations, " << result.wall_seconds << " s → "
               << options.out.string() << "\n";
   return 0;
 }

@@ -79,8 +79,8 @@ inline rve::RveRunResult interrupted_rve_result(std::vector<rve::RveStep> steps,
   r.completed = false;
   r.error = interruption_message();
   for (const auto& s : r.steps) {
-    r.total_newton_iterations += s.newton_iterations;
-    r.total_krylov_iterations += s.krylov_iterations;
+    r.newton_iterations += s.newton_iterations;
+    r.krylov_iterations += s.krylov_iterations;
     r.cutbacks += s.cutbacks;
   }
   r.wall_seconds = wall_seconds;
@@ -117,7 +117,9 @@ inline void set_rve_field_attributes(io::FieldWriter& w, double fiber_angle_deg,
                   "tensor and vector components in the load frame (e1 load direction, e2 in-plane transverse, "
                   "e3 plate normal); cells on the fiber-aligned grid (" + engine +
                   "): grid axes g1 = (cos a, -sin a, 0), g2 = (0, 0, -1), g3 = fiber = (sin a, cos a, 0) in "
-                  "load-frame coordinates, a = fiber_angle_deg = " + a);
+                  "load-frame coordinates, a = fiber_angle_deg = " + a +
+                  "; the node field displacement is in grid-frame components (the mesh's own axes), so that "
+                  "Warp By Vector moves the cell");
   w.set_attribute("fiber_angle_deg", a);
 }
 
@@ -128,8 +130,8 @@ inline bool finish_rve_summary(nlohmann::json& summary, const rve::RveRunResult&
                                std::chrono::steady_clock::time_point wall_start) {
   io::set_run_status(summary, result.completed, result.error);
   summary["steps"] = step_log;
-  summary["newton_iterations"] = result.total_newton_iterations;
-  summary["krylov_iterations"] = result.total_krylov_iterations;
+  summary["newton_iterations"] = result.newton_iterations;
+  summary["krylov_iterations"] = result.krylov_iterations;
   summary["cutbacks"] = result.cutbacks;
   summary["warnings"] = result.log;
   summary["solver_memory_bytes"] = solver_memory_bytes;

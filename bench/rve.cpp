@@ -116,7 +116,7 @@ void solve_and_print(const char* label, double value, int n, fft::Discretization
   const auto t0 = std::chrono::steady_clock::now();
   const RveRunResult r = solver.run(control);
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const int newton = r.total_newton_iterations, krylov = r.total_krylov_iterations;
+  const int newton = r.newton_iterations, krylov = r.krylov_iterations;
   std::printf("%-8s %10.3g %5d %-9s %-5s %4s newton %4d krylov %6d krylov/newton %7.1f cutbacks %d shifted %d time %7.2f s P11 %.6g\n",
               label, value, n, fft::to_string(d), mixed ? "mixed" : "plain", r.completed ? "ok" : "FAIL", newton, krylov,
               newton ? double(krylov) / newton : 0.0, r.cutbacks, r.shifted_solves, s, r.steps.back().P(0, 0));
@@ -182,8 +182,8 @@ int main(int argc, char** argv) {
         secs.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
         p11.push_back(r.completed ? r.steps.back().P(0, 0) : std::nan(""));
         std::printf("resolution %-8s %-9s n %4d %s P11 %.8g newton %d krylov %d time %.2f s mem/voxel %.0f B\n", matrix.c_str(),
-                    fft::to_string(d), n, r.completed ? "ok" : "FAIL", p11.back(), r.total_newton_iterations,
-                    r.total_krylov_iterations, secs.back(), double(solver.memory_bytes()) / double(n) / n);
+                    fft::to_string(d), n, r.completed ? "ok" : "FAIL", p11.back(), r.newton_iterations,
+                    r.krylov_iterations, secs.back(), double(solver.memory_bytes()) / double(n) / n);
         std::fflush(stdout);
       }
       const std::size_t k = p11.size();
@@ -300,8 +300,8 @@ int main(int argc, char** argv) {
                 const RveRunResult r = solver.run(one_step(1.05));
                 wall[pass] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
                 cpu[pass] = cpu_seconds() - c0;
-                its[pass] = r.total_krylov_iterations;
-                kry_wall = r.krylov_seconds / std::max(1, r.total_krylov_iterations);
+                its[pass] = r.krylov_iterations;
+                kry_wall = r.krylov_seconds / std::max(1, r.krylov_iterations);
                 mem = solver.memory_bytes();
                 const std::size_t rss1 = resident_bytes();
                 rss = double(rss1 - std::min(rss0, rss1));
@@ -462,7 +462,7 @@ int main(int argc, char** argv) {
         std::printf("timeerror %-8s %dD %-9s n %4d %s P11 %.9f error(FE) %.3e newton %5d krylov %7d cpu %8.2f s "
                     "wall %8.2f s (planning %.2f s, krylov %.2f s) mem/voxel %.0f B\n",
                     matrix.c_str(), dim, fft::to_string(d), n, r.completed ? "ok  " : "FAIL", p11.back(), err,
-                    r.total_newton_iterations, r.total_krylov_iterations, cpu, wall, solver.planning_seconds(),
+                    r.newton_iterations, r.krylov_iterations, cpu, wall, solver.planning_seconds(),
                     r.krylov_seconds, double(solver.memory_bytes()) / double(g.voxels()));
         std::fflush(stdout);
       }

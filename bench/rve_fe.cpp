@@ -143,7 +143,7 @@ int main(int argc, char** argv) {
     r.seconds = seconds_since(t0);
     r.cpu = cpu_seconds() - c0;
     r.ok = res.completed;
-    r.newton = res.total_newton_iterations;
+    r.newton = res.newton_iterations;
     r.P11 = res.steps.back().P(0, 0);
     std::printf("fe  L/%-4g elements %7ld eq %7d newton %4d time %8.2f s cpu %8.2f s (assembly %.2f, linear %.2f) "
                 "VF %.8f (exact %.8f) P11 %.9f %s\n", d, r.size, solver.num_equations(), r.newton, r.seconds, r.cpu,
@@ -169,10 +169,10 @@ int main(int argc, char** argv) {
     r.seconds = seconds_since(t0);
     r.cpu = cpu_seconds() - c0;
     r.ok = res.completed;
-    r.newton = res.total_newton_iterations;
+    r.newton = res.newton_iterations;
     r.P11 = res.steps.back().P(0, 0);
     std::printf("fft %4g^2 newton %4d krylov %7d time %8.2f s cpu %8.2f s VF %.8f P11 %.9f %s\n", n, r.newton,
-                res.total_krylov_iterations, r.seconds, r.cpu, solver.achieved_volume_fraction(), r.P11,
+                res.krylov_iterations, r.seconds, r.cpu, solver.achieved_volume_fraction(), r.P11,
                 r.ok ? "" : res.error.c_str());
     std::fflush(stdout);
     rows.push_back(r);
@@ -203,7 +203,7 @@ int main(int argc, char** argv) {
     r.seconds = seconds_since(t0);
     r.cpu = cpu_seconds() - c0;
     r.ok = res.completed;
-    r.newton = res.total_newton_iterations;
+    r.newton = res.newton_iterations;
     r.P11 = res.steps.back().P(0, 0);
     std::printf("fe3d L/%-4g elements %7ld eq %7d newton %4d time %8.2f s cpu %8.2f s (mesh %.2f, assembly %.2f, linear %.2f) "
                 "dihedral %.1f rr %.3f (mean %.3f) unlabeled %d offset %.1e qp %d VF %.8f (mesh fiber volume error %.2e) P11 %.9f %s\n",
@@ -231,10 +231,10 @@ int main(int argc, char** argv) {
     r.seconds = seconds_since(t0);
     r.cpu = cpu_seconds() - c0;
     r.ok = res.completed;
-    r.newton = res.total_newton_iterations;
+    r.newton = res.newton_iterations;
     r.P11 = res.steps.back().P(0, 0);
     std::printf("fft3d %4g^3 newton %4d krylov %7d time %8.2f s cpu %8.2f s P11 %.9f %s\n", n, r.newton,
-                res.total_krylov_iterations, r.seconds, r.cpu, r.P11, r.ok ? "" : res.error.c_str());
+                res.krylov_iterations, r.seconds, r.cpu, r.P11, r.ok ? "" : res.error.c_str());
     std::fflush(stdout);
     rows.push_back(r);
   }

@@ -309,7 +309,10 @@ double verify_periodic_pairing(const SectionMesh& mesh) {
   return worst;
 }
 
-SectionMesh mesh_section(const Section& section, const SectionMeshOptions& options) {
+namespace {
+
+/// The options with their defaults filled in, checked (InputError naming the key).
+SectionMeshOptions normalized_options(const Section& section, const SectionMeshOptions& options) {
   const double L1 = section.L1, L2 = section.L2;
   SectionMeshOptions o = options;
   if (o.mesh_size == 0.0) o.mesh_size = L1 / 16.0;
@@ -322,6 +325,75 @@ SectionMesh mesh_section(const Section& section, const SectionMeshOptions& optio
     throw InputError("solver.interface_size", std::to_string(o.interface_size), "too small for the cell (mesh > 1e7 elements)");
   if (!(o.min_angle_deg > 0.0 && o.min_angle_deg <= 30.0))
     throw InputError("solver.min_angle_deg", std::to_string(o.min_angle_deg), "must lie in (0, 30]");
+  if (o.corner_refinement) {
+    if (!(o.corner_exponent > 0.0 && o.corner_exponent < 1.0))
+      throw InputError("solver.corner_exponent", std::to_string(o.corner_exponent), "must lie in (0, 1)");
+    if (!(o.corner_min_size_ratio > 0.0 && o.corner_min_size_ratio <= 1.0))
+      throw InputError("solver.corner_min_size_ratio", std::to_string(o.corner_min_size_ratio), "must lie in (0, 1]");
+  }
+  return o;
+}
+
+/// A corner of a rectangular fiber (stress singularity) refined by power grading within radius R.
+struct CornerRefinement {
+  Vec2 x;
+  double R, h_min;
+};
+
+/// The corners of rectangular fibers that are real corners of the fiber union (not shared with a
+/// touching periodic image) and near the cell, with their grading radius and smallest size.
+std::vector<CornerRefinement> corner_refinements(const std::vector<PlacedFiber>& fibers, const SectionMeshOptions& o,
+                                                 double L1, double L2) {
+  std::vector<CornerRefinement> corners;
+  if (!o.corner_refinement) return corners;
+  for (std::size_t k = 0; k < fibers.size(); ++k) {
+    if (fibers[k].f.shape != SectionShape::rectangle) continue;
+    const double R = 0.5 * std::min(fibers[k].f.width, fibers[k].f.height);
+    for (const Vec2& c : detail::rectangle_corners(fibers[k])) {
+      bool shared = false;
+      for (std::size_t j = 0; j < fibers.size(); ++j)
+        if (j != k && signed_distance(fibers[j], c) <= 1e-9 * std::max(L1, L2)) shared = true;
+      if (shared || c.x() < -R || c.x() > L1 + R || c.y() < -R || c.y() > L2 + R) continue;
+      const double ratio = std::min(1.0, o.interface_size / R);
+      const double h_min = std::max({R * std::pow(ratio, 1.0 / (1.0 - o.corner_exponent)), 1e-5 * std::max(L1, L2),
+                                     o.corner_min_size_ratio * o.interface_size});
+      corners.push_back({c, R, h_min});
+    }
+  }
+  return corners;
+}
+
+/// The interface chains of all fibers, with their end points on the cell boundary made
+/// periodic-consistent (points of opposite edges clustered to one parameter). Returns the clustered
+/// parameters of the boundary points: y2 of points on y1 = 0 / L1 (rep_x), y1 on y2 = 0 / L2 (rep_y).
+Chains periodic_interface_chains(const std::vector<PlacedFiber>& fibers, double L1, double L2, double h, double tol,
+                                 std::map<double, double>& rep_x, std::map<double, double>& rep_y) {
+  Chains chains;
+  for (const auto& p : fibers) {
+    if (p.f.shape == SectionShape::circle) circle_chains(p, L1, L2, h, tol, chains);
+    else rectangle_chains(p, L1, L2, h, tol, chains);
+  }
+  std::vector<double> on_x, on_y;  // y2 of points on y1 = 0 / L1; y1 of points on y2 = 0 / L2
+  for (const auto& line : chains.lines)
+    for (const Vec2& q : line) {
+      if (q.x() == 0.0 || q.x() == L1) on_x.push_back(q.y());
+      if (q.y() == 0.0 || q.y() == L2) on_y.push_back(q.x());
+    }
+  rep_x = cluster(on_x, 1e3 * tol);
+  rep_y = cluster(on_y, 1e3 * tol);
+  for (auto& line : chains.lines)
+    for (Vec2& q : line) {
+      if (q.x() == 0.0 || q.x() == L1) q.y() = rep_x.at(q.y());
+      if (q.y() == 0.0 || q.y() == L2) q.x() = rep_y.at(q.x());
+    }
+  return chains;
+}
+
+}  // namespace
+
+SectionMesh mesh_section(const Section& section, const SectionMeshOptions& options) {
+  const double L1 = section.L1, L2 = section.L2;
+  const SectionMeshOptions o = normalized_options(section, options);
   const double tol = 1e-10 * std::max(L1, L2);
 
   const std::vector<PlacedFiber> fibers = placed_fibers(section);
@@ -330,33 +402,7 @@ SectionMesh mesh_section(const Section& section, const SectionMeshOptions& optio
     for (const auto& p : fibers) d = std::min(d, std::abs(signed_distance(p, Vec2(x, y))));
     return d;
   };
-  // Corners of rectangular fibers (stress singularities): graded refinement toward each corner that
-  // is a real corner of the fiber union (not shared with a touching periodic image).
-  struct CornerRefinement {
-    Vec2 x;
-    double R, h_min;
-  };
-  std::vector<CornerRefinement> corners;
-  if (o.corner_refinement) {
-    if (!(o.corner_exponent > 0.0 && o.corner_exponent < 1.0))
-      throw InputError("solver.corner_exponent", std::to_string(o.corner_exponent), "must lie in (0, 1)");
-    if (!(o.corner_min_size_ratio > 0.0 && o.corner_min_size_ratio <= 1.0))
-      throw InputError("solver.corner_min_size_ratio", std::to_string(o.corner_min_size_ratio), "must lie in (0, 1]");
-    for (std::size_t k = 0; k < fibers.size(); ++k) {
-      if (fibers[k].f.shape != SectionShape::rectangle) continue;
-      const double R = 0.5 * std::min(fibers[k].f.width, fibers[k].f.height);
-      for (const Vec2& c : detail::rectangle_corners(fibers[k])) {
-        bool shared = false;
-        for (std::size_t j = 0; j < fibers.size(); ++j)
-          if (j != k && signed_distance(fibers[j], c) <= 1e-9 * std::max(L1, L2)) shared = true;
-        if (shared || c.x() < -R || c.x() > L1 + R || c.y() < -R || c.y() > L2 + R) continue;
-        const double ratio = std::min(1.0, o.interface_size / R);
-        const double h_min = std::max({R * std::pow(ratio, 1.0 / (1.0 - o.corner_exponent)), 1e-5 * std::max(L1, L2),
-                                 o.corner_min_size_ratio * o.interface_size});
-        corners.push_back({c, R, h_min});
-      }
-    }
-  }
+  const std::vector<CornerRefinement> corners = corner_refinements(fibers, o, L1, L2);
   const std::function<double(double, double)> size = [&](double x, double y) {
     if (fibers.empty()) return o.mesh_size;
     double h = std::min(o.mesh_size, o.interface_size + o.grading * distance(x, y));
@@ -369,24 +415,8 @@ SectionMesh mesh_section(const Section& section, const SectionMeshOptions& optio
     return h;
   };
 
-  // Interface chains, with the end points on the cell boundary made periodic-consistent.
-  Chains chains;
-  for (const auto& p : fibers) {
-    if (p.f.shape == SectionShape::circle) circle_chains(p, L1, L2, o.interface_size, tol, chains);
-    else rectangle_chains(p, L1, L2, o.interface_size, tol, chains);
-  }
-  std::vector<double> on_x, on_y;  // y2 of points on y1 = 0 / L1; y1 of points on y2 = 0 / L2
-  for (const auto& line : chains.lines)
-    for (const Vec2& q : line) {
-      if (q.x() == 0.0 || q.x() == L1) on_x.push_back(q.y());
-      if (q.y() == 0.0 || q.y() == L2) on_y.push_back(q.x());
-    }
-  const auto rep_x = cluster(on_x, 1e3 * tol), rep_y = cluster(on_y, 1e3 * tol);
-  for (auto& line : chains.lines)
-    for (Vec2& q : line) {
-      if (q.x() == 0.0 || q.x() == L1) q.y() = rep_x.at(q.y());
-      if (q.y() == 0.0 || q.y() == L2) q.x() = rep_y.at(q.x());
-    }
+  std::map<double, double> rep_x, rep_y;
+  Chains chains = periodic_interface_chains(fibers, L1, L2, o.interface_size, tol, rep_x, rep_y);
 
   CDT cdt;
   // Cell boundary: the same parameters on opposite edges.

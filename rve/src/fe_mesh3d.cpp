@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 #include <tuple>
 #include <unordered_map>
@@ -29,6 +30,8 @@
 #include "softhom/fe/tet10.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/rve/fe_mesh.hpp"
+
+#include "memory_budget.hpp"
 
 namespace softhom::rve {
 namespace {
@@ -165,21 +168,123 @@ CellMesh mesh_cell(const Section& section, const CellMeshOptions& options) {
 }
 
 namespace {
-CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& options) {
+/// Tet10 elements CGAL makes for the cell (an estimate before meshing): the bulk at mesh_size plus,
+/// on both sides of every fiber surface, the band where the size grows from interface_size with
+/// `grading` per unit distance: ∫ dd / (0.118 (h_i + g d)³) = 1 / (0.236 g h_i²) per unit area
+/// (0.118 h³ is the volume of a regular tetrahedron of edge h).
+double estimated_cell_elements(const Section& section, const CellMeshOptions& o) {
+  constexpr double kTetVolume = 0.1178511;  // regular tetrahedron of unit edge
+  const double V = section.L1 * section.L2 * o.length;
+  double perimeter = 0.0;
+  for (const auto& f : section.fibers)
+    perimeter += f.shape == SectionShape::circle ? 2.0 * 3.14159265358979323846 * f.radius : 2.0 * (f.width + f.height);
+  const double g = std::max(o.grading, 1e-3), hi = o.interface_size;
+  const double band = 2.0 * perimeter * o.length / (2.0 * g * kTetVolume * hi * hi);
+  return V / (kTetVolume * std::pow(o.mesh_size, 3)) + band;
+}
+
+/// Refuses (InputError naming solver.mesh_size) a 3D cell whose FE solve cannot fit: bytes of the
+/// mesh, the element data and the sparse Cholesky factor of its tangent, estimated from the element
+/// count (nodes ≈ 1.4 elements for Tet10, 3 dofs each; nested-dissection fill of a 3D P2 mesh
+/// ≈ 5 n^(4/3) nonzeros for n dofs, 8 B each plus indices), against the available memory, and a
+/// factor beyond the 32-bit indices of the sparse solver (which otherwise fails in its symbolic
+/// analysis after minutes of meshing).
+void refuse_unsolvable_cell(const Section& section, const CellMeshOptions& o) {
+  const double elements = estimated_cell_elements(section, o);
+  const double dofs = 3.0 * 1.4 * elements;
+  const double factor_nnz = 5.0 * std::pow(dofs, 4.0 / 3.0);
+  const double bytes = 12.0 * factor_nnz + 2.0 * 12.0 * 40.0 * dofs + 3000.0 * elements;
+  std::ostringstream size;
+  size << o.mesh_size << " (interface_size " << o.interface_size << ")";
+  if (factor_nnz > double(std::numeric_limits<int>::max())) {
+    std::ostringstream why;
+    why.precision(2);
+    why << "about " << elements << " elements: the Cholesky factor of the tangent (about " << factor_nnz
+        << " nonzeros) exceeds the 32-bit indices of the sparse solver; coarsen the mesh";
+    throw InputError("solver.mesh_size", size.str(), why.str());
+  }
+  detail::refuse_if_too_big(detail::saturating_product({bytes}), "solver.mesh_size", size.str());
+}
+}  // namespace
+
+namespace {
+/// Dihedral angles, edge lengths and radius ratios (3 r_in / r_circ) of the straight-sided (vertex)
+/// tetrahedra of `m`.
+void measure_tet_quality(const CellMesh& m, CellMeshQuality& q) {
+  q.min_dihedral_deg = 180.0;
+  q.max_dihedral_deg = 0.0;
+  q.min_radius_ratio = 1.0;
+  q.min_edge = std::numeric_limits<double>::infinity();
+  double sum_rr = 0.0;
+  for (const auto& el : m.elements) {
+    const std::array<Vec3d, 4> x{m.nodes[el[0]], m.nodes[el[1]], m.nodes[el[2]], m.nodes[el[3]]};
+    // Area-weighted outward normals of the faces opposite each vertex.
+    std::array<Vec3d, 4> n;
+    double area_sum = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      const Vec3d &a = x[(k + 1) % 4], &b = x[(k + 2) % 4], &c = x[(k + 3) % 4];
+      n[k] = 0.5 * (b - a).cross(c - a);
+      if (n[k].dot(x[k] - a) > 0.0) n[k] = -n[k];
+      area_sum += n[k].norm();
+    }
+    for (int k = 0; k < 4; ++k)
+      for (int l = k + 1; l < 4; ++l) {
+        const double c = std::clamp(n[k].dot(n[l]) / (n[k].norm() * n[l].norm()), -1.0, 1.0);
+        const double ang = 180.0 - std::acos(c) * 180.0 / kPi;
+        q.min_dihedral_deg = std::min(q.min_dihedral_deg, ang);
+        q.max_dihedral_deg = std::max(q.max_dihedral_deg, ang);
+        const double len = (x[k] - x[l]).norm();
+        q.min_edge = std::min(q.min_edge, len);
+        q.max_edge = std::max(q.max_edge, len);
+      }
+    const double V = std::abs((x[1] - x[0]).cross(x[2] - x[0]).dot(x[3] - x[0])) / 6.0;
+    const double r_in = 3.0 * V / area_sum;
+    Eigen::Matrix3d A;
+    Vec3d rhs;
+    for (int k = 0; k < 3; ++k) {
+      const Vec3d d = x[k + 1] - x[0];
+      A.row(k) = 2.0 * d.transpose();
+      rhs[k] = d.squaredNorm();
+    }
+    const double R = A.fullPivLu().solve(rhs).norm();
+    const double rr = 3.0 * r_in / R;
+    q.min_radius_ratio = std::min(q.min_radius_ratio, rr);
+    sum_rr += rr;
+  }
+  q.mean_radius_ratio = m.elements.empty() ? 0.0 : sum_rr / double(m.elements.size());
+}
+
+/// Exact fiber area of the section (circles and rectangles).
+double fiber_area(const Section& section) {
+  double exact = 0.0;
+  for (const auto& f : section.fibers)
+    exact += f.shape == SectionShape::circle ? kPi * f.radius * f.radius : f.width * f.height;
+  return exact;
+}
+
+/// The options with their defaults filled in, checked (InputError naming the key), and the cell
+/// refused before meshing when its FE solve cannot fit (refuse_unsolvable_cell).
+CellMeshOptions normalized_cell_options(const Section& section, const CellMeshOptions& options) {
   CellMeshOptions o = options;
   const double L1 = section.L1, L2 = section.L2;
   if (o.length == 0.0) o.length = L1;
   if (!(o.length > 0.0)) throw InputError("solver.length", std::to_string(o.length), "must be positive");
-  const double L3 = o.length;
   if (o.mesh_size == 0.0) o.mesh_size = L1 / 6.0;
   if (!(o.mesh_size > 0.0)) throw InputError("solver.mesh_size", std::to_string(o.mesh_size), "must be positive");
   if (o.interface_size == 0.0) o.interface_size = o.mesh_size / 2.0;
   if (!(o.interface_size > 0.0))
     throw InputError("solver.interface_size", std::to_string(o.interface_size), "must be positive");
   o.interface_size = std::min(o.interface_size, o.mesh_size);
-  if (L1 * L2 * L3 / std::pow(o.interface_size, 3) > 2e6)
+  if (L1 * L2 * o.length / std::pow(o.interface_size, 3) > 2e6)
     throw InputError("solver.interface_size", std::to_string(o.interface_size),
                      "too small for the cell (3D mesh > ~1e7 elements)");
+  refuse_unsolvable_cell(section, o);
+  return o;
+}
+
+CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& options) {
+  const CellMeshOptions o = normalized_cell_options(section, options);
+  const double L1 = section.L1, L2 = section.L2, L3 = o.length;
   const Vec3d L(L1, L2, L3);
   const double Lmax = L.maxCoeff();
 
@@ -473,49 +578,8 @@ CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& opti
   if (!build(0.5, true, m) && !build(0.25, true, m) && !build(0.25, false, m))
     throw std::runtime_error(kFoldedElement);
 
-  // Quality of the straight-sided (vertex) tetrahedra.
   CellMeshQuality& q = m.quality;
-  q.min_dihedral_deg = 180.0;
-  q.max_dihedral_deg = 0.0;
-  q.min_radius_ratio = 1.0;
-  q.min_edge = std::numeric_limits<double>::infinity();
-  double sum_rr = 0.0;
-  for (const auto& el : m.elements) {
-    const std::array<Vec3d, 4> x{m.nodes[el[0]], m.nodes[el[1]], m.nodes[el[2]], m.nodes[el[3]]};
-    // Area-weighted outward normals of the faces opposite each vertex.
-    std::array<Vec3d, 4> n;
-    double area_sum = 0.0;
-    for (int k = 0; k < 4; ++k) {
-      const Vec3d &a = x[(k + 1) % 4], &b = x[(k + 2) % 4], &c = x[(k + 3) % 4];
-      n[k] = 0.5 * (b - a).cross(c - a);
-      if (n[k].dot(x[k] - a) > 0.0) n[k] = -n[k];
-      area_sum += n[k].norm();
-    }
-    for (int k = 0; k < 4; ++k)
-      for (int l = k + 1; l < 4; ++l) {
-        const double c = std::clamp(n[k].dot(n[l]) / (n[k].norm() * n[l].norm()), -1.0, 1.0);
-        const double ang = 180.0 - std::acos(c) * 180.0 / kPi;
-        q.min_dihedral_deg = std::min(q.min_dihedral_deg, ang);
-        q.max_dihedral_deg = std::max(q.max_dihedral_deg, ang);
-        const double len = (x[k] - x[l]).norm();
-        q.min_edge = std::min(q.min_edge, len);
-        q.max_edge = std::max(q.max_edge, len);
-      }
-    const double V = std::abs((x[1] - x[0]).cross(x[2] - x[0]).dot(x[3] - x[0])) / 6.0;
-    const double r_in = 3.0 * V / area_sum;
-    Eigen::Matrix3d A;
-    Vec3d rhs;
-    for (int k = 0; k < 3; ++k) {
-      const Vec3d d = x[k + 1] - x[0];
-      A.row(k) = 2.0 * d.transpose();
-      rhs[k] = d.squaredNorm();
-    }
-    const double R = A.fullPivLu().solve(rhs).norm();
-    const double rr = 3.0 * r_in / R;
-    q.min_radius_ratio = std::min(q.min_radius_ratio, rr);
-    sum_rr += rr;
-  }
-  q.mean_radius_ratio = m.elements.empty() ? 0.0 : sum_rr / double(m.elements.size());
+  measure_tet_quality(m, q);
   q.aspect_stretch = Lmax / L.minCoeff();
   q.unlabeled_cells = unlabeled;
   q.relabeled_cells = relabeled;
@@ -526,10 +590,7 @@ CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& opti
     std::fprintf(stderr, "mesh_cell: %d cells outside CGAL's complex (phase from the centroid)\n", unlabeled);
   for (int i = 0; i < m.num_nodes(); ++i) q.periodic_copies += m.master[i] != i;
   q.max_pairing_error = verify_periodic_cell_mesh(m);
-  double exact = 0.0;
-  for (const auto& f : section.fibers)
-    exact += f.shape == SectionShape::circle ? kPi * f.radius * f.radius : f.width * f.height;
-  exact *= L3;
+  const double exact = fiber_area(section) * L3;
   q.fiber_volume_error = exact > 0.0 ? std::abs(m.volume(1) - exact) / exact : 0.0;
   return m;
 }

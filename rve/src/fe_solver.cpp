@@ -7,13 +7,16 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include <Eigen/Dense>
 
+#include "softhom/fe/line_search.hpp"
 #include "softhom/fe/sparse.hpp"
 #include "softhom/fe/tet10.hpp"
 #include "softhom/materials/errors.hpp"
+#include "softhom/materials/interrupt.hpp"
 #include "step_driver.hpp"
 
 namespace softhom::rve {
@@ -155,8 +158,19 @@ struct PassSums {
   Mat3 phase_PFt[2] = {Mat3::Zero(), Mat3::Zero()};
   double phase_J[2] = {0.0, 0.0};
   double phase_w[2] = {0.0, 0.0};
+  // Smallest Material::limit_margin of each phase over its points and the element where it is
+  // (checked on converged states: a phase at its limit is fatal).
+  double margin[2] = {1.0, 1.0};
+  int e_margin[2] = {0, 0};
+  void see_margin(int x, double m, int e) {
+    if (m < margin[x]) {
+      margin[x] = m;
+      e_margin[x] = e;
+    }
+  }
   void add(const PassSums& o) {
     P += o.P;
+    for (int x = 0; x < 2; ++x) see_margin(x, o.margin[x], o.e_margin[x]);
     for (int x = 0; x < 2; ++x) {
       phase_P[x] += o.phase_P[x];
       phase_F[x] += o.phase_F[x];
@@ -370,6 +384,269 @@ struct Model {
     build_pattern();
   }
 
+  /// Per-element work of one evaluation: element residual and tangent, the blocks of the mixed
+  /// (bubble, θ, p) unknowns, the output sums and the smallest limit margin of its points.
+  struct ElementWork {
+    Mat9xD B;  // A·B of the current point
+    MatD Ke;
+    VecD re;
+    // Mixed-element blocks: bubble rows (3), pressure coupling G = ∫ Bᵀ cof ψ_j.
+    Eigen::Matrix<double, ND, 3> Kqb, Gq;
+    Eigen::Matrix3d Kbb, Gb, H, M;
+    Eigen::Vector3d rb, Rth, Rp;
+    Mat3 Pe_sum, Fe_sum, PFt_sum;
+    double Je_sum = 0.0;
+    double margin = 1.0;
+    void reset(bool with_tangent, bool mx) {
+      re.setZero();
+      if (with_tangent) Ke.setZero();
+      if (mx) {
+        Kqb.setZero();
+        Gq.setZero();
+        Kbb.setZero();
+        Gb.setZero();
+        H.setZero();
+        M.setZero();
+        rb.setZero();
+        Rth.setZero();
+        Rp.setZero();
+      }
+      Pe_sum.setZero();
+      Fe_sum.setZero();
+      PFt_sum.setZero();
+      Je_sum = 0.0;
+      margin = 1.0;
+    }
+  };
+
+  /// out += s Bᵀ X, B = ∂vec(F)/∂(ũ_e, F̄_load): column 3a+i has dN_a/dy_J at row 3i+J (J < kDim; on
+  /// the section ∂/∂y3 = 0); the macro columns are Tg. Formed with that sparsity.
+  template <class DN>
+  void add_BtX(const DN& dN, const Vec9& X, double s, VecD& out) const {
+    for (int a = 0; a < kNodes; ++a)
+      for (int i = 0; i < 3; ++i) {
+        double v = 0.0;
+        for (int J = 0; J < kDim; ++J) v += dN(a, J) * X[3 * i + J];
+        out[3 * a + i] += s * v;
+      }
+    out.template tail<9>().noalias() += s * Tg.transpose() * X;
+  }
+
+  /// F at quadrature point q of element e: F̄_grid + ∇ũ (+ the bubble of a mixed section element).
+  Mat3 point_gradient(const Mat3& Fg, int e, int q, const double* in, int nbe) const {
+    const auto& el = mesh.elements[e];
+    const Geometry& g = geo[e];
+    const auto& dN = g.dN[q];
+    Mat3 F = Fg;
+    for (int a = 0; a < kNodes; ++a)
+      for (int i = 0; i < 3; ++i) {
+        const double u = ut[3 * el[a] + i];
+        for (int J = 0; J < kDim; ++J) F(i, J) += u * dN(a, J);
+      }
+    for (int i = 0; i < nbe; ++i) {
+      F(i, 0) += in[i] * g.dB[q][0];
+      F(i, 1) += in[i] * g.dB[q][1];
+    }
+    return F;
+  }
+
+  /// Quadrature of element e into `w`: residual, tangent (when asked), mixed blocks, output sums.
+  MaterialStatus integrate_element(int e, const Mat3& Fg, double dt, bool with_tangent, ElementWork& w) {
+    const int x = mesh.phase[e];
+    const Material& m = *mat[x];
+    const bool mx = mixed[x];
+    const double Kv = K_vol[x];
+    const Geometry& g = geo[e];
+    const double* in = internal.data() + std::size_t(kMaxInternal) * e;
+    const int nbe = mx ? nb : 0;  // bubble only in mixed elements (section elements only)
+    w.reset(with_tangent, mx);
+    for (int q = 0; q < kQp; ++q) {
+      const auto& dN = g.dN[q];
+      const double wq = g.w[q];
+      const Mat3 F = point_gradient(Fg, e, q, in, nbe);
+      const double J = F.determinant();
+      if (!(J > 0.0)) return MaterialStatus::inverted;
+      Mat3 P;
+      Mat9 A;
+      const int ss = state_size[x];
+      const double* ho = ss ? hist_old.data() + hist_offset[e] + q * ss : nullptr;
+      double* hn = ss ? hist_new.data() + hist_offset[e] + q * ss : nullptr;
+      const MaterialStatus status = m.evaluate(F, ho, hn, dt, P, with_tangent || mx ? &A : nullptr);
+      if (status != MaterialStatus::ok) return status;
+      w.margin = std::min(w.margin, m.limit_margin(F));
+      const Mat3 cof = J * F.inverse().transpose();
+      // Pressure basis ψ_j at this point (P0: 1; P1: area coordinates), θ_q, p_q.
+      double psi[3] = {1.0, 0.0, 0.0};
+      if (np == 3) {
+        const auto b = E::p1_basis(q);
+        psi[0] = b[0];
+        psi[1] = b[1];
+        psi[2] = b[2];
+      }
+      double th_q = 0.0, p_q = 0.0;
+      if (mx)
+        for (int j = 0; j < np; ++j) {
+          th_q += psi[j] * in[nbe + j];
+          p_q += psi[j] * in[nbe + np + j];
+        }
+      if (mx) {
+        // Replace the law's volumetric stress W_V′(J) cof F by the interpolated pressure p cof F.
+        const double dq = p_q - vol_d1(Kv, J);
+        P += dq * cof;
+        const Vec9 c9 = flatten(cof);
+        A.noalias() -= vol_d2(Kv, J) * c9 * c9.transpose();
+        add_dcof(A, dq, cof, J);
+        if (!(th_q > 0.0)) return MaterialStatus::inverted;
+      }
+      if (!P.allFinite()) return MaterialStatus::not_finite;
+      const Vec9 Pv = flatten(P);
+      add_BtX(dN, Pv, wq, w.re);
+      if (with_tangent) add_point_tangent(dN, A, wq, w);
+      if (mx) add_mixed_point(g, q, nbe, P, A, cof, J, psi, th_q, p_q, Kv, w);
+      w.Pe_sum += wq * P;
+      w.Fe_sum += wq * F;
+      w.PFt_sum += wq * P * F.transpose();
+      w.Je_sum += wq * J;
+    }
+    return MaterialStatus::ok;
+  }
+
+  /// Ke += w Bᵀ A B at one point (B·A formed with the sparsity of B, into w.B).
+  template <class DN>
+  void add_point_tangent(const DN& dN, const Mat9& A, double wq, ElementWork& w) const {
+    for (int a = 0; a < kNodes; ++a)
+      for (int i = 0; i < 3; ++i) {
+        w.B.col(3 * a + i) = dN(a, 0) * A.col(3 * i);
+        for (int J = 1; J < kDim; ++J) w.B.col(3 * a + i) += dN(a, J) * A.col(3 * i + J);
+      }
+    w.B.template rightCols<9>().noalias() = A * Tg;  // B now holds A·B
+    for (int a = 0; a < kNodes; ++a)
+      for (int i = 0; i < 3; ++i) {
+        auto row = w.Ke.row(3 * a + i);
+        for (int J = 0; J < kDim; ++J) row.noalias() += (wq * dN(a, J)) * w.B.row(3 * i + J);
+      }
+    w.Ke.template bottomRows<9>().noalias() += wq * Tg.transpose() * w.B;
+  }
+
+  /// The bubble and (θ, p) terms of a mixed element at one point (nbe > 0 on the section only,
+  /// where ∂/∂y3 = 0: two gradient components).
+  void add_mixed_point(const Geometry& g, int q, int nbe, const Mat3& P, const Mat9& A, const Mat3& cof, double J,
+                       const double psi[3], double th_q, double p_q, double Kv, ElementWork& w) const {
+    const auto& dN = g.dN[q];
+    const double wq = g.w[q];
+    const double gb0 = g.dB[q][0], gb1 = g.dB[q][1];
+    const Vec9 c9 = flatten(cof);
+    for (int i = 0; i < nbe; ++i) {
+      w.rb[i] += wq * (gb0 * P(i, 0) + gb1 * P(i, 1));
+      const Vec9 ABk = gb0 * A.col(3 * i) + gb1 * A.col(3 * i + 1);  // A · B_bubble,i
+      VecD col = VecD::Zero();
+      add_BtX(dN, ABk, wq, col);
+      w.Kqb.col(i) += col;
+      for (int k = 0; k < nbe; ++k) w.Kbb(k, i) += wq * (gb0 * ABk[3 * k] + gb1 * ABk[3 * k + 1]);
+    }
+    VecD gcol = VecD::Zero();
+    add_BtX(dN, c9, wq, gcol);
+    const double U1 = vol_d1(Kv, th_q), U2 = vol_d2(Kv, th_q);
+    for (int j = 0; j < np; ++j) {
+      w.Gq.col(j) += psi[j] * gcol;
+      for (int i = 0; i < nbe; ++i) w.Gb(i, j) += wq * psi[j] * (gb0 * cof(i, 0) + gb1 * cof(i, 1));
+      w.Rth[j] += wq * psi[j] * (U1 - p_q);
+      w.Rp[j] += wq * psi[j] * (J - th_q);
+      for (int k = 0; k < np; ++k) {
+        w.H(j, k) += wq * psi[j] * psi[k] * U2;
+        w.M(j, k) += wq * psi[j] * psi[k];
+      }
+    }
+  }
+
+  /// Static condensation of the internal unknowns i = [bubble, θ, p] of mixed element e:
+  ///   K_ii = [Kbb 0 Gb; 0 H −M; Gbᵀ −M 0], K_iq = [Kqbᵀ; 0; Gqᵀ], R_i = [rb; Rθ; Rp].
+  /// Returns the effective residual, condenses Ke, keeps the linearization for the recovery of the
+  /// internal increments, raises `mismatch` (pressure mismatch, stress units) and `bubble_sq`.
+  VecD condense_element(int e, bool with_tangent, ElementWork& w, double& mismatch, double& bubble_sq) {
+    VecD reff = w.re;
+    const int nbe = nb;
+    MatI Kii = MatI::Zero(ni, ni);
+    MatIq Kiq = MatIq::Zero(ni, ND);
+    VecI Ri(ni);
+    const int o_t = nbe, o_p = nbe + np;
+    Kii.block(0, 0, nbe, nbe) = w.Kbb.topLeftCorner(nbe, nbe);
+    Kii.block(0, o_p, nbe, np) = w.Gb.topLeftCorner(nbe, np);
+    Kii.block(o_p, 0, np, nbe) = w.Gb.topLeftCorner(nbe, np).transpose();
+    Kii.block(o_t, o_t, np, np) = w.H.topLeftCorner(np, np);
+    Kii.block(o_t, o_p, np, np) = -w.M.topLeftCorner(np, np);
+    Kii.block(o_p, o_t, np, np) = -w.M.topLeftCorner(np, np);
+    Kiq.topRows(nbe) = w.Kqb.leftCols(nbe).transpose();
+    Kiq.middleRows(o_p, np) = w.Gq.leftCols(np).transpose();
+    for (int i = 0; i < nbe; ++i) Ri[i] = w.rb[i];
+    for (int j = 0; j < np; ++j) {
+      Ri[o_t + j] = w.Rth[j];
+      Ri[o_p + j] = w.Rp[j];
+    }
+    const MatI Kinv = Kii.fullPivLu().inverse();
+    const VecI KinvR = Kinv * Ri;
+    reff.noalias() -= Kiq.transpose() * KinvR;
+    if (with_tangent) w.Ke.noalias() -= Kiq.transpose() * (Kinv * Kiq);
+    lin_Kinv[e] = Kinv;
+    lin_Kiq[e] = Kiq;
+    lin_Ri[e] = Ri;
+    // Pressure mismatch in stress units: (Rθ + U″ Rp)_j / ∫ψ_j (P0: U″(J̄ − θ) + U′(θ) − p).
+    for (int j = 0; j < np; ++j) {
+      double mass = 0.0;
+      for (int k = 0; k < np; ++k) mass += w.M(j, k);
+      double u2 = 0.0;
+      for (int k = 0; k < np; ++k) u2 += w.H(j, k);
+      u2 /= mass;
+      mismatch = std::max(mismatch, std::abs(w.Rth[j] + u2 * w.Rp[j]) / mass);
+    }
+    // The bubble residual is a force: it joins the force residual norm.
+    for (int i = 0; i < nbe; ++i) bubble_sq += w.rb[i] * w.rb[i];
+    return reff;
+  }
+
+  /// Adds element e's residuals, predictor and tangent to the global arrays (atomic: elements of
+  /// different threads share nodes).
+  void scatter_element(int e, const ElementWork& w, const VecD& reff, bool with_tangent, bool any_prescribed_step,
+                       const Vec9& dFp) {
+    int eq[ND];
+    for (int d = 0; d < ND; ++d) eq[d] = element_eq(e, d);
+    VecD pred = VecD::Zero();
+    if (with_tangent && any_prescribed_step) pred = w.Ke.template rightCols<9>() * dFp;
+    for (int d = 0; d < ND; ++d) {
+      if (eq[d] < 0) continue;
+#pragma omp atomic
+      r_true[eq[d]] += w.re[d];
+#pragma omp atomic
+      r_eff[eq[d]] += reff[d];
+      if (any_prescribed_step && with_tangent) {
+#pragma omp atomic
+        r_pred[eq[d]] += pred[d];
+      }
+    }
+    if (!with_tangent) return;
+    for (int cl = 0; cl < ND; ++cl) {
+      if (eq[cl] < 0) continue;
+      // Rows come in runs of consecutive equations (the 3 components of a node, the free macro
+      // components): one binary search per run.
+      for (int rw = 0; rw < ND;) {
+        if (eq[rw] < 0) {
+          ++rw;
+          continue;
+        }
+        const long pos = K.find(eq[rw], eq[cl]);
+        int len = 1;
+        while (rw + len < ND && eq[rw + len] == eq[rw] + len && (rw + len) % 3 != 0 && rw + len < kNU) ++len;
+        if (rw >= kNU)
+          while (rw + len < ND && eq[rw + len] == eq[rw] + len) ++len;
+        for (int k = 0; k < len; ++k) {
+#pragma omp atomic
+          K.values[pos + k] += w.Ke(rw + k, cl);
+        }
+        rw += len;
+      }
+    }
+  }
+
   /// Evaluates every element at the current state: residuals (true and Newton right-hand side part),
   /// tangent (when asked), the predictor K_{:,p} dFp, the linearization data and the output sums.
   MaterialStatus evaluate(double dt, bool with_tangent, const Vec9& dFp) {
@@ -387,13 +664,7 @@ struct Model {
     {
       PassSums local;
       double local_mismatch = 0.0, local_bubble = 0.0;
-      Mat9xD B;
-      MatD Ke;
-      VecD re;
-      // Mixed-element blocks: bubble rows (3), pressure coupling G = ∫ Bᵀ cof ψ_j.
-      Eigen::Matrix<double, ND, 3> Kqb, Gq;
-      Eigen::Matrix3d Kbb, Gb, H, M;
-      Eigen::Vector3d rb, Rth, Rp;
+      ElementWork w;
 #pragma omp for schedule(dynamic, 64)
       for (int e = 0; e < ne; ++e) {
         int seen;
@@ -401,232 +672,21 @@ struct Model {
         seen = failure;
         if (seen) continue;
         const int x = mesh.phase[e];
-        const Material& m = *mat[x];
-        const bool mx = mixed[x];
-        const double Kv = K_vol[x];
-        const auto& el = mesh.elements[e];
-        const Geometry& g = geo[e];
-        const double* in = internal.data() + std::size_t(kMaxInternal) * e;
-        const int nbe = mx ? nb : 0;  // bubble only in mixed elements (section elements only)
-        re.setZero();
-        if (with_tangent) Ke.setZero();
-        if (mx) {
-          Kqb.setZero();
-          Gq.setZero();
-          Kbb.setZero();
-          Gb.setZero();
-          H.setZero();
-          M.setZero();
-          rb.setZero();
-          Rth.setZero();
-          Rp.setZero();
-        }
-        MaterialStatus status = MaterialStatus::ok;
-        Mat3 Pe_sum = Mat3::Zero(), Fe_sum = Mat3::Zero(), PFt_sum = Mat3::Zero();
-        double Je_sum = 0.0;
-        for (int q = 0; q < kQp && status == MaterialStatus::ok; ++q) {
-          const auto& dN = g.dN[q];
-          const double w = g.w[q];
-          Mat3 F = Fg;
-          for (int a = 0; a < kNodes; ++a)
-            for (int i = 0; i < 3; ++i) {
-              const double u = ut[3 * el[a] + i];
-              for (int J = 0; J < kDim; ++J) F(i, J) += u * dN(a, J);
-            }
-          for (int i = 0; i < nbe; ++i) {
-            F(i, 0) += in[i] * g.dB[q][0];
-            F(i, 1) += in[i] * g.dB[q][1];
-          }
-          const double J = F.determinant();
-          if (!(J > 0.0)) {
-            status = MaterialStatus::inverted;
-            break;
-          }
-          Mat3 P;
-          Mat9 A;
-          const int ss = state_size[x];
-          const double* ho = ss ? hist_old.data() + hist_offset[e] + q * ss : nullptr;
-          double* hn = ss ? hist_new.data() + hist_offset[e] + q * ss : nullptr;
-          status = m.evaluate(F, ho, hn, dt, P, with_tangent || mx ? &A : nullptr);
-          if (status != MaterialStatus::ok) break;
-          const Mat3 cof = J * F.inverse().transpose();
-          // Pressure basis ψ_j at this point (P0: 1; P1: area coordinates), θ_q, p_q.
-          double psi[3] = {1.0, 0.0, 0.0};
-          if (np == 3) {
-            const auto b = E::p1_basis(q);
-            psi[0] = b[0];
-            psi[1] = b[1];
-            psi[2] = b[2];
-          }
-          double th_q = 0.0, p_q = 0.0;
-          if (mx)
-            for (int j = 0; j < np; ++j) {
-              th_q += psi[j] * in[nbe + j];
-              p_q += psi[j] * in[nbe + np + j];
-            }
-          if (mx) {
-            // Replace the law's volumetric stress W_V′(J) cof F by the interpolated pressure p cof F.
-            const double dq = p_q - vol_d1(Kv, J);
-            P += dq * cof;
-            const Vec9 c9 = flatten(cof);
-            A.noalias() -= vol_d2(Kv, J) * c9 * c9.transpose();
-            add_dcof(A, dq, cof, J);
-            if (!(th_q > 0.0)) {
-              status = MaterialStatus::inverted;
-              break;
-            }
-          }
-          if (!P.allFinite()) {
-            status = MaterialStatus::not_finite;
-            break;
-          }
-          // B = ∂vec(F)/∂(ũ_e, F̄_load): column 3a+i has dN_a/dy_J at row 3i+J (J < kDim; on the
-          // section ∂/∂y3 = 0); the macro columns are Tg. Products are formed with that sparsity.
-          auto add_BtX = [&](const Vec9& X, double s, VecD& out) {
-            for (int a = 0; a < kNodes; ++a)
-              for (int i = 0; i < 3; ++i) {
-                double v = 0.0;
-                for (int J = 0; J < kDim; ++J) v += dN(a, J) * X[3 * i + J];
-                out[3 * a + i] += s * v;
-              }
-            out.template tail<9>().noalias() += s * Tg.transpose() * X;
-          };
-          const Vec9 Pv = flatten(P);
-          add_BtX(Pv, w, re);
-          if (with_tangent) {
-            for (int a = 0; a < kNodes; ++a)
-              for (int i = 0; i < 3; ++i) {
-                B.col(3 * a + i) = dN(a, 0) * A.col(3 * i);
-                for (int J = 1; J < kDim; ++J) B.col(3 * a + i) += dN(a, J) * A.col(3 * i + J);
-              }
-            B.template rightCols<9>().noalias() = A * Tg;  // B now holds A·B
-            for (int a = 0; a < kNodes; ++a)
-              for (int i = 0; i < 3; ++i) {
-                auto row = Ke.row(3 * a + i);
-                for (int J = 0; J < kDim; ++J) row.noalias() += (w * dN(a, J)) * B.row(3 * i + J);
-              }
-            Ke.template bottomRows<9>().noalias() += w * Tg.transpose() * B;
-          }
-          if (mx) {
-            // Bubble terms (nbe > 0 on the section only, where ∂/∂y3 = 0: two gradient components).
-            const double gb0 = g.dB[q][0], gb1 = g.dB[q][1];
-            const Vec9 c9 = flatten(cof);
-            for (int i = 0; i < nbe; ++i) {
-              rb[i] += w * (gb0 * P(i, 0) + gb1 * P(i, 1));
-              const Vec9 ABk = gb0 * A.col(3 * i) + gb1 * A.col(3 * i + 1);  // A · B_bubble,i
-              VecD col = VecD::Zero();
-              add_BtX(ABk, w, col);
-              Kqb.col(i) += col;
-              for (int k = 0; k < nbe; ++k) Kbb(k, i) += w * (gb0 * ABk[3 * k] + gb1 * ABk[3 * k + 1]);
-            }
-            VecD gcol = VecD::Zero();
-            add_BtX(c9, w, gcol);
-            const double U1 = vol_d1(Kv, th_q), U2 = vol_d2(Kv, th_q);
-            for (int j = 0; j < np; ++j) {
-              Gq.col(j) += psi[j] * gcol;
-              for (int i = 0; i < nbe; ++i) Gb(i, j) += w * psi[j] * (gb0 * cof(i, 0) + gb1 * cof(i, 1));
-              Rth[j] += w * psi[j] * (U1 - p_q);
-              Rp[j] += w * psi[j] * (J - th_q);
-              for (int k = 0; k < np; ++k) {
-                H(j, k) += w * psi[j] * psi[k] * U2;
-                M(j, k) += w * psi[j] * psi[k];
-              }
-            }
-          }
-          Pe_sum += w * P;
-          Fe_sum += w * F;
-          PFt_sum += w * P * F.transpose();
-          Je_sum += w * J;
-        }
+        const MaterialStatus status = integrate_element(e, Fg, dt, with_tangent, w);
         if (status != MaterialStatus::ok) {
 #pragma omp atomic write
           failure = int(status);
           continue;
         }
-        VecD reff = re;
-        if (mx) {
-          // Static condensation of the internal unknowns i = [bubble, θ, p]:
-          //   K_ii = [Kbb 0 Gb; 0 H −M; Gbᵀ −M 0], K_iq = [Kqbᵀ; 0; Gqᵀ], R_i = [rb; Rθ; Rp].
-          MatI Kii = MatI::Zero(ni, ni);
-          MatIq Kiq = MatIq::Zero(ni, ND);
-          VecI Ri(ni);
-          const int o_t = nbe, o_p = nbe + np;
-          Kii.block(0, 0, nbe, nbe) = Kbb.topLeftCorner(nbe, nbe);
-          Kii.block(0, o_p, nbe, np) = Gb.topLeftCorner(nbe, np);
-          Kii.block(o_p, 0, np, nbe) = Gb.topLeftCorner(nbe, np).transpose();
-          Kii.block(o_t, o_t, np, np) = H.topLeftCorner(np, np);
-          Kii.block(o_t, o_p, np, np) = -M.topLeftCorner(np, np);
-          Kii.block(o_p, o_t, np, np) = -M.topLeftCorner(np, np);
-          Kiq.topRows(nbe) = Kqb.leftCols(nbe).transpose();
-          Kiq.middleRows(o_p, np) = Gq.leftCols(np).transpose();
-          for (int i = 0; i < nbe; ++i) Ri[i] = rb[i];
-          for (int j = 0; j < np; ++j) {
-            Ri[o_t + j] = Rth[j];
-            Ri[o_p + j] = Rp[j];
-          }
-          const MatI Kinv = Kii.fullPivLu().inverse();
-          const VecI KinvR = Kinv * Ri;
-          reff.noalias() -= Kiq.transpose() * KinvR;
-          if (with_tangent) Ke.noalias() -= Kiq.transpose() * (Kinv * Kiq);
-          lin_Kinv[e] = Kinv;
-          lin_Kiq[e] = Kiq;
-          lin_Ri[e] = Ri;
-          // Pressure mismatch in stress units: (Rθ + U″ Rp)_j / ∫ψ_j (P0: U″(J̄ − θ) + U′(θ) − p).
-          for (int j = 0; j < np; ++j) {
-            double mass = 0.0;
-            for (int k = 0; k < np; ++k) mass += M(j, k);
-            double u2 = 0.0;
-            for (int k = 0; k < np; ++k) u2 += H(j, k);
-            u2 /= mass;
-            local_mismatch = std::max(local_mismatch, std::abs(Rth[j] + u2 * Rp[j]) / mass);
-          }
-          // The bubble residual is a force: it joins the force residual norm.
-          for (int i = 0; i < nbe; ++i) local_bubble += rb[i] * rb[i];
-        }
-        // Scatter.
-        int eq[ND];
-        for (int d = 0; d < ND; ++d) eq[d] = element_eq(e, d);
-        VecD pred = VecD::Zero();
-        if (with_tangent && any_prescribed_step) pred = Ke.template rightCols<9>() * dFp;
-        for (int d = 0; d < ND; ++d) {
-          if (eq[d] < 0) continue;
-#pragma omp atomic
-          r_true[eq[d]] += re[d];
-#pragma omp atomic
-          r_eff[eq[d]] += reff[d];
-          if (any_prescribed_step && with_tangent) {
-#pragma omp atomic
-            r_pred[eq[d]] += pred[d];
-          }
-        }
-        if (with_tangent)
-          for (int cl = 0; cl < ND; ++cl) {
-            if (eq[cl] < 0) continue;
-            // Rows come in runs of consecutive equations (the 3 components of a node, the free macro
-            // components): one binary search per run.
-            for (int rw = 0; rw < ND;) {
-              if (eq[rw] < 0) {
-                ++rw;
-                continue;
-              }
-              const long pos = K.find(eq[rw], eq[cl]);
-              int len = 1;
-              while (rw + len < ND && eq[rw + len] == eq[rw] + len && (rw + len) % 3 != 0 && rw + len < kNU) ++len;
-              if (rw >= kNU)
-                while (rw + len < ND && eq[rw + len] == eq[rw] + len) ++len;
-              for (int k = 0; k < len; ++k) {
-#pragma omp atomic
-                K.values[pos + k] += Ke(rw + k, cl);
-              }
-              rw += len;
-            }
-          }
-        local.P += Pe_sum;
-        local.phase_P[x] += Pe_sum;
-        local.phase_F[x] += Fe_sum;
-        local.phase_PFt[x] += PFt_sum;
-        local.phase_J[x] += Je_sum;
-        local.phase_w[x] += g.area;
+        const VecD reff = mixed[x] ? condense_element(e, with_tangent, w, local_mismatch, local_bubble) : VecD(w.re);
+        scatter_element(e, w, reff, with_tangent, any_prescribed_step, dFp);
+        local.P += w.Pe_sum;
+        local.phase_P[x] += w.Pe_sum;
+        local.phase_F[x] += w.Fe_sum;
+        local.phase_PFt[x] += w.PFt_sum;
+        local.phase_J[x] += w.Je_sum;
+        local.phase_w[x] += geo[e].area;
+        local.see_margin(x, w.margin, e);
       }
 #pragma omp critical
       {
@@ -726,6 +786,16 @@ struct Model {
 
   using StepOutcome = detail::SubstepOutcome;
 
+  /// A converged sub-step: ok unless a phase is at its material limit there (fatal).
+  StepOutcome& converged(StepOutcome& out) const {
+    const std::string where[2] = {"element " + std::to_string(sums.e_margin[0]),
+                                  "element " + std::to_string(sums.e_margin[1])};
+    out.why = detail::phase_limit_reached(sums.margin, where, Fbar);
+    out.fatal = !out.why.empty();
+    out.ok = !out.fatal;
+    return out;
+  }
+
   StepOutcome step(const MixedControl& control, double t_new, double dt) {
     StepOutcome out;
     std::array<bool, 9> free{};
@@ -742,7 +812,16 @@ struct Model {
     Vec9 dF = Vec9::Zero();
     bool had_prescribed_step = false;
     double err = 0.0, first_err = -1.0;
+    if (std::string why = detail::target_inverts(control, t_new, Fbar_c); !why.empty()) {
+      out.fatal = true;
+      out.why = std::move(why);
+      return out;
+    }
     for (int it = 0; it <= opt.max_newton_iterations; ++it) {
+      if (stop_requested()) {
+        out.why = "stopped by a signal";
+        return out;
+      }
       Vec9 dFp = Vec9::Zero();
       for (int c = 0; c < 9; ++c)
         if (!free[c]) dFp[c] = target(c / 3, c % 3) - Fbar(c / 3, c % 3);
@@ -754,11 +833,8 @@ struct Model {
         }
         apply_targets(P_target);
       } else {
-        const double merit_old = merit();
-        double scale = 1.0;
-        bool accepted = false;
         MaterialStatus last = MaterialStatus::ok;
-        for (int ls = 0; ls < 8 && !accepted; ++ls, scale *= 0.5) {
+        auto trial = [&](double scale) -> std::optional<double> {
           for (int i = 0; i < nn; ++i)
             for (int c = 0; c < 3; ++c) {
               const int g = node_eq[3 * i + c];
@@ -774,13 +850,11 @@ struct Model {
           for (int c = 0; c < 9; ++c)
             if (!free[c]) dFp_now[c] = target(c / 3, c % 3) - Fbar(c / 3, c % 3);
           last = evaluate(dt, true, dFp_now);
-          if (last != MaterialStatus::ok) continue;
+          if (last != MaterialStatus::ok) return std::nullopt;
           apply_targets(P_target);
-          const double mnew = merit();
-          if (!std::isfinite(mnew)) continue;
-          accepted = had_prescribed_step || mnew < (1.0 - 1e-4 * scale) * merit_old || ls == 7;
-          if (ls > 0 && accepted) ++out.line_search_cuts;
-        }
+          return merit();
+        };
+        const bool accepted = fe::backtracking_line_search(merit(), had_prescribed_step, trial).accepted;
         if (!accepted) {
           out.why = last != MaterialStatus::ok ? std::string("material call failed (") + to_string(last) + ")"
                                                : std::string("line search failed");
@@ -800,10 +874,7 @@ struct Model {
       // the residual of a nearly incompressible phase cannot drop below ~eps K.
       const double noise = 64.0 * std::numeric_limits<double>::epsilon() * K_max *
                            (1.0 + Fbar.cwiseAbs().maxCoeff()) / stress_scale(free, P_target);
-      if (reached && (err <= opt.tolerance || (it >= 2 && err <= noise))) {
-        out.ok = true;
-        return out;
-      }
+      if (reached && (err <= opt.tolerance || (it >= 2 && err <= noise))) return converged(out);
       if (it == opt.max_newton_iterations) break;
       if (reached) {
         if (first_err < 0.0) first_err = err;
@@ -830,7 +901,7 @@ struct Model {
       in0 = internal;
       F0 = Fbar;
       had_prescribed_step = !reached;
-      ++out.newton;
+      ++out.newton_iterations;
     }
     out.why = "no convergence in " + std::to_string(opt.max_newton_iterations) + " Newton iterations (residual " +
               std::to_string(err) + ")";
@@ -980,7 +1051,10 @@ struct Model {
         }
       }
     } engine{*this, control, angle0, on_step, want_fields};
-    detail::run_output_steps(control, opt.max_cutbacks, engine, result, run_start);
+    StepControlOptions steps;
+    steps.max_cutbacks = opt.max_cutbacks;
+    steps.max_step_seconds = opt.max_step_seconds;
+    detail::run_output_steps(control, steps, engine, result, run_start);
     return result;
   }
 };

@@ -7,13 +7,20 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
 #include <Eigen/Dense>
 
+#include "softhom/fe/krylov.hpp"
+#include "softhom/fe/line_search.hpp"
 #include "softhom/fft/stencil.hpp"
+#include "softhom/materials/interrupt.hpp"
 #include "softhom/materials/errors.hpp"
+#include "diagnostics.hpp"
+#include "laminate.hpp"
+#include "memory_budget.hpp"
 #include "step_driver.hpp"
 
 namespace softhom::rve {
@@ -40,7 +47,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr double kPhaseEps = 1e-12;  // fractions closer than this to 0/1 are pure voxels
-constexpr double kLockingMargin = 0.02;  // failure diagnosis: a matrix point this close to its limit is "locked"
 
 /// 9×9 operator of X ↦ R X Rᵀ on row-major flattened tensors.
 Mat9 rotation_operator(const Mat3& R) {
@@ -102,8 +108,19 @@ struct PassSums {
   Mat3 phase_PFt[2] = {Mat3::Zero(), Mat3::Zero()};
   double phase_J[2] = {0.0, 0.0};
   double phase_w[2] = {0.0, 0.0};
+  // Smallest Material::limit_margin of each phase over its points (composite points: its laminate
+  // side) and the voxel where it is; checked on converged states (a phase at its limit is fatal).
+  double margin[2] = {1.0, 1.0};
+  std::size_t v_margin[2] = {0, 0};
+  void see_margin(int x, double m, std::size_t v) {
+    if (m < margin[x]) {
+      margin[x] = m;
+      v_margin[x] = v;
+    }
+  }
   void add(const PassSums& o) {
     P += o.P;
+    for (int x = 0; x < 2; ++x) see_margin(x, o.margin[x], o.v_margin[x]);
     A += o.A;
     for (int x = 0; x < 2; ++x) {
       phase_A[x] += o.phase_A[x];
@@ -126,10 +143,6 @@ struct KVec {
 };
 
 }  // namespace
-
-struct FftSolverStats {
-  int krylov = 0;
-};
 
 struct FftRveSolver::Impl {
   FftSolverOptions opt;
@@ -194,9 +207,6 @@ struct FftRveSolver::Impl {
         N(grid.voxels()),
         NM(grid.modes()),
         NP(N * std::size_t(op.points())) {
-    if (image.fiber_fraction.size() != N)
-      throw InputError("microstructure", "", "phase image has " + std::to_string(image.fiber_fraction.size()) +
-                                                 " values for " + std::to_string(N) + " voxels");
     R = grid_rotation(angle);
     T_load = rotation_operator(R);
     a0_load = R * image.mean_fiber_direction();  // y3 unless the image gives per-voxel directions
@@ -214,6 +224,18 @@ struct FftRveSolver::Impl {
     mu_ref = 0.5 * (G0 + G1);
     lambda_ref = 0.5 * ((K0 - 2.0 / 3.0 * G0) + (K1 - 2.0 / 3.0 * G1));
 
+    for (int x = 0; x < 2; ++x) {
+      K_vol[x] = mat[x]->volumetric_modulus();
+      const double G = mat[x]->initial_shear_modulus();
+      mixed[x] = opt.scheme == FftScheme::newton_cg && opt.mixed_pressure && K_vol[x] > 0.0 &&
+                 K_vol[x] >= opt.mixed_pressure_ratio * G;
+      mixed_active = mixed_active || mixed[x];
+    }
+    // Refuse a grid that cannot fit before anything of its size is allocated.
+    detail::refuse_if_too_big(planned_bytes(), "microstructure.grid", grid_text(grid.n));
+    if (image.fiber_fraction.size() != N)
+      throw InputError("microstructure", "", "phase image has " + std::to_string(image.fiber_fraction.size()) +
+                                                 " values for " + std::to_string(N) + " voxels");
     phi = image.fiber_fraction;
     comp_id.assign(N, -1);
     double vf = 0.0;
@@ -226,7 +248,7 @@ struct FftRveSolver::Impl {
       if (f > 0.0 && f < 1.0) {
         comp_id[v] = int(comp_normal.size());
         Vec3 n = image.normal.size() == N ? image.normal[v] : Vec3::Zero();
-        if (!(n.norm() > 0.5)) n = estimate_normal(image, v);
+        if (!(n.norm() > 0.5)) n = detail::estimate_interface_normal(image, v);
         comp_normal.push_back(n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero());
       }
     }
@@ -239,13 +261,6 @@ struct FftRveSolver::Impl {
         for (std::size_t p = 0; p < NP; ++p) mat[x]->init_state(hist_old[x].data() + p * state_size[x]);
         hist_new[x] = hist_old[x];
       }
-    for (int x = 0; x < 2; ++x) {
-      K_vol[x] = mat[x]->volumetric_modulus();
-      const double G = mat[x]->initial_shear_modulus();
-      mixed[x] = opt.scheme == FftScheme::newton_cg && opt.mixed_pressure && K_vol[x] > 0.0 &&
-                 K_vol[x] >= opt.mixed_pressure_ratio * G;
-      mixed_active = mixed_active || mixed[x];
-    }
     if (mixed_active) {
       lin_cur.assign(10 * NP, 0.0);
       lin_next.assign(10 * NP, 0.0);
@@ -278,21 +293,26 @@ struct FftRveSolver::Impl {
     r_u.assign(3 * NM, 0.0);
   }
 
-  // Normal of a composite voxel of an imported image without normals: −∇φ by central differences
-  // (points out of the fiber); zero when the neighbourhood is flat (then the Voigt rule is used).
-  static Vec3 estimate_normal(const PhaseImage& im, std::size_t v) {
-    const int n1 = im.n[0], n2 = im.n[1], n3 = im.n[2];
-    const int i1 = int(v % n1), i2 = int((v / n1) % n2), i3 = int(v / (std::size_t(n1) * n2));
-    auto at = [&](int a, int b, int c) {
-      a = (a + n1) % n1;
-      b = (b + n2) % n2;
-      c = (c + n3) % n3;
-      return im.fiber_fraction[a + std::size_t(n1) * (b + std::size_t(n2) * c)];
-    };
-    Vec3 g(n1 > 1 ? (at(i1 + 1, i2, i3) - at(i1 - 1, i2, i3)) * n1 / im.size[0] : 0.0,
-           n2 > 1 ? (at(i1, i2 + 1, i3) - at(i1, i2 - 1, i3)) * n2 / im.size[1] : 0.0,
-           n3 > 1 ? (at(i1, i2, i3 + 1) - at(i1, i2, i3 - 1)) * n3 / im.size[2] : 0.0);
-    return g.norm() > 0.0 ? Vec3(-g.normalized()) : Vec3::Zero();
+  /// "[n1, n2]" (sections) or "[n1, n2, n3]", as the scene writes the grid.
+  static std::string grid_text(const std::array<int, 3>& n) {
+    return "[" + std::to_string(n[0]) + ", " + std::to_string(n[1]) + (n[2] > 1 ? ", " + std::to_string(n[2]) : "") + "]";
+  }
+
+  /// Bytes the solver will allocate for this grid and these options (the arrays of memory_bytes(),
+  /// counted before they exist; composite points counted as none, their 6 values per point are small).
+  std::size_t planned_bytes() const {
+    const double n = double(N), nm = double(NM), np = double(NP);
+    const bool newton = opt.scheme == FftScheme::newton_cg;
+    const bool with_stencil = newton && opt.krylov_operator == KrylovOperator::stencil && fft::StencilGradient::supported(op);
+    const double field = 8.0 * n + 16.0 * nm;  // one real field and its half spectrum
+    double b = 9.0 * nq * field + (with_stencil ? 3.0 * field : 0.0);
+    if (newton) b += 45.0 * np * (with_stencil && opt.tangent_precision == TangentPrecision::single_precision ? 4.0 : 8.0);
+    b += 9.0 * 8.0 * nm;                                     // reference Green operator per mode
+    b += 2.0 * 8.0 * np * double(state_size[0] + state_size[1]);  // history, old and new
+    if (mixed_active) b += 32.0 * 8.0 * np;                  // linearizations, pressures, P_full − P̂
+    b += 12.0 * n;                                           // fiber fraction, composite index
+    b += 3.0 * 16.0 * nm * (newton ? 12.0 : 4.0);            // ũ, its copies and the Krylov vectors
+    return detail::saturating_product({b});
   }
 
   Mat3 to_grid(const Mat3& X_load) const { return R.transpose() * X_load * R; }
@@ -301,72 +321,17 @@ struct FftRveSolver::Impl {
   // ---------------------------------------------------------------------------------------------
   // Material points.
 
-  /// Laminate rule for a composite point. `a` (in/out) is the jump vector, warm-started.
+  /// Laminate rule for a composite point (laminate.hpp). `a` (in/out) is the jump vector, warm-started.
   MaterialStatus laminate(const Mat3& F, double f, const Vec3& n, Vec3& a, std::size_t p, double dt, Mat3& P,
                           Mat9* A, Mat3 Px[2], Mat3 Fx[2]) const {
-    Mat9 Ax[2];
-    const double* ho[2];
-    double* hn[2];
+    detail::LaminatePoint pt;
     for (int x = 0; x < 2; ++x) {
-      ho[x] = state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr;
-      hn[x] = state_size[x] ? const_cast<double*>(hist_new[x].data()) + p * state_size[x] : nullptr;
+      pt.phase[x] = mat[x].get();
+      pt.state_old[x] = state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr;
+      pt.state_new[x] = state_size[x] ? const_cast<double*>(hist_new[x].data()) + p * state_size[x] : nullptr;
     }
-    Vec3 a_prev = a;
-    Eigen::Matrix3d Q;
-    bool have_previous = false;
-    double r_prev = std::numeric_limits<double>::infinity();
-    for (int it = 0; it < 40; ++it) {
-      Fx[1] = F + (1.0 - f) * a * n.transpose();
-      Fx[0] = F - f * a * n.transpose();
-      MaterialStatus s1 = mat[1]->evaluate(Fx[1], ho[1], hn[1], dt, Px[1], &Ax[1]);
-      MaterialStatus s0 = s1 == MaterialStatus::ok ? mat[0]->evaluate(Fx[0], ho[0], hn[0], dt, Px[0], &Ax[0]) : s1;
-      if (s0 != MaterialStatus::ok || s1 != MaterialStatus::ok) {
-        if (!have_previous) return s0 != MaterialStatus::ok ? s0 : s1;
-        a = a_prev + 0.5 * (a - a_prev);  // damp the laminate Newton step
-        continue;
-      }
-      const Vec3 r = (Px[1] - Px[0]) * n;
-      for (int i = 0; i < 3; ++i)
-        for (int k = 0; k < 3; ++k) {
-          double s = 0.0;
-          for (int j = 0; j < 3; ++j)
-            for (int l = 0; l < 3; ++l)
-              s += ((1.0 - f) * Ax[1](3 * i + j, 3 * k + l) + f * Ax[0](3 * i + j, 3 * k + l)) * n[j] * n[l];
-          Q(i, k) = s;
-        }
-      // Relative tolerance plus the round-off floor of stresses ~ K (J − 1) (K/G up to 1e5 here).
-      const double scale = (Px[1] * n).norm() + (Px[0] * n).norm();
-      const double floor = 32.0 * std::numeric_limits<double>::epsilon() * K_max * (1.0 + F.cwiseAbs().maxCoeff());
-      const double rn = r.norm();
-      if (rn <= 1e-13 * scale + floor) break;
-      // Stagnation at round-off level is convergence too.
-      if (it >= 3 && rn <= 1e-9 * scale && rn > 0.25 * r_prev) break;
-      r_prev = rn;
-      if (it == 39) return MaterialStatus::not_finite;  // no traction continuity: treat as a failed call  // no traction continuity: treat as a failed call
-      a_prev = a;
-      have_previous = true;
-      a -= Q.inverse() * r;
-    }
-    P = f * Px[1] + (1.0 - f) * Px[0];
-    if (A) {
-      const Mat9 D = Ax[1] - Ax[0];
-      Eigen::Matrix<double, 3, 9> Tm;   // (D dF) n
-      Eigen::Matrix<double, 9, 3> Um;   // D (da ⊗ n)
-      for (int i = 0; i < 3; ++i)
-        for (int c = 0; c < 9; ++c) {
-          double s = 0.0;
-          for (int j = 0; j < 3; ++j) s += D(3 * i + j, c) * n[j];
-          Tm(i, c) = s;
-        }
-      for (int c = 0; c < 9; ++c)
-        for (int k = 0; k < 3; ++k) {
-          double s = 0.0;
-          for (int l = 0; l < 3; ++l) s += D(c, 3 * k + l) * n[l];
-          Um(c, k) = s;
-        }
-      *A = f * Ax[1] + (1.0 - f) * Ax[0] - f * (1.0 - f) * Um * Q.inverse() * Tm;
-    }
-    return MaterialStatus::ok;
+    pt.K_max = K_max;
+    return detail::laminate_point(pt, F, f, n, a, dt, P, A, Px, Fx);
   }
 
   /// Mixed (u, p) Newton iteration at a pure point of a nearly incompressible phase x. The law's
@@ -475,6 +440,7 @@ struct FftRveSolver::Impl {
               local.phase_PFt[x] += w * P * F.transpose();
               local.phase_J[x] += w * F.determinant();
               local.phase_w[x] += w;
+              local.see_margin(x, mat[x]->limit_margin(F), v);
             }
           } else {
             const std::size_t c = std::size_t(comp_id[v]) * nq + q;
@@ -506,6 +472,7 @@ struct FftRveSolver::Impl {
                 local.phase_PFt[x] += wx * Px[x] * Fx[x].transpose();
                 local.phase_J[x] += wx * Fx[x].determinant();
                 local.phase_w[x] += wx;
+                local.see_margin(x, mat[x]->limit_margin(Fx[x]), v);
               }
           }
           if (s != MaterialStatus::ok || !P.allFinite()) {
@@ -824,57 +791,96 @@ struct FftRveSolver::Impl {
       C0 = isotropic_tangent(lambda_ref, mu_ref);
   }
 
-  /// PCG on K x = b; returns iterations. x starts at zero.
-  /// With `shift` > 0 it solves (K + shift K0) x = b, K0 the reference-medium operator (a
-  /// Levenberg–Marquardt step, used when K is indefinite away from the solution). Sets `breakdown`
-  /// when a direction of non-positive curvature stops it.
+  /// The Krylov space of the Newton system for krylov::pcg: half spectra of ũ with mode weights and
+  /// the free macro components; the direction update is fused with the operator and the solution
+  /// update with the preconditioner and ⟨r, z⟩ (one pass each over the spectra).
+  struct CgSpace {
+    Impl& m;
+    const std::array<bool, 9>& free;
+    const Eigen::MatrixXd& Minv;
+    const std::vector<int>& free_idx;
+    double scale, shift;
+    void start(const KVec& b, KVec& x, KVec& r) {
+      r.u = b.u;
+      r.f = b.f;
+      x.u.assign(3 * m.NM, 0.0);
+      x.f.setZero();
+    }
+    double precondition_dot(const KVec& r, KVec& z) {
+      precondition_macro(r.f, Minv, free_idx, z.f, scale);
+      return m.green.apply_dot(r.u.data(), z.u.data(), scale) + r.f.dot(z.f);
+    }
+    double direction(const KVec& z, double beta, KVec& p, KVec& Ap) {
+      return m.apply_direction(z, beta, p, free, Ap, shift);
+    }
+    double update(double alpha, const KVec& p, const KVec& Ap, KVec& x, KVec& r, KVec& z) {
+      double rz_new = m.stencil ? m.green.cg_update(alpha, p.u.data(), m.fft3->spectrum(0), x.u.data(), r.u.data(),
+                                                    z.u.data(), scale, 1.0 / double(m.N))
+                                : m.green.cg_update(alpha, p.u.data(), Ap.u.data(), x.u.data(), r.u.data(), z.u.data(), scale);
+      x.f += alpha * p.f;
+      r.f -= alpha * Ap.f;
+      precondition_macro(r.f, Minv, free_idx, z.f, scale);
+      return rz_new + r.f.dot(z.f);
+    }
+  };
+
+  /// The same space for krylov::pminres (unfused operations, shift-free operator and preconditioner).
+  struct MinresSpace {
+    Impl& m;
+    const std::array<bool, 9>& free;
+    const Eigen::MatrixXd& Minv;
+    const std::vector<int>& free_idx;
+    KVec zero_like(const KVec& b) const { return KVec{std::vector<Complex>(b.u.size(), 0.0), Vec9::Zero()}; }
+    void precondition(const KVec& r, KVec& z) { m.precondition(r, Minv, free_idx, z); }
+    void apply(const KVec& x, KVec& y) { m.apply(x, free, y); }
+    double dot(const KVec& a, const KVec& b) const { return m.dot(a, b); }
+    void axpby(double alpha, const KVec& x, double beta, KVec& y) const { Impl::axpby(alpha, x, beta, y); }
+    void divide(KVec& x, double s) const {
+      for (auto& e : x.u) e /= s;
+      x.f /= s;
+    }
+    void combine(const KVec& z, double a3, const KVec& w_old, double a2, const KVec& w, double a1, KVec& w_new, double c,
+                 KVec& x) const {
+      const std::size_t nu = z.u.size();
+#pragma omp parallel for schedule(static)
+      for (std::size_t i = 0; i < nu; ++i) {
+        w_new.u[i] = (z.u[i] - a3 * w_old.u[i] - a2 * w.u[i]) / a1;
+        x.u[i] += c * w_new.u[i];
+      }
+      w_new.f = (z.f - a3 * w_old.f - a2 * w.f) / a1;
+      x.f += c * w_new.f;
+    }
+  };
+
+  krylov::Controls krylov_controls(double rel_tol) const {
+    krylov::Controls c;
+    c.rel_tol = rel_tol;
+    c.max_iterations = opt.max_krylov_iterations;
+    c.stop = &stop_requested;
+    return c;
+  }
+
+  /// PCG on K x = b (x starts at zero); returns iterations. With `shift` > 0 it solves
+  /// (K + shift K0) x = b, K0 the reference-medium operator (a Levenberg–Marquardt step, used when K
+  /// is indefinite away from the solution). Sets `breakdown` when a direction of non-positive
+  /// curvature stops it.
   int pcg(const KVec& b, const std::array<bool, 9>& free, double rel_tol, KVec& x, double shift, bool& breakdown) {
     const auto start = Clock::now();
-    breakdown = false;
     const std::vector<int> free_idx = free_indices(free);
     const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
-    const double scale = 1.0 + shift;
-    KVec &r = cg_r, &z = cg_z, &p = cg_p, &Ap = cg_Ap;
-    r.u = b.u;
-    r.f = b.f;
-    for (KVec* v : {&z, &p}) v->u.resize(3 * NM);
-    if (!stencil) Ap.u.resize(3 * NM);  // the stencil operator leaves Ap in fft3's spectrum buffer
-    x.u.assign(3 * NM, 0.0);
-    x.f.setZero();
+    for (KVec* v : {&cg_z, &cg_p}) v->u.resize(3 * NM);
+    if (!stencil) cg_Ap.u.resize(3 * NM);  // the stencil operator leaves Ap in fft3's spectrum buffer
     // Per iteration (Fourier operator): one fused pass p ← z + βp → ∇p, FFT⁻¹ of 6·nq (section) or 9·nq
     // fields, the tangent pass, FFT, one fused pass Div → Ap and ⟨p, Ap⟩, one fused pass x += αp,
     // r −= αAp, z = M⁻¹r and ⟨r, z⟩. Stencil operator (rotated/hex): p ← z + βp (+ copy), FFT⁻¹ of 3
     // fields, one real-space pass ∇p → δP → per-voxel nodal values (SIMD tangent product over 8
     // points), one gather pass Bᵀ δP with ⟨p, Ap⟩, FFT of 3 fields, the same CG update pass reading Ap
     // from the FFT buffer.
-    precondition_macro(r.f, Minv, free_idx, z.f, scale);
-    double rz = green.apply_dot(r.u.data(), z.u.data(), scale) + r.f.dot(z.f);
-    const double rz0 = rz;
-    int it = 0;
-    if (rz0 > 0.0) {
-      double beta = 0.0;
-      while (it < opt.max_krylov_iterations) {
-        const double pAp = apply_direction(z, beta, p, free, Ap, shift);
-        ++it;
-        if (!(pAp > 0.0)) {  // negative curvature: K is indefinite here
-          breakdown = true;
-          break;
-        }
-        const double alpha = rz / pAp;
-        double rz_new = stencil ? green.cg_update(alpha, p.u.data(), fft3->spectrum(0), x.u.data(), r.u.data(),
-                                                  z.u.data(), scale, 1.0 / double(N))
-                                : green.cg_update(alpha, p.u.data(), Ap.u.data(), x.u.data(), r.u.data(), z.u.data(), scale);
-        x.f += alpha * p.f;
-        r.f -= alpha * Ap.f;
-        precondition_macro(r.f, Minv, free_idx, z.f, scale);
-        rz_new += r.f.dot(z.f);
-        if (std::sqrt(std::max(rz_new, 0.0) / rz0) <= rel_tol) break;
-        beta = rz_new / rz;
-        rz = rz_new;
-      }
-    }
+    CgSpace space{*this, free, Minv, free_idx, 1.0 + shift, shift};
+    const krylov::CgResult res = krylov::pcg(space, b, x, cg_r, cg_z, cg_p, cg_Ap, krylov_controls(rel_tol));
+    breakdown = res.breakdown;
     krylov_seconds += std::chrono::duration<double>(Clock::now() - start).count();
-    return it;
+    return res.iterations;
   }
 
   /// Σ_k m_k Re(āᵤ · bᵤ) + a_f · b_f: the inner product of the Krylov space (half spectrum, mode weights).
@@ -895,100 +901,30 @@ struct FftRveSolver::Impl {
     y.f = alpha * x.f + beta * y.f;
   }
 
-  /// Preconditioned MINRES (Paige–Saunders; the Lanczos form of Elman, Silvester & Wathen, Alg. 2.4)
-  /// on K x = b, with the same SPD preconditioner (reference Green operator + macro block) as pcg().
-  /// Used where CG meets negative curvature: past a bifurcation of the cell (fiber micro-buckling in
-  /// compression) the tangent at the equilibrium is indefinite, and a Levenberg–Marquardt shift then
-  /// stalls Newton just above the tolerance, while MINRES returns the Newton step itself. Stops when the
-  /// preconditioned residual norm |η| ≤ rel_tol γ₁; returns iterations, `converged` false otherwise.
+  /// Preconditioned MINRES on K x = b with the SPD preconditioner of pcg() (reference Green operator +
+  /// macro block). Used where CG meets negative curvature: past a bifurcation of the cell (fiber
+  /// micro-buckling in compression) the tangent at the equilibrium is indefinite, and a
+  /// Levenberg–Marquardt shift then stalls Newton just above the tolerance, while MINRES returns the
+  /// Newton step itself. Returns iterations, `converged` false when it did not reach rel_tol.
   int pminres(const KVec& b, const std::array<bool, 9>& free, double rel_tol, KVec& x, bool& converged) {
     const auto start = Clock::now();
-    converged = false;
     const std::vector<int> free_idx = free_indices(free);
     const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
-    const std::size_t n = 3 * NM;
-    auto zero = [n](KVec& v) {
-      v.u.assign(n, 0.0);
-      v.f.setZero();
-    };
-    KVec v_old, v = b, z, Az, w_old, w, w_new;
-    for (KVec* q : {&v_old, &z, &Az, &w_old, &w, &w_new}) zero(*q);
-    zero(x);
-    precondition(v, Minv, free_idx, z);
-    double gamma = std::sqrt(std::max(dot(z, v), 0.0)), gamma_old = 1.0;
-    const double gamma1 = gamma;
-    double eta = gamma, s_old = 0.0, s = 0.0, c_old = 1.0, c = 1.0;
-    int it = 0;
-    if (gamma1 > 0.0) {
-      while (it < opt.max_krylov_iterations) {
-        ++it;
-        for (auto& e : z.u) e /= gamma;
-        z.f /= gamma;
-        apply(z, free, Az);
-        const double delta = dot(Az, z);
-        // v_new = A z − (δ/γ) v − (γ/γ_old) v_old, written into v_old (then swapped).
-        axpby(1.0, Az, -gamma / gamma_old, v_old);
-        axpby(-delta / gamma, v, 1.0, v_old);
-        std::swap(v_old, v);  // v_old ← v (current), v ← v_new
-        const double a3 = s_old * gamma, a2_base = gamma;
-        KVec& z_next = Az;  // A z no longer needed
-        precondition(v, Minv, free_idx, z_next);
-        const double gamma_next = std::sqrt(std::max(dot(z_next, v), 0.0));
-        const double a0 = c * delta - c_old * s * a2_base;
-        const double a1 = std::hypot(a0, gamma_next);
-        const double a2 = s * delta + c_old * c * a2_base;
-        if (!(a1 > 0.0)) break;
-        const double c_new = a0 / a1, s_new = gamma_next / a1;
-        // w_new = (z − a3 w_old − a2 w) / a1
-        const std::size_t nu = z.u.size();
-#pragma omp parallel for schedule(static)
-        for (std::size_t i = 0; i < nu; ++i) {
-          w_new.u[i] = (z.u[i] - a3 * w_old.u[i] - a2 * w.u[i]) / a1;
-          x.u[i] += c_new * eta * w_new.u[i];
-        }
-        w_new.f = (z.f - a3 * w_old.f - a2 * w.f) / a1;
-        x.f += c_new * eta * w_new.f;
-        std::swap(w_old, w);
-        std::swap(w, w_new);
-        eta = -s_new * eta;
-        std::swap(z, z_next);
-        gamma_old = gamma;
-        gamma = gamma_next;
-        c_old = c;
-        c = c_new;
-        s_old = s;
-        s = s_new;
-        if (std::abs(eta) <= rel_tol * gamma1) {
-          converged = true;
-          break;
-        }
-        if (!(gamma > 0.0)) {  // invariant subspace: x is the exact solution in it
-          converged = true;
-          break;
-        }
-      }
-    } else {
-      converged = true;
-    }
+    MinresSpace space{*this, free, Minv, free_idx};
+    const krylov::MinresResult res = krylov::pminres(space, b, x, krylov_controls(rel_tol));
+    converged = res.converged;
     krylov_seconds += std::chrono::duration<double>(Clock::now() - start).count();
-    return it;
+    return res.iterations;
   }
 
   // ---------------------------------------------------------------------------------------------
   // Failure diagnosis.
 
-  /// Extremes of the current iterate (ũ, F̄ and the laminate vectors as they are now): the
-  /// smallest domain margin of the matrix (Material::limit_margin, Gent: 1 − (Ī1 − 3)/Jm) over pure
-  /// matrix points and the matrix side of composite points, J extremes of the matrix, the mixed
-  /// pressure, and where the nodal force residual `r` is largest. Destroys the real buffer.
-  struct HotSpots {
-    double margin = 1.0, J_min = 1.0, J_max = 1.0, p_max = 0.0, force_max = 0.0, force_rms = 0.0;
-    std::size_t v_margin = 0, v_J_min = 0, v_force = 0, v_p = 0;
-    bool margin_composite = false;
-    int near_limit = 0;  // matrix points with margin < 0.1
-  };
-  HotSpots hot_spots(const KVec& r) {
-    HotSpots h;
+  /// The hot spots of the current iterate (ũ, F̄ and the laminate vectors as they are now; see
+  /// diagnostics.hpp): the matrix side of every non-fiber point, then the nodal forces of `r`.
+  /// Destroys the real buffer.
+  detail::HotSpots hot_spots(const KVec& r) {
+    detail::HotSpots h;
     gradient_to_real(u);
     const Mat3 Fg = to_grid(Fbar);
     const int ncol = op.columns();
@@ -1006,71 +942,38 @@ struct FftRveSolver::Impl {
           const Vec3 a(lam_a_trial[3 * c], lam_a_trial[3 * c + 1], lam_a_trial[3 * c + 2]);
           F -= f * a * comp_normal[comp_id[v]].transpose();
         }
-        const double m = mat[0]->limit_margin(F), J = F.determinant();
-        if (m < h.margin) {
-          h.margin = m;
-          h.v_margin = v;
-          h.margin_composite = composite;
-        }
-        if (m < 0.1) ++h.near_limit;
-        if (J < h.J_min) {
-          h.J_min = J;
-          h.v_J_min = v;
-        }
-        h.J_max = std::max(h.J_max, J);
-        if (mixed[0] && !composite && std::abs(p_trial[p]) > h.p_max) {
-          h.p_max = std::abs(p_trial[p]);
-          h.v_p = v;
-        }
+        h.see_matrix_point(v, mat[0]->limit_margin(F), F.determinant(), composite);
+        if (mixed[0] && !composite) h.see_pressure(v, p_trial[p]);
       }
     // Nodal forces Dᴴ P in real space: the three components into fields 0, 3, 6 (transformed for any
     // number of columns).
     for (int i = 0; i < 3; ++i) std::copy(r.u.begin() + i * NM, r.u.begin() + (i + 1) * NM, fft->spectrum(3 * i));
     fft->backward();
-    double s2 = 0.0;
-    for (std::size_t v = 0; v < N; ++v) {
-      double f2 = 0.0;
-      for (int i = 0; i < 3; ++i) f2 += fft->real(3 * i)[v] * fft->real(3 * i)[v];
-      s2 += f2;
-      if (f2 > h.force_max) {
-        h.force_max = f2;
-        h.v_force = v;
-      }
-    }
-    h.force_max = std::sqrt(h.force_max);
-    h.force_rms = std::sqrt(s2 / double(N));
+    h.see_forces(fft->real(0), fft->real(3), fft->real(6), N);
     return h;
   }
-  std::string voxel_name(std::size_t v) const {
-    std::ostringstream s;
-    s << "voxel (" << v % grid.n[0] << ", " << (v / grid.n[0]) % grid.n[1];
-    if (grid.n[2] > 1) s << ", " << v / (std::size_t(grid.n[0]) * grid.n[1]);
-    s << ", fiber fraction " << phi[v] << ")";
-    return s.str();
+  std::string voxel_name(std::size_t v) const { return detail::voxel_name(grid.n, phi, v); }
+  std::string describe(const detail::HotSpots& h) const {
+    return detail::describe_hot_spots(h, grid.n, phi, mixed[0], Fbar_committed(0, 0));
   }
-  /// The hot spots as a sentence for the failure message; names a reached domain limit (Gent locking).
-  std::string describe(const HotSpots& h) const {
-    std::ostringstream s;
-    s.precision(3);
-    s << "last iterate: matrix limit margin " << h.margin << " (1 at F = I, 0 at the law's limit, e.g. Gent "
-      << "locking Ī1 − 3 = Jm) at " << voxel_name(h.v_margin) << (h.margin_composite ? " [composite]" : "") << ", "
-      << h.near_limit << " matrix points below 0.1; matrix J − 1 in [" << h.J_min - 1.0 << ", " << h.J_max - 1.0 << "]";
-    if (mixed[0]) s << "; max |p| " << h.p_max << " at " << voxel_name(h.v_p);
-    s << "; largest nodal force residual at " << voxel_name(h.v_force) << ", " << h.force_max / std::max(h.force_rms, 1e-300)
-      << "× its rms";
-    if (!(h.J_min > 0.0))
-      s << ". The matrix inverts (J ≤ 0) at " << voxel_name(h.v_J_min);
-    else if (h.margin < kLockingMargin)
-      s << ". The matrix is at its limit there (Gent locking): if that persists through the cut-backs, the cell has no "
-        << "solution beyond F11 = " << Fbar_committed(0, 0) << " (last converged, load frame)";
-    return s.str();
-  }
-
 
   // ---------------------------------------------------------------------------------------------
   // One (sub)step from the committed state to t_new.
 
   using StepOutcome = detail::SubstepOutcome;
+
+  static StepOutcome& fatal(StepOutcome& out, std::string why) {
+    out.fatal = true;
+    out.why = std::move(why);
+    return out;
+  }
+  /// A converged sub-step: ok unless a phase is at its material limit there (fatal).
+  StepOutcome& converged(StepOutcome& out) const {
+    const std::string where[2] = {voxel_name(sums.v_margin[0]), voxel_name(sums.v_margin[1])};
+    if (std::string why = detail::phase_limit_reached(sums.margin, where, Fbar); !why.empty()) return fatal(out, why);
+    out.ok = true;
+    return out;
+  }
 
   StepOutcome step(const MixedControl& control, double t_new, double dt) {
     StepOutcome out;
@@ -1085,6 +988,7 @@ struct FftRveSolver::Impl {
         target(c / 3, c % 3) = control.value[c](t_new);
     }
     KVec r{std::vector<Complex>(3 * NM), Vec9::Zero()}, dx;
+    if (std::string why = detail::target_inverts(control, t_new, Fbar_committed); !why.empty()) return fatal(out, why);
     if (opt.scheme == FftScheme::moulinec_suquet) return fixed_point(free, P_target, target, dt, r);
 
     int max_it = opt.max_newton_iterations;
@@ -1106,6 +1010,10 @@ struct FftRveSolver::Impl {
     double lm_shift = 0.0;
     bool full_first_step = false;
     for (int it = 0; it <= max_it; ++it) {
+      if (stop_requested()) {
+        out.why = "stopped by a signal";
+        return out;
+      }
       // Evaluate the new iterate. After a Newton update, a backtracking line search on the residual
       // norm: nearly incompressible matrices (K/G ~ 1e5) make full Newton steps overshoot in J.
       if (it == 0) {
@@ -1138,23 +1046,20 @@ struct FftRveSolver::Impl {
         err = evaluate_residual(free, P_target, r);
         linearized_pressure = mixed_active;
       } else {
-        const double merit_old = merit;
-        double scale = 1.0;
-        bool accepted = false;
         MaterialStatus last = MaterialStatus::ok;
-        for (int ls = 0; ls < 8 && !accepted; ++ls, scale *= 0.5) {
+        auto trial = [&](double scale) -> std::optional<double> {
           for (std::size_t i = 0; i < u.size(); ++i) u[i] = u_prev[i] + scale * dx.u[i];
           Fbar = Fbar_prev + scale * step_macro;
           gradient_to_real(u);
           last = evaluate_points(to_grid(Fbar), dt, true);
-          if (last != MaterialStatus::ok) continue;
+          if (last != MaterialStatus::ok) return std::nullopt;
           err = evaluate_residual(free, P_target, r);
-          if (!std::isfinite(err)) continue;
-          // Continuation accepts any admissible iterate: on the way from the end of one equilibrium
-          // branch to the next the residual has to grow before it falls.
-          accepted = continuation || had_prescribed_step || merit < (1.0 - 1e-4 * scale) * merit_old || ls == 7;
-          if (ls > 0 && accepted) ++out.line_search_cuts;
-        }
+          if (!std::isfinite(err)) return std::nullopt;
+          return merit;
+        };
+        // Continuation accepts any admissible iterate: on the way from the end of one equilibrium
+        // branch to the next the residual has to grow before it falls.
+        const bool accepted = fe::backtracking_line_search(merit, continuation || had_prescribed_step, trial).accepted;
         if (accepted) accept_linearization();
         if (!accepted) {
           out.why = last != MaterialStatus::ok ? std::string("material call failed (") + to_string(last) + ")"
@@ -1180,8 +1085,7 @@ struct FftRveSolver::Impl {
       // a relative tolerance below ε K / |P̄| cannot be reached; there the floor counts as convergence.
       const double floor = 64.0 * std::numeric_limits<double>::epsilon() * K_max / stress_scale(free, P_target);
       if (prescribed_reached && err <= std::max(opt.tolerance, floor)) {
-        out.ok = true;
-        return out;
+        return converged(out);
       }
       if (continuation) {
         // Switched evolution relaxation, one-sided: the shift follows a falling residual, so it
@@ -1191,7 +1095,7 @@ struct FftRveSolver::Impl {
         ptc_shift *= std::clamp(err / ptc_err, 0.2, 1.0);
         if (ptc_shift < 1e-9) ptc_shift = 0.0;
         ptc_err = err;
-        ++out.continuation;
+        ++out.continuation_iterations;
       } else if (prescribed_reached && opt.max_continuation_iterations > 0 && it >= 10 &&
                  (it == max_it || err > 0.3 * out.residuals[out.residuals.size() - 4])) {
         // Stagnation (less than a factor 3 in three iterations after ten): the branch has ended.
@@ -1227,7 +1131,7 @@ struct FftRveSolver::Impl {
       if (!prescribed_reached) {
         KVec e{std::vector<Complex>(3 * NM, 0.0), flatten(dFp)}, Ke{std::vector<Complex>(3 * NM), Vec9::Zero()};
         apply(e, free, Ke);
-        ++out.krylov;
+        ++out.krylov_iterations;
         axpy(-1.0, Ke, b);
       }
       // Forcing term (Eisenstat–Walker-like): loose while far from the solution, tight near it.
@@ -1240,14 +1144,14 @@ struct FftRveSolver::Impl {
       double shift = continuation ? ptc_shift : lm_shift;
       const double lin_tol = prescribed_reached ? eta : std::min(eta, 1e-3);
       for (int attempt = 0; attempt < 8; ++attempt) {
-        out.krylov += pcg(b, free, lin_tol, dx, shift, breakdown);
+        out.krylov_iterations += pcg(b, free, lin_tol, dx, shift, breakdown);
         if (!breakdown) break;
         // Negative curvature near the solution (the residual is already small): an indefinite
         // equilibrium tangent, not a transient of the iteration — solve it as it is (MINRES).
         if (minres_mode && shift == 0.0 && prescribed_reached &&
             err < opt.minres_below) {
           bool converged = false;
-          out.krylov += pminres(b, free, lin_tol, dx, converged);
+          out.krylov_iterations += pminres(b, free, lin_tol, dx, converged);
           ++out.minres_solves;
           if (converged) {
             breakdown = false;
@@ -1259,14 +1163,14 @@ struct FftRveSolver::Impl {
       }
       lm_shift = shift >= 1e-2 ? 0.1 * shift : 0.0;
       if (continuation) ptc_shift = shift;
-      ++out.newton;
+      ++out.newton_iterations;
       u_prev = u;
       Fbar_prev = Fbar;
       step_macro = dFp + unflatten(dx.f);
       had_prescribed_step = !prescribed_reached || (it == 0 && full_first_step);
     }
     out.why = "no convergence in " + std::to_string(opt.max_newton_iterations) + " Newton iterations" +
-              (continuation ? " + " + std::to_string(out.continuation) + " continuation iterations" : std::string()) +
+              (continuation ? " + " + std::to_string(out.continuation_iterations) + " continuation iterations" : std::string()) +
               " (residual " + std::to_string(err) + "); " + describe(hot_spots(r));
     return out;
   }
@@ -1283,6 +1187,10 @@ struct FftRveSolver::Impl {
     KVec z{std::vector<Complex>(3 * NM), Vec9::Zero()};
     double err = 0.0;
     for (int it = 0; it <= opt.max_fixed_point_iterations; ++it) {
+      if (stop_requested()) {
+        out.why = "stopped by a signal";
+        return out;
+      }
       gradient_to_real(u);
       const MaterialStatus s = evaluate_points(to_grid(Fbar), dt, false);
       if (s != MaterialStatus::ok) {
@@ -1296,14 +1204,13 @@ struct FftRveSolver::Impl {
         return out;
       }
       if (err <= opt.tolerance) {
-        out.ok = true;
         out.residuals.push_back(err);
-        return out;
+        return converged(out);
       }
       precondition(r, Minv, free_idx, z);
       for (std::size_t i = 0; i < u.size(); ++i) u[i] -= z.u[i];
       Fbar -= unflatten(z.f);
-      ++out.newton;
+      ++out.newton_iterations;
     }
     out.residuals.push_back(err);
     out.why = "fixed point: no convergence in " + std::to_string(opt.max_fixed_point_iterations) + " iterations";
@@ -1367,7 +1274,32 @@ struct FftRveSolver::Impl {
         f.sigma[9 * v + c] = Sm(c / 3, c % 3);
       }
     }
+    f.displacement = node_displacement();
     return f;
+  }
+
+  /// Displacement u = (F̄_grid − I) y + ũ(y) at the (n1+1)(n2+1)(n3+1) voxel corners y (grid frame,
+  /// y1 fastest; the corners of the last layer repeat ũ of the first, periodic, with the macro part
+  /// continued). ũ at the corners is the c2r transform of its spectrum (rotated/hex: the nodal
+  /// displacement of the discretization; spectral: the trigonometric interpolant). Uses fft's buffers.
+  std::vector<double> node_displacement() {
+    // The three components into fields 0, 3, 6, which are transformed for any number of columns.
+    for (int i = 0; i < 3; ++i) std::copy(u.begin() + i * NM, u.begin() + (i + 1) * NM, fft->spectrum(3 * i));
+    fft->backward();
+    const Mat3 G = to_grid(Fbar) - Mat3::Identity();
+    const std::array<int, 3>& n = grid.n;
+    const std::size_t m1 = n[0] + 1, m2 = n[1] + 1, m3 = n[2] + 1;
+    std::vector<double> out(3 * m1 * m2 * m3);
+    for (std::size_t i3 = 0; i3 < m3; ++i3)
+      for (std::size_t i2 = 0; i2 < m2; ++i2)
+        for (std::size_t i1 = 0; i1 < m1; ++i1) {
+          const std::size_t v = i1 % n[0] + std::size_t(n[0]) * (i2 % n[1] + std::size_t(n[1]) * (i3 % n[2]));
+          const Vec3 y(double(i1) * grid.spacing(0), double(i2) * grid.spacing(1), double(i3) * grid.spacing(2));
+          const Vec3 uy = G * y + Vec3(fft->real(0)[v], fft->real(3)[v], fft->real(6)[v]);
+          double* o = &out[3 * (i1 + m1 * (i2 + m2 * i3))];
+          for (int c = 0; c < 3; ++c) o[c] = uy[c];
+        }
+    return out;
   }
 };
 
@@ -1381,6 +1313,7 @@ int FftRveSolver::quadrature_points() const { return impl_->nq; }
 std::string FftRveSolver::fft_description() const { return impl_->fft->describe(); }
 double FftRveSolver::achieved_volume_fraction() const { return impl_->achieved_vf; }
 double FftRveSolver::planning_seconds() const { return impl_->fft->planning_seconds(); }
+std::vector<double> FftRveSolver::displacement() { return impl_->node_displacement(); }
 std::size_t FftRveSolver::memory_bytes() const {
   const Impl& m = *impl_;
   std::size_t b = m.fft->fields() * (m.N * sizeof(double) + m.NM * sizeof(Complex));
@@ -1471,7 +1404,10 @@ RveRunResult FftRveSolver::run(const MixedControl& control,
     }
   } engine{m, control, angle0, on_step, want_fields};
   m.krylov_seconds = 0.0;
-  detail::run_output_steps(control, m.opt.max_cutbacks, engine, result, run_start);
+  StepControlOptions steps;
+  steps.max_cutbacks = m.opt.max_cutbacks;
+  steps.max_step_seconds = m.opt.max_step_seconds;
+  detail::run_output_steps(control, steps, engine, result, run_start);
   result.krylov_seconds = m.krylov_seconds;
   return result;
 }

@@ -17,6 +17,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "softhom/materials/errors.hpp"
+#include "memory_budget.hpp"
 
 namespace softhom::rve {
 namespace {
@@ -562,15 +563,18 @@ void paint_rect(Grid& g, const OrientedRect& R) {
     }
 }
 
+/// Bytes of a phase image of `voxels` voxels (fraction and normal per voxel).
+std::size_t image_bytes(std::size_t voxels) { return voxels * (sizeof(double) + sizeof(Eigen::Vector3d)); }
+
 }  // namespace
 
 PhaseImage voxelize_section(const Section& section, int n1, int n2) {
-  if (n1 < 1 || n2 < 1)
-    throw std::invalid_argument("voxelize_section: grid " + std::to_string(n1) + " x " + std::to_string(n2) +
-                                " must have at least one pixel per direction");
+  const std::string grid_text = "[" + std::to_string(n1) + ", " + std::to_string(n2) + "]";
+  if (n1 < 1 || n2 < 1) throw InputError("microstructure.grid", grid_text, "must have at least one pixel per direction");
   const double L1 = section.L1, L2 = section.L2;
   if (!(L1 > 0.0) || !(L2 > 0.0) || !std::isfinite(L1) || !std::isfinite(L2))
-    throw std::invalid_argument("voxelize_section: cell sides must be positive");
+    throw InputError("microstructure.cell_size", num(L1) + " x " + num(L2), "the cell sides must be positive and finite");
+  detail::refuse_if_too_big(image_bytes(std::size_t(n1) * std::size_t(n2)), "microstructure.grid", grid_text);
 
   PhaseImage img;
   img.n = {n1, n2, 1};
@@ -609,8 +613,11 @@ PhaseImage voxelize_section(const Section& section, int n1, int n2) {
 }
 
 PhaseImage extrude(const PhaseImage& s, int n3) {
-  if (n3 < 1) throw std::invalid_argument("extrude: n3 = " + std::to_string(n3) + " must be at least 1");
+  const std::string grid_text = "[" + std::to_string(s.n[0]) + ", " + std::to_string(s.n[1]) + ", " + std::to_string(n3) + "]";
+  if (n3 < 1) throw InputError("microstructure.grid", grid_text, "n3 must be at least 1");
   if (s.n[2] != 1) throw std::invalid_argument("extrude: the input must be a single-layer section image");
+  detail::refuse_if_too_big(image_bytes(std::size_t(s.n[0]) * std::size_t(s.n[1]) * std::size_t(n3)), "microstructure.grid",
+                            grid_text);
   PhaseImage out;
   out.n = {s.n[0], s.n[1], n3};
   out.size = {s.size[0], s.size[1], n3 * (s.size[0] / s.n[0])};

@@ -1,8 +1,12 @@
 #pragma once
 // The output-step loop shared by the FFT and FE RVE engines: each output interval of the control is
-// reached by sub-steps that start at the full interval, halve after a failed sub-step (the engine
-// restores its committed state) and double again after two successes; a step that still fails after
-// `max_cutbacks` halvings ends the run with its reason. Every cut-back is logged.
+// reached by the sub-steps of softhom::advance_interval (step_control.hpp): they start at the full
+// interval, halve after a failed sub-step (the engine restores its committed state) and double again
+// after two successes. The run ends, keeping its converged rows, when a step still fails after
+// `max_cutbacks` halvings, when the engine reports a fatal failure (a phase at its material limit,
+// an inverted cell: halving cannot help), when one output step's cut-backs exceed the wall-time
+// budget, or on a stop request (signal). Cut-backs of an output step that is then reached are one
+// calm log line, not a warning each.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -10,7 +14,11 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Eigenvalues>
+
+#include "softhom/materials/errors.hpp"
 #include "softhom/materials/loading.hpp"
+#include "softhom/materials/step_control.hpp"
 #include "softhom/rve/fft_solver.hpp"
 
 namespace softhom::rve::detail {
@@ -39,110 +47,149 @@ RveStep record_step(double t, double angle0, const Mat3& F, const Mat3& P, const
   return s;
 }
 
-/// Result of one sub-step attempt of an engine.
-struct SubstepOutcome {
+/// Result of one sub-step attempt of an engine (the counts of the attempt, whether it converged).
+struct SubstepOutcome : RveCounts {
   bool ok = false;
+  bool fatal = false;  ///< halving cannot help (material limit, inverted cell): the run stops
   std::string why;
-  int newton = 0, krylov = 0, line_search_cuts = 0, shifted_solves = 0, minres_solves = 0, minres_fallbacks = 0, continuation = 0;
+  int minres_fallbacks = 0;
   std::vector<double> residuals;
 };
+
+inline std::string format_time(double t) { return format_number(t); }
+
+/// The log line of a converged sub-step that needed MINRES or continuation (empty otherwise).
+inline std::vector<std::string> substep_notes(double t0, double t1, const SubstepOutcome& o) {
+  std::vector<std::string> notes;
+  const std::string span = "t = " + format_time(t0) + " → " + format_time(t1) + ": ";
+  if (o.minres_solves > 0)
+    notes.push_back(span + "tangent indefinite near equilibrium (" + std::to_string(o.minres_solves) + " MINRES solves" +
+                    (o.minres_fallbacks > 0 ? " after the shifted iteration stalled" : "") +
+                    "): the cell is past a bifurcation (e.g. fiber micro-buckling) and this branch is unstable");
+  if (o.continuation_iterations > 0)
+    notes.push_back(span + "Newton stalled (the equilibrium branch ends: fold or bifurcation of the cell); converged after " +
+                    std::to_string(o.continuation_iterations) + " pseudo-transient continuation iterations");
+  return notes;
+}
+
+/// A converged state with a phase's Material::limit_margin below this is refused as fatal (as the
+/// material-point driver's PointSolverOptions::limit_margin): the law is at its limit (Gent locking)
+/// and past it only the bulk term resists, so no further state of the path is physical.
+constexpr double kLimitMargin = 1e-3;
+
+/// A computed value in a message (4 significant digits; format_number is for numbers the user wrote).
+inline std::string approx(double v) {
+  std::ostringstream s;
+  s.precision(4);
+  s << v;
+  return s.str();
+}
+
+/// Largest principal stretch of F (the stretch a locking message names).
+inline double largest_stretch(const Mat3& F) {
+  const Eigen::SelfAdjointEigenSolver<Mat3> es(F.transpose() * F, Eigen::EigenvaluesOnly);
+  return std::sqrt(std::max(es.eigenvalues().maxCoeff(), 0.0));
+}
+
+/// The fatal reason when a phase of a converged state is at its material limit (empty otherwise):
+/// `margin[x]` the smallest Material::limit_margin of phase x (0 matrix, 1 fiber), `where[x]` where.
+inline std::string phase_limit_reached(const double margin[2], const std::string where[2], const Mat3& F_load) {
+  const int x = margin[1] < margin[0] ? 1 : 0;
+  if (!(margin[x] < kLimitMargin)) return {};
+  std::ostringstream s;
+  s << "the " << (x ? "fiber" : "matrix") << " phase reaches its material limit (e.g. Gent locking, Ī1 − 3 → Jm: "
+    << "limit margin " << approx(margin[x]) << " < " << format_number(kLimitMargin) << " at " << where[x]
+    << ") at the macro stretch " << approx(largest_stretch(F_load)) << " (F11 = " << approx(F_load(0, 0))
+    << ", load frame); the cell has no physical state beyond the last converged one";
+  return s.str();
+}
+
+/// The fatal reason when a sub-step's target inverts the cell (empty otherwise): det F̄ ≤ 0 for the
+/// prescribed components at t_new with the free components of the committed state (which carry any
+/// rotation the path took). No sub-step of the path can pass det F̄ = 0, so halving cannot help.
+inline std::string target_inverts(const MixedControl& control, double t_new, const Mat3& F_committed) {
+  Mat3 F = F_committed;
+  for (int c = 0; c < 9; ++c)
+    if (control.kind[c] == ControlKind::deformation) F(c / 3, c % 3) = control.value[c](t_new);
+  const double J = F.determinant();
+  if (J > 0.0) return {};
+  return "the prescribed deformation inverts the cell: det F̄ = " + approx(J) + " ≤ 0 at t = " + approx(t_new) +
+         " (F11 = " + approx(F(0, 0)) + ", load frame, free components of the last converged state)";
+}
+
+/// RveStop of an interval that did not reach its end.
+inline RveStop stop_of(IntervalStatus s) {
+  switch (s) {
+    case IntervalStatus::reached: return RveStop::none;
+    case IntervalStatus::cutbacks_exhausted: return RveStop::failed;
+    case IntervalStatus::fatal: return RveStop::fatal;
+    case IntervalStatus::time_budget: return RveStop::time_budget;
+    case IntervalStatus::interrupted: return RveStop::interrupted;
+  }
+  return RveStop::failed;
+}
 
 /// `engine` provides: SubstepOutcome step(double t_new, double dt); void commit(double dt);
 /// void restore(); RveStep record(double t); void emit(const RveStep&, double last_dt), and is
 /// evaluated at t = 0 already. Records and emits t = 0, then every output step; sets the totals,
-/// error, completion flag and wall time (from `run_start`) of `result`.
+/// error, stop reason, completion flag and wall time (from `run_start`) of `result`.
 template <class Engine>
-void run_output_steps(const MixedControl& control, int max_cutbacks, Engine& engine, RveRunResult& result,
-                      std::chrono::steady_clock::time_point run_start) {
+void run_output_steps(const MixedControl& control, const StepControlOptions& steps, Engine& engine,
+                      RveRunResult& result, std::chrono::steady_clock::time_point run_start) {
   using Clock = std::chrono::steady_clock;
   {
     const RveStep s0 = engine.record(0.0);
     result.steps.push_back(s0);
     engine.emit(s0, 0.0);
   }
-  double t = 0.0, t_prev_out = 0.0, last_dt = 0.0;
+  double t_prev_out = 0.0;
   for (double t_out : control.times) {
     const auto step_start = Clock::now();
-    const double interval = t_out - t_prev_out;
-    const double t_eps = 1e-12 * std::max(1.0, t_out);
-    double dt = interval;
-    int successes = 0;
     RveStep agg;
-    SubstepOutcome last;
-    bool failed = false;
-    while (t < t_out - t_eps) {
-      const double dt_try = std::min(dt, t_out - t);
-      const double t_new = (t + dt_try >= t_out - t_eps) ? t_out : t + dt_try;
-      SubstepOutcome o = engine.step(t_new, t_new - t);
-      agg.newton_iterations += o.newton;
-      agg.krylov_iterations += o.krylov;
-      agg.shifted_solves += o.shifted_solves;
-      result.shifted_solves += o.shifted_solves;
-      agg.minres_solves += o.minres_solves;
-      result.minres_solves += o.minres_solves;
-      agg.continuation_iterations += o.continuation;
-      result.continuation_iterations += o.continuation;
-      if (o.ok) {
-        if (o.minres_solves > 0) {
-          std::ostringstream msg;
-          msg << "t = " << t << " → " << t_new << ": tangent indefinite near equilibrium (" << o.minres_solves
-              << " MINRES solves" << (o.minres_fallbacks > 0 ? " after the shifted iteration stalled" : "")
-              << "): the cell is past a bifurcation (e.g. fiber micro-buckling) and this branch is unstable";
-          result.log.push_back(msg.str());
-        }
-        if (o.continuation > 0) {
-          std::ostringstream msg;
-          msg << "t = " << t << " → " << t_new << ": Newton stalled (the equilibrium branch ends: fold or "
-              << "bifurcation of the cell); converged after " << o.continuation
-              << " pseudo-transient continuation iterations";
-          result.log.push_back(msg.str());
-        }
-        last_dt = t_new - t;
-        engine.commit(last_dt);
-        t = t_new;
-        ++agg.substeps;
-        last = std::move(o);
-        if (++successes >= 2 && dt < interval) {
-          dt = std::min(2.0 * dt, interval);
-          successes = 0;
-        }
-      } else {
-        engine.restore();
-        ++agg.cutbacks;
-        ++result.cutbacks;
-        successes = 0;
-        std::ostringstream msg;
-        msg << "t = " << t << " → " << t_new << ": " << o.why << "; cutting back (dt " << dt_try << " → "
-            << dt_try / 2 << ")";
-        result.log.push_back(msg.str());
-        dt = dt_try / 2.0;
-        if (dt < interval / std::ldexp(1.0, max_cutbacks)) {
-          result.error = "step to t = " + std::to_string(t_out) + " failed after " + std::to_string(max_cutbacks) +
-                         " cut-backs: " + o.why;
-          failed = true;
-          break;
-        }
-      }
+    std::vector<double> last_residuals;
+    std::string first_cutback;
+    auto attempt = [&](double t_new, double dt) {
+      SubstepOutcome o = engine.step(t_new, dt);
+      agg += o;
+      result += o;
+      return o;
+    };
+    auto accept = [&](double t_new, double dt, SubstepOutcome& o) {
+      for (auto& note : substep_notes(t_new - dt, t_new, o)) result.log.push_back(std::move(note));
+      engine.commit(dt);
+      last_residuals = std::move(o.residuals);
+    };
+    auto reject = [&](double t_from, double t_new, double, double, const SubstepOutcome& o) {
+      engine.restore();
+      if (first_cutback.empty()) first_cutback = "t = " + format_time(t_from) + " → " + format_time(t_new) + ": " + o.why;
+    };
+    const IntervalOutcome io = advance_interval(t_prev_out, t_out, 0.0, steps, attempt, accept, reject);
+    agg.substeps += io.substeps;
+    agg.cutbacks += io.cutbacks;
+    result.substeps += io.substeps;
+    result.cutbacks += io.cutbacks;
+    if (!io.reached()) {
+      result.stop = stop_of(io.status);
+      result.error = describe_interval_failure(io, t_out, steps.max_cutbacks, steps.max_step_seconds, format_time);
+      break;
     }
-    result.total_newton_iterations += agg.newton_iterations;
-    result.total_krylov_iterations += agg.krylov_iterations;
-    if (failed) break;
+    if (io.cutbacks > 0) {
+      std::ostringstream msg;
+      msg << "step to t = " << format_time(t_out) << " reached in " << io.substeps << " sub-steps after " << io.cutbacks
+          << " cut-back" << (io.cutbacks > 1 ? "s" : "") << " (first: " << first_cutback << ")";
+      result.log.push_back(msg.str());
+    }
     RveStep s = engine.record(t_out);
-    s.newton_iterations = agg.newton_iterations;
-    s.krylov_iterations = agg.krylov_iterations;
-    s.shifted_solves = agg.shifted_solves;
-    s.minres_solves = agg.minres_solves;
-    s.continuation_iterations = agg.continuation_iterations;
-    s.substeps = agg.substeps;
-    s.cutbacks = agg.cutbacks;
-    s.residuals = last.residuals;
+    static_cast<RveCounts&>(s) = agg;
+    s.residuals = std::move(last_residuals);
     s.wall_seconds = std::chrono::duration<double>(Clock::now() - step_start).count();
     if (!(s.F.allFinite() && s.P.allFinite() && s.sigma.allFinite())) {
-      result.error = "non-finite homogenized state at t = " + std::to_string(t_out);
+      result.stop = RveStop::failed;
+      result.error = "non-finite homogenized state at t = " + format_time(t_out);
       break;
     }
     result.steps.push_back(s);
-    engine.emit(s, last_dt);
+    engine.emit(s, io.last_dt);
     t_prev_out = t_out;
   }
   result.completed = result.error.empty();

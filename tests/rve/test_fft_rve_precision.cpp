@@ -68,7 +68,7 @@ TEST(FftRve, SinglePrecisionTangentConvergesToDoubleAnswer) {
     ASSERT_TRUE(rd.completed && rs.completed) << rd.error << rs.error;
     const double dP = rel(rs.steps.back().P, rd.steps.back().P);
     EXPECT_LT(dP, eco ? 1e-7 : 1e-8) << fft::to_string(k.d) << " " << k.dim << "D";
-    const int nd = rd.total_newton_iterations, ns = rs.total_newton_iterations;
+    const int nd = rd.newton_iterations, ns = rs.newton_iterations;
     if (eco)
       EXPECT_LE(ns, nd + 2 + int(0.3 * nd)) << fft::to_string(k.d);
     else
@@ -78,7 +78,7 @@ TEST(FftRve, SinglePrecisionTangentConvergesToDoubleAnswer) {
         std::size_t(im.n[0]) * im.n[1] * im.n[2] * (k.d == fft::Discretization::hex ? (k.dim == 2 ? 4 : 8) : 1);
     EXPECT_EQ(sd.memory_bytes() - ss.memory_bytes(), 45 * 4 * ((points + 7) / 8 * 8)) << fft::to_string(k.d);
     std::printf("[ info     ] %s %dD Newton/Krylov double %d/%d single %d/%d, |dP|/|P| %.2e\n", fft::to_string(k.d),
-                k.dim, nd, rd.total_krylov_iterations, ns, rs.total_krylov_iterations, dP);
+                k.dim, nd, rd.krylov_iterations, ns, rs.krylov_iterations, dP);
   }
 }
 

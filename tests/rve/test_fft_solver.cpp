@@ -168,10 +168,10 @@ TEST(FftRve, MixedPressureIterationSameSolutionFewerNewtonSteps) {
   const RveRunResult rm = mixed.run(control), rp = plain.run(control);
   ASSERT_TRUE(rm.completed && rp.completed) << rm.error << rp.error;
   EXPECT_LT(rel(rm.steps.back().P, rp.steps.back().P), 1e-6);
-  EXPECT_LT(rm.total_newton_iterations, rp.total_newton_iterations);
+  EXPECT_LT(rm.newton_iterations, rp.newton_iterations);
   EXPECT_GT(rm.steps.back().P(0, 0), 0.0);
-  std::cout << "[ mixed ] Newton " << rm.total_newton_iterations << " (plain " << rp.total_newton_iterations
-            << "), Krylov " << rm.total_krylov_iterations << " (plain " << rp.total_krylov_iterations
+  std::cout << "[ mixed ] Newton " << rm.newton_iterations << " (plain " << rp.newton_iterations
+            << "), Krylov " << rm.krylov_iterations << " (plain " << rp.krylov_iterations
             << "), cut-backs " << rm.cutbacks << " (plain " << rp.cutbacks << ")\n";
 }
 
@@ -233,14 +233,14 @@ TEST(FftRve, StencilKrylovOperatorMatchesFourier) {
       EXPECT_LT(rel(rs.steps.back().P, rf.steps.back().P), 1e-8) << fft::to_string(d) << " " << dim << "D";
       // Ecoflex (K/G = 1.2e5): the Newton path amplifies round-off (the same run with another FFTW plan
       // varies by a few per cent), so only the count's order is checked there.
-      const int dn = std::abs(rs.total_newton_iterations - rf.total_newton_iterations);
+      const int dn = std::abs(rs.newton_iterations - rf.newton_iterations);
       if (dim == 3)
         EXPECT_LE(dn, 1) << fft::to_string(d);
       else
-        EXPECT_LE(dn, rf.total_newton_iterations / 2) << fft::to_string(d);
+        EXPECT_LE(dn, rf.newton_iterations / 2) << fft::to_string(d);
       std::printf("[ info     ] %s %dD Newton/Krylov stencil %d/%d fourier %d/%d, P11 %.12g %.12g\n", fft::to_string(d), dim,
-                  rs.total_newton_iterations, rs.total_krylov_iterations, rf.total_newton_iterations,
-                  rf.total_krylov_iterations, rs.steps.back().P(0, 0), rf.steps.back().P(0, 0));
+                  rs.newton_iterations, rs.krylov_iterations, rf.newton_iterations,
+                  rf.krylov_iterations, rs.steps.back().P(0, 0), rf.steps.back().P(0, 0));
       EXPECT_GT(rs.steps.back().P(0, 0), 0.0);
     }
 }
@@ -263,7 +263,7 @@ TEST(FftRve, CompressionPastMicroBucklingConvergesOnPrincipalBranchWithMinres) {
   ASSERT_TRUE(r.completed) << r.error;
   EXPECT_EQ(r.cutbacks, 0);
   EXPECT_GT(r.minres_solves, 0);
-  EXPECT_LT(r.total_newton_iterations, 250);
+  EXPECT_LT(r.newton_iterations, 250);
   const Mat3& F = r.steps.back().F;
   EXPECT_NEAR(F(0, 0), 0.6, 1e-12);
   EXPECT_LT(std::abs(F(2, 0)) + std::abs(F(2, 1)) + std::abs(F(0, 2)) + std::abs(F(1, 2)), 1e-3);
@@ -271,7 +271,7 @@ TEST(FftRve, CompressionPastMicroBucklingConvergesOnPrincipalBranchWithMinres) {
   bool logged = false;
   for (const auto& line : r.log) logged = logged || line.find("branch is unstable") != std::string::npos;
   EXPECT_TRUE(logged);
-  std::cout << "[ minres ] Newton " << r.total_newton_iterations << ", Krylov " << r.total_krylov_iterations
+  std::cout << "[ minres ] Newton " << r.newton_iterations << ", Krylov " << r.krylov_iterations
             << ", MINRES solves " << r.minres_solves << ", P11 " << r.steps.back().P(0, 0) << "\n";
 }
 
@@ -304,6 +304,6 @@ TEST(FftRve, SquareFiberEcoflexTensionStaysSymmetricPastFormerStall) {
   }
   EXPECT_NEAR(r.steps.back().F(0, 0), 1.6, 1e-12);
   EXPECT_NEAR(r.steps.back().P(0, 0), 0.044659, 0.015 * 0.044659);
-  std::cout << "[ square ] Newton " << r.total_newton_iterations << ", Krylov " << r.total_krylov_iterations
+  std::cout << "[ square ] Newton " << r.newton_iterations << ", Krylov " << r.krylov_iterations
             << ", P11(1.6) " << r.steps.back().P(0, 0) << ", F31 " << r.steps.back().F(2, 0) << "\n";
 }

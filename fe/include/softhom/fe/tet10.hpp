@@ -71,7 +71,4 @@ inline std::array<TetRulePoint, 4> tet_rule_degree2() {
            {Eigen::Vector3d(b, a, b), w}, {Eigen::Vector3d(b, b, a), w}}};
 }
 
-/// 1-point rule at the centroid (exact for degree 1), for element means.
-inline TetRulePoint tet_rule_centroid() { return {Eigen::Vector3d(0.25, 0.25, 0.25), 1.0 / 6.0}; }
-
 }  // namespace softhom::fe

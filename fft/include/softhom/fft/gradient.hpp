@@ -110,7 +110,6 @@ class ReferenceGreen {
   explicit ReferenceGreen(const GradientOperator& op) : op_(op) {}
   /// Tabulates K0⁻¹ for `C0` (major-symmetric, elliptic). Same values as solve_reference().
   void set(const Matrix9& C0);
-  bool ready() const { return !table_.empty(); }
   /// out = K0⁻¹ r / scale. `r` and `out` may alias.
   void apply(const Complex* r, Complex* out, double scale = 1.0) const;
   /// out = K0⁻¹ r / scale, returns Σ_k m_k Re(r̄_k · out_k). `r` and `out` must not alias.

@@ -115,6 +115,8 @@ struct FftSolverOptions {
   /// exact one perturbed by ≈ 6e-8 relative per tangent entry (symmetric, so CG/MINRES still apply),
   /// which inexact Newton absorbs. The Fourier operator always keeps double.
   TangentPrecision tangent_precision = TangentPrecision::double_precision;
+  /// Wall-time budget of one output step's cut-backs [s] (StepControlOptions::max_step_seconds; 0: none).
+  double max_step_seconds = 0.0;
   fft::PlanOptions plan;         ///< FFTW rigor, threads, wisdom cache
 };
 
@@ -122,40 +124,58 @@ struct FftSolverOptions {
 /// (sin α, cos α, 0) (fiber axis), g1 = (cos α, −sin α, 0), g2 = g3 × g1 = −e3 (right-handed).
 Mat3 grid_rotation(double fiber_angle_deg);
 
-/// One converged output step, everything in the load frame.
-struct RveStep {
+/// Iteration counters of the RVE engines: of one sub-step attempt, summed over the sub-steps of an
+/// output step (RveStep) and over the run (RveRunResult).
+struct RveCounts {
+  int newton_iterations = 0;           ///< fixed-point iterations for Moulinec–Suquet
+  int krylov_iterations = 0;
+  int substeps = 0;                    ///< converged sub-steps
+  int cutbacks = 0;                    ///< failed sub-steps
+  int shifted_solves = 0;              ///< Levenberg–Marquardt retries of indefinite linear solves
+  int minres_solves = 0;               ///< indefinite linear solves by MINRES (FftSolverOptions::indefinite_solver)
+  int continuation_iterations = 0;     ///< pseudo-transient iterations (FftSolverOptions::max_continuation_iterations)
+  RveCounts& operator+=(const RveCounts& o) {
+    newton_iterations += o.newton_iterations;
+    krylov_iterations += o.krylov_iterations;
+    substeps += o.substeps;
+    cutbacks += o.cutbacks;
+    shifted_solves += o.shifted_solves;
+    minres_solves += o.minres_solves;
+    continuation_iterations += o.continuation_iterations;
+    return *this;
+  }
+};
+
+/// One converged output step, everything in the load frame; its counts are over the sub-steps of
+/// this output step (failed attempts included).
+struct RveStep : RveCounts {
   double t = 0.0;
   Mat3 F = Mat3::Identity(), P = Mat3::Zero(), sigma = Mat3::Zero();
   Mat3 P_matrix = Mat3::Zero(), P_fiber = Mat3::Zero();          ///< phase means over reference volume
   Mat3 sigma_matrix = Mat3::Zero(), sigma_fiber = Mat3::Zero();  ///< phase means over current volume
   double fiber_angle_deg = 0.0;        ///< of the mean fiber-phase F applied to a0 (spec §7)
   double fiber_angle_change_deg = 0.0; ///< relative to t = 0
-  int newton_iterations = 0;           ///< over the sub-steps of this output step (fixed-point its for MS)
-  int krylov_iterations = 0;
-  int substeps = 0;
-  int cutbacks = 0;
-  int shifted_solves = 0;              ///< Levenberg–Marquardt retries of indefinite linear solves
-  int minres_solves = 0;               ///< indefinite linear solves by MINRES (FftSolverOptions::indefinite_solver)
-  int continuation_iterations = 0;     ///< pseudo-transient iterations (FftSolverOptions::max_continuation_iterations)
   std::vector<double> residuals;       ///< Newton residual history of the last sub-step
   double wall_seconds = 0.0;
 };
 
-/// Per-voxel fields of a converged step (quadrature points averaged), load frame, 9 per voxel row-major.
+/// Per-voxel fields of a converged step (quadrature points averaged), load frame, 9 per voxel row-major;
+/// displacement per voxel corner (3 per node of the (n1+1)(n2+1)(n3+1) corner grid, y1 fastest, grid
+/// frame: u = (F̄_grid − I) y + ũ, so a viewer can warp the cell), see FftRveSolver::displacement().
 struct RveFields {
   std::vector<double> F, P, sigma, von_mises, fiber_fraction;
+  std::vector<double> displacement;
 };
 
-struct RveRunResult {
+/// How a run ended early (none when it completed).
+enum class RveStop { none, failed, fatal, time_budget, interrupted };  /// fatal: a phase at its material limit, an inverted cell
+
+/// A run; its counts are totals over all sub-step attempts.
+struct RveRunResult : RveCounts {
   std::vector<RveStep> steps;   ///< t = 0 row first
   bool completed = false;
+  RveStop stop = RveStop::none; ///< why a run that did not complete ended (interrupted: a signal)
   std::string error;
-  int total_newton_iterations = 0;
-  int total_krylov_iterations = 0;
-  int cutbacks = 0;
-  int shifted_solves = 0;
-  int minres_solves = 0;
-  int continuation_iterations = 0;
   std::vector<std::string> log;
   double wall_seconds = 0.0;
   double krylov_seconds = 0.0;  ///< of wall_seconds: in the linear solves (cost per Krylov iteration)
@@ -206,6 +226,10 @@ class FftRveSolver {
   std::size_t memory_bytes() const;
   /// Seconds spent planning FFTs (FFTW_MEASURE) at construction.
   double planning_seconds() const;
+  /// Displacement of the current state at the voxel corners (layout of RveFields::displacement): the
+  /// macro part (F̄_grid − I) y plus the periodic fluctuation ũ, transformed from its spectrum. Uses
+  /// the solver's FFT buffers (call between runs or from on_step, not concurrently with a run).
+  std::vector<double> displacement();
 
  private:
   struct Impl;

@@ -1,0 +1,66 @@
+#pragma once
+// Refusing a problem that cannot fit before allocating it: the engines estimate their bytes from the
+// problem size and compare with the memory this process may still use, so a grid or mesh that is too
+// large ends in an input error naming the field instead of std::bad_alloc (or a solver library's
+// failure) minutes later.
+#include <algorithm>
+#include <cstddef>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+
+#include "softhom/materials/errors.hpp"
+
+namespace softhom::rve::detail {
+
+/// Bytes this process may still allocate: MemAvailable of /proc/meminfo, lowered to the cgroup (v2)
+/// limit minus its usage when one is set. 0 when unknown (then nothing is refused).
+inline std::size_t available_memory_bytes() {
+  std::size_t avail = 0;
+  {
+    std::ifstream in("/proc/meminfo");
+    std::string key;
+    std::size_t kib = 0;
+    std::string unit;
+    while (in >> key >> kib >> unit)
+      if (key == "MemAvailable:") {
+        avail = kib * 1024;
+        break;
+      }
+  }
+  std::ifstream max_in("/sys/fs/cgroup/memory.max"), cur_in("/sys/fs/cgroup/memory.current");
+  std::string max_s;
+  std::size_t cur = 0;
+  if (max_in >> max_s && max_s != "max" && cur_in >> cur) {
+    const std::size_t limit = std::stoull(max_s);
+    const std::size_t room = limit > cur ? limit - cur : 0;
+    avail = avail == 0 ? room : std::min(avail, room);
+  }
+  return avail;
+}
+
+inline std::string gib(std::size_t bytes) {
+  std::ostringstream s;
+  s.precision(bytes >= (std::size_t(10) << 30) ? 3 : 2);
+  s << double(bytes) / double(std::size_t(1) << 30);
+  return s.str();
+}
+
+/// Throws InputError(field, value, "needs about X GiB, the machine has Y GiB available") when
+/// `needed` bytes exceed what is available (`available` 0: query the machine).
+inline void refuse_if_too_big(std::size_t needed, const std::string& field, const std::string& value,
+                              std::size_t available = 0) {
+  if (available == 0) available = available_memory_bytes();
+  if (available == 0 || needed <= available) return;
+  throw InputError(field, value, "needs about " + gib(needed) + " GiB, the machine has " + gib(available) + " GiB available");
+}
+
+/// Product of sizes in bytes, saturating instead of wrapping (absurd grids must still be refused).
+inline std::size_t saturating_product(std::initializer_list<double> factors) {
+  double p = 1.0;
+  for (double f : factors) p *= f;
+  return p >= double(std::numeric_limits<std::size_t>::max()) ? std::numeric_limits<std::size_t>::max() : std::size_t(p);
+}
+
+}  // namespace softhom::rve::detail
