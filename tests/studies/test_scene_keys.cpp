@@ -70,16 +70,23 @@ TEST(SceneKeys, EveryShippedPointAndRveSceneParses) {
     }
     ++rve;
   }
-  EXPECT_GE(point, 5);  // the shipped sets: five point scenes, thirteen RVE scenes
-  EXPECT_GE(rve, 13);
+  EXPECT_GE(point, 5);  // the shipped sets: five point scenes, twelve RVE scenes
+  EXPECT_GE(rve, 12);
 }
 
 TEST(SceneKeys, EveryShippedCampaignAndCalibrationParses) {
   // Their cases are RVE scenes and point scenes: expanding them parses every key they write.
   for (const auto& f : tomls(kSource / "studies/campaigns", ""))
     EXPECT_NO_THROW(studies::expand_campaign(io::load_scene(f), f.parent_path())) << f;
-  for (const auto& f : tomls(kSource / "studies/calibrations", ""))
-    EXPECT_NO_THROW(studies::parse_calibration(io::load_scene(f), f.parent_path())) << f;
+  // The chapter-4 calibrations read the store of a chapter-4 sweep (not in the source tree): past
+  // their keys, that missing store is the only error they may give here.
+  for (const auto& f : tomls(kSource / "studies/calibrations", "")) {
+    try {
+      studies::parse_calibration(io::load_scene(f), f.parent_path());
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("no campaign store there"), std::string::npos) << f << ": " << e.what();
+    }
+  }
 }
 
 TEST(SceneKeys, EveryDeclaredKeyIsDocumented) {
