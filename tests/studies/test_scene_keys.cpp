@@ -94,18 +94,23 @@ TEST(SceneKeys, EveryDeclaredKeyIsDocumented) {
   std::stringstream s;
   s << in.rdbuf();
   const std::string md = s.str();
-  std::vector<io::TableDoc> tables = point_scene_tables();
-  for (auto& t : studies::rve_scene_tables()) tables.push_back(t);
   std::size_t keys = 0;
-  for (const auto& t : tables) {
-    const std::size_t section = md.find("### [" + t.path + "]");
-    EXPECT_NE(section, std::string::npos) << t.path;
-    for (const auto& k : t.keys) {
-      EXPECT_FALSE(k.doc.empty()) << t.path << "." << k.name;
-      EXPECT_FALSE(k.type.empty()) << t.path << "." << k.name;
-      EXPECT_FALSE(k.default_value.empty()) << t.path << "." << k.name;
-      EXPECT_NE(md.find("| `" + k.name + "` |", section), std::string::npos) << t.path << "." << k.name;
-      ++keys;
+  for (const auto& [command, tables] : {std::pair{std::string("point"), point_scene_tables()},
+                                        std::pair{std::string("rve"), studies::rve_scene_tables()}}) {
+    const std::size_t scene = md.find("## softhom " + command + "\n");
+    ASSERT_NE(scene, std::string::npos) << command;
+    for (const auto& t : tables) {
+      const std::size_t section = md.find("### [" + t.path + "]", scene);
+      ASSERT_NE(section, std::string::npos) << command << " " << t.path;
+      const std::size_t end = md.find("\n### ", section + 1);
+      const std::string body = md.substr(section, end == std::string::npos ? std::string::npos : end - section);
+      for (const auto& k : t.keys) {
+        EXPECT_FALSE(k.doc.empty()) << t.path << "." << k.name;
+        EXPECT_FALSE(k.type.empty()) << t.path << "." << k.name;
+        EXPECT_FALSE(k.default_value.empty()) << t.path << "." << k.name;
+        EXPECT_NE(body.find("| `" + k.name + "` |"), std::string::npos) << command << " " << t.path << "." << k.name;
+        ++keys;
+      }
     }
   }
   EXPECT_GT(keys, 100u);
