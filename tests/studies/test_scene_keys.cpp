@@ -193,3 +193,43 @@ TEST(SceneKeys, ImageWithAllZeroNormalsIsRefused) {
       << rve_error(scene);
   fs::remove_all(dir);
 }
+
+TEST(SceneKeys, FeSolverKeysFillTheFeOptions) {
+  const auto settings = [](const std::string& solver) {
+    return studies::parse_fe_rve_solver(io::parse_scene("[solver]\nengine = \"fe\"\n" + solver, "x"), 0.8);
+  };
+  // Defaults follow the cell side: L1 / 16 and a third of it at the interfaces (section mesh).
+  const auto d = settings("");
+  EXPECT_DOUBLE_EQ(d.mesh.mesh_size, 0.05);
+  EXPECT_DOUBLE_EQ(d.mesh.interface_size, 0.05 / 3.0);
+  EXPECT_EQ(d.solver.pressure, rve::FePressure::p1_bubble);
+  const auto three = settings("fe_mesh = \"3d\"\nlength = 2\nmax_step_seconds = 5\nlinear_solver = \"umfpack\"\n");
+  EXPECT_TRUE(three.three_d);
+  EXPECT_DOUBLE_EQ(three.mesh3d.mesh_size, 0.8 / 6.0);
+  EXPECT_DOUBLE_EQ(three.mesh3d.length, 2.0);
+  EXPECT_EQ(three.solver.pressure, rve::FePressure::p0);
+  EXPECT_EQ(three.solver.max_step_seconds, 5.0);
+  EXPECT_TRUE(three.solver.use_umfpack);
+  const auto error = [&](const std::string& solver) {
+    try {
+      settings(solver);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error("fe_mesh = \"3d\"\npressure = \"p1\"\n").find("solver.pressure = \"p1\": the 3D tetrahedral mesh supports p0"),
+            std::string::npos);
+  EXPECT_NE(error("length = 2\n").find("solver.length = 2: only with fe_mesh = \"3d\""), std::string::npos);
+  EXPECT_NE(error("corner_exponent = 1\n").find("solver.corner_exponent = 1: must lie in (0, 1)"), std::string::npos);
+  EXPECT_NE(error("discretization = \"rotated\"\n").find("solver.discretization = \"rotated\": unknown key"), std::string::npos);
+}
+
+TEST(SceneKeys, PointSolverKeys) {
+  const auto t = io::parse_scene("[solver]\nmax_newton_iterations = 40\nmax_step_seconds = 2.5\ntolerance = 1e-9\n", "x");
+  const PointSolverOptions o = parse_point_solver(t.get("solver"));
+  EXPECT_EQ(o.max_iterations, 40);
+  EXPECT_EQ(o.max_step_seconds, 2.5);
+  EXPECT_EQ(o.tolerance, 1e-9);
+  EXPECT_EQ(o.max_cutbacks, PointSolverOptions{}.max_cutbacks);
+}
