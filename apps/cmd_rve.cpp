@@ -8,6 +8,7 @@
 #include <iostream>
 #include <set>
 
+#include "cmd_keys.hpp"
 #include "cmd_rve_fe.hpp"
 #include "commands.hpp"
 #include "scene_source.hpp"
@@ -37,26 +38,22 @@ io::VoxelGrid voxel_grid(const rve::PhaseImage& im) {
 
 int run_rve(const CommandOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
-  LoadedScene scene = load_scene_or_default(options, "rve_homogeneous");
+  LoadedScene scene = load_scene_or_default(options, default_scene_name("rve"));
   // Engine choice ([solver] engine = "fft" | "fe"); the FE engine has its own [solver] keys.
   if (auto* solver_table = scene.table["solver"].as_table()) {
-    std::string engine = io::get_string_or(*solver_table, "engine", "solver", "fft");
+    static const io::Choices<std::string> engines{{{"fft", "fft"}, {"fe", "fe"}, {"auto", "auto"}}, {}};
+    const toml::node* engine_node = solver_table->get("engine");
+    std::string engine = engine_node ? io::read_choice(*engine_node, "solver.engine", engines) : "fft";
     if (engine == "auto") {  // resolution and engine from solver.target_error (BENCHMARKS.md)
       std::string why;
       engine = choose_engine(scene.table, why);
       if (!options.quiet) std::cerr << "softhom rve: " << why << "\n";
     }
     if (engine == "fe") return run_rve_fe(options, scene);
-    if (engine != "fft") throw InputError("solver.engine", engine, "fft, fe or auto");
-    solver_table->erase("engine");  // not an FFT solver option
   }
-  // Unknown tables are refused and [load] is parsed only when the run needs it.
-  io::check_keys(scene.table, "", {"description", "microstructure", "phases", "load", "solver", "output"});
-  const bool wants_microstructure_only = [&] {
-    const auto* out = scene.table["output"].as_table();
-    return out && (*out)["microstructure_only"].value_or(false);
-  }();
-  const studies::RveSceneSetup setup = studies::parse_rve_scene(scene.table, !wants_microstructure_only);
+  // [load] is parsed only when the run needs it (unknown tables are refused by the scene parser).
+  const bool wants_microstructure_only = studies::parse_rve_output(scene.table, nullptr).microstructure_only;
+  const studies::RveSceneSetup setup = studies::parse_rve_scene(scene.table, !wants_microstructure_only, options.out);
   const rve::PhaseImage& image = setup.image;
   const MaterialPtr& matrix = setup.matrix;
   const MaterialPtr& fiber = setup.fiber;
@@ -65,7 +62,7 @@ int run_rve(const CommandOptions& options) {
   const double alpha = setup.fiber_angle_deg;
 
   // [output]
-  const RveOutputSettings output = parse_rve_output(scene.table);
+  const studies::RveOutputSettings& output = setup.output;
   const std::string& fields_mode = output.fields_mode;
   const bool microstructure_only = output.microstructure_only;
   std::filesystem::create_directories(options.out);

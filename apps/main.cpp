@@ -15,6 +15,7 @@
 #include <iostream>
 #include <thread>
 
+#include "cmd_keys.hpp"
 #include "commands.hpp"
 #include "embedded_scenes.hpp"
 #include "scene_source.hpp"
@@ -171,6 +172,7 @@ int main(int argc, char** argv) {
       {"demo", "runs the built-in example scenes and reports where the results are", app::run_demo},
   };
   const Sub* chosen = nullptr;
+  bool print_default = false;
   for (const Sub& s : subs) {
     CLI::App* sub = cli.add_subcommand(s.name, s.help);
     sub->add_option("scene", options.scene, "scene file (TOML); omitted: the embedded default scene")
@@ -179,6 +181,7 @@ int main(int argc, char** argv) {
     sub->add_option("-j,--threads", options.threads, "threads (0: all cores)")
         ->check(app::parallelism_range("all cores"));
     sub->add_flag("-q,--quiet", options.quiet, "no progress on stderr");
+    sub->add_flag("--print-default", print_default, "write the embedded default scene to stdout and exit");
     if (std::string(s.name) == "sweep" || std::string(s.name) == "demo") {
       sub->add_option("--jobs", options.jobs,
                       "cases run in parallel, the threads split between them (0: one single-threaded job per thread)")
@@ -193,6 +196,11 @@ int main(int argc, char** argv) {
     }
     sub->callback([&chosen, &s] { chosen = &s; });
   }
+  std::string keys_command = "all";
+  bool keys_markdown = false;
+  CLI::App* keys = cli.add_subcommand("keys", "lists every scene key: type, default, allowed values, unit, meaning");
+  keys->add_option("command", keys_command, "point, rve, macro, sweep, calibrate or all")->capture_default_str();
+  keys->add_flag("--markdown", keys_markdown, "Markdown (docs/keys.md)");
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -202,5 +210,13 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (options.threads > 0) omp_set_num_threads(options.threads);
+  try {
+    if (keys->parsed()) return app::run_keys(keys_command, keys_markdown);
+    if (print_default) return app::print_default_scene(chosen->name);
+  } catch (const InputError& e) {
+    std::cerr << "softhom " << (chosen ? chosen->name : "keys") << ": input error: " << e.what() << "
+";
+    return 2;
+  }
   return app::run_command(chosen->name, chosen->run, options);
 }
