@@ -214,8 +214,7 @@ int main(int argc, char** argv) {
     if (keys->parsed()) return app::run_keys(keys_command, keys_markdown);
     if (print_default) return app::print_default_scene(chosen->name);
   } catch (const InputError& e) {
-    std::cerr << "softhom " << (chosen ? chosen->name : "keys") << ": input error: " << e.what() << "
-";
+    std::cerr << "softhom " << (chosen ? chosen->name : "keys") << ": input error: " << e.what() << "\n";
     return 2;
   }
   return app::run_command(chosen->name, chosen->run, options);

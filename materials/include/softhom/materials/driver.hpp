@@ -16,11 +16,10 @@ struct PointSolverOptions {
   double tolerance = 1e-10;      ///< on max |P_free − P_target| relative to max(|P|, G0 * 1e-6)
   int max_iterations = 25;
   int max_cutbacks = 12;         ///< a step may be halved this many times
-  double max_step_seconds = 0.0;
+  double max_step_seconds = 0.0; ///< wall-time budget of one output step's cut-backs [s] (0: none)
   /// A converged state with Material::limit_margin below this is refused like a failed material call
   /// (Gent: Ī1 − 3 within 0.1 % of Jm): the run stops at the locking stretch with a clear message.
   double limit_margin = 1e-3;
-  double max_step_seconds = 0.0;
 };
 
 struct PointState {

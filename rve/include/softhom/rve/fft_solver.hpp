@@ -118,7 +118,6 @@ struct FftSolverOptions {
   /// Wall-time budget of one output step's cut-backs [s] (StepControlOptions::max_step_seconds; 0: none).
   double max_step_seconds = 0.0;
   fft::PlanOptions plan;         ///< FFTW rigor, threads, wisdom cache
-  double max_step_seconds = 0.0;
 };
 
 /// Grid axes in load-frame coordinates for a fiber at in-plane angle α (spec §7): g3 = a =
