@@ -53,6 +53,9 @@ SEEDS = {"seed"}
 # Load-path magnitudes: 1e300 is a valid number but an unreachable load (exit 1) or refused (exit 2).
 LOAD_MAGNITUDES = {"stretch", "path"}
 
+# Seconds a valid but unreachable load may take to stop cleanly (cut-backs), against the runner's default.
+UNREACHABLE_TIMEOUT = 20
+
 SUBCOMMAND_OF_PREFIX = {"point_": "point", "rve_": "rve", "macro_": "macro"}
 # Tables without which a subcommand cannot run (removing one is an error naming it).
 REQUIRED_TABLES = {
@@ -164,7 +167,7 @@ class Corpus:
         self.count = 0
 
     def add(self, name, klass, sub, text, expect, fields=(), extra=(), files=None, expect_files=(), ext="toml",
-            note=""):
+            note="", timeout=None):
         name = re.sub(r"[^A-Za-z0-9_.+-]", "_", name)[:120]
         base, i = name, 1
         while name in self.names:
@@ -179,7 +182,7 @@ class Corpus:
             (d / fname).write_bytes(content.encode() if isinstance(content, str) else content)
         meta = {"name": name, "class": klass, "subcommand": sub, "input": "input." + ext, "extra": list(extra),
                 "expect_exit": list(expect), "fields": list(fields), "expect_files": list(expect_files),
-                "note": note}
+                "note": note, "timeout": timeout}
         (d / "case.json").write_text(json.dumps(meta, indent=1))
         self.count += 1
         return d
@@ -258,11 +261,38 @@ def number_mutations(name, v, in_array):
     return out
 
 
+# Tables whose keys are names the file chooses (campaign definitions, macro regions): a new key there is a
+# new definition, not a typo.
+NAMED_COLLECTIONS = {"matrices", "sections", "loads", "regions"}
+
+
+AXIS_OF_COLLECTION = {"matrices": "matrix", "sections": "section", "loads": "load"}
+
+
+def referenced_names(doc, axis):
+    """The names a campaign's axis takes in its products and explicit cases: the definitions that reach
+    a case."""
+    names = set()
+    for table in ("sweep", "cases"):
+        for path, v in walk({table: doc.get(table, [])}):
+            if isinstance(v, str) and axis in path:
+                names.add(v)
+    return names
+
+
+def unused_definition(doc, path):
+    """A campaign definition no case uses: its values are never read into a scene."""
+    return len(path) >= 2 and path[0] in AXIS_OF_COLLECTION \
+        and path[1] not in referenced_names(doc, AXIS_OF_COLLECTION[path[0]])
+
+
 def toml_mutations(corpus, sub, label, doc, dry_run=True):
     """Value, type, missing-key and unknown-key mutations of one shipped TOML file."""
     extra = extra_args(sub, dry_run)
     for path, v in list(walk(doc)):
         name = last_name(path)
+        if sub == "sweep" and unused_definition(doc, path):
+            continue
         in_array = isinstance(path[-1], int)
         parent = get_at(doc, path[:-1])
         muts = []  # (class, tag, new value, expected exits)
@@ -285,9 +315,12 @@ def toml_mutations(corpus, sub, label, doc, dry_run=True):
                 muts.append(("out-of-range", "empty", [], [2]))
         elif isinstance(v, list) and v:
             muts.append(("wrong-type", "number", 3, [2]))
-        elif isinstance(v, dict) and path:
+        elif isinstance(v, dict) and path and not ("value" in v and sub == "calibrate"):
+            # (a calibration parameter {value, min, max} may also be a bare number: fixed)
             muts.append(("wrong-type", "number", 3, [2]))
         for klass, tag, nv, ex in muts:
+            if ex == [1, 2] and "--dry-run" in extra:
+                ex = [0, 2]  # a dry run does not run the load: an unreachable one is not an error there
             if not corpus.once(sub, path, tag):
                 continue
             m = copy.deepcopy(doc)
@@ -296,7 +329,8 @@ def toml_mutations(corpus, sub, label, doc, dry_run=True):
             corpus.add("%s.%s.%s" % (label, path_str(list(path)), tag), klass, sub, tomlwrite.dumps(m), ex,
                        fields, extra, expect_files=result_files(sub) if ex == [1] else ())
         # Unknown keys: a typo next to the real key (so only the unknown-key check can refuse it).
-        if isinstance(parent, dict) and isinstance(path[-1], str) and not in_array:
+        if isinstance(parent, dict) and isinstance(path[-1], str) and not in_array \
+                and not (len(path) == 2 and path[0] in NAMED_COLLECTIONS):
             typo = name[:-1] + name[-1] * 2 if len(name) > 2 else name + "x"
             tpath = list(path[:-1]) + [typo]
             if typo not in parent and corpus.once(sub, tpath, "typo"):
@@ -348,8 +382,10 @@ def find_key(doc, name):
 
 def absurd_and_unreachable(corpus, sub, label, doc):
     def case(tag, klass, m, expect, fields, extra=()):
+        # A clean stop may take many cut-backs: more time than a refused input, still bounded.
         corpus.add("%s.%s" % (label, tag), klass, sub, tomlwrite.dumps(m), expect, fields,
-                   list(extra) or extra_args(sub), expect_files=result_files(sub) if expect == [1] else ())
+                   list(extra) or extra_args(sub), expect_files=result_files(sub) if expect == [1] else (),
+                   timeout=UNREACHABLE_TIMEOUT if expect == [1] else None)
 
     gpath, grid = find_key(doc, "grid")
     if sub == "rve" and gpath and corpus.once(sub, gpath, "absurd3d"):
@@ -590,13 +626,21 @@ def campaign_specials(corpus, doc, label):
         sweeps[0]["volume_fraction"] = [i * 0.0005 for i in range(1000)]
         corpus.add("%s.product-1e6" % label, "absurd-size", "sweep", tomlwrite.dumps(m), [2],
                    ["sweep", "cases", "angle", "volume_fraction"], ["--dry-run"])
-    # A real (not dry) run whose every case locks: the sweep ends with exit 1, rows kept in cases.csv.
+    # A real (not dry) run of one case that locks: the sweep ends with exit 1, rows kept in cases.csv.
     m = copy.deepcopy(doc)
     for path, v in list(walk(m)):
         if isinstance(path[-1], str) and path[-1] == "stretch" and isinstance(v, (int, float)) and v > 1:
             set_at(m, list(path), 40.0)
+    if "sweep" in m:
+        m.pop("cases", None)
+        for sw in (m["sweep"] if isinstance(m["sweep"], list) else [m["sweep"]])[:1]:
+            for k, v in sw.items():
+                if isinstance(v, list) and v:
+                    sw[k] = v[:1]
+        if isinstance(m["sweep"], list):
+            m["sweep"] = m["sweep"][:1]
     corpus.add("%s.run-locking" % label, "unreachable", "sweep", tomlwrite.dumps(m), [1], [], ["--jobs", "1"],
-               expect_files=["cases.csv"])
+               expect_files=["cases.csv"], timeout=UNREACHABLE_TIMEOUT)
 
 
 def main():

@@ -73,7 +73,7 @@ def run_case(case_dir, softhom, timeout, limit_memory):
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, cwd=case_dir,
                          preexec_fn=limit_resources(limit_memory))
     try:
-        stdout, stderr = p.communicate(timeout=timeout)
+        stdout, stderr = p.communicate(timeout=max(timeout, meta.get("timeout") or 0))
         rc, hung = p.returncode, False
     except subprocess.TimeoutExpired:
         os.killpg(p.pid, signal.SIGKILL)
