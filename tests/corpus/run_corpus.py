@@ -24,6 +24,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 NONFINITE = re.compile(r"(?<![A-Za-z_])[-+]?(nan|inf|infinity)(?![A-Za-z_])", re.I)
 TEMPORARY = re.compile(r"\.tmp-\d+$|\.tmp$")
+# A number printed by std::to_string ("2.500000", "-1.000000") instead of as the user wrote it.
+TO_STRING_NUMBER = re.compile(r"(?<![0-9.])-?[0-9]+\.[0-9]{6}(?![0-9])")
 SANITIZER = re.compile(r"ERROR: AddressSanitizer|ERROR: LeakSanitizer|runtime error:|UndefinedBehaviorSanitizer")
 # Per-process address-space limit: an absurd size must be refused, not allocated; without a limit an
 # accepted one would take the machine's memory from everyone else.
@@ -186,6 +188,13 @@ def main():
         len(bad), len(results), wall, a.jobs)
     if bad:
         text += "\nfailures:\n" + "\n".join(describe(r) for r in bad) + "\n"
+    # Not a failure of the contract, but of its wording: values are to be shown as the user wrote them.
+    reformatted = [r for r in results if r["rc"] == 2 and TO_STRING_NUMBER.search(r["stderr"])]
+    if reformatted:
+        text += "\nnote: %d error messages show a number reformatted (std::to_string), e.g.:\n" % len(reformatted)
+        for r in reformatted[:8]:
+            line = next(l for l in r["stderr"].splitlines() if TO_STRING_NUMBER.search(l))
+            text += "    %s: %s\n" % (r["name"], line.strip()[:200])
     print(text)
     if a.report:
         a.report.write_text(text)
