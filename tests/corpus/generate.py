@@ -65,6 +65,15 @@ REQUIRED_TABLES = {
     "calibrate": ["model", "curves"],
     "sweep": [],
 }
+# Keys without a default (where the file has them): removing one is an error naming it. Paths as in
+# the TOML, array elements by index; a path the file does not have is left out.
+REQUIRED_KEYS = {
+    "point": ["load.type", "load.stretch", "material.fiber_invariant"],
+    "rve": ["phases.matrix", "phases.fiber", "load.type"],
+    "macro": ["geometry.type", "geometry.file", "load.path", "boundary.0.surface"],
+    "calibrate": ["curves.0.file", "curves.0.load"],
+    "sweep": ["cases.0.load"],
+}
 # What an empty scene must name: one of the tables that subcommand needs.
 EMPTY_FIELDS = {
     "point": ["material", "load"],
@@ -343,6 +352,17 @@ def toml_mutations(corpus, sub, label, doc, dry_run=True):
             m = copy.deepcopy(doc)
             del m[table]
             corpus.add("%s.%s.missing" % (label, table), "missing-key", sub, tomlwrite.dumps(m), [2], [table], extra)
+    for dotted in REQUIRED_KEYS[sub]:
+        path = [int(p) if p.isdigit() else p for p in dotted.split(".")]
+        try:
+            get_at(doc, path)
+        except (KeyError, IndexError, TypeError):
+            continue
+        if corpus.once(sub, path, "missing"):
+            m = copy.deepcopy(doc)
+            del_at(m, path)
+            corpus.add("%s.%s.missing" % (label, path_str(path)), "missing-key", sub, tomlwrite.dumps(m), [2],
+                       expected_fields(path), extra)
 
 
 def malformed_mutations(corpus, sub, label, text, dry_run=True):
@@ -406,6 +426,12 @@ def absurd_and_unreachable(corpus, sub, label, doc):
         m["microstructure"]["arrangement"] = "random"
         m["microstructure"]["fiber_count"] = 10**6
         case("fiber_count-1e6", "absurd-size", m, [2], ["microstructure.fiber_count", "fiber_count"])
+    if sub == "rve" and "microstructure" in doc and "arrangement" in doc["microstructure"] \
+            and corpus.once(sub, ["microstructure", "seed"], "minus1"):
+        m = copy.deepcopy(doc)
+        m["microstructure"].update(arrangement="random", fiber_count=4, seed=-1)
+        corpus.add("%s.random-seed-minus1" % label, "out-of-range", sub, tomlwrite.dumps(m), [2],
+                   ["microstructure.seed", "seed"], extra_args(sub))
     cpath, cells = find_key(doc, "cells")
     if sub == "macro" and cpath and corpus.once(sub, cpath, "absurd"):
         m = copy.deepcopy(doc)
