@@ -84,6 +84,8 @@ def run_case(case_dir, softhom, timeout, limit_memory):
     seconds = time.monotonic() - t0
     err = stderr.decode(errors="replace")
     left, nonfinite, broken = scan_outputs(out)
+    if hung:
+        left = []  # killed by the runner with SIGKILL: a temporary is then unavoidable, the hang is the fault
     r = dict(meta, rc=rc, seconds=round(seconds, 2), stderr=err[-2000:], leftovers=left, nonfinite=nonfinite,
              broken_json=broken, cmd=" ".join(cmd))
     r["outcome"], r["why"] = classify(meta, rc, hung, err, out)
