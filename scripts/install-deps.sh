@@ -10,6 +10,7 @@ packages=(
   libopenblas0-openmp      # BLAS for CHOLMOD/UMFPACK (replaces generic ATLAS: 1.3-1.8x faster factorizations; OpenMP build shares our thread pool)
   libcgal-dev              # rve/: conforming meshes
   libhdf5-dev              # fields and stores
+  hdf5-tools               # tests/faults: h5dump compares campaign stores
   libtomlplusplus-dev      # scene files
   libcli11-dev             # command line
   nlohmann-json3-dev       # summary.json

@@ -1,0 +1,344 @@
+#!/usr/bin/env python3
+"""Fault tests: softhom under a full disk, a read-only output directory, SIGTERM, kill -9 and resume,
+and two sweeps on one output directory.
+
+    faults.py --softhom BIN --work DIR TEST
+
+TEST is one of the names in TESTS. Exit 0: passed; 1: failed (the reasons on stderr); 77: skipped (the
+test needs root to mount a tmpfs, or the mount failed).
+
+The contract checked everywhere: no signal, no temporary (`.NAME.tmp-PID`) left in --out, every output
+file that exists is complete (JSON parses, CSV rows have the header's width, HDF5 opens), and no nan/inf.
+"""
+import argparse
+import contextlib
+import json
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+import tomllib
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent / "corpus"))
+import tomlwrite  # noqa: E402
+
+SKIP = 77
+TEMPORARY = re.compile(r"\.tmp-\d+$|\.tmp$")
+NONFINITE = re.compile(r"(?<![A-Za-z_])[-+]?(nan|inf|infinity)(?![A-Za-z_])", re.I)
+ENV = dict(os.environ, OMP_NUM_THREADS="1", OMP_WAIT_POLICY="passive")
+# Seconds a run may take to stop after SIGTERM: one solver step of these small cells takes well under a
+# second; the rest is writing the converged rows.
+STOP_SECONDS = 20
+
+
+class Failed(Exception):
+    pass
+
+
+def check(cond, msg):
+    if not cond:
+        raise Failed(msg)
+
+
+class Run:
+    """softhom in the background, its stderr collected by a thread (progress lines end in \\r)."""
+
+    def __init__(self, softhom, args):
+        self.p = subprocess.Popen([str(softhom)] + [str(a) for a in args], stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, env=ENV, start_new_session=True)
+        self.err = b""
+        self.out = b""
+        self._t = [threading.Thread(target=self._read, args=("err", self.p.stderr)),
+                   threading.Thread(target=self._read, args=("out", self.p.stdout))]
+        for t in self._t:
+            t.start()
+
+    def _read(self, which, pipe):
+        for chunk in iter(lambda: pipe.read1(4096), b""):
+            setattr(self, which, getattr(self, which) + chunk)
+
+    def stderr(self):
+        return self.err.decode(errors="replace")
+
+    def wait_for(self, pattern, seconds):
+        """True once stderr matches `pattern`; False if the process ends or time runs out first."""
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < seconds:
+            if re.search(pattern, self.stderr()):
+                return True
+            if self.p.poll() is not None:
+                return bool(re.search(pattern, self.stderr()))
+            time.sleep(0.05)
+        return False
+
+    def wait(self, seconds):
+        try:
+            rc = self.p.wait(timeout=seconds)
+        except subprocess.TimeoutExpired:
+            os.killpg(self.p.pid, signal.SIGKILL)
+            self.p.wait()
+            for t in self._t:
+                t.join()
+            raise Failed("no exit within %g s; stderr: %s" % (seconds, tail(self.stderr())))
+        for t in self._t:
+            t.join()
+        return rc
+
+
+def tail(text, n=400):
+    text = text.replace("\r", "\n").strip()
+    return text[-n:]
+
+
+def run(softhom, args, seconds=120):
+    r = Run(softhom, args)
+    return r.wait(seconds), r.stderr()
+
+
+def check_outputs(out):
+    """Every file in --out complete, no temporary, no nan/inf."""
+    if not out.exists():
+        return
+    for p in sorted(out.rglob("*")):
+        if not p.is_file():
+            continue
+        check(not TEMPORARY.search(p.name), "temporary left in --out: %s" % p)
+        if p.suffix == ".json":
+            text = p.read_text(errors="replace")
+            try:
+                json.loads(text)
+            except ValueError as e:
+                raise Failed("%s is not complete JSON (%s)" % (p, e))
+            check(not NONFINITE.search(text), "nan/inf in %s" % p)
+        elif p.suffix == ".csv":
+            lines = p.read_text(errors="replace").splitlines()
+            if lines:
+                width = lines[0].count(",")
+                bad = [i for i, l in enumerate(lines) if l.count(",") != width]
+                check(not bad, "%s: rows %s do not have the header's %d columns (half-written?)" % (p, bad[:5], width + 1))
+            m = NONFINITE.search("\n".join(lines[1:]))
+            check(not m, "nan/inf in %s" % p)
+        elif p.suffix == ".h5" and shutil.which("h5ls"):
+            r = subprocess.run(["h5ls", "-r", str(p)], capture_output=True, text=True)
+            check(r.returncode == 0, "%s does not open as HDF5: %s" % (p, r.stderr.strip()[:200]))
+
+
+def check_exit(rc, stderr, allowed=(1, 2)):
+    check(rc >= 0, "killed by signal %s; stderr: %s" % (signal.Signals(-rc).name if rc < 0 else rc, tail(stderr)))
+    check(rc in allowed, "exit %d, expected one of %s; stderr: %s" % (rc, allowed, tail(stderr)))
+
+
+def data_rows(csv):
+    check(csv.is_file(), "%s missing: the converged rows must be kept" % csv)
+    return len(csv.read_text().splitlines()) - 1
+
+
+# --- inputs -----------------------------------------------------------------------------------------------
+def scene_variant(src, dst, **changes):
+    """A copy of one of the TOML files next to this script with some values changed ("load.steps")."""
+    doc = tomllib.loads((HERE / src).read_text())
+    for dotted, v in changes.items():
+        node = doc
+        *parents, last = dotted.split("__")
+        for k in parents:
+            node = node.setdefault(k, {})
+        node[last] = v
+    dst.write_text(tomlwrite.dumps(doc))
+    return dst
+
+
+@contextlib.contextmanager
+def tmpfs(where, options):
+    """A tmpfs mounted at `where` (root only); raises Skip when it cannot be mounted."""
+    if os.geteuid() != 0:
+        raise Skip("not root: cannot mount a tmpfs")
+    where.mkdir(parents=True, exist_ok=True)
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(where)], capture_output=True, text=True)
+    if r.returncode != 0:
+        raise Skip("mount -t tmpfs failed: %s" % r.stderr.strip())
+    try:
+        yield where
+    finally:
+        subprocess.run(["umount", "-l", str(where)], capture_output=True)
+
+
+class Skip(Exception):
+    pass
+
+
+def fill(mount, leave_bytes):
+    """Fills a mounted file system up to `leave_bytes` free."""
+    st = os.statvfs(mount)
+    free = st.f_bavail * st.f_frsize
+    if free > leave_bytes:
+        with open(mount / "filler", "wb") as f:
+            f.write(b"\0" * (free - leave_bytes))
+
+
+# --- the tests --------------------------------------------------------------------------------------------
+def full_disk(softhom, work, sub):
+    """A 1 MB tmpfs as --out, nearly full: the write fails; the run must say so and leave no temporary
+    and no half-written file."""
+    if sub == "rve":
+        inp = scene_variant("rve_small.toml", work / "scene.toml", load__steps=20)
+    else:
+        inp = HERE / "campaign_small.toml"
+    with tmpfs(work / "mnt", "size=1m") as mnt:
+        fill(mnt, 24 * 1024)
+        out = mnt / "out"
+        rc, err = run(softhom, [sub, inp, "--out", out, "--threads", 1] + (["--jobs", 1] if sub == "sweep" else []))
+        check_exit(rc, err)
+        check(re.search(r"space|ENOSPC|write|%s" % re.escape(str(mnt)), err, re.I),
+              "the error does not say that writing failed or where: %s" % tail(err))
+        check_outputs(out)
+
+
+def read_only(softhom, work, sub):
+    """--out on a read-only file system (root ignores permissions, a ro mount it does not)."""
+    inp = scene_variant("rve_small.toml", work / "scene.toml", load__steps=4) if sub == "rve" \
+        else HERE / "campaign_small.toml"
+    with tmpfs(work / "ro", "ro,size=1m") as mnt:
+        for out in (mnt, mnt / "sub"):
+            t0 = time.monotonic()
+            rc, err = run(softhom, [sub, inp, "--out", out, "--threads", 1], seconds=60)
+            check_exit(rc, err)
+            check(str(out) in err or "read-only" in err.lower(),
+                  "the error names neither the directory %s nor the cause: %s" % (out, tail(err)))
+
+
+def sigterm_rve(softhom, work):
+    inp = scene_variant("rve_small.toml", work / "scene.toml", load__steps=4000, output__fields="none")
+    out = work / "out"
+    r = Run(softhom, ["rve", inp, "--out", out, "--threads", 1])
+    check(r.wait_for(r"t = 0\.0[1-9]", 60), "the run ended or showed no progress: %s" % tail(r.stderr()))
+    r.p.send_signal(signal.SIGTERM)
+    rc = r.wait(STOP_SECONDS)
+    check_exit(rc, r.stderr(), allowed=(1,))
+    check(data_rows(out / "response.csv") >= 2, "fewer than two converged rows kept")
+    check("interrupt" in (out / "summary.json").read_text().lower() if (out / "summary.json").is_file() else False,
+          "summary.json missing or does not say the run was interrupted")
+    check_outputs(out)
+
+
+def sigterm_sweep(softhom, work):
+    out = work / "out"
+    r = Run(softhom, ["sweep", HERE / "campaign_small.toml", "--out", out, "--threads", 1, "--jobs", 1])
+    check(r.wait_for(r"\[sweep\] \S+: ok", 60), "no case finished: %s" % tail(r.stderr()))
+    r.p.send_signal(signal.SIGTERM)
+    rc = r.wait(STOP_SECONDS)
+    check_exit(rc, r.stderr(), allowed=(1,))
+    check(data_rows(out / "cases.csv") >= 1, "the finished case's rows are not in cases.csv")
+    check((out / "summary.json").is_file() and "interrupt" in (out / "summary.json").read_text().lower(),
+          "summary.json missing or does not say the sweep was interrupted")
+    check_outputs(out)
+
+
+def store_values(store):
+    """Every dataset of a campaign store as h5dump prints it with 17 digits (the exact doubles)."""
+    check(shutil.which("h5ls") and shutil.which("h5dump"), "h5ls/h5dump missing (scripts/install-deps.sh)")
+    r = subprocess.run(["h5ls", "-r", str(store)], capture_output=True, text=True, check=True)
+    datasets = sorted(l.split()[0] for l in r.stdout.splitlines() if "Dataset" in l)
+    check(datasets, "no dataset in %s" % store)
+    values = {}
+    for d in datasets:
+        r = subprocess.run(["h5dump", "-d", d, "-m", "%.17g", "--noindex", str(store)], capture_output=True,
+                           text=True, check=True)
+        values[d] = r.stdout.split("DATA {", 1)[-1]
+    return values
+
+
+def kill9_resume(softhom, work):
+    """kill -9 in the middle of a sweep, then the same command again: the store must equal an
+    uninterrupted run's, value for value (resume is bitwise with one thread per job)."""
+    camp = HERE / "campaign_small.toml"
+    ref, out = work / "reference", work / "out"
+    rc, err = run(softhom, ["sweep", camp, "--out", ref, "--threads", 1, "--jobs", 1])
+    check_exit(rc, err, allowed=(0,))
+    r = Run(softhom, ["sweep", camp, "--out", out, "--threads", 1, "--jobs", 1])
+    check(r.wait_for(r"\[sweep\] \S+: ok(.|\n)*\[sweep\] \S+: ok", 60), "two cases did not finish: %s" % tail(r.stderr()))
+    os.killpg(r.p.pid, signal.SIGKILL)
+    r.wait(10)
+    # Whether the kill hit a store write is chance; make it certain: a kill -9 during the write leaves
+    # exactly this, a partial temporary named after the dead process, which the rerun must not keep.
+    if not any(TEMPORARY.search(p.name) for p in out.iterdir()):
+        (out / (".campaign.h5.tmp-%d" % r.p.pid)).write_bytes(b"\x89HDF\r\n\x1a\n" + b"\0" * 100)
+    rc, err = run(softhom, ["sweep", camp, "--out", out, "--threads", 1, "--jobs", 1])
+    check_exit(rc, err, allowed=(0,))
+    check(re.search(r"skipped [1-9]", err), "the rerun skipped no stored case: %s" % tail(err))
+    a, b = (ref / "cases.csv").read_text(), (out / "cases.csv").read_text()
+    check(a == b, "cases.csv after kill -9 and resume differs from the uninterrupted run's")
+    va, vb = store_values(ref / "campaign.h5"), store_values(out / "campaign.h5")
+    check(sorted(va) == sorted(vb), "datasets differ: %s vs %s" % (sorted(va), sorted(vb)))
+    diff = [d for d in va if va[d] != vb[d]]
+    check(not diff, "dataset values differ after resume: %s" % diff[:5])
+    check_outputs(out)
+
+
+def concurrent_sweeps(softhom, work):
+    """A second sweep on the same --out while the first runs: refused at once, naming the directory and
+    the first one's pid; the first finishes with every case stored."""
+    camp = HERE / "campaign_small.toml"
+    out = work / "out"
+    first = Run(softhom, ["sweep", camp, "--out", out, "--threads", 1, "--jobs", 1])
+    check(first.wait_for(r"\[sweep\]", 60), "the first sweep shows no progress: %s" % tail(first.stderr()))
+    t0 = time.monotonic()
+    rc, err = run(softhom, ["sweep", camp, "--out", out, "--threads", 1, "--jobs", 1], seconds=60)
+    seconds = time.monotonic() - t0
+    still_running = first.p.poll() is None
+    rc1 = first.wait(120)
+    check(still_running, "the first sweep ended before the second was refused: make the campaign longer")
+    check(rc != 0 and rc > 0, "the second sweep was not refused (exit %d): %s" % (rc, tail(err)))
+    check(seconds < 5, "the second sweep took %.1f s to be refused (expected at once)" % seconds)
+    check(str(out) in err or out.name in err, "the refusal does not name the directory %s: %s" % (out, tail(err)))
+    check(str(first.p.pid) in err, "the refusal does not name the running sweep's pid %d: %s" % (first.p.pid, tail(err)))
+    check_exit(rc1, first.stderr(), allowed=(0,))
+    ids = {l.split(",")[0] for l in (out / "cases.csv").read_text().splitlines()[1:]}
+    check(len(ids) == 6, "%d of 6 cases in cases.csv after both runs" % len(ids))
+    check_outputs(out)
+
+
+TESTS = {
+    "full-disk-rve": lambda s, w: full_disk(s, w, "rve"),
+    "full-disk-sweep": lambda s, w: full_disk(s, w, "sweep"),
+    "read-only-rve": lambda s, w: read_only(s, w, "rve"),
+    "read-only-sweep": lambda s, w: read_only(s, w, "sweep"),
+    "sigterm-rve": sigterm_rve,
+    "sigterm-sweep": sigterm_sweep,
+    "kill9-resume": kill9_resume,
+    "concurrent-sweeps": concurrent_sweeps,
+}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--softhom", type=Path, required=True)
+    ap.add_argument("--work", type=Path, required=True)
+    ap.add_argument("test", choices=sorted(TESTS))
+    a = ap.parse_args()
+    work = a.work.resolve() / a.test
+    if work.exists():
+        for m in sorted(work.rglob("*"), reverse=True):  # a mount left by a killed earlier run
+            if m.is_dir() and os.path.ismount(m):
+                subprocess.run(["umount", "-l", str(m)], capture_output=True)
+        shutil.rmtree(work)
+    work.mkdir(parents=True)
+    try:
+        TESTS[a.test](a.softhom.resolve(), work)
+    except Skip as e:
+        print("SKIPPED %s: %s" % (a.test, e))
+        return SKIP
+    except Failed as e:
+        print("FAILED %s: %s" % (a.test, e), file=sys.stderr)
+        return 1
+    print("PASSED %s" % a.test)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
