@@ -15,17 +15,6 @@ std::string join(const std::string& path, const std::string& key) { return path.
 
 }  // namespace
 
-std::string describe_value(const toml::node& node) {
-  std::ostringstream s;
-  node.visit([&s](const auto& n) {
-    using T = std::decay_t<decltype(n)>;
-    if constexpr (std::is_same_v<T, toml::value<std::string>>) s << '"' << n.get() << '"';
-    else if constexpr (std::is_same_v<T, toml::table>) s << "{table}";
-    else s << n;
-  });
-  return s.str();
-}
-
 namespace {
 
 std::string show(const toml::node& node) { return describe_value(node); }

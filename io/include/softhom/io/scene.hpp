@@ -6,6 +6,8 @@
 
 #include <toml++/toml.h>
 
+#include "softhom/io/keys.hpp"
+
 #include "softhom/materials/library.hpp"
 #include "softhom/materials/loading.hpp"
 
@@ -37,8 +39,6 @@ MaterialSpec parse_material(const toml::table& table, const std::string& path);
 ///   mixed: F = [[...9 entries or "free"...]] and P = [[...]] per component
 MixedControl parse_load(const toml::table& table, const std::string& path);
 
-/// A TOML value as it appears in an error message ("a" for strings, {table}, numbers as written).
-std::string describe_value(const toml::node& node);
 
 /// Helpers for the other parsers (number with field name in the error, optional default).
 double get_number(const toml::table& table, const std::string& key, const std::string& path);
