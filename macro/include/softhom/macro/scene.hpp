@@ -1,6 +1,6 @@
 #pragma once
 // Macro scene files (`softhom macro SCENE.toml`) → a StructureSpec, the Newton options and the output
-// times. Every key is declared once (macro_key_tables(): type, default, range, unit, doc); unknown,
+// times. Every key is declared once (macro_scene_keys(): type, default, range, unit, doc); unknown,
 // renamed and mistyped keys, out-of-range numbers and unconstrained bodies are InputErrors naming the
 // TOML path of the field.
 //
@@ -17,7 +17,7 @@
 #include <toml++/toml.h>
 
 #include "softhom/fe/solver.hpp"
-#include "softhom/io/key_checks.hpp"
+#include "softhom/io/keys.hpp"
 #include "softhom/macro/structures.hpp"
 
 namespace softhom::macro {
@@ -36,6 +36,6 @@ struct MacroScene {
 MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::path& scene_file = {});
 
 /// The declared tables of a macro scene, for `softhom keys macro` and docs/keys.md.
-std::vector<io::KeyTableDoc> macro_key_tables();
+io::SceneKeys macro_scene_keys();
 
 }  // namespace softhom::macro
