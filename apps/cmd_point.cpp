@@ -10,23 +10,9 @@
 #include "softhom/io/summary.hpp"
 #include "softhom/materials/driver.hpp"
 #include "softhom/materials/errors.hpp"
+#include "softhom/materials/scene_keys.hpp"
 
 namespace softhom::app {
-
-PointSolverOptions parse_point_solver(const toml::table& scene) {
-  PointSolverOptions o;
-  if (const auto* t = scene["solver"].as_table()) {
-    io::check_keys(*t, "solver", {"tolerance", "max_iterations", "max_cutbacks"});
-    o.tolerance = io::get_number_or(*t, "tolerance", "solver", o.tolerance);
-    o.max_iterations = int(io::get_number_or(*t, "max_iterations", "solver", o.max_iterations));
-    o.max_cutbacks = int(io::get_number_or(*t, "max_cutbacks", "solver", o.max_cutbacks));
-    if (!(o.tolerance > 0.0 && o.tolerance < 1.0))
-      throw InputError("solver.tolerance", std::to_string(o.tolerance), "must lie in (0, 1)");
-    if (o.max_iterations < 1) throw InputError("solver.max_iterations", std::to_string(o.max_iterations), "must be >= 1");
-    if (o.max_cutbacks < 0) throw InputError("solver.max_cutbacks", std::to_string(o.max_cutbacks), "must be >= 0");
-  }
-  return o;
-}
 
 io::CsvTable point_table(std::size_t fiber_families) {
   std::vector<std::string> columns{"t"};
@@ -48,14 +34,10 @@ std::vector<double> point_row(const PointState& s) {
 
 PointRun run_point_scene(const LoadedScene& scene, const std::filesystem::path& out, bool quiet) {
   const auto wall_start = std::chrono::steady_clock::now();
-  io::check_keys(scene.table, "", {"material", "load", "solver", "description"});
-  const auto* material_table = scene.table["material"].as_table();
-  if (!material_table) throw InputError("material", "", "missing [material] table");
-  const auto* load_table = scene.table["load"].as_table();
-  if (!load_table) throw InputError("load", "", "missing [load] table");
-  const MaterialPtr material = build_material(io::parse_material(*material_table, "material"));
-  const MixedControl control = io::parse_load(*load_table, "load");
-  const PointSolverOptions options = parse_point_solver(scene.table);
+  const PointScene parsed = parse_point_scene(scene.table);
+  const MaterialPtr material = build_material(parsed.material);
+  const MixedControl& control = parsed.control;
+  const PointSolverOptions& options = parsed.solver;
 
   const double t_end = control.times.back();
   auto on_step = [&](const PointState& s) {

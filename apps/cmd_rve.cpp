@@ -50,13 +50,9 @@ int run_rve(const CommandOptions& options) {
     if (engine != "fft") throw InputError("solver.engine", engine, "fft, fe or auto");
     solver_table->erase("engine");  // not an FFT solver option
   }
-  // Unknown tables are refused and [load] is parsed only when the run needs it.
-  io::check_keys(scene.table, "", {"description", "microstructure", "phases", "load", "solver", "output"});
-  const bool wants_microstructure_only = [&] {
-    const auto* out = scene.table["output"].as_table();
-    return out && (*out)["microstructure_only"].value_or(false);
-  }();
-  const studies::RveSceneSetup setup = studies::parse_rve_scene(scene.table, !wants_microstructure_only);
+  // [load] is parsed only when the run needs it (unknown tables are refused by the scene parser).
+  const bool wants_microstructure_only = studies::parse_rve_output(scene.table, nullptr).microstructure_only;
+  const studies::RveSceneSetup setup = studies::parse_rve_scene(scene.table, !wants_microstructure_only, options.out);
   const rve::PhaseImage& image = setup.image;
   const MaterialPtr& matrix = setup.matrix;
   const MaterialPtr& fiber = setup.fiber;
@@ -65,7 +61,7 @@ int run_rve(const CommandOptions& options) {
   const double alpha = setup.fiber_angle_deg;
 
   // [output]
-  const RveOutputSettings output = parse_rve_output(scene.table);
+  const studies::RveOutputSettings& output = setup.output;
   const std::string& fields_mode = output.fields_mode;
   const bool microstructure_only = output.microstructure_only;
   std::filesystem::create_directories(options.out);

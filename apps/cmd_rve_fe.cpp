@@ -2,14 +2,7 @@
 // T6 section mesh (rve/fe_solver.hpp). Same scene tables and the same response.csv columns and
 // summary.json keys as the FFT engine (plus mesh statistics), so curves overlay directly.
 //
-// FE [solver] keys: engine, fe_mesh ("section": T6 section mesh, default; "3d": periodic Tet10 cell
-// mesh, fluctuations in all three directions), mesh_size (element size away from the fibers, length
-// unit of the scene; default cell side / 16 for the section, / 6 in 3D), interface_size (at the fiber
-// boundaries; default mesh_size / 3, / 2 in 3D), grading, min_angle_deg, curved_interfaces,
-// corner_refinement, corner_exponent (section: graded refinement toward rectangular-fiber corners),
-// length (3D: cell length along the fibers, default the cell side), tolerance,
-// max_newton_iterations, max_cutbacks, mixed_pressure, pressure ("p1": P2+bubble / discontinuous
-// P1, section default; "p0": P2/P0, the only 3D option), linear_solver ("cholmod" | "umfpack").
+// The FE [solver] keys are declared with their options in studies/rve_fe_scene.cpp (docs/keys.md);
 // [microstructure].grid is ignored (it is the FFT resolution).
 #include "cmd_rve_fe.hpp"
 
@@ -29,95 +22,13 @@
 #include "softhom/fe/tet10.hpp"
 #include "softhom/rve/fe_solver.hpp"
 #include "softhom/rve/geometry.hpp"
+#include "softhom/studies/rve_fe_scene.hpp"
 #include "softhom/studies/rve_scene.hpp"
 
 #include "rve_output.hpp"
 
 namespace softhom::app {
 namespace {
-
-/// [microstructure] → generated section (the FE engine needs the exact geometry, not an image).
-rve::Section parse_section(const toml::table& t, double& target_vf, std::string& note) {
-  const std::string p = "microstructure";
-  io::check_keys(t, p, {"shape", "arrangement", "volume_fraction", "radius", "width", "height", "cell_size",
-                        "section_rotation_deg", "fiber_count", "min_gap", "seed", "fiber_angle_deg", "grid", "image"});
-  if (t.contains("image"))
-    throw InputError(p + ".image", "", "the FE engine needs a generated section (shape, arrangement, volume_fraction)");
-  std::string label;
-  const rve::FiberCellSpec spec = studies::parse_fiber_cell_spec(t, p, label);
-  target_vf = spec.volume_fraction;
-  if (spec.volume_fraction == 0.0) {
-    rve::Section s;
-    s.L1 = s.L2 = t.contains("cell_size") ? io::get_number(t, "cell_size", p) : 1.0;
-    if (!(s.L1 > 0.0)) throw InputError(p + ".cell_size", std::to_string(s.L1), "must be positive");
-    note = "matrix only";
-    return s;
-  }
-  const rve::Section s = rve::generate_section(spec, p);
-  note = label + ", cell " + std::to_string(s.L1) + " x " + std::to_string(s.L2);
-  return s;
-}
-
-struct FeSettings {
-  bool three_d = false;
-  rve::SectionMeshOptions mesh;
-  rve::CellMeshOptions mesh3d;
-  rve::FeSolverOptions solver;
-};
-
-FeSettings parse_fe_solver(const toml::table& scene, double L1) {
-  FeSettings f;
-  f.mesh.mesh_size = L1 / 16.0;
-  f.mesh.interface_size = f.mesh.mesh_size / 3.0;
-  const auto* t = scene["solver"].as_table();
-  if (!t) return f;
-  const std::string p = "solver";
-  io::check_keys(*t, p, {"engine", "fe_mesh", "mesh_size", "interface_size", "grading", "min_angle_deg",
-                         "curved_interfaces", "corner_refinement", "corner_exponent", "length", "tolerance",
-                         "max_newton_iterations", "max_cutbacks", "mixed_pressure", "pressure", "linear_solver"});
-  const std::string kind = io::get_string_or(*t, "fe_mesh", p, "section");
-  if (kind == "3d") f.three_d = true;
-  else if (kind != "section") throw InputError(p + ".fe_mesh", kind, "section (T6 cross-section mesh) or 3d (Tet10 cell mesh)");
-  if (f.three_d) f.mesh.mesh_size = L1 / 6.0;
-  f.mesh.mesh_size = io::get_number_or(*t, "mesh_size", p, f.mesh.mesh_size);
-  if (!(f.mesh.mesh_size > 0.0)) throw InputError(p + ".mesh_size", std::to_string(f.mesh.mesh_size), "must be positive");
-  f.mesh.interface_size = io::get_number_or(*t, "interface_size", p, f.mesh.mesh_size / (f.three_d ? 2.0 : 3.0));
-  if (!(f.mesh.interface_size > 0.0))
-    throw InputError(p + ".interface_size", std::to_string(f.mesh.interface_size), "must be positive");
-  f.mesh.grading = io::get_number_or(*t, "grading", p, f.mesh.grading);
-  if (!(f.mesh.grading > 0.0)) throw InputError(p + ".grading", std::to_string(f.mesh.grading), "must be positive");
-  f.mesh.min_angle_deg = io::get_number_or(*t, "min_angle_deg", p, f.mesh.min_angle_deg);
-  f.mesh.curved_interfaces = (*t)["curved_interfaces"].value_or(true);
-  f.mesh.corner_refinement = (*t)["corner_refinement"].value_or(true);
-  f.mesh.corner_exponent = io::get_number_or(*t, "corner_exponent", p, f.mesh.corner_exponent);
-  if (!(f.mesh.corner_exponent > 0.0 && f.mesh.corner_exponent < 1.0))
-    throw InputError(p + ".corner_exponent", std::to_string(f.mesh.corner_exponent), "must lie in (0, 1)");
-  f.mesh3d.mesh_size = f.mesh.mesh_size;
-  f.mesh3d.interface_size = f.mesh.interface_size;
-  f.mesh3d.grading = f.mesh.grading;
-  f.mesh3d.curved_interfaces = f.mesh.curved_interfaces;
-  f.mesh3d.length = io::get_number_or(*t, "length", p, 0.0);
-  if (t->contains("length") && !f.three_d) throw InputError(p + ".length", "", "only with fe_mesh = \"3d\"");
-  if (t->contains("length") && !(f.mesh3d.length > 0.0))
-    throw InputError(p + ".length", std::to_string(f.mesh3d.length), "must be positive");
-  f.solver.tolerance = io::get_number_or(*t, "tolerance", p, f.solver.tolerance);
-  if (!(f.solver.tolerance > 0 && f.solver.tolerance < 1))
-    throw InputError(p + ".tolerance", std::to_string(f.solver.tolerance), "must lie in (0, 1)");
-  f.solver.max_newton_iterations = int(io::get_number_or(*t, "max_newton_iterations", p, f.solver.max_newton_iterations));
-  if (f.solver.max_newton_iterations < 1) throw InputError(p + ".max_newton_iterations", "", "must be >= 1");
-  f.solver.max_cutbacks = int(io::get_number_or(*t, "max_cutbacks", p, f.solver.max_cutbacks));
-  if (f.solver.max_cutbacks < 0) throw InputError(p + ".max_cutbacks", "", "must be >= 0");
-  f.solver.mixed_pressure = (*t)["mixed_pressure"].value_or(true);
-  const std::string pr = io::get_string_or(*t, "pressure", p, f.three_d ? "p0" : "p1");
-  if (pr == "p1" && f.three_d) throw InputError(p + ".pressure", pr, "the 3D tetrahedral mesh supports p0 (P2/P0) only");
-  if (pr == "p1") f.solver.pressure = rve::FePressure::p1_bubble;
-  else if (pr == "p0") f.solver.pressure = rve::FePressure::p0;
-  else throw InputError(p + ".pressure", pr, "p1 (P2+bubble / discontinuous P1) or p0 (P2/P0)");
-  const std::string ls = io::get_string_or(*t, "linear_solver", p, "cholmod");
-  if (ls == "umfpack") f.solver.use_umfpack = true;
-  else if (ls != "cholmod") throw InputError(p + ".linear_solver", ls, "cholmod or umfpack");
-  return f;
-}
 
 io::UnstructuredMesh field_mesh(const rve::SectionMesh& m) {
   io::UnstructuredMesh u;
@@ -155,23 +66,19 @@ std::string choose_engine(toml::table& scene, std::string& why) {
   if (!solver || !micro) throw InputError("solver.engine", "auto", "needs [microstructure] and [solver] tables");
   if (!solver->contains("target_error"))
     throw InputError("solver.target_error", "", "engine = \"auto\" needs target_error (relative error of the homogenized stress)");
-  const double target = io::get_number(*solver, "target_error", "solver");
-  if (!(target > 0.0 && target < 0.5)) throw InputError("solver.target_error", std::to_string(target), "must lie in (0, 0.5)");
+  const double target = io::read_number(*solver->get("target_error"), "solver.target_error", io::open_range(0.0, 0.5));
   if (micro->contains("grid") || solver->contains("mesh_size"))
-    throw InputError("solver.target_error", std::to_string(target),
+    throw InputError("solver.target_error", format_number(target),
                      "give either target_error (engine = \"auto\") or a resolution (grid / mesh_size), not both");
-  const auto* phases = scene["phases"].as_table();
-  const auto* matrix_table = phases ? (*phases)["matrix"].as_table() : nullptr;
-  if (!matrix_table) throw InputError("phases.matrix", "", "missing");
-  const MaterialPtr matrix = build_material(io::parse_material(*matrix_table, "phases.matrix"));
+  const studies::RvePhases phases = studies::parse_rve_phases(scene);
+  if (!phases.has_fiber) throw InputError("phases.fiber", "", "missing");
+  const MaterialPtr& matrix = phases.matrix;
+  const MaterialPtr& fiber = phases.fiber;
   const double kg = matrix->initial_bulk_modulus() / matrix->initial_shear_modulus();
-  const auto* fiber_table = (*phases)["fiber"].as_table();
-  if (!fiber_table) throw InputError("phases.fiber", "", "missing");
-  const MaterialPtr fiber = build_material(io::parse_material(*fiber_table, "phases.fiber"));
   const double contrast = fiber->initial_shear_modulus() / matrix->initial_shear_modulus();
   double target_vf = 0.0;
   std::string note;
-  const rve::Section section = parse_section(*micro, target_vf, note);
+  const rve::Section section = studies::parse_fe_section(*micro, target_vf, note);
   // Error models of the benchmark cell (circle, VF 0.23, α = 45°, λ = 1.5; BENCHMARKS.md):
   //   FFT (rotated, composite voxels, first order): e ≈ c / n, with c set by the fiber/matrix shear
   //     contrast, not by K/G (session 4: the ecoflex gap is the same at K/G = 1e2 … 1.2e5):
@@ -213,33 +120,22 @@ std::string choose_engine(toml::table& scene, std::string& why) {
 
 int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   const auto wall_start = std::chrono::steady_clock::now();
-  io::check_keys(scene.table, "", {"description", "microstructure", "phases", "load", "solver", "output"});
-  const auto* micro = scene.table["microstructure"].as_table();
-  if (!micro) throw InputError("microstructure", "", "missing [microstructure] table");
-  const auto* phases = scene.table["phases"].as_table();
-  if (!phases) throw InputError("phases", "", "missing [phases] table ([phases.matrix], [phases.fiber])");
-  io::check_keys(*phases, "phases", {"matrix", "fiber"});
-  const auto* matrix_table = (*phases)["matrix"].as_table();
-  if (!matrix_table) throw InputError("phases.matrix", "", "missing");
-  const MaterialPtr matrix = build_material(io::parse_material(*matrix_table, "phases.matrix"));
-  const auto* fiber_table = (*phases)["fiber"].as_table();
-  const MaterialPtr fiber = fiber_table ? build_material(io::parse_material(*fiber_table, "phases.fiber")) : matrix;
+  const toml::table& micro = studies::rve_microstructure(scene.table);
+  const studies::RvePhases phases = studies::parse_rve_phases(scene.table);
+  const MaterialPtr& matrix = phases.matrix;
+  const MaterialPtr& fiber = phases.fiber;
   double target_vf = 0.0;
   std::string geometry_note;
-  const rve::Section section = parse_section(*micro, target_vf, geometry_note);
-  if (target_vf > 0.0 && !fiber_table) throw InputError("phases.fiber", "", "missing (the cell has fibers)");
-  const double alpha = io::get_number_or(*micro, "fiber_angle_deg", "microstructure", 0.0);
-  const FeSettings settings = parse_fe_solver(scene.table, section.L1);
+  const rve::Section section = studies::parse_fe_section(micro, target_vf, geometry_note);
+  if (target_vf > 0.0 && !phases.has_fiber) throw InputError("phases.fiber", "", "missing (the cell has fibers)");
+  const double alpha = studies::microstructure_fiber_angle(micro);
+  const studies::FeRveSettings settings = studies::parse_fe_rve_solver(scene.table, section.L1);
 
-  const RveOutputSettings output = parse_rve_output(scene.table);
-  const std::string& fields_mode = output.fields_mode;
-  const bool microstructure_only = output.microstructure_only;
+  const bool microstructure_only = studies::parse_rve_output(scene.table, nullptr).microstructure_only;
   MixedControl control;
-  if (!microstructure_only) {
-    const auto* load_table = scene.table["load"].as_table();
-    if (!load_table) throw InputError("load", "", "missing [load] table");
-    control = io::parse_load(*load_table, "load");
-  }
+  if (!microstructure_only) control = studies::parse_rve_load(scene.table);
+  const studies::RveOutputSettings output = studies::parse_rve_output(scene.table, microstructure_only ? nullptr : &control);
+  const std::string& fields_mode = output.fields_mode;
   std::filesystem::create_directories(options.out);
 
   const auto mesh_start = std::chrono::steady_clock::now();

@@ -18,42 +18,13 @@
 #include "softhom/io/summary.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/rve/fft_solver.hpp"
+#include "softhom/studies/rve_scene.hpp"
 
 namespace softhom::app {
 
-/// The [output] table of an RVE scene: which output times get fields, and whether to stop after
-/// writing the microstructure.
-struct RveOutputSettings {
-  std::string fields_mode = "last";  ///< none | last | all | times
-  std::vector<double> field_times;
-  bool microstructure_only = false;
-
-  bool wants_fields(double t, double t_end) const {
-    if (fields_mode == "all") return true;
-    if (fields_mode == "last") return std::abs(t - t_end) <= 1e-12 * std::max(1.0, t_end);
-    if (fields_mode == "times")
-      for (double ft : field_times)
-        if (std::abs(t - ft) <= 1e-9 * std::max(1.0, t_end)) return true;
-    return false;
-  }
-};
-
-inline RveOutputSettings parse_rve_output(const toml::table& scene) {
-  RveOutputSettings o;
-  if (const auto* out = scene["output"].as_table()) {
-    io::check_keys(*out, "output", {"fields", "microstructure_only"});
-    if (const auto* arr = (*out)["fields"].as_array()) {
-      o.fields_mode = "times";
-      for (const auto& e : *arr) o.field_times.push_back(e.value<double>().value_or(-1.0));
-    } else {
-      o.fields_mode = io::get_string_or(*out, "fields", "output", "last");
-      if (o.fields_mode != "none" && o.fields_mode != "last" && o.fields_mode != "all")
-        throw InputError("output.fields", o.fields_mode, "none, last, all or a list of times");
-    }
-    o.microstructure_only = io::get_bool_or(*out, "microstructure_only", "output", false);
-  }
-  return o;
-}
+/// The [output] table of an RVE scene, declared with the scene's other keys (studies/rve_scene.hpp).
+using studies::RveOutputSettings;
+using studies::parse_rve_output;
 
 /// One entry of summary.json "steps".
 inline nlohmann::json rve_step_log_entry(const rve::RveStep& s) {

@@ -73,7 +73,7 @@ toml::table builtin_load(const std::string& name) {
     return toml::table{{"type", "uniaxial"}, {"stretch", 0.6}, {"duration", 1.0}, {"steps", 16}};
   if (name == "equibiaxial")
     return toml::table{{"type", "equibiaxial"}, {"stretch", 1.3}, {"duration", 1.0}, {"steps", 12}};
-  if (name == "shear") return toml::table{{"type", "simple_shear"}, {"gamma", 0.5}, {"duration", 1.0}, {"steps", 10}};
+  if (name == "shear") return toml::table{{"type", "simple-shear"}, {"gamma", 0.5}, {"duration", 1.0}, {"steps", 10}};
   if (name == "relaxation") {
     toml::array path{toml::array{0.0, 1.0}, toml::array{20.0, 1.5}, toml::array{40.0, 1.5}};
     return toml::table{{"type", "uniaxial"}, {"stretch", path}, {"steps", 20}};

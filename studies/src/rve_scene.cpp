@@ -1,32 +1,19 @@
-// RVE scene tables → FFT solver inputs (moved from apps/cmd_rve.cpp; see rve_scene.hpp).
+// RVE scene tables → FFT solver inputs, declared key by key (softhom/io/keys.hpp); see rve_scene.hpp.
 #include "softhom/studies/rve_scene.hpp"
 
 #include <cmath>
+#include <cstdlib>
 #include <functional>
 
 #include "softhom/io/fields.hpp"
-#include "softhom/io/scene.hpp"
+#include "softhom/io/keys.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/library.hpp"
+#include "softhom/materials/scene_keys.hpp"
+#include "softhom/rve/fft_solver_keys.hpp"
 
 namespace softhom::studies {
 namespace {
-
-std::vector<int> grid_of(const toml::table& t, const std::string& path) {
-  std::vector<int> n;
-  const auto* arr = t["grid"].as_array();
-  if (!arr) {
-    const int g = int(io::get_number_or(t, "grid", path, 64));
-    return {g, g};
-  }
-  for (const auto& e : *arr) {
-    const auto v = e.value<double>();
-    if (!v || *v < 1 || *v != std::floor(*v)) throw InputError(path + ".grid", "", "entries must be positive integers");
-    n.push_back(int(*v));
-  }
-  if (n.size() < 2 || n.size() > 3) throw InputError(path + ".grid", "", "give [n1, n2] (section) or [n1, n2, n3]");
-  return n;
-}
 
 std::string dims_string(const std::vector<std::size_t>& d) {
   std::string s = "[";
@@ -41,25 +28,19 @@ std::string voxel_string(const rve::PhaseImage& im, std::size_t v) {
 }
 
 /// A number or a list of three positive numbers (x, y, z order) → 3 values; `field` names errors.
+std::array<double, 3> triple_of(const toml::node& node, const std::string& field) {
+  const std::vector<double> v = io::read_numbers(node, field, io::above(0.0), 1, 3, true);
+  if (v.size() == 2) throw InputError(field, io::describe_value(node), "give one number or three (x, y, z)");
+  return {v[0], v.size() == 3 ? v[1] : v[0], v.size() == 3 ? v[2] : v[0]};
+}
+
+/// The same for a dataset attribute (already numbers).
 std::array<double, 3> triple_of(const std::vector<double>& v, const std::string& field) {
   if (v.size() != 1 && v.size() != 3) throw InputError(field, std::to_string(v.size()) + " values", "give one number or three (x, y, z)");
   std::array<double, 3> out{v[0], v.size() == 3 ? v[1] : v[0], v.size() == 3 ? v[2] : v[0]};
   for (double x : out)
-    if (!(std::isfinite(x) && x > 0.0)) throw InputError(field, std::to_string(x), "must be finite and > 0");
+    if (!(std::isfinite(x) && x > 0.0)) throw InputError(field, format_number(x), "must be finite and > 0");
   return out;
-}
-
-std::vector<double> numbers_of(const toml::node& node, const std::string& field) {
-  std::vector<double> v;
-  if (const auto x = node.value<double>()) return {*x};
-  const auto* arr = node.as_array();
-  if (!arr) throw InputError(field, "", "must be a number or an array of numbers");
-  for (const auto& e : *arr) {
-    const auto x = e.value<double>();
-    if (!x) throw InputError(field, "", "must be a number or an array of numbers");
-    v.push_back(*x);
-  }
-  return v;
 }
 
 /// Reads one dataset of the image file, turning I/O failures into InputErrors on `field`.
@@ -71,72 +52,214 @@ io::Dataset read_image_dataset(const std::filesystem::path& file, const std::str
   }
 }
 
-/// Reads a per-voxel vector dataset (dims = image dims + [3]) into unit vectors (zero vectors kept
-/// where `zero_ok(v)`), or throws InputError on `field`.
+/// Reads a per-voxel vector dataset (dims = image dims + [3]) into unit vectors, zero vectors kept where
+/// `zero_ok(v)`; `what` names the vectors in messages. Throws InputError on `field`.
 std::vector<Eigen::Vector3d> read_vector_field(const std::filesystem::path& file, const std::string& name,
                                                const std::string& field, const std::vector<std::size_t>& image_dims,
-                                               const rve::PhaseImage& im, const std::function<bool(std::size_t)>& zero_ok) {
+                                               const rve::PhaseImage& im, const std::function<bool(std::size_t)>& zero_ok,
+                                               const std::string& where_required) {
   const io::Dataset d = read_image_dataset(file, name, field);
   std::vector<std::size_t> want = image_dims;
   want.push_back(3);
   if (d.dims != want) throw InputError(field, name + " " + dims_string(d.dims), "expected dims " + dims_string(want) + " (image dims + 3 components)");
   std::vector<Eigen::Vector3d> out(im.voxels());
+  bool any_nonzero = false;
   for (std::size_t v = 0; v < out.size(); ++v) {
     const Eigen::Vector3d a(d.values[3 * v], d.values[3 * v + 1], d.values[3 * v + 2]);
     const double len = a.norm();
     if (!std::isfinite(len)) throw InputError(field, name, "non-finite vector at " + voxel_string(im, v));
+    any_nonzero |= len > 0.0;
     if (len > 0.0) out[v] = a / len;
     else if (zero_ok(v)) out[v].setZero();
-    else throw InputError(field, name, "zero vector at " + voxel_string(im, v) + " (fiber fraction " + std::to_string(im.fiber_fraction[v]) + ")");
+    else if (!any_nonzero && std::all_of(d.values.begin(), d.values.end(), [](double x) { return x == 0.0; }))
+      throw InputError(field, name, "every vector is zero (they are required " + where_required + ")");
+    else throw InputError(field, name, "zero vector at " + voxel_string(im, v) + " (fiber fraction " + format_number(im.fiber_fraction[v]) + "; required " + where_required + ")");
   }
   return out;
+}
+
+// --- [microstructure] -------------------------------------------------------------------------------
+
+/// The generated-section keys: FiberCellSpec plus the shape's name (square = rectangle with height =
+/// width by default).
+struct CellKeys {
+  rve::FiberCellSpec spec;
+  std::string shape = "circle";
+  std::optional<double> height;
+};
+
+const io::Choices<rve::Arrangement>& arrangement_choices() {
+  static const io::Choices<rve::Arrangement> c{
+      {{"square", rve::Arrangement::square}, {"hexagonal", rve::Arrangement::hexagonal}, {"random", rve::Arrangement::random}}, {}};
+  return c;
+}
+
+/// Random sequential addition is quadratic in the fiber count: beyond 1e4 fibers placement alone takes
+/// minutes, and no grid this code can hold resolves them.
+constexpr int kMaxFibers = 10000;
+/// A fiber must cover at least this many pixels of the section grid to be resolved at all.
+constexpr double kMinPixelsPerFiber = 4.0;
+
+const io::KeyTable<rve::FiberCellSpec>& fiber_cell_keys() {
+  using S = rve::FiberCellSpec;
+  static const io::KeyTable<rve::FiberCellSpec> t = [] {
+    io::KeyTable<rve::FiberCellSpec> k("microstructure", "");
+    k.choice("arrangement", &S::arrangement, arrangement_choices(), "fiber arrangement in the cell")
+        .number("volume_fraction", &S::volume_fraction, io::right_open(0.0, 1.0), "-",
+                "target fiber volume fraction (0: matrix only; below the arrangement's packing limit)")
+        .number("radius", &S::radius, io::at_least(0.0), "length", "circle: fiber radius (0: from cell_size and the fraction)")
+        .number("width", &S::width, io::at_least(0.0), "length", "rectangle: side along y1 (0: from cell_size)")
+        .number("cell_size", &S::cell_size, io::above(0.0), "length",
+                "cell side (square; y1 side of hexagonal; random cell) instead of the fiber size")
+        .number("section_rotation_deg", &S::section_rotation_deg, io::any_value(), "deg", "in-section rotation of each rectangle")
+        .integer("fiber_count", &S::fiber_count, io::closed_range(1, kMaxFibers), "-",
+                 "random: fibers in the cell (at most 1e4, and each must cover >= 4 pixels of the grid)")
+        .number("min_gap", &S::min_gap, io::at_least(0.0), "length", "random: minimum surface-to-surface gap")
+        .integer("seed", &S::seed, io::at_least(0), "-", "random: placement seed (reproducible)");
+    return k;
+  }();
+  return t;
+}
+
+const io::KeyTable<CellKeys>& cell_keys() {
+  static const io::KeyTable<CellKeys> t = [] {
+    io::KeyTable<CellKeys> k("microstructure", "");
+    k.custom("shape", "choice", "fiber cross-section (square: a rectangle with height = width)",
+             [](const toml::node& n, const std::string& f, CellKeys& c) {
+               static const io::Choices<int> shapes{{{"circle", 0}, {"rectangle", 1}, {"square", 2}}, {}};
+               const int s = io::read_choice(n, f, shapes);
+               c.shape = shapes.name_of(s);
+               c.spec.shape = s == 0 ? rve::SectionShape::circle : rve::SectionShape::rectangle;
+             },
+             "\"circle\"", "\"circle\", \"rectangle\", \"square\"")
+        .include(fiber_cell_keys(), &CellKeys::spec)
+        .number("height", &CellKeys::height, io::at_least(0.0), "length", "rectangle: side along y2 (0: from cell_size)")
+        .default_text("width for a square, else 0");
+    return k;
+  }();
+  return t;
+}
+
+rve::FiberCellSpec cell_spec(CellKeys c) {
+  c.spec.height = c.height ? *c.height : (c.shape == "square" ? c.spec.width : 0.0);
+  return c.spec;
+}
+
+struct MicroKeys {
+  CellKeys cell;
+  std::vector<int> grid{64, 64};
+  double fiber_angle_deg = 0.0;
+  const toml::node* image = nullptr;
+};
+
+/// Per-axis bound of grid sizes: 65536² is already 4e9 points, far beyond any memory here.
+constexpr int kMaxGridPoints = 65536;
+
+const io::KeyTable<MicroKeys>& micro_keys() {
+  static const io::KeyTable<MicroKeys> t = [] {
+    io::KeyTable<MicroKeys> k("microstructure", "the periodic cell: a generated fiber section or an imported voxel image");
+    k.include(cell_keys(), &MicroKeys::cell)
+        .custom("grid", "integer or list of 2-3 integers",
+                "FFT grid: n (n x n section), [n1, n2] or [n1, n2, n3] (an extruded 3D cell); taken from an image",
+                [](const toml::node& n, const std::string& f, MicroKeys& m) {
+                  const io::Range r = io::closed_range(1, kMaxGridPoints);
+                  if (n.is_array()) {
+                    m.grid = io::read_ints<int>(n, f, r, 2, 3);
+                  } else {
+                    const int g = io::read_int<int>(n, f, r);
+                    m.grid = {g, g};
+                  }
+                },
+                "64", "each in [1, 65536]")
+        .number("fiber_angle_deg", &MicroKeys::fiber_angle_deg, io::any_value(), "deg",
+                "fiber axis in the 1-2 plane of the load frame, from e2 toward e1 (spec §7)")
+        .custom("image", "table", "[microstructure.image]: an HDF5 voxel image instead of a generated section",
+                [](const toml::node& n, const std::string& f, MicroKeys& m) { m.image = &io::read_table(n, f); }, "none");
+    return k;
+  }();
+  return t;
+}
+
+struct ImageKeys {
+  std::string file;
+  std::string dataset = "/phase";
+  std::optional<long long> matrix_id, fiber_id;
+  std::string normal_dataset, direction_dataset;
+  const toml::node* voxel_size = nullptr;
+  const toml::node* cell_size = nullptr;
+};
+
+const io::KeyTable<ImageKeys>& image_keys() {
+  using I = ImageKeys;
+  static const io::KeyTable<ImageKeys> t = [] {
+    io::KeyTable<ImageKeys> k("microstructure.image", "a voxel image from HDF5 (C order [n2][n1] or [n3][n2][n1])");
+    auto id = [](std::optional<long long> I::*member) {
+      return [member](const toml::node& n, const std::string& f, I& i) { i.*member = io::read_int<long long>(n, f); };
+    };
+    auto node_of = [](const toml::node* I::*member) { return [member](const toml::node& n, const std::string&, I& i) { i.*member = &n; }; };
+    k.text("file", &I::file, "HDF5 file, relative to the scene file").required()
+        .text("dataset", &I::dataset, "integer dataset: phase ids; floating point: fiber fractions in [0, 1]")
+        .custom("matrix_id", "integer", "phase id of the matrix (integer datasets)", id(&I::matrix_id), "0")
+        .custom("fiber_id", "integer", "phase id of the fiber (integer datasets)", id(&I::fiber_id), "1")
+        .text("normal_dataset", &I::normal_dataset, "interface normals (dims + [3]); non-zero in composite voxels")
+        .default_text("\"\" (estimated from the fractions)")
+        .text("direction_dataset", &I::direction_dataset, "per-voxel fiber direction (grid frame, dims + [3]); non-zero in fiber")
+        .default_text("\"\" (y3)")
+        .custom("voxel_size", "number or [x, y, z]", "voxel size", node_of(&I::voxel_size), "the dataset attribute, else L1 = 1", "> 0", "length")
+        .custom("cell_size", "number or [x, y, z]", "cell size (a number: L1, cubic voxels)", node_of(&I::cell_size),
+                "the dataset attribute, else L1 = 1", "> 0", "length")
+        .renamed("size");
+    return k;
+  }();
+  return t;
 }
 
 }  // namespace
 
 rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p, std::string& geometry_note) {
-  io::check_keys(img, p, {"file", "dataset", "matrix_id", "fiber_id", "normal_dataset", "direction_dataset", "voxel_size",
-                          "cell_size", "size"});
-  std::filesystem::path file = io::get_string_or(img, "file", p, "");
-  if (file.empty()) throw InputError(p + ".file", "", "missing: the HDF5 file of the phase image");
+  ImageKeys keys;
+  image_keys().read(img, p, keys);
+  std::filesystem::path file = keys.file;
+  if (file.empty()) throw InputError(p + ".file", "\"\"", "missing: the HDF5 file of the phase image");
   // Relative paths are relative to the scene file (when the scene came from a file).
   if (file.is_relative() && img.source().path && !img.source().path->empty())
     file = std::filesystem::path(*img.source().path).parent_path() / file;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(file, ec)) throw InputError(p + ".file", file.string(), "no such file");
-  const std::string dataset = io::get_string_or(img, "dataset", p, "/phase");
+  const std::string& dataset = keys.dataset;
   const io::Dataset d = read_image_dataset(file, dataset, p + ".dataset");
 
   rve::PhaseImage im;
   // C order: [n3][n2][n1] or [n2][n1] → i1 fastest, as in PhaseImage.
+  for (std::size_t k : d.dims)
+    if (k == 0 || k > std::size_t(kMaxGridPoints))
+      throw InputError(p + ".dataset", dataset + " " + dims_string(d.dims), "dimensions must lie in [1, 65536]");
   if (d.dims.size() == 2) im.n = {int(d.dims[1]), int(d.dims[0]), 1};
   else if (d.dims.size() == 3) im.n = {int(d.dims[2]), int(d.dims[1]), int(d.dims[0])};
   else throw InputError(p + ".dataset", dataset + " " + dims_string(d.dims), "must be 2D [n2][n1] (a section) or 3D [n3][n2][n1]");
-  for (std::size_t k : d.dims)
-    if (k == 0) throw InputError(p + ".dataset", dataset + " " + dims_string(d.dims), "has an empty dimension");
 
   // Integer datasets hold phase ids; floating-point datasets hold fiber volume fractions in [0, 1].
   im.fiber_fraction.resize(d.values.size());
   if (d.integer) {
-    const double matrix_id = io::get_number_or(img, "matrix_id", p, 0.0), fiber_id = io::get_number_or(img, "fiber_id", p, 1.0);
-    if (matrix_id == fiber_id) throw InputError(p + ".fiber_id", std::to_string(int(fiber_id)), "must differ from matrix_id");
+    const long long matrix_id = keys.matrix_id.value_or(0), fiber_id = keys.fiber_id.value_or(1);
+    if (matrix_id == fiber_id) throw InputError(p + ".fiber_id", std::to_string(fiber_id), "must differ from matrix_id");
     for (std::size_t v = 0; v < d.values.size(); ++v) {
       const double id = d.values[v];
-      if (id == matrix_id) im.fiber_fraction[v] = 0.0;
-      else if (id == fiber_id) im.fiber_fraction[v] = 1.0;
+      if (id == double(matrix_id)) im.fiber_fraction[v] = 0.0;
+      else if (id == double(fiber_id)) im.fiber_fraction[v] = 1.0;
       else
-        throw InputError(p + ".dataset", "phase id " + std::to_string(static_cast<long long>(id)) + " at " + voxel_string(im, v),
-                         "unknown phase id (matrix_id = " + std::to_string(int(matrix_id)) + ", fiber_id = " +
-                             std::to_string(int(fiber_id)) + ")");
+        throw InputError(p + ".dataset", "phase id " + format_number(id) + " at " + voxel_string(im, v),
+                         "unknown phase id (matrix_id = " + std::to_string(matrix_id) + ", fiber_id = " +
+                             std::to_string(fiber_id) + ")");
     }
   } else {
-    if (img.contains("matrix_id") || img.contains("fiber_id"))
-      throw InputError(p + (img.contains("matrix_id") ? ".matrix_id" : ".fiber_id"), dataset,
+    if (keys.matrix_id || keys.fiber_id)
+      throw InputError(p + (keys.matrix_id ? ".matrix_id" : ".fiber_id"), dataset,
                        "phase ids need an integer dataset (this one holds floating-point fiber fractions)");
     for (std::size_t v = 0; v < d.values.size(); ++v) {
       const double f = d.values[v];
       if (!(f >= 0.0 && f <= 1.0))
-        throw InputError(p + ".dataset", std::to_string(f) + " at " + voxel_string(im, v),
+        throw InputError(p + ".dataset", format_number(f) + " at " + voxel_string(im, v),
                          "fiber fractions must lie in [0, 1] (store phase ids as an integer dataset)");
       im.fiber_fraction[v] = f;
     }
@@ -144,18 +267,19 @@ rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p,
 
   // Voxel size: scene key voxel_size or cell_size, else the dataset's attribute of the same names (as
   // written by `softhom rve` with microstructure_only), else cubic voxels with L1 = 1.
-  const bool has_voxel = img.contains("voxel_size"), has_cell = img.contains("cell_size") || img.contains("size");
-  if (has_voxel && has_cell) throw InputError(p + ".cell_size", "", "give either voxel_size or cell_size, not both");
+  if (keys.voxel_size && keys.cell_size) throw InputError(p + ".cell_size", "", "give either voxel_size or cell_size, not both");
   std::array<double, 3> h{1.0 / im.n[0], 1.0 / im.n[0], 1.0 / im.n[0]};
   auto from_cell = [&](const std::array<double, 3>& L) {
     for (int k = 0; k < 3; ++k) h[k] = L[k] / im.n[k];
   };
-  if (has_voxel) h = triple_of(numbers_of(*img.get("voxel_size"), p + ".voxel_size"), p + ".voxel_size");
-  else if (has_cell) {
-    const std::string key = img.contains("cell_size") ? "cell_size" : "size";
-    const std::vector<double> L = numbers_of(*img.get(key), p + "." + key);
-    if (L.size() == 1) h = triple_of({L[0] / im.n[0]}, p + "." + key);  // L1; cubic voxels
-    else from_cell(triple_of(L, p + "." + key));
+  if (keys.voxel_size) {
+    h = triple_of(*keys.voxel_size, p + ".voxel_size");
+  } else if (keys.cell_size) {
+    if (keys.cell_size->is_array()) from_cell(triple_of(*keys.cell_size, p + ".cell_size"));
+    else {
+      const double L1 = io::read_number(*keys.cell_size, p + ".cell_size", io::above(0.0));
+      h = {L1 / im.n[0], L1 / im.n[0], L1 / im.n[0]};  // L1; cubic voxels
+    }
   } else if (auto it = d.attributes.find("voxel_size"); it != d.attributes.end()) {
     h = triple_of(it->second, p + ".dataset attribute voxel_size");
   } else if (auto it2 = d.attributes.find("cell_size"); it2 != d.attributes.end()) {
@@ -163,41 +287,55 @@ rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p,
   }
   for (int k = 0; k < 3; ++k) im.size[k] = h[k] * im.n[k];
 
-  // Interface normals of composite voxels (optional; without them the solver estimates −∇φ).
-  if (const std::string normals = io::get_string_or(img, "normal_dataset", p, ""); !normals.empty()) {
-    if (d.integer) throw InputError(p + ".normal_dataset", normals, "normals apply to fiber-fraction images only");
-    im.normal = read_vector_field(file, normals, p + ".normal_dataset", d.dims, im, [](std::size_t) { return true; });
+  // Interface normals of composite voxels (optional; without them the solver estimates −∇φ). The
+  // laminate rule needs a normal in every composite voxel (0 < fraction < 1).
+  if (!keys.normal_dataset.empty()) {
+    if (d.integer) throw InputError(p + ".normal_dataset", keys.normal_dataset, "normals apply to fiber-fraction images only");
+    im.normal = read_vector_field(file, keys.normal_dataset, p + ".normal_dataset", d.dims, im,
+                                  [&](std::size_t v) { return im.fiber_fraction[v] == 0.0 || im.fiber_fraction[v] == 1.0; },
+                                  "in every composite voxel, 0 < fraction < 1");
   }
   // Per-voxel fiber direction (grid frame): required non-zero wherever there is fiber.
-  if (const std::string dirs = io::get_string_or(img, "direction_dataset", p, ""); !dirs.empty())
-    im.fiber_direction = read_vector_field(file, dirs, p + ".direction_dataset", d.dims, im,
-                                           [&](std::size_t v) { return im.fiber_fraction[v] == 0.0; });
+  if (!keys.direction_dataset.empty())
+    im.fiber_direction = read_vector_field(file, keys.direction_dataset, p + ".direction_dataset", d.dims, im,
+                                           [&](std::size_t v) { return im.fiber_fraction[v] == 0.0; }, "wherever there is fiber");
   geometry_note = "imported " + file.string() + ":" + dataset + (d.integer ? " (phase ids)" : " (fiber fractions)");
   return im;
 }
 
 namespace {
 
+/// A random cell's fibers must each cover kMinPixelsPerFiber pixels of the section grid.
+void check_fiber_count(const rve::FiberCellSpec& spec, const std::vector<int>& n, const std::string& p) {
+  if (spec.arrangement != rve::Arrangement::random) return;
+  const double pixels = spec.volume_fraction * double(n[0]) * double(n[1]) / spec.fiber_count;
+  if (pixels < kMinPixelsPerFiber)
+    throw InputError(p + ".fiber_count", std::to_string(spec.fiber_count),
+                     "too many fibers for the grid: each would cover " + format_number(pixels) + " pixels of the " +
+                         std::to_string(n[0]) + " x " + std::to_string(n[1]) + " section, at least 4 are needed (at most " +
+                         std::to_string(int(spec.volume_fraction * n[0] * n[1] / kMinPixelsPerFiber)) + " fibers)");
+}
+
 /// The phase image (grid frame) of [microstructure]; `target_vf` is the requested fraction.
-rve::PhaseImage build_phase_image_impl(const toml::table& t, double& target_vf, std::string& geometry_note) {
+rve::PhaseImage phase_image_of(const toml::table& t, const MicroKeys& m, bool grid_given, double& target_vf,
+                               std::string& geometry_note) {
   const std::string p = "microstructure";
-  io::check_keys(t, p, {"shape", "arrangement", "volume_fraction", "radius", "width", "height", "cell_size",
-                        "section_rotation_deg", "fiber_count", "min_gap", "seed", "fiber_angle_deg", "grid", "image"});
-  const std::vector<int> n = grid_of(t, p);
-  if (const auto* img = t["image"].as_table()) {
-    rve::PhaseImage im = import_phase_image(*img, p + ".image", geometry_note);
+  const std::vector<int>& n = m.grid;
+  if (m.image) {
+    rve::PhaseImage im = import_phase_image(*m.image->as_table(), p + ".image", geometry_note);
     // An explicit grid must agree with the image (it is otherwise taken from the image).
-    if (t.contains("grid")) {
+    if (grid_given) {
       const std::array<int, 3> g{n[0], n[1], n.size() == 3 ? n[2] : 1};
       if (g != im.n)
-        throw InputError(p + ".grid", "[" + std::to_string(g[0]) + ", " + std::to_string(g[1]) + ", " + std::to_string(g[2]) + "]",
+        throw InputError(p + ".grid", io::describe_value(*t.get("grid")),
                          "contradicts the image grid [" + std::to_string(im.n[0]) + ", " + std::to_string(im.n[1]) + ", " +
                              std::to_string(im.n[2]) + "] (omit grid with an image)");
     }
     target_vf = im.volume_fraction();
     return im;
   }
-  target_vf = io::get_number_or(t, "volume_fraction", p, 0.0);
+  const rve::FiberCellSpec spec = cell_spec(m.cell);
+  target_vf = spec.volume_fraction;
   if (target_vf == 0.0) {
     rve::PhaseImage im;
     im.n = {n[0], n[1], n.size() == 3 ? n[2] : 1};
@@ -207,106 +345,248 @@ rve::PhaseImage build_phase_image_impl(const toml::table& t, double& target_vf, 
     geometry_note = "matrix only";
     return im;
   }
-  std::string label;
-  const rve::FiberCellSpec spec = parse_fiber_cell_spec(t, p, label);
+  check_fiber_count(spec, n, p);
   const rve::Section section = rve::generate_section(spec, p);
-  // Square pixels: n2 follows the cell aspect ratio when only n1 matters.
-  rve::PhaseImage im = rve::voxelize_section(section, n[0], n[1]);
-  if (n.size() == 3 && n[2] > 1) im = rve::extrude(im, n[2]);
-  geometry_note = label + ", cell " + std::to_string(section.L1) + " x " +
-                  std::to_string(section.L2);
+  rve::PhaseImage im;
+  try {
+    im = rve::voxelize_section(section, n[0], n[1]);
+    if (n.size() == 3 && n[2] > 1) im = rve::extrude(im, n[2]);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(p + ".grid", io::describe_value(*t.get("grid")), e.what());
+  }
+  geometry_note = m.cell.shape + " fibers, " + arrangement_choices().name_of(spec.arrangement) + " arrangement, cell " +
+                  std::to_string(section.L1) + " x " + std::to_string(section.L2);
   return im;
+}
+
+MicroKeys read_micro(const toml::table& t, bool& grid_given) {
+  MicroKeys m;
+  grid_given = micro_keys().read(t, "microstructure", m).count("grid") > 0;
+  return m;
 }
 
 }  // namespace
 
 rve::FiberCellSpec parse_fiber_cell_spec(const toml::table& t, const std::string& p, std::string& label) {
-  rve::FiberCellSpec spec;
-  spec.volume_fraction = io::get_number_or(t, "volume_fraction", p, 0.0);
-  const std::string shape = io::get_string_or(t, "shape", p, "circle");
-  if (shape == "circle") spec.shape = rve::SectionShape::circle;
-  else if (shape == "rectangle" || shape == "square") spec.shape = rve::SectionShape::rectangle;
-  else throw InputError(p + ".shape", shape, "circle, rectangle or square");
-  const std::string arr = io::get_string_or(t, "arrangement", p, "square");
-  if (arr == "square") spec.arrangement = rve::Arrangement::square;
-  else if (arr == "hexagonal") spec.arrangement = rve::Arrangement::hexagonal;
-  else if (arr == "random") spec.arrangement = rve::Arrangement::random;
-  else throw InputError(p + ".arrangement", arr, "square, hexagonal or random");
-  spec.radius = io::get_number_or(t, "radius", p, 0.0);
-  spec.width = io::get_number_or(t, "width", p, 0.0);
-  spec.height = io::get_number_or(t, "height", p, shape == "square" ? spec.width : 0.0);
-  if (t.contains("cell_size")) spec.cell_size = io::get_number(t, "cell_size", p);
-  spec.section_rotation_deg = io::get_number_or(t, "section_rotation_deg", p, 0.0);
-  spec.fiber_count = int(io::get_number_or(t, "fiber_count", p, 1));
-  spec.min_gap = io::get_number_or(t, "min_gap", p, 0.0);
-  spec.seed = std::uint64_t(io::get_number_or(t, "seed", p, 1));
-  label = shape + " fibers, " + arr + " arrangement";
-  return spec;
+  CellKeys c;
+  cell_keys().read_declared(t, p, c);  // the caller refuses keys of no declaration
+  label = c.shape + " fibers, " + arrangement_choices().name_of(c.spec.arrangement) + " arrangement";
+  return cell_spec(c);
+}
+
+double microstructure_fiber_angle(const toml::table& t) {
+  bool grid_given = false;
+  return read_micro(t, grid_given).fiber_angle_deg;
 }
 
 rve::PhaseImage build_phase_image(const toml::table& t, double& target_vf, std::string& geometry_note) {
-  return build_phase_image_impl(t, target_vf, geometry_note);
+  bool grid_given = false;
+  const MicroKeys m = read_micro(t, grid_given);
+  return phase_image_of(t, m, grid_given, target_vf, geometry_note);
 }
 
-rve::FftSolverOptions parse_fft_solver_options(const toml::table& scene, std::filesystem::path& wisdom) {
-  rve::FftSolverOptions o;
-  const auto* t = scene["solver"].as_table();
-  if (!t) return o;
-  const std::string p = "solver";
-  io::check_keys(*t, p, {"discretization", "scheme", "reference", "tolerance", "krylov_tolerance", "max_newton_iterations",
-                         "max_krylov_iterations", "max_fixed_point_iterations", "max_cutbacks", "max_continuation_iterations", "indefinite_solver", "minres_below", "minres_fallback", "krylov_operator", "tangent_precision", "fftw", "fftw_wisdom", "mixed_pressure"});
-  const std::string d = io::get_string_or(*t, "discretization", p, "rotated");
-  try {
-    o.discretization = fft::parse_discretization(d);
-  } catch (const std::invalid_argument&) {
-    throw InputError(p + ".discretization", d, "spectral, rotated or hex");
+// --- Files a run writes -------------------------------------------------------------------------------
+
+std::filesystem::path user_cache_dir() {
+  const char* xdg = std::getenv("XDG_CACHE_HOME");
+  if (xdg && *xdg && std::filesystem::path(xdg).is_absolute()) return std::filesystem::path(xdg) / "softhom";
+  const char* home = std::getenv("HOME");
+  return std::filesystem::path(home && *home ? home : "/tmp") / ".cache" / "softhom";
+}
+
+namespace {
+
+bool inside(const std::filesystem::path& p, const std::filesystem::path& dir) {
+  const auto rel = p.lexically_relative(dir);
+  return !rel.empty() && *rel.begin() != "..";
+}
+
+}  // namespace
+
+std::filesystem::path resolve_run_file(const std::string& written, const std::filesystem::path& out, const std::string& field) {
+  if (written.empty()) return {};
+  const std::filesystem::path cache = user_cache_dir().lexically_normal();
+  const std::filesystem::path base = out.empty() ? cache : std::filesystem::absolute(out).lexically_normal();
+  const std::filesystem::path p(written);
+  const std::string where = out.empty() ? "the cache " + cache.string()
+                                        : "--out (" + base.string() + ") or the cache " + cache.string();
+  if (p.is_relative()) {
+    const std::filesystem::path resolved = (base / p).lexically_normal();
+    if (!inside(resolved, base))
+      throw InputError(field, "\"" + written + "\"", "escapes " + base.string() + " (files a run writes stay under " + where + ")");
+    return resolved;
   }
-  const std::string s = io::get_string_or(*t, "scheme", p, "newton-cg");
-  if (s == "newton-cg") o.scheme = rve::FftScheme::newton_cg;
-  else if (s == "moulinec-suquet") o.scheme = rve::FftScheme::moulinec_suquet;
-  else throw InputError(p + ".scheme", s, "newton-cg or moulinec-suquet");
-  const std::string r = io::get_string_or(*t, "reference", p, "mean-tangent");
-  if (r == "mean-tangent") o.reference = rve::ReferenceMedium::mean_tangent;
-  else if (r == "isotropic") o.reference = rve::ReferenceMedium::isotropic;
-  else if (r == "geometric") o.reference = rve::ReferenceMedium::geometric;
-  else throw InputError(p + ".reference", r, "mean-tangent, geometric or isotropic");
-  o.tolerance = io::get_number_or(*t, "tolerance", p, o.tolerance);
-  if (!(o.tolerance > 0 && o.tolerance < 1)) throw InputError(p + ".tolerance", std::to_string(o.tolerance), "must lie in (0, 1)");
-  o.krylov_tolerance = io::get_number_or(*t, "krylov_tolerance", p, o.krylov_tolerance);
-  o.max_newton_iterations = int(io::get_number_or(*t, "max_newton_iterations", p, o.max_newton_iterations));
-  o.max_krylov_iterations = int(io::get_number_or(*t, "max_krylov_iterations", p, o.max_krylov_iterations));
-  o.max_fixed_point_iterations = int(io::get_number_or(*t, "max_fixed_point_iterations", p, o.max_fixed_point_iterations));
-  o.max_cutbacks = int(io::get_number_or(*t, "max_cutbacks", p, o.max_cutbacks));
-  o.max_continuation_iterations =
-      int(io::get_number_or(*t, "max_continuation_iterations", p, o.max_continuation_iterations));
-  if (o.max_continuation_iterations < 0)
-    throw InputError(p + ".max_continuation_iterations", std::to_string(o.max_continuation_iterations), "must be >= 0");
-  const std::string kop = io::get_string_or(*t, "krylov_operator", p, "stencil");
-  if (kop == "stencil") o.krylov_operator = rve::KrylovOperator::stencil;
-  else if (kop == "fourier") o.krylov_operator = rve::KrylovOperator::fourier;
-  else throw InputError(p + ".krylov_operator", kop, "stencil or fourier");
-  const std::string tp = io::get_string_or(*t, "tangent_precision", p, rve::to_string(o.tangent_precision));
-  if (tp == "double") o.tangent_precision = rve::TangentPrecision::double_precision;
-  else if (tp == "single") o.tangent_precision = rve::TangentPrecision::single_precision;
-  else throw InputError(p + ".tangent_precision", tp, "double or single");
-  const std::string ind = io::get_string_or(*t, "indefinite_solver", p, "minres");
-  if (ind == "minres") o.indefinite_solver = rve::IndefiniteSolver::minres;
-  else if (ind == "shift") o.indefinite_solver = rve::IndefiniteSolver::shift;
-  else throw InputError(p + ".indefinite_solver", ind, "minres or shift");
-  o.minres_below = io::get_number_or(*t, "minres_below", p, o.minres_below);
-  o.minres_fallback = io::get_bool_or(*t, "minres_fallback", p, o.minres_fallback);
-  if (!(o.minres_below >= 0.0)) throw InputError(p + ".minres_below", std::to_string(o.minres_below), "must be >= 0");
-  o.mixed_pressure = io::get_bool_or(*t, "mixed_pressure", p, o.mixed_pressure);
-  if (o.max_newton_iterations < 1) throw InputError(p + ".max_newton_iterations", "", "must be >= 1");
-  if (o.max_cutbacks < 0) throw InputError(p + ".max_cutbacks", "", "must be >= 0");
-  const std::string f = io::get_string_or(*t, "fftw", p, "measure");
-  if (f == "estimate") o.plan.rigor = fft::PlanRigor::estimate;
-  else if (f == "measure") o.plan.rigor = fft::PlanRigor::measure;
-  else if (f == "patient") o.plan.rigor = fft::PlanRigor::patient;
-  else throw InputError(p + ".fftw", f, "estimate, measure or patient");
-  wisdom = io::get_string_or(*t, "fftw_wisdom", p, "");
+  const std::filesystem::path normal = p.lexically_normal();
+  if (inside(normal, cache) || (!out.empty() && inside(normal, base))) return normal;
+  throw InputError(field, "\"" + written + "\"", "outside " + where + " (files a run writes stay there; a relative path is relative to " +
+                                                     (out.empty() ? std::string("the cache") : std::string("--out")) + ")");
+}
+
+rve::FftSolverOptions parse_fft_solver_options(const toml::table& scene, std::filesystem::path& wisdom,
+                                               const std::filesystem::path& out) {
+  rve::FftSolverOptions o;
+  rve::fft_solver_keys().read_optional(scene.get("solver"), "solver", o);
+  wisdom = resolve_run_file(o.plan.wisdom_file.string(), out, "solver.fftw_wisdom");
   o.plan.wisdom_file = wisdom;
   return o;
+}
+
+// --- [output] ---------------------------------------------------------------------------------------
+
+namespace {
+
+const io::KeyTable<RveOutputSettings>& output_keys() {
+  static const io::KeyTable<RveOutputSettings> t = [] {
+    io::KeyTable<RveOutputSettings> k("output", "what a run writes besides response.csv and summary.json");
+    k.custom("fields", "choice or list of times",
+             "full fields (XDMF/HDF5): \"none\", \"last\" (the final step), \"all\" or a list of output times of the load path",
+             [](const toml::node& n, const std::string& f, RveOutputSettings& o) {
+               if (n.is_array()) {
+                 o.fields_mode = "times";
+                 o.field_times = io::read_numbers(n, f, io::at_least(0.0));
+                 return;
+               }
+               static const io::Choices<int> modes{{{"none", 0}, {"last", 1}, {"all", 2}}, {}};
+               o.fields_mode = modes.name_of(io::read_choice(n, f, modes));
+             },
+             "\"last\"", "\"none\", \"last\", \"all\" or [t, ...]")
+        .flag("microstructure_only", &RveOutputSettings::microstructure_only,
+              "write the cell (microstructure.h5/.xdmf, or the FE mesh) and stop; [load] is not needed");
+    return k;
+  }();
+  return t;
+}
+
+}  // namespace
+
+RveOutputSettings parse_rve_output(const toml::table& scene, const MixedControl* control) {
+  RveOutputSettings o;
+  output_keys().read_optional(scene.get("output"), "output", o);
+  if (control && o.fields_mode == "times") {
+    const double t_end = control->times.back();
+    for (std::size_t i = 0; i < o.field_times.size(); ++i) {
+      const double t = o.field_times[i];
+      const std::string f = io::index_field("output.fields", i);
+      if (t > t_end * (1.0 + 1e-12))
+        throw InputError(f, format_number(t), "after the end of the load path (t_end = " + format_number(t_end) + ")");
+      double nearest = 0.0;
+      for (double s : control->times)
+        if (std::abs(s - t) < std::abs(nearest - t)) nearest = s;
+      if (std::abs(nearest - t) > 1e-9 * std::max(1.0, t_end))
+        throw InputError(f, format_number(t), "not an output time of the load path (nearest: " + format_number(nearest) + ")");
+    }
+  }
+  return o;
+}
+
+// --- The scene ----------------------------------------------------------------------------------------
+
+namespace {
+
+struct RveTop {
+  std::string description;
+  const toml::table* microstructure = nullptr;
+  const toml::table* phases = nullptr;
+  const toml::table* load = nullptr;
+};
+
+const io::KeyTable<RveTop>& rve_top_keys() {
+  static const io::KeyTable<RveTop> t = [] {
+    io::KeyTable<RveTop> k("", "the tables of an RVE scene");
+    auto table_of = [](const toml::table* RveTop::*member) {
+      return [member](const toml::node& n, const std::string& f, RveTop& r) { r.*member = &io::read_table(n, f); };
+    };
+    auto any_table = [](const toml::node& n, const std::string& f, RveTop&) { io::read_table(n, f); };
+    k.text("description", &RveTop::description, "what the scene is for (copied to summary.json)")
+        .custom("microstructure", "table", "[microstructure]: the cell", table_of(&RveTop::microstructure), "required")
+        .custom("phases", "table", "[phases.matrix], [phases.fiber]: material tables", table_of(&RveTop::phases), "required")
+        .custom("load", "table", "[load]: the load path (not with microstructure_only)", table_of(&RveTop::load), "required")
+        .custom("solver", "table", "[solver]: engine and its settings", any_table, "defaults")
+        .custom("output", "table", "[output]: fields and microstructure output", any_table, "defaults");
+    return k;
+  }();
+  return t;
+}
+
+struct PhaseKeys {
+  const toml::table* matrix = nullptr;
+  const toml::table* fiber = nullptr;
+};
+
+const io::KeyTable<PhaseKeys>& phase_keys() {
+  static const io::KeyTable<PhaseKeys> t = [] {
+    io::KeyTable<PhaseKeys> k("phases", "the two phases (material tables, see [material] of softhom point)");
+    k.custom("matrix", "table", "[phases.matrix]: the matrix material",
+             [](const toml::node& n, const std::string& f, PhaseKeys& p) { p.matrix = &io::read_table(n, f); }, "required")
+        .custom("fiber", "table", "[phases.fiber]: the fiber material (required when the cell has fibers)",
+                [](const toml::node& n, const std::string& f, PhaseKeys& p) { p.fiber = &io::read_table(n, f); }, "the matrix");
+    return k;
+  }();
+  return t;
+}
+
+}  // namespace
+
+RvePhases parse_rve_phases(const toml::table& scene) {
+  RveTop top;
+  rve_top_keys().read(scene, "", top);
+  if (!top.phases) throw InputError("phases", "", "missing [phases] table ([phases.matrix], [phases.fiber])");
+  PhaseKeys keys;
+  phase_keys().read(*top.phases, "phases", keys);
+  if (!keys.matrix) throw InputError("phases.matrix", "", "missing");
+  RvePhases p;
+  p.matrix = build_material(parse_material(*keys.matrix, "phases.matrix"));
+  p.has_fiber = keys.fiber != nullptr;
+  p.fiber = keys.fiber ? build_material(parse_material(*keys.fiber, "phases.fiber")) : p.matrix;
+  return p;
+}
+
+const toml::table& rve_microstructure(const toml::table& scene) {
+  RveTop top;
+  rve_top_keys().read(scene, "", top);
+  if (!top.microstructure) throw InputError("microstructure", "", "missing [microstructure] table");
+  return *top.microstructure;
+}
+
+MixedControl parse_rve_load(const toml::table& scene) {
+  RveTop top;
+  rve_top_keys().read(scene, "", top);
+  if (!top.load) throw InputError("load", "", "missing [load] table");
+  return parse_load(*top.load, "load");
+}
+
+RveSceneSetup parse_rve_scene(const toml::table& scene, bool with_load, const std::filesystem::path& out) {
+  const toml::table& micro = rve_microstructure(scene);
+  RveSceneSetup s;
+  const RvePhases phases = parse_rve_phases(scene);
+  s.matrix = phases.matrix;
+  s.fiber = phases.fiber;
+  bool grid_given = false;
+  const MicroKeys m = read_micro(micro, grid_given);
+  s.image = phase_image_of(micro, m, grid_given, s.target_vf, s.geometry_note);
+  if (s.target_vf > 0.0 && !phases.has_fiber) throw InputError("phases.fiber", "", "missing (the cell has fibers)");
+  // Per-voxel fiber directions only steer the fiber-rotation measure: the solver has no per-voxel
+  // material frames, so phases with fiber families of their own would silently ignore them.
+  if (!s.image.fiber_direction.empty() && (!s.matrix->fiber_directions().empty() || !s.fiber->fiber_directions().empty()))
+    throw InputError("microstructure.image.direction_dataset", "", "per-voxel fiber directions need isotropic phases (a phase has fiber families)");
+  s.fiber_angle_deg = m.fiber_angle_deg;
+  if (with_load) s.control = parse_rve_load(scene);
+  s.output = parse_rve_output(scene, with_load ? &s.control : nullptr);
+  std::filesystem::path wisdom;
+  s.solver = parse_fft_solver_options(scene, wisdom, out);
+  return s;
+}
+
+std::vector<io::TableDoc> rve_common_tables() {
+  std::vector<io::TableDoc> t{rve_top_keys().describe()};
+  t.front().path = "(top level)";
+  t.push_back(micro_keys().describe());
+  t.push_back(image_keys().describe());
+  t.push_back(phase_keys().describe());
+  for (auto& d : material_tables("phases.<name>")) t.push_back(d);
+  for (auto& d : load_tables("load")) t.push_back(d);
+  t.push_back(output_keys().describe());
+  return t;
 }
 
 std::vector<std::string> rve_response_columns() {
@@ -349,36 +629,6 @@ std::vector<double> rve_response_row(const rve::RveStep& s) {
   r.push_back(s.krylov_iterations);
   r.push_back(s.substeps);
   return r;
-}
-
-RveSceneSetup parse_rve_scene(const toml::table& scene, bool with_load) {
-  io::check_keys(scene, "", {"description", "microstructure", "phases", "load", "solver", "output"});
-  const auto* micro = scene["microstructure"].as_table();
-  if (!micro) throw InputError("microstructure", "", "missing [microstructure] table");
-  const auto* phases = scene["phases"].as_table();
-  if (!phases) throw InputError("phases", "", "missing [phases] table ([phases.matrix], [phases.fiber])");
-  io::check_keys(*phases, "phases", {"matrix", "fiber"});
-  const auto* matrix_table = (*phases)["matrix"].as_table();
-  if (!matrix_table) throw InputError("phases.matrix", "", "missing");
-  RveSceneSetup s;
-  s.matrix = build_material(io::parse_material(*matrix_table, "phases.matrix"));
-  const auto* fiber_table = (*phases)["fiber"].as_table();
-  s.fiber = fiber_table ? build_material(io::parse_material(*fiber_table, "phases.fiber")) : s.matrix;
-  s.image = build_phase_image(*micro, s.target_vf, s.geometry_note);
-  if (s.target_vf > 0.0 && !fiber_table) throw InputError("phases.fiber", "", "missing (the cell has fibers)");
-  // Per-voxel fiber directions only steer the fiber-rotation measure: the solver has no per-voxel
-  // material frames, so phases with fiber families of their own would silently ignore them.
-  if (!s.image.fiber_direction.empty() && (!s.matrix->fiber_directions().empty() || !s.fiber->fiber_directions().empty()))
-    throw InputError("microstructure.image.direction_dataset", "", "per-voxel fiber directions need isotropic phases (a phase has fiber families)");
-  s.fiber_angle_deg = io::get_number_or(*micro, "fiber_angle_deg", "microstructure", 0.0);
-  if (with_load) {
-    const auto* load_table = scene["load"].as_table();
-    if (!load_table) throw InputError("load", "", "missing [load] table");
-    s.control = io::parse_load(*load_table, "load");
-  }
-  std::filesystem::path wisdom;
-  s.solver = parse_fft_solver_options(scene, wisdom);
-  return s;
 }
 
 }  // namespace softhom::studies

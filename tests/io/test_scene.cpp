@@ -64,7 +64,7 @@ TEST(Scene, MixedControlParses) {
 }
 
 TEST(Scene, ErrorsNameTheField) {
-  EXPECT_NE(load_error("[material]\npreset = \"nope\"\n").find("material.preset = nope"), std::string::npos);
+  EXPECT_NE(load_error("[material]\npreset = \"nope\"\n").find("material.preset = \"nope\": unknown parameter set"), std::string::npos);
   EXPECT_NE(load_error("[material]\nlaw = \"gent\"\nG = 0.1\nJm = 3\n").find("material.K"), std::string::npos);
   EXPECT_NE(load_error("[material]\nlaw = \"gent\"\nG = \"a\"\nJm = 3\nK = 1\n").find("material.G = \"a\""),
             std::string::npos);
@@ -73,14 +73,15 @@ TEST(Scene, ErrorsNameTheField) {
                        "direction = [0, 0, 0]\nk1 = 1\nk2 = 1\n")
                 .find("material.fibers[0].direction"),
             std::string::npos);
-  // Fiber dispersion κ outside [0, 1/3], given per family or as the material-wide default.
+  // Fiber dispersion κ outside [0, 1/3], given per family or as the material-wide default (refused
+  // where it is written).
   EXPECT_NE(load_error("[material]\nlaw = \"gent\"\nG = 0.1\nJm = 3\nK = 1\nfiber_invariant = \"full\"\n[[material.fibers]]\n"
                        "angle_deg = 30\nk1 = 1\nk2 = 1\nkappa = 0.5\n")
                 .find("material.fibers[0].kappa = 0.5"),
             std::string::npos);
   EXPECT_NE(load_error("[material]\nlaw = \"gent\"\nG = 0.1\nJm = 3\nK = 1\nkappa = -0.1\nfiber_invariant = \"full\"\n"
                        "[[material.fibers]]\nangle_deg = 30\nk1 = 1\nk2 = 1\n")
-                .find("material.fibers[0].kappa = -0.1"),
+                .find("material.kappa = -0.1: must lie in [0, 0.3333333333333333]"),
             std::string::npos);
   EXPECT_NE(load_error("[load]\ntype = \"uniaxial\"\nstretch = [[0, 1], [0, 2]]\n").find("load.stretch[1][0]"),
             std::string::npos);
@@ -88,4 +89,57 @@ TEST(Scene, ErrorsNameTheField) {
                        "F = [[1.5, 0, 0], [0, \"free\", \"free\"], [0, \"free\", \"free\"]]\n")
                 .find("rigid rotation"),
             std::string::npos);
+}
+
+TEST(Scene, LawParametersComeFromTheLawTable) {
+  // A key of another law names the chosen law's own parameters (from law_table()).
+  EXPECT_NE(load_error("[material]\nlaw = \"yeoh\"\nC1 = 0.1\nK = 10\nG = 1\n")
+                .find("material.G = 1: not a parameter of the Yeoh law (its parameters: C1, C2, C3, K)"),
+            std::string::npos);
+  EXPECT_NE(load_error("[material]\nlaw = \"gent\"\nG = 0.1\nJm = 3\nK = 1\nform = \"lame-log\"\n").find("material.form"),
+            std::string::npos);
+  // The declared range refuses the value as written.
+  EXPECT_NE(load_error("[material]\nlaw = \"gent\"\nG = -1e-300\nJm = 3\nK = 1\n").find("material.G = -1e-300: must be > 0"),
+            std::string::npos);
+  EXPECT_NE(load_error("[material]\nlaw = \"neo-hookean\"\nmu = 1\nK = 10\nE = 3\nnu = 0.3\n").find("give either (E, nu) or (mu, K)"),
+            std::string::npos);
+  EXPECT_NE(load_error("[material]\nlaw = \"gnet\"\n").find("(did you mean 'gent'?)"), std::string::npos);
+  EXPECT_NE(load_error("[material]\nlaw = \"gent\"\nGG = 1\n").find("material.GG = 1: unknown key (did you mean 'G'?)"),
+            std::string::npos);
+  // Every law's parameters are declared keys of a material table.
+  for (const auto& law : law_table())
+    for (const auto& p : law.parameters) {
+      bool documented = false;
+      for (const auto& k : material_tables("material").front().keys) documented |= k.name == p.name;
+      EXPECT_TRUE(documented) << law.name << "." << p.name;
+    }
+  // Values equal to the old parser's: E, nu → mu, K (exact formulas).
+  const auto t = io::parse_scene("[material]\nlaw = \"neo-hookean\"\nE = 3\nnu = 0.25\nform = \"lame-log\"\n", "x");
+  const MaterialSpec s = io::parse_material(*t["material"].as_table(), "material");
+  EXPECT_DOUBLE_EQ(s.neo_hookean.mu, 3.0 / 2.5);
+  EXPECT_DOUBLE_EQ(s.neo_hookean.K, 3.0 / 1.5);
+  EXPECT_EQ(s.neo_hookean.form, NeoHookeanForm::lame_log);
+}
+
+TEST(Scene, LoadPathsRefuseBadTimesAndSteps) {
+  EXPECT_NE(load_error("[load]\ntype = \"uniaxial\"\nstretch = [[0, 1], [nan, 2]]\n").find("load.stretch[1][0] = nan: must be a finite number"),
+            std::string::npos);
+  EXPECT_NE(load_error("[load]\ntype = \"uniaxial\"\nstretch = [[0, 1], [inf, 2]]\n").find("load.stretch[1][0] = inf"),
+            std::string::npos);
+  EXPECT_NE(load_error("[load]\ntype = \"uniaxial\"\nstretch = [[-1, 1], [1, 2]]\n").find("load.stretch[0][0] = -1: a load path starts at t = 0"),
+            std::string::npos);
+  EXPECT_NE(load_error("[load]\ntype = \"uniaxial\"\nstretch = 1.5\nduration = -2\n").find("load.duration = -2: must be > 0"),
+            std::string::npos);
+  EXPECT_NE(load_error("[load]\ntype = \"uniaxial\"\nstretch = 1.5\nsteps = 2e6\n").find("load.steps = 2e+06: must lie in [1, 1e+06]"),
+            std::string::npos);
+  EXPECT_NE(load_error("[load]\ntype = \"uniaxial\"\nstretch = 1.5\nsteps = 2.5\n").find("load.steps = 2.5: must be a whole number"),
+            std::string::npos);
+  EXPECT_NE(load_error("[load]\ntype = \"uniaxial\"\nstretch = 1.5\ndt = 1e-7\n").find("load.dt = 1e-07: more than 1e6"),
+            std::string::npos);
+  EXPECT_NE(load_error("[load]\ntype = \"pure_shear\"\nstretch = 1.5\n").find("load.type = \"pure_shear\": renamed to \"pure-shear\""),
+            std::string::npos);
+  EXPECT_NE(load_error("[load]\ntype = \"simple_shear\"\ngamma = 0.5\n").find("renamed to \"simple-shear\""), std::string::npos);
+  EXPECT_NE(load_error("[load]\ntype = \"uniaxial\"\nstretch = 1.5\ngamma = 0.5\n").find("load.gamma: not a key of load type \"uniaxial\""),
+            std::string::npos);
+  EXPECT_EQ(load_error("[load]\ntype = \"simple-shear\"\ngamma = 0.5\nsteps = 4\n"), "");
 }

@@ -261,7 +261,7 @@ TEST(Calibration, FailedModelEvaluationDoesNotCrash) {
   MaterialSpec s;
   s.law = LawKind::gent_hgo;
   s.gent = {0.02, 10.0, 2000.0, {}, FiberInvariant::full, true};
-  const std::string load = "type = \"simple_shear\"\ngamma = 0.5\nsteps = 16\n";
+  const std::string load = "type = \"simple-shear\"\ngamma = 0.5\nsteps = 16\n";
   {
     const PointRunResult r = run_material_point(*build_material(s), io::parse_load(parse(load), "load"));
     ASSERT_TRUE(r.completed);
@@ -436,7 +436,7 @@ TEST(Calibration, ModelQuantityNames) {
 TEST(Calibration, CurveFromRunDirectoryUsesItsLoad) {
   const fs::path dir = temp_dir("rundir");
   const std::string scene_text = "[material]\nlaw = \"gent\"\nG = 0.02\nJm = 10\nK = 2000\n"
-                                 "[load]\ntype = \"pure_shear\"\nstretch = [[0, 1], [1, 1.3]]\nsteps = 13\n";
+                                 "[load]\ntype = \"pure-shear\"\nstretch = [[0, 1], [1, 1.3]]\nsteps = 13\n";
   const toml::table scene = parse(scene_text);
   const MaterialPtr m = build_material(io::parse_material(*scene["material"].as_table(), "material"));
   const PointRunResult r = run_material_point(*m, io::parse_load(*scene["load"].as_table(), "load"));

@@ -30,6 +30,7 @@
 #include <toml++/toml.h>
 
 #include "softhom/io/input_error.hpp"
+#include "softhom/io/key_range.hpp"
 
 namespace softhom::io {
 
@@ -46,27 +47,6 @@ std::string index_field(const std::string& field, std::size_t i);
 std::size_t edit_distance(std::string_view a, std::string_view b);
 /// " (did you mean 'x'?)" for the closest of `names` within a small edit distance, else "".
 std::string did_you_mean(std::string_view key, const std::vector<std::string>& names);
-
-// ---------------------------------------------------------------------------------------------------
-// Ranges
-
-/// An interval of allowed values; each end absent, open or closed.
-struct Range {
-  std::optional<double> lo, hi;
-  bool lo_open = false, hi_open = false;
-  bool contains(double x) const;
-  bool bounded() const { return lo || hi; }
-  /// "(0, 1)", "[0, 1]", ">= 0", "> 0", "<= 1" or "" (any value).
-  std::string describe() const;
-};
-Range any_value();
-Range open_range(double lo, double hi);    ///< (lo, hi)
-Range closed_range(double lo, double hi);  ///< [lo, hi]
-Range left_open(double lo, double hi);     ///< (lo, hi]
-Range right_open(double lo, double hi);    ///< [lo, hi)
-Range at_least(double lo);                 ///< [lo, ∞)
-Range above(double lo);                    ///< (lo, ∞)
-Range at_most(double hi);                  ///< (−∞, hi]
 
 // ---------------------------------------------------------------------------------------------------
 // Typed readers of one value; every refusal is an InputError naming `field` and the value as written.
@@ -272,6 +252,19 @@ class KeyTable {
     }
     for (const auto& e : entries_)
       if (e.required && !present.count(e.doc.name)) throw InputError(join_key(path, e.doc.name), "", "missing: " + e.doc.doc);
+    return present;
+  }
+  /// Reads only the declared keys of `table` and skips the others (a table whose keys several
+  /// declarations share; the caller refuses what none of them declares). No required-key check.
+  std::set<std::string> read_declared(const toml::table& table, const std::string& path, Options& options) const {
+    std::set<std::string> present;
+    for (const auto& [key, node] : table) {
+      const std::string name(key.str());
+      if (const Entry* e = find(name)) {
+        e->apply(node, join_key(path, name), options);
+        present.insert(name);
+      }
+    }
     return present;
   }
   /// Same, for an optional table: absent (null) keeps the options; a non-table is refused.

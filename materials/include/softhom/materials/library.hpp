@@ -1,10 +1,13 @@
 #pragma once
 // Validated construction of materials from a description (what a scene file says), including the
 // named parameter sets of spec §6. Every invalid parameter raises InputError naming the field.
+#include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "softhom/io/key_range.hpp"
 #include "softhom/materials/laws.hpp"
 
 namespace softhom {
@@ -23,6 +26,36 @@ struct MaterialSpec {
   OgdenParams ogden;
   std::optional<PronySeries> prony;
 };
+
+/// One parameter of a constitutive law as a scene key of a material table.
+struct LawParameter {
+  std::string name;  ///< TOML key ("G")
+  std::string unit;  ///< "MPa" or "-"
+  io::Range range;   ///< allowed values (each entry, for lists)
+  std::string doc;
+  bool list = false;  ///< one value per term (Ogden); a bare number is a list of one
+  std::string default_text = "required (or from the preset)";
+  /// Stores the value(s) into the spec; null when the law's `finish` combines it with others.
+  std::function<void(MaterialSpec&, const std::vector<double>&)> set;
+};
+
+/// A constitutive law as the material tables know it: its `law = ` name and its parameters. The
+/// material parser, its "not a parameter of this law" refusals and the key documentation all read
+/// this table, so a new law is its kernel plus one entry here.
+struct LawEntry {
+  LawKind kind;
+  std::string name;                  ///< law = "<name>"
+  std::vector<std::string> aliases;  ///< other accepted spellings
+  std::string display;               ///< in messages ("Gent-HGO")
+  std::string doc;
+  std::vector<LawParameter> parameters;
+  /// Cross-parameter rules after every given parameter is stored (neo-Hookean: E and nu together,
+  /// instead of mu and K); `given` holds the values read, `path` the table's TOML path.
+  std::function<void(MaterialSpec&, const std::map<std::string, std::vector<double>>& given, const std::string& path)>
+      finish;
+};
+const std::vector<LawEntry>& law_table();
+const LawEntry& law_entry(LawKind kind);
 
 /// Names of the parameter sets of spec §6 ("ecoflex", "pdms", "glass", "ecoflex-anisotropic", ...).
 std::vector<std::string> preset_names();

@@ -60,6 +60,7 @@ struct FeSolverOptions {
   bool use_umfpack = false;  ///< force the unsymmetric solver (default: CHOLMOD, UMFPACK fallback)
   /// Quadrature of the 3D Tet10 elements: 4 (the degree-2 rule) or 14 (a positive degree-5 rule).
   int tet_quadrature_points = 4;
+  double max_step_seconds = 0.0;
 };
 
 /// Per-element fields of a converged step (quadrature-point means), tensors in the load frame;

@@ -116,6 +116,7 @@ struct FftSolverOptions {
   /// which inexact Newton absorbs. The Fourier operator always keeps double.
   TangentPrecision tangent_precision = TangentPrecision::double_precision;
   fft::PlanOptions plan;         ///< FFTW rigor, threads, wisdom cache
+  double max_step_seconds = 0.0;
 };
 
 /// Grid axes in load-frame coordinates for a fiber at in-plane angle α (spec §7): g3 = a =

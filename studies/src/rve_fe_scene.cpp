@@ -1,0 +1,146 @@
+// FE-engine keys of an RVE scene: one declaration per key, next to the options they fill.
+#include "softhom/studies/rve_fe_scene.hpp"
+
+#include <optional>
+
+#include "softhom/materials/errors.hpp"
+#include "softhom/rve/fft_solver_keys.hpp"
+#include "softhom/studies/rve_scene.hpp"
+
+namespace softhom::studies {
+namespace {
+
+/// What [solver] says for the FE engine; sizes left unset default from the cell side.
+struct FeKeys {
+  bool three_d = false;
+  std::optional<double> mesh_size, interface_size, length;
+  rve::SectionMeshOptions mesh;
+  rve::FeSolverOptions solver;
+  std::optional<rve::FePressure> pressure;
+  bool umfpack = false;
+};
+
+const io::KeyTable<rve::SectionMeshOptions>& section_mesh_keys() {
+  using M = rve::SectionMeshOptions;
+  static const io::KeyTable<rve::SectionMeshOptions> t = [] {
+    io::KeyTable<rve::SectionMeshOptions> k("solver", "");
+    k.number("grading", &M::grading, io::above(0.0), "-", "element size growth per unit distance from the nearest interface")
+        .number("min_angle_deg", &M::min_angle_deg, io::left_open(0.0, 20.7), "deg",
+                "section mesh: smallest triangle angle (CGAL terminates up to 20.7)")
+        .flag("curved_interfaces", &M::curved_interfaces, "mid-side nodes on the exact fiber boundary")
+        .flag("corner_refinement", &M::corner_refinement, "section: graded refinement toward rectangular-fiber corners")
+        .number("corner_exponent", &M::corner_exponent, io::open_range(0.0, 1.0), "-", "exponent of the corner grading");
+    return k;
+  }();
+  return t;
+}
+
+const io::KeyTable<rve::FeSolverOptions>& fe_newton_keys() {
+  using S = rve::FeSolverOptions;
+  static const io::KeyTable<rve::FeSolverOptions> t = [] {
+    io::KeyTable<rve::FeSolverOptions> k("solver", "");
+    k.number("tolerance", &S::tolerance, io::open_range(0.0, 1.0), "-", "Newton: residual, macro stress and pressure errors relative to the stress scale")
+        .integer("max_newton_iterations", &S::max_newton_iterations, io::closed_range(1, 10000), "-", "Newton iterations per sub-step")
+        .integer("max_cutbacks", &S::max_cutbacks, io::closed_range(0, 60), "-",
+                 "times a step may be halved (60 halvings reach the resolution of a double)")
+        .number("max_step_seconds", &S::max_step_seconds, io::at_least(0.0), "s",
+                "wall-time budget of one output step's cut-backs (0: unlimited)")
+        .flag("mixed_pressure", &S::mixed_pressure, "mixed (u, p) Newton iteration in nearly incompressible phases");
+    return k;
+  }();
+  return t;
+}
+
+const io::KeyTable<FeKeys>& fe_keys() {
+  static const io::KeyTable<FeKeys> t = [] {
+    io::KeyTable<FeKeys> k("solver (engine = \"fe\")", "FE engine: periodic conforming mesh of the generated section or cell");
+    k.custom("engine", "choice", "\"fe\" selects these keys", [](const toml::node& n, const std::string& f, FeKeys&) {
+               if (io::read_text(n, f) != "fe") throw InputError(f, io::describe_value(n), "must be \"fe\" here");
+             }, "\"fft\"", "\"fe\"")
+        .custom("fe_mesh", "choice", "\"section\": T6 cross-section mesh; \"3d\": periodic Tet10 cell mesh",
+                [](const toml::node& n, const std::string& f, FeKeys& k) {
+                  static const io::Choices<bool> c{{{"section", false}, {"3d", true}}, {}};
+                  k.three_d = io::read_choice(n, f, c);
+                },
+                "\"section\"", "\"section\", \"3d\"")
+        .number("mesh_size", &FeKeys::mesh_size, io::above(0.0), "length", "element size away from the fibers")
+        .default_text("cell side / 16 (section), / 6 (3d)")
+        .number("interface_size", &FeKeys::interface_size, io::above(0.0), "length", "element size at the fiber boundaries")
+        .default_text("mesh_size / 3 (section), / 2 (3d)")
+        .include(section_mesh_keys(), &FeKeys::mesh)
+        .number("length", &FeKeys::length, io::above(0.0), "length", "3d: cell length along the fibers")
+        .default_text("the cell side")
+        .include(fe_newton_keys(), &FeKeys::solver)
+        .custom("pressure", "choice", "pressure space: \"p1\" (P2+bubble / discontinuous P1, section) or \"p0\" (P2/P0, the only 3d option)",
+                [](const toml::node& n, const std::string& f, FeKeys& k) {
+                  static const io::Choices<rve::FePressure> c{{{"p1", rve::FePressure::p1_bubble}, {"p0", rve::FePressure::p0}}, {}};
+                  k.pressure = io::read_choice(n, f, c);
+                },
+                "\"p1\" (section), \"p0\" (3d)", "\"p1\", \"p0\"")
+        .custom("linear_solver", "choice", "sparse direct solver (CHOLMOD falls back to UMFPACK when needed)",
+                [](const toml::node& n, const std::string& f, FeKeys& k) {
+                  static const io::Choices<bool> c{{{"cholmod", false}, {"umfpack", true}}, {}};
+                  k.umfpack = io::read_choice(n, f, c);
+                },
+                "\"cholmod\"", "\"cholmod\", \"umfpack\"");
+    return k;
+  }();
+  return t;
+}
+
+}  // namespace
+
+rve::Section parse_fe_section(const toml::table& t, double& target_vf, std::string& note) {
+  const std::string p = "microstructure";
+  if (t.contains("image"))
+    throw InputError(p + ".image", "", "the FE engine needs a generated section (shape, arrangement, volume_fraction)");
+  microstructure_fiber_angle(t);  // every key checked as for the FFT engine (grid is ignored)
+  std::string label;
+  const rve::FiberCellSpec spec = parse_fiber_cell_spec(t, p, label);
+  target_vf = spec.volume_fraction;
+  if (spec.volume_fraction == 0.0) {
+    rve::Section s;
+    s.L1 = s.L2 = spec.cell_size.value_or(1.0);
+    note = "matrix only";
+    return s;
+  }
+  const rve::Section s = rve::generate_section(spec, p);
+  note = label + ", cell " + std::to_string(s.L1) + " x " + std::to_string(s.L2);
+  return s;
+}
+
+FeRveSettings parse_fe_rve_solver(const toml::table& scene, double L1) {
+  FeKeys k;
+  fe_keys().read_optional(scene.get("solver"), "solver", k);
+  const std::string p = "solver";
+  FeRveSettings f;
+  f.three_d = k.three_d;
+  f.mesh = k.mesh;
+  f.mesh.mesh_size = k.mesh_size.value_or(L1 / (f.three_d ? 6.0 : 16.0));
+  f.mesh.interface_size = k.interface_size.value_or(f.mesh.mesh_size / (f.three_d ? 2.0 : 3.0));
+  f.mesh3d.mesh_size = f.mesh.mesh_size;
+  f.mesh3d.interface_size = f.mesh.interface_size;
+  f.mesh3d.grading = f.mesh.grading;
+  f.mesh3d.curved_interfaces = f.mesh.curved_interfaces;
+  if (k.length && !f.three_d) throw InputError(p + ".length", format_number(*k.length), "only with fe_mesh = \"3d\"");
+  f.mesh3d.length = k.length.value_or(0.0);
+  f.solver = k.solver;
+  const rve::FePressure pressure = k.pressure.value_or(f.three_d ? rve::FePressure::p0 : rve::FePressure::p1_bubble);
+  if (pressure == rve::FePressure::p1_bubble && f.three_d)
+    throw InputError(p + ".pressure", "\"p1\"", "the 3D tetrahedral mesh supports p0 (P2/P0) only");
+  f.solver.pressure = pressure;
+  f.solver.use_umfpack = k.umfpack;
+  return f;
+}
+
+io::TableDoc fe_rve_solver_table() { return fe_keys().describe(); }
+
+std::vector<io::TableDoc> rve_scene_tables() {
+  std::vector<io::TableDoc> t = rve_common_tables();
+  t.push_back(rve::fft_solver_keys().describe());
+  t.back().path = "solver (engine = \"fft\")";
+  t.push_back(fe_rve_solver_table());
+  return t;
+}
+
+}  // namespace softhom::studies
