@@ -541,12 +541,10 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
   return m;
 }
 
-io::SceneKeys macro_scene_keys() {
-  return {"macro",
-          "Structure-scale FE scene (softhom macro).",
-          {scene_table().describe(), tube_table(false).describe(), tube_table(true).describe(), sphere_table().describe(),
+std::vector<io::TableDoc> macro_scene_tables() {
+  return {scene_table().describe(), tube_table(false).describe(), tube_table(true).describe(), sphere_table().describe(),
            plate_table().describe(), gmsh_table().describe(), boundary_table().describe(), probe_table().describe(),
-           load_table().describe(), solver_table().describe(), output_table().describe()}};
+           load_table().describe(), solver_table().describe(), output_table().describe()};
 }
 
 }  // namespace softhom::macro

@@ -916,12 +916,10 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
   return in;
 }
 
-io::SceneKeys calibration_scene_keys() {
-  return {"calibrate",
-          "Calibration of the Gent + HGO (+ QLV) model to curves (softhom calibrate).",
-          {root_table().describe(), model_table().describe(), parameter_table().describe(), fiber_table().describe(),
+std::vector<io::TableDoc> calibration_tables() {
+  return {root_table().describe(), model_table().describe(), parameter_table().describe(), fiber_table().describe(),
            viscoelastic_table().describe(), term_table().describe(), curve_table().describe(), solver_table().describe(),
-           output_table().describe()}};
+           output_table().describe()};
 }
 
 CurveEvaluation evaluate_curve(const CalibrationModel& model, const CalCurve& curve, const std::vector<double>& values,

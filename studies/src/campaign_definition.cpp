@@ -546,10 +546,8 @@ Campaign expand_campaign(const toml::table& table, const std::filesystem::path& 
   return camp;
 }
 
-io::SceneKeys campaign_scene_keys() {
-  return {"sweep",
-          "Sweep campaign (softhom sweep); axes: matrix, section, angle, volume_fraction, arrangement, resolution, load.",
-          {campaign_table().describe(), switches_table().describe(), section_table().describe()}};
+std::vector<io::TableDoc> campaign_tables() {
+  return {campaign_table().describe(), switches_table().describe(), section_table().describe()};
 }
 
 }  // namespace softhom::studies

@@ -109,10 +109,9 @@ TEST(CampaignDefinition, NamesWithControlCharactersAreRefused) {
 }
 
 TEST(CampaignDefinition, KeyTablesForTheSweepCommand) {
-  const io::SceneKeys k = campaign_scene_keys();
-  EXPECT_EQ(k.command, "sweep");
-  ASSERT_GE(k.tables.size(), 2u);
-  EXPECT_EQ(k.tables[1].path, "campaign");
-  EXPECT_EQ(k.tables[1].keys.at(0).name, "warm_start");
-  EXPECT_EQ(k.tables[1].keys.at(0).default_value, "true");
+  const std::vector<io::TableDoc> tables = campaign_tables();
+  ASSERT_GE(tables.size(), 2u);
+  EXPECT_EQ(tables[1].path, "campaign");
+  EXPECT_EQ(tables[1].keys.at(0).name, "warm_start");
+  EXPECT_EQ(tables[1].keys.at(0).default_value, "true");
 }

@@ -1,6 +1,6 @@
 #pragma once
 // Macro scene files (`softhom macro SCENE.toml`) → a StructureSpec, the Newton options and the output
-// times. Every key is declared once (macro_scene_keys(): type, default, range, unit, doc); unknown,
+// times. Every key is declared once (macro_scene_tables(): type, default, range, unit, doc); unknown,
 // renamed and mistyped keys, out-of-range numbers and unconstrained bodies are InputErrors naming the
 // TOML path of the field.
 //
@@ -36,6 +36,6 @@ struct MacroScene {
 MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::path& scene_file = {});
 
 /// The declared tables of a macro scene, for `softhom keys macro` and docs/keys.md.
-io::SceneKeys macro_scene_keys();
+std::vector<io::TableDoc> macro_scene_tables();
 
 }  // namespace softhom::macro

@@ -6,6 +6,6 @@
 
 namespace softhom::studies {
 
-io::SceneKeys campaign_scene_keys();
+std::vector<io::TableDoc> campaign_tables();
 
 }  // namespace softhom::studies
