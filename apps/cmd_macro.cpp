@@ -68,18 +68,19 @@ int run_macro(const CommandOptions& options) {
   }
   std::string error;
   std::size_t done = 0;
-  try {
-    for (double t : ms.times) {
-      sim.advance_to(t);
-      table.add_row(macro::probe_values(structure, sim));
-      if (writer && ms.fields_at(t)) write_fields(*writer, sim);
-      ++done;
-      if (!options.quiet)
-        std::cerr << "\r" << tag << "t = " << t << " / " << ms.times.back() << " (" << sim.stats().newton_iterations
-                  << " Newton iterations, " << sim.stats().cutbacks << " cut-backs)   " << std::flush;
+  for (double t : ms.times) {
+    const fe::AdvanceResult step = sim.advance_to(t);
+    if (!step.reached()) {
+      error = step.message;
+      break;
     }
-  } catch (const ConvergenceError& e) {
-    error = e.what();
+    table.add_row(macro::probe_values(structure, sim));
+    if (writer && ms.fields_at(t)) write_fields(*writer, sim);
+    ++done;
+    if (!options.quiet)
+      std::cerr << "\r" << tag << "t = " << t << " / " << ms.times.back() << " (" << step.counts.newton_iterations
+                << " Newton iterations in " << step.substeps << " sub-steps, " << step.counts.cutbacks
+                << " cut-backs)   " << std::flush;
   }
   if (!options.quiet) std::cerr << "\n";
   for (const auto& line : sim.stats().log)

@@ -1,5 +1,10 @@
 #include "softhom/fe/model.hpp"
 
+#include <algorithm>
+#include <string>
+
+#include <Eigen/Dense>
+
 #include "softhom/fe/tet10_element.hpp"
 #include "softhom/materials/errors.hpp"
 
@@ -68,6 +73,48 @@ double cavity_volume(const std::vector<Vec3>& x, const std::vector<Quad>& faces,
     flux += f;
   }
   return -flux / mask.sum();
+}
+
+}  // namespace softhom::fe
+
+namespace softhom::fe {
+
+std::vector<std::string> free_rigid_motions(const Mesh& mesh, const std::vector<char>& constrained) {
+  // Rigid motion m at node n: t_m for m < 3, e_{m−3} × (X_n − c) / L for m ≥ 3 (scaled by the body size
+  // L so that both kinds have entries of order one). Motion a = Σ_m a_m mode_m is held iff some
+  // prescribed dof moves: ‖C a‖ > 0 with C_dm = mode_m[dof] over the prescribed dofs, so the free
+  // motions are the null space of the 6 × 6 Gram matrix CᵀC.
+  const int nn = mesh.num_nodes();
+  Vec3 c = Vec3::Zero();
+  for (const Vec3& x : mesh.nodes) c += x;
+  if (nn > 0) c /= double(nn);
+  double L = 0.0;
+  for (const Vec3& x : mesh.nodes) L = std::max(L, (x - c).norm());
+  if (!(L > 0.0)) L = 1.0;
+  Eigen::Matrix<double, 6, 6> G = Eigen::Matrix<double, 6, 6>::Zero();
+  for (int n = 0; n < nn; ++n) {
+    const Vec3 r = (mesh.nodes[n] - c) / L;
+    for (int i = 0; i < 3; ++i) {
+      if (!constrained[3 * n + i]) continue;
+      Eigen::Matrix<double, 6, 1> row = Eigen::Matrix<double, 6, 1>::Zero();
+      row[i] = 1.0;
+      for (int a = 0; a < 3; ++a) row[3 + a] = Vec3::Unit(a).cross(r)[i];  // (e_a × r)_i
+      G += row * row.transpose();
+    }
+  }
+  // Entries of C are O(1): a held motion has ‖C a‖² ≥ O(1) per prescribed dof it moves, a free one
+  // has exactly 0 up to round-off (1e-12 leaves room for ~1e4 nodes on one line).
+  const double tiny = 1e-12 * std::max(1.0, G.trace());
+  static const char* names[6] = {"translation along x", "translation along y", "translation along z",
+                                 "rotation about x",    "rotation about y",    "rotation about z"};
+  std::vector<std::string> free;
+  for (int m = 0; m < 6; ++m)
+    if (G(m, m) <= tiny) free.emplace_back(names[m]);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(G);
+  int nullity = 0;
+  for (int m = 0; m < 6; ++m) nullity += eig.eigenvalues()[m] <= tiny;
+  if (nullity > int(free.size())) free.emplace_back("a combination of rigid motions (a rotation about an axis off the centroid)");
+  return free;
 }
 
 }  // namespace softhom::fe

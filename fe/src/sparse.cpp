@@ -183,8 +183,11 @@ class CholmodSolver final : public LinearSolver {
     ++times_.factorizations;
     times_.flops += common_.fl;  // set by cholmod_analyze for this pattern
     times_.factor_nnz = common_.lnz;
-    return common_.status == CHOLMOD_OK && factor_->minor == std::size_t(n_);
+    const bool ok = common_.status == CHOLMOD_OK && factor_->minor == std::size_t(n_);
+    rcond_ = ok ? cholmod_rcond(factor_, &common_) : 0.0;
+    return ok;
   }
+  double reciprocal_condition() const override { return rcond_; }
 
   void solve(const std::vector<double>& b, std::vector<double>& x) override {
     const auto t0 = std::chrono::steady_clock::now();
@@ -215,6 +218,7 @@ class CholmodSolver final : public LinearSolver {
   cholmod_factor* factor_ = nullptr;
   std::vector<long> map_, mirror_;
   int n_ = 0;
+  double rcond_ = 0.0;
 };
 
 /// UMFPACK unsymmetric LU; the symbolic object (column ordering) is computed once.
@@ -228,6 +232,7 @@ class UmfpackSolver final : public LinearSolver {
     if (symbolic_) umfpack_di_free_symbolic(&symbolic_);
   }
   SolverKind kind() const override { return SolverKind::umfpack; }
+  double reciprocal_condition() const override { return numeric_ ? info_[UMFPACK_RCOND] : 0.0; }
 
   void analyze(const CscMatrix& A) override {
     const auto t0 = std::chrono::steady_clock::now();

@@ -33,7 +33,7 @@ void add_block(Mesh& mesh, std::array<int, 3> n, const std::function<Vec3(double
 }
 
 void check_positive(double v, const char* field) {
-  if (!(v > 0.0)) throw InputError(field, std::to_string(v), "must be positive");
+  if (!(v > 0.0)) throw InputError(field, format_number(v), "must be positive");
 }
 void check_cells(int v, const char* field) {
   if (v < 1) throw InputError(field, std::to_string(v), "must be at least 1");
@@ -65,14 +65,14 @@ fe::Mesh make_plate(const PlateSpec& s) {
 fe::Mesh make_tube(const TubeSpec& s) {
   check_positive(s.inner_radius, "geometry.inner_radius");
   if (!(s.outer_radius > s.inner_radius))
-    throw InputError("geometry.outer_radius", std::to_string(s.outer_radius), "must exceed inner_radius");
+    throw InputError("geometry.outer_radius", format_number(s.outer_radius), "must exceed inner_radius");
   check_positive(s.length, "geometry.length");
   check_cells(s.radial_cells, "geometry.radial_cells");
   check_cells(s.circumferential_cells, "geometry.circumferential_cells");
   check_cells(s.axial_cells, "geometry.axial_cells");
   if (!(s.sweep_deg > 0.0 && s.sweep_deg <= 360.0))
-    throw InputError("geometry.sweep_deg", std::to_string(s.sweep_deg), "must lie in (0, 360]");
-  if (s.cap_thickness < 0.0) throw InputError("geometry.cap_thickness", std::to_string(s.cap_thickness), "must be >= 0");
+    throw InputError("geometry.sweep_deg", format_number(s.sweep_deg), "must lie in (0, 360]");
+  if (s.cap_thickness < 0.0) throw InputError("geometry.cap_thickness", format_number(s.cap_thickness), "must be >= 0");
   const double sweep = s.sweep_deg * M_PI / 180.0;
   const double Ri = s.inner_radius, Ro = s.outer_radius, L = s.length;
   Mesh mesh;

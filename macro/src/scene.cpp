@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "softhom/fe/gmsh.hpp"
+#include "softhom/io/gmsh.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/materials/errors.hpp"
 
@@ -404,7 +404,7 @@ void read_imported(const toml::table& scene, const toml::table& g, const std::fi
   if (path.is_relative() && !scene_file.empty()) path = scene_file.parent_path() / path;
   if (!std::filesystem::exists(path)) throw InputError("geometry.file", path.string(), "no such file");
   auto& im = s.imported;
-  im.mesh = fe::read_gmsh(path);
+  im.mesh = io::read_gmsh(path);
   read_boundaries(scene, im);
   ProbeKeys probe;
   probe_table().read_optional(scene.get("probe"), "probe", probe);
@@ -534,6 +534,8 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
   scene_table().read(scene, "", top);
   MacroScene m;
   read_geometry_table(scene, scene_file, m.spec);
+  // Before the materials and anything else: a 1000 x 1000 x 10 box is refused with its memory estimate.
+  refuse_if_too_large(m.spec, available_memory_bytes(), size_field(m.spec));
   read_materials(scene, m.spec);
   read_output(scene, m);  // before the load: the field times join the output times
   read_load(scene, m);

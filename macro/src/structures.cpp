@@ -115,6 +115,8 @@ double mean_radius(const std::vector<Vec3>& x, const std::vector<int>& nodes, bo
 
 Structure build_structure(const StructureSpec& spec) {
   if (!spec.material) throw InputError("material", "", "missing material");
+  // Refused before any of it is allocated when the machine cannot hold the mesh and its factorization.
+  refuse_if_too_large(spec, available_memory_bytes(), size_field(spec));
   Structure s;
   s.spec = spec;
   fe::FeModel& m = s.model;
@@ -145,12 +147,12 @@ Structure build_structure(const StructureSpec& spec) {
       TubeSpec t = spec.tube;
       t.split_y = spec.kind == StructureKind::actuator;
       if (spec.kind == StructureKind::actuator && !(t.cap_thickness > 0.0))
-        throw InputError("geometry.cap_thickness", std::to_string(t.cap_thickness), "an actuator needs an end cap");
+        throw InputError("geometry.cap_thickness", format_number(t.cap_thickness), "an actuator needs an end cap");
       m.mesh = maybe_tets(make_tube(t), spec);
       const bool quarter = t.sweep_deg < 360.0 - 1e-9;
       if (quarter) {
         if (std::abs(t.sweep_deg - 90.0) > 1e-9)
-          throw InputError("geometry.sweep_deg", std::to_string(t.sweep_deg), "only 90 (quarter) or 360 are supported");
+          throw InputError("geometry.sweep_deg", format_number(t.sweep_deg), "only 90 (quarter) or 360 are supported");
         fix(m, fe::surface_nodes(m.mesh, "ysym"), 1);
         fix(m, fe::surface_nodes(m.mesh, "xsym"), 0);
       }

@@ -7,6 +7,8 @@
 
 #include <Eigen/Dense>
 
+#include "softhom/materials/errors.hpp"
+
 namespace softhom {
 namespace {
 
@@ -28,6 +30,7 @@ struct SubstepOutcome {
   int iterations = 0;
   double residual = 0.0;
   bool hit_locking = false;  // a trial state in this sub-step reached the material's locking limit
+  bool beyond_limit = false; // the equilibrium itself lies within limit_margin of locking: halving cannot help
 };
 
 // Newton on the free components of F at time t, starting from F (updated in place). On success P
@@ -71,6 +74,7 @@ SubstepOutcome solve_substep(const Material& material, const MixedControl& contr
       if (material.limit_margin(F) < opt.limit_margin) {
         out.status = MaterialStatus::locking;
         out.hit_locking = true;
+        out.beyond_limit = true;
         return out;
       }
       out.converged = true;
@@ -111,7 +115,15 @@ SubstepOutcome solve_substep(const Material& material, const MixedControl& contr
   return out;
 }
 
+/// One sub-step attempt in the shape advance_interval expects.
+struct PointAttempt {
+  bool ok = false;
+  std::string why;
+  bool fatal = false;
+};
+
 std::string describe_failure(const SubstepOutcome& o) {
+  if (o.beyond_limit) return "the equilibrium lies within the limit margin of the material's locking limit";
   if (o.status != MaterialStatus::ok) return std::string("material call failed: ") + to_string(o.status);
   std::ostringstream s;
   s << "Newton did not converge (residual " << o.residual << " after " << o.iterations << " iterations)";
@@ -165,52 +177,59 @@ PointRunResult run_material_point(const Material& global_material, const MixedCo
     if (on_step) on_step(result.steps.back());
   }
 
+  StepControlOptions step_control;
+  step_control.max_cutbacks = opt.max_cutbacks;
+  step_control.max_step_seconds = opt.max_step_seconds;
   double t = 0.0;
-  double dt_try = control.times.front();
+  double first_dt = 0.0;  // whole interval, unless the last one ended on a cut-back sub-step
+  std::vector<std::string> logged_kinds;
   for (const double t_out : control.times) {
-    int iterations = 0, substeps = 0;
-    dt_try = std::min(dt_try, t_out - t);
-    int halvings = 0;
-    while (t < t_out) {
-      const bool last = dt_try >= (t_out - t) * (1.0 - 1e-12);
-      const double dt = last ? t_out - t : dt_try;
-      const double t_new = last ? t_out : t + dt;
-      Mat3 F_new = F, P_new;
+    int iterations = 0;
+    Mat3 F_trial = F, P_trial = P;
+    bool locking_seen = false, last_locking = false;
+    auto attempt = [&](double t_new, double dt) {
+      F_trial = F;
       const SubstepOutcome o = solve_substep(material, control, free, t_new, dt, state, state_trial, opt,
-                                             stress_scale, bulk_scale, F_new, P_new);
+                                             stress_scale, bulk_scale, F_trial, P_trial);
       iterations += o.iterations;
-      if (!o.converged) {
-        if (halvings >= opt.max_cutbacks) {
-          std::ostringstream s;
-          s << "step to t = " << t_out << " failed at t = " << t_new << " after " << halvings
-            << " cut-backs (Δt = " << dt << "): " << describe_failure(o);
-          if (o.status == MaterialStatus::locking || o.hit_locking)
-            s << ". The prescribed deformation reaches the Gent locking limit (Ī1 − 3 → Jm) beyond the last"
-              << " converged state F11 = " << F(0, 0) << ", F22 = " << F(1, 1) << ", F33 = " << F(2, 2)
-              << " (load frame)";
-          result.error = s.str();
-          result.total_newton_iterations += iterations;
-          return result;
-        }
-        ++halvings;
-        ++result.cutbacks;
-        dt_try = 0.5 * dt;
-        std::ostringstream s;
-        s << "cut-back: t = " << t_new << ", Δt " << dt << " → " << dt_try << " (" << describe_failure(o) << ")";
-        result.log.push_back(s.str());
-        continue;
-      }
+      last_locking = o.status == MaterialStatus::locking || o.hit_locking;
+      locking_seen |= last_locking;
+      return PointAttempt{o.converged, o.converged ? std::string() : describe_failure(o), o.beyond_limit};
+    };
+    auto accept = [&](double t_new, double, const PointAttempt&) {
       t = t_new;
-      F = F_new;
-      P = P_new;
+      F = F_trial;
+      P = P_trial;
       if (nstate > 0) state.swap(state_trial);
-      ++substeps;
-      // After a cut-back, grow the step again once it converges easily.
-      if (o.iterations <= 4) dt_try = std::min(2.0 * dt, control.times.back());
-      else dt_try = dt;
-    }
+    };
+    auto reject = [&](double t_from, double, double dt_failed, double dt_next, const PointAttempt& a) {
+      ++result.cutbacks;
+      if (dt_next <= 0.0) return;  // the interval gives up: the error says why
+      // A cut-back that the halved step then passes is an expected event: each kind is logged once.
+      const std::string kind = a.why.substr(0, a.why.find_first_of("0123456789("));
+      if (std::find(logged_kinds.begin(), logged_kinds.end(), kind) != logged_kinds.end()) return;
+      logged_kinds.push_back(kind);
+      result.log.push_back("cut-back at t = " + format_number(t_from) + " + " + format_number(dt_failed) + " (" +
+                           a.why + "); the step was halved (further cut-backs of this kind are counted, not listed)");
+    };
+    const IntervalOutcome o = advance_interval(t, t_out, first_dt, step_control, attempt, accept, reject);
     result.total_newton_iterations += iterations;
-    result.steps.push_back(make_state(t_out, F, P, iterations, substeps));
+    if (!o.reached()) {
+      // A locking limit that halving could not pass is the material's limit, not a solver failure.
+      const bool at_limit = o.status == IntervalStatus::cutbacks_exhausted && last_locking;
+      result.stop = at_limit ? IntervalStatus::fatal : o.status;
+      std::ostringstream s;
+      s << describe_interval_failure(o, t_out, opt.max_cutbacks, opt.max_step_seconds,
+                                     [](double v) { return format_number(v); });
+      if (o.status != IntervalStatus::interrupted && locking_seen)
+        s << ". The prescribed deformation reaches the Gent locking limit (Ī1 − 3 → Jm) beyond the last"
+          << " converged state F11 = " << format_number(F(0, 0)) << ", F22 = " << format_number(F(1, 1))
+          << ", F33 = " << format_number(F(2, 2)) << " (load frame)";
+      result.error = s.str();
+      return result;
+    }
+    first_dt = o.cutbacks > 0 || first_dt > 0.0 ? o.next_dt : 0.0;
+    result.steps.push_back(make_state(t_out, F, P, iterations, o.substeps));
     if (on_step) on_step(result.steps.back());
   }
   result.completed = true;

@@ -9,7 +9,7 @@
 
 #include "fe/local_law.hpp"
 #include "macro/closed_forms.hpp"
-#include "softhom/fe/gmsh.hpp"
+#include "softhom/io/gmsh.hpp"
 #include "softhom/macro/structures.hpp"
 #include "softhom/materials/driver.hpp"
 #include "softhom/materials/laws.hpp"
@@ -250,7 +250,7 @@ TEST(Tet10Structures, ShippedGmshTubeInflatesLikeTheClosedForm) {
   // both ends, symmetry planes, volume control to r_i/R_i = 1.5 with a Gent wall.
   StructureSpec spec;
   spec.kind = StructureKind::imported;
-  spec.imported.mesh = fe::read_gmsh(std::string(SOFTHOM_SOURCE_DIR) + "/studies/meshes/tube_quarter_tet10.msh");
+  spec.imported.mesh = io::read_gmsh(std::string(SOFTHOM_SOURCE_DIR) + "/studies/meshes/tube_quarter_tet10.msh");
   spec.imported.fixed = {{"zmin", {false, false, true}}, {"zmax", {false, false, true}},
                          {"ysym", {false, true, false}}, {"xsym", {true, false, false}}};
   spec.imported.load_surfaces = {"inner"};

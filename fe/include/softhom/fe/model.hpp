@@ -65,3 +65,14 @@ double cavity_volume(const std::vector<Vec3>& x, const std::vector<Quad>& faces,
                      const std::vector<Tri6>& tris = {});
 
 }  // namespace softhom::fe
+
+namespace softhom::fe {
+
+/// The rigid-body motions of the mesh (translations along x, y, z; rotations about the axes through
+/// the node centroid) that the prescribed dofs (`constrained[dof]` ≠ 0) leave free, as phrases:
+/// "translation along x", "rotation about z", and "a combination of rigid motions" for a free
+/// combination that is none of the six. Empty when every rigid motion is held. The stiffness of a
+/// body with a free rigid motion is singular: Simulation refuses it before the first factorization.
+std::vector<std::string> free_rigid_motions(const Mesh& mesh, const std::vector<char>& constrained);
+
+}  // namespace softhom::fe

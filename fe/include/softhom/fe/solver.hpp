@@ -3,7 +3,7 @@
 // and the follower-pressure load stiffness), backtracking line search, adaptive sub-stepping with
 // cut-back on divergence or failed material calls, history committed only after convergence.
 //
-// Performance design (issue #4): elements are coloured so that no two elements of one colour share a
+// Performance design: elements are coloured so that no two elements of one colour share a
 // node, and assembly scatters into precomputed CSC positions without atomics; the linear systems are
 // solved by GMRES right-preconditioned with a sparse direct factorization that is kept across Newton
 // iterations and refreshed when its GMRES iterations cost 3/4 of a factorization, and at the first
@@ -14,12 +14,14 @@
 // symmetric part is not positive definite (past a limit point).
 #include <array>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "softhom/fe/model.hpp"
 #include "softhom/fe/sparse.hpp"
 #include "softhom/fe/tet10_element.hpp"
+#include "softhom/materials/step_control.hpp"
 
 namespace softhom::fe {
 
@@ -67,7 +69,7 @@ struct RunStats {
   double assembly_time = 0.0;
   double krylov_time = 0.0;   ///< GMRES without its preconditioner solves (matrix products, orthogonalization)
   SolverTimes linear;         ///< analysis / factorization / solve times
-  std::vector<std::string> log;  ///< cut-backs and warnings, human readable
+  std::vector<std::string> log;  ///< cut-backs and notes, human readable (expected events once)
 };
 
 /// Per-element output fields (averages over the Gauss points, current configuration).
@@ -78,118 +80,74 @@ struct ElementFields {
   std::vector<double> fiber;      ///< 3 per element: current unit direction of the first fiber family (0 if none)
 };
 
+/// Work of one converged sub-step, or (summed with +=) of an output step or a run.
+struct StepCounts {
+  int newton_iterations = 0;
+  int factorizations = 0;     ///< numeric factorizations (Cholesky or LU)
+  int solves = 0;             ///< triangular solves with a factor
+  int krylov_iterations = 0;  ///< GMRES iterations
+  int cutbacks = 0;           ///< failed sub-steps (halvings)
+  StepCounts& operator+=(const StepCounts& o) {
+    newton_iterations += o.newton_iterations;
+    factorizations += o.factorizations;
+    solves += o.solves;
+    krylov_iterations += o.krylov_iterations;
+    cutbacks += o.cutbacks;
+    return *this;
+  }
+};
+
+/// How Simulation::advance_to ended: reached t_end, or stopped early (the state stays at the last
+/// converged sub-step) with the reason. A reachable stop is a result, never an exception.
+struct AdvanceResult {
+  IntervalStatus status = IntervalStatus::reached;
+  std::string message;  ///< describe_interval_failure's sentence (empty when reached)
+  StepCounts counts;    ///< the work of this call (every sub-step, failed ones included)
+  int substeps = 0;     ///< converged sub-steps
+  bool reached() const { return status == IntervalStatus::reached; }
+};
+
 class Simulation {
  public:
+  /// Throws InputError for a model that cannot be solved: invalid elements, every dof prescribed, or
+  /// constraints that leave a rigid-body motion free (the message names the free motions).
   explicit Simulation(FeModel model, NewtonOptions options = {});
   ~Simulation();
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
 
-  /// Advances from the current time to t_end with adaptive sub-steps. Throws ConvergenceError
-  /// (state left at the last converged sub-step) when a sub-step fails after max_cutbacks halvings.
-  void advance_to(double t_end);
+  /// Advances from the current time to t_end with adaptive sub-steps (advance_interval: halving
+  /// cut-backs, growth after successes, wall-time budget, stop on signal). A failed interval leaves the
+  /// state at the last converged sub-step and says why in the result.
+  AdvanceResult advance_to(double t_end);
 
-  double time() const { return time_; }
-  const std::vector<double>& displacement() const { return u_; }  ///< 3 per node
+  double time() const;
+  const std::vector<double>& displacement() const;  ///< 3 per node
   std::vector<Vec3> current_positions() const;
   /// Pressure of the cavity control (or 0 without one).
-  double cavity_pressure() const { return cavity_pressure_; }
+  double cavity_pressure() const;
   /// Reaction force: Σ of the converged state's internal forces over `dofs` (e.g. a loaded face's
   /// x-dofs). Evaluates no material (so it never advances a viscoelastic history).
   double reaction(const std::vector<int>& dofs) const;
   ElementFields element_fields() const;
   /// Statistics so far (linear-solver times of the current solver object).
-  RunStats stats() const {
-    RunStats s = stats_;
-    s.linear = SolverTimes{};
-    for (const auto* ls : {chol_.get(), lu_.get()}) {  // both factorizations' work
-      if (!ls) continue;
-      const SolverTimes& t = ls->times();
-      s.linear.analysis += t.analysis;
-      s.linear.factorization += t.factorization;
-      s.linear.solve += t.solve;
-      s.linear.factorizations += t.factorizations;
-      s.linear.solves += t.solves;
-      s.linear.flops += t.flops;
-      s.linear.factor_nnz = std::max(s.linear.factor_nnz, t.factor_nnz);
-    }
-    return s;
-  }
+  RunStats stats() const;
+  /// Work of the last converged sub-step.
+  const StepCounts& last_step_counts() const;
   /// Factorization in use (the configured one before the first solve).
   SolverKind solver_kind() const;
-  int num_free_dofs() const { return dofs_.num_free; }
-  const FeModel& model() const { return model_; }
+  int num_free_dofs() const;
+  const FeModel& model() const;
 
   /// Element residual and tangent at the current state (for diagnostics and tests).
   MaterialStatus element_force(int e, const Mat83& u, Vec24& r, Mat24* K) const;
   /// The same for a tet10 element e (≥ mesh.num_hexes()).
   MaterialStatus element_force(int e, const Tet10Coords& u, Vec30& r, Mat30* K) const;
 
- private:
-  struct Assembly;
-  bool try_step(double t_new, double dt, std::string& why);
-  MaterialStatus assemble(double t, double dt, bool tangent, const std::vector<double>& u,
-                          double cavity_p, Assembly& out);
-  /// x = K⁻¹ b (free dofs) to relative residual `tol`; false when no factorization works.
-  bool linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why);
-  bool refactor(std::string& why);
-  void mixed_update(const std::vector<double>& du, double alpha);
+  struct Impl;
 
-  FeModel model_;
-  NewtonOptions options_;
-  DofMap dofs_;
-  CscMatrix K_;
-  std::unique_ptr<LinearSolver> chol_, lu_;  ///< Cholesky of the symmetric part; LU (created on demand)
-  LinearSolver* linear_ = nullptr;            ///< the one holding the current factor
-  bool lu_this_step_ = false;
-  bool refactor_first_ = false;               ///< the lagged factor failed at the last step's first iteration                 ///< the symmetric part was indefinite in this step: LU
-  bool chol_analyzed_ = false, lu_analyzed_ = false, factor_valid_ = false, factor_stale_ = false, factor_exact_ = false;
-  long k_version_ = 0, factor_version_ = -1;  ///< tangent assemblies; the one last factorized
-  double last_factor_time_ = 0.0, last_factor_flops_ = 0.0;
-  double iteration_time_ = 0.0;                  ///< running mean cost of one GMRES iteration [s]
-  std::vector<std::vector<double>> krylov_basis_;  ///< GMRES basis, kept between solves
-  std::vector<std::vector<double>> krylov_preconditioned_;  ///< M⁻¹ of the basis vectors (no extra solve per cycle)
-  std::vector<std::vector<double>> krylov_condensed_;  ///< condensed residuals of the basis (uncondensed Krylov space)
-  // Uncondensed (u, p_e) Krylov space of the three-field iteration (linear_solve): per mixed element k,
-  // its element number, the free equation of each element dof (−1 fixed) at sad_off_[k] .. sad_off_[k+1],
-  // and d_e = ∂θ_e/∂u, c_e = V_e U″(θ) of the current tangent (b) and of the factorized one (a).
-  std::vector<int> sad_elem_, sad_off_, sad_eq_;
-  std::vector<std::vector<int>> sad_colors_;  ///< the element colours, as mixed-element indices k
-  std::vector<double> sad_db_, sad_cb_, sad_da_, sad_ca_;
-  bool sad_a_valid_ = false;
-  long sad_b_version_ = -1;  ///< k_version_ of sad_db_, sad_cb_
-  void saddle_current();  ///< fills sad_db_, sad_cb_ from the last tangent assembly
-  /// The uncondensed Krylov space is in use: three-field elements and factors large enough to be lagged.
-  bool saddle_lagged() const {
-    return options_.saddle_krylov && !sad_elem_.empty() && last_factor_flops_ >= options_.lag_flops;
-  }
-  std::vector<Hex8Geometry> geometry_;
-  std::vector<Tet10Geometry> tet_geometry_;  ///< per tet (element e − num_hexes)
-  std::vector<std::vector<int>> colors_;  ///< element colours: no shared node within one colour
-  std::vector<std::array<long, 64>> block_;  ///< per element, node pair (a, b): K position of (a_0, b_0), −1 if absent
-  std::vector<std::array<long, 100>> tet_block_;  ///< the same per tet (10 × 10 node pairs)
-  std::vector<std::array<signed char, 3>> free_rank_;  ///< per node: rank of each free component (−1 fixed)
-  // Three-field iteration (per element; bulk 0 = plain F-bar): iterate, converged and linearization data.
-  std::vector<double> mix_bulk_, mix_theta_, mix_p_, mix_theta_conv_, mix_p_conv_, mix_theta_u_;
-  std::vector<double> mix_theta_base_, mix_p_base_, mix_dtheta_, mix_dp_;
-  std::vector<Vec24> mix_d_;
-  std::vector<Vec30> mix_d_tet_;  ///< ∂θ_e/∂u per tet
-  std::vector<double> u_, u_prev_step_;  ///< converged displacement and the one before it (secant predictor)
-  double prev_step_time_ = 0.0;            ///< time of u_prev_step_
-  std::vector<double> u_prev2_step_;       ///< the converged displacement before u_prev_step_ (quadratic predictor)
-  double prev2_step_time_ = 0.0;           ///< its time (valid when stored_steps_ ≥ 2)
-  int stored_steps_ = 0;                   ///< converged steps behind u_ (capped at 2)
-  bool extrapolate_step_ = true;           ///< false while a step is retried without the secant predictor
-  bool extrapolated_ = false;              ///< the last try_step started from the secant predictor
-  double stiffness_time_ = -1.0;           ///< ≥ 0: time of the pressure in the load stiffness (assemble)
-  std::vector<double> state_old_, state_new_;
-  std::vector<double> cauchy_;     ///< element-mean Cauchy stress of the last converged state
-  std::vector<double> fint_;       ///< internal forces (all dofs) of the last converged state
-  std::vector<int> state_offset_;  ///< per element into the state arrays (−1: elastic)
-  double time_ = 0.0, last_dt_ = 0.0;
-  bool recent_cutback_ = false;
-  double cavity_pressure_ = 0.0, cavity_v0_ = 0.0;
-  RunStats stats_;
+ private:
+  std::unique_ptr<Impl> impl_;
 };
 
 }  // namespace softhom::fe

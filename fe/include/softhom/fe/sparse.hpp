@@ -66,6 +66,9 @@ class LinearSolver {
   virtual SolverKind kind() const = 0;
   /// Floating-point operations of one numeric factorization as predicted by the analysis (0: unknown).
   virtual double predicted_flops() const { return 0.0; }
+  /// Estimate of the reciprocal condition number of the last factorization (the ratio of its smallest
+  /// to largest pivot; 0 for a singular matrix).
+  virtual double reciprocal_condition() const = 0;
   const SolverTimes& times() const { return times_; }
 
  protected:

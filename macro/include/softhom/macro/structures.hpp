@@ -35,7 +35,7 @@ enum class LoadControl {
   volume,    ///< cavity volume V(t) = ratio(t) · V0, pressure is the unknown (passes limit points)
 };
 
-/// An imported mesh (fe::read_gmsh by the caller: the macro library does no file I/O) and what acts on
+/// An imported mesh (io::read_gmsh by the caller: the macro library does no file I/O) and what acts on
 /// its physical groups.
 struct ImportedSpec {
   fe::Mesh mesh;
@@ -80,5 +80,30 @@ Structure build_structure(const StructureSpec& spec);
 std::vector<std::string> probe_names(const Structure& s);
 /// Probe values at the current state of the simulation (same order as probe_names).
 std::vector<double> probe_values(const Structure& s, const fe::Simulation& sim);
+
+}  // namespace softhom::macro
+
+namespace softhom::macro {
+
+/// Memory a structure needs before any of it is built: its nodes and dofs from the cell counts (or
+/// the imported mesh), the mesh and assembly data, and the sparse factorization's fill.
+struct SizeEstimate {
+  double nodes = 0.0, dofs = 0.0;  ///< dofs: 3 per node (constraints not subtracted)
+  double mesh_bytes = 0.0;         ///< mesh, element data, stiffness pattern and work vectors
+  double factor_bytes = 0.0;       ///< the factorization (Cholesky or LU fill)
+  double bytes() const { return mesh_bytes + factor_bytes; }
+};
+SizeEstimate estimate_size(const StructureSpec& spec);
+
+/// Memory the system can still give a process (MemAvailable of /proc/meminfo) [bytes]; 0 when unknown.
+double available_memory_bytes();
+
+/// Throws InputError on `field` (the geometry key that sets the size, e.g. "geometry.cells") with the
+/// estimate when the structure would not fit in `available_bytes` (0: unknown, nothing refused).
+/// build_structure calls it with the available memory; a scene parser may call it earlier.
+void refuse_if_too_large(const StructureSpec& spec, double available_bytes, const std::string& field);
+
+/// The geometry key whose value sets a structure's size ("geometry.cells", "geometry.file", ...).
+std::string size_field(const StructureSpec& spec);
 
 }  // namespace softhom::macro

@@ -1,4 +1,4 @@
-#include "softhom/fe/gmsh.hpp"
+#include "softhom/io/gmsh.hpp"
 
 #include <algorithm>
 #include <charconv>
@@ -15,8 +15,10 @@
 #include "softhom/fe/tet10_element.hpp"
 #include "softhom/materials/errors.hpp"
 
-namespace softhom::fe {
+namespace softhom::io {
 namespace {
+
+using namespace softhom::fe;
 
 /// Whitespace-separated tokens with line numbers (for error messages); quoted strings are one token.
 class Tokens {
@@ -181,211 +183,234 @@ struct ArrayHash {
   }
 };
 
-}  // namespace
+/// The sections of one MSH 4.1 file as read so far, and the field readers of its encoding.
+struct GmshReader {
+  GmshReader(std::string text, std::string source) : tk(std::move(text), std::move(source)) {}
 
-Mesh parse_gmsh(std::istream& in, const std::string& source) {
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  Tokens tk(buffer.str(), source);
-
-  bool have_format = false, have_nodes = false, have_elements = false;
-  std::map<long, std::string> physical_names[4];          // by dimension: tag → name
-  std::map<long, std::vector<long>> entity_physicals[4];  // by dimension: entity tag → physical tags
-  bool have_entities = false;
-  std::vector<Vec3> nodes;
-  std::unordered_map<long, int> node_index;
-  std::vector<VolumeElement> volumes;
-  std::vector<SurfaceElement> surfaces;
+  Tokens tk;
   // Binary files (MSH 4.1 file-type 1): the same fields as the ASCII ones, as int (tags, dimensions,
   // types, flags), size_t of `size_bytes` (counts, node and element tags) or double, in the writer's
   // byte order; $PhysicalNames stays text.
   bool binary = false;
   int size_bytes = 8;
-  auto int_field = [&](const char* what) -> long { return binary ? long(tk.raw<std::int32_t>(what)) : tk.integer(what); };
-  auto size_field = [&](const char* what) -> long {
+  bool have_format = false, have_nodes = false, have_elements = false, have_entities = false;
+  std::map<long, std::string> physical_names[4];          // by dimension: tag → name
+  std::map<long, std::vector<long>> entity_physicals[4];  // by dimension: entity tag → physical tags
+  std::vector<Vec3> nodes;
+  std::unordered_map<long, int> node_index;
+  std::vector<VolumeElement> volumes;
+  std::vector<SurfaceElement> surfaces;
+
+  long int_field(const char* what) { return binary ? long(tk.raw<std::int32_t>(what)) : tk.integer(what); }
+  long size_field(const char* what) {
     if (!binary) return tk.integer(what);
     const std::uint64_t v = size_bytes == 8 ? tk.raw<std::uint64_t>(what) : tk.raw<std::uint32_t>(what);
     if (v > (std::uint64_t(1) << 53)) tk.fail(std::to_string(v), std::string("implausible value in binary data (") + what + ")");
     return long(v);
-  };
-  auto real_field = [&](const char* what) -> double {
+  }
+  double real_field(const char* what) {
     if (!binary) return tk.real(what);
     const double v = tk.raw<double>(what);
     if (!std::isfinite(v)) tk.fail("", std::string("non-finite number in binary data (") + what + ")");
     return v;
-  };
-  // A count read from the file: non-negative and not more items than bytes left (each takes at least
-  // one), so a corrupt or truncated file is an InputError, not a huge allocation.
-  auto count_field = [&](const char* what, bool size_type) -> long {
+  }
+  /// A count read from the file: non-negative and not more items than bytes left (each takes at least
+  /// one), so a corrupt or truncated file is an InputError, not a huge allocation.
+  long count_field(const char* what, bool size_type) {
     const long n = size_type ? size_field(what) : int_field(what);
     if (n < 0 || std::size_t(n) > tk.remaining())
       tk.fail(std::to_string(n), std::string("invalid count (") + what + "): negative or beyond the end of the file");
     return n;
-  };
-
-  auto node_of = [&](long tag) {
+  }
+  int node_of(long tag) {
     const auto it = node_index.find(tag);
     if (it == node_index.end()) tk.fail(std::to_string(tag), "element refers to a node that is not in $Nodes");
     return it->second;
-  };
+  }
+  std::string physical_name(int dim, long tag) const {
+    const auto it = physical_names[dim].find(tag);
+    return it != physical_names[dim].end() ? it->second : std::to_string(tag);
+  }
 
+  void read_sections();
+  void read_format();
+  void read_physical_names();
+  void read_entities();
+  void read_nodes();
+  void read_elements();
+};
+
+void GmshReader::read_sections() {
   while (!tk.at_end()) {
     const std::string section(tk.next());
-    if (section == "$MeshFormat") {
-      const std::string version(tk.expect_token("version"));
-      const int line = tk.line();
-      const long file_type = tk.integer("file-type");
-      const long data_size = tk.integer("data-size");
-      if (version.rfind("4.1", 0) != 0)
-        tk.fail_at(line, version,
-                   "unsupported MSH version (only 4.1 is read): re-export with Mesh.MshFileVersion = 4.1 "
-                   "(gmsh -format msh41)");
-      if (file_type != 0 && file_type != 1)
-        tk.fail_at(line, std::to_string(file_type), "file-type must be 0 (ASCII) or 1 (binary)");
-      binary = file_type == 1;
-      if (binary) {
-        if (data_size != 4 && data_size != 8)
-          tk.fail_at(line, std::to_string(data_size), "data-size (bytes of size_t) must be 4 or 8 in a binary file");
-        size_bytes = int(data_size);
-        // The integer 1 written in the writer's byte order tells the endianness.
-        tk.begin_binary();
-        const std::int32_t one = tk.raw<std::int32_t>("endianness marker");
-        if (one != 1) {
-          std::int32_t swapped;
-          unsigned char b[4];
-          std::memcpy(b, &one, 4);
-          std::reverse(b, b + 4);
-          std::memcpy(&swapped, b, 4);
-          if (swapped != 1) tk.fail_at(line, std::to_string(one), "binary MSH: endianness marker is not the integer 1");
-          tk.swap_bytes = true;
-        }
-      }
-      tk.expect("$EndMeshFormat");
-      have_format = true;
-    } else if (!have_format) {
-      tk.fail(section, "the file must start with $MeshFormat (is this a Gmsh .msh file?)");
-    } else if (section == "$PhysicalNames") {
-      const long n = tk.integer("number of physical names");
-      for (long k = 0; k < n; ++k) {
-        const long dim = tk.integer("physical dimension");
-        const long tag = tk.integer("physical tag");
-        if (dim < 0 || dim > 3) tk.fail(std::to_string(dim), "physical dimension must be 0..3");
-        physical_names[dim][tag] = std::string(tk.expect_token("physical name"));
-      }
-      tk.expect("$EndPhysicalNames");
-    } else if (section == "$Entities") {
-      if (binary) tk.begin_binary();
-      long count[4];
-      for (long& c : count) c = count_field("number of entities", true);
-      for (int dim = 0; dim < 4; ++dim)
-        for (long k = 0; k < count[dim]; ++k) {
-          const long tag = int_field("entity tag");
-          for (int c = 0; c < (dim == 0 ? 3 : 6); ++c) real_field("entity bounding box");
-          const long np = count_field("number of physical tags", true);
-          auto& phys = entity_physicals[dim][tag];
-          for (long p = 0; p < np; ++p) phys.push_back(std::labs(int_field("physical tag")));
-          if (dim > 0) {
-            const long nb = count_field("number of bounding entities", true);
-            for (long b = 0; b < nb; ++b) int_field("bounding entity tag");
-          }
-        }
-      tk.expect("$EndEntities");
-      have_entities = true;
-    } else if (section == "$Nodes") {
-      if (binary) tk.begin_binary();
-      const long blocks = count_field("number of node blocks", true);
-      const long total = count_field("number of nodes", true);
-      size_field("min node tag");
-      size_field("max node tag");
-      nodes.reserve(total);
-      node_index.reserve(total);
-      for (long b = 0; b < blocks; ++b) {
-        const long dim = int_field("entity dimension");
-        int_field("entity tag");
-        const long parametric = int_field("parametric flag");
-        const long n = count_field("nodes in block", true);
-        std::vector<long> tags(n);
-        for (long& t : tags) t = size_field("node tag");
-        for (long k = 0; k < n; ++k) {
-          Vec3 x;
-          for (int i = 0; i < 3; ++i) x[i] = real_field("node coordinate");
-          if (parametric)
-            for (long i = 0; i < dim; ++i) real_field("parametric coordinate");
-          if (!node_index.emplace(tags[k], int(nodes.size())).second)
-            tk.fail(std::to_string(tags[k]), "node tag defined twice");
-          nodes.push_back(x);
-        }
-      }
-      if (long(nodes.size()) != total) tk.fail(std::to_string(total), "node count does not match the blocks");
-      tk.expect("$EndNodes");
-      have_nodes = true;
-    } else if (section == "$Elements") {
-      if (!have_nodes) tk.fail(section, "$Elements before $Nodes");
-      if (binary) tk.begin_binary();
-      const long blocks = count_field("number of element blocks", true);
-      count_field("number of elements", true);
-      size_field("min element tag");
-      size_field("max element tag");
-      for (long b = 0; b < blocks; ++b) {
-        const long dim = int_field("entity dimension");
-        const long entity = int_field("entity tag");
-        const long type = int_field("element type");
-        const int type_line = tk.line();
-        const long n = count_field("elements in block", true);
-        const int nn = gmsh_nodes(type);
-        if (nn == 0)
-          tk.fail_at(type_line, std::to_string(type), "unknown Gmsh element type");
-        const bool ignored = dim < 2;
-        const bool volume_ok = dim == 3 && (type == 4 || type == 11 || type == 5);
-        const bool surface_ok = dim == 2 && (type == 2 || type == 9 || type == 3);
-        if (!ignored && !volume_ok && !surface_ok)
-          tk.fail_at(type_line, std::to_string(type),
-                     std::string("unsupported element type (") + gmsh_name(type) + ", dimension " +
-                         std::to_string(dim) + "): volumes must be tetrahedra (4, 11) or hexahedra (5), " +
-                         "surfaces triangles (2, 9) or quadrangles (3)");
-        if (dim == 3 && have_entities && !entity_physicals[3].count(entity))
-          tk.fail_at(type_line, std::to_string(entity), "volume entity not listed in $Entities");
-        for (long k = 0; k < n; ++k) {
-          const long tag = size_field("element tag");
-          const int line = tk.line();
-          std::vector<int> en(nn);
-          for (int& v : en) v = ignored ? (size_field("node tag"), 0) : node_of(size_field("node tag"));
-          if (ignored) continue;
-          if (dim == 3) volumes.push_back({tag, line, entity, type, std::move(en)});
-          else surfaces.push_back({tag, line, int(entity), std::move(en)});
-        }
-      }
-      tk.expect("$EndElements");
-      have_elements = true;
-    } else if (!section.empty() && section[0] == '$' && section.rfind("$End", 0) != 0) {
+    if (section == "$MeshFormat") read_format();
+    else if (!have_format) tk.fail(section, "the file must start with $MeshFormat (is this a Gmsh .msh file?)");
+    else if (section == "$PhysicalNames") read_physical_names();
+    else if (section == "$Entities") read_entities();
+    else if (section == "$Nodes") read_nodes();
+    else if (section == "$Elements") read_elements();
+    else if (!section.empty() && section[0] == '$' && section.rfind("$End", 0) != 0)
       tk.skip_section(section.substr(1));  // $NodeData, $Periodic, $PartitionedEntities, ...
-    } else {
-      tk.fail(section, "expected a section name ($Nodes, $Elements, ...)");
-    }
+    else tk.fail(section, "expected a section name ($Nodes, $Elements, ...)");
   }
   if (!have_format) tk.fail("", "empty file or no $MeshFormat");
   if (!have_nodes || !have_elements) tk.fail("", "missing $Nodes or $Elements");
   if (volumes.empty())
     tk.fail("", "no volume elements (tetrahedra or hexahedra): mesh the volume (gmsh -3) and make sure its "
                 "physical group is saved");
+}
 
+void GmshReader::read_format() {
+  const std::string version(tk.expect_token("version"));
+  const int line = tk.line();
+  const long file_type = tk.integer("file-type");
+  const long data_size = tk.integer("data-size");
+  if (version.rfind("4.1", 0) != 0)
+    tk.fail_at(line, version,
+               "unsupported MSH version (only 4.1 is read): re-export with Mesh.MshFileVersion = 4.1 "
+               "(gmsh -format msh41)");
+  if (file_type != 0 && file_type != 1)
+    tk.fail_at(line, std::to_string(file_type), "file-type must be 0 (ASCII) or 1 (binary)");
+  binary = file_type == 1;
+  if (binary) {
+    if (data_size != 4 && data_size != 8)
+      tk.fail_at(line, std::to_string(data_size), "data-size (bytes of size_t) must be 4 or 8 in a binary file");
+    size_bytes = int(data_size);
+    // The integer 1 written in the writer's byte order tells the endianness.
+    tk.begin_binary();
+    const std::int32_t one = tk.raw<std::int32_t>("endianness marker");
+    if (one != 1) {
+      std::int32_t swapped;
+      unsigned char b[4];
+      std::memcpy(b, &one, 4);
+      std::reverse(b, b + 4);
+      std::memcpy(&swapped, b, 4);
+      if (swapped != 1) tk.fail_at(line, std::to_string(one), "binary MSH: endianness marker is not the integer 1");
+      tk.swap_bytes = true;
+    }
+  }
+  tk.expect("$EndMeshFormat");
+  have_format = true;
+}
+
+void GmshReader::read_physical_names() {
+  const long n = tk.integer("number of physical names");
+  for (long k = 0; k < n; ++k) {
+    const long dim = tk.integer("physical dimension");
+    const long tag = tk.integer("physical tag");
+    if (dim < 0 || dim > 3) tk.fail(std::to_string(dim), "physical dimension must be 0..3");
+    physical_names[dim][tag] = std::string(tk.expect_token("physical name"));
+  }
+  tk.expect("$EndPhysicalNames");
+}
+
+void GmshReader::read_entities() {
+  if (binary) tk.begin_binary();
+  long count[4];
+  for (long& c : count) c = count_field("number of entities", true);
+  for (int dim = 0; dim < 4; ++dim)
+    for (long k = 0; k < count[dim]; ++k) {
+      const long tag = int_field("entity tag");
+      for (int c = 0; c < (dim == 0 ? 3 : 6); ++c) real_field("entity bounding box");
+      const long np = count_field("number of physical tags", true);
+      auto& phys = entity_physicals[dim][tag];
+      for (long p = 0; p < np; ++p) phys.push_back(std::labs(int_field("physical tag")));
+      if (dim > 0) {
+        const long nb = count_field("number of bounding entities", true);
+        for (long b = 0; b < nb; ++b) int_field("bounding entity tag");
+      }
+    }
+  tk.expect("$EndEntities");
+  have_entities = true;
+}
+
+void GmshReader::read_nodes() {
+  if (binary) tk.begin_binary();
+  const long blocks = count_field("number of node blocks", true);
+  const long total = count_field("number of nodes", true);
+  size_field("min node tag");
+  size_field("max node tag");
+  nodes.reserve(total);
+  node_index.reserve(total);
+  for (long b = 0; b < blocks; ++b) {
+    const long dim = int_field("entity dimension");
+    int_field("entity tag");
+    const long parametric = int_field("parametric flag");
+    const long n = count_field("nodes in block", true);
+    std::vector<long> tags(n);
+    for (long& t : tags) t = size_field("node tag");
+    for (long k = 0; k < n; ++k) {
+      Vec3 x;
+      for (int i = 0; i < 3; ++i) x[i] = real_field("node coordinate");
+      if (parametric)
+        for (long i = 0; i < dim; ++i) real_field("parametric coordinate");
+      if (!node_index.emplace(tags[k], int(nodes.size())).second)
+        tk.fail(std::to_string(tags[k]), "node tag defined twice");
+      nodes.push_back(x);
+    }
+  }
+  if (long(nodes.size()) != total) tk.fail(std::to_string(total), "node count does not match the blocks");
+  tk.expect("$EndNodes");
+  have_nodes = true;
+}
+
+void GmshReader::read_elements() {
+  if (!have_nodes) tk.fail("$Elements", "$Elements before $Nodes");
+  if (binary) tk.begin_binary();
+  const long blocks = count_field("number of element blocks", true);
+  count_field("number of elements", true);
+  size_field("min element tag");
+  size_field("max element tag");
+  for (long b = 0; b < blocks; ++b) {
+    const long dim = int_field("entity dimension");
+    const long entity = int_field("entity tag");
+    const long type = int_field("element type");
+    const int type_line = tk.line();
+    const long n = count_field("elements in block", true);
+    const int nn = gmsh_nodes(type);
+    if (nn == 0)
+      tk.fail_at(type_line, std::to_string(type), "unknown Gmsh element type");
+    const bool ignored = dim < 2;
+    const bool volume_ok = dim == 3 && (type == 4 || type == 11 || type == 5);
+    const bool surface_ok = dim == 2 && (type == 2 || type == 9 || type == 3);
+    if (!ignored && !volume_ok && !surface_ok)
+      tk.fail_at(type_line, std::to_string(type),
+                 std::string("unsupported element type (") + gmsh_name(type) + ", dimension " +
+                     std::to_string(dim) + "): volumes must be tetrahedra (4, 11) or hexahedra (5), " +
+                     "surfaces triangles (2, 9) or quadrangles (3)");
+    if (dim == 3 && have_entities && !entity_physicals[3].count(entity))
+      tk.fail_at(type_line, std::to_string(entity), "volume entity not listed in $Entities");
+    for (long k = 0; k < n; ++k) {
+      const long tag = size_field("element tag");
+      const int line = tk.line();
+      std::vector<int> en(nn);
+      for (int& v : en) v = ignored ? (size_field("node tag"), 0) : node_of(size_field("node tag"));
+      if (ignored) continue;
+      if (dim == 3) volumes.push_back({tag, line, entity, type, std::move(en)});
+      else surfaces.push_back({tag, line, int(entity), std::move(en)});
+    }
+  }
+  tk.expect("$EndElements");
+  have_elements = true;
+}
+
+/// The volume elements as a Mesh: regions, tets promoted to tet10, orientation, Jacobian check.
+Mesh volume_mesh(GmshReader& r) {
+  Tokens& tk = r.tk;
+  const std::vector<VolumeElement>& volumes = r.volumes;
   Mesh mesh;
-  mesh.nodes = std::move(nodes);
+  mesh.nodes = std::move(r.nodes);
   // Regions: volume physical groups in order of first appearance ("" for volumes without one).
-  auto physical_name = [&](int dim, long tag) {
-    const auto it = physical_names[dim].find(tag);
-    return it != physical_names[dim].end() ? it->second : std::to_string(tag);
-  };
   std::map<long, int> region_of_physical;
   auto region_of_entity = [&](long entity) {
-    const auto it = entity_physicals[3].find(entity);
-    const long phys = (it == entity_physicals[3].end() || it->second.empty()) ? 0 : it->second.front();
-    auto r = region_of_physical.find(phys);
-    if (r == region_of_physical.end()) {
-      r = region_of_physical.emplace(phys, int(mesh.region_names.size())).first;
-      mesh.region_names.push_back(phys == 0 ? std::string() : physical_name(3, phys));
+    const auto it = r.entity_physicals[3].find(entity);
+    const long phys = (it == r.entity_physicals[3].end() || it->second.empty()) ? 0 : it->second.front();
+    auto known = region_of_physical.find(phys);
+    if (known == region_of_physical.end()) {
+      known = region_of_physical.emplace(phys, int(mesh.region_names.size())).first;
+      mesh.region_names.push_back(phys == 0 ? std::string() : r.physical_name(3, phys));
     }
-    return r->second;
+    return known->second;
   };
   // Mid-edge nodes: those of tet10 elements first, then new straight ones for promoted tet4s (shared
   // between neighbours through the edge map).
@@ -442,6 +467,12 @@ Mesh parse_gmsh(std::istream& in, const std::string& source) {
                  "tetrahedron with a non-positive Jacobian (degenerate, or mid-edge nodes far off their edges)");
   }
 
+  return mesh;
+}
+
+/// Surface physical groups: each face matched to a volume element's face, in that element's orientation.
+void attach_surfaces(GmshReader& r, Mesh& mesh) {
+  Tokens& tk = r.tk;
   // Element faces by their sorted vertices → (element, local face); interior faces keep the first.
   std::unordered_map<std::array<int, 3>, std::pair<int, int>, ArrayHash> tri_faces;
   std::unordered_map<std::array<int, 4>, std::pair<int, int>, ArrayHash> quad_faces;
@@ -459,11 +490,11 @@ Mesh parse_gmsh(std::istream& in, const std::string& source) {
       std::sort(k.begin(), k.end());
       quad_faces.emplace(k, std::pair<int, int>(int(h), f));
     }
-  for (const SurfaceElement& s : surfaces) {
-    const auto it = entity_physicals[2].find(s.entity);
-    if (have_entities && it == entity_physicals[2].end())
+  for (const SurfaceElement& s : r.surfaces) {
+    const auto it = r.entity_physicals[2].find(s.entity);
+    if (r.have_entities && it == r.entity_physicals[2].end())
       tk.fail_at(s.line, std::to_string(s.entity), "surface entity not listed in $Entities");
-    if (it == entity_physicals[2].end() || it->second.empty()) continue;  // not in a physical group
+    if (it == r.entity_physicals[2].end() || it->second.empty()) continue;  // not in a physical group
     if (s.nodes.size() == 4) {
       std::array<int, 4> k{s.nodes[0], s.nodes[1], s.nodes[2], s.nodes[3]};
       std::sort(k.begin(), k.end());
@@ -472,7 +503,7 @@ Mesh parse_gmsh(std::istream& in, const std::string& source) {
         tk.fail_at(s.line, std::to_string(s.tag), "quadrangle is not the face of any hexahedron");
       Quad q;
       for (int i = 0; i < 4; ++i) q[i] = mesh.hexes[f->second.first][kHexFaces[f->second.second][i]];
-      for (long phys : it->second) mesh.surfaces[physical_name(2, phys)].push_back(q);
+      for (long phys : it->second) mesh.surfaces[r.physical_name(2, phys)].push_back(q);
       continue;
     }
     std::array<int, 3> k{s.nodes[0], s.nodes[1], s.nodes[2]};
@@ -490,10 +521,13 @@ Mesh parse_gmsh(std::istream& in, const std::string& source) {
       if (given != own)
         tk.fail_at(s.line, std::to_string(s.tag), "6-node triangle's mid-edge nodes differ from its tetrahedron's");
     }
-    for (long phys : it->second) mesh.tri_surfaces[physical_name(2, phys)].push_back(q);
+    for (long phys : it->second) mesh.tri_surfaces[r.physical_name(2, phys)].push_back(q);
   }
-  // Drop nodes no volume element uses (geometry points, nodes of unsaved entities): they would carry
-  // degrees of freedom without stiffness.
+}
+
+/// Drops nodes no volume element uses (geometry points, nodes of unsaved entities): they would carry
+/// degrees of freedom without stiffness.
+void drop_unused_nodes(Mesh& mesh) {
   std::vector<int> renumber(mesh.nodes.size(), -1);
   int used = 0;
   for (int e = 0; e < mesh.num_elements(); ++e)
@@ -517,6 +551,18 @@ Mesh parse_gmsh(std::istream& in, const std::string& source) {
       for (Tri6& q : faces)
         for (int& n : q) n = renumber[n];
   }
+}
+
+}  // namespace
+
+Mesh parse_gmsh(std::istream& in, const std::string& source) {
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  GmshReader reader(buffer.str(), source);
+  reader.read_sections();
+  Mesh mesh = volume_mesh(reader);
+  attach_surfaces(reader, mesh);
+  drop_unused_nodes(mesh);
   return mesh;
 }
 
@@ -526,4 +572,4 @@ Mesh read_gmsh(const std::filesystem::path& file) {
   return parse_gmsh(in, file.string());
 }
 
-}  // namespace softhom::fe
+}  // namespace softhom::io

@@ -6,13 +6,14 @@
 #include <set>
 #include <sstream>
 
-#include "softhom/fe/gmsh.hpp"
+#include "softhom/io/gmsh.hpp"
 #include "softhom/fe/model.hpp"
 #include "softhom/fe/tet10_element.hpp"
 #include "softhom/materials/errors.hpp"
 
 using namespace softhom;
 using namespace softhom::fe;
+using namespace softhom::io;
 
 namespace {
 

@@ -10,11 +10,12 @@
 #include <fstream>
 #include <sstream>
 
-#include "softhom/fe/gmsh.hpp"
+#include "softhom/io/gmsh.hpp"
 #include "softhom/materials/errors.hpp"
 
 using namespace softhom;
 using namespace softhom::fe;
+using namespace softhom::io;
 
 namespace {
 

@@ -1,5 +1,6 @@
 #pragma once
-// Gmsh mesh import (MSH file format version 4.1, ASCII or binary).
+// Gmsh mesh import (MSH file format version 4.1, ASCII or binary) into fe::Mesh. The file layer: the
+// solver libraries keep the mesh types and do no file I/O.
 //
 // Read: $MeshFormat, $PhysicalNames, $Entities (entity tag → physical tags), $Nodes, $Elements; other
 // sections are skipped. Volume elements: 4-node tetrahedra (type 4, promoted to tet10 with straight
@@ -27,11 +28,11 @@
 
 #include "softhom/fe/mesh.hpp"
 
-namespace softhom::fe {
+namespace softhom::io {
 
 /// Parses MSH 4.1 text; `source` names the file in error messages.
-Mesh parse_gmsh(std::istream& in, const std::string& source);
+fe::Mesh parse_gmsh(std::istream& in, const std::string& source);
 /// Reads a .msh file (InputError when it cannot be opened).
-Mesh read_gmsh(const std::filesystem::path& file);
+fe::Mesh read_gmsh(const std::filesystem::path& file);
 
-}  // namespace softhom::fe
+}  // namespace softhom::io

@@ -1,0 +1,314 @@
+// Assembly of fe::Simulation: the coloured element loop (residual, tangent, Dirichlet predictor
+// right-hand side) and the loads (follower pressures, nodal forces, cavity).
+#include "simulation_impl.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <sstream>
+#include <tuple>
+#include <type_traits>
+
+#include <Eigen/Dense>
+
+#include "softhom/materials/errors.hpp"
+
+namespace softhom::fe {
+using namespace detail;
+
+MaterialStatus Simulation::Impl::assemble(double t, double dt, bool tangent, const std::vector<double>& u, double cavity_p,
+                                    Assembly& out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const Mesh& mesh = model_.mesh;
+  const int ndof = mesh.num_dofs();
+  const bool mixed = !mix_bulk_.empty();
+  out.R.assign(ndof, 0.0);
+  if (mixed) {
+    out.R_true.assign(ndof, 0.0);
+    out.R_u.assign(ndof, 0.0);
+  } else {
+    out.R_true.clear();
+    out.R_u.clear();
+  }
+  out.cauchy.resize(9 * std::size_t(mesh.num_elements()));
+  if (tangent) {
+    K_.set_zero();
+    ++k_version_;
+    ++stats_.tangent_assemblies;
+  } else {
+    ++stats_.residual_assemblies;
+  }
+  const bool predictor = !out.dirichlet_rhs.empty();
+  std::vector<double> du_c;
+  if (predictor) {
+    du_c.swap(out.dirichlet_rhs);
+    out.dirichlet_rhs.assign(ndof, 0.0);
+  }
+  assemble_elements(dt, tangent, u, du_c, out);
+  if (out.status != MaterialStatus::ok) {
+    stats_.assembly_time += seconds_since(t0);
+    return out.status;
+  }
+  out.fint_norm = norm(out.R);
+  out.fint = mixed ? out.R_true : out.R;  // before the loads: the internal forces alone
+
+  assemble_loads(t, tangent, u, cavity_p, du_c, out);
+  stats_.assembly_time += seconds_since(t0);
+  return MaterialStatus::ok;
+}
+
+void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vector<double>& u,
+                                         const std::vector<double>& du_c, Assembly& out) {
+  // Element residuals (and tangents) scattered colour by colour; the first failed material call
+  // (the first to claim it among the threads) is reported in out.failed_element / out.status.
+  const Mesh& mesh = model_.mesh;
+  const bool mixed = !mix_bulk_.empty();
+  const bool predictor = !du_c.empty();
+  std::atomic<int> failed{-1};
+  std::atomic<int> failed_status{0};
+  const std::vector<int>& eq = dofs_.eq;
+  double* kv = K_.values.data();
+  double* R = out.R.data();
+  double* Rt = mixed ? out.R_true.data() : nullptr;
+  double* Ru = mixed ? out.R_u.data() : nullptr;
+  double* drhs = predictor ? out.dirichlet_rhs.data() : nullptr;
+
+  // Small meshes assemble on one thread: the work per colour is a few microseconds, and on a shared
+  // (oversubscribed) 2-core machine every OpenMP barrier of a spinning runtime can cost a time slice
+  // (measured 4x slower assembly with 2 threads at load 8 on the 256-element plane-strain tube).
+  const int threads = mesh.num_elements() >= 4000 ? omp_get_max_threads() : 1;
+#pragma omp parallel num_threads(threads)
+  {
+    Vec24 r;
+    Mat24 Ke;
+    Mat3 sigma;
+    std::array<int, 24> gdof;
+    // Tet10 elements: the steps of the hex8 body below with 10 nodes (tet10_element.hpp).
+    Vec30 r10;
+    Mat30 K10;
+    std::array<int, 30> gdof10;
+    auto tet_element = [&](int e) {
+      const int t = e - mesh.num_hexes();
+      const Tet10& tet = mesh.tets[t];
+      const Tet10Coords ue = gather(u, tet);
+      const int off = state_offset_[e];
+      Tet10MixedVolume mv;
+      const bool me = mixed && mix_bulk_[e] > 0.0;
+      if (me) {
+        mv.bulk = mix_bulk_[e];
+        mv.theta = mix_theta_[e];
+        mv.p = mix_p_[e];
+      }
+      const MaterialStatus st = tet10_internal_force(
+          tet_geometry_[t], ue, *model_.element_material[e], off >= 0 ? state_old_.data() + off : nullptr,
+          off >= 0 ? state_new_.data() + off : nullptr, dt, model_.formulation, r10, tangent ? &K10 : nullptr,
+          &sigma, me ? &mv : nullptr);
+      if (st != MaterialStatus::ok) {
+        int expected = -1;
+        if (failed.compare_exchange_strong(expected, e)) failed_status = int(st);
+        return;
+      }
+      if (me) {
+        mix_theta_u_[e] = mv.theta_u;
+        mix_d_tet_[t] = mv.d;
+      }
+      for (int c = 0; c < 9; ++c) out.cauchy[9 * std::size_t(e) + c] = sigma(c / 3, c % 3);
+      for (int a = 0; a < 10; ++a)
+        for (int i = 0; i < 3; ++i) gdof10[3 * a + i] = 3 * tet[a] + i;
+      for (int q = 0; q < 30; ++q) R[gdof10[q]] += r10[q];
+      if (mixed)
+        for (int q = 0; q < 30; ++q) {
+          Rt[gdof10[q]] += r10[q] - (me ? mv.shift * mv.d[q] : 0.0);
+          Ru[gdof10[q]] += r10[q] - (me ? mv.shift_u * mv.d[q] : 0.0);
+        }
+      if (!tangent) return;
+      for (int b = 0; b < 10; ++b)
+        for (int j = 0; j < 3; ++j) {
+          const int cl = 3 * b + j;
+          const int col = eq[gdof10[cl]];
+          if (col < 0) {
+            if (predictor && du_c[gdof10[cl]] != 0.0)
+              for (int rw = 0; rw < 30; ++rw) drhs[gdof10[rw]] += K10(rw, cl) * du_c[gdof10[cl]];
+            continue;
+          }
+          double* column = kv + K_.colptr[col];
+          for (int a = 0; a < 10; ++a) {
+            const long o = tet_block_[t][10 * a + b];
+            if (o < 0) continue;
+            const auto& fr = free_rank_[tet[a]];
+            for (int i = 0; i < 3; ++i)
+              if (fr[i] >= 0) column[o + fr[i]] += K10(3 * a + i, cl);
+          }
+        }
+    };
+    for (const std::vector<int>& color : colors_) {
+      // Elements of one colour share no node: plain (non-atomic) updates are race-free.
+#pragma omp for schedule(dynamic, 32)
+      for (std::size_t k = 0; k < color.size(); ++k) {
+        const int e = color[k];
+        if (failed.load(std::memory_order_relaxed) >= 0) continue;
+        if (mesh.is_tet(e)) {
+          tet_element(e);
+          continue;
+        }
+        const Hex& hex = mesh.hexes[e];
+        const Mat83 ue = gather(u, hex);
+        const int off = state_offset_[e];
+        MixedVolume mv;
+        const bool me = mixed && mix_bulk_[e] > 0.0;
+        if (me) {
+          mv.bulk = mix_bulk_[e];
+          mv.theta = mix_theta_[e];
+          mv.p = mix_p_[e];
+        }
+        const MaterialStatus st = hex8_internal_force(
+            geometry_[e], ue, *model_.element_material[e], off >= 0 ? state_old_.data() + off : nullptr,
+            off >= 0 ? state_new_.data() + off : nullptr, dt, model_.formulation, r, tangent ? &Ke : nullptr,
+            &sigma, me ? &mv : nullptr);
+        if (st != MaterialStatus::ok) {
+          int expected = -1;
+          if (failed.compare_exchange_strong(expected, e)) failed_status = int(st);
+          continue;
+        }
+        if (me) {
+          mix_theta_u_[e] = mv.theta_u;
+          mix_d_[e] = mv.d;
+        }
+        for (int c = 0; c < 9; ++c) out.cauchy[9 * std::size_t(e) + c] = sigma(c / 3, c % 3);
+        for (int a = 0; a < 8; ++a)
+          for (int i = 0; i < 3; ++i) gdof[3 * a + i] = 3 * hex[a] + i;
+        for (int q = 0; q < 24; ++q) R[gdof[q]] += r[q];
+        if (mixed) {
+          if (me) {
+            for (int q = 0; q < 24; ++q) {
+              Rt[gdof[q]] += r[q] - mv.shift * mv.d[q];
+              Ru[gdof[q]] += r[q] - mv.shift_u * mv.d[q];
+            }
+          } else {
+            for (int q = 0; q < 24; ++q) {
+              Rt[gdof[q]] += r[q];
+              Ru[gdof[q]] += r[q];
+            }
+          }
+        }
+        if (!tangent) continue;
+        for (int b = 0; b < 8; ++b)
+          for (int j = 0; j < 3; ++j) {
+            const int cl = 3 * b + j;
+            const int col = eq[gdof[cl]];
+            if (col < 0) {
+              // Prescribed column: its increment enters the predictor's right-hand side (K_fc Δu_c).
+              if (predictor && du_c[gdof[cl]] != 0.0)
+                for (int rw = 0; rw < 24; ++rw) drhs[gdof[rw]] += Ke(rw, cl) * du_c[gdof[cl]];
+              continue;
+            }
+            double* column = kv + K_.colptr[col];
+            for (int a = 0; a < 8; ++a) {
+              const long o = block_[e][8 * a + b];
+              if (o < 0) continue;
+              const auto& fr = free_rank_[hex[a]];
+              for (int i = 0; i < 3; ++i)
+                if (fr[i] >= 0) column[o + fr[i]] += Ke(3 * a + i, cl);
+            }
+          }
+      }
+    }
+  }
+  out.failed_element = failed.load();
+  out.status = out.failed_element >= 0 ? MaterialStatus(failed_status.load()) : MaterialStatus::ok;
+}
+
+void Simulation::Impl::assemble_loads(double t, bool tangent, const std::vector<double>& u, double cavity_p,
+                                      const std::vector<double>& du_c, Assembly& out) {
+  const Mesh& mesh = model_.mesh;
+  const int ndof = mesh.num_dofs();
+  const bool mixed = !mix_bulk_.empty();
+  const bool predictor = !du_c.empty();
+  const std::vector<int>& eq = dofs_.eq;
+  double* kv = K_.values.data();
+  double* R = out.R.data();
+  double* Rt = mixed ? out.R_true.data() : nullptr;
+  double* Ru = mixed ? out.R_u.data() : nullptr;
+  double* drhs = predictor ? out.dirichlet_rhs.data() : nullptr;
+  // Follower pressures: R += p a(x), K += p ∂a/∂x (unsymmetric load stiffness).
+  std::vector<double> fext(ndof, 0.0);
+  // Quads (bilinear) and 6-node triangles (tet faces): the same steps with nf nodes per face.
+  auto add_faces = [&](const auto& faces, double p, bool collect, double pk) {
+    constexpr int nf = std::tuple_size_v<typename std::decay_t<decltype(faces)>::value_type>;
+    static_assert(nf == 4 || nf == 6);
+    std::conditional_t<nf == 4, Vec12, Vec18> a, dflux;
+    std::conditional_t<nf == 4, Mat12, Mat18> da;
+    const Vec3 mask = model_.cavity ? model_.cavity->mask : Vec3::Ones();
+    for (const auto& q : faces) {
+      std::conditional_t<nf == 4, Mat43, Mat63> xe;
+      for (int k = 0; k < nf; ++k)
+        xe.row(k) = (mesh.nodes[q[k]] + Vec3(u[3 * q[k]], u[3 * q[k] + 1], u[3 * q[k] + 2])).transpose();
+      double flux = 0.0;
+      if constexpr (nf == 4) quad4_pressure(xe, mask, a, tangent ? &da : nullptr, flux, collect ? &dflux : nullptr);
+      else tri6_pressure(xe, mask, a, tangent ? &da : nullptr, flux, collect ? &dflux : nullptr);
+      if (collect) out.volume -= flux / mask.sum();
+      for (int k = 0; k < nf; ++k)
+        for (int i = 0; i < 3; ++i) {
+          const int dof = 3 * q[k] + i;
+          R[dof] += p * a[3 * k + i];
+          if (Rt) {
+            Rt[dof] += p * a[3 * k + i];
+            Ru[dof] += p * a[3 * k + i];
+          }
+          fext[dof] -= p * a[3 * k + i];
+          if (collect) {
+            out.a[dof] += a[3 * k + i];
+            out.g[dof] -= dflux[3 * k + i] / mask.sum();
+          }
+        }
+      if (!tangent || pk == 0.0) continue;
+      for (int m = 0; m < nf; ++m)
+        for (int j = 0; j < 3; ++j) {
+          const int col = eq[3 * q[m] + j];
+          const int cdof = 3 * q[m] + j;
+          for (int k = 0; k < nf; ++k)
+            for (int i = 0; i < 3; ++i) {
+              const int row = eq[3 * q[k] + i];
+              if (row < 0) continue;
+              if (col >= 0)
+                kv[K_.find(row, col)] += pk * da(3 * k + i, 3 * m + j);
+              else if (predictor && du_c[cdof] != 0.0)
+                drhs[3 * q[k] + i] += pk * da(3 * k + i, 3 * m + j) * du_c[cdof];
+            }
+        }
+    }
+  };
+  for (const auto& load : model_.pressures) {
+    // The load stiffness takes the pressure at stiffness_time_ when set (the first iteration of a step
+    // started at the converged state: see try_step), else the residual's.
+    const double pk = load.pressure(stiffness_time_ >= 0.0 ? stiffness_time_ : t);
+    add_faces(load.faces, load.pressure(t), false, pk);
+    add_faces(load.tris, load.pressure(t), false, pk);
+  }
+  for (const auto& load : model_.nodal_loads) {
+    const double v = load.value(t);
+    for (std::size_t k = 0; k < load.dofs.size(); ++k) {
+      const double f = load.scale[k] * v;
+      R[load.dofs[k]] -= f;
+      if (Rt) {
+        Rt[load.dofs[k]] -= f;
+        Ru[load.dofs[k]] -= f;
+      }
+      fext[load.dofs[k]] += f;
+    }
+  }
+  out.volume = 0.0;
+  if (model_.cavity) {
+    out.a.assign(ndof, 0.0);
+    out.g.assign(ndof, 0.0);
+    add_faces(model_.cavity->faces, cavity_p, true, cavity_p);
+    add_faces(model_.cavity->tris, cavity_p, true, cavity_p);
+  }
+  out.fext_norm = norm(fext);
+}
+
+}  // namespace softhom::fe

@@ -1,0 +1,102 @@
+// Size estimate of a structure before it is built, and its refusal when the machine cannot hold it.
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "softhom/macro/structures.hpp"
+#include "softhom/materials/errors.hpp"
+
+namespace softhom::macro {
+namespace {
+
+// Factorization fill per dof, measured with bench_macro --factor-once on the 3D tube: 1.1e6 dofs
+// ≈ 16 GiB of CHOLMOD factor. Nested-dissection fill of a 3D mesh grows like n^(4/3), so below that
+// size this overestimates a little and above it underestimates: a refusal is certain, an acceptance
+// near the limit is not.
+constexpr double kFactorBytesPerDof = 16.0 * 1024 * 1024 * 1024 / 1.1e6;
+// Mesh, element geometry and history, the stiffness (~81 entries per column for hex8: values, row
+// indices, transposed positions, CHOLMOD's copy of the upper triangle) and the Newton/GMRES vectors.
+constexpr double kMeshBytesPerDof = 4096.0;
+
+double plate_nodes(const PlateSpec& p, bool tet10) {
+  const int m = tet10 ? 2 : 1;  // tet10: a mid node on every edge (and the split's diagonals)
+  return double(m * p.cells[0] + 1) * double(m * p.cells[1] + 1) * double(m * p.cells[2] + 1);
+}
+
+double tube_nodes(const TubeSpec& t, bool tet10) {
+  const int m = tet10 ? 2 : 1;
+  const double around = double(m * t.circumferential_cells) + (t.sweep_deg < 360.0 ? 1.0 : 0.0);
+  double n = double(m * t.radial_cells + 1) * around * double(m * t.axial_cells + 1);
+  if (t.cap_thickness > 0.0)  // the cap: a disk of the wall's and the core's cells, cap_axial_cells thick
+    n += double(m * (t.radial_cells + t.cap_core_cells) + 1) * around * double(m * t.cap_axial_cells);
+  return n;
+}
+
+double sphere_nodes(const SphereSpec& s, bool tet10) {
+  const int m = tet10 ? 2 : 1;
+  const double patch = double(m * s.patch_cells + 1);
+  return 3.0 * patch * patch * double(m * s.radial_cells + 1);
+}
+
+std::string gib(double bytes) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.3g GiB", bytes / (1024.0 * 1024.0 * 1024.0));
+  return buffer;
+}
+
+}  // namespace
+
+SizeEstimate estimate_size(const StructureSpec& spec) {
+  SizeEstimate e;
+  switch (spec.kind) {
+    case StructureKind::plate: e.nodes = plate_nodes(spec.plate, spec.tet10); break;
+    case StructureKind::tube:
+    case StructureKind::actuator: e.nodes = tube_nodes(spec.tube, spec.tet10); break;
+    case StructureKind::sphere: e.nodes = sphere_nodes(spec.sphere, spec.tet10); break;
+    case StructureKind::imported: e.nodes = double(spec.imported.mesh.num_nodes()); break;
+  }
+  e.dofs = 3.0 * e.nodes;
+  e.mesh_bytes = kMeshBytesPerDof * e.dofs;
+  e.factor_bytes = kFactorBytesPerDof * e.dofs;
+  return e;
+}
+
+double available_memory_bytes() {
+  // The one system query of the library: how much memory a new allocation can still get.
+  std::FILE* f = std::fopen("/proc/meminfo", "r");
+  if (!f) return 0.0;
+  char line[256];
+  double kib = 0.0;
+  while (std::fgets(line, sizeof line, f))
+    if (std::sscanf(line, "MemAvailable: %lf kB", &kib) == 1) break;
+  std::fclose(f);
+  return kib * 1024.0;
+}
+
+std::string size_field(const StructureSpec& spec) {
+  switch (spec.kind) {
+    case StructureKind::plate: return "geometry.cells";
+    case StructureKind::tube:
+    case StructureKind::actuator: return "geometry.circumferential_cells";
+    case StructureKind::sphere: return "geometry.patch_cells";
+    case StructureKind::imported: return "geometry.file";
+  }
+  return "geometry";
+}
+
+void refuse_if_too_large(const StructureSpec& spec, double available_bytes, const std::string& field) {
+  if (!(available_bytes > 0.0)) return;
+  const SizeEstimate e = estimate_size(spec);
+  if (e.bytes() <= available_bytes) return;
+  char dofs[32];
+  std::snprintf(dofs, sizeof dofs, "%.3g", e.dofs);
+  const std::string value = spec.kind == StructureKind::plate
+                                ? "[" + std::to_string(spec.plate.cells[0]) + ", " + std::to_string(spec.plate.cells[1]) +
+                                      ", " + std::to_string(spec.plate.cells[2]) + "]"
+                                : "";
+  throw InputError(field, value, "the structure is too large for this machine: " + std::string(dofs) + " dofs need about " +
+                                  gib(e.bytes()) + " (mesh " + gib(e.mesh_bytes) + ", factorization " + gib(e.factor_bytes) +
+                                  ") but " + gib(available_bytes) + " are available; use fewer cells");
+}
+
+}  // namespace softhom::macro
