@@ -191,3 +191,23 @@ TEST(MacroScene, KeyTablesDocumentEveryTable) {
     }
   EXPECT_TRUE(solver);
 }
+
+TEST(MacroScene, HugeBoxIsRefusedUpFrontWithAnEstimate) {
+  // 1000 x 1000 x 10 cells ≈ 3.3e7 dofs: far beyond any machine these tests run on (the estimate's
+  // factorization alone is hundreds of GiB), refused while parsing, before any mesh is built.
+  const std::string plate = R"(
+[geometry]
+type = "plate"
+size = [10.0, 10.0, 0.5]
+cells = [1000, 1000, 10]
+[material]
+preset = "ecoflex"
+[load]
+control = "stretch"
+path = [[0.0, 1.0], [1.0, 1.5]]
+)";
+  const std::string msg = error_of(plate);
+  EXPECT_NE(msg.find("geometry.cells"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("too large for this machine"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("GiB"), std::string::npos) << msg;
+}

@@ -20,7 +20,6 @@ struct PointSolverOptions {
   /// A converged state with Material::limit_margin below this is refused like a failed material call
   /// (Gent: Ī1 − 3 within 0.1 % of Jm): the run stops at the locking stretch with a clear message.
   double limit_margin = 1e-3;
-  double max_step_seconds = 0.0;
 };
 
 struct PointState {
