@@ -2,6 +2,7 @@
 #include <chrono>
 #include <iostream>
 
+#include "cmd_keys.hpp"
 #include "commands.hpp"
 #include "point_output.hpp"
 #include "scene_source.hpp"
@@ -69,7 +70,7 @@ PointRun run_point_scene(const LoadedScene& scene, const std::filesystem::path& 
 }
 
 int run_point(const CommandOptions& options) {
-  const LoadedScene scene = load_scene_or_default(options, "point_uniaxial_ecoflex");
+  const LoadedScene scene = load_scene_or_default(options, default_scene_name("point"));
   const PointRun run = run_point_scene(scene, options.out, options.quiet);
   if (!run.result.completed) {
     std::cerr << "softhom point: stopped early: " << run.result.error << "\n"

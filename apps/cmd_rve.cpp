@@ -8,6 +8,7 @@
 #include <iostream>
 #include <set>
 
+#include "cmd_keys.hpp"
 #include "cmd_rve_fe.hpp"
 #include "commands.hpp"
 #include "scene_source.hpp"
@@ -37,18 +38,18 @@ io::VoxelGrid voxel_grid(const rve::PhaseImage& im) {
 
 int run_rve(const CommandOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
-  LoadedScene scene = load_scene_or_default(options, "rve_homogeneous");
+  LoadedScene scene = load_scene_or_default(options, default_scene_name("rve"));
   // Engine choice ([solver] engine = "fft" | "fe"); the FE engine has its own [solver] keys.
   if (auto* solver_table = scene.table["solver"].as_table()) {
-    std::string engine = io::get_string_or(*solver_table, "engine", "solver", "fft");
+    static const io::Choices<std::string> engines{{{"fft", "fft"}, {"fe", "fe"}, {"auto", "auto"}}, {}};
+    const toml::node* engine_node = solver_table->get("engine");
+    std::string engine = engine_node ? io::read_choice(*engine_node, "solver.engine", engines) : "fft";
     if (engine == "auto") {  // resolution and engine from solver.target_error (BENCHMARKS.md)
       std::string why;
       engine = choose_engine(scene.table, why);
       if (!options.quiet) std::cerr << "softhom rve: " << why << "\n";
     }
     if (engine == "fe") return run_rve_fe(options, scene);
-    if (engine != "fft") throw InputError("solver.engine", engine, "fft, fe or auto");
-    solver_table->erase("engine");  // not an FFT solver option
   }
   // [load] is parsed only when the run needs it (unknown tables are refused by the scene parser).
   const bool wants_microstructure_only = studies::parse_rve_output(scene.table, nullptr).microstructure_only;

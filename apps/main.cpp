@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "cmd_keys.hpp"
 #include "commands.hpp"
 #include "embedded_scenes.hpp"
 #include "scene_source.hpp"
@@ -53,6 +54,7 @@ int main(int argc, char** argv) {
       {"demo", "runs the built-in example scenes and reports where the results are", app::run_demo},
   };
   const Sub* chosen = nullptr;
+  bool print_default = false;
   for (const Sub& s : subs) {
     CLI::App* sub = cli.add_subcommand(s.name, s.help);
     sub->add_option("scene", options.scene, "scene file (TOML); omitted: the embedded default scene")
@@ -60,6 +62,7 @@ int main(int argc, char** argv) {
     sub->add_option("-o,--out", options.out, "output directory (created if needed)")->capture_default_str();
     sub->add_option("-j,--threads", options.threads, "threads (0: all cores)")->check(CLI::NonNegativeNumber);
     sub->add_flag("-q,--quiet", options.quiet, "no progress on stderr");
+    sub->add_flag("--print-default", print_default, "write the embedded default scene to stdout and exit");
     if (std::string(s.name) == "sweep" || std::string(s.name) == "demo") {
       sub->add_option("--jobs", options.jobs,
                       "cases run in parallel, the threads split between them (0: one single-threaded job per thread)")
@@ -74,6 +77,11 @@ int main(int argc, char** argv) {
     }
     sub->callback([&chosen, &s] { chosen = &s; });
   }
+  std::string keys_command = "all";
+  bool keys_markdown = false;
+  CLI::App* keys = cli.add_subcommand("keys", "lists every scene key: type, default, allowed values, unit, meaning");
+  keys->add_option("command", keys_command, "point, rve, macro, sweep, calibrate or all")->capture_default_str();
+  keys->add_flag("--markdown", keys_markdown, "Markdown (docs/keys.md)");
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -81,12 +89,14 @@ int main(int argc, char** argv) {
   }
   if (options.threads > 0) omp_set_num_threads(options.threads);
   try {
+    if (keys->parsed()) return app::run_keys(keys_command, keys_markdown);
+    if (print_default) return app::print_default_scene(chosen->name);
     return chosen->run(options);
   } catch (const InputError& e) {
-    std::cerr << "softhom " << chosen->name << ": input error: " << e.what() << "\n";
+    std::cerr << "softhom " << (chosen ? chosen->name : "keys") << ": input error: " << e.what() << "\n";
     return 2;
   } catch (const std::exception& e) {
-    std::cerr << "softhom " << chosen->name << ": error: " << e.what() << "\n";
+    std::cerr << "softhom " << (chosen ? chosen->name : "keys") << ": error: " << e.what() << "\n";
     return 1;
   }
 }

@@ -103,9 +103,11 @@ const io::KeyTable<MaterialKeys>& material_keys() {
           if (p.name == name) unit = p.unit;
       }
       const std::string key = name;
-      k.custom(name, "number", "parameter of the " + which + " law (see the law tables)",
+      const std::size_t last = which.rfind(", ");
+      if (last != std::string::npos) which.replace(last, 2, " and ");
+      k.custom(name, "number", "parameter of the " + which + (owners.size() > 1 ? " laws" : " law") + " (see the law tables below)",
                [key](const toml::node& n, const std::string&, M& m) { m.parameters[key] = &n; },
-               "from the preset", "per law", unit);
+               "per law", "per law", unit);
     }
     k.custom("k1", "number", "fiber stiffness, default of every fiber family (HGO, spec §2)",
              [](const toml::node& n, const std::string& f, M& m) { m.k1 = io::read_number(n, f, kFiberStiffness); },

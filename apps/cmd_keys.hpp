@@ -1,0 +1,25 @@
+#pragma once
+// `softhom keys [COMMAND] [--markdown]`: every table and key of a subcommand's scene (name, type,
+// default, allowed values, unit, meaning), from the key declarations; and `--print-default`.
+#include <string>
+#include <vector>
+
+#include "softhom/io/keys.hpp"
+
+namespace softhom::app {
+
+/// The registry: one entry per subcommand that reads a scene, in the order of `softhom keys all`.
+/// Each library returns the descriptions of its tables (point_scene_tables(),
+/// studies::rve_scene_tables(), ...); a subcommand whose tables are not declared yet has none.
+std::vector<io::SceneKeys> scene_key_registry();
+
+/// Prints the tables of `command` ("all": every subcommand) as text or Markdown; an unknown command
+/// is an InputError.
+int run_keys(const std::string& command, bool markdown);
+
+/// The embedded scene a subcommand runs without a scene file ("" when it needs one).
+std::string default_scene_name(const std::string& command);
+/// Writes that embedded scene to stdout (InputError when the subcommand has none).
+int print_default_scene(const std::string& command);
+
+}  // namespace softhom::app
