@@ -19,15 +19,16 @@ const io::KeyTable<FftSolverOptions>& fft_solver_keys() {
                 },
                 "unset", "(0, 0.5)", "-")
         .choice("discretization", &O::discretization,
-                {{{"spectral", fft::Discretization::spectral}, {"rotated", fft::Discretization::rotated}, {"hex", fft::Discretization::hex}}, {}},
+                {{"spectral", fft::Discretization::spectral}, {"rotated", fft::Discretization::rotated}, {"hex", fft::Discretization::hex}},
                 "gradient discretization (rotated: staggered finite differences; hex: trilinear elements)")
         .choice("scheme", &O::scheme,
-                {{{"newton-cg", FftScheme::newton_cg}, {"moulinec-suquet", FftScheme::moulinec_suquet}},
-                 {{"newton_cg", "newton-cg"}, {"moulinec_suquet", "moulinec-suquet"}}},
+                io::Choices<FftScheme>{{{"newton-cg", FftScheme::newton_cg}, {"moulinec-suquet", FftScheme::moulinec_suquet}},
+                                       {{"newton_cg", "newton-cg"}, {"moulinec_suquet", "moulinec-suquet"}}},
                 "nonlinear iteration")
         .choice("reference", &O::reference,
-                {{{"mean-tangent", ReferenceMedium::mean_tangent}, {"isotropic", ReferenceMedium::isotropic}, {"geometric", ReferenceMedium::geometric}},
-                 {{"mean_tangent", "mean-tangent"}}},
+                io::Choices<ReferenceMedium>{
+                    {{"mean-tangent", ReferenceMedium::mean_tangent}, {"isotropic", ReferenceMedium::isotropic}, {"geometric", ReferenceMedium::geometric}},
+                    {{"mean_tangent", "mean-tangent"}}},
                 "reference medium of the preconditioner / fixed point")
         .number("tolerance", &O::tolerance, io::open_range(0.0, 1.0), "-",
                 "Newton: RMS incompatible stress and macro stress error relative to the stress scale")
@@ -44,15 +45,15 @@ const io::KeyTable<FftSolverOptions>& fft_solver_keys() {
         .integer("max_continuation_iterations", &O::max_continuation_iterations, io::closed_range(0, 100000), "-",
                  "pseudo-transient continuation iterations when Newton stagnates (0: off)")
         .choice("indefinite_solver", &O::indefinite_solver,
-                {{{"minres", IndefiniteSolver::minres}, {"shift", IndefiniteSolver::shift}}, {}},
+                {{"minres", IndefiniteSolver::minres}, {"shift", IndefiniteSolver::shift}},
                 "Newton step at an indefinite tangent past a bifurcation")
         .number("minres_below", &O::minres_below, io::at_least(0.0), "-", "residual below which negative curvature means an indefinite tangent")
         .flag("minres_fallback", &O::minres_fallback, "with shift: finish a stalled step with MINRES")
         .flag("mixed_pressure", &O::mixed_pressure, "mixed (u, p) Newton iteration in nearly incompressible phases")
-        .choice("krylov_operator", &O::krylov_operator, {{{"stencil", KrylovOperator::stencil}, {"fourier", KrylovOperator::fourier}}, {}},
+        .choice("krylov_operator", &O::krylov_operator, {{"stencil", KrylovOperator::stencil}, {"fourier", KrylovOperator::fourier}},
                 "operator of the Krylov iteration")
         .choice("tangent_precision", &O::tangent_precision,
-                {{{"double", TangentPrecision::double_precision}, {"single", TangentPrecision::single_precision}}, {}},
+                {{"double", TangentPrecision::double_precision}, {"single", TangentPrecision::single_precision}},
                 "storage of the stencil operator's tangents")
         .custom("fftw", "choice", "FFTW planning rigor",
                 [](const toml::node& n, const std::string& f, O& o) {

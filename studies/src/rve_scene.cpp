@@ -82,9 +82,16 @@ std::vector<Eigen::Vector3d> read_vector_field(const std::filesystem::path& file
 
 /// The generated-section keys: FiberCellSpec plus the shape's name (square = rectangle with height =
 /// width by default).
+enum class ShapeName { circle, rectangle, square };
+
+const io::Choices<ShapeName>& shape_choices() {
+  static const io::Choices<ShapeName> c{{{"circle", ShapeName::circle}, {"rectangle", ShapeName::rectangle}, {"square", ShapeName::square}}, {}};
+  return c;
+}
+
 struct CellKeys {
   rve::FiberCellSpec spec;
-  std::string shape = "circle";
+  ShapeName shape = ShapeName::circle;
   std::optional<double> height;
 };
 
@@ -126,10 +133,8 @@ const io::KeyTable<CellKeys>& cell_keys() {
     io::KeyTable<CellKeys> k("microstructure", "");
     k.custom("shape", "choice", "fiber cross-section (square: a rectangle with height = width)",
              [](const toml::node& n, const std::string& f, CellKeys& c) {
-               static const io::Choices<int> shapes{{{"circle", 0}, {"rectangle", 1}, {"square", 2}}, {}};
-               const int s = io::read_choice(n, f, shapes);
-               c.shape = shapes.name_of(s);
-               c.spec.shape = s == 0 ? rve::SectionShape::circle : rve::SectionShape::rectangle;
+               c.shape = io::read_choice(n, f, shape_choices());
+               c.spec.shape = c.shape == ShapeName::circle ? rve::SectionShape::circle : rve::SectionShape::rectangle;
              },
              "\"circle\"", "\"circle\", \"rectangle\", \"square\"")
         .include(fiber_cell_keys(), &CellKeys::spec)
@@ -141,7 +146,7 @@ const io::KeyTable<CellKeys>& cell_keys() {
 }
 
 rve::FiberCellSpec cell_spec(CellKeys c) {
-  c.spec.height = c.height ? *c.height : (c.shape == "square" ? c.spec.width : 0.0);
+  c.spec.height = c.height ? *c.height : (c.shape == ShapeName::square ? c.spec.width : 0.0);
   return c.spec;
 }
 
@@ -354,7 +359,7 @@ rve::PhaseImage phase_image_of(const toml::table& t, const MicroKeys& m, bool gr
   } catch (const std::invalid_argument& e) {
     throw InputError(p + ".grid", io::describe_value(*t.get("grid")), e.what());
   }
-  geometry_note = m.cell.shape + " fibers, " + arrangement_choices().name_of(spec.arrangement) + " arrangement, cell " +
+  geometry_note = shape_choices().name_of(m.cell.shape) + " fibers, " + arrangement_choices().name_of(spec.arrangement) + " arrangement, cell " +
                   std::to_string(section.L1) + " x " + std::to_string(section.L2);
   return im;
 }
@@ -370,7 +375,7 @@ MicroKeys read_micro(const toml::table& t, bool& grid_given) {
 rve::FiberCellSpec parse_fiber_cell_spec(const toml::table& t, const std::string& p, std::string& label) {
   CellKeys c;
   cell_keys().read_declared(t, p, c);  // the caller refuses keys of no declaration
-  label = c.shape + " fibers, " + arrangement_choices().name_of(c.spec.arrangement) + " arrangement";
+  label = shape_choices().name_of(c.shape) + " fibers, " + arrangement_choices().name_of(c.spec.arrangement) + " arrangement";
   return cell_spec(c);
 }
 

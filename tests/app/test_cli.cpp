@@ -124,7 +124,7 @@ TEST(Cli, BadInputNamesFieldAndWritesNothing) {
   const Case cases[] = {
       {"[material]\npreset = \"ecoflex\"\nG = -1.0\n[load]\ntype = \"uniaxial\"\nstretch = 2.0\n", "material.G = -1"},
       {"[material]\npreset = \"ecoflex\"\nGG = 1.0\n[load]\ntype = \"uniaxial\"\nstretch = 2.0\n", "material.GG"},
-      {"[material]\npreset = \"ecoflex\"\n[load]\ntype = \"uniaxal\"\nstretch = 2.0\n", "load.type = uniaxal"},
+      {"[material]\npreset = \"ecoflex\"\n[load]\ntype = \"uniaxal\"\nstretch = 2.0\n", "load.type = \"uniaxal\": must be \"uniaxial\""},
       {"[material]\npreset = \"ecoflex\"\n[load]\ntype = \"uniaxial\"\nstretch = -2.0\n", "load.stretch"},
       {"[material]\npreset = \"ecoflex-anisotropic\"\n[[material.fibers]]\nangle_deg = 30\n[load]\ntype = \"uniaxial\"\nstretch = 1.1\n",
        "material.fiber_invariant"},

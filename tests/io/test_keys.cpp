@@ -39,7 +39,7 @@ const io::KeyTable<Options>& table() {
         .integer("seed", &O::seed, io::at_least(0), "-", "random seed")
         .flag("warm_start", &O::warm_start, "start from the last step")
         .text("label", &O::label, "a name")
-        .choice("mode", &O::mode, {{{"fast", Mode::fast}, {"careful", Mode::careful}}, {{"quick", "fast"}}}, "how")
+        .choice("mode", &O::mode, io::Choices<Mode>{{{"fast", Mode::fast}, {"careful", Mode::careful}}, {{"quick", "fast"}}}, "how")
         .numbers("weights", &O::weights, io::above(0), 1, 3, "-", "weights")
         .integers("shape", &O::shape, io::at_least(1), 2, 3, "-", "grid shape")
         .number("cell_size", &O::cell_size, io::above(0), "mm", "cell side");
@@ -200,6 +200,19 @@ TEST(Keys, IncludedTablesReadIntoTheMember) {
   EXPECT_EQ(o.inner.grid, 16);
   EXPECT_EQ(o.extra, -1.0);
   EXPECT_EQ(t.describe().keys.size(), 12u);
+}
+
+TEST(Keys, ChoiceWithoutOldSpellings) {
+  struct C {
+    Mode mode = Mode::careful;
+  };
+  io::KeyTable<C> t("c", "");
+  t.choice("mode", &C::mode, {{"fast", Mode::fast}, {"careful", Mode::careful}}, "how");
+  const toml::table doc = toml::parse("[c]\nmode = \"fast\"\n");
+  C c;
+  t.read(*doc["c"].as_table(), "c", c);
+  EXPECT_EQ(c.mode, Mode::fast);
+  EXPECT_EQ(t.describe().keys.front().default_value, "\"careful\"");
 }
 
 TEST(Keys, EditDistance) {

@@ -94,18 +94,23 @@ TEST(SceneKeys, EveryDeclaredKeyIsDocumented) {
   std::stringstream s;
   s << in.rdbuf();
   const std::string md = s.str();
-  std::vector<io::TableDoc> tables = point_scene_tables();
-  for (auto& t : studies::rve_scene_tables()) tables.push_back(t);
   std::size_t keys = 0;
-  for (const auto& t : tables) {
-    const std::size_t section = md.find("### [" + t.path + "]");
-    EXPECT_NE(section, std::string::npos) << t.path;
-    for (const auto& k : t.keys) {
-      EXPECT_FALSE(k.doc.empty()) << t.path << "." << k.name;
-      EXPECT_FALSE(k.type.empty()) << t.path << "." << k.name;
-      EXPECT_FALSE(k.default_value.empty()) << t.path << "." << k.name;
-      EXPECT_NE(md.find("| `" + k.name + "` |", section), std::string::npos) << t.path << "." << k.name;
-      ++keys;
+  for (const auto& [command, tables] : {std::pair{std::string("point"), point_scene_tables()},
+                                        std::pair{std::string("rve"), studies::rve_scene_tables()}}) {
+    const std::size_t scene = md.find("## softhom " + command + "\n");
+    ASSERT_NE(scene, std::string::npos) << command;
+    for (const auto& t : tables) {
+      const std::size_t section = md.find("### [" + t.path + "]", scene);
+      ASSERT_NE(section, std::string::npos) << command << " " << t.path;
+      const std::size_t end = md.find("\n### ", section + 1);
+      const std::string body = md.substr(section, end == std::string::npos ? std::string::npos : end - section);
+      for (const auto& k : t.keys) {
+        EXPECT_FALSE(k.doc.empty()) << t.path << "." << k.name;
+        EXPECT_FALSE(k.type.empty()) << t.path << "." << k.name;
+        EXPECT_FALSE(k.default_value.empty()) << t.path << "." << k.name;
+        EXPECT_NE(body.find("| `" + k.name + "` |"), std::string::npos) << command << " " << t.path << "." << k.name;
+        ++keys;
+      }
     }
   }
   EXPECT_GT(keys, 100u);
@@ -187,4 +192,44 @@ TEST(SceneKeys, ImageWithAllZeroNormalsIsRefused) {
   EXPECT_NE(rve_error(scene).find("microstructure.image.normal_dataset = /normal: every vector is zero"), std::string::npos)
       << rve_error(scene);
   fs::remove_all(dir);
+}
+
+TEST(SceneKeys, FeSolverKeysFillTheFeOptions) {
+  const auto settings = [](const std::string& solver) {
+    return studies::parse_fe_rve_solver(io::parse_scene("[solver]\nengine = \"fe\"\n" + solver, "x"), 0.8);
+  };
+  // Defaults follow the cell side: L1 / 16 and a third of it at the interfaces (section mesh).
+  const auto d = settings("");
+  EXPECT_DOUBLE_EQ(d.mesh.mesh_size, 0.05);
+  EXPECT_DOUBLE_EQ(d.mesh.interface_size, 0.05 / 3.0);
+  EXPECT_EQ(d.solver.pressure, rve::FePressure::p1_bubble);
+  const auto three = settings("fe_mesh = \"3d\"\nlength = 2\nmax_step_seconds = 5\nlinear_solver = \"umfpack\"\n");
+  EXPECT_TRUE(three.three_d);
+  EXPECT_DOUBLE_EQ(three.mesh3d.mesh_size, 0.8 / 6.0);
+  EXPECT_DOUBLE_EQ(three.mesh3d.length, 2.0);
+  EXPECT_EQ(three.solver.pressure, rve::FePressure::p0);
+  EXPECT_EQ(three.solver.max_step_seconds, 5.0);
+  EXPECT_TRUE(three.solver.use_umfpack);
+  const auto error = [&](const std::string& solver) {
+    try {
+      settings(solver);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error("fe_mesh = \"3d\"\npressure = \"p1\"\n").find("solver.pressure = \"p1\": the 3D tetrahedral mesh supports p0"),
+            std::string::npos);
+  EXPECT_NE(error("length = 2\n").find("solver.length = 2: only with fe_mesh = \"3d\""), std::string::npos);
+  EXPECT_NE(error("corner_exponent = 1\n").find("solver.corner_exponent = 1: must lie in (0, 1)"), std::string::npos);
+  EXPECT_NE(error("discretization = \"rotated\"\n").find("solver.discretization = \"rotated\": unknown key"), std::string::npos);
+}
+
+TEST(SceneKeys, PointSolverKeys) {
+  const auto t = io::parse_scene("[solver]\nmax_newton_iterations = 40\nmax_step_seconds = 2.5\ntolerance = 1e-9\n", "x");
+  const PointSolverOptions o = parse_point_solver(t.get("solver"));
+  EXPECT_EQ(o.max_iterations, 40);
+  EXPECT_EQ(o.max_step_seconds, 2.5);
+  EXPECT_EQ(o.tolerance, 1e-9);
+  EXPECT_EQ(o.max_cutbacks, PointSolverOptions{}.max_cutbacks);
 }

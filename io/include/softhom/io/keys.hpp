@@ -179,6 +179,11 @@ class KeyTable {
     entries_.back().renamed_values = std::move(old);
     return *this;
   }
+  /// A choice without old spellings: choice("scheme", &O::scheme, {{"newton-cg", S::newton_cg}, ...}, "doc").
+  template <class E>
+  KeyTable& choice(std::string name, E Options::*member, std::vector<std::pair<std::string, E>> values, std::string doc) {
+    return choice(std::move(name), member, Choices<E>{std::move(values), {}}, std::move(doc));
+  }
   KeyTable& numbers(std::string name, std::vector<double> Options::*member, Range range, std::size_t min_size,
                     std::size_t max_size, std::string unit, std::string doc) {
     return add({std::move(name), "list of numbers", {}, list_range(range, min_size, max_size), std::move(unit), std::move(doc), {}},
@@ -223,7 +228,7 @@ class KeyTable {
   /// Every key of `sub` (bound to a member struct) as a key of this table.
   template <class Sub>
   KeyTable& include(const KeyTable<Sub>& sub, Sub Options::*member) {
-    const Sub defaults{};
+    static const Sub defaults{};  // built once per table type
     for (const auto& e : sub.entries()) {
       Entry copy;
       copy.doc = e.doc;
@@ -279,7 +284,7 @@ class KeyTable {
 
   /// Documentation rows; defaults printed from a default-constructed Options.
   TableDoc describe() const {
-    const Options defaults{};
+    static const Options defaults{};  // built once per table type
     TableDoc t{path_, doc_, {}};
     for (const auto& e : entries_) {
       KeyDoc d = e.doc;
