@@ -1,7 +1,7 @@
 // softhom calibrate: fits the homogeneous Gent + HGO (+ QLV) model to curves (RVE runs, campaign
 // stores, experiments) with the material-point driver under each curve's own mixed control.
 // Writes OUT/material.toml (a `softhom point` [material] table), OUT/summary.json, OUT/response.csv
-// (curve, x, data, model), OUT/curves/<name>.csv and, when python3 + matplotlib are available,
+// (curve name, index, x, data, model), OUT/curves/<name>.csv and, when python3 + matplotlib are available,
 // OUT/fit.png (studies/plot_calibration.py).
 #include <cstdlib>
 #include <iostream>

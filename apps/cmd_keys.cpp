@@ -6,7 +6,10 @@
 
 #include "embedded_scenes.hpp"
 #include "softhom/materials/errors.hpp"
+#include "softhom/macro/scene.hpp"
 #include "softhom/materials/scene_keys.hpp"
+#include "softhom/studies/calibration.hpp"
+#include "softhom/studies/campaign_definition.hpp"
 #include "softhom/studies/rve_fe_scene.hpp"
 
 namespace softhom::app {
@@ -17,10 +20,9 @@ std::vector<io::SceneKeys> scene_key_registry() {
        point_scene_tables()},
       {"rve", "periodic RVE homogenization (FFT or FE engine) of a fiber cell under the load of softhom point",
        studies::rve_scene_tables()},
-      // The macro, sweep and calibrate tables join here as their parsers declare them.
-      {"macro", "structure-scale nonlinear FE", {}},
-      {"sweep", "sweep campaigns over microstructures and load cases", {}},
-      {"calibrate", "fits of the macro model to RVE or CSV curves", {}},
+      {"macro", "structure-scale nonlinear FE", macro::macro_scene_tables()},
+      {"sweep", "sweep campaigns over microstructures and load cases", studies::campaign_tables()},
+      {"calibrate", "fits of the macro model to RVE or CSV curves", studies::calibration_tables()},
   };
 }
 

@@ -3,7 +3,7 @@
 
     python3 studies/plot_calibration.py DIR        # reads DIR/response.csv + DIR/summary.json, writes DIR/fit.png
 
-response.csv columns: curve (index into summary.json "curves"), x, data, model.
+response.csv columns: curve (the curve's name), index (into summary.json "curves"), x, data, model.
 """
 import csv
 import json
@@ -26,7 +26,7 @@ def main():
     rows = {}
     with open(os.path.join(out, "response.csv")) as f:
         for r in csv.DictReader(f):
-            rows.setdefault(int(float(r["curve"])), []).append((float(r["x"]), float(r["data"]), float(r["model"])))
+            rows.setdefault(int(r["index"]), []).append((float(r["x"]), float(r["data"]), float(r["model"])))
     curves = summary["curves"]
     n = len(curves)
     cols = min(3, n)

@@ -36,7 +36,7 @@ struct NewtonOptions {
   double tolerance = 1e-8;    ///< ‖R_free‖ ≤ tolerance · force scale (reactions + loads)
   int max_iterations = 25;
   int max_cutbacks = 12;      ///< consecutive halvings of one output interval
-  double max_step_seconds = 0.0;
+  double max_step_seconds = 0.0;  ///< wall-time budget of one output interval's cut-backs [s]; 0: unlimited
   bool line_search = true;
   int initial_substeps = 1;   ///< sub-steps per output interval at the start
   SolverKind solver = SolverKind::automatic;  ///< umfpack: always LU; otherwise Cholesky first

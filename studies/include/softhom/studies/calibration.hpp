@@ -22,7 +22,7 @@
 //            x = "t" | "F11" | ... (model quantity, a response.csv
 //            column name), y = "P11" | ..., x_column / y_column (CSV columns, default x / y),
 //            weight = 1, role = "fit" | "holdout", [curves.load] as a `softhom point` [load] table.
-//   [solver] method = "levenberg_marquardt" | "dogleg", starts, seed, max_iterations,
+//   [solver] method = "levenberg-marquardt" | "dogleg", starts, seed, max_iterations,
 //            function_tolerance, parameter_tolerance, gradient_tolerance, fd_step,
 //            point_tolerance, point_max_iterations, point_max_cutbacks.
 //   [output] plot = true.
@@ -40,6 +40,7 @@
 #include <nlohmann/json.hpp>
 #include <toml++/toml.h>
 
+#include "softhom/io/keys.hpp"
 #include "softhom/materials/driver.hpp"
 #include "softhom/materials/library.hpp"
 #include "softhom/materials/loading.hpp"
@@ -122,6 +123,8 @@ struct CalibrationInput {
 /// Parses a calibration table; relative CSV paths are resolved against `base_dir`. Every bad field
 /// throws InputError naming its TOML path ("curves[1].y", "model.G.min", ...).
 CalibrationInput parse_calibration(const toml::table& table, const std::filesystem::path& base_dir);
+/// The declared tables of a calibration file, for `softhom keys calibrate` and docs/keys.md.
+std::vector<io::TableDoc> calibration_tables();
 
 /// Minimal CSV reader for response.csv-like files (header row of names, numeric rows, '#' comments).
 struct CsvData {
@@ -203,7 +206,9 @@ std::string material_toml(const CalibrationModel& model, const std::vector<doubl
                           const std::string& header_comment = "");
 /// summary.json fields of the calibration (parameters, standard errors, correlations, curves, starts).
 nlohmann::json result_json(const CalibrationInput& input, const CalibrationResult& result);
-/// Writes DIR/material.toml, DIR/response.csv (curve, x, data, model), DIR/curves/<name>.csv (full
+/// DIR/response.csv text: curve (the curve's name), index (its position in [[curves]]), x, data, model.
+std::string comparison_csv(const CalibrationResult& result);
+/// Writes DIR/material.toml, DIR/response.csv (comparison_csv), DIR/curves/<name>.csv (full
 /// model response at the optimum, response.csv layout). summary.json is written by the caller (it adds
 /// the run metadata).
 void write_calibration_files(const std::filesystem::path& dir, const CalibrationInput& input,
