@@ -71,7 +71,7 @@ std::string get_string_or(const toml::table& table, const std::string& key, cons
 bool get_bool_or(const toml::table& table, const std::string& key, const std::string& path, bool fallback) {
   const toml::node* node = table.get(key);
   if (!node) return fallback;
-  if (auto b = node->value<bool>()) return *b;
+  if (const auto* b = node->as_boolean()) return b->get();  // exactly a boolean: 1 or "yes" is refused
   throw InputError(join(path, key), show(*node), "must be true or false");
 }
 

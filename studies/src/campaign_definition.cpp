@@ -99,19 +99,11 @@ AxisValue parse_axis_value(const std::string& axis, const toml::node& node, cons
     return a;
   }
   if (axis == "resolution") {
-    if (const auto* arr = node.as_array()) {
-      for (std::size_t k = 0; k < arr->size(); ++k) {
-        const auto n = (*arr)[k].value<double>();
-        if (!n || *n < 1 || *n != std::floor(*n))
-          throw InputError(field, io::describe_value(node), "grid entries must be positive integers");
-        a.grid.push_back(int(*n));
-      }
-      if (a.grid.size() < 2 || a.grid.size() > 3) throw InputError(field, io::describe_value(node), "give n, [n1, n2] or [n1, n2, n3]");
-    } else {
-      const auto n = node.value<double>();
-      if (!n || *n < 1 || *n != std::floor(*n)) throw InputError(field, io::describe_value(node), "must be a positive integer or a grid");
-      a.grid = {int(*n), int(*n)};
-    }
+    // The same entry range as microstructure.grid (io::read_int refuses fractions and overflow).
+    const io::Range entries = io::closed_range(1, 65536);
+    if (node.is_array()) a.grid = io::read_ints<int>(node, field, entries, 2, 3);
+    else a.grid = {io::read_int<int>(node, field, entries), 0};
+    if (a.grid.size() == 2 && a.grid[1] == 0) a.grid[1] = a.grid[0];
     a.v = double(a.grid[0]);
     return a;
   }
@@ -192,13 +184,10 @@ CampaignCase make_case(const Definitions& defs, const std::map<std::string, Axis
   std::vector<int> grid{32, 32};
   if (get("resolution")) grid = get("resolution")->grid;
   else if (base_micro && (*base_micro)["grid"]) {
-    if (const auto* arr = (*base_micro)["grid"].as_array()) {
-      grid.clear();
-      for (const auto& e : *arr) grid.push_back(int(e.value<double>().value_or(0)));
-    } else {
-      const int g = int((*base_micro)["grid"].value<double>().value_or(32));
-      grid = {g, g};
-    }
+    const toml::node& g = *(*base_micro)["grid"].node();
+    const io::Range entries = io::closed_range(1, 65536);
+    if (g.is_array()) grid = io::read_ints<int>(g, "base.microstructure.grid", entries, 2, 3);
+    else grid.assign(2, io::read_int<int>(g, "base.microstructure.grid", entries));
   }
   const bool matrix_only = vf == 0.0;
   if (matrix_only) {
@@ -467,6 +456,25 @@ const std::vector<std::string>& campaign_axes() {
   return axes;
 }
 
+namespace {
+
+/// The tables every case takes from [base] ([microstructure], [phases], [solver], ...) are checked
+/// now, through the RVE scene parser, on the first case: a typo or a wrong type there would otherwise
+/// surface only when the case runs (or never, in --dry-run). Errors name the [base] path.
+void check_first_case_scene(const Campaign& camp) {
+  if (camp.cases.empty()) return;
+  try {
+    (void)parse_rve_scene(camp.cases.front().scene, true);
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    const std::string head = e.field() + (e.value().empty() ? "" : " = " + e.value()) + ": ";
+    const std::string reason = what.rfind(head, 0) == 0 ? what.substr(head.size()) : what;
+    throw InputError("base." + e.field(), e.value(), reason + " (in case " + camp.cases.front().id + ")");
+  }
+}
+
+}  // namespace
+
 Campaign expand_campaign(const toml::table& table, const std::filesystem::path& base_dir) {
   CampaignKeys keys;
   campaign_table().read(table, "", keys);
@@ -481,6 +489,11 @@ Campaign expand_campaign(const toml::table& table, const std::filesystem::path& 
     if (!std::filesystem::exists(p)) throw InputError("base_scene", keys.base_scene, "file not found");
     defs.base = io::load_scene(p);
   }
+  // The scene tables of the base must be tables: the expansion writes into them, so a number there
+  // would silently become an empty table.
+  for (const char* t : {"microstructure", "phases", "load", "solver", "output"})
+    if (const toml::node* n = defs.base.get(t); n && !n->is_table())
+      throw InputError(std::string("base.") + t, io::describe_value(*n), "must be a table");
   defs.matrices = named_tables(keys.matrices, "matrices");
   defs.sections = named_tables(keys.sections, "sections");
   for (const auto& [name, sec] : defs.sections) {
@@ -543,6 +556,7 @@ Campaign expand_campaign(const toml::table& table, const std::filesystem::path& 
     seen[c.id] = c.scene_hash;
     camp.cases.push_back(std::move(c));
   }
+  check_first_case_scene(camp);
   return camp;
 }
 
