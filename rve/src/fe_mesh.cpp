@@ -316,20 +316,20 @@ SectionMeshOptions normalized_options(const Section& section, const SectionMeshO
   const double L1 = section.L1, L2 = section.L2;
   SectionMeshOptions o = options;
   if (o.mesh_size == 0.0) o.mesh_size = L1 / 16.0;
-  if (!(o.mesh_size > 0.0)) throw InputError("solver.mesh_size", std::to_string(o.mesh_size), "must be positive");
+  if (!(o.mesh_size > 0.0)) throw InputError("solver.mesh_size", format_number(o.mesh_size), "must be positive");
   if (o.interface_size == 0.0) o.interface_size = o.mesh_size / 3.0;
   if (!(o.interface_size > 0.0))
-    throw InputError("solver.interface_size", std::to_string(o.interface_size), "must be positive");
+    throw InputError("solver.interface_size", format_number(o.interface_size), "must be positive");
   o.interface_size = std::min(o.interface_size, o.mesh_size);
   if (L1 * L2 / (o.interface_size * o.interface_size) > 4e7)
-    throw InputError("solver.interface_size", std::to_string(o.interface_size), "too small for the cell (mesh > 1e7 elements)");
+    throw InputError("solver.interface_size", format_number(o.interface_size), "too small for the cell (mesh > 1e7 elements)");
   if (!(o.min_angle_deg > 0.0 && o.min_angle_deg <= 30.0))
-    throw InputError("solver.min_angle_deg", std::to_string(o.min_angle_deg), "must lie in (0, 30]");
+    throw InputError("solver.min_angle_deg", format_number(o.min_angle_deg), "must lie in (0, 30]");
   if (o.corner_refinement) {
     if (!(o.corner_exponent > 0.0 && o.corner_exponent < 1.0))
-      throw InputError("solver.corner_exponent", std::to_string(o.corner_exponent), "must lie in (0, 1)");
+      throw InputError("solver.corner_exponent", format_number(o.corner_exponent), "must lie in (0, 1)");
     if (!(o.corner_min_size_ratio > 0.0 && o.corner_min_size_ratio <= 1.0))
-      throw InputError("solver.corner_min_size_ratio", std::to_string(o.corner_min_size_ratio), "must lie in (0, 1]");
+      throw InputError("solver.corner_min_size_ratio", format_number(o.corner_min_size_ratio), "must lie in (0, 1]");
   }
   return o;
 }

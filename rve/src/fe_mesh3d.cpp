@@ -268,15 +268,15 @@ CellMeshOptions normalized_cell_options(const Section& section, const CellMeshOp
   CellMeshOptions o = options;
   const double L1 = section.L1, L2 = section.L2;
   if (o.length == 0.0) o.length = L1;
-  if (!(o.length > 0.0)) throw InputError("solver.length", std::to_string(o.length), "must be positive");
+  if (!(o.length > 0.0)) throw InputError("solver.length", format_number(o.length), "must be positive");
   if (o.mesh_size == 0.0) o.mesh_size = L1 / 6.0;
-  if (!(o.mesh_size > 0.0)) throw InputError("solver.mesh_size", std::to_string(o.mesh_size), "must be positive");
+  if (!(o.mesh_size > 0.0)) throw InputError("solver.mesh_size", format_number(o.mesh_size), "must be positive");
   if (o.interface_size == 0.0) o.interface_size = o.mesh_size / 2.0;
   if (!(o.interface_size > 0.0))
-    throw InputError("solver.interface_size", std::to_string(o.interface_size), "must be positive");
+    throw InputError("solver.interface_size", format_number(o.interface_size), "must be positive");
   o.interface_size = std::min(o.interface_size, o.mesh_size);
   if (L1 * L2 * o.length / std::pow(o.interface_size, 3) > 2e6)
-    throw InputError("solver.interface_size", std::to_string(o.interface_size),
+    throw InputError("solver.interface_size", format_number(o.interface_size),
                      "too small for the cell (3D mesh > ~1e7 elements)");
   refuse_unsolvable_cell(section, o);
   return o;
