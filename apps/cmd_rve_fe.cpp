@@ -81,7 +81,7 @@ std::string choose_engine(toml::table& scene, std::string& why) {
   const rve::Section section = studies::parse_fe_section(*micro, target_vf, note);
   // Error models of the benchmark cell (circle, VF 0.23, α = 45°, λ = 1.5; BENCHMARKS.md):
   //   FFT (rotated, composite voxels, first order): e ≈ c / n, with c set by the fiber/matrix shear
-  //     contrast, not by K/G (session 4: the ecoflex gap is the same at K/G = 1e2 … 1.2e5):
+  //     contrast, not by K/G (the ecoflex gap is the same at K/G = 1e2 … 1.2e5):
   //     c = 6.2e-3 at contrast 5.9 (PDMS), 0.067 at 226 (ecoflex) → c ≈ 6.2e-3 (contrast / 5.9)^0.65.
   //   FE (P2+bubble/P1, order 3.3): e ≈ 1e-5 (4/d)^3.3 with mesh_size = L/d; a factor 10 of
   //     safety for cells with corners (rectangular fibers: lower regularity) → d = 4 (1e-4/e)^(1/3.3).

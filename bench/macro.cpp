@@ -7,8 +7,8 @@
 //     --threads LIST   comma-separated OpenMP thread counts to run each size with (default 2)
 //     --solver S       auto | cholmod | umfpack (default auto: the symmetric-preconditioned path)
 //     --pressure P     final pressure [MPa] (default 0.01, the ecoflex scenes)
-//     --policy P       session5 (default) | session4: the Newton/Krylov policy of session 4 (condensed
-//                      GMRES, secant predictor, no per-step refactorization, no residual-first test)
+//     --policy P       current (default) | basic: the plain Newton/Krylov policy (condensed GMRES,
+//                      secant predictor, no per-step refactorization, no residual-first test)
 //     --only K         run only the first K of the load steps (cost of one step at sizes where the
 //                      whole ramp takes too long)
 //   bench_macro --orderings DOFS...    CHOLMOD symbolic analysis only (no factorization): fill nnz(L),
@@ -352,7 +352,7 @@ std::vector<std::string> split(const std::string& s) {
 
 int main(int argc, char** argv) {
   int steps = 20, only = 0;
-  bool session4_policy = false;
+  bool basic_policy = false;
   double pressure = 0.01;
   std::vector<int> threads{2};
   fe::SolverKind solver = fe::SolverKind::automatic;
@@ -382,7 +382,7 @@ int main(int argc, char** argv) {
       threads.clear();
       for (const auto& t : split(argv[++i])) threads.push_back(std::atoi(t.c_str()));
     } else if (a == "--policy" && i + 1 < argc) {
-      session4_policy = std::string(argv[++i]) == "session4";
+      basic_policy = std::string(argv[++i]) == "basic";
     } else if (a == "--solver" && i + 1 < argc) {
       const std::string s = argv[++i];
       solver = s == "cholmod" ? fe::SolverKind::cholmod : s == "umfpack" ? fe::SolverKind::umfpack : fe::SolverKind::automatic;
@@ -404,7 +404,7 @@ int main(int argc, char** argv) {
       fe::NewtonOptions o;
       o.solver = solver;
       o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
-      if (session4_policy) {  // the iteration of session 4, for side-by-side timings with one binary
+      if (basic_policy) {  // the plain iteration, for side-by-side timings with one binary
         o.saddle_krylov = false;
         o.extrapolate_order = 1;
         o.refactor_each_step = false;
@@ -413,7 +413,10 @@ int main(int argc, char** argv) {
       fe::Simulation sim(s.model, o);
       std::string result = "ok";
       try {
-        for (int k = 1; k <= (only > 0 ? std::min(only, steps) : steps); ++k) sim.advance_to(180.0 * k / steps);
+        for (int k = 1; k <= (only > 0 ? std::min(only, steps) : steps); ++k) {
+          const fe::AdvanceResult step = sim.advance_to(180.0 * k / steps);
+          if (!step.reached()) throw std::runtime_error(step.message);
+        }
         const auto v = probe_values(s, sim);  // time, pressure, volume, inner_radius, stretch, axial, twist
         std::ostringstream r;
         r.precision(9);

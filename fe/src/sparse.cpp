@@ -10,6 +10,22 @@
 #include <umfpack.h>
 
 namespace softhom::fe {
+namespace {
+
+/// CHOLMOD's status codes in words (cholmod_core.h): what a failed call says to the user.
+std::string cholmod_status_text(int status) {
+  switch (status) {
+    case CHOLMOD_OUT_OF_MEMORY: return "out of memory";
+    case CHOLMOD_TOO_LARGE: return "the factor is too large for CHOLMOD's 32-bit indices";
+    case CHOLMOD_INVALID: return "invalid input";
+    case CHOLMOD_NOT_INSTALLED: return "a CHOLMOD module is not installed";
+    case CHOLMOD_NOT_POSDEF: return "not positive definite";
+    default: return "status " + std::to_string(status);
+  }
+}
+
+}  // namespace
+
 
 long CscMatrix::find(int row, int col) const {
   const int* begin = rowind.data() + colptr[col];
@@ -171,7 +187,10 @@ class CholmodSolver final : public LinearSolver {
     std::memcpy(upper_->i, rows.data(), sizeof(int) * rows.size());
     copy_values(A);
     factor_ = cholmod_analyze(upper_, &common_);
-    if (!factor_) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
+    if (!factor_)
+      throw std::runtime_error("CHOLMOD: symbolic analysis failed (" + cholmod_status_text(common_.status) + ") for " +
+                               std::to_string(A.n) + " unknowns with " + std::to_string(rows.size()) +
+                               " stored nonzeros");
     times_.analysis += seconds_since(t0);
   }
 

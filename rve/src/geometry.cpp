@@ -556,7 +556,7 @@ void paint_rect(Grid& g, const OrientedRect& R) {
       // The distance gradient alone is ambiguous on a corner pixel whose centre lies inside the fiber
       // on the corner's diagonal (equidistant faces): its tie was broken by round-off, differently at
       // different corners, which gave mirror-image corners different laminates, broke the mirror
-      // symmetry of the cell and left a spurious soft mode (ecoflex square fibers, 32², issue #3).
+      // symmetry of the cell and left a spurious soft mode (ecoflex square fibers, 32²).
       const Vec2 mean = mean_boundary_normal(q, R.a, R.b);
       if (mean.norm() > 1e-6 * (g.dx + g.dy)) nl = mean.normalized();
       g.offer_normal(idx, dist, nl.x() * R.u + nl.y() * R.v);

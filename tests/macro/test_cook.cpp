@@ -61,7 +61,7 @@ double cook_tip(int n, Formulation f, int* iterations = nullptr) {
   NewtonOptions o;
   o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
   Simulation sim(m, o);
-  sim.advance_to(1.0);
+  EXPECT_TRUE(sim.advance_to(1.0).reached());
   if (iterations) *iterations = sim.stats().newton_iterations;
   return sim.displacement()[3 * id(n, n, 0) + 1] * (100.0 / F);
 }

@@ -34,7 +34,7 @@ double tip_angle(double ramp, double g_inf, double G_scale = 1.0) {
   fe::NewtonOptions o;
   o.initial_substeps = 6;
   fe::Simulation sim(s.model, o);
-  sim.advance_to(ramp);
+  EXPECT_TRUE(sim.advance_to(ramp).reached());
   return probe_values(s, sim)[3];  // time, pressure, volume, tip_angle_deg, tip_deflection
 }
 

@@ -46,7 +46,7 @@ struct TubeRun {
 TubeRun inflate(const fe::NewtonOptions& o, int steps = 8) {
   const Structure s = tube();
   fe::Simulation sim(s.model, o);
-  for (int k = 1; k <= steps; ++k) sim.advance_to(double(k) / steps);
+  for (int k = 1; k <= steps; ++k) EXPECT_TRUE(sim.advance_to(double(k) / steps).reached());
   const auto v = probe_values(s, sim);  // time, pressure, volume, inner_radius, stretch, axial_stretch, twist_deg
   return {v[5], v[4], sim.stats()};
 }

@@ -126,7 +126,7 @@ class Simulation {
   /// Advances from the current time to t_end with adaptive sub-steps (advance_interval: halving
   /// cut-backs, growth after successes, wall-time budget, stop on signal). A failed interval leaves the
   /// state at the last converged sub-step and says why in the result.
-  AdvanceResult advance_to(double t_end);
+  [[nodiscard]] AdvanceResult advance_to(double t_end);
 
   double time() const;
   const std::vector<double>& displacement() const;  ///< 3 per node
