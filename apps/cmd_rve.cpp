@@ -129,15 +129,7 @@ int run_rve(const CommandOptions& options) {
     progress.update(rve_progress_line("[rve " + scene.name + "] ", s, t_end));
     stop_point(record.steps.size() - 1);
   };
-  const auto solve_start = std::chrono::steady_clock::now();
-  rve::RveRunResult result;
-  try {
-    result = solver.run(control, on_step, want_fields);
-  } catch (const RunInterrupted&) {
-    result = interrupted_rve_result(std::move(record.steps),
-                                    std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count());
-  }
-  if (!result.completed && stop_requested()) result.error = interruption_message();
+  const rve::RveRunResult result = run_rve_engine(solver, control, on_step, want_fields, record);
   progress.finish();
   for (const auto& line : result.log)
     if (!options.quiet) std::cerr << "[rve " << scene.name << "] " << line << "\n";

@@ -74,6 +74,23 @@ struct RveRecorder {
   }
 };
 
+/// Runs an RVE engine (FFT or FE) with the command's step callback; a RunInterrupted thrown by the
+/// callback (stop_point) becomes the result of the steps converged so far, marked interrupted.
+template <class Solver, class OnStep, class WantFields>
+rve::RveRunResult run_rve_engine(Solver& solver, const MixedControl& control, OnStep&& on_step, WantFields&& want_fields,
+                                 RveRecorder& record) {
+  const auto start = std::chrono::steady_clock::now();
+  rve::RveRunResult result;
+  try {
+    result = solver.run(control, on_step, want_fields);
+  } catch (const RunInterrupted&) {
+    result = interrupted_rve_result(std::move(record.steps),
+                                    std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+  if (!result.completed && stop_requested()) result.error = interruption_message();
+  return result;
+}
+
 /// One progress line of an RVE step.
 inline std::string rve_progress_line(const std::string& tag, const rve::RveStep& s, double t_end) {
   return tag + "t = " + format_number(s.t) + " / " + format_number(t_end) + "  P11 = " + progress_number(s.P(0, 0)) +
