@@ -107,10 +107,11 @@ TEST(Scene, LawParametersComeFromTheLawTable) {
   EXPECT_NE(load_error("[material]\nlaw = \"gent\"\nGG = 1\n").find("material.GG = 1: unknown key (did you mean 'G'?)"),
             std::string::npos);
   // Every law's parameters are declared keys of a material table.
+  const auto tables = material_tables("material");  // kept alive: the loop below reads into it
   for (const auto& law : law_table())
     for (const auto& p : law.parameters) {
       bool documented = false;
-      for (const auto& k : material_tables("material").front().keys) documented |= k.name == p.name;
+      for (const auto& k : tables.front().keys) documented |= k.name == p.name;
       EXPECT_TRUE(documented) << law.name << "." << p.name;
     }
   // Values equal to the old parser's: E, nu → mu, K (exact formulas).
