@@ -48,8 +48,11 @@ int run_command(const char* name, int (*run)(const CommandOptions&), const Comma
               << "' exists and is not a directory\n";
     return 2;
   }
-  for (const auto& p : io::remove_stale_temporaries(options.out))
-    if (!options.quiet) std::cerr << "softhom " << name << ": removed stale temporary " << p.string() << "\n";
+  // A campaign directory is cleaned by its store, under the store's lock and only for this host's
+  // pids (on a shared filesystem another host's live sweep has pids this host cannot see).
+  if (std::string_view(name) != "sweep")
+    for (const auto& p : io::remove_stale_temporaries(options.out))
+      if (!options.quiet) std::cerr << "softhom " << name << ": removed stale temporary " << p.string() << "\n";
   int code = 1;
   try {
     code = run(options);

@@ -1,6 +1,7 @@
 // Macro scene files → StructureSpec + Newton options (macro/scene.hpp). Each table is declared once
 // below (io::KeyTable: name, type, default, range, unit, doc); reading, defaults and the reference
 // tables of `softhom keys macro` all come from these declarations.
+#include "softhom/materials/system_memory.hpp"
 #include "softhom/macro/scene.hpp"
 
 #include <algorithm>
@@ -535,7 +536,7 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
   MacroScene m;
   read_geometry_table(scene, scene_file, m.spec);
   // Before the materials and anything else: a 1000 x 1000 x 10 box is refused with its memory estimate.
-  refuse_if_too_large(m.spec, available_memory_bytes(), size_field(m.spec));
+  refuse_if_too_large(m.spec, double(softhom::available_memory_bytes()), size_field(m.spec));
   read_materials(scene, m.spec);
   read_output(scene, m);  // before the load: the field times join the output times
   read_load(scene, m);

@@ -1,6 +1,5 @@
 // Size estimate of a structure before it is built, and its refusal when the machine cannot hold it.
 #include <cmath>
-#include <cstdio>
 #include <string>
 
 #include "softhom/macro/structures.hpp"
@@ -59,18 +58,6 @@ SizeEstimate estimate_size(const StructureSpec& spec) {
   e.mesh_bytes = kMeshBytesPerDof * e.dofs;
   e.factor_bytes = kFactorBytesPerDof * e.dofs;
   return e;
-}
-
-double available_memory_bytes() {
-  // The one system query of the library: how much memory a new allocation can still get.
-  std::FILE* f = std::fopen("/proc/meminfo", "r");
-  if (!f) return 0.0;
-  char line[256];
-  double kib = 0.0;
-  while (std::fgets(line, sizeof line, f))
-    if (std::sscanf(line, "MemAvailable: %lf kB", &kib) == 1) break;
-  std::fclose(f);
-  return kib * 1024.0;
 }
 
 std::string size_field(const StructureSpec& spec) {

@@ -1,3 +1,4 @@
+#include "softhom/materials/system_memory.hpp"
 #include "softhom/macro/structures.hpp"
 
 #include <algorithm>
@@ -116,7 +117,7 @@ double mean_radius(const std::vector<Vec3>& x, const std::vector<int>& nodes, bo
 Structure build_structure(const StructureSpec& spec) {
   if (!spec.material) throw InputError("material", "", "missing material");
   // Refused before any of it is allocated when the machine cannot hold the mesh and its factorization.
-  refuse_if_too_large(spec, available_memory_bytes(), size_field(spec));
+  refuse_if_too_large(spec, double(softhom::available_memory_bytes()), size_field(spec));
   Structure s;
   s.spec = spec;
   fe::FeModel& m = s.model;

@@ -5,40 +5,14 @@
 // failure) minutes later.
 #include <algorithm>
 #include <cstddef>
-#include <fstream>
 #include <limits>
 #include <sstream>
 #include <string>
 
 #include "softhom/materials/errors.hpp"
+#include "softhom/materials/system_memory.hpp"
 
 namespace softhom::rve::detail {
-
-/// Bytes this process may still allocate: MemAvailable of /proc/meminfo, lowered to the cgroup (v2)
-/// limit minus its usage when one is set. 0 when unknown (then nothing is refused).
-inline std::size_t available_memory_bytes() {
-  std::size_t avail = 0;
-  {
-    std::ifstream in("/proc/meminfo");
-    std::string key;
-    std::size_t kib = 0;
-    std::string unit;
-    while (in >> key >> kib >> unit)
-      if (key == "MemAvailable:") {
-        avail = kib * 1024;
-        break;
-      }
-  }
-  std::ifstream max_in("/sys/fs/cgroup/memory.max"), cur_in("/sys/fs/cgroup/memory.current");
-  std::string max_s;
-  std::size_t cur = 0;
-  if (max_in >> max_s && max_s != "max" && cur_in >> cur) {
-    const std::size_t limit = std::stoull(max_s);
-    const std::size_t room = limit > cur ? limit - cur : 0;
-    avail = avail == 0 ? room : std::min(avail, room);
-  }
-  return avail;
-}
 
 inline std::string gib(std::size_t bytes) {
   std::ostringstream s;
@@ -51,7 +25,7 @@ inline std::string gib(std::size_t bytes) {
 /// `needed` bytes exceed what is available (`available` 0: query the machine).
 inline void refuse_if_too_big(std::size_t needed, const std::string& field, const std::string& value,
                               std::size_t available = 0) {
-  if (available == 0) available = available_memory_bytes();
+  if (available == 0) available = softhom::available_memory_bytes();
   if (available == 0 || needed <= available) return;
   throw InputError(field, value, "needs about " + gib(needed) + " GiB, the machine has " + gib(available) + " GiB available");
 }

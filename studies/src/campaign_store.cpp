@@ -16,11 +16,9 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <csignal>
 #include <cstring>
 #include <map>
 #include <mutex>
-#include <regex>
 #include <set>
 #include <stdexcept>
 
@@ -462,11 +460,6 @@ std::string host_name() {
   return buf;
 }
 
-bool process_alive(long pid) {
-  if (pid <= 0) return false;
-  return ::kill(pid_t(pid), 0) == 0 || errno == EPERM;
-}
-
 std::string read_small_file(int fd) {
   std::string s;
   char buf[512];
@@ -685,21 +678,9 @@ StoreLock::~StoreLock() {
 }
 
 std::vector<std::filesystem::path> remove_stale_temporaries(const std::filesystem::path& dir, const std::string& writer_host) {
-  std::vector<fs::path> removed;
   // Another host's pids cannot be checked from here.
-  if (!writer_host.empty() && writer_host != host_name()) return removed;
-  static const std::regex pattern(R"(\..+\.tmp-([0-9]+))");
-  std::error_code ec;
-  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
-    const std::string name = it->path().filename().string();
-    std::smatch m;
-    if (!std::regex_match(name, m, pattern)) continue;
-    const long pid = std::atol(m[1].str().c_str());
-    if (pid == long(::getpid()) || process_alive(pid)) continue;
-    std::error_code rm;
-    if (fs::remove(it->path(), rm)) removed.push_back(it->path());
-  }
-  return removed;
+  if (!writer_host.empty() && writer_host != host_name()) return {};
+  return io::remove_stale_temporaries(dir);
 }
 
 void set_store_write_fault_for_testing(std::function<void(const std::filesystem::path&)> fault) {

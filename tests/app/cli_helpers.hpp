@@ -17,13 +17,15 @@ struct CommandResult {
   std::string output;  // stdout + stderr
 };
 
-inline CommandResult run_softhom(const std::string& args) {
+/// Runs the binary with `args` (and `env`, "NAME=value …", in its environment); output is stdout + stderr.
+inline CommandResult run_softhom(const std::string& args, const std::string& env = "") {
   // ctest runs every test in its own process, in parallel: the pid keeps logs apart
   // (std::rand() is unseeded and would give every process the same name).
   static int calls = 0;
   const auto log = std::filesystem::temp_directory_path() /
                    ("softhom-cli-" + std::to_string(::getpid()) + "-" + std::to_string(calls++) + ".log");
-  const std::string cmd = std::string(SOFTHOM_BINARY) + " " + args + " > " + log.string() + " 2>&1";
+  const std::string cmd = (env.empty() ? "" : "env " + env + " ") + std::string(SOFTHOM_BINARY) + " " + args + " > " +
+                          log.string() + " 2>&1";
   const int status = std::system(cmd.c_str());
   CommandResult r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;

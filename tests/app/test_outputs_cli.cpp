@@ -21,22 +21,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Runs the binary with extra environment assignments ("NAME=value ..."), output to a log.
-CommandResult run_env(const std::string& env, const std::string& args) {
-  static int calls = 0;
-  const auto log = fs::temp_directory_path() /
-                   ("softhom-outputs-" + std::to_string(::getpid()) + "-" + std::to_string(calls++) + ".log");
-  const std::string cmd = "env " + env + " " + std::string(SOFTHOM_BINARY) + " " + args + " > " + log.string() + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  CommandResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(log);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  r.output = ss.str();
-  fs::remove(log);
-  return r;
-}
+// Runs the binary with extra environment assignments ("NAME=value ...").
+CommandResult run_env(const std::string& env, const std::string& args) { return run_softhom(args, env); }
 
 nlohmann::json read_json(const fs::path& p) {
   std::ifstream in(p);

@@ -95,8 +95,6 @@ struct SizeEstimate {
 };
 SizeEstimate estimate_size(const StructureSpec& spec);
 
-/// Memory the system can still give a process (MemAvailable of /proc/meminfo) [bytes]; 0 when unknown.
-double available_memory_bytes();
 
 /// Throws InputError on `field` (the geometry key that sets the size, e.g. "geometry.cells") with the
 /// estimate when the structure would not fit in `available_bytes` (0: unknown, nothing refused).
