@@ -39,8 +39,22 @@ target_include_directories(softhom_suitesparse INTERFACE ${SUITESPARSE_INCLUDE_D
 target_link_libraries(softhom_suitesparse INTERFACE ${CHOLMOD_LIB} ${UMFPACK_LIB} ${AMD_LIB} ${COLAMD_LIB}
                       ${SUITESPARSECONFIG_LIB})
 
-pkg_check_modules(HDF5 QUIET IMPORTED_TARGET hdf5)
-softhom_require(HDF5_FOUND "HDF5 (C library)" libhdf5-dev)
+# Open MPI: campaigns over ranks, distributed FFT cells, the PETSc macro solver. One binary: a process not
+# started by an MPI launcher never initialises MPI (softhom/io/mpi.hpp) and runs as before.
+set(MPI_CXX_SKIP_MPICXX ON)  # the C API only; the MPI-2 C++ bindings are deprecated
+find_package(MPI QUIET COMPONENTS CXX)
+softhom_require(MPI_CXX_FOUND "MPI (Open MPI)" "libopenmpi-dev openmpi-bin")
+find_library(FFTW3_MPI_LIB fftw3_mpi)
+find_path(FFTW3_MPI_INCLUDE_DIR fftw3-mpi.h)
+softhom_require(FFTW3_MPI_LIB "FFTW3 MPI library (libfftw3_mpi)" libfftw3-mpi-dev)
+softhom_require(FFTW3_MPI_INCLUDE_DIR "FFTW3 MPI header (fftw3-mpi.h)" libfftw3-mpi-dev)
+pkg_check_modules(PETSC QUIET IMPORTED_TARGET PETSc)
+softhom_require(PETSC_FOUND "PETSc (real scalars)" libpetsc-real-dev)
+
+# The Open MPI build of HDF5, named explicitly: PETSc links libhdf5_openmpi, and one process must not load
+# two HDF5 libraries. Used with the serial file drivers unless a distributed writer asks for MPI-IO.
+pkg_check_modules(HDF5 QUIET IMPORTED_TARGET hdf5-openmpi)
+softhom_require(HDF5_FOUND "HDF5 (Open MPI build)" libhdf5-openmpi-dev)
 
 find_package(tomlplusplus QUIET)
 softhom_require(tomlplusplus_FOUND "toml++" libtomlplusplus-dev)

@@ -10,6 +10,11 @@ packages=(
   libopenblas0-openmp      # BLAS for CHOLMOD/UMFPACK (replaces generic ATLAS: 1.3-1.8x faster factorizations; OpenMP build shares our thread pool)
   libcgal-dev              # rve/: conforming meshes
   libhdf5-dev              # fields and stores
+  libhdf5-openmpi-dev      # the HDF5 build PETSc links (one HDF5 per process)
+  openmpi-bin libopenmpi-dev   # MPI: campaigns over ranks, distributed cells and macro solves
+  libfftw3-mpi-dev         # fft/: distributed (slab) transforms
+  libpetsc-real-dev        # fe/: Krylov solvers and AMG (hypre, MUMPS) for large macro meshes
+  gmsh                     # macro/: meshes the device geometries (studies/meshes/*.geo) at run time
   hdf5-tools               # tests/faults: h5dump compares campaign stores
   libtomlplusplus-dev      # scene files
   libcli11-dev             # command line
