@@ -159,6 +159,11 @@ int run_rve(const CommandOptions& options) {
   summary["fft"] = solver.fft_description();
   summary["fft_planning_s"] = solver.planning_seconds();
   summary["columns"] = io::columns_json(record.csv.table().columns());
+  // Bytes per voxel: the solver's own accounting over its arrays (by array) and the process peak RSS.
+  nlohmann::json breakdown = nlohmann::json::object();
+  for (const auto& [array, bytes] : solver.memory_breakdown()) breakdown[array] = bytes;
+  summary["solver_memory_by_array"] = breakdown;
+  summary["solver_bytes_per_voxel"] = double(solver.memory_bytes()) / double(image.voxels());
   if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start))
     return run_exit_code(false);
   if (!options.quiet)

@@ -124,6 +124,9 @@ inline bool finish_rve_summary(nlohmann::json& summary, const rve::RveRunResult&
   summary["warnings"] = result.log;
   summary["solver_memory_bytes"] = solver_memory_bytes;
   summary["peak_memory_bytes"] = io::peak_memory_bytes();
+  summary["peak_memory_bytes_per_voxel"] = nullptr;  // voxel engines only
+  if (summary.contains("voxels") && summary["voxels"].is_number() && summary["voxels"].get<double>() > 0.0)
+    summary["peak_memory_bytes_per_voxel"] = double(io::peak_memory_bytes()) / summary["voxels"].get<double>();
   summary["solve_time_s"] = result.wall_seconds;
   summary["wall_time_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   io::write_summary(out, summary);

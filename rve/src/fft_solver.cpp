@@ -19,6 +19,7 @@
 #include "softhom/materials/interrupt.hpp"
 #include "softhom/materials/errors.hpp"
 #include "diagnostics.hpp"
+#include "fft_storage.hpp"
 #include "laminate.hpp"
 #include "memory_budget.hpp"
 #include "step_driver.hpp"
@@ -180,8 +181,11 @@ struct FftRveSolver::Impl {
   bool linearized_pressure = false;                // evaluate with p from the last linearization
   double predictor_ratio = -1.0;                   // ≥ 0: predictor, p = p_committed + ratio · dp_last
   std::vector<double> p_trial, p_committed, dp_last;  // per point pressures of the mixed iteration
-  std::vector<double> lin_cur, lin_next;  // per point: c = W_V″ cof F (9), s (1): p(F) = s + c:F
-  std::vector<double> dP_full;                     // per point: P_full − P̂ (9)
+  // per point: c = W_V″ cof F (9, float), s (1, double): p(F) = s + c:F; s is taken with the rounded c,
+  // so p(F_k) = W_V′(J_k) to double round-off and only the slope is perturbed (≈ 6e-8 relative).
+  std::vector<float> lin_cur, lin_next;
+  std::vector<double> lin_cur_s, lin_next_s;
+  std::vector<float> dP_full;                      // per point: P_full − P̂ (9), a correction of the residual
   double achieved_vf = 0.0;
 
   // Unknowns (current and committed).
@@ -189,7 +193,6 @@ struct FftRveSolver::Impl {
   Mat3 Fbar = Mat3::Identity(), Fbar_committed = Mat3::Identity();  // load frame
 
   // Scratch.
-  std::vector<Complex> r_u;
   PassSums sums;
   std::vector<Complex> du_last;      // last converged increment (extrapolation predictor)
   Mat3 dF_last = Mat3::Zero();
@@ -262,12 +265,14 @@ struct FftRveSolver::Impl {
         hist_new[x] = hist_old[x];
       }
     if (mixed_active) {
-      lin_cur.assign(10 * NP, 0.0);
-      lin_next.assign(10 * NP, 0.0);
+      lin_cur.assign(9 * NP, 0.0f);
+      lin_next.assign(9 * NP, 0.0f);
+      lin_cur_s.assign(NP, 0.0);
+      lin_next_s.assign(NP, 0.0);
       p_trial.assign(NP, 0.0);
       p_committed.assign(NP, 0.0);
       dp_last.assign(NP, 0.0);
-      dP_full.assign(9 * NP, 0.0);
+      dP_full.assign(9 * NP, 0.0f);
     }
     // Section grids: the i3 columns of ∇ũ vanish and Div does not read them, so 6 of 9 fields per point
     // are transformed (the voxel loops treat those columns as zero).
@@ -290,7 +295,11 @@ struct FftRveSolver::Impl {
     }
     u.assign(3 * NM, 0.0);
     u_committed = u;
-    r_u.assign(3 * NM, 0.0);
+    if (opt.scheme == FftScheme::newton_cg) {
+      // CG work vectors once, here (pcg() reuses them), so that memory_bytes() is what a run holds.
+      for (KVec* v : {&cg_r, &cg_z, &cg_p}) v->u.assign(3 * NM, 0.0);
+      if (!stencil) cg_Ap.u.assign(3 * NM, 0.0);
+    }
   }
 
   /// "[n1, n2]" (sections) or "[n1, n2, n3]", as the scene writes the grid.
@@ -298,21 +307,59 @@ struct FftRveSolver::Impl {
     return "[" + std::to_string(n[0]) + ", " + std::to_string(n[1]) + (n[2] > 1 ? ", " + std::to_string(n[2]) : "") + "]";
   }
 
-  /// Bytes the solver will allocate for this grid and these options (the arrays of memory_bytes(),
-  /// counted before they exist; composite points counted as none, their 6 values per point are small).
-  std::size_t planned_bytes() const {
-    const double n = double(N), nm = double(NM), np = double(NP);
+  /// Storage of the solver as allocated (memory_breakdown()): sizes counted from the arrays. The
+  /// step's residual and Newton step (locals of step()), ũ's last increment (allocated at the first
+  /// commit) and the Green table (at the first solve) are counted as they will exist during a run.
+  detail::StorageSizes storage_sizes() const {
+    detail::StorageSizes s;
+    s.voxels = N;
+    s.modes = NM;
+    s.points = NP;
+    s.fft_fields = std::size_t(fft->fields());
+    s.fft3_fields = fft3 ? std::size_t(fft3->fields()) : 0;
+    s.tangent_values = tangent_f.empty() ? tangent.size() : tangent_f.size();
+    s.tangent_value_bytes = tangent_f.empty() ? sizeof(double) : sizeof(float);
+    s.green_values = std::max(green.memory_bytes() / sizeof(double), 9 * NM);  // tabulated at the first solve
+    s.history_values = hist_old[0].size() + hist_old[1].size();
+    s.laminate_values = lam_a.size();
+    s.composite_voxels = comp_normal.size();
+    s.mixed_points = p_trial.size();
+    s.spectral_vectors = spectral_vectors();
+    return s;
+  }
+  /// 3-component half spectra: ũ, committed ũ, last increment, the step's residual and Newton step,
+  /// and the CG work vectors (r, z, p, and Ap unless the stencil operator leaves it in fft3's buffer);
+  /// the fixed point keeps ũ, its copies, the residual and the update.
+  std::size_t spectral_vectors() const {
+    if (opt.scheme != FftScheme::newton_cg) return 5;
+    return 5 + 3 + (stencil ? 0 : 1);
+  }
+  /// The same sizes planned from the problem size before anything is allocated (composite voxels
+  /// counted as none: their arrays are small).
+  detail::StorageSizes planned_sizes() const {
     const bool newton = opt.scheme == FftScheme::newton_cg;
     const bool with_stencil = newton && opt.krylov_operator == KrylovOperator::stencil && fft::StencilGradient::supported(op);
-    const double field = 8.0 * n + 16.0 * nm;  // one real field and its half spectrum
-    double b = 9.0 * nq * field + (with_stencil ? 3.0 * field : 0.0);
-    if (newton) b += 45.0 * np * (with_stencil && opt.tangent_precision == TangentPrecision::single_precision ? 4.0 : 8.0);
-    b += 9.0 * 8.0 * nm;                                     // reference Green operator per mode
-    b += 2.0 * 8.0 * np * double(state_size[0] + state_size[1]);  // history, old and new
-    if (mixed_active) b += 32.0 * 8.0 * np;                  // linearizations, pressures, P_full − P̂
-    b += 12.0 * n;                                           // fiber fraction, composite index
-    b += 3.0 * 16.0 * nm * (newton ? 12.0 : 4.0);            // ũ, its copies and the Krylov vectors
-    return detail::saturating_product({b});
+    detail::StorageSizes s;
+    s.voxels = N;
+    s.modes = NM;
+    s.points = NP;
+    s.fft_fields = std::size_t(9 * nq);
+    s.fft3_fields = with_stencil ? 3 : 0;
+    const bool single = with_stencil && opt.tangent_precision == TangentPrecision::single_precision;
+    s.tangent_values = newton ? 45 * (with_stencil ? (NP + 7) / 8 * 8 : NP) : 0;
+    s.tangent_value_bytes = single ? sizeof(float) : sizeof(double);
+    s.green_values = 9 * NM;
+    s.history_values = NP * std::size_t(state_size[0] + state_size[1]);
+    s.mixed_points = mixed_active ? NP : 0;
+    s.spectral_vectors = !newton ? 5 : 5 + 3 + (with_stencil ? 0 : 1);
+    return s;
+  }
+  /// Bytes the solver will allocate for this grid and these options (planned_sizes()), saturating for
+  /// absurd grids (they must still be refused).
+  std::size_t planned_bytes() const {
+    if (double(N) * 1e4 * double(nq) >= double(std::numeric_limits<std::size_t>::max()))
+      return std::numeric_limits<std::size_t>::max();
+    return detail::storage_total(detail::storage_list(planned_sizes()));
   }
 
   Mat3 to_grid(const Mat3& X_load) const { return R.transpose() * X_load * R; }
@@ -354,21 +401,21 @@ struct FftRveSolver::Impl {
       // (tens of MPa against a matrix G of 0.017 MPa); the pressure history is smooth instead.
       pr = p_committed[p] + predictor_ratio * dp_last[p];
     } else if (linearized_pressure) {
-      const double* l = &lin_cur[10 * p];
-      pr = l[9];
-      for (int c = 0; c < 9; ++c) pr += l[c] * F(c / 3, c % 3);
+      const float* l = &lin_cur[9 * p];
+      pr = lin_cur_s[p];
+      for (int c = 0; c < 9; ++c) pr += double(l[c]) * F(c / 3, c % 3);
     }
     const double q = pr - dU;
     p_trial[p] = pr;
-    double* ln = &lin_next[10 * p];
+    float* ln = &lin_next[9 * p];
     double s0 = dU;
     for (int c = 0; c < 9; ++c) {
-      ln[c] = ddU * cof(c / 3, c % 3);
-      s0 -= ln[c] * F(c / 3, c % 3);
+      ln[c] = float(ddU * cof(c / 3, c % 3));
+      s0 -= double(ln[c]) * F(c / 3, c % 3);
     }
-    ln[9] = s0;
-    double* d = &dP_full[9 * p];
-    for (int c = 0; c < 9; ++c) d[c] = -q * cof(c / 3, c % 3);
+    lin_next_s[p] = s0;
+    float* d = &dP_full[9 * p];
+    for (int c = 0; c < 9; ++c) d[c] = float(-q * cof(c / 3, c % 3));
     if (q == 0.0) return;
     P += q * cof;
     if (A) {
@@ -528,7 +575,7 @@ struct FftRveSolver::Impl {
 #pragma omp for schedule(static)
       for (std::size_t v = 0; v < N; ++v)
         for (int q = 0; q < nq; ++q) {
-          const double* d = &dP_full[9 * (v * nq + q)];
+          const float* d = &dP_full[9 * (v * nq + q)];
           double* base = fft->real(9 * q) + v;
           for (int c = 0; c < 9; ++c) base[std::size_t(c) * N] += d[c];
           for (int c = 0; c < 9; ++c) local[c] += op.quadrature()[q].weight * d[c];
@@ -543,7 +590,10 @@ struct FftRveSolver::Impl {
     return err;
   }
   void accept_linearization() {
-    if (mixed_active) lin_cur.swap(lin_next);
+    if (mixed_active) {
+      lin_cur.swap(lin_next);
+      lin_cur_s.swap(lin_next_s);
+    }
   }
   void commit_pressures(bool track_increment) {
     if (!mixed_active) return;
@@ -1000,7 +1050,8 @@ struct FftRveSolver::Impl {
     // shifted iteration has stalled (minres_fallback).
     bool minres_mode = opt.indefinite_solver == IndefiniteSolver::minres;
     double ptc_shift = 0.0, ptc_err = 0.0;
-    std::vector<Complex> u_prev;
+    // The last accepted iterate is u − applied · dx (no copy of ũ kept): the line search moves u along dx.
+    double applied = 0.0;
     Mat3 Fbar_prev = Fbar, step_macro = Mat3::Zero();
     bool had_prescribed_step = false;
     // The predictor takes the extrapolated pressure (or, at the committed state, the exact W_V′(J),
@@ -1048,7 +1099,10 @@ struct FftRveSolver::Impl {
       } else {
         MaterialStatus last = MaterialStatus::ok;
         auto trial = [&](double scale) -> std::optional<double> {
-          for (std::size_t i = 0; i < u.size(); ++i) u[i] = u_prev[i] + scale * dx.u[i];
+          const double move = scale - applied;
+#pragma omp parallel for schedule(static)
+          for (std::size_t i = 0; i < u.size(); ++i) u[i] += move * dx.u[i];
+          applied = scale;
           Fbar = Fbar_prev + scale * step_macro;
           gradient_to_real(u);
           last = evaluate_points(to_grid(Fbar), dt, true);
@@ -1066,8 +1120,14 @@ struct FftRveSolver::Impl {
                                                : std::string("line search failed");
           // Diagnose the last accepted iterate, not the rejected trial (an overshooting full step of a
           // nearly incompressible matrix can be arbitrarily far from anything the cell can reach).
-          u = u_prev;
+          for (std::size_t i = 0; i < u.size(); ++i) u[i] -= applied * dx.u[i];
           Fbar = Fbar_prev;
+          // r holds the right-hand side of the last solve: re-evaluate the restored iterate's residual.
+          gradient_to_real(u);
+          if (evaluate_points(to_grid(Fbar), dt, false) == MaterialStatus::ok)
+            evaluate_residual(free, P_target, r);
+          else
+            std::fill(r.u.begin(), r.u.end(), Complex(0.0));
           out.why += "; " + describe(hot_spots(r));
           return out;
         }
@@ -1124,12 +1184,18 @@ struct FftRveSolver::Impl {
         }
       }
       set_reference();
-      // Right-hand side −r − K [0; ΔF_p] (tangent predictor for the prescribed increment).
-      KVec b = r;
+      // Right-hand side −r − K [0; ΔF_p] (tangent predictor for the prescribed increment), formed in
+      // r's storage: r is not read again before the next evaluation overwrites it. The CG work vectors
+      // serve as e and K e (pcg overwrites them).
+      KVec& b = r;
       for (auto& c : b.u) c = -c;
       b.f = -b.f;
       if (!prescribed_reached) {
-        KVec e{std::vector<Complex>(3 * NM, 0.0), flatten(dFp)}, Ke{std::vector<Complex>(3 * NM), Vec9::Zero()};
+        KVec& e = cg_z;
+        KVec& Ke = cg_p;
+        e.u.assign(3 * NM, 0.0);
+        e.f = flatten(dFp);
+        Ke.u.resize(3 * NM);
         apply(e, free, Ke);
         ++out.krylov_iterations;
         axpy(-1.0, Ke, b);
@@ -1164,7 +1230,7 @@ struct FftRveSolver::Impl {
       lm_shift = shift >= 1e-2 ? 0.1 * shift : 0.0;
       if (continuation) ptc_shift = shift;
       ++out.newton_iterations;
-      u_prev = u;
+      applied = 0.0;
       Fbar_prev = Fbar;
       step_macro = dFp + unflatten(dx.f);
       had_prescribed_step = !prescribed_reached || (it == 0 && full_first_step);
@@ -1315,21 +1381,12 @@ double FftRveSolver::achieved_volume_fraction() const { return impl_->achieved_v
 double FftRveSolver::planning_seconds() const { return impl_->fft->planning_seconds(); }
 std::vector<double> FftRveSolver::displacement() { return impl_->node_displacement(); }
 std::size_t FftRveSolver::memory_bytes() const {
-  const Impl& m = *impl_;
-  std::size_t b = m.fft->fields() * (m.N * sizeof(double) + m.NM * sizeof(Complex));
-  if (m.fft3) b += m.fft3->fields() * (m.N * sizeof(double) + m.NM * sizeof(Complex));
-  b += m.tangent.size() * sizeof(double) + m.tangent_f.size() * sizeof(float) + m.green.memory_bytes();
-  for (int x = 0; x < 2; ++x) b += 2 * m.hist_old[x].size() * sizeof(double);
-  b += 2 * m.lam_a.size() * sizeof(double) + m.N * (sizeof(double) + sizeof(int));
-  // Mixed (u, p) iteration: two linearizations (10 each), three pressures, P_full − P̂ (9) per point.
-  b += (m.lin_cur.size() + m.lin_next.size() + m.p_trial.size() + m.p_committed.size() + m.dp_last.size() +
-        m.dP_full.size()) * sizeof(double);
-  // ũ and its copies (committed, previous iterate, last increment), residual, right-hand side, Newton
-  // step and the four CG vectors; 4 for the fixed point.
-  // (11 with the stencil operator: Ap stays in fft3's buffer.)
-  b += 3 * m.NM * sizeof(Complex) * (m.opt.scheme == FftScheme::newton_cg ? (m.stencil ? 11 : 12) : 4);
-  return b;
+  return detail::storage_total(detail::storage_list(impl_->storage_sizes()));
 }
+std::vector<std::pair<std::string, std::size_t>> FftRveSolver::memory_breakdown() const {
+  return detail::storage_list(impl_->storage_sizes());
+}
+std::size_t FftRveSolver::planned_memory_bytes() const { return impl_->planned_bytes(); }
 
 FftRveState FftRveSolver::state() const {
   const Impl& m = *impl_;

@@ -29,6 +29,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "softhom/fft/gradient.hpp"
@@ -109,12 +110,13 @@ struct FftSolverOptions {
   bool mixed_pressure = true;
   double mixed_pressure_ratio = 100.0;
   KrylovOperator krylov_operator = KrylovOperator::stencil;
-  /// Tangents of the stencil Krylov operator stored in float (180 instead of 360 B per point): the
-  /// Krylov iteration is bound by that stream. The residual, the material and the preconditioner stay
+  /// Tangents of the stencil Krylov operator stored in float (180 instead of 360 B per point, the
+  /// default: the largest array of the solver, see BENCHMARKS.md "FFT memory per voxel"): the Krylov
+  /// iteration is bound by that stream. The residual, the material and the preconditioner stay
   /// double, so the converged answer is the same to the Newton tolerance; the Krylov operator is the
   /// exact one perturbed by ≈ 6e-8 relative per tangent entry (symmetric, so CG/MINRES still apply),
   /// which inexact Newton absorbs. The Fourier operator always keeps double.
-  TangentPrecision tangent_precision = TangentPrecision::double_precision;
+  TangentPrecision tangent_precision = TangentPrecision::single_precision;
   /// Wall-time budget of one output step's cut-backs [s] (StepControlOptions::max_step_seconds; 0: none).
   double max_step_seconds = 0.0;
   fft::PlanOptions plan;         ///< FFTW rigor, threads, wisdom cache
@@ -222,8 +224,14 @@ class FftRveSolver {
   int quadrature_points() const;
   std::string fft_description() const;
   double achieved_volume_fraction() const;
-  /// Bytes of the solver's large arrays (fields, tangents, history, FFT buffers).
+  /// Bytes of the solver's large arrays (fields, tangents, history, FFT buffers, spectral vectors) as
+  /// a run holds them: the sum of memory_breakdown().
   std::size_t memory_bytes() const;
+  /// The same by array ("fft_buffers", "tangents", "spectral_vectors", ...; arrays a scene does not
+  /// need are absent).
+  std::vector<std::pair<std::string, std::size_t>> memory_breakdown() const;
+  /// The estimate the constructor compared with the available memory (composite arrays not counted).
+  std::size_t planned_memory_bytes() const;
   /// Seconds spent planning FFTs (FFTW_MEASURE) at construction.
   double planning_seconds() const;
   /// Displacement of the current state at the voxel corners (layout of RveFields::displacement): the

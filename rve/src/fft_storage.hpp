@@ -1,0 +1,60 @@
+#pragma once
+// Storage accounting of the FFT RVE solver: every array whose size grows with the grid, by name.
+//
+// One list serves three purposes: FftRveSolver::memory_bytes() (the sum over the arrays as they are
+// allocated), FftRveSolver::memory_breakdown() (bytes per array, written to summary.json) and the
+// size check before construction (planned_bytes(): the same list filled from the problem size, so the
+// refusal of too-big grids follows the storage as it is). Arrays a scene does not need (history of
+// elastic phases, pressures of compressible phases, jump vectors without composite voxels, tangents of
+// the fixed-point scheme) are absent or of size zero.
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace softhom::rve::detail {
+
+/// (array, bytes) in allocation order.
+using StorageList = std::vector<std::pair<std::string, std::size_t>>;
+
+inline std::size_t storage_total(const StorageList& l) {
+  std::size_t b = 0;
+  for (const auto& e : l) b += e.second;
+  return b;
+}
+
+/// Sizes that decide the solver's storage (counted from the arrays, or planned from the problem).
+struct StorageSizes {
+  std::size_t voxels = 0, modes = 0, points = 0;
+  std::size_t fft_fields = 0;          ///< fields of the evaluation transform (9 · points per voxel)
+  std::size_t fft3_fields = 0;         ///< 3 with the stencil Krylov operator, else 0
+  std::size_t tangent_values = 0;      ///< stored tangent entries (padded)
+  std::size_t tangent_value_bytes = 8; ///< 8 double, 4 float
+  std::size_t green_values = 0;        ///< reference Green operator table (doubles)
+  std::size_t history_values = 0;      ///< internal variables, one copy (both phases)
+  std::size_t laminate_values = 0;     ///< jump vectors of the composite points, one copy
+  std::size_t composite_voxels = 0;    ///< composite voxels (interface normal each)
+  std::size_t mixed_points = 0;        ///< points carried by the mixed (u, p) iteration arrays (0: none)
+  std::size_t spectral_vectors = 0;    ///< 3-component half spectra (unknowns, state and Krylov vectors)
+};
+
+/// Bytes of the mixed (u, p) arrays per point: two linearizations (9 float slopes + 1 double offset
+/// each), three pressures (double) and P_full − P̂ (9 float).
+constexpr std::size_t kMixedBytesPerPoint = 2 * (9 * 4 + 8) + 3 * 8 + 9 * 4;
+
+inline StorageList storage_list(const StorageSizes& s) {
+  const std::size_t field = 8 * s.voxels + 16 * s.modes;  // one real field and its half spectrum
+  StorageList l;
+  l.emplace_back("fft_buffers", s.fft_fields * field);
+  if (s.fft3_fields) l.emplace_back("fft3_buffers", s.fft3_fields * field);
+  if (s.tangent_values) l.emplace_back("tangents", s.tangent_values * s.tangent_value_bytes);
+  l.emplace_back("reference_green", s.green_values * 8);
+  if (s.history_values) l.emplace_back("history", 2 * 8 * s.history_values);
+  l.emplace_back("phase_image", s.voxels * (8 + 4));  // fiber fraction, composite index
+  if (s.composite_voxels) l.emplace_back("composites", 2 * 8 * s.laminate_values + 24 * s.composite_voxels);
+  if (s.mixed_points) l.emplace_back("mixed_pressure", kMixedBytesPerPoint * s.mixed_points);
+  l.emplace_back("spectral_vectors", s.spectral_vectors * 3 * 16 * s.modes);
+  return l;
+}
+
+}  // namespace softhom::rve::detail

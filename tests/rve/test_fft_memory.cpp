@@ -1,0 +1,92 @@
+// Storage of the FFT RVE solver (rve/src/fft_storage.hpp): bytes per voxel of the default Newton–Krylov
+// solve, the arrays a scene does not need left out, and the size estimate that refuses too-big grids
+// following the storage as it is allocated.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <map>
+
+#include "rve/rve_test_helpers.hpp"
+#include "softhom/materials/laws.hpp"
+#include "softhom/rve/fft_solver.hpp"
+
+using namespace softhom;
+using namespace softhom::rve;
+using softhom::rve::testing::circle_image;
+
+namespace {
+
+MaterialPtr ecoflex() { return make_material(make_gent_hgo({0.017, 14.0, 2000.0, {}, FiberInvariant::full, true})); }
+MaterialPtr glass() { return make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))); }
+MaterialPtr neo_hookean(double mu, double K) { return make_material(make_neo_hookean({mu, K})); }
+
+std::map<std::string, std::size_t> by_array(const FftRveSolver& s) {
+  std::map<std::string, std::size_t> m;
+  for (const auto& [name, bytes] : s.memory_breakdown()) m[name] = bytes;
+  return m;
+}
+
+PhaseImage extruded(const PhaseImage& section, int n3) {
+  PhaseImage cube = section;
+  cube.n[2] = n3;
+  cube.size[2] = n3 * section.size[2];
+  for (int k = 1; k < n3; ++k) {
+    cube.fiber_fraction.insert(cube.fiber_fraction.end(), section.fiber_fraction.begin(), section.fiber_fraction.end());
+    cube.normal.insert(cube.normal.end(), section.normal.begin(), section.normal.end());
+  }
+  return cube;
+}
+
+FftSolverOptions quick() {
+  FftSolverOptions o;
+  o.plan.rigor = fft::PlanRigor::estimate;
+  return o;
+}
+
+}  // namespace
+
+// Bytes per voxel of the default solve (rotated, stencil Krylov operator, float tangents). The accounting
+// is exact arithmetic on the array sizes, so the bounds are tight (a regression of one 3-component
+// spectral vector is +24 B per voxel in 3D, +25.5 B on a 32² section): 32² ecoflex/glass section (mixed
+// (u, p) arrays, composite voxels) 784.5 B measured (1148 B before the storage cuts); 16³ compressible
+// neo-Hookean cell (no pressure arrays) 662.6 B measured.
+TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
+  const PhaseImage section = circle_image(32, 0.27);
+  FftRveSolver eco(section, ecoflex(), glass(), 45.0, Mat3::Identity(), quick());
+  const double eco_bpv = double(eco.memory_bytes()) / double(section.voxels());
+  EXPECT_LE(eco_bpv, 790.0);
+  const auto eco_arrays = by_array(eco);
+  EXPECT_EQ(eco_arrays.count("history"), 0u);  // elastic phases: no internal variables
+  EXPECT_GT(eco_arrays.count("mixed_pressure"), 0u);
+  EXPECT_GT(eco_arrays.count("composites"), 0u);
+
+  const PhaseImage cube = extruded(circle_image(16, 0.27), 16);
+  FftRveSolver nh(cube, neo_hookean(1.0, 10.0), glass(), 45.0, Mat3::Identity(), quick());
+  const double nh_bpv = double(nh.memory_bytes()) / double(cube.voxels());
+  EXPECT_LE(nh_bpv, 670.0);
+  const auto nh_arrays = by_array(nh);
+  EXPECT_EQ(nh_arrays.count("mixed_pressure"), 0u);  // K/G = 10 < mixed_pressure_ratio
+  EXPECT_EQ(nh_arrays.count("history"), 0u);
+  // Float tangents: 45 values of 4 bytes per point.
+  EXPECT_EQ(nh_arrays.at("tangents"), 45u * 4u * cube.voxels());
+  std::printf("[ info     ] bytes/voxel: 32^2 ecoflex/glass %.1f, 16^3 neo-Hooke %.1f\n", eco_bpv, nh_bpv);
+  for (const auto& [name, bytes] : eco.memory_breakdown())
+    std::printf("[ info     ]   32^2 %-18s %8.1f B/voxel\n", name.c_str(), double(bytes) / double(section.voxels()));
+}
+
+// The estimate checked before allocation is the allocated storage up to the composite voxels' arrays
+// (not known before the image is scanned), for the Newton–Krylov and the fixed-point schemes and both
+// Krylov operators; the memory held after a run is the one counted before it.
+TEST(FftRveMemory, PlannedBytesFollowTheStorage) {
+  const PhaseImage section = circle_image(12, 0.27);
+  for (int variant = 0; variant < 4; ++variant) {
+    FftSolverOptions o = quick();
+    if (variant == 1) o.krylov_operator = KrylovOperator::fourier;
+    if (variant == 2) o.scheme = FftScheme::moulinec_suquet;
+    if (variant == 3) o.tangent_precision = TangentPrecision::double_precision;
+    FftRveSolver s(section, ecoflex(), glass(), 30.0, Mat3::Identity(), o);
+    const auto arrays = by_array(s);
+    const std::size_t composites = arrays.count("composites") ? arrays.at("composites") : 0;
+    EXPECT_EQ(s.memory_bytes(), s.planned_memory_bytes() + composites) << "variant " << variant;
+  }
+}
