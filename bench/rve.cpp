@@ -162,6 +162,59 @@ int main(int argc, char** argv) {
           solve_and_print("K/G", kg, n, fft::Discretization::rotated,
                           make_material(make_gent_hgo({0.017, 14.0, 0.017 * kg, {}, FiberInvariant::full, true})),
                           make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))), mixed, ramp(1.5, 8));
+  } else if (mode == "freefiber") {
+    // Gent matrix K/G = 1.2e5 + glass fiber along e1 (α = 90°), λ = 1.5 in 8 steps: uniaxial stress
+    // along the fiber, then transverse (F22 = λ) with the fiber stretch F11 free (P11 = 0); and the
+    // transverse case with the fiber along e2 (α = 0°, F22 free) for comparison.
+    std::vector<int> cases;  // "case=K" arguments (0–4) select cases
+    sizes.clear();
+    for (int i = 2; i < argc; ++i) {
+      if (std::strncmp(argv[i], "case=", 5) == 0)
+        cases.push_back(std::atoi(argv[i] + 5));
+      else
+        sizes.push_back(std::atoi(argv[i]));
+    }
+    if (sizes.empty()) sizes = {32};
+    const auto matrix = [] { return make_material(make_gent_hgo({0.017, 14.0, 0.017 * 1.2e5, {}, FiberInvariant::full, true})); };
+    const auto glass = [] { return make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))); };
+    for (int n : sizes)
+      for (int c = 0; c < 6; ++c) {
+        if (!cases.empty() && std::find(cases.begin(), cases.end(), c) == cases.end()) continue;
+        MixedControl control = ramp(1.5, 8);
+        double angle = 90.0;
+        if (c == 1 || c >= 3) {
+          const auto zero = PiecewiseLinear::constant(0.0);
+          for (int k = 0; k < 9; ++k) {
+            control.kind[k] = ControlKind::stress;
+            control.value[k] = zero;
+          }
+          control.kind[4] = ControlKind::deformation;
+          control.value[4] = PiecewiseLinear{{0.0, 1.0}, {1.0, 1.5}};
+          for (int k : {3, 5, 2}) control.kind[k] = ControlKind::deformation;  // F21 = F23 = F13 = 0
+          control.name = "transverse, F11 free";
+          if (c == 3) control.kind[6] = control.kind[7] = ControlKind::deformation;  // F31 = F32 = 0
+          if (c == 5) {  // F11 prescribed on (about) the path the free case follows: 1 → 0.98995
+            control.kind[0] = ControlKind::deformation;
+            control.value[0] = PiecewiseLinear{{0.0, 1.0}, {1.0, 0.98995}};
+          }
+        }
+        if (c == 2) angle = 0.0;
+        FftSolverOptions o;
+        o.tolerance = 1e-6;
+        if (c == 4) o.minres_below = 1e300;  // MINRES on every negative curvature
+        FftRveSolver solver(circle_cell(n), matrix(), glass(), angle, Mat3::Identity(), o);
+        const auto t0 = std::chrono::steady_clock::now();
+        const RveRunResult r = solver.run(control);
+        const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const char* name[6] = {"along-fiber", "transverse-F11-free", "transverse-a0", "transverse-no-shear", "transverse-minres",
+                               "transverse-F11-given"};
+        std::printf("freefiber %-20s n %4d %4s newton %4d krylov %7d krylov/newton %7.1f cutbacks %d shifted %d minres %d time %7.2f s P %.6g %.6g F11 %.6g\n",
+                    name[c], n, r.completed ? "ok" : "FAIL", r.newton_iterations, r.krylov_iterations,
+                    r.newton_iterations ? double(r.krylov_iterations) / r.newton_iterations : 0.0, r.cutbacks,
+                    r.shifted_solves, r.minres_solves, sec, r.steps.back().P(0, 0), r.steps.back().P(1, 1), r.steps.back().F(0, 0));
+        for (const std::string& l : r.log) std::printf("  log: %s\n", l.c_str());
+        std::fflush(stdout);
+      }
   } else if (mode == "resolution") {
     const std::string matrix = argc > 2 ? argv[2] : "pdms";
     sizes.clear();
