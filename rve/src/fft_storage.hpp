@@ -6,7 +6,9 @@
 // size check before construction (planned_bytes(): the same list filled from the problem size, so the
 // refusal of too-big grids follows the storage as it is). Arrays a scene does not need (history of
 // elastic phases, pressures of compressible phases, jump vectors without composite voxels, tangents of
-// the fixed-point scheme) are absent or of size zero.
+// the fixed-point scheme) are absent or of size zero. Not counted: the seven work vectors of a MINRES
+// solve (indefinite tangents near an equilibrium, FftSolverOptions::indefinite_solver), allocated for
+// that solve only (+7 spectral vectors while it runs).
 #include <cstddef>
 #include <string>
 #include <utility>
