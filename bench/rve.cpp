@@ -166,11 +166,14 @@ int main(int argc, char** argv) {
     // Gent matrix K/G = 1.2e5 + glass fiber along e1 (α = 90°), λ = 1.5 in 8 steps: uniaxial stress
     // along the fiber, then transverse (F22 = λ) with the fiber stretch F11 free (P11 = 0); and the
     // transverse case with the fiber along e2 (α = 0°, F22 free) for comparison.
-    std::vector<int> cases;  // "case=K" arguments (0–4) select cases
+    std::vector<int> cases;  // "case=K" arguments (0–5) select cases; "reference=geometric" the medium
+    bool geometric = false;
     sizes.clear();
     for (int i = 2; i < argc; ++i) {
       if (std::strncmp(argv[i], "case=", 5) == 0)
         cases.push_back(std::atoi(argv[i] + 5));
+      else if (std::strcmp(argv[i], "reference=geometric") == 0)
+        geometric = true;
       else
         sizes.push_back(std::atoi(argv[i]));
     }
@@ -202,6 +205,7 @@ int main(int argc, char** argv) {
         FftSolverOptions o;
         o.tolerance = 1e-6;
         if (c == 4) o.minres_below = 1e300;  // MINRES on every negative curvature
+        if (geometric) o.reference = ReferenceMedium::geometric;
         FftRveSolver solver(circle_cell(n), matrix(), glass(), angle, Mat3::Identity(), o);
         const auto t0 = std::chrono::steady_clock::now();
         const RveRunResult r = solver.run(control);
