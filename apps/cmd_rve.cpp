@@ -140,7 +140,12 @@ int run_rve(const CommandOptions& options) {
       writer->end_step();
     }
     progress.update(rve_progress_line("[rve " + scene.name + "] ", s, t_end));
-    stop_point(record.steps.size() - 1);
+    if (slabs) {  // every rank stops after the same step (a signal reaches the ranks at different times)
+      raise_test_signal_after(record.steps.size() - 1);
+      if (slabs->max(stop_requested() ? 1 : 0)) throw RunInterrupted{};
+    } else {
+      stop_point(record.steps.size() - 1);
+    }
   };
   const rve::RveRunResult result = run_rve_engine(solver, control, on_step, want_fields, record);
   progress.finish();
