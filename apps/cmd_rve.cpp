@@ -23,6 +23,8 @@
 #include "softhom/studies/rve_scene.hpp"
 
 #include "rve_output.hpp"
+#include "rve_slab_fields.hpp"
+#include "softhom/io/mpi.hpp"
 
 namespace softhom::app {
 namespace {
@@ -67,6 +69,10 @@ int run_rve(const CommandOptions& options) {
   const bool microstructure_only = output.microstructure_only;
   std::filesystem::create_directories(options.out);
 
+  // Under an MPI launcher the FFT cell is distributed over the ranks (3D grids); rank 0 writes every file
+  // and the progress, the other ranks compute and send their slabs of the fields.
+  const bool root = mpi::world_rank() == 0;
+  if (microstructure_only && !root) return 0;
   if (microstructure_only) {
     // microstructure.h5 + .xdmf: datasets at the root that [microstructure.image] reads back exactly
     // (dataset = "/fiber_fraction", normal_dataset = "/interface_normal"), plus a binary phase-id image
@@ -102,21 +108,28 @@ int run_rve(const CommandOptions& options) {
   }
 
   const MixedControl& control = setup.control;
-  const rve::FftSolverOptions& solver_options = setup.solver;
+  rve::FftSolverOptions solver_options = setup.solver;
+  solver_options.distributed = true;  // only when MPI is active with more than one rank
 
   rve::FftRveSolver solver(image, matrix, fiber, alpha, control.frame, solver_options);
+  const fft::SlabDecomposition* slabs = solver.slabs();
   const double t_end = control.times.back();
   std::unique_ptr<io::FieldWriter> writer;
-  if (fields_mode != "none") {
+  if (fields_mode != "none" && root) {
     writer = std::make_unique<io::FieldWriter>(options.out / "fields", voxel_grid(image));
     set_rve_field_attributes(*writer, alpha, "FFT voxels");
   }
   auto want_fields = [&](double t) { return output.wants_fields(t, t_end); };
   RveRecorder record(options.out, studies::rve_response_columns());
-  Progress progress(options.quiet);
+  if (!root) record.csv = io::ProgressiveCsv({}, studies::rve_response_columns());  // kept in memory only
+  Progress progress(options.quiet || !root);
   auto on_step = [&](const rve::RveStep& s, const rve::RveFields* f) {
     record.record(s, studies::rve_response_row(s));
-    if (f && writer) {
+    if (f && slabs && fields_mode != "none") {
+      if (writer) writer->begin_step(s.t);
+      write_slab_fields(writer.get(), *slabs, *f);
+      if (writer) writer->end_step();
+    } else if (f && writer) {
       writer->begin_step(s.t);
       writer->add("F", f->F, 9, io::Centering::cell, "1");
       writer->add("P", f->P, 9, io::Centering::cell, "MPa");
@@ -127,14 +140,20 @@ int run_rve(const CommandOptions& options) {
       writer->end_step();
     }
     progress.update(rve_progress_line("[rve " + scene.name + "] ", s, t_end));
-    stop_point(record.steps.size() - 1);
+    if (slabs) {  // every rank stops after the same step (a signal reaches the ranks at different times)
+      raise_test_signal_after(record.steps.size() - 1);
+      if (slabs->max(stop_requested() ? 1 : 0)) throw RunInterrupted{};
+    } else {
+      stop_point(record.steps.size() - 1);
+    }
   };
   const rve::RveRunResult result = run_rve_engine(solver, control, on_step, want_fields, record);
   progress.finish();
   for (const auto& line : result.log)
-    if (!options.quiet) std::cerr << "[rve " << scene.name << "] " << line << "\n";
+    if (!options.quiet && root) std::cerr << "[rve " << scene.name << "] " << line << "\n";
   record.csv.flush();
   if (writer) writer->close();
+  if (!root) return result.completed ? 0 : run_exit_code(false);
   const nlohmann::json& step_log = record.step_log;
 
   nlohmann::json summary = io::summary_base("rve", scene.file, scene.table);
@@ -158,6 +177,7 @@ int run_rve(const CommandOptions& options) {
   summary["tolerance"] = solver_options.tolerance;
   summary["fft"] = solver.fft_description();
   summary["fft_planning_s"] = solver.planning_seconds();
+  summary["ranks"] = slabs ? slabs->size() : 1;
   summary["columns"] = io::columns_json(record.csv.table().columns());
   // Bytes per voxel: the solver's own accounting over its arrays (by array) and the process peak RSS.
   nlohmann::json breakdown = nlohmann::json::object();

@@ -264,6 +264,7 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   summary["engine"] = "fe";
   // The FFT engine's keys, with their FE meaning (no grid: the mesh statistics are under "mesh").
   summary["grid"] = nullptr;
+  summary["ranks"] = 1;  // the FE engine runs on one process
   summary["voxels"] = nullptr;
   summary["cell_size"] = {section.L1, section.L2};
   summary["geometry"] = geometry_note;

@@ -23,6 +23,7 @@ packages=(
   libgtest-dev             # tests
   libbenchmark-dev         # bench/
   python3-matplotlib       # PNG plots
+  python3-h5py             # tests/mpi_fft: compares the fields.h5 of a distributed and a one-process run (with numpy)
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -28,7 +28,7 @@ Discretization parse_discretization(const std::string& name) {
 }
 
 GradientOperator::GradientOperator(const Grid& grid, Discretization discretization)
-    : grid_(grid), disc_(discretization) {
+    : grid_(grid), disc_(discretization), k3_count_(grid.n[2]) {
   std::array<std::vector<double>, 3> xi, w;
   for (int m = 0; m < 3; ++m) {
     if (disc_ == Discretization::hex && grid.n[m] > 1) {
@@ -96,11 +96,11 @@ template <class Body>
 void GradientOperator::for_modes(Body&& body) const {
   const int n1 = grid_.n[0], n2 = grid_.n[1], n3 = grid_.n[2], m1 = grid_.half_n1();
   const int P1 = points_per_dim_[0], P2 = points_per_dim_[1], P3 = points_per_dim_[2];
-  const long rows = long(n2) * n3;
+  const long rows = long(n2) * k3_count_;
   const bool even1 = n1 % 2 == 0;
 #pragma omp for schedule(static)
   for (long row = 0; row < rows; ++row) {
-    const int k2 = int(row % n2), k3 = int(row / n2);
+    const int k2 = int(row % n2), k3 = k3_begin_ + int(row / n2);
     const Complex d1 = deriv_[1][k2], d2 = deriv_[2][k3];
     Complex v1[2], v2[2];
     for (int p = 0; p < P2; ++p) v1[p] = value_[1][std::size_t(p) * n2 + k2];
@@ -126,7 +126,7 @@ void GradientOperator::for_modes(Body&& body) const {
 }
 
 void GradientOperator::gradient(const Complex* u, Complex* grad, bool all_columns) const {
-  const std::size_t nm = grid_.modes();
+  const std::size_t nm = local_modes();
   const int nq = points(), nc = all_columns ? 3 : columns();
 #pragma omp parallel
   for_modes([&](std::size_t k, const Complex* D, double) {
@@ -138,7 +138,7 @@ void GradientOperator::gradient(const Complex* u, Complex* grad, bool all_column
 }
 
 void GradientOperator::gradient_of_update(const Complex* z, double beta, Complex* p, Complex* grad) const {
-  const std::size_t nm = grid_.modes();
+  const std::size_t nm = local_modes();
   const int nq = points(), nc = columns();
 #pragma omp parallel
   for_modes([&](std::size_t k, const Complex* D, double) {
@@ -155,7 +155,7 @@ void GradientOperator::gradient_of_update(const Complex* z, double beta, Complex
 }
 
 void GradientOperator::divergence(const Complex* stress, Complex* out, double scale) const {
-  const std::size_t nm = grid_.modes();
+  const std::size_t nm = local_modes();
   const int nq = points(), nc = columns();
 #pragma omp parallel
   for_modes([&](std::size_t k, const Complex* D, double) {
@@ -171,7 +171,7 @@ void GradientOperator::divergence(const Complex* stress, Complex* out, double sc
 }
 
 double GradientOperator::divergence_dot(const Complex* stress, Complex* out, double scale, const Complex* x) const {
-  const std::size_t nm = grid_.modes();
+  const std::size_t nm = local_modes();
   const int nq = points(), nc = columns();
   double s = 0.0;
 #pragma omp parallel reduction(+ : s)
@@ -195,12 +195,12 @@ double GradientOperator::divergence_dot(const Complex* stress, Complex* out, dou
 }
 
 void GradientOperator::solve_reference(const Matrix9& C0, const Complex* r, Complex* out) const {
-  const std::size_t nm = grid_.modes();
+  const std::size_t nm = local_modes();
   const int nq = points();
 #pragma omp parallel for schedule(static)
   for (std::size_t k = 0; k < nm; ++k) {
     Complex D[24];
-    coefficients(k, D);
+    coefficients(mode_offset() + k, D);
     // M_jl = Σ_q w_q conj(D_qj) D_ql, then K0_ik = Σ_jl C0_(ij)(kl) M_jl.
     Eigen::Matrix3cd M = Eigen::Matrix3cd::Zero();
     for (int q = 0; q < nq; ++q)
@@ -231,8 +231,7 @@ void GradientOperator::solve_reference(const Matrix9& C0, const Complex* r, Comp
 // ReferenceGreen
 
 void ReferenceGreen::set(const Matrix9& C0) {
-  const Grid& g = op_.grid();
-  const std::size_t nm = g.modes();
+  const std::size_t nm = op_.local_modes();
   const int nq = op_.points();
   table_.resize(9 * nm);
   double* T = table_.data();
@@ -279,7 +278,7 @@ inline void green_mul(const double* t, const Complex r[3], Complex z[3]) {
 }  // namespace
 
 void ReferenceGreen::apply(const Complex* r, Complex* out, double scale) const {
-  const std::size_t nm = op_.grid().modes();
+  const std::size_t nm = op_.local_modes();
   const double inv = 1.0 / scale;
   const double* T = table_.data();
 #pragma omp parallel for schedule(static)
@@ -293,7 +292,7 @@ void ReferenceGreen::apply(const Complex* r, Complex* out, double scale) const {
 
 double ReferenceGreen::apply_dot(const Complex* r, Complex* out, double scale) const {
   const Grid& g = op_.grid();
-  const std::size_t nm = g.modes(), m1 = std::size_t(g.half_n1()), rows = nm / m1;
+  const std::size_t nm = op_.local_modes(), m1 = std::size_t(g.half_n1()), rows = nm / m1;
   const bool even1 = g.n[0] % 2 == 0;
   const double inv = 1.0 / scale;
   const double* T = table_.data();
@@ -319,7 +318,7 @@ double ReferenceGreen::apply_dot(const Complex* r, Complex* out, double scale) c
 double ReferenceGreen::cg_update(double alpha, const Complex* p, const Complex* Ap, Complex* x, Complex* r, Complex* z,
                                  double scale, double ap_scale) const {
   const Grid& g = op_.grid();
-  const std::size_t nm = g.modes(), m1 = std::size_t(g.half_n1()), rows = nm / m1;
+  const std::size_t nm = op_.local_modes(), m1 = std::size_t(g.half_n1()), rows = nm / m1;
   const bool even1 = g.n[0] % 2 == 0;
   const double inv = 1.0 / scale;
   const double alpha_ap = alpha * ap_scale;  // = alpha when ap_scale = 1 (bit-identical to the plain update)

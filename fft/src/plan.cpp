@@ -54,6 +54,7 @@ BatchedFFT::BatchedFFT(const Grid& grid, int fields, const PlanOptions& options,
   real_ = fftw_alloc_real(nr);
   spectrum_ = reinterpret_cast<Complex*>(fftw_alloc_complex(nc));
   if (!real_ || !spectrum_) throw std::bad_alloc();
+  set_buffers(real_, grid.voxels(), spectrum_, grid.modes());
 
   // FFTW is row-major with the last index fastest: dims (n3, n2, n1) match our i1-fastest layout.
   int dims[3] = {grid.n[2], grid.n[1], grid.n[0]};

@@ -13,6 +13,7 @@ StencilGradient::StencilGradient(const GradientOperator& op) : grid_(op.grid()),
     throw std::invalid_argument(std::string("StencilGradient: no local stencil for the ") +
                                 to_string(op.discretization()) + " discretization on this grid");
   dims_ = grid_.is_section() ? 2 : 3;
+  planes_ = grid_.n[2];
   // Quadrature points of gradient.hpp: 1 (rotated) or 2 per active dimension (hex), so 1, 4 or 8.
   if (!(nq_ == 1 || nq_ == (1 << dims_)))
     throw std::invalid_argument("StencilGradient: unexpected number of quadrature points");
@@ -45,19 +46,21 @@ double StencilGradient::divergence_pass_impl(const double* store, double* f, con
   constexpr bool kNodal = NQ > 1;
   constexpr int L = kNodal ? 3 * NCOR : 3 * D;
   const int n1 = grid_.n[0], n2 = grid_.n[1], n3 = grid_.n[2];
-  const std::size_t N = grid_.voxels();
+  const std::size_t N = field_stride();  // stride of the force fields (voxels, + a halo plane on a slab)
   double B[NCOR][D];  // one point (rotated): its weight is 1
   for (int c = 0; c < NCOR; ++c)
     for (int j = 0; j < D; ++j) B[c][j] = weight_[0] * coefficient(0, c, j);
-  const long rows = long(n2) * n3;
+  const long rows = long(n2) * planes_;
   double dot = 0.0;
 #pragma omp parallel for schedule(static) reduction(+ : dot)
   for (long row = 0; row < rows; ++row) {
     const int i2 = int(row % n2), i3 = int(row / n2);
     const double* vrow[NROW];  // voxel row (i2 − c2, i3 − c3) of the corner rows
     for (int r = 0; r < NROW; ++r) {
-      const int j2 = (i2 - (r & 1) + n2) % n2, j3 = D == 3 ? (i3 - (r >> 1) + n3) % n3 : i3;
-      vrow[r] = store + std::size_t(L) * std::size_t(n1) * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
+      // (slab: the row i3 − 1 of the first plane is the lower halo plane in front of `store`)
+      const int j2 = (i2 - (r & 1) + n2) % n2,
+                j3 = D == 3 ? (halo_ ? i3 - (r >> 1) : (i3 - (r >> 1) + n3) % n3) : i3;
+      vrow[r] = store + std::ptrdiff_t(L) * std::ptrdiff_t(n1) * (std::ptrdiff_t(j2) + std::ptrdiff_t(n2) * j3);
     }
     double local = 0.0;
     for (int i1 = 0; i1 < n1; ++i1) {

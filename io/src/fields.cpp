@@ -478,6 +478,44 @@ void FieldWriter::add(const std::string& name, std::span<const double> data, int
   m.add_attribute(name, dims, components, centering, "Float", 8);
 }
 
+void FieldWriter::add_in_pieces(const std::string& name, int components, Centering centering,
+                                const std::function<std::span<const double>()>& next_piece, const std::string& unit) {
+  auto& m = *impl_;
+  const std::size_t count = centering == Centering::cell ? m.n_cells : m.n_nodes;
+  const auto dims = m.dims_for(name, count * static_cast<std::size_t>(components), components, centering);
+  const std::string what = "cannot write dataset '" + name + "'";
+  if (write_failure_injected(m.h5_final)) throw WriteError(m.h5_final, what, ENOSPC);
+  Handle space = checked_write(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose,
+                               m.h5_final, what);
+  Handle set = checked_write(H5Dcreate2(m.group.get(), name.c_str(), H5T_IEEE_F64LE, space.get(), H5P_DEFAULT,
+                                        H5P_DEFAULT, H5P_DEFAULT),
+                             H5Dclose, m.h5_final, what);
+  const std::size_t total = count * static_cast<std::size_t>(components), per_plane = total / dims[0];
+  std::size_t done = 0;
+  for (std::span<const double> piece = next_piece(); !piece.empty(); piece = next_piece()) {
+    if (piece.size() % per_plane != 0 || done + piece.size() > total)
+      throw std::invalid_argument("FieldWriter: a piece of field '" + name + "' is not whole planes of the field");
+    for (std::size_t i = 0; i < piece.size(); ++i)
+      if (!std::isfinite(piece[i]))
+        throw std::invalid_argument("FieldWriter: field '" + name + "' has a non-finite value at index " +
+                                    std::to_string(done + i));
+    std::vector<hsize_t> start(dims.size(), 0), extent = dims;
+    start[0] = done / per_plane;
+    extent[0] = piece.size() / per_plane;
+    Handle memory = checked_write(H5Screate_simple(static_cast<int>(extent.size()), extent.data(), nullptr), H5Sclose,
+                                  m.h5_final, what);
+    if (H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start.data(), nullptr, extent.data(), nullptr) < 0 ||
+        H5Dwrite(set.get(), H5T_NATIVE_DOUBLE, memory.get(), space.get(), H5P_DEFAULT, piece.data()) < 0)
+      hdf5_write_fail(m.h5_final, what);
+    done += piece.size();
+  }
+  if (done != total)
+    throw std::invalid_argument("FieldWriter: field '" + name + "' got " + std::to_string(done) + " of " +
+                                std::to_string(total) + " values in pieces");
+  if (!unit.empty()) write_string_attribute(set.get(), "unit", unit, m.h5_final);
+  m.add_attribute(name, dims, components, centering, "Float", 8);
+}
+
 void FieldWriter::add(const std::string& name, std::span<const int> data, Centering centering) {
   auto& m = *impl_;
   const auto dims = m.dims_for(name, data.size(), 1, centering);

@@ -175,6 +175,7 @@ void ProgressiveCsv::add_row(const std::vector<double>& row) {
 }
 
 void ProgressiveCsv::flush() {
+  if (path_.empty()) return;  // a table kept in memory only (e.g. on the ranks that do not write)
   const auto start = std::chrono::steady_clock::now();
   table_.write(path_);
   last_end_ = std::chrono::steady_clock::now();

@@ -19,6 +19,7 @@
 #include "softhom/materials/interrupt.hpp"
 #include "softhom/materials/errors.hpp"
 #include "diagnostics.hpp"
+#include "fft_distribution.hpp"
 #include "fft_storage.hpp"
 #include "laminate.hpp"
 #include "memory_budget.hpp"
@@ -150,14 +151,19 @@ struct FftRveSolver::Impl {
   fft::Grid grid;
   fft::GradientOperator op;
   fft::ReferenceGreen green{op};  // K0⁻¹ tabulated per mode for the current C0 (set_reference())
+  // Distributed solve (fft_distribution.hpp): this rank's slab; null on one process. N, NM, NP are then
+  // the local voxels, modes and points (voxel v is the global voxel v0 + v), Ntot the global voxels.
+  std::unique_ptr<fft::SlabDecomposition> dist;
   int nq;
   std::size_t N, NM, NP;
-  std::unique_ptr<fft::BatchedFFT> fft;
+  std::size_t Ntot = 0, v0 = 0;
+  std::vector<double> phi_all;      // distributed: the fiber fraction of every voxel (failure diagnosis)
+  std::unique_ptr<fft::FieldTransform> fft;
   // Stencil form of the Krylov operator (KrylovOperator::stencil, rotated/hex): the real-space
   // gradient/adjoint and a 3-field transform for the displacement and the nodal forces. The stencil
   // pass keeps its per-voxel values in fft's real buffer (free during a linear solve).
   std::unique_ptr<fft::StencilGradient> stencil;
-  std::unique_ptr<fft::BatchedFFT> fft3;
+  std::unique_ptr<fft::FieldTransform> fft3;
   Mat3 R;            // grid axes in the load frame
   Mat9 T_load;       // X_grid ↦ X_load
   Vec3 a0_load;      // fiber axis in the load frame
@@ -206,10 +212,16 @@ struct FftRveSolver::Impl {
       : opt(o),
         grid{image.n, image.size},
         op(grid, o.discretization),
+        dist(detail::make_slabs(grid, o.distributed, grid_text(image.n))),
         nq(op.points()),
-        N(grid.voxels()),
-        NM(grid.modes()),
+        N(dist ? dist->local_voxels() : grid.voxels()),
+        NM(dist ? dist->local_modes() : grid.modes()),
         NP(N * std::size_t(op.points())) {
+    Ntot = grid.voxels();
+    if (dist) {
+      op.restrict_to_planes(dist->slab().begin, dist->slab().count);
+      v0 = dist->voxel_offset();
+    }
     R = grid_rotation(angle);
     T_load = rotation_operator(R);
     a0_load = R * image.mean_fiber_direction();  // y3 unless the image gives per-voxel directions
@@ -236,26 +248,33 @@ struct FftRveSolver::Impl {
     }
     // Refuse a grid that cannot fit before anything of its size is allocated.
     detail::refuse_if_too_big(planned_bytes(), "microstructure.grid", grid_text(grid.n));
-    if (image.fiber_fraction.size() != N)
+    if (image.fiber_fraction.size() != Ntot)
       throw InputError("microstructure", "", "phase image has " + std::to_string(image.fiber_fraction.size()) +
-                                                 " values for " + std::to_string(N) + " voxels");
-    phi = image.fiber_fraction;
+                                                 " values for " + std::to_string(Ntot) + " voxels");
+    // Every rank checks the whole image (the same InputError everywhere), keeps its slab.
+    for (double f : image.fiber_fraction)
+      if (!(f >= 0.0 && f <= 1.0)) throw InputError("microstructure", std::to_string(f), "fiber fraction outside [0, 1]");
+    phi.assign(image.fiber_fraction.begin() + std::ptrdiff_t(v0), image.fiber_fraction.begin() + std::ptrdiff_t(v0 + N));
     comp_id.assign(N, -1);
     double vf = 0.0;
     for (std::size_t v = 0; v < N; ++v) {
       double& f = phi[v];
-      if (!(f >= 0.0 && f <= 1.0)) throw InputError("microstructure", std::to_string(f), "fiber fraction outside [0, 1]");
       if (f < kPhaseEps) f = 0.0;
       if (f > 1.0 - kPhaseEps) f = 1.0;
       vf += f;
       if (f > 0.0 && f < 1.0) {
         comp_id[v] = int(comp_normal.size());
-        Vec3 n = image.normal.size() == N ? image.normal[v] : Vec3::Zero();
-        if (!(n.norm() > 0.5)) n = detail::estimate_interface_normal(image, v);
+        Vec3 n = image.normal.size() == Ntot ? image.normal[v0 + v] : Vec3::Zero();
+        if (!(n.norm() > 0.5)) n = detail::estimate_interface_normal(image, v0 + v);
         comp_normal.push_back(n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero());
       }
     }
-    achieved_vf = vf / double(N);
+    if (dist) {
+      vf = dist->sum(vf);
+      phi_all = image.fiber_fraction;
+      for (double& f : phi_all) f = f < kPhaseEps ? 0.0 : f > 1.0 - kPhaseEps ? 1.0 : f;
+    }
+    achieved_vf = vf / double(Ntot);
     lam_a.assign(comp_normal.size() * nq * 3, 0.0);
     lam_a_trial = lam_a;
     for (int x = 0; x < 2; ++x)
@@ -276,13 +295,23 @@ struct FftRveSolver::Impl {
     }
     // Section grids: the i3 columns of ∇ũ vanish and Div does not read them, so 6 of 9 fields per point
     // are transformed (the voxel loops treat those columns as zero).
-    fft = std::make_unique<fft::BatchedFFT>(grid, 9 * nq, opt.plan, op.columns());
-    if (opt.scheme == FftScheme::newton_cg && opt.krylov_operator == KrylovOperator::stencil &&
-        fft::StencilGradient::supported(op)) {
+    const bool with_stencil = opt.scheme == FftScheme::newton_cg && opt.krylov_operator == KrylovOperator::stencil &&
+                              fft::StencilGradient::supported(op);
+    if (dist)  // room for the stencil store's lower halo plane after the fields (see stencil_store())
+      fft = std::make_unique<fft::SlabFFT>(*dist, 9 * nq, opt.plan, op.columns(), 0,
+                                           with_stencil ? 24 * dist->plane_voxels() : 0);
+    else
+      fft = std::make_unique<fft::BatchedFFT>(grid, 9 * nq, opt.plan, op.columns());
+    if (with_stencil) {
       stencil = std::make_unique<fft::StencilGradient>(op);
       // Its per-voxel values (≤ 24) live in fft's real buffer (9·nq per voxel), unused during a solve.
       if (stencil->stored_values() > 9 * nq) throw std::logic_error("stencil values do not fit the FFT buffer");
-      fft3 = std::make_unique<fft::BatchedFFT>(grid, 3, opt.plan);
+      if (dist) {
+        stencil->restrict_to_slab(dist->slab().count);
+        fft3 = std::make_unique<fft::SlabFFT>(*dist, 3, opt.plan, 3, 1);  // + the displacement's upper halo
+      } else {
+        fft3 = std::make_unique<fft::BatchedFFT>(grid, 3, opt.plan);
+      }
     }
     // Stencil operator: tangents in blocks of 8 points (structure of arrays, fft::symmetric_product_batch()),
     // zero-padded to whole blocks; Fourier operator: per point.
@@ -446,7 +475,7 @@ struct FftRveSolver::Impl {
   /// Evaluates every material point at F = F̄ + ∇ũ (gradient already in fft->real), writes P into the
   /// real buffer in place, stores tangents when asked; fills `sums`. Returns the first failure.
   MaterialStatus evaluate_points(const Mat3& Fbar_grid, double dt, bool with_tangent) {
-    const double invN = 1.0 / double(N);
+    const double invN = 1.0 / double(Ntot);
     int failure = 0;
     PassSums total;
 #pragma omp parallel
@@ -487,7 +516,7 @@ struct FftRveSolver::Impl {
               local.phase_PFt[x] += w * P * F.transpose();
               local.phase_J[x] += w * F.determinant();
               local.phase_w[x] += w;
-              local.see_margin(x, mat[x]->limit_margin(F), v);
+              local.see_margin(x, mat[x]->limit_margin(F), v0 + v);
             }
           } else {
             const std::size_t c = std::size_t(comp_id[v]) * nq + q;
@@ -519,7 +548,7 @@ struct FftRveSolver::Impl {
                 local.phase_PFt[x] += wx * Px[x] * Fx[x].transpose();
                 local.phase_J[x] += wx * Fx[x].determinant();
                 local.phase_w[x] += wx;
-                local.see_margin(x, mat[x]->limit_margin(Fx[x]), v);
+                local.see_margin(x, mat[x]->limit_margin(Fx[x]), v0 + v);
               }
           }
           if (s != MaterialStatus::ok || !P.allFinite()) {
@@ -541,6 +570,11 @@ struct FftRveSolver::Impl {
       total.add(local);
     }
     sums = total;
+    if (dist) {
+      // A failure on any rank fails the pass on all (the same control flow everywhere).
+      failure = dist->max(failure);
+      if (!failure) detail::reduce_pass_sums(sums, *dist);
+    }
     return MaterialStatus(failure);
   }
 
@@ -554,7 +588,7 @@ struct FftRveSolver::Impl {
   /// buffer (after evaluate_points).
   void residual(const std::array<bool, 9>& free, const Vec9& P_target, KVec& r) {
     fft->forward();
-    op.divergence(fft->spectrum(0), r.u.data(), 1.0 / double(N));
+    op.divergence(fft->spectrum(0), r.u.data(), 1.0 / double(Ntot));
     const Vec9 Pl = T_load * sums.P;
     for (int c = 0; c < 9; ++c) r.f[c] = free[c] ? Pl[c] - P_target[c] : 0.0;
   }
@@ -568,7 +602,7 @@ struct FftRveSolver::Impl {
     residual_norm(r, free, P_target);
     const double merit_hat = merit;
     Vec9 mean = Vec9::Zero();
-    const double invN = 1.0 / double(N);
+    const double invN = 1.0 / double(Ntot);
 #pragma omp parallel
     {
       Vec9 local = Vec9::Zero();
@@ -583,6 +617,7 @@ struct FftRveSolver::Impl {
 #pragma omp critical
       mean += local;
     }
+    if (dist) dist->sum(mean.data(), 9);
     sums.P += invN * mean;
     residual(free, P_target, r);
     const double err = residual_norm(r, free, P_target);
@@ -617,12 +652,28 @@ struct FftRveSolver::Impl {
     double s = 0.0;
 #pragma omp parallel for reduction(+ : s) schedule(static)
     for (std::size_t k = 0; k < NM; ++k) {
-      const double lap = op.laplacian(k);
+      const double lap = op.laplacian(op.mode_offset() + k);
       if (lap <= 0.0) continue;
       s += grid.mode_weight(k) * (std::norm(r.u[k]) + std::norm(r.u[NM + k]) + std::norm(r.u[2 * NM + k])) / lap;
     }
+    if (dist) s = dist->sum(s);
     merit = std::sqrt(s + r.f.squaredNorm());
     return std::max(std::sqrt(s), r.f.cwiseAbs().maxCoeff()) / stress_scale(free, P_target);
+  }
+
+  // ---------------------------------------------------------------------------------------------
+  // Distribution (fft_distribution.hpp): no-ops on one process.
+
+  double global_sum(double local) const { return dist ? dist->sum(local) : local; }
+  /// A stop request (signal), the same answer on every rank.
+  bool stop_now() const { return dist ? dist->max(stop_requested() ? 1 : 0) != 0 : stop_requested(); }
+  /// The per-voxel values of the stencil passes: fft's real buffer, after one lower halo plane on a slab.
+  double* stencil_store() { return fft->real(0) + stencil->halo_store_values(); }
+  void fill_displacement_halo() {
+    if (dist) dist->fill_upper_halo(fft3->real(0), fft3->real_stride(), 3);
+  }
+  void fill_store_halo() {
+    if (dist) dist->fill_lower_halo(stencil_store(), stencil->halo_store_values());
   }
 
   // ---------------------------------------------------------------------------------------------
@@ -665,7 +716,8 @@ struct FftRveSolver::Impl {
 #pragma omp critical
       for (int c = 0; c < 9; ++c) mean[c] += local[c];
     }
-    return mean / double(N);
+    if (dist) dist->sum(mean.data(), 9);
+    return mean / double(Ntot);
   }
 
   /// Stencil form of tangent_product(): the nodal displacement δũ is in fft3's real buffer; ∇δũ, δP
@@ -683,7 +735,7 @@ struct FftRveSolver::Impl {
       double local[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
       constexpr int B = fft::StencilGradient::kBatch;
       static_assert(B == 8, "fft::symmetric_product_batch() and the tangent blocks hold 8 points");
-      stencil->gradient_pass(fft3->real(0), fft->real(0), [&](std::size_t p0, int count, const double* grad, double* dP) {
+      stencil->gradient_pass(fft3->real(0), stencil_store(), [&](std::size_t p0, int count, const double* grad, double* dP) {
         alignas(64) double dF[9 * B];
         for (int c = 0; c < 9; ++c)
           for (int l = 0; l < B; ++l) dF[c * B + l] = dFbar[c] + grad[c * B + l];
@@ -705,7 +757,8 @@ struct FftRveSolver::Impl {
 #pragma omp critical
       for (int c = 0; c < 9; ++c) mean[c] += local[c];
     }
-    return mean / double(N);
+    if (dist) dist->sum(mean.data(), 9);
+    return mean / double(Ntot);
   }
 
   /// y = K x with the stored tangents; x.f holds load-frame macro components (any mask applied by caller).
@@ -713,10 +766,12 @@ struct FftRveSolver::Impl {
     if (stencil) {
       std::copy(x.u.begin(), x.u.end(), fft3->spectrum(0));
       fft3->backward();
+      fill_displacement_halo();
       const Vec9 mean = stencil_tangent_product(flatten(to_grid(unflatten(x.f))), shift);
-      stencil->divergence_pass(fft->real(0), fft3->real(0), nullptr);
+      fill_store_halo();
+      stencil->divergence_pass(stencil_store(), fft3->real(0), nullptr);
       fft3->forward();
-      const double invN = 1.0 / double(N);
+      const double invN = 1.0 / double(Ntot);
       const Complex* s3 = fft3->spectrum(0);
       y.u.resize(3 * NM);
 #pragma omp parallel for schedule(static)
@@ -729,7 +784,7 @@ struct FftRveSolver::Impl {
     fft->backward();
     const Vec9 mean = tangent_product(flatten(to_grid(unflatten(x.f))), shift);
     fft->forward();
-    op.divergence(fft->spectrum(0), y.u.data(), 1.0 / double(N));
+    op.divergence(fft->spectrum(0), y.u.data(), 1.0 / double(Ntot));
     const Vec9 ml = T_load * mean;
     for (int c = 0; c < 9; ++c) y.f[c] = free[c] ? ml[c] : 0.0;
   }
@@ -754,9 +809,12 @@ struct FftRveSolver::Impl {
       }
       p.f = beta == 0.0 ? Vec9(z.f) : Vec9(z.f + beta * p.f);
       fft3->backward();
+      fill_displacement_halo();
       const Vec9 mean = stencil_tangent_product(flatten(to_grid(unflatten(p.f))), shift);
+      fill_store_halo();
       // ⟨p, Ap⟩ on the real fields (Parseval: Σ_half m_k Re(p̂_k* Âp_k) = Σ_y p(y)·f(y) / N).
-      const double pAp = stencil->divergence_pass(fft->real(0), fft3->real(0), fft3->real(0)) / double(N);
+      const double pAp =
+          global_sum(stencil->divergence_pass(stencil_store(), fft3->real(0), fft3->real(0))) / double(Ntot);
       fft3->forward();
       const Vec9 ml = T_load * mean;
       for (int c = 0; c < 9; ++c) Ap.f[c] = free[c] ? ml[c] : 0.0;
@@ -767,7 +825,7 @@ struct FftRveSolver::Impl {
     fft->backward();
     const Vec9 mean = tangent_product(flatten(to_grid(unflatten(p.f))), shift);
     fft->forward();
-    const double pAp = op.divergence_dot(fft->spectrum(0), Ap.u.data(), 1.0 / double(N), p.u.data());
+    const double pAp = global_sum(op.divergence_dot(fft->spectrum(0), Ap.u.data(), 1.0 / double(Ntot), p.u.data()));
     const Vec9 ml = T_load * mean;
     for (int c = 0; c < 9; ++c) Ap.f[c] = free[c] ? ml[c] : 0.0;
     return pAp + p.f.dot(Ap.f);
@@ -858,15 +916,16 @@ struct FftRveSolver::Impl {
     }
     double precondition_dot(const KVec& r, KVec& z) {
       precondition_macro(r.f, Minv, free_idx, z.f, scale);
-      return m.green.apply_dot(r.u.data(), z.u.data(), scale) + r.f.dot(z.f);
+      return m.global_sum(m.green.apply_dot(r.u.data(), z.u.data(), scale)) + r.f.dot(z.f);
     }
     double direction(const KVec& z, double beta, KVec& p, KVec& Ap) {
       return m.apply_direction(z, beta, p, free, Ap, shift);
     }
     double update(double alpha, const KVec& p, const KVec& Ap, KVec& x, KVec& r, KVec& z) {
       double rz_new = m.stencil ? m.green.cg_update(alpha, p.u.data(), m.fft3->spectrum(0), x.u.data(), r.u.data(),
-                                                    z.u.data(), scale, 1.0 / double(m.N))
+                                                    z.u.data(), scale, 1.0 / double(m.Ntot))
                                 : m.green.cg_update(alpha, p.u.data(), Ap.u.data(), x.u.data(), r.u.data(), z.u.data(), scale);
+      rz_new = m.global_sum(rz_new);
       x.f += alpha * p.f;
       r.f -= alpha * Ap.f;
       precondition_macro(r.f, Minv, free_idx, z.f, scale);
@@ -906,7 +965,7 @@ struct FftRveSolver::Impl {
     krylov::Controls c;
     c.rel_tol = rel_tol;
     c.max_iterations = opt.max_krylov_iterations;
-    c.stop = &stop_requested;
+    c.stop = dist ? nullptr : &stop_requested;  // distributed: polled collectively per Newton iteration
     return c;
   }
 
@@ -941,7 +1000,7 @@ struct FftRveSolver::Impl {
       const double m = grid.mode_weight(k);
       for (int c = 0; c < 3; ++c) s += m * std::real(std::conj(a.u[c * NM + k]) * b.u[c * NM + k]);
     }
-    return s + a.f.dot(b.f);
+    return global_sum(s) + a.f.dot(b.f);
   }
   /// y ← α x + β y (both parts).
   static void axpby(double alpha, const KVec& x, double beta, KVec& y) {
@@ -992,19 +1051,23 @@ struct FftRveSolver::Impl {
           const Vec3 a(lam_a_trial[3 * c], lam_a_trial[3 * c + 1], lam_a_trial[3 * c + 2]);
           F -= f * a * comp_normal[comp_id[v]].transpose();
         }
-        h.see_matrix_point(v, mat[0]->limit_margin(F), F.determinant(), composite);
-        if (mixed[0] && !composite) h.see_pressure(v, p_trial[p]);
+        h.see_matrix_point(v0 + v, mat[0]->limit_margin(F), F.determinant(), composite);
+        if (mixed[0] && !composite) h.see_pressure(v0 + v, p_trial[p]);
       }
     // Nodal forces Dᴴ P in real space: the three components into fields 0, 3, 6 (transformed for any
     // number of columns).
     for (int i = 0; i < 3; ++i) std::copy(r.u.begin() + i * NM, r.u.begin() + (i + 1) * NM, fft->spectrum(3 * i));
     fft->backward();
     h.see_forces(fft->real(0), fft->real(3), fft->real(6), N);
+    if (dist) {
+      h.v_force += v0;
+      detail::reduce_hot_spots(h, *dist, N);
+    }
     return h;
   }
-  std::string voxel_name(std::size_t v) const { return detail::voxel_name(grid.n, phi, v); }
+  std::string voxel_name(std::size_t v) const { return detail::voxel_name(grid.n, dist ? phi_all : phi, v); }
   std::string describe(const detail::HotSpots& h) const {
-    return detail::describe_hot_spots(h, grid.n, phi, mixed[0], Fbar_committed(0, 0));
+    return detail::describe_hot_spots(h, grid.n, dist ? phi_all : phi, mixed[0], Fbar_committed(0, 0));
   }
 
   // ---------------------------------------------------------------------------------------------
@@ -1061,7 +1124,7 @@ struct FftRveSolver::Impl {
     double lm_shift = 0.0;
     bool full_first_step = false;
     for (int it = 0; it <= max_it; ++it) {
-      if (stop_requested()) {
+      if (stop_now()) {
         out.why = "stopped by a signal";
         return out;
       }
@@ -1253,7 +1316,7 @@ struct FftRveSolver::Impl {
     KVec z{std::vector<Complex>(3 * NM), Vec9::Zero()};
     double err = 0.0;
     for (int it = 0; it <= opt.max_fixed_point_iterations; ++it) {
-      if (stop_requested()) {
+      if (stop_now()) {
         out.why = "stopped by a signal";
         return out;
       }
@@ -1296,6 +1359,8 @@ struct FftRveSolver::Impl {
       if (state_size[x]) hist_old[x].swap(hist_new[x]);
     commit_pressures(true);
   }
+  std::vector<double> slab_node_displacement(const Mat3& G) { return detail::slab_node_displacement(*dist, *fft, grid, G); }
+
   void restore() {
     u = u_committed;
     Fbar = Fbar_committed;
@@ -1353,6 +1418,7 @@ struct FftRveSolver::Impl {
     for (int i = 0; i < 3; ++i) std::copy(u.begin() + i * NM, u.begin() + (i + 1) * NM, fft->spectrum(3 * i));
     fft->backward();
     const Mat3 G = to_grid(Fbar) - Mat3::Identity();
+    if (dist) return slab_node_displacement(G);
     const std::array<int, 3>& n = grid.n;
     const std::size_t m1 = n[0] + 1, m2 = n[1] + 1, m3 = n[2] + 1;
     std::vector<double> out(3 * m1 * m2 * m3);
@@ -1380,6 +1446,7 @@ std::string FftRveSolver::fft_description() const { return impl_->fft->describe(
 double FftRveSolver::achieved_volume_fraction() const { return impl_->achieved_vf; }
 double FftRveSolver::planning_seconds() const { return impl_->fft->planning_seconds(); }
 std::vector<double> FftRveSolver::displacement() { return impl_->node_displacement(); }
+const fft::SlabDecomposition* FftRveSolver::slabs() const { return impl_->dist.get(); }
 std::size_t FftRveSolver::memory_bytes() const {
   return detail::storage_total(detail::storage_list(impl_->storage_sizes()));
 }
@@ -1463,7 +1530,8 @@ RveRunResult FftRveSolver::run(const MixedControl& control,
   m.krylov_seconds = 0.0;
   StepControlOptions steps;
   steps.max_cutbacks = m.opt.max_cutbacks;
-  steps.max_step_seconds = m.opt.max_step_seconds;
+  // Distributed: no wall-time budget (each rank's clock would decide the cut-backs on its own).
+  steps.max_step_seconds = m.dist ? 0.0 : m.opt.max_step_seconds;
   detail::run_output_steps(control, steps, engine, result, run_start);
   result.krylov_seconds = m.krylov_seconds;
   return result;

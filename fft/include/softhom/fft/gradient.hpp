@@ -64,6 +64,17 @@ class GradientOperator {
   /// Σ_q w_q |D_q(k)|², the symbol of −Δ for this discretization (0 on the kernel).
   double laplacian(std::size_t mode) const;
 
+  /// Restricts the per-mode passes below (and ReferenceGreen) to the spectrum planes k3 ∈ [begin,
+  /// begin + count) of a slab (slab.hpp): their spectra hold local_modes() values per field, local mode k
+  /// being the global mode mode_offset() + k (coefficients() and laplacian() take global modes).
+  /// Default: the whole spectrum.
+  void restrict_to_planes(int begin, int count) {
+    k3_begin_ = begin;
+    k3_count_ = count;
+  }
+  std::size_t local_modes() const { return std::size_t(grid_.half_n1()) * grid_.n[1] * std::size_t(k3_count_); }
+  std::size_t mode_offset() const { return std::size_t(grid_.half_n1()) * grid_.n[1] * std::size_t(k3_begin_); }
+
   /// Columns j of the gradient that can be non-zero: 2 on a section grid (D_q3 = 0), else 3.
   int columns() const { return grid_.is_section() ? 2 : 3; }
 
@@ -97,6 +108,7 @@ class GradientOperator {
   Discretization disc_;
   std::vector<QuadraturePoint> quadrature_;
   std::array<int, 3> points_per_dim_{1, 1, 1};
+  int k3_begin_ = 0, k3_count_ = 0;  // spectrum planes of the passes (restrict_to_planes; all by default)
   std::array<std::vector<Complex>, 3> deriv_;   ///< d_m(k_m) per dim
   std::array<std::vector<Complex>, 3> value_;   ///< v_m(ξ_p, k_m), index p * n_m + k_m
 };

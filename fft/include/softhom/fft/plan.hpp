@@ -18,13 +18,45 @@ using Complex = std::complex<double>;
 
 enum class PlanRigor { estimate, measure, patient };
 
+/// Field buffers and their transforms, whatever computes them: BatchedFFT (one process) or SlabFFT
+/// (slab.hpp, FFTW-MPI slabs). Field f of the real buffer starts at real(f) (real_stride() values
+/// apart), its spectrum at spectrum(f) (spectrum_stride() apart); the accessors are not virtual so that
+/// the solvers' voxel loops pay nothing for the choice.
+class FieldTransform {
+ public:
+  virtual ~FieldTransform() = default;
+  double* real(int field = 0) { return real_base_ + std::size_t(field) * real_stride_; }
+  Complex* spectrum(int field = 0) { return spectrum_base_ + std::size_t(field) * spectrum_stride_; }
+  std::size_t real_stride() const { return real_stride_; }
+  std::size_t spectrum_stride() const { return spectrum_stride_; }
+  virtual int fields() const = 0;
+  virtual int transformed_fields() const = 0;
+  virtual void forward() = 0;
+  virtual void backward() = 0;
+  virtual std::string describe() const = 0;
+  virtual double planning_seconds() const = 0;
+
+ protected:
+  void set_buffers(double* real, std::size_t real_stride, Complex* spectrum, std::size_t spectrum_stride) {
+    real_base_ = real;
+    real_stride_ = real_stride;
+    spectrum_base_ = spectrum;
+    spectrum_stride_ = spectrum_stride;
+  }
+
+ private:
+  double* real_base_ = nullptr;
+  Complex* spectrum_base_ = nullptr;
+  std::size_t real_stride_ = 0, spectrum_stride_ = 0;
+};
+
 struct PlanOptions {
   PlanRigor rigor = PlanRigor::measure;
   int threads = 0;                     ///< 0: omp_get_max_threads()
   std::filesystem::path wisdom_file;   ///< empty: no wisdom cache; else imported before and saved after planning
 };
 
-class BatchedFFT {
+class BatchedFFT : public FieldTransform {
  public:
   /// `fields` real fields of grid.voxels() values each; spectra of grid.modes() values each.
   /// `columns` < 3: the fields are 3×3 tensors (field = 9 t + 3 i + j, fields % 9 == 0) and only the
@@ -32,25 +64,25 @@ class BatchedFFT {
   /// section grid the gradient has no j = 3 column and the divergence does not read it, so the
   /// solver transforms 6 of 9 fields.
   BatchedFFT(const Grid& grid, int fields, const PlanOptions& options = {}, int columns = 3);
-  ~BatchedFFT();
+  ~BatchedFFT() override;
   BatchedFFT(const BatchedFFT&) = delete;
   BatchedFFT& operator=(const BatchedFFT&) = delete;
 
   const Grid& grid() const { return grid_; }
-  int fields() const { return fields_; }
+  int fields() const override { return fields_; }
   /// Fields actually transformed per forward()/backward() (fields · columns / 3).
-  int transformed_fields() const { return fields_ / 3 * columns_ + (columns_ == 3 ? fields_ % 3 : 0); }
+  int transformed_fields() const override { return fields_ / 3 * columns_ + (columns_ == 3 ? fields_ % 3 : 0); }
   double* real(int field = 0) { return real_ + std::size_t(field) * grid_.voxels(); }
   Complex* spectrum(int field = 0) { return spectrum_ + std::size_t(field) * grid_.modes(); }
 
   /// real → spectrum, unnormalised (x̂_k = Σ_x x e^{−ik·x}); the real buffer is preserved.
-  void forward();
+  void forward() override;
   /// spectrum → real, unnormalised (x = Σ_k x̂_k e^{ik·x}); the spectrum buffer is destroyed.
-  void backward();
+  void backward() override;
 
   /// Human-readable plan description ("fftw3 r2c 9 x 64x64x1, 2 threads, measure").
-  std::string describe() const;
-  double planning_seconds() const { return planning_seconds_; }
+  std::string describe() const override;
+  double planning_seconds() const override { return planning_seconds_; }
 
  private:
   Grid grid_;

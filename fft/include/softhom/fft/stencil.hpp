@@ -45,6 +45,19 @@ class StencilGradient {
   /// B_qcj (0 for j ≥ dims).
   double coefficient(int q, int c, int j) const { return B_[(q * 8 + c) * 3 + j]; }
 
+  /// One slab of `planes` planes i3 (slab.hpp) instead of the whole grid: the passes run over its voxels;
+  /// the three displacement fields of gradient_pass() and the force fields of divergence_pass() are
+  /// field_stride() apart and carry one upper halo plane (SlabDecomposition::fill_upper_halo, after the
+  /// displacement's transform), and the per-voxel store has one lower halo plane in front of the
+  /// pointer handed to the passes (store − halo_store_values(); SlabDecomposition::fill_lower_halo
+  /// between the passes). Periodicity along i3 is then the halos' business.
+  void restrict_to_slab(int planes) {
+    planes_ = planes;
+    halo_ = true;
+  }
+  std::size_t field_stride() const { return plane_voxels() * std::size_t(planes_ + (halo_ ? 1 : 0)); }
+  std::size_t halo_store_values() const { return halo_ ? plane_voxels() * std::size_t(stored_values()) : 0; }
+
   /// Material points per batch of gradient_pass() (8: one 512-bit register of doubles per component).
   static constexpr int kBatch = 8;
 
@@ -69,7 +82,11 @@ class StencilGradient {
   template <int D, int NQ>
   double divergence_pass_impl(const double* store, double* f, const double* dot_with) const;
 
+  std::size_t plane_voxels() const { return std::size_t(grid_.n[0]) * std::size_t(grid_.n[1]); }
+
   Grid grid_;
+  int planes_ = 1;     // planes i3 of the passes (all, or a slab's)
+  bool halo_ = false;  // slab: neighbours along i3 come from the halo planes, not from periodic wrapping
   int dims_ = 2;
   int nq_ = 1;
   std::array<double, 8> weight_{};
@@ -95,8 +112,9 @@ void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& b
   constexpr bool kNodal = NQ > 1;      // store nodal forces (hex) or the stress columns (rotated)
   constexpr int L = kNodal ? 3 * NCOR : 3 * D;
   constexpr int VB = kBatch / NQ;      // voxels per batch
-  const int n1 = grid_.n[0], n2 = grid_.n[1], n3 = grid_.n[2];
-  const std::size_t N = grid_.voxels();
+  // With a slab, i3 is local and the row i3 + 1 of the last plane is the halo plane (never wrapped).
+  const int n1 = grid_.n[0], n2 = grid_.n[1], n3 = halo_ ? planes_ + 1 : grid_.n[2];
+  const std::size_t N = plane_voxels() * std::size_t(planes_), NU = field_stride();
   double B[NQ][NCOR][D];
   for (int q = 0; q < NQ; ++q)
     for (int c = 0; c < NCOR; ++c)
@@ -123,10 +141,10 @@ void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& b
           const std::size_t base = std::size_t(n1) * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
           const std::size_t last = base + (i1 + VB == n1 ? 0 : i1 + VB);  // node after the batch (periodic)
           for (int i = 0; i < 3; ++i) {
-            const double* src = u + i * N + base + i1;
+            const double* src = u + i * NU + base + i1;
             alignas(64) double row[VB + 1];
             for (int l = 0; l < VB; ++l) row[l] = src[l];
-            row[VB] = u[i * N + last];
+            row[VB] = u[i * NU + last];
             for (int j = 0; j < D; ++j) {
               const double b0 = B[0][2 * r][j], b1 = B[0][2 * r + 1][j];
               for (int l = 0; l < VB; ++l) g[3 * i + j][l] += b0 * row[l] + b1 * row[l + 1];
@@ -150,8 +168,8 @@ void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& b
         const int j3 = D == 3 ? (i3 + (r >> 1) == n3 ? 0 : i3 + (r >> 1)) : i3;
         const std::size_t base = std::size_t(n1) * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
         for (int i = 0; i < 3; ++i) {
-          uc[i][2 * r] = u[i * N + base + i1];
-          uc[i][2 * r + 1] = u[i * N + base + i1p];
+          uc[i][2 * r] = u[i * NU + base + i1];
+          uc[i][2 * r + 1] = u[i * NU + base + i1p];
         }
       }
       for (int q = 0; q < NQ; ++q)

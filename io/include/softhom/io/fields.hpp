@@ -4,6 +4,7 @@
 // HDF5's automatic error printing is off: every HDF5 call is checked and failures become exceptions.
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <span>
@@ -49,6 +50,12 @@ class FieldWriter {
   void add(const std::string& name, std::span<const double> data, int components, Centering centering,
            const std::string& unit = "");
   void add(const std::string& name, std::span<const int> data, Centering centering);
+  /// The dataset of add(), written in pieces of whole planes (its slowest dimension) one after the other:
+  /// `next_piece()` returns the next piece (components × entities, in the order of the full array), or
+  /// an empty span after the last; the pieces must add up to the field. For fields gathered from MPI
+  /// ranks slab by slab: the caller holds one piece at a time, not the field.
+  void add_in_pieces(const std::string& name, int components, Centering centering,
+                     const std::function<std::span<const double>()>& next_piece, const std::string& unit = "");
   void end_step();
   /// A string attribute on the file's root (e.g. "frame"). Every file already carries
   /// "softhom_version", "units", "tensor_component_order" and "layout"; every /step_<k> group a

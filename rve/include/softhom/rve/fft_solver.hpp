@@ -120,6 +120,10 @@ struct FftSolverOptions {
   /// Wall-time budget of one output step's cut-backs [s] (StepControlOptions::max_step_seconds; 0: none).
   double max_step_seconds = 0.0;
   fft::PlanOptions plan;         ///< FFTW rigor, threads, wisdom cache
+  /// Distribute the cell over the ranks of MPI_COMM_WORLD (FFTW-MPI slabs of i3, fft/slab.hpp) when MPI
+  /// is active with more than one rank; with one rank (or MPI inactive) the one-process solver runs, bit
+  /// for bit. 3D grids only, with at least one plane i3 per rank (else InputError on microstructure.grid).
+  bool distributed = false;
 };
 
 /// Grid axes in load-frame coordinates for a fiber at in-plane angle α (spec §7): g3 = a =
@@ -198,6 +202,12 @@ struct FftRveState {
   double dt_last = 0.0;
 };
 
+}  // namespace softhom::rve
+namespace softhom::fft {
+class SlabDecomposition;
+}
+namespace softhom::rve {
+
 class FftRveSolver {
  public:
   /// `image` in the grid frame; `matrix`/`fiber` in the global frame of `control.frame` (they are
@@ -238,6 +248,10 @@ class FftRveSolver {
   /// macro part (F̄_grid − I) y plus the periodic fluctuation ũ, transformed from its spectrum. Uses
   /// the solver's FFT buffers (call between runs or from on_step, not concurrently with a run).
   std::vector<double> displacement();
+  /// The slabs of a distributed solver (FftSolverOptions::distributed over more than one rank), else null.
+  /// Then the fields of on_step, displacement() and state() are this rank's slab: the cells of its planes
+  /// i3, the corner nodes of its planes i3 (the last rank's also those of the plane i3 = n3).
+  const fft::SlabDecomposition* slabs() const;
 
  private:
   struct Impl;
