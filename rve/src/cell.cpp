@@ -95,7 +95,7 @@ CellResult Cell::solve_mixed(const Mat3& F_target, const Mat3& P_target, const s
 
   CellResult out;
   const auto t0 = Clock::now();
-  solver_->set_state(committed_.solver);
+  solver_->set_state(predictor_start(F_target, stress_prescribed, T));
   const RveRunResult run = solver_->run(control);
   out.counts = run;
   out.solve_seconds = seconds_since(t0);
@@ -119,6 +119,33 @@ CellResult Cell::solve_mixed(const Mat3& F_target, const Mat3& P_target, const s
   trial_.time = committed_.time + dt;
   has_trial_ = true;
   return out;
+}
+
+const FftRveState& Cell::predictor_start(const Mat3& F_target, const std::array<bool, 9>& stress_prescribed, double T) {
+  // The solver extrapolates the last converged increment by T / dt_last. Calls of a macro code do not
+  // follow one path at a steady rate (Newton iterates, finite-difference probes, a new increment of
+  // another size), so the factor is taken from the macro increment instead: the projection r of the
+  // prescribed part of F̄_target − F̄ on that of the last increment. Where the two point in clearly
+  // different directions (cosine < 1/2) or nothing moves, the fluctuation is not extrapolated and
+  // the solver's tangent predictor (first iteration linearized at the committed state) takes over.
+  start_ = committed_.solver;
+  const Mat3& F0 = committed_.solver.F;
+  double dot = 0.0, last2 = 0.0, new2 = 0.0;
+  for (int c = 0; c < 9; ++c) {
+    if (stress_prescribed[c]) continue;
+    const double d_new = F_target(c / 3, c % 3) - F0(c / 3, c % 3), d_last = start_.dF_last(c / 3, c % 3);
+    dot += d_new * d_last;
+    last2 += d_last * d_last;
+    new2 += d_new * d_new;
+  }
+  if (start_.du_last.empty() || !(last2 > 0.0) || !(new2 > 0.0) || dot < 0.5 * std::sqrt(last2 * new2)) {
+    start_.du_last.clear();
+    start_.dF_last.setZero();
+    start_.dt_last = 0.0;
+  } else {
+    start_.dt_last = T * last2 / dot;  // T / dt_last = r = dot / |ΔF_last|²
+  }
+  return start_;
 }
 
 void Cell::commit() {

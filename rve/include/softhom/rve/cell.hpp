@@ -10,7 +10,7 @@
 //
 // Commit / rollback. solve() never changes the committed state: a macro Newton iteration calls solve()
 // at each new F̄ of the same increment, every call starting from the committed state (warm-started by
-// the extrapolation of its last converged increment). commit() makes the last converged trial the
+// the extrapolation of its last converged increment, scaled to the new macro increment). commit() makes the last converged trial the
 // committed state (the macro increment is accepted); not calling it, or restore(state), rolls back.
 // An FE² code with many quadrature points keeps one CellState per point (copy state() out after
 // commit(), restore(point_state) before the point's solve()) and may share one Cell between them.
@@ -44,10 +44,11 @@ struct CellState {
 
 /// Options of the facade beyond the scene's [solver] table.
 struct CellOptions {
-  /// Relative tolerance of each of the 9 linear solves of the tangent (preconditioned norm). The tangent
-  /// error is of this order relative to ⟨A⟩ (the operator is the Newton operator, exact in exact
-  /// arithmetic); 1e-10 costs ≈ 1.5× the iterations of 1e-6.
-  double tangent_tolerance = 1e-10;
+  /// Relative tolerance of each of the 9 linear solves of the tangent (preconditioned norm). Measured
+  /// on pdms/glass sections (BENCHMARKS.md, "Homogenized tangent"): 1e-6 gives C̄ within ≈ 1e-7 of the
+  /// 1e-10 tangent (relative, Frobenius), ample for a quadratically converging macro Newton; 1e-10
+  /// costs ≈ 1.8× the Krylov iterations.
+  double tangent_tolerance = 1e-6;
 };
 
 /// What solve() returns. On failure (converged = false) the trial state is unchanged and `error` says
@@ -116,10 +117,12 @@ class Cell {
 
  private:
   void setup(const toml::table& scene);
+  const FftRveState& predictor_start(const Mat3& F_target, const std::array<bool, 9>& stress_prescribed, double T);
   std::unique_ptr<FftRveSolver> solver_;
   FftSolverOptions options_;
   CellOptions cell_options_;
   CellState initial_, committed_, trial_;
+  FftRveState start_;  // the committed state with the predictor's extrapolation factor of a solve
   bool has_trial_ = false, has_history_ = false;
   std::string description_;
 };
