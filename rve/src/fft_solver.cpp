@@ -1435,7 +1435,7 @@ Mat9 FftRveSolver::homogenized_tangent(double krylov_tolerance, RveCounts* count
     b.f.setZero();
     Impl::CgSpace space{m, prescribed, no_macro, no_free, 1.0, 0.0};
     const krylov::CgResult res = krylov::pcg(space, b, x, m.cg_r, m.cg_z, m.cg_p, m.cg_Ap, m.krylov_controls(krylov_tolerance));
-    iterations += res.iterations + 2;
+    iterations += res.iterations + 2;  // + the operator applications of the right-hand side and the average
     bool converged = res.converged;
     if (res.breakdown) {  // indefinite tangent field (past a bifurcation): MINRES, as the Newton step
       iterations += m.pminres(b, prescribed, krylov_tolerance, x, converged);
