@@ -59,7 +59,9 @@ struct CellResult {
   Mat3 F = Mat3::Identity();  ///< F̄ (free components under mixed control as solved)
   Mat3 P = Mat3::Zero();      ///< P̄ = ⟨P⟩ [MPa]
   /// ∂P̄/∂F̄ with every macro component prescribed (also under mixed control: condense the free rows
-  /// to get the mixed-control sensitivity); zero when not requested.
+  /// to get the mixed-control sensitivity); zero when not requested. When the solve needed cut-backs
+  /// (counts.cutbacks > 0) a cell with history gives the tangent of the last sub-step's Δt; elastic
+  /// cells are unaffected (their tangent depends on the converged state only).
   Mat9 tangent = Mat9::Zero();
   RveCounts counts;                 ///< Newton/Krylov iterations, sub-steps, cut-backs of the solve
   int tangent_krylov_iterations = 0;
