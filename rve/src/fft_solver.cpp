@@ -1537,4 +1537,44 @@ RveRunResult FftRveSolver::run(const MixedControl& control,
   return result;
 }
 
+Mat9 FftRveSolver::homogenized_tangent(double krylov_tolerance, RveCounts* counts) {
+  Impl& m = *impl_;
+  if (m.opt.scheme != FftScheme::newton_cg)
+    throw InputError("solver.scheme", to_string(m.opt.scheme), "the homogenized tangent needs newton-cg (stored tangents)");
+  const std::array<bool, 9> prescribed{};  // no free macro component: K_uu δũ = −Dᴴ A E
+  std::array<bool, 9> all{};
+  all.fill(true);                          // macro rows of K [δũ; E] = ⟨A (E + ∇δũ)⟩
+  m.set_reference();
+  const std::vector<int> no_free;
+  const Eigen::MatrixXd no_macro(0, 0);
+  KVec e{std::vector<Complex>(3 * m.NM, 0.0), Vec9::Zero()}, b{std::vector<Complex>(3 * m.NM), Vec9::Zero()};
+  KVec x{std::vector<Complex>(3 * m.NM, 0.0), Vec9::Zero()}, y{std::vector<Complex>(3 * m.NM), Vec9::Zero()};
+  for (KVec* v : {&m.cg_z, &m.cg_p}) v->u.resize(3 * m.NM);
+  if (!m.stencil) m.cg_Ap.u.resize(3 * m.NM);
+  Mat9 C = Mat9::Zero();
+  int iterations = 0;
+  for (int c = 0; c < 9; ++c) {
+    e.f = Vec9::Unit(c);
+    m.apply(e, prescribed, b);
+    for (auto& v : b.u) v = -v;
+    b.f.setZero();
+    Impl::CgSpace space{m, prescribed, no_macro, no_free, 1.0, 0.0};
+    const krylov::CgResult res = krylov::pcg(space, b, x, m.cg_r, m.cg_z, m.cg_p, m.cg_Ap, m.krylov_controls(krylov_tolerance));
+    iterations += res.iterations + 2;  // + the operator applications of the right-hand side and the average
+    bool converged = res.converged;
+    if (res.breakdown) {  // indefinite tangent field (past a bifurcation): MINRES, as the Newton step
+      iterations += m.pminres(b, prescribed, krylov_tolerance, x, converged);
+    }
+    if (!converged)
+      throw ConvergenceError("homogenized tangent: the linear cell problem of F̄ component " + std::to_string(c / 3 + 1) +
+                             std::to_string(c % 3 + 1) + " did not converge in " +
+                             std::to_string(m.opt.max_krylov_iterations) + " Krylov iterations");
+    x.f = e.f;
+    m.apply(x, all, y);
+    C.col(c) = y.f;
+  }
+  if (counts) counts->krylov_iterations += iterations;
+  return C;
+}
+
 }  // namespace softhom::rve

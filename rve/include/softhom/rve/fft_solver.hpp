@@ -253,6 +253,20 @@ class FftRveSolver {
   /// i3, the corner nodes of its planes i3 (the last rank's also those of the plane i3 = n3).
   const fft::SlabDecomposition* slabs() const;
 
+  /// Homogenized consistent tangent C̄ = ∂P̄/∂F̄ (9×9, load frame, row-major components 3 i + j:
+  /// C̄(a, b) = ∂P̄_a/∂F̄_b, MPa) of the current state, every macro component taken as prescribed, by
+  /// the solver's own linearization: for each unit perturbation E = e_b the linearized cell problem
+  /// Dᴴ A (E + D δũ) = 0 is solved with the stored tangent field A of the last converged Newton
+  /// iterate and the Newton step's preconditioner (reference Green operator), and C̄ e_b = ⟨A : (E +
+  /// ∇δũ)⟩. Valid right after a run that completed with the Newton–CG scheme (the tangents are those of
+  /// its last sub-step, with that sub-step's Δt for laws with history); a mixed-control tangent follows
+  /// by static condensation of C̄. `krylov_tolerance`: relative tolerance of each of the 9 linear solves
+  /// (preconditioned norm); their iterations are added to `counts` (krylov_iterations) when given.
+  /// Uses the solver's FFT buffers (fields of the run are no longer available afterwards).
+  /// Throws InputError("solver.scheme") for Moulinec–Suquet (no tangents are stored) and
+  /// ConvergenceError when a linear solve does not converge.
+  Mat9 homogenized_tangent(double krylov_tolerance = 1e-10, RveCounts* counts = nullptr);
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
