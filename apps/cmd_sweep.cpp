@@ -67,6 +67,7 @@ int run_sweep(const CommandOptions& options) {
   summary["wall_time_s"] = r.wall_time_s;
   summary["store_time_s"] = r.store_time_s;  // the writer adding cases and rewriting the store
   summary["mpi_ranks"] = r.ranks;
+  if (!r.cases_per_rank.empty()) summary["cases_per_rank"] = r.cases_per_rank;
   summary["store"] = r.store.string();
   summary["cases_csv"] = r.csv.string();
   // Status over the whole store (earlier runs included).

@@ -222,6 +222,7 @@ SweepReport run_writer(const Campaign& campaign, const fs::path& dir, const Swee
   SweepReport report;
   report.total = int(campaign.cases.size());
   report.ranks = ranks;
+  report.cases_per_rank.assign(ranks, 0);
   report.store = store.store_path();
   report.csv = store.csv_path();
   report.removed_temporaries = store.removed_temporaries();
@@ -297,7 +298,10 @@ SweepReport run_writer(const Campaign& campaign, const fs::path& dir, const Swee
           MPI_Get_count(&st, MPI_BYTE, &bytes);
           std::vector<char> buffer(std::size_t(std::max(bytes, 0)));
           MPI_Recv(buffer.data(), bytes, MPI_BYTE, from, kRecord, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-          if (!write_error) incoming.push_back(decode_case_record(buffer.data(), buffer.size()));
+          if (!write_error) {
+            incoming.push_back(decode_case_record(buffer.data(), buffer.size()));
+            ++report.cases_per_rank[from];
+          }
         } else if (st.MPI_TAG == kChainDone) {
           int c = -1;
           MPI_Recv(&c, 1, MPI_INT, from, kChainDone, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
@@ -323,7 +327,10 @@ SweepReport run_writer(const Campaign& campaign, const fs::path& dir, const Swee
       bool exited = false;
       local.collect(events, exited, received || !incoming.empty() ? std::chrono::milliseconds(0) : kPoll);
       for (auto& e : events)
-        if (e.is_record && !write_error) incoming.push_back(std::move(e.record));
+        if (e.is_record && !write_error) {
+          incoming.push_back(std::move(e.record));
+          ++report.cases_per_rank[0];
+        }
       if (!incoming.empty() && !write_error) {
         try {
           const auto t0 = Clock::now();

@@ -234,6 +234,7 @@ struct SweepReport {
   std::filesystem::path store, csv;
   double store_time_s = 0.0;  ///< spent adding finished cases to the store and writing it (the writer)
   int ranks = 1;              ///< MPI ranks that ran cases (run_campaign_mpi)
+  std::vector<int> cases_per_rank;  ///< cases stored now, by the rank that computed them (run_campaign_mpi)
   bool writer = true;         ///< this process wrote the store (false on MPI ranks other than 0)
 };
 
