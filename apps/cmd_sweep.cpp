@@ -25,11 +25,18 @@ int run_sweep(const CommandOptions& options) {
   if (options.scene.empty())
     throw InputError("scene", "", "sweep needs a campaign file: softhom sweep CAMPAIGN.toml --out DIR "
                                   "(example: studies/campaigns/chapter4.toml)");
-  const toml::table table = io::load_scene(options.scene);
-  const studies::Campaign campaign =
-      studies::expand_campaign(table, std::filesystem::absolute(options.scene).parent_path());
-  // Over MPI (mpirun, srun) rank 0 alone prints, schedules and writes DIR; the others compute.
+  // Over MPI (mpirun, srun) rank 0 alone prints, schedules and writes DIR; the others compute (and
+  // leave messages about bad input, the same on every rank, to rank 0).
   const bool writer = mpi::world_rank() == 0;
+  toml::table table;
+  studies::Campaign campaign;
+  try {
+    table = io::load_scene(options.scene);
+    campaign = studies::expand_campaign(table, std::filesystem::absolute(options.scene).parent_path());
+  } catch (const InputError&) {
+    if (writer) throw;
+    return 2;
+  }
   if (options.dry_run) {
     if (!writer) return 0;
     const auto stored = studies::read_store(options.out / "campaign.h5");

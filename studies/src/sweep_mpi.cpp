@@ -195,6 +195,11 @@ class LocalJobs {
 // queue: short against a case (>= 0.1 s) and long enough that polling costs nothing measurable.
 constexpr std::chrono::milliseconds kPoll{2};
 
+/// A store write that failed on rank 0, passed on once every rank has ended (not a reason to abort).
+struct WriteFailed {
+  std::exception_ptr error;
+};
+
 struct Threads {
   int per_job = 1, jobs = 1;
 };
@@ -359,7 +364,7 @@ SweepReport run_writer(const Campaign& campaign, const fs::path& dir, const Swee
   }
   if (write_error) {
     if (!stop_was_requested && stop_signal() == 0) clear_stop_request();
-    std::rethrow_exception(write_error);
+    throw WriteFailed{write_error};
   }
   report.interrupted = stop_requested() && report.finished < to_run;
   if (report.interrupted && !options.quiet)
@@ -478,17 +483,32 @@ SweepReport run_campaign_mpi(const Campaign& campaign, const fs::path& dir, cons
   }
   int mismatch = header[1] != campaign_fingerprint(campaign) ? 1 : 0;
   MPI_Allreduce(MPI_IN_PLACE, &mismatch, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-  if (setup_error) std::rethrow_exception(setup_error);
-  if (header[0] != 0)
-    throw std::runtime_error("rank 0 could not take the campaign directory '" + dir.string() + "' (its message says why)");
-  if (mismatch)
-    throw std::runtime_error("the ranks expanded different campaigns (is the campaign file and its base scene the same "
-                             "on every host?)");
-  if (rank == 0) return run_writer(campaign, dir, options, *store, start);
-  SweepReport report = run_worker(campaign, dir, wisdom, options, start);
+  // Rank 0 says what went wrong; the others end quietly (mpirun reports rank 0's exit code).
+  SweepReport quiet_end;
+  quiet_end.writer = false;
+  quiet_end.ranks = mpi::world_size();
   std::error_code ec;
-  fs::remove(wisdom, ec);
-  return report;
+  if (setup_error) std::rethrow_exception(setup_error);
+  if (rank != 0 && (header[0] != 0 || mismatch)) {
+    fs::remove(wisdom, ec);
+    return quiet_end;
+  }
+  if (mismatch)
+    throw std::runtime_error("the ranks expanded different campaigns from '" + dir.string() +
+                             "'s campaign file (is the campaign file, and its base scene, the same on every host?)");
+  // From here on every rank is in the exchange: a rank that cannot go on (a malformed message, memory)
+  // must end the job rather than leave the others waiting for it.
+  try {
+    if (rank == 0) return run_writer(campaign, dir, options, *store, start);
+    SweepReport report = run_worker(campaign, dir, wisdom, options, start);
+    fs::remove(wisdom, ec);
+    return report;
+  } catch (const WriteFailed& e) {
+    std::rethrow_exception(e.error);  // rank 0, after every rank ended
+  } catch (const std::exception& e) {
+    std::cerr << "softhom sweep: rank " << rank << ": error: " << e.what() << "\n";
+    mpi::abort_all(1);
+  }
 }
 
 }  // namespace softhom::studies

@@ -213,7 +213,8 @@ struct SweepOptions {
   bool warm_start = true; ///< and the campaign's own switch
   bool retry_failed = false;
   bool quiet = false;     ///< no progress on stderr
-  /// Stop after this many newly finished cases (0: no limit); simulates an interrupted run in tests.
+  /// Stop after this many newly finished cases (0: no limit); simulates an interrupted run in tests
+  /// (this and the two hooks below: run_campaign only).
   int max_new_cases = 0;
   /// Called in the writing thread after each finished case is in the store (tests: request_stop()).
   std::function<void(const CaseRecord&)> on_case_stored;
