@@ -140,6 +140,26 @@ def two_ranks_equal_serial(a, work):
           "--dry-run on 2 ranks did not list the %d cases once: %s" % (CASES, tail(text)))
 
 
+def warm_chains_equal_serial(a, work):
+    """Warm-start chains (studies/campaigns/bench_levels.toml: 3 microstructures x 4 tension levels, each
+    level's path on the next) stay on one rank: 2 ranks store what the one-process run stores, with the
+    same warm starts and the same Newton iterations (a chain split over ranks would recompute its path)."""
+    camp = HERE.parent.parent / "studies" / "campaigns" / "bench_levels.toml"
+    ref, out = work / "reference", work / "mpi"
+    args = lambda d: ["sweep", camp, "--out", d, "--threads", 1, "--jobs", 1]
+    rc, err, _ = run([a.softhom] + args(ref))
+    faults.check_exit(rc, err, allowed=(0,))
+    out.mkdir()
+    shutil.copy(ref / "fftw.wisdom", out / "fftw.wisdom")
+    rc, err, _ = run(mpirun(a, 2, *args(out)))
+    faults.check_exit(rc, err, allowed=(0,))
+    check_same_store(ref, out)
+    sr, so = summary(ref), summary(out)
+    for k in ("warm_started", "newton_iterations"):
+        check(sr[k] == so[k], "%s: %s on 2 ranks, %s in one process" % (k, so[k], sr[k]))
+    check(sr["warm_started"] > 0, "the campaign has no warm start: the test checks nothing")
+
+
 def wait_stored(job, n, seconds=60):
     pattern = r"(\[sweep\] \S+: ok(.|\n)*){%d}" % n
     check(job.wait_for(pattern, seconds), "%d cases were not stored: %s" % (n, tail(job.stderr())))
@@ -208,6 +228,7 @@ def sigterm_ranks(a, work):
 
 TESTS = {
     "two-ranks-equal-serial": two_ranks_equal_serial,
+    "warm-chains-equal-serial": warm_chains_equal_serial,
     "kill9-rank-resume": kill9_rank_resume,
     "kill9-job-resume-serial": kill9_job_resume_serial,
     "sigterm-ranks": sigterm_ranks,
