@@ -160,6 +160,27 @@ def warm_chains_equal_serial(a, work):
     check(sr["warm_started"] > 0, "the campaign has no warm start: the test checks nothing")
 
 
+def errors_from_rank0_only(a, work):
+    """Bad input (exit 2) and a campaign directory held by another sweep (exit 1): one message, from
+    rank 0, not one per rank."""
+    bad = work / "bad.toml"
+    bad.write_text('description = "bad"\n[[sweep]]\nmatrix = ["no-such-matrix"]\nload = ["tension"]\n')
+    rc, err, _ = run(mpirun(a, 2, "sweep", bad, "--out", work / "bad-out"))
+    check(rc == 2, "bad input on 2 ranks: exit %d, expected 2: %s" % (rc, tail(err)))
+    check(len(re.findall(r"input error: .*no-such-matrix", err)) == 1,
+          "the input error is not printed exactly once: %s" % tail(err, 1200))
+    out = work / "busy"
+    first = Job([a.softhom] + sweep_args(out))
+    check(first.wait_for(r"\[sweep\]", 60), "the one-process sweep shows no progress: %s" % tail(first.stderr()))
+    rc, err, _ = run(mpirun(a, 2, *sweep_args(out)), seconds=60)
+    still_running = first.p.poll() is None
+    faults.check_exit(first.wait(120), first.stderr(), allowed=(0,))
+    check(still_running, "the first sweep ended before the MPI one was refused: make the campaign longer")
+    check(rc == 1, "a busy directory on 2 ranks: exit %d, expected 1: %s" % (rc, tail(err)))
+    check(len(re.findall(r"in use by another softhom sweep", err)) == 1 and str(first.p.pid) in err,
+          "the refusal is not printed once naming pid %d: %s" % (first.p.pid, tail(err, 1200)))
+
+
 def wait_stored(job, n, seconds=60):
     pattern = r"(\[sweep\] \S+: ok(.|\n)*){%d}" % n
     check(job.wait_for(pattern, seconds), "%d cases were not stored: %s" % (n, tail(job.stderr())))
@@ -229,6 +250,7 @@ def sigterm_ranks(a, work):
 TESTS = {
     "two-ranks-equal-serial": two_ranks_equal_serial,
     "warm-chains-equal-serial": warm_chains_equal_serial,
+    "errors-from-rank0-only": errors_from_rank0_only,
     "kill9-rank-resume": kill9_rank_resume,
     "kill9-job-resume-serial": kill9_job_resume_serial,
     "sigterm-ranks": sigterm_ranks,
