@@ -7,10 +7,13 @@
 // another sweep holds DIR (campaign.lock) or when a file cannot be written (the previous files stay);
 // 128 + N when signal N (SIGINT, SIGTERM) interrupted the run (finished cases are stored,
 // "interrupted": true in the summary; rerun to complete); 2 for bad input.
+// Under mpirun / srun with several ranks the cases are spread over the ranks (run_campaign_mpi); rank 0
+// alone prints, writes DIR and summary.json.
 #include <iostream>
 
 #include "commands.hpp"
 #include "run_control.hpp"
+#include "softhom/io/mpi.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/materials/errors.hpp"
@@ -22,10 +25,20 @@ int run_sweep(const CommandOptions& options) {
   if (options.scene.empty())
     throw InputError("scene", "", "sweep needs a campaign file: softhom sweep CAMPAIGN.toml --out DIR "
                                   "(example: studies/campaigns/chapter4.toml)");
-  const toml::table table = io::load_scene(options.scene);
-  const studies::Campaign campaign =
-      studies::expand_campaign(table, std::filesystem::absolute(options.scene).parent_path());
+  // Over MPI (mpirun, srun) rank 0 alone prints, schedules and writes DIR; the others compute (and
+  // leave messages about bad input, the same on every rank, to rank 0).
+  const bool writer = mpi::world_rank() == 0;
+  toml::table table;
+  studies::Campaign campaign;
+  try {
+    table = io::load_scene(options.scene);
+    campaign = studies::expand_campaign(table, std::filesystem::absolute(options.scene).parent_path());
+  } catch (const InputError&) {
+    if (writer) throw;
+    return 2;
+  }
   if (options.dry_run) {
+    if (!writer) return 0;
     const auto stored = studies::read_store(options.out / "campaign.h5");
     for (const auto& c : campaign.cases) {
       const auto it = stored.find(c.id);
@@ -41,8 +54,10 @@ int run_sweep(const CommandOptions& options) {
   so.threads = options.threads;
   so.warm_start = !options.no_warm_start;
   so.retry_failed = options.retry_failed;
-  so.quiet = options.quiet;
-  const studies::SweepReport r = studies::run_campaign(campaign, options.out, so);
+  so.quiet = options.quiet || !writer;
+  const studies::SweepReport r = mpi::world_size() > 1 ? studies::run_campaign_mpi(campaign, options.out, so)
+                                                       : studies::run_campaign(campaign, options.out, so);
+  if (!r.writer) return run_exit_code(!stop_requested());
 
   nlohmann::json summary = io::summary_base("sweep", options.scene, table);
   summary["interrupted"] = r.interrupted;
@@ -57,6 +72,9 @@ int run_sweep(const CommandOptions& options) {
   summary["threads_per_job"] = r.threads_per_job;
   summary["case_time_s"] = r.case_time_s;
   summary["wall_time_s"] = r.wall_time_s;
+  summary["store_time_s"] = r.store_time_s;  // the writer adding cases and rewriting the store
+  summary["mpi_ranks"] = r.ranks;
+  if (!r.cases_per_rank.empty()) summary["cases_per_rank"] = r.cases_per_rank;
   summary["store"] = r.store.string();
   summary["cases_csv"] = r.csv.string();
   // Status over the whole store (earlier runs included).

@@ -24,6 +24,7 @@
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/interrupt.hpp"
 #include "softhom/studies/rve_scene.hpp"
+#include "sweep_internal.hpp"
 
 namespace softhom::studies {
 
@@ -45,9 +46,9 @@ bool is_timing_stat(const std::string& name) {
 
 
 // ---------------------------------------------------------------------------------------------
-// Runner.
+// Runner (sweep_detail: shared with the MPI runner, sweep_mpi.cpp).
 
-namespace {
+namespace sweep_detail {
 
 bool near(double a, double b) { return std::abs(a - b) <= 1e-12 * std::max({1.0, std::abs(a), std::abs(b)}); }
 
@@ -154,12 +155,6 @@ std::string hms(double s) {
 
 // ---------------------------------------------------------------------------------------------
 // Schedule: which cases run, grouped into chains that share one load path.
-
-struct Chain {
-  std::vector<int> members;  // indices into campaign.cases; each one's path is the beginning of the next's
-  std::vector<bool> store;   // member must be (re)stored
-  int last = 0;              // run up to this member (the last one to store)
-};
 
 /// Case ids are HDF5 group names and file-name-like keys: refused before anything runs or is written.
 void check_case_ids(const Campaign& campaign) {
@@ -312,17 +307,6 @@ std::optional<PathPlan> plan_path(const Campaign& campaign, const std::vector<in
   return plan;
 }
 
-/// What a chain needs besides its members: where results go and whether to stop.
-struct ChainContext {
-  const Campaign& campaign;
-  std::filesystem::path dir;
-  int threads_per_job = 1;
-  std::function<bool()> stopping;                   // abandon the chain before its next member
-  std::function<void()> case_started;               // a member to be stored starts
-  std::function<void(CaseRecord&&)> case_finished;  // ... and ends (its record)
-  std::atomic<long>* newton_computed = nullptr;
-};
-
 /// The solver of a chain's microstructure (made for its first member).
 std::unique_ptr<rve::FftRveSolver> make_solver(const ChainContext& ctx, const CampaignCase& c, CaseRecord& r) {
   RveSceneSetup setup;
@@ -334,7 +318,8 @@ std::unique_ptr<rve::FftRveSolver> make_solver(const ChainContext& ctx, const Ca
   setup.solver.plan.threads = ctx.threads_per_job;
   // FFTW_MEASURE picks plans by timing, so two runs can differ in round-off; the campaign's
   // wisdom file makes a resumed run reuse the plans of the first one (and skips measuring).
-  if (setup.solver.plan.wisdom_file.empty()) setup.solver.plan.wisdom_file = ctx.dir / "fftw.wisdom";
+  if (setup.solver.plan.wisdom_file.empty())
+    setup.solver.plan.wisdom_file = ctx.wisdom_file.empty() ? ctx.dir / "fftw.wisdom" : ctx.wisdom_file;
   auto solver = std::make_unique<rve::FftRveSolver>(setup.image, setup.matrix, setup.fiber, setup.fiber_angle_deg,
                                                     setup.control.frame, setup.solver);
   r.stats["fft_planning_s"] = solver->planning_seconds();
@@ -441,7 +426,7 @@ class ChainScheduler {
       : chains_(std::move(chains)),
         on_case_finished_(std::move(on_case_finished)),
         ctx_{campaign, dir, threads_per_job, [this] { return stopping(); }, [this] { case_started(); },
-             [this](CaseRecord&& r) { case_finished(std::move(r)); }, &newton},
+             [this](CaseRecord&& r) { case_finished(std::move(r)); }, &newton, {}},
         workers_alive_(jobs) {
     for (int j = 0; j < jobs; ++j) threads_.emplace_back([this, threads_per_job] { work(threads_per_job); });
   }
@@ -551,9 +536,10 @@ void log_progress(const SweepReport& report, int to_run, int running, Clock::tim
             << (left == 0 ? "0s" : hms(eta)) << "\n";
 }
 
-}  // namespace
+}  // namespace sweep_detail
 
 SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& dir, const SweepOptions& options) {
+  using namespace sweep_detail;
   const auto start = Clock::now();
   check_case_ids(campaign);
   SweepReport report;
@@ -600,6 +586,7 @@ SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& 
       std::vector<CaseRecord> batch;
       while (scheduler.wait(batch, running, std::chrono::milliseconds(100))) {
         if (batch.empty()) continue;
+        const auto store_start = Clock::now();
         std::vector<std::string> ids;
         for (auto& r : batch) {
           count_and_log(report, r, options.quiet);
@@ -607,6 +594,7 @@ SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& 
           store.add(std::move(r));
         }
         store.write(campaign);
+        report.store_time_s += std::chrono::duration<double>(Clock::now() - store_start).count();
         committed += int(batch.size());
         if (options.on_case_stored)
           for (const auto& id : ids) options.on_case_stored(store.records().at(id));

@@ -213,7 +213,8 @@ struct SweepOptions {
   bool warm_start = true; ///< and the campaign's own switch
   bool retry_failed = false;
   bool quiet = false;     ///< no progress on stderr
-  /// Stop after this many newly finished cases (0: no limit); simulates an interrupted run in tests.
+  /// Stop after this many newly finished cases (0: no limit); simulates an interrupted run in tests
+  /// (this and the two hooks below: run_campaign only).
   int max_new_cases = 0;
   /// Called in the writing thread after each finished case is in the store (tests: request_stop()).
   std::function<void(const CaseRecord&)> on_case_stored;
@@ -232,6 +233,10 @@ struct SweepReport {
   bool interrupted = false;   ///< stop_requested() (SIGINT/SIGTERM): finished cases are stored
   std::vector<std::filesystem::path> removed_temporaries;  ///< stale ones of killed runs
   std::filesystem::path store, csv;
+  double store_time_s = 0.0;  ///< spent adding finished cases to the store and writing it (the writer)
+  int ranks = 1;              ///< MPI ranks that ran cases (run_campaign_mpi)
+  std::vector<int> cases_per_rank;  ///< cases stored now, by the rank that computed them (run_campaign_mpi)
+  bool writer = true;         ///< this process wrote the store (false on MPI ranks other than 0)
 };
 
 /// Runs the campaign's unfinished cases into DIR/campaign.h5 and DIR/cases.csv, holding the
@@ -240,5 +245,21 @@ struct SweepReport {
 /// the directory, std::runtime_error when a file cannot be written (the previous files stay). On
 /// stop_requested() the cases in flight are abandoned and the report says interrupted.
 SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& dir, const SweepOptions& options);
+
+/// The same over MPI ranks (call on every rank of MPI_COMM_WORLD, under an MPI launcher). Rank 0
+/// schedules: it hands out chains (a warm-start chain stays on one rank) longest first to whichever
+/// rank asks (pull model), runs chains itself too, and is the only writer of DIR (lock, store, CSV,
+/// progress). The other ranks run the chains they are given with `options.jobs` threads and send each
+/// finished case to rank 0 as a message (no shared memory; DIR only needs to be reachable for the
+/// campaign's input files and FFTW wisdom). A case's numbers are those of run_campaign (same code,
+/// same threads per case). On stop_requested() on rank 0 no more work is handed out and every rank
+/// ends after its case in flight; what finished is stored. The report of rank 0 is run_campaign's;
+/// other ranks return writer = false and counts of their own cases. With one rank: run_campaign.
+SweepReport run_campaign_mpi(const Campaign& campaign, const std::filesystem::path& dir, const SweepOptions& options);
+
+/// A finished case as bytes (the message a rank sends to the writer) and back. decode_case_record
+/// throws std::runtime_error on a buffer that is not a whole record.
+std::vector<char> encode_case_record(const CaseRecord& record);
+CaseRecord decode_case_record(const char* data, std::size_t size);
 
 }  // namespace softhom::studies
