@@ -19,10 +19,10 @@
 #include <string>
 #include <vector>
 
-#include "softhom/rve/cell.hpp"
+#include "softhom/studies/cell.hpp"
 
 using namespace softhom;
-using namespace softhom::rve;
+using namespace softhom::studies;
 
 namespace {
 

@@ -1,5 +1,5 @@
 // One FFT RVE cell as a constitutive law (see cell.hpp).
-#include "softhom/rve/cell.hpp"
+#include "softhom/studies/cell.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -10,7 +10,7 @@
 #include "softhom/materials/errors.hpp"
 #include "softhom/studies/rve_scene.hpp"
 
-namespace softhom::rve {
+namespace softhom::studies {
 
 namespace {
 
@@ -43,11 +43,11 @@ void Cell::setup(const toml::table& scene) {
       if (const auto name = engine->value<std::string>(); name && *name != "fft")
         throw InputError("solver.engine", "\"" + *name + "\"", "a Cell embeds the FFT engine (\"fft\")");
   const studies::RveSceneSetup s = studies::parse_rve_scene(scene, /*with_load=*/false);
-  if (s.solver.scheme != FftScheme::newton_cg)
+  if (s.solver.scheme != rve::FftScheme::newton_cg)
     throw InputError("solver.scheme", to_string(s.solver.scheme),
                      "a Cell needs newton-cg (its consistent tangent is the Newton linearization)");
   options_ = s.solver;
-  solver_ = std::make_unique<FftRveSolver>(s.image, s.matrix, s.fiber, s.fiber_angle_deg, Mat3::Identity(), options_);
+  solver_ = std::make_unique<rve::FftRveSolver>(s.image, s.matrix, s.fiber, s.fiber_angle_deg, Mat3::Identity(), options_);
   has_history_ = s.matrix->state_size() > 0 || s.fiber->state_size() > 0;
   initial_.solver = solver_->state();
   committed_ = initial_;
@@ -96,7 +96,7 @@ CellResult Cell::solve_mixed(const Mat3& F_target, const Mat3& P_target, const s
   CellResult out;
   const auto t0 = Clock::now();
   solver_->set_state(predictor_start(F_target, stress_prescribed, T));
-  const RveRunResult run = solver_->run(control);
+  const rve::RveRunResult run = solver_->run(control);
   out.counts = run;
   out.solve_seconds = seconds_since(t0);
   if (!run.completed) {
@@ -109,7 +109,7 @@ CellResult Cell::solve_mixed(const Mat3& F_target, const Mat3& P_target, const s
   out.P = run.steps.back().P;
   if (with_tangent) {
     const auto t1 = Clock::now();
-    RveCounts tc;
+    rve::RveCounts tc;
     out.tangent = solver_->homogenized_tangent(cell_options_.tangent_tolerance, &tc);
     out.tangent_krylov_iterations = tc.krylov_iterations;
     out.tangent_seconds = seconds_since(t1);
@@ -121,7 +121,7 @@ CellResult Cell::solve_mixed(const Mat3& F_target, const Mat3& P_target, const s
   return out;
 }
 
-const FftRveState& Cell::predictor_start(const Mat3& F_target, const std::array<bool, 9>& stress_prescribed, double T) {
+const rve::FftRveState& Cell::predictor_start(const Mat3& F_target, const std::array<bool, 9>& stress_prescribed, double T) {
   // The solver extrapolates the last converged increment by T / dt_last. Calls of a macro code do not
   // follow one path at a steady rate (Newton iterates, finite-difference probes, a new increment of
   // another size), so the factor is taken from the macro increment instead: the projection r of the
@@ -164,4 +164,4 @@ void Cell::restore(const CellState& s) {
 double Cell::achieved_volume_fraction() const { return solver_->achieved_volume_fraction(); }
 std::size_t Cell::memory_bytes() const { return solver_->memory_bytes(); }
 
-}  // namespace softhom::rve
+}  // namespace softhom::studies

@@ -31,13 +31,13 @@
 #include "softhom/materials/tensor.hpp"
 #include "softhom/rve/fft_solver.hpp"
 
-namespace softhom::rve {
+namespace softhom::studies {
 
 /// Everything the next solve of a cell depends on: the solver state (F̄, the fluctuation spectrum, the
 /// history of every material point, the laminate jump vectors, the last increment for the predictor)
 /// and the macro stress of that state (the start of stress ramps under mixed control).
 struct CellState {
-  FftRveState solver;
+  rve::FftRveState solver;
   Mat3 P = Mat3::Zero();  ///< P̄ of this state [MPa]
   double time = 0.0;      ///< accumulated dt of the committed solves [s]
 };
@@ -63,7 +63,7 @@ struct CellResult {
   /// (counts.cutbacks > 0) a cell with history gives the tangent of the last sub-step's Δt; elastic
   /// cells are unaffected (their tangent depends on the converged state only).
   Mat9 tangent = Mat9::Zero();
-  RveCounts counts;                 ///< Newton/Krylov iterations, sub-steps, cut-backs of the solve
+  rve::RveCounts counts;                 ///< Newton/Krylov iterations, sub-steps, cut-backs of the solve
   int tangent_krylov_iterations = 0;
   double solve_seconds = 0.0, tangent_seconds = 0.0;
 };
@@ -85,7 +85,7 @@ class Cell {
 
   /// Solves the cell at the fully prescribed F̄ (det F̄ > 0) after a time step dt ≥ 0 [s] from the
   /// committed state (dt > 0 required when a phase has history; elastic cells ignore it). With
-  /// `with_tangent` also ∂P̄/∂F̄ (9 linear solves, FftRveSolver::homogenized_tangent()). Throws
+  /// `with_tangent` also ∂P̄/∂F̄ (9 linear solves, rve::FftRveSolver::homogenized_tangent()). Throws
   /// InputError for bad arguments ("F", "dt"); a cell that does not converge is a result with
   /// converged = false, not an exception.
   CellResult solve(const Mat3& F, double dt, bool with_tangent = true);
@@ -113,20 +113,20 @@ class Cell {
   bool has_history() const { return has_history_; }
   double achieved_volume_fraction() const;
   std::size_t memory_bytes() const;
-  const FftSolverOptions& solver_options() const { return options_; }
-  const FftRveSolver& solver() const { return *solver_; }
+  const rve::FftSolverOptions& solver_options() const { return options_; }
+  const rve::FftRveSolver& solver() const { return *solver_; }
   std::string describe() const { return description_; }
 
  private:
   void setup(const toml::table& scene);
-  const FftRveState& predictor_start(const Mat3& F_target, const std::array<bool, 9>& stress_prescribed, double T);
-  std::unique_ptr<FftRveSolver> solver_;
-  FftSolverOptions options_;
+  const rve::FftRveState& predictor_start(const Mat3& F_target, const std::array<bool, 9>& stress_prescribed, double T);
+  std::unique_ptr<rve::FftRveSolver> solver_;
+  rve::FftSolverOptions options_;
   CellOptions cell_options_;
   CellState initial_, committed_, trial_;
-  FftRveState start_;  // the committed state with the predictor's extrapolation factor of a solve
+  rve::FftRveState start_;  // the committed state with the predictor's extrapolation factor of a solve
   bool has_trial_ = false, has_history_ = false;
   std::string description_;
 };
 
-}  // namespace softhom::rve
+}  // namespace softhom::studies

@@ -9,10 +9,10 @@
 #include "softhom/materials/batch.hpp"
 #include "softhom/materials/driver.hpp"
 #include "softhom/materials/errors.hpp"
-#include "softhom/rve/cell.hpp"
+#include "softhom/studies/cell.hpp"
 
 using namespace softhom;
-using namespace softhom::rve;
+using namespace softhom::studies;
 
 namespace {
 
