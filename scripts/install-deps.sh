@@ -23,6 +23,8 @@ packages=(
   libgtest-dev             # tests
   libbenchmark-dev         # bench/
   python3-matplotlib       # PNG plots
+  pybind11-dev python3-dev # python/: the `softhom` Python module, for Debian's /usr/bin/python3
+  python3-numpy python3-pandas python3-pytest   # python/: arrays in and out, DataFrames, its tests
 )
 missing=()
 for p in "${packages[@]}"; do
