@@ -32,6 +32,9 @@ __all__ = [
 
 __version__ = _softhom.version()
 
+# The one-cell facade (softhom::rve::Cell: a periodic cell at a macroscopic F → P, dP/dF, state) is
+# exported here as `Cell` once the compiled module binds it (python/softhom_module.cpp).
+
 
 class EvaluationError(ArithmeticError):
     """A material refused a deformation (Gent locking, J <= 0, non-finite values); names the point."""
@@ -51,6 +54,13 @@ class CalibrationResult(NamedTuple):
     material_toml: str
     comparison: pd.DataFrame
     success: bool
+
+
+def _input_error(field: str, value: Any, reason: str) -> InputError:
+    """An InputError raised on the Python side, in the message form of the C++ ones."""
+    e = InputError(f"{field} = {value}: {reason}")
+    e.field, e.value = field, str(value)
+    return e
 
 
 def _scene(scene: Any) -> tuple[str, Any]:
@@ -107,7 +117,7 @@ def _read_run(directory: str) -> RunResult:
 def _run(job, scene: Any, out: Any, threads: int | None, quiet: bool, base_dir: Any) -> RunResult:
     kind, payload = _scene(scene)
     if threads is not None and (not isinstance(threads, int) or threads < 0):
-        raise InputError(f"threads = {threads}: must be a whole number >= 0 (0: all cores)")
+        raise _input_error("threads", threads, "must be a whole number >= 0 (0: all cores)")
     keep = out is not None
     directory = os.fspath(out) if keep else tempfile.mkdtemp(prefix="softhom-")
     try:
@@ -166,7 +176,8 @@ def _curve_csv(name: str, data: Any, directory: str) -> str:
     else:
         x, y = (np.asarray(a, dtype=float) for a in data)
     if x.ndim != 1 or x.shape != y.shape:
-        raise InputError(f"curves.{name}.data: x and y must be 1-D arrays of one length")
+        raise _input_error(f"curves.{name}.data", f"arrays of shapes {x.shape} and {y.shape}",
+                           "x and y must be 1-D arrays of one length")
     path = os.path.join(directory, f"curve{len(os.listdir(directory))}.csv")
     pd.DataFrame({"x": x, "y": y}).to_csv(path, index=False, float_format="%.17g")
     return path

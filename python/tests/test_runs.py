@@ -37,7 +37,7 @@ def test_run_rve_is_the_program_bitwise(tmp_path):
     assert list(response.columns) == list(expected.columns)
     assert np.array_equal(response.to_numpy(), expected.to_numpy())
     assert summary["status"] == "completed"
-    assert summary["grid"] == [12, 12]
+    assert summary["grid"] == [12, 12, 1]
     assert response.attrs["units"]["P11"] == "MPa"
 
 
