@@ -33,6 +33,8 @@ def test_open_campaign_equals_cases_csv(tmp_path):
     run_cli("sweep", tmp_path / "campaign.toml", "--out", tmp_path / "store", "--jobs", 1)
     df = softhom.open_campaign(tmp_path / "store")
     csv = pd.read_csv(tmp_path / "store" / "cases.csv", float_precision="round_trip")
+    # The DataFrame lists cases by id (the store's order), cases.csv in the campaign's order.
+    csv = csv.sort_values(["case", "step"], kind="stable").reset_index(drop=True)
     assert list(df.columns) == list(csv.columns)
     assert len(df) == len(csv) and len(df) > 0
     columns = list(csv.columns)
