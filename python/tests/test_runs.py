@@ -101,3 +101,14 @@ def test_ctrl_c_stops_the_run_with_keyboard_interrupt(tmp_path):
     assert 1 <= len(response) < 401
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
     assert softhom.run_rve(RVE, threads=1).summary["status"] == "completed"
+
+
+def test_a_run_that_stops_early_is_a_result(tmp_path, scenes):
+    # point_locking.toml stretches Gent to its locking limit: the program exits 1 with the converged
+    # rows kept; the module returns those rows with status "stopped" and the reason, as summary.json.
+    r = run_cli("point", scenes / "point_locking.toml", "--out", tmp_path, check=False)
+    assert r.returncode == 1
+    response, summary = softhom.run_point(scenes / "point_locking.toml")
+    assert summary["status"] == "stopped" and "lock" in summary["error"].lower()
+    assert len(response) > 1
+    assert np.array_equal(response.to_numpy(), cli_response(tmp_path).to_numpy())
