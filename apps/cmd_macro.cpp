@@ -58,8 +58,11 @@ std::vector<std::string> response_columns(const macro::Structure& structure) {
 }  // namespace
 
 int run_macro(const CommandOptions& options) {
+  return run_macro_scene(options, load_scene_or_default(options, "macro_tube_plane_strain"));
+}
+
+int run_macro_scene(const CommandOptions& options, const LoadedScene& scene) {
   const auto wall_start = std::chrono::steady_clock::now();
-  const LoadedScene scene = load_scene_or_default(options, "macro_tube_plane_strain");
   const macro::MacroScene ms = macro::parse_macro_scene(scene.table, scene.file);
   const macro::Structure structure = macro::build_structure(ms.spec);
   fe::Simulation sim(structure.model, ms.newton);

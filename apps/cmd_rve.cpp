@@ -39,8 +39,11 @@ io::VoxelGrid voxel_grid(const rve::PhaseImage& im) {
 }  // namespace
 
 int run_rve(const CommandOptions& options) {
+  return run_rve_scene(options, load_scene_or_default(options, default_scene_name("rve")));
+}
+
+int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   const auto wall_start = std::chrono::steady_clock::now();
-  LoadedScene scene = load_scene_or_default(options, default_scene_name("rve"));
   // Engine choice ([solver] engine = "fft" | "fe"); the FE engine has its own [solver] keys.
   if (auto* solver_table = scene.table["solver"].as_table()) {
     static const io::Choices<std::string> engines{{{"fft", "fft"}, {"fe", "fe"}, {"auto", "auto"}}, {}};

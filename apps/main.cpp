@@ -77,22 +77,6 @@ int run_command(const char* name, int (*run)(const CommandOptions&), const Comma
   return code;
 }
 
-LoadedScene load_scene_or_default(const CommandOptions& options, const std::string& default_name) {
-  LoadedScene s;
-  if (!options.scene.empty()) {
-    s.file = options.scene;
-    s.name = options.scene.stem().string();
-    s.table = io::load_scene(options.scene);
-    return s;
-  }
-  const auto& scenes = embedded_scenes();
-  const auto it = scenes.find(default_name);
-  if (it == scenes.end()) throw InputError("scene", default_name, "no embedded scene of that name");
-  s.name = default_name;
-  s.table = io::parse_scene(it->second, "<embedded " + default_name + ".toml>");
-  return s;
-}
-
 namespace {
 
 // A scene is a small hand-written TOML file. Larger files are not scenes (a mesh, an image or a log

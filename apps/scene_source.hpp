@@ -18,4 +18,9 @@ struct LoadedScene {
 /// options.scene if given, else the embedded scene `default_name` (a studies/scenes stem).
 LoadedScene load_scene_or_default(const CommandOptions& options, const std::string& default_name);
 
+/// `softhom rve` / `softhom macro` on a scene already loaded (options.scene is not read): what the
+/// commands run after loading, and what the Python module calls with a scene built in memory.
+int run_rve_scene(const CommandOptions& options, LoadedScene scene);
+int run_macro_scene(const CommandOptions& options, const LoadedScene& scene);
+
 }  // namespace softhom::app

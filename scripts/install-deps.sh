@@ -24,6 +24,8 @@ packages=(
   libbenchmark-dev         # bench/
   python3-matplotlib       # PNG plots
   python3-h5py             # tests/mpi_fft: compares the fields.h5 of a distributed and a one-process run (with numpy)
+  pybind11-dev python3-dev # python/: the `softhom` Python module, for Debian's /usr/bin/python3
+  python3-numpy python3-pandas python3-pytest   # python/: arrays in and out, DataFrames, its tests
 )
 missing=()
 for p in "${packages[@]}"; do

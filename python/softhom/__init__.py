@@ -1,0 +1,208 @@
+"""softhom from Python: materials, material-point, RVE and macro runs, campaign stores, calibration.
+
+Scenes are what the `softhom` program reads, given as a dict (the TOML tables as nested dicts and
+lists), as TOML text, or as a path (pathlib.Path or os.PathLike) to a scene file. A job runs through
+the same code as the program, so its response is the program's response.csv, returned as a pandas
+DataFrame (units in ``df.attrs["units"]``), and its summary is summary.json as a dict. Nothing is left
+on disk unless ``out=DIR`` is given (then DIR holds the program's output files).
+
+Errors in input raise :class:`InputError` (a ValueError) with the program's message
+``"field = value: reason"`` and the attributes ``field`` and ``value``. Ctrl-C during a run stops it
+at the next step and raises KeyboardInterrupt. See docs/python.md.
+"""
+from __future__ import annotations
+
+import io as _io
+import json
+import os
+import shutil
+import tempfile
+from typing import Any, Mapping, NamedTuple
+
+import numpy as np
+import pandas as pd
+
+from . import _softhom
+from ._softhom import InputError, Material
+
+__all__ = [
+    "InputError", "EvaluationError", "Material", "RunResult", "CalibrationResult", "material", "presets",
+    "default_scene", "to_toml", "run_point", "run_rve", "run_macro", "open_campaign", "calibrate", "__version__",
+]
+
+__version__ = _softhom.version()
+
+# The one-cell facade (softhom::rve::Cell: a periodic cell at a macroscopic F → P, dP/dF, state) is
+# exported here as `Cell` once the compiled module binds it (python/softhom_module.cpp).
+
+
+class EvaluationError(ArithmeticError):
+    """A material refused a deformation (Gent locking, J <= 0, non-finite values); names the point."""
+
+
+class RunResult(NamedTuple):
+    """``response``: one row per converged output step; ``summary``: summary.json as a dict
+    (``summary["status"]`` says whether the run completed and why not)."""
+    response: pd.DataFrame
+    summary: dict
+
+
+class CalibrationResult(NamedTuple):
+    """``summary``: the fit (parameters with standard errors, correlations, per-curve R² / NRMSE);
+    ``material_toml``: the fitted [material] table; ``comparison``: columns curve, index, x, data, model."""
+    summary: dict
+    material_toml: str
+    comparison: pd.DataFrame
+    success: bool
+
+
+def _input_error(field: str, value: Any, reason: str) -> InputError:
+    """An InputError raised on the Python side, in the message form of the C++ ones."""
+    e = InputError(f"{field} = {value}: {reason}")
+    e.field, e.value = field, str(value)
+    return e
+
+
+def _scene(scene: Any) -> tuple[str, Any]:
+    """(kind, payload) for the compiled module: "file" (a path), "toml" (text) or "dict"."""
+    if isinstance(scene, os.PathLike):
+        return "file", os.fspath(scene)
+    if isinstance(scene, str):
+        return "toml", scene
+    if isinstance(scene, Mapping):
+        return "dict", scene
+    raise TypeError(f"a scene is a dict, TOML text or a path, not {type(scene).__name__}")
+
+
+def _base(scene: Any, base_dir: Any) -> str:
+    return "" if base_dir is None else os.fspath(os.path.abspath(base_dir))
+
+
+def material(spec: Any) -> Material:
+    """A material from a [material] table: e.g. ``{"preset": "ecoflex"}`` or ``{"law": "neo-hookean",
+    "mu": 0.5, "K": 50}``, with ``fibers`` / ``viscoelastic`` as in a scene (docs/keys.md), or the
+    table as TOML text (with or without its ``[material]`` header)."""
+    kind, payload = _scene(spec)
+    return _softhom.make_material(kind, payload)
+
+
+def presets() -> list[str]:
+    """Names of the parameter sets (docs/model.md §6)."""
+    return list(_softhom.presets())
+
+
+def default_scene(command: str) -> str:
+    """The embedded default scene of ``point``, ``rve`` or ``macro`` as TOML text (a starting point)."""
+    return _softhom.default_scene(command)
+
+
+def to_toml(scene: Mapping) -> str:
+    """A scene dict as the TOML text the program would read."""
+    return _softhom.to_toml(scene)
+
+
+def _units(columns) -> dict:
+    return {c: _softhom.column_unit(c) for c in columns}
+
+
+def _read_run(directory: str) -> RunResult:
+    with open(os.path.join(directory, "summary.json"), encoding="utf-8") as f:
+        summary = json.load(f)
+    path = os.path.join(directory, "response.csv")
+    response = pd.read_csv(path, float_precision="round_trip") if os.path.exists(path) else pd.DataFrame()
+    response.attrs["units"] = _units(response.columns)
+    return RunResult(response, summary)
+
+
+def _run(job, scene: Any, out: Any, threads: int | None, quiet: bool, base_dir: Any) -> RunResult:
+    kind, payload = _scene(scene)
+    if threads is not None and (not isinstance(threads, int) or threads < 0):
+        raise _input_error("threads", threads, "must be a whole number >= 0 (0: all cores)")
+    keep = out is not None
+    directory = os.fspath(out) if keep else tempfile.mkdtemp(prefix="softhom-")
+    try:
+        if keep:
+            os.makedirs(directory, exist_ok=True)
+        job(kind, payload, _base(scene, base_dir), directory, threads or 0, quiet)
+        return _read_run(directory)
+    finally:
+        if not keep:
+            shutil.rmtree(directory, ignore_errors=True)
+
+
+def run_point(scene: Any, out: Any = None, threads: int | None = None, quiet: bool = True,
+              base_dir: Any = None) -> RunResult:
+    """`softhom point` on a scene ([material], [load], optional [solver]): columns t, F11..F33,
+    P11..P33, sigma11..sigma33, fiber<k>_angle_deg."""
+    return _run(_softhom.run_point, scene, out, threads, quiet, base_dir)
+
+
+def run_rve(scene: Any, out: Any = None, threads: int | None = None, quiet: bool = True,
+            base_dir: Any = None) -> RunResult:
+    """`softhom rve` on a scene (FFT or FE engine, [solver] engine): the homogenized response."""
+    return _run(_softhom.run_rve, scene, out, threads, quiet, base_dir)
+
+
+def run_macro(scene: Any, out: Any = None, threads: int | None = None, quiet: bool = True,
+              base_dir: Any = None) -> RunResult:
+    """`softhom macro` on a scene (built-in structure or Gmsh mesh): the probe response."""
+    return _run(_softhom.run_macro, scene, out, threads, quiet, base_dir)
+
+
+def open_campaign(directory: Any) -> pd.DataFrame:
+    """Every case and step of a campaign store (DIR/campaign.h5, or the .h5 file itself) as one
+    DataFrame in the layout of cases.csv: case, status, one column per campaign parameter, step, the
+    `softhom rve` response columns. Read with softhom's own store reader (no h5py). ``attrs``: units,
+    parameters (the parameter column names), errors (case id → error of failed cases)."""
+    path = os.fspath(directory)
+    if os.path.isdir(path):
+        path = os.path.join(path, "campaign.h5")
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"campaign store '{path}' does not exist")
+    t = _softhom.read_campaign(path)
+    df = pd.DataFrame({c: t["data"][c] for c in t["columns"]}, columns=list(t["columns"]))
+    if len(df):
+        df["step"] = df["step"].astype("Int64")
+    df.attrs["units"] = _units(df.columns)
+    df.attrs["parameters"] = list(t["parameters"])
+    df.attrs["errors"] = dict(t["errors"])
+    return df
+
+
+def _curve_csv(name: str, data: Any, directory: str) -> str:
+    """Writes curve data (x, y) to directory/<n>.csv with columns x, y; returns the path."""
+    if isinstance(data, pd.DataFrame):
+        x, y = data.iloc[:, 0].to_numpy(float), data.iloc[:, 1].to_numpy(float)
+    else:
+        x, y = (np.asarray(a, dtype=float) for a in data)
+    if x.ndim != 1 or x.shape != y.shape:
+        raise _input_error(f"curves.{name}.data", f"arrays of shapes {x.shape} and {y.shape}",
+                           "x and y must be 1-D arrays of one length")
+    path = os.path.join(directory, f"curve{len(os.listdir(directory))}.csv")
+    pd.DataFrame({"x": x, "y": y}).to_csv(path, index=False, float_format="%.17g")
+    return path
+
+
+def calibrate(calibration: Any, out: Any = None, threads: int | None = None, quiet: bool = True,
+              base_dir: Any = None) -> CalibrationResult:
+    """`softhom calibrate` on a calibration ([model], [[curves]], [solver]; docs/keys.md). In a dict,
+    a curve may carry its data as arrays: ``{"name": "t45", "x": "F11", "y": "P11", "data": (x, y),
+    "load": {...}}`` instead of a file, run or campaign. With ``out``, writes material.toml,
+    summary.json, response.csv and curves/*.csv there."""
+    kind, payload = _scene(calibration)
+    with tempfile.TemporaryDirectory(prefix="softhom-curves-") as curves_dir:
+        if kind == "dict" and "curves" in payload:
+            payload = dict(payload)
+            curves = []
+            for i, c in enumerate(payload["curves"]):
+                c = dict(c)
+                if "data" in c:
+                    c["file"] = _curve_csv(str(c.get("name", i)), c.pop("data"), curves_dir)
+                    c.setdefault("x_column", "x")
+                    c.setdefault("y_column", "y")
+                curves.append(c)
+            payload["curves"] = curves
+        directory = "" if out is None else os.fspath(out)
+        r = _softhom.calibrate(kind, payload, _base(calibration, base_dir), directory, threads or 0, quiet)
+    comparison = pd.read_csv(_io.StringIO(r["comparison_csv"]), float_precision="round_trip")
+    return CalibrationResult(json.loads(r["summary"]), r["material_toml"], comparison, bool(r["success"]))

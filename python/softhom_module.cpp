@@ -1,0 +1,448 @@
+// The compiled part of the Python package `softhom` (python/softhom/__init__.py is the public API).
+//
+// Scenes come in as Python dicts (converted key by key into the TOML table the scene parsers read, so
+// every refusal names the same TOML path as on the command line), TOML text or a file. Jobs run through
+// the same entry points as the `softhom` program (apps/: run_point_scene, run_rve_scene,
+// run_macro_scene; studies: calibrate, read_store). While a job runs, the GIL is released and SIGINT
+// asks softhom's loops to stop (materials/interrupt.hpp), which becomes KeyboardInterrupt here.
+#include <omp.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <cmath>
+#include <csignal>
+#include <iostream>
+#include <sstream>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "embedded_scenes.hpp"
+#include "cmd_keys.hpp"
+#include "point_output.hpp"
+#include "scene_source.hpp"
+#include "softhom/io/fields.hpp"
+#include "softhom/io/files.hpp"
+#include "softhom/io/scene.hpp"
+#include "softhom/io/summary.hpp"
+#include "softhom/materials/errors.hpp"
+#include "softhom/materials/interrupt.hpp"
+#include "softhom/materials/library.hpp"
+#include "softhom/materials/scene_keys.hpp"
+#include "softhom/studies/calibration.hpp"
+#include "softhom/studies/campaign.hpp"
+
+namespace py = pybind11;
+namespace fs = std::filesystem;
+
+namespace softhom::python {
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Python values → TOML. Errors name the TOML path the value would have in a scene file.
+
+std::string repr_text(py::handle v) { return py::str(py::repr(v)).cast<std::string>(); }
+
+template <class Sink>
+void put_value(py::handle v, const std::string& path, Sink&& sink);
+
+toml::table to_table(py::handle mapping, const std::string& path) {
+  toml::table t;
+  for (auto item : py::reinterpret_borrow<py::object>(mapping).attr("items")()) {
+    const py::tuple kv = py::reinterpret_borrow<py::tuple>(item);
+    if (!py::isinstance<py::str>(kv[0]))
+      throw InputError(path.empty() ? "scene" : path, repr_text(kv[0]), "a table key must be a string");
+    const std::string key = kv[0].cast<std::string>();
+    const std::string child = path.empty() ? key : path + "." + key;
+    put_value(kv[1], child, [&](auto&& value) { t.insert_or_assign(key, std::forward<decltype(value)>(value)); });
+  }
+  return t;
+}
+
+toml::array to_array(py::handle sequence, const std::string& path) {
+  toml::array a;
+  std::size_t i = 0;
+  for (py::handle item : py::reinterpret_borrow<py::iterable>(sequence)) {
+    put_value(item, path + "[" + std::to_string(i++) + "]",
+              [&](auto&& value) { a.push_back(std::forward<decltype(value)>(value)); });
+  }
+  return a;
+}
+
+template <class Sink>
+void put_value(py::handle v, const std::string& path, Sink&& sink) {
+  if (v.is_none()) throw InputError(path, "None", "no value; leave the key out for its default");
+  // numpy scalars and arrays: their Python equivalents (numbers, nested lists).
+  if (py::hasattr(v, "tolist") && !py::isinstance<py::str>(v)) return put_value(v.attr("tolist")(), path, sink);
+  if (py::isinstance<py::bool_>(v)) return sink(v.cast<bool>());
+  if (py::isinstance<py::int_>(v)) return sink(v.cast<std::int64_t>());
+  if (py::isinstance<py::float_>(v)) return sink(v.cast<double>());
+  if (py::isinstance<py::str>(v)) return sink(v.cast<std::string>());
+  if (py::hasattr(v, "items")) return sink(to_table(v, path));
+  if (py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v)) return sink(to_array(v, path));
+  throw InputError(path, repr_text(v), "not a TOML value (use a number, string, bool, list or dict)");
+}
+
+/// A scene given as ("dict", mapping), ("toml", text) or ("file", path); `base` (may be empty) is the
+/// directory relative paths in a dict or text scene are resolved against.
+app::LoadedScene load_scene(const std::string& kind, py::handle scene, const std::string& base) {
+  app::LoadedScene s;
+  if (kind == "file") {
+    s.file = scene.cast<std::string>();
+    s.name = s.file.stem().string();
+    s.table = io::load_scene(s.file);
+    return s;
+  }
+  s.name = "python";
+  if (!base.empty()) s.file = fs::path(base) / "python-scene.toml";
+  if (kind == "toml") s.table = io::parse_scene(scene.cast<std::string>(), "<scene text>");
+  else s.table = to_table(scene, "");
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Running a job: GIL released, SIGINT → softhom's stop flag, OpenMP threads as asked.
+
+extern "C" void request_stop_on_signal(int signal) { request_stop(signal); }
+
+/// For the lifetime of the object: SIGINT asks softhom's loops to stop (instead of Python's handler,
+/// which would only be run after the job), and at most `threads` OpenMP threads (0: unchanged).
+class JobScope {
+ public:
+  explicit JobScope(int threads) : threads_before_(omp_get_max_threads()) {
+    clear_stop_request();
+    struct sigaction action {};
+    action.sa_handler = request_stop_on_signal;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGINT, &action, &previous_);
+    if (threads > 0) omp_set_num_threads(threads);
+  }
+  ~JobScope() {
+    sigaction(SIGINT, &previous_, nullptr);
+    omp_set_num_threads(threads_before_);
+  }
+  JobScope(const JobScope&) = delete;
+  JobScope& operator=(const JobScope&) = delete;
+
+ private:
+  struct sigaction previous_ {};
+  int threads_before_;
+};
+
+/// After a job: a SIGINT during it becomes KeyboardInterrupt (the converged rows are on disk in `out`).
+void raise_if_interrupted() {
+  if (!stop_requested()) return;
+  const int signal = stop_signal();
+  clear_stop_request();
+  if (signal == SIGINT || signal == 0) {
+    PyErr_SetNone(PyExc_KeyboardInterrupt);
+    throw py::error_already_set();
+  }
+}
+
+template <class Run>
+int run_job(const std::string& out, int threads, Run&& run) {
+  int code = 1;
+  {
+    JobScope scope(threads);
+    py::gil_scoped_release release;
+    try {
+      code = run();
+    } catch (...) {
+      if (!out.empty()) io::remove_own_temporaries(out);
+      throw;
+    }
+    if (!out.empty()) io::remove_own_temporaries(out);
+  }
+  raise_if_interrupted();
+  return code;
+}
+
+app::CommandOptions command_options(const std::string& out, int threads, bool quiet) {
+  app::CommandOptions o;
+  o.out = out;
+  o.threads = threads;
+  o.quiet = quiet;
+  return o;
+}
+
+int run_point(const std::string& kind, py::handle scene, const std::string& base, const std::string& out,
+              int threads, bool quiet) {
+  const app::LoadedScene s = load_scene(kind, scene, base);
+  return run_job(out, threads, [&] { return app::run_point_scene(s, out, quiet).result.completed ? 0 : 1; });
+}
+
+int run_rve(const std::string& kind, py::handle scene, const std::string& base, const std::string& out, int threads,
+            bool quiet) {
+  app::LoadedScene s = load_scene(kind, scene, base);
+  const app::CommandOptions o = command_options(out, threads, quiet);
+  return run_job(out, threads, [&] { return app::run_rve_scene(o, std::move(s)); });
+}
+
+int run_macro(const std::string& kind, py::handle scene, const std::string& base, const std::string& out,
+              int threads, bool quiet) {
+  const app::LoadedScene s = load_scene(kind, scene, base);
+  const app::CommandOptions o = command_options(out, threads, quiet);
+  return run_job(out, threads, [&] { return app::run_macro_scene(o, s); });
+}
+
+// ---------------------------------------------------------------------------------------------
+// Materials.
+
+const toml::table& material_table(const toml::table& t) {
+  // A whole `[material]` table (TOML text "[material]\npreset = ...") or its contents.
+  if (t.size() == 1 && t.contains("material") && t["material"].is_table()) return *t["material"].as_table();
+  return t;
+}
+
+class PyMaterial {
+ public:
+  explicit PyMaterial(MaterialPtr m) : m_(std::move(m)) {}
+  const Material& get() const { return *m_; }
+
+ private:
+  MaterialPtr m_;
+};
+
+PyMaterial make_material(const std::string& kind, py::handle spec) {
+  // A dict is the table's contents (errors at "material.G"), unless it is {"material": {...}}.
+  const bool wrapped = kind == "dict" && py::len(spec) == 1 && py::reinterpret_borrow<py::object>(spec).contains("material");
+  const toml::table t = kind == "dict" && !wrapped ? to_table(spec, "material") : load_scene(kind, spec, "").table;
+  return PyMaterial(build_material(parse_material(material_table(t), "material")));
+}
+
+py::array_t<double> initial_state(const PyMaterial& pm, py::ssize_t n) {
+  if (n < 0) throw InputError("n", std::to_string(n), "must be >= 0");
+  const Material& m = pm.get();
+  py::array_t<double> state({n, py::ssize_t(m.state_size())});
+  double* data = state.mutable_data();
+  for (py::ssize_t i = 0; i < n && m.state_size() > 0; ++i) m.init_state(data + i * m.state_size());
+  return state;
+}
+
+/// P[n,3,3], A[n,9,9] (or None), state_new[n,state_size] at F[n,3,3]; a point the law refuses (locking,
+/// inverted, not finite) raises softhom.EvaluationError naming it.
+py::tuple evaluate(const PyMaterial& pm, py::array_t<double, py::array::c_style | py::array::forcecast> F,
+                   py::object state, double dt, bool tangent) {
+  const Material& m = pm.get();
+  if (F.ndim() != 3 || F.shape(1) != 3 || F.shape(2) != 3)
+    throw InputError("F", "shape " + repr_text(py::cast(std::vector<py::ssize_t>(F.shape(), F.shape() + F.ndim()))),
+                     "must be [n, 3, 3]");
+  if (!std::isfinite(dt) || dt < 0.0) throw InputError("dt", format_number(dt), "must be finite and >= 0");
+  const py::ssize_t n = F.shape(0);
+  const int ns = m.state_size();
+  using CArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+  const CArray old_state = state.is_none() ? CArray(initial_state(pm, n)) : state.cast<CArray>();
+  if (old_state.ndim() != 2 || old_state.shape(0) != n || old_state.shape(1) != ns)
+    throw InputError("state", "shape [" + std::to_string(old_state.ndim() > 0 ? old_state.shape(0) : 0) + ", ...]",
+                     "must be [n, state_size] = [" + std::to_string(n) + ", " + std::to_string(ns) + "]");
+  py::array_t<double> P({n, py::ssize_t(3), py::ssize_t(3)});
+  py::array_t<double> new_state({n, py::ssize_t(ns)});
+  py::array_t<double> A = tangent ? py::array_t<double>({n, py::ssize_t(9), py::ssize_t(9)}) : py::array_t<double>();
+  const double* f = F.data();
+  const double* so = old_state.data();
+  double* p = P.mutable_data();
+  double* sn = new_state.mutable_data();
+  double* a = tangent ? A.mutable_data() : nullptr;
+  std::vector<MaterialStatus> status(std::size_t(n), MaterialStatus::ok);
+  {
+    py::gil_scoped_release release;
+#pragma omp parallel for schedule(static)
+    for (py::ssize_t i = 0; i < n; ++i) {
+      Mat3 Fi, Pi;
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) Fi(r, c) = f[9 * i + 3 * r + c];
+      Mat9 Ai;
+      const double* old_i = ns ? so + i * ns : nullptr;
+      double* new_i = ns ? sn + i * ns : nullptr;
+      status[i] = m.evaluate(Fi, old_i, new_i, dt, Pi, a ? &Ai : nullptr);
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) p[9 * i + 3 * r + c] = Pi(r, c);
+      if (a)
+        for (int r = 0; r < 9; ++r)
+          for (int c = 0; c < 9; ++c) a[81 * i + 9 * r + c] = Ai(r, c);  // row 3i+j, column 3k+l
+    }
+  }
+  for (py::ssize_t i = 0; i < n; ++i)
+    if (status[i] != MaterialStatus::ok) {
+      const py::object error = py::module_::import("softhom").attr("EvaluationError");
+      PyErr_SetObject(error.ptr(), py::str("F[" + std::to_string(i) + "]: " + to_string(status[i])).ptr());
+      throw py::error_already_set();
+    }
+  return py::make_tuple(P, tangent ? py::object(A) : py::object(py::none()), new_state);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Campaign stores and calibration.
+
+/// The tidy table of DIR/campaign.h5 as columns (the layout of cases.csv): {"columns": [...],
+/// "data": {name: list}}; numbers as floats (NaN where a case has no value), text as str.
+py::dict read_campaign(const std::string& store_path) {
+  std::map<std::string, studies::CaseRecord> records;
+  {
+    py::gil_scoped_release release;
+    records = studies::read_store(store_path);
+  }
+  std::vector<std::string> params, columns;
+  for (const auto& [id, r] : records) {
+    for (const auto& p : r.parameters)
+      if (std::find(params.begin(), params.end(), p.name) == params.end()) params.push_back(p.name);
+    for (const auto& c : r.columns)
+      if (std::find(columns.begin(), columns.end(), c) == columns.end()) columns.push_back(c);
+  }
+  std::vector<std::string> case_col, status_col, error_col;
+  std::vector<double> step_col;
+  std::map<std::string, std::vector<py::object>> param_cols;
+  std::map<std::string, std::vector<double>> data_cols;
+  for (const auto& [id, r] : records) {
+    const std::size_t rows = std::max<std::size_t>(1, r.rows()), ncols = r.columns.size();
+    for (std::size_t i = 0; i < rows; ++i) {
+      case_col.push_back(r.id);
+      status_col.push_back(r.status);
+      error_col.push_back(r.error);
+      step_col.push_back(r.rows() ? double(i) : std::nan(""));
+      for (const auto& name : params) {
+        py::object v = py::float_(std::nan(""));
+        for (const auto& q : r.parameters)
+          if (q.name == name) v = q.is_string() ? py::object(py::str(std::get<std::string>(q.value))) : py::object(py::float_(std::get<double>(q.value)));
+        param_cols[name].push_back(v);
+      }
+      for (const auto& c : columns) {
+        const auto it = std::find(r.columns.begin(), r.columns.end(), c);
+        data_cols[c].push_back(r.rows() && it != r.columns.end() ? r.data[i * ncols + std::size_t(it - r.columns.begin())]
+                                                                 : std::nan(""));
+      }
+    }
+  }
+  py::dict data;
+  data["case"] = case_col;
+  data["status"] = status_col;
+  for (const auto& name : params) data[py::str(name)] = param_cols[name];
+  data["step"] = step_col;
+  for (const auto& c : columns) data[py::str(c)] = py::array_t<double>(py::ssize_t(data_cols[c].size()), data_cols[c].data());
+  std::vector<std::string> order{"case", "status"};
+  order.insert(order.end(), params.begin(), params.end());
+  order.push_back("step");
+  order.insert(order.end(), columns.begin(), columns.end());
+  py::dict errors;
+  for (const auto& [id, r] : records)
+    if (!r.error.empty()) errors[py::str(id)] = r.error;
+  py::dict result;
+  result["columns"] = order;
+  result["parameters"] = params;
+  result["data"] = data;
+  result["errors"] = errors;
+  return result;
+}
+
+/// Fits the calibration; returns summary.json's fields (as JSON text), material.toml and the
+/// comparison table (response.csv text). With `out`, writes the files `softhom calibrate` writes
+/// (no fit.png: plot from Python).
+py::dict calibrate(const std::string& kind, py::handle calibration, const std::string& base, const std::string& out,
+                   int threads, bool quiet) {
+  const app::LoadedScene s = load_scene(kind, calibration, base);
+  const fs::path base_dir = kind == "file" ? fs::absolute(s.file).parent_path() : fs::path(base.empty() ? "." : base);
+  const studies::CalibrationInput input = studies::parse_calibration(s.table, base_dir);
+  std::string summary_json, material, comparison;
+  bool success = false;
+  run_job(out, threads, [&] {
+    auto progress = [&](const std::string& line) {
+      if (!quiet) std::cerr << "[calibrate] " << line << "\n";
+    };
+    const studies::CalibrationResult result = studies::calibrate(input, progress);
+    nlohmann::json summary = io::summary_base("calibrate", s.file, s.table);
+    const nlohmann::json fields = studies::result_json(input, result);
+    for (const auto& [k, v] : fields.items()) summary[k] = v;
+    if (!out.empty()) {
+      fs::create_directories(out);
+      studies::write_calibration_files(out, input, result);
+      io::write_summary(out, summary);
+    }
+    summary_json = summary.dump();
+    material = studies::material_toml(input.model, result.values);
+    comparison = studies::comparison_csv(result);
+    success = result.success;
+    return 0;
+  });
+  py::dict r;
+  r["summary"] = summary_json;
+  r["material_toml"] = material;
+  r["comparison_csv"] = comparison;
+  r["success"] = success;
+  return r;
+}
+
+std::string default_scene(const std::string& command) {
+  const std::string name = app::default_scene_name(command);
+  const auto& scenes = app::embedded_scenes();
+  const auto it = scenes.find(name);
+  if (name.empty() || it == scenes.end()) throw InputError("command", command, "has no embedded default scene");
+  return it->second;
+}
+
+}  // namespace
+}  // namespace softhom::python
+
+PYBIND11_MODULE(_softhom, m) {
+  using namespace softhom;
+  using namespace softhom::python;
+  m.doc() = "softhom compiled core; use the package `softhom` (python/softhom/__init__.py)";
+  io::silence_hdf5_errors();
+
+  // softhom.InputError(ValueError): message "field = value: reason", attributes field and value.
+  static py::exception<InputError> input_error(m, "InputError", PyExc_ValueError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const InputError& e) {
+      py::object exc = py::reinterpret_borrow<py::object>(py::handle(input_error))(e.what());
+      exc.attr("field") = e.field();
+      exc.attr("value") = e.value();
+      PyErr_SetObject(input_error.ptr(), exc.ptr());
+    } catch (const io::WriteError& e) {
+      PyErr_SetString(PyExc_OSError, e.what());
+    }
+  });
+
+  m.def("version", &io::softhom_version);
+  m.def("presets", &preset_names, "names of the parameter sets (docs/model.md §6)");
+  m.def("default_scene", &softhom::python::default_scene, py::arg("command"), "the embedded default scene of a subcommand (TOML)");
+  m.def("column_unit", [](const std::string& c) { return io::column_info(c).unit; }, py::arg("column"));
+  m.def("column_description", [](const std::string& c) { return io::column_info(c).description; }, py::arg("column"));
+
+  py::class_<PyMaterial>(m, "Material")
+      .def("describe", [](const PyMaterial& pm) { return pm.get().describe(); })
+      .def_property_readonly("state_size", [](const PyMaterial& pm) { return pm.get().state_size(); })
+      .def_property_readonly("initial_shear_modulus", [](const PyMaterial& pm) { return pm.get().initial_shear_modulus(); })
+      .def_property_readonly("initial_bulk_modulus", [](const PyMaterial& pm) { return pm.get().initial_bulk_modulus(); })
+      .def_property_readonly("fiber_directions",
+                             [](const PyMaterial& pm) {
+                               std::vector<std::array<double, 3>> d;
+                               for (const Vec3& a : pm.get().fiber_directions()) d.push_back({a[0], a[1], a[2]});
+                               return d;
+                             })
+      .def("initial_state", &softhom::python::initial_state, py::arg("n"))
+      .def("evaluate", &softhom::python::evaluate, py::arg("F"), py::arg("state") = py::none(), py::arg("dt") = 0.0,
+           py::arg("tangent") = true);
+  m.def("make_material", &softhom::python::make_material, py::arg("kind"), py::arg("spec"));
+
+  m.def("run_point", &softhom::python::run_point, py::arg("kind"), py::arg("scene"), py::arg("base"), py::arg("out"), py::arg("threads"),
+        py::arg("quiet"));
+  m.def("run_rve", &softhom::python::run_rve, py::arg("kind"), py::arg("scene"), py::arg("base"), py::arg("out"), py::arg("threads"),
+        py::arg("quiet"));
+  m.def("run_macro", &softhom::python::run_macro, py::arg("kind"), py::arg("scene"), py::arg("base"), py::arg("out"), py::arg("threads"),
+        py::arg("quiet"));
+  m.def("read_campaign", &softhom::python::read_campaign, py::arg("store"));
+  m.def("calibrate", &softhom::python::calibrate, py::arg("kind"), py::arg("calibration"), py::arg("base"), py::arg("out"),
+        py::arg("threads"), py::arg("quiet"));
+  m.def("to_toml", [](py::handle d) {
+    std::ostringstream s;
+    s << softhom::python::to_table(d, "");
+    return s.str();
+  }, py::arg("scene"), "a scene dict as TOML text");
+  // The one-RVE-cell facade (rve/include/softhom/rve/cell.hpp: a cell at a macro F̄ → P̄, dP̄/dF̄, state)
+  // is bound here once it is part of the rve library: class Cell with evaluate(F̄, state, dt).
+}
