@@ -12,6 +12,8 @@
 #include "softhom/io/files.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
+#include "softhom/macro/devices.hpp"
+#include "softhom/macro/mesh_generation.hpp"
 #include "softhom/macro/scene.hpp"
 #include "softhom/macro/structures.hpp"
 #include "softhom/materials/errors.hpp"
@@ -60,7 +62,7 @@ std::vector<std::string> response_columns(const macro::Structure& structure) {
 int run_macro(const CommandOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   const LoadedScene scene = load_scene_or_default(options, "macro_tube_plane_strain");
-  const macro::MacroScene ms = macro::parse_macro_scene(scene.table, scene.file);
+  const macro::MacroScene ms = macro::parse_macro_scene(scene.table, scene.file, macro::mesh_cache_dir(options.out));
   const macro::Structure structure = macro::build_structure(ms.spec);
   fe::Simulation sim(structure.model, ms.newton);
   const std::string tag = "[macro " + scene.name + "] ";
@@ -71,6 +73,15 @@ int run_macro(const CommandOptions& options) {
 
   io::ProgressiveCsv table(options.out / "response.csv", response_columns(structure));
   table.add_row(macro::probe_values(structure, sim));
+  // [device]: the device's own quantities (device.csv) and its geometric stop (gripper fingertips).
+  std::unique_ptr<macro::DeviceProbe> device;
+  std::unique_ptr<io::ProgressiveCsv> device_table;
+  std::string device_stop;
+  if (ms.device.kind != macro::DeviceKind::none) {
+    device = std::make_unique<macro::DeviceProbe>(ms.device, structure);
+    device_table = std::make_unique<io::ProgressiveCsv>(options.out / "device.csv", device->columns());
+    device_table->add_row(device->values(sim));
+  }
   std::unique_ptr<io::FieldWriter> writer;
   if (ms.fields) {
     writer = std::make_unique<io::FieldWriter>(options.out / "fields", field_mesh(structure.model.mesh));
@@ -90,18 +101,28 @@ int run_macro(const CommandOptions& options) {
     table.add_row(macro::probe_values(structure, sim));
     if (writer && ms.fields_at(t)) write_fields(*writer, sim);
     ++done;
+    if (device) {
+      const std::vector<double> row = device->values(sim);
+      device_table->add_row(row);
+      device_stop = device->stop_reason(row);
+      if (!device_stop.empty()) {
+        std::cerr << tag << device_stop << " at t = " << format_number(t) << "\n";
+        break;
+      }
+    }
     progress.update(tag + "t = " + format_number(t) + " / " + format_number(ms.times.back()) + " (" +
                     std::to_string(step.counts.newton_iterations) + " Newton iterations in " +
                     std::to_string(step.substeps) + " sub-steps, " + std::to_string(step.counts.cutbacks) +
                     " cut-backs)");
     raise_test_signal_after(done);
   }
-  const bool completed = error.empty() && done == ms.times.size();
+  const bool completed = error.empty() && (done == ms.times.size() || !device_stop.empty());
   if (!completed && stop_requested()) error = interruption_message();
   progress.finish();
   for (const auto& line : sim.stats().log)
     if (!options.quiet) std::cerr << tag << line << "\n";
   table.flush();
+  if (device_table) device_table->flush();
   if (writer) writer->close();
 
   const fe::RunStats st = sim.stats();
@@ -109,6 +130,22 @@ int run_macro(const CommandOptions& options) {
   summary["material"] = ms.spec.material->describe();
   io::set_run_status(summary, completed, error);
   summary["columns"] = io::columns_json(table.table().columns());
+  if (device) {
+    nlohmann::json d;
+    d["kind"] = ms.device.kind == macro::DeviceKind::cpasmo ? "cpasmo" : "gripper";
+    d["file"] = "device.csv";
+    d["columns"] = device_table->table().columns();
+    d["stopped_before_contact"] = !device_stop.empty();
+    d["stop_reason"] = device_stop;
+    if (device_table->rows() > 0) {
+      nlohmann::json last;
+      const auto& cols = device_table->table().columns();
+      const auto row = device->values(sim);
+      for (std::size_t c = 0; c < cols.size() && c < row.size(); ++c) last[cols[c]] = row[c];
+      d["final"] = last;
+    }
+    summary["device"] = d;
+  }
   summary["output_steps"] = done;
   summary["steps"] = st.steps;
   summary["newton_iterations"] = st.newton_iterations;
