@@ -77,10 +77,12 @@ int run_macro(const CommandOptions& options) {
   std::unique_ptr<macro::DeviceProbe> device;
   std::unique_ptr<io::ProgressiveCsv> device_table;
   std::string device_stop;
+  std::vector<double> device_row;
   if (ms.device.kind != macro::DeviceKind::none) {
     device = std::make_unique<macro::DeviceProbe>(ms.device, structure);
     device_table = std::make_unique<io::ProgressiveCsv>(options.out / "device.csv", device->columns());
-    device_table->add_row(device->values(sim));
+    device_row = device->values(sim);
+    device_table->add_row(device_row);
   }
   std::unique_ptr<io::FieldWriter> writer;
   if (ms.fields) {
@@ -104,7 +106,9 @@ int run_macro(const CommandOptions& options) {
     if (device) {
       const std::vector<double> row = device->values(sim);
       device_table->add_row(row);
-      device_stop = device->stop_reason(row);
+      const double next = done < ms.times.size() ? ms.times[done] : t;
+      device_stop = device->stop_reason(row, &device_row, next);
+      device_row = row;
       if (!device_stop.empty()) {
         std::cerr << tag << device_stop << " at t = " << format_number(t) << "\n";
         break;

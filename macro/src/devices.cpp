@@ -103,6 +103,8 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
       if (f.root.empty())
         throw InputError("device.root_z", format_number(spec.root_z),
                          "no mesh node at that height under the fingertip \"" + spec.tips[i] + "\"");
+      const Vec3 d = centroid(X, f.tip) - centroid(X, f.root);
+      f.angle0 = std::atan2(-d.dot(f.radial), d[2]);
       fingers_.push_back(std::move(f));
     }
   }
@@ -160,7 +162,7 @@ std::vector<double> DeviceProbe::values(const fe::Simulation& sim) const {
     double distance = 1e300;
     for (const Finger& f : fingers_) {
       const Vec3 d = centroid(x, f.tip) - centroid(x, f.root);
-      angles.push_back(std::atan2(-d.dot(f.radial), d[2]) * 180.0 / M_PI);
+      angles.push_back((std::atan2(-d.dot(f.radial), d[2]) - f.angle0) * 180.0 / M_PI);
       for (int n : f.tip) distance = std::min(distance, std::hypot(x[n][0], x[n][1]));
     }
     row.push_back(std::accumulate(angles.begin(), angles.end(), 0.0) / double(std::max<std::size_t>(1, angles.size())));
@@ -170,13 +172,26 @@ std::vector<double> DeviceProbe::values(const fe::Simulation& sim) const {
   return row;
 }
 
-std::string DeviceProbe::stop_reason(const std::vector<double>& row) const {
+std::string DeviceProbe::stop_reason(const std::vector<double>& row, const std::vector<double>* previous,
+                                     double next_time) const {
   if (spec_.kind != DeviceKind::gripper || !(spec_.stop_distance > 0.0)) return "";
-  const double distance = row.back();
-  if (distance >= spec_.stop_distance) return "";
-  return "stopped before the fingers touch: a fingertip node is " + format_number(distance) +
-         " mm from the axis (device.stop_distance = " + format_number(spec_.stop_distance) +
-         " mm; contact between the fingers is not modelled)";
+  const std::string why = " (device.stop_distance = " + format_number(spec_.stop_distance) +
+                          " mm; contact between the fingers is not modelled)";
+  const double distance = row.back(), t = row.front();
+  if (distance < spec_.stop_distance)
+    return "stopped before the fingers touch: a fingertip node is " + format_number(distance) + " mm from the axis" + why;
+  // Extrapolated in the controlled load value (pressure or volume ratio), not in time: a hold after a
+  // ramp closes the gap only by creep, which the test on the reached distance catches.
+  const PiecewiseLinear& load = structure_->spec.load;
+  const double c_prev = previous ? load(previous->front()) : 0.0, c = load(t), c_next = load(next_time);
+  if (previous && next_time > t && std::abs(c - c_prev) > 0.0) {
+    const double rate = (distance - previous->back()) / (c - c_prev);
+    const double predicted = distance + rate * (c_next - c);
+    if (predicted < spec_.stop_distance)
+      return "stopped before the fingers touch: a fingertip node is " + format_number(distance) +
+             " mm from the axis and the next step would bring it to about " + format_number(predicted) + " mm" + why;
+  }
+  return "";
 }
 
 }  // namespace softhom::macro

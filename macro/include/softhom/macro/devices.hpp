@@ -9,7 +9,9 @@
 //           centroid), averaged over the wells of the region.
 //   gripper (§3.6, Fig. 17–18): the finger angle α of each fingertip surface (angle between the
 //           vertical and the line from the finger's root centroid to its tip centroid, positive
-//           towards the axis: closing), the channel volume and its change, and the smallest distance
+//           towards the axis: closing; measured from the undeformed finger, so α = 0 at rest: the
+//           root section has the channel's hole, so its nodal centroid is slightly off the tip's),
+//           the channel volume and its change, and the smallest distance
 //           of a fingertip node to the axis; the run stops before the fingers touch, when that
 //           distance falls below stop_distance (fingers are not in contact in the model).
 #include <map>
@@ -46,8 +48,10 @@ class DeviceProbe {
   std::vector<std::string> columns() const;
   /// One row at the simulation's current state.
   std::vector<double> values(const fe::Simulation& sim) const;
-  /// Non-empty when the run must stop after this row (gripper: fingertips near the axis).
-  std::string stop_reason(const std::vector<double>& row) const;
+  /// Non-empty when the run must stop after `row` (gripper: a fingertip node is within stop_distance
+  /// of the axis, or the distance extrapolated linearly in the load value from `previous` to `next_time` would
+  /// be: the step that would close the gap is not taken). `previous` may be null (first step).
+  std::string stop_reason(const std::vector<double>& row, const std::vector<double>* previous, double next_time) const;
   const DeviceSpec& spec() const { return spec_; }
 
  private:
@@ -58,6 +62,7 @@ class DeviceProbe {
   struct Finger {
     std::vector<int> tip, root;
     Vec3 radial = Vec3::Zero();  ///< unit radial direction of the finger (from the finger pitch)
+    double angle0 = 0.0;         ///< reference angle of the root-to-tip line (nodal centroids: ≈ 0)
   };
   DeviceSpec spec_;
   const Structure* structure_;
