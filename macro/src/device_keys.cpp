@@ -34,7 +34,7 @@ const io::KeyTable<DeviceSpec>& device_table() {
 
 DeviceSpec read_device(const toml::node* node) {
   DeviceSpec d;
-  device_table().read_optional(node, "device", d);
+  if (node) device_table().read(io::read_table(*node, "device"), "device", d);
   return d;
 }
 
