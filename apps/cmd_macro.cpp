@@ -141,13 +141,10 @@ int run_macro(const CommandOptions& options) {
     d["columns"] = device_table->table().columns();
     d["stopped_before_contact"] = !device_stop.empty();
     d["stop_reason"] = device_stop;
-    if (device_table->rows() > 0) {
-      nlohmann::json last;
-      const auto& cols = device_table->table().columns();
-      const auto row = device->values(sim);
-      for (std::size_t c = 0; c < cols.size() && c < row.size(); ++c) last[cols[c]] = row[c];
-      d["final"] = last;
-    }
+    nlohmann::json last;  // the last row written (the last converged output step)
+    const auto& cols = device_table->table().columns();
+    for (std::size_t c = 0; c < cols.size() && c < device_row.size(); ++c) last[cols[c]] = device_row[c];
+    d["final"] = last;
     summary["device"] = d;
   }
   summary["output_steps"] = done;
