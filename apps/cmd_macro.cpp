@@ -12,6 +12,8 @@
 #include "softhom/io/files.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
+#include "softhom/macro/devices.hpp"
+#include "softhom/macro/mesh_generation.hpp"
 #include "softhom/macro/scene.hpp"
 #include "softhom/macro/structures.hpp"
 #include "softhom/materials/errors.hpp"
@@ -63,7 +65,7 @@ int run_macro(const CommandOptions& options) {
 
 int run_macro_scene(const CommandOptions& options, const LoadedScene& scene) {
   const auto wall_start = std::chrono::steady_clock::now();
-  const macro::MacroScene ms = macro::parse_macro_scene(scene.table, scene.file);
+  const macro::MacroScene ms = macro::parse_macro_scene(scene.table, scene.file, macro::mesh_cache_dir(options.out));
   const macro::Structure structure = macro::build_structure(ms.spec);
   fe::Simulation sim(structure.model, ms.newton);
   const std::string tag = "[macro " + scene.name + "] ";
@@ -74,6 +76,17 @@ int run_macro_scene(const CommandOptions& options, const LoadedScene& scene) {
 
   io::ProgressiveCsv table(options.out / "response.csv", response_columns(structure));
   table.add_row(macro::probe_values(structure, sim));
+  // [device]: the device's own quantities (device.csv) and its geometric stop (gripper fingertips).
+  std::unique_ptr<macro::DeviceProbe> device;
+  std::unique_ptr<io::ProgressiveCsv> device_table;
+  std::string device_stop;
+  std::vector<double> device_row;
+  if (ms.device.kind != macro::DeviceKind::none) {
+    device = std::make_unique<macro::DeviceProbe>(ms.device, structure);
+    device_table = std::make_unique<io::ProgressiveCsv>(options.out / "device.csv", device->columns());
+    device_row = device->values(sim);
+    device_table->add_row(device_row);
+  }
   std::unique_ptr<io::FieldWriter> writer;
   if (ms.fields) {
     writer = std::make_unique<io::FieldWriter>(options.out / "fields", field_mesh(structure.model.mesh));
@@ -93,18 +106,30 @@ int run_macro_scene(const CommandOptions& options, const LoadedScene& scene) {
     table.add_row(macro::probe_values(structure, sim));
     if (writer && ms.fields_at(t)) write_fields(*writer, sim);
     ++done;
+    if (device) {
+      const std::vector<double> row = device->values(sim);
+      device_table->add_row(row);
+      const double next = done < ms.times.size() ? ms.times[done] : t;
+      device_stop = device->stop_reason(row, &device_row, next);
+      device_row = row;
+      if (!device_stop.empty()) {
+        std::cerr << tag << device_stop << " at t = " << format_number(t) << "\n";
+        break;
+      }
+    }
     progress.update(tag + "t = " + format_number(t) + " / " + format_number(ms.times.back()) + " (" +
                     std::to_string(step.counts.newton_iterations) + " Newton iterations in " +
                     std::to_string(step.substeps) + " sub-steps, " + std::to_string(step.counts.cutbacks) +
                     " cut-backs)");
     raise_test_signal_after(done);
   }
-  const bool completed = error.empty() && done == ms.times.size();
+  const bool completed = error.empty() && (done == ms.times.size() || !device_stop.empty());
   if (!completed && stop_requested()) error = interruption_message();
   progress.finish();
   for (const auto& line : sim.stats().log)
     if (!options.quiet) std::cerr << tag << line << "\n";
   table.flush();
+  if (device_table) device_table->flush();
   if (writer) writer->close();
 
   const fe::RunStats st = sim.stats();
@@ -112,6 +137,19 @@ int run_macro_scene(const CommandOptions& options, const LoadedScene& scene) {
   summary["material"] = ms.spec.material->describe();
   io::set_run_status(summary, completed, error);
   summary["columns"] = io::columns_json(table.table().columns());
+  if (device) {
+    nlohmann::json d;
+    d["kind"] = ms.device.kind == macro::DeviceKind::cpasmo ? "cpasmo" : "gripper";
+    d["file"] = "device.csv";
+    d["columns"] = device_table->table().columns();
+    d["stopped_before_contact"] = !device_stop.empty();
+    d["stop_reason"] = device_stop;
+    nlohmann::json last;  // the last row written (the last converged output step)
+    const auto& cols = device_table->table().columns();
+    for (std::size_t c = 0; c < cols.size() && c < device_row.size(); ++c) last[cols[c]] = device_row[c];
+    d["final"] = last;
+    summary["device"] = d;
+  }
   summary["output_steps"] = done;
   summary["steps"] = st.steps;
   summary["newton_iterations"] = st.newton_iterations;

@@ -7,8 +7,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "device_keys.hpp"
 #include "softhom/io/gmsh.hpp"
 #include "softhom/io/scene.hpp"
+#include "softhom/macro/mesh_generation.hpp"
 #include "softhom/materials/errors.hpp"
 
 namespace softhom::macro {
@@ -47,7 +49,8 @@ struct TubeKeys : GeometryKeys<TubeSpec> {
 struct SphereKeys : GeometryKeys<SphereSpec> {};
 struct PlateKeys : GeometryKeys<PlateSpec> {};
 struct GmshKeys {
-  std::string type, file;
+  std::string type, file, geo;
+  double mesh_size = 0.0;
   FiberFrame fiber_frame = FiberFrame::global;
 };
 
@@ -126,9 +129,13 @@ KeyTable<PlateKeys> plate_table() {
 }
 
 KeyTable<GmshKeys> gmsh_table() {
-  KeyTable<GmshKeys> t("geometry (gmsh)", "An imported MSH 4.1 mesh (its own elements) with [[boundary]], [probe], [regions.*].");
+  KeyTable<GmshKeys> t("geometry (gmsh)",
+                       "An imported MSH 4.1 mesh (its own elements), or a .geo meshed at run time by gmsh into quadratic "
+                       "tets (cached by geometry hash and size), with [[boundary]], [probe], [regions.*], [device].");
   add_common(t, false);
-  t.text("file", &GmshKeys::file, "mesh file, relative to the scene file").required();
+  t.text("file", &GmshKeys::file, "mesh file, relative to the scene file (or give geo)")
+      .text("geo", &GmshKeys::geo, "Gmsh geometry, relative to the scene file, meshed with -setnumber mesh_size (instead of file)")
+      .number("mesh_size", &GmshKeys::mesh_size, kLength, "mm", "element size passed to the .geo (required with geo)");
   return t;
 }
 
@@ -302,7 +309,8 @@ const KeyTable<SceneKeysTop>& scene_table() {
         .custom("output", "table", "field output", skip)
         .custom("boundary", "list of tables", "gmsh only: constraints on physical surfaces", skip)
         .custom("probe", "table", "gmsh only: reported surface", skip)
-        .custom("regions", "table", "gmsh only: a material table per physical volume", skip);
+        .custom("regions", "table", "gmsh only: a material table per physical volume", skip)
+        .custom("device", "table", "gmsh only: device outputs (device.csv)", skip);
     return k;
   }();
   return t;
@@ -397,12 +405,23 @@ void read_boundaries(const toml::table& scene, ImportedSpec& im) {
 
 /// [geometry] type = "gmsh": the mesh, constraints on physical surfaces and region materials.
 void read_imported(const toml::table& scene, const toml::table& g, const std::filesystem::path& scene_file,
-                   StructureSpec& s) {
+                   const std::filesystem::path& mesh_cache, StructureSpec& s) {
   const GmshKeys o = read_geometry(gmsh_table(), g, "gmsh");
   s.kind = StructureKind::imported;
   s.fiber_frame = o.fiber_frame;
-  std::filesystem::path path(o.file);
-  if (path.is_relative() && !scene_file.empty()) path = scene_file.parent_path() / path;
+  if (o.file.empty() == o.geo.empty())
+    throw InputError(o.file.empty() ? "geometry.file" : "geometry.geo", "",
+                     o.file.empty() ? "missing: give file (a .msh) or geo (a .geo with mesh_size)" : "give file or geo, not both");
+  if (!o.geo.empty() && !(o.mesh_size > 0.0)) throw InputError("geometry.mesh_size", "", "missing: required with geometry.geo");
+  if (o.geo.empty() && o.mesh_size > 0.0) throw InputError("geometry.mesh_size", format_number(o.mesh_size), "only with geometry.geo");
+  auto resolve = [&](const std::string& f) {
+    std::filesystem::path p(f);
+    if (p.is_relative() && !scene_file.empty()) p = scene_file.parent_path() / p;
+    return p;
+  };
+  std::filesystem::path path = resolve(o.file);
+  if (!o.geo.empty())
+    path = mesh_from_geo(resolve(o.geo), o.mesh_size, mesh_cache.empty() ? mesh_cache_dir() : mesh_cache, "geometry.geo");
   if (!std::filesystem::exists(path)) throw InputError("geometry.file", path.string(), "no such file");
   auto& im = s.imported;
   im.mesh = io::read_gmsh(path);
@@ -423,7 +442,8 @@ void read_imported(const toml::table& scene, const toml::table& g, const std::fi
     }
 }
 
-void read_geometry_table(const toml::table& scene, const std::filesystem::path& scene_file, StructureSpec& s) {
+void read_geometry_table(const toml::table& scene, const std::filesystem::path& scene_file,
+                         const std::filesystem::path& mesh_cache, StructureSpec& s) {
   const toml::table& g = io::read_table(*scene.get("geometry"), "geometry");
   const toml::node* tn = g.get("type");
   if (!tn) throw InputError("geometry.type", "", "missing: structure kind, " + kTypes);
@@ -441,11 +461,11 @@ void read_geometry_table(const toml::table& scene, const std::filesystem::path& 
     s.plate = o;
     set_common(o, s);
   } else if (type == "gmsh") {
-    read_imported(scene, g, scene_file, s);
+    read_imported(scene, g, scene_file, mesh_cache, s);
   } else {
     throw InputError("geometry.type", io::describe_value(*tn), "must be " + kTypes + io::did_you_mean(type, {"tube", "actuator", "sphere", "plate", "gmsh"}));
   }
-  for (const char* key : {"boundary", "probe", "regions"})
+  for (const char* key : {"boundary", "probe", "regions", "device"})
     if (type != "gmsh" && scene.contains(key)) throw InputError(key, "", "only for geometry.type = \"gmsh\"");
 }
 
@@ -530,11 +550,13 @@ bool MacroScene::fields_at(double t) const {
   return std::any_of(field_times.begin(), field_times.end(), [&](double f) { return std::abs(f - t) <= tol; });
 }
 
-MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::path& scene_file) {
+MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::path& scene_file,
+                             const std::filesystem::path& mesh_cache) {
   SceneKeysTop top;
   scene_table().read(scene, "", top);
   MacroScene m;
-  read_geometry_table(scene, scene_file, m.spec);
+  read_geometry_table(scene, scene_file, mesh_cache, m.spec);
+  m.device = read_device(scene.get("device"));
   // Before the materials and anything else: a 1000 x 1000 x 10 box is refused with its memory estimate.
   refuse_if_too_large(m.spec, double(softhom::available_memory_bytes()), size_field(m.spec));
   read_materials(scene, m.spec);
@@ -547,7 +569,8 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
 std::vector<io::TableDoc> macro_scene_tables() {
   return {scene_table().describe(), tube_table(false).describe(), tube_table(true).describe(), sphere_table().describe(),
            plate_table().describe(), gmsh_table().describe(), boundary_table().describe(), probe_table().describe(),
-           load_table().describe(), solver_table().describe(), output_table().describe()};
+           load_table().describe(), solver_table().describe(), output_table().describe(),
+          device_table().describe()};
 }
 
 }  // namespace softhom::macro

@@ -1,0 +1,197 @@
+#include "softhom/macro/devices.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "softhom/io/keys.hpp"
+#include "softhom/materials/errors.hpp"
+
+namespace softhom::macro {
+namespace {
+
+/// Components of the nodes of `tris` connected through shared triangles (union-find).
+std::vector<std::vector<int>> connected_node_sets(const std::vector<fe::Tri6>& tris) {
+  std::map<int, int> parent;
+  auto find = [&](int a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  for (const auto& t : tris)
+    for (int n : t) parent.emplace(n, n);
+  for (const auto& t : tris)
+    for (int k = 1; k < 6; ++k) {
+      const int a = find(t[0]), b = find(t[k]);
+      if (a != b) parent[b] = a;
+    }
+  std::map<int, std::vector<int>> groups;
+  for (const auto& [n, p] : parent) groups[find(n)].push_back(n);
+  std::vector<std::vector<int>> out;
+  for (auto& [root, nodes] : groups) out.push_back(std::move(nodes));
+  return out;
+}
+
+Vec3 centroid(const std::vector<Vec3>& x, const std::vector<int>& nodes) {
+  Vec3 c = Vec3::Zero();
+  for (int n : nodes) c += x[n];
+  return nodes.empty() ? c : Vec3(c / double(nodes.size()));
+}
+
+double mean_distance(const std::vector<Vec3>& x, const std::vector<int>& nodes) {
+  const Vec3 c = centroid(x, nodes);
+  double sum = 0.0;
+  for (int n : nodes) sum += (x[n] - c).norm();
+  return nodes.empty() ? 0.0 : sum / double(nodes.size());
+}
+
+void require_surface(const fe::Mesh& mesh, const std::string& name, const std::string& field) {
+  if (!mesh.has_surface(name))
+    throw InputError(field, "\"" + name + "\"", "no physical surface of that name in the mesh");
+}
+
+}  // namespace
+
+DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : spec_(spec), structure_(&structure) {
+  const fe::Mesh& mesh = structure.model.mesh;
+  const auto& X = mesh.nodes;
+  if (spec.kind == DeviceKind::cpasmo) {
+    require_surface(mesh, spec.top_surface, "device.top_surface");
+    top_ = fe::surface_nodes(mesh, spec.top_surface);
+    top_z0_ = -1e300;
+    for (int n : top_) top_z0_ = std::max(top_z0_, X[n][2]);
+    for (int k = 1; k <= spec.regions; ++k) {
+      const std::string name = spec.well_prefix + std::to_string(k);
+      require_surface(mesh, name, "device.well_prefix");
+      std::vector<Well> wells;
+      for (const auto& nodes : connected_node_sets(mesh.tri_surface(name))) {
+        // The rim: the wall's nodes at its top (the opening in the top surface).
+        double zmax = -1e300;
+        for (int n : nodes) zmax = std::max(zmax, X[n][2]);
+        Well w;
+        for (int n : nodes)
+          if (X[n][2] > zmax - 1e-9 * (1.0 + std::abs(zmax))) w.rim.push_back(n);
+        w.r0 = mean_distance(X, w.rim);
+        if (w.rim.size() >= 3 && w.r0 > 0.0) wells.push_back(std::move(w));
+      }
+      if (wells.empty()) throw InputError("device.well_prefix", "\"" + name + "\"", "the surface holds no well wall");
+      regions_.push_back(std::move(wells));
+    }
+  } else if (spec.kind == DeviceKind::gripper) {
+    const double pitch = 2.0 * M_PI / spec.fingers;
+    for (std::size_t i = 0; i < spec.tips.size(); ++i) {
+      const std::string field = io::index_field("device.tips", i);
+      require_surface(mesh, spec.tips[i], field);
+      Finger f;
+      f.tip = fe::surface_nodes(mesh, spec.tips[i]);
+      const Vec3 c = centroid(X, f.tip);
+      // The finger's radial direction: its centroid's azimuth snapped to the finger pitch (a finger cut
+      // by a symmetry plane has its centroid off its mid-plane).
+      const double phi = pitch * std::round(std::atan2(c[1], c[0]) / pitch);
+      f.radial = Vec3(std::cos(phi), std::sin(phi), 0.0);
+      const Vec3 tangent(-f.radial[1], f.radial[0], 0.0);
+      double r_lo = 1e300, r_hi = -1e300, t_lo = 1e300, t_hi = -1e300;
+      for (int n : f.tip) {
+        r_lo = std::min(r_lo, X[n].dot(f.radial)), r_hi = std::max(r_hi, X[n].dot(f.radial));
+        t_lo = std::min(t_lo, X[n].dot(tangent)), t_hi = std::max(t_hi, X[n].dot(tangent));
+      }
+      const double tol = 1e-6 * (1.0 + r_hi - r_lo);
+      for (int n = 0; n < int(X.size()); ++n) {
+        const double r = X[n].dot(f.radial), t = X[n].dot(tangent);
+        if (std::abs(X[n][2] - spec.root_z) < tol && r > r_lo - tol && r < r_hi + tol && t > t_lo - tol && t < t_hi + tol)
+          f.root.push_back(n);
+      }
+      if (f.root.empty())
+        throw InputError("device.root_z", format_number(spec.root_z),
+                         "no mesh node at that height under the fingertip \"" + spec.tips[i] + "\"");
+      const Vec3 d = centroid(X, f.tip) - centroid(X, f.root);
+      f.angle0 = std::atan2(-d.dot(f.radial), d[2]);
+      fingers_.push_back(std::move(f));
+    }
+  }
+  volume0_ = channel_volume(X);
+}
+
+double DeviceProbe::channel_volume(const std::vector<Vec3>& x) const {
+  const fe::FeModel& m = structure_->model;
+  if (m.cavity) return fe::cavity_volume(x, m.cavity->faces, m.cavity->mask, m.cavity->tris);
+  if (m.pressures.empty()) return 0.0;
+  return fe::cavity_volume(x, m.pressures[0].faces, structure_->spec.imported.cavity_mask, m.pressures[0].tris);
+}
+
+std::vector<std::string> DeviceProbe::columns() const {
+  std::vector<std::string> c{"t_s", "pressure_kPa", "channel_volume_mm3", "channel_volume_change_mm3"};
+  if (spec_.kind == DeviceKind::cpasmo) {
+    for (const char* n : {"max_height_mm", "max_height_theta_below45_mm", "max_height_theta_above45_mm"}) c.push_back(n);
+    for (int k = 1; k <= spec_.regions; ++k) c.push_back("well_expansion_region" + std::to_string(k) + "_percent");
+  } else if (spec_.kind == DeviceKind::gripper) {
+    c.push_back("finger_angle_deg");
+    for (const auto& t : spec_.tips) c.push_back("finger_angle_" + t + "_deg");
+    c.push_back("tip_axis_distance_mm");
+  }
+  return c;
+}
+
+std::vector<double> DeviceProbe::values(const fe::Simulation& sim) const {
+  const double t = sim.time();
+  const auto x = sim.current_positions();
+  const auto& X = structure_->model.mesh.nodes;
+  const fe::FeModel& m = structure_->model;
+  const double p = m.cavity ? sim.cavity_pressure() : (m.pressures.empty() ? 0.0 : m.pressures[0].pressure(t));
+  const double v = channel_volume(x);
+  std::vector<double> row{t, 1e3 * p, v, v - volume0_};
+  if (spec_.kind == DeviceKind::cpasmo) {
+    double all = -1e300, below = -1e300, above = -1e300;
+    for (int n : top_) {
+      const double h = x[n][2] - top_z0_;
+      all = std::max(all, h);
+      const double theta = std::atan2(X[n][1], X[n][0]);
+      if (theta < M_PI / 4 - 1e-9) below = std::max(below, h);
+      if (theta > M_PI / 4 + 1e-9) above = std::max(above, h);
+    }
+    row.insert(row.end(), {all, below, above});
+    for (const auto& wells : regions_) {
+      double sum = 0.0;
+      for (const Well& w : wells) {
+        const double r = mean_distance(x, w.rim);
+        sum += 100.0 * ((r * r) / (w.r0 * w.r0) - 1.0);
+      }
+      row.push_back(sum / double(wells.size()));
+    }
+  } else if (spec_.kind == DeviceKind::gripper) {
+    std::vector<double> angles;
+    double distance = 1e300;
+    for (const Finger& f : fingers_) {
+      const Vec3 d = centroid(x, f.tip) - centroid(x, f.root);
+      angles.push_back((std::atan2(-d.dot(f.radial), d[2]) - f.angle0) * 180.0 / M_PI);
+      for (int n : f.tip) distance = std::min(distance, std::hypot(x[n][0], x[n][1]));
+    }
+    row.push_back(std::accumulate(angles.begin(), angles.end(), 0.0) / double(std::max<std::size_t>(1, angles.size())));
+    row.insert(row.end(), angles.begin(), angles.end());
+    row.push_back(distance);
+  }
+  return row;
+}
+
+std::string DeviceProbe::stop_reason(const std::vector<double>& row, const std::vector<double>* previous,
+                                     double next_time) const {
+  if (spec_.kind != DeviceKind::gripper || !(spec_.stop_distance > 0.0)) return "";
+  const std::string why = " (device.stop_distance = " + format_number(spec_.stop_distance) +
+                          " mm; contact between the fingers is not modelled)";
+  const double distance = row.back(), t = row.front();
+  if (distance < spec_.stop_distance)
+    return "stopped before the fingers touch: a fingertip node is " + format_number(distance) + " mm from the axis" + why;
+  // Extrapolated in the controlled load value (pressure or volume ratio), not in time: a hold after a
+  // ramp closes the gap only by creep, which the test on the reached distance catches.
+  const PiecewiseLinear& load = structure_->spec.load;
+  const double c_prev = previous ? load(previous->front()) : 0.0, c = load(t), c_next = load(next_time);
+  if (previous && next_time > t && std::abs(c - c_prev) > 0.0) {
+    const double rate = (distance - previous->back()) / (c - c_prev);
+    const double predicted = distance + rate * (c_next - c);
+    if (predicted < spec_.stop_distance)
+      return "stopped before the fingers touch: a fingertip node is " + format_number(distance) +
+             " mm from the axis and the next step would bring it to about " + format_number(predicted) + " mm" + why;
+  }
+  return "";
+}
+
+}  // namespace softhom::macro

@@ -1,0 +1,90 @@
+// Pneumatic three-finger micro-gripper of the micro-hand kind (dissertation §3.6, Fig. 16-18), half
+// model y >= 0 (the mirror plane y = 0 through finger 0; the device is also mirror-symmetric about the
+// planes of the other fingers, which are skew and so not used), meshed with quadratic tetrahedra at
+// run time ([geometry] geo = ".../gripper.geo", mesh_size = h passes -setnumber mesh_size h).
+//
+// The text gives the material (PDMS), the three fingers on a pneumatic channel, the base bonded to a
+// plate (bottom fixed) and the angle alpha; the dimensions are chosen here:
+//   base: disc of radius 4.5 mm, 1.5 mm thick (z = 0 ... 1.5);
+//   fingers at azimuths 0, 120, 240 deg (the half model holds half of finger 0 and all of finger 120):
+//   in the finger's frame radial x = 2.0 ... 3.5 mm, tangential y = -0.75 ... 0.75 mm, z = 1.5 ... 7.5 mm
+//   (1.5 x 1.5 mm section, 6 mm long, standing vertically);
+//   the pneumatic channel: one blind channel per finger, x = 2.5 ... 3.2 mm, y = -0.45 ... 0.45 mm,
+//   z = 0 ... 7.0 mm, fed through the bonded plate at z = 0 (all at one pressure). Its walls are
+//   0.5 mm on the axis side, 0.3 mm on the outer side and the flanks, 0.5 mm under the fingertip: the
+//   thin outer wall lengthens more under pressure, so the fingers bend towards the axis and close.
+// Mesh: mesh_size everywhere (the walls are 0.3 mm: mesh_size <= 0.3 puts a full quadratic element
+// through them).
+//
+// Physical groups: volume "pdms"; surfaces "bottom" (z = 0), "ysym" (y = 0), "channel" (the walls of
+// the channels), "tip_0" and "tip_120" (the fingertips' top faces), "outer" (the rest).
+SetFactory("OpenCASCADE");
+DefineConstant[ mesh_size = 0.5 ];
+Rb = 4.5; tb = 1.5;
+f_x0 = 2.0; f_x1 = 3.5; f_w = 1.5; f_len = 6.0;
+c_x0 = 2.5; c_x1 = 3.2; c_w = 0.9; c_z1 = 7.0;
+H = tb + f_len;
+
+Cylinder(1) = {0, 0, 0, 0, 0, tb, Rb};
+parts[] = {};
+chans[] = {};
+For k In {0:2}
+  Box(10 + k) = {f_x0, -f_w / 2, tb, f_x1 - f_x0, f_w, f_len};
+  Box(20 + k) = {c_x0, -c_w / 2, 0, c_x1 - c_x0, c_w, c_z1};
+  Rotate {{0, 0, 1}, {0, 0, 0}, k * 2 * Pi / 3} { Volume{10 + k, 20 + k}; }
+  parts[] += {10 + k};
+  chans[] += {20 + k};
+EndFor
+BooleanUnion(30) = { Volume{1}; Delete; }{ Volume{parts[]}; Delete; };
+BooleanDifference(31) = { Volume{30}; Delete; }{ Volume{chans[]}; Delete; };
+Box(40) = {-Rb - 1, 0, -1, 2 * Rb + 2, Rb + 1, H + 2};
+BooleanIntersection(41) = { Volume{31}; Delete; }{ Volume{40}; Delete; };
+
+e = 1e-4;
+Physical Volume("pdms") = {41};
+bottom[] = Surface In BoundingBox{-Rb - e, -e, -e, Rb + e, Rb + e, e};
+ysym[] = Surface In BoundingBox{-Rb - e, -e, -e, Rb + e, e, H + e};
+tip0[] = Surface In BoundingBox{-e, -e, H - e, Rb + e, Rb + e, H + e};
+tip120[] = Surface In BoundingBox{-Rb - e, -e, H - e, e, Rb + e, H + e};
+// Channel walls: the surfaces all of whose vertices lie on the closed channel boxes (tested in each
+// finger's frame); every other surface has a vertex on the outer boundary.
+all[] = Abs(Boundary{ Volume{41}; });
+channel[] = {};
+For i In {0:#all[]-1}
+  pts[] = PointsOf{ Surface{all[i]}; };
+  inside = 1;
+  For j In {0:#pts[]-1}
+    xyz[] = Point{pts[j]};
+    hit = 0;
+    For k In {0:1}
+      phi = k * 2 * Pi / 3;
+      xr = xyz[0] * Cos(phi) + xyz[1] * Sin(phi);
+      yr = -xyz[0] * Sin(phi) + xyz[1] * Cos(phi);
+      If (xr > c_x0 - e && xr < c_x1 + e && Fabs(yr) < c_w / 2 + e && xyz[2] > -e && xyz[2] < c_z1 + e)
+        hit = 1;
+      EndIf
+    EndFor
+    If (hit == 0)
+      inside = 0;
+    EndIf
+  EndFor
+  If (inside == 1)
+    channel[] += {all[i]};
+  EndIf
+EndFor
+outer[] = all[];
+outer[] -= {bottom[], ysym[], tip0[], tip120[], channel[]};
+Physical Surface("bottom") = {bottom[]};
+Physical Surface("ysym") = {ysym[]};
+Physical Surface("channel") = {channel[]};
+Physical Surface("tip_0") = {tip0[]};
+Physical Surface("tip_120") = {tip120[]};
+Physical Surface("outer") = {outer[]};
+
+Mesh.MeshSizeMax = mesh_size;
+Mesh.MeshSizeMin = 0.5 * mesh_size;
+Mesh.MeshSizeFromCurvature = 0;
+Mesh.ElementOrder = 2;
+// Curved quadratic tets can invert at the base's rim: optimise the high-order nodes.
+Mesh.HighOrderOptimize = 1;
+Mesh.Optimize = 1;
