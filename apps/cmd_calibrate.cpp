@@ -110,6 +110,7 @@ int run_calibrate(const CommandOptions& options) {
     for (const auto& d : cards.abaqus) abaqus_max = std::max(abaqus_max, d.ok ? d.max_rel : 0.0);
     s << "  cards: material.feb (max rel. stress difference " << febio_max << "), material.inp (Yeoh matrix, "
       << abaqus_max << ")\n";
+    for (const auto& w : cards.warnings) s << "  warning: " << w << "\n";
     std::cerr << s.str() << "[calibrate] " << result.model_evaluations << " model evaluations, " << result.wall_time_s
               << " s\n";
   }

@@ -28,6 +28,9 @@ Vec3 perpendicular(const Vec3& a) {
 void require_gent(const MaterialSpec& spec, const char* card) {
   if (spec.law != LawKind::gent_hgo)
     throw InputError(spec.field_prefix + ".law", "", std::string("the ") + card + " card is written for the Gent + HGO law only");
+}
+
+void require_febio_prony(const MaterialSpec& spec) {
   if (spec.prony && spec.prony->terms.size() > 6)
     throw InputError(spec.field_prefix + ".viscoelastic.terms", std::to_string(spec.prony->terms.size()),
                      "FEBio's viscoelastic materials take at most 6 Prony terms");
@@ -218,6 +221,7 @@ CardComparison compare_cards(const CalibrationInput& input, const std::vector<do
 std::string febio_material_block(const MaterialSpec& spec, const std::string& name,
                                  const std::vector<std::string>& comment) {
   require_gent(spec, "FEBio");
+  require_febio_prony(spec);
   const GentHGOParams& g = spec.gent;
   std::ostringstream s;
   s << "<!--\n"
@@ -346,15 +350,30 @@ std::string abaqus_material_fragment(const MaterialSpec& spec, const YeohFit& ye
 
 CardComparison write_material_cards(const std::filesystem::path& dir, const CalibrationInput& input,
                                     const CalibrationResult& result) {
-  const MaterialSpec spec = input.model.spec(result.values);
-  const CardComparison cmp = compare_cards(input, result.values);
+  CardComparison cmp;
+  MaterialSpec spec;
+  try {
+    spec = input.model.spec(result.values);
+    cmp = compare_cards(input, result.values);
+  } catch (const std::exception& e) {
+    cmp.warnings.push_back(std::string("no material cards: ") + e.what());
+    return cmp;
+  }
   std::vector<std::string> head{"Written by softhom calibrate with material.toml (" +
                                 std::string(result.success ? "converged" : "NOT converged") + " fit)."};
   std::vector<std::string> fe = head, ab = head;
   for (const auto& l : difference_lines(cmp.febio)) fe.push_back(l);
   for (const auto& l : difference_lines(cmp.abaqus)) ab.push_back(l);
-  io::write_file_atomic(dir / "material.feb", febio_material_block(spec, "softhom", fe));
-  io::write_file_atomic(dir / "material.inp", abaqus_material_fragment(spec, cmp.yeoh, "SOFTHOM", ab));
+  try {
+    io::write_file_atomic(dir / "material.feb", febio_material_block(spec, "softhom", fe));
+  } catch (const InputError& e) {
+    cmp.warnings.push_back(std::string("no material.feb: ") + e.what());
+  }
+  try {
+    io::write_file_atomic(dir / "material.inp", abaqus_material_fragment(spec, cmp.yeoh, "SOFTHOM", ab));
+  } catch (const InputError& e) {
+    cmp.warnings.push_back(std::string("no material.inp: ") + e.what());
+  }
   return cmp;
 }
 

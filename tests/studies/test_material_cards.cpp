@@ -4,7 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <numbers>
+#include <unistd.h>
+
+#include <toml++/toml.h>
 
 #include "softhom/materials/driver.hpp"
 #include "softhom/materials/errors.hpp"
@@ -205,4 +209,29 @@ TEST(MaterialCards, CardsRefuseWhatTheirCodesCannotHold) {
   MaterialSpec d = two_family_spec(FiberInvariant::full);
   d.gent.fibers[1].k1 = 0.5;
   EXPECT_THROW(abaqus_material_fragment(d, fit_yeoh_to_gent(0.05, 6.0, 0.5)), InputError);
+}
+
+TEST(MaterialCards, ACardItsCodeCannotHoldIsSkippedWithAWarningNotAFailedRun) {
+  // Seven Prony terms: FEBio's viscoelastic materials take six. The calibration's outputs stand;
+  // material.feb is not written and the warning says why, material.inp is written.
+  std::string terms;
+  for (int k = 0; k < 7; ++k) terms += std::string(k ? ", " : "") + "{g = 0.1, tau = " + std::to_string(k + 1) + ".0}";
+  const toml::table t = toml::parse(
+      "[model]\nG = 0.02\nJm = 12.0\nK = 2000.0\nk1 = 0.1\nk2 = 1.5\nfiber_invariant = \"full\"\n"
+      "[[model.fibers]]\nangle_deg = 45.0\n[model.viscoelastic]\nterms = [" + terms + "]\n"
+      "[[curves]]\nname = \"u\"\nfile = \"data/uniaxial_fiber45.csv\"\nx = \"F11\"\ny = \"P11\"\n"
+      "[curves.load]\ntype = \"uniaxial\"\nstretch = 1.5\nsteps = 30\n");
+  const CalibrationInput in = parse_calibration(t, std::filesystem::path(SOFTHOM_SOURCE_DIR) / "studies" / "calibrations");
+  CalibrationResult res;
+  res.values = in.model.values();
+  const auto dir = std::filesystem::temp_directory_path() / ("softhom_test_cards_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const CardComparison c = write_material_cards(dir, in, res);
+  ASSERT_EQ(c.warnings.size(), 1u);
+  EXPECT_NE(c.warnings[0].find("material.feb"), std::string::npos) << c.warnings[0];
+  EXPECT_NE(c.warnings[0].find("6 Prony terms"), std::string::npos) << c.warnings[0];
+  EXPECT_FALSE(std::filesystem::exists(dir / "material.feb"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "material.inp"));
+  std::filesystem::remove_all(dir);
 }

@@ -58,6 +58,7 @@ struct CardCurveDifference {
 struct CardComparison {
   std::vector<CardCurveDifference> febio, abaqus;
   YeohFit yeoh;
+  std::vector<std::string> warnings;  ///< a card that could not be written, and why
 };
 /// Runs every curve's control (fit and holdout) with the softhom model at `values` and with each
 /// card's material.
@@ -74,7 +75,8 @@ std::string abaqus_material_fragment(const MaterialSpec& spec, const YeohFit& ye
                                      const std::vector<std::string>& comment = {});
 
 /// Writes DIR/material.feb and DIR/material.inp for a calibration result (differences on the
-/// calibration curves in the comments). Returns the comparison.
+/// calibration curves in the comments). Returns the comparison. A model a card cannot express (more
+/// than 6 Prony terms for FEBio, ...) leaves that card unwritten with a warning, never fails the run.
 CardComparison write_material_cards(const std::filesystem::path& dir, const CalibrationInput& input,
                                     const CalibrationResult& result);
 
