@@ -59,7 +59,14 @@ def main():
     kind = probes["kind"]  # macro::StructureKind: 0 plate, 1 tube
     worst = 0.0
     print("step  t        max|du|/max|u|  probes FEBio | softhom")
-    for k, (t, rows) in enumerate(log, start=1):
+    times = probes["times"]
+    react_at = {s: {round(t, 6): rows for t, rows in reactions[s]} for s in reactions}
+    for t, rows in log:
+        # softhom's step k is at times[k - 1]; FEBio's records are matched by time (t = 0 skipped).
+        matches = [k for k, tk in enumerate(times, start=1) if abs(tk - t) <= 1e-6 * max(1.0, times[-1])]
+        if not matches:
+            continue
+        k = matches[0]
         uf = np.array([rows[i + 1][:3] for i in range(len(X))])
         key = f"step_{k}"
         if key not in h5:
@@ -69,7 +76,7 @@ def main():
         worst = max(worst, rel)
         r = resp[k]
         if kind == 0:
-            force = sum(sum(v[0] for v in reactions[s][k - 1][1].values()) for s in reactions)
+            force = sum(sum(v[0] for v in react_at[s][round(t, 6)].values()) for s in reactions)
             s_f = force / probes["plate_section"]
             extra = f"nominal stress {s_f:.6g} | {float(r['nominal_stress']):.6g}"
             if point and round(t, 9) in point:
