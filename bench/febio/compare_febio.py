@@ -78,9 +78,9 @@ def main():
         if kind == 0:
             force = sum(sum(v[0] for v in react_at[s][round(t, 6)].values()) for s in reactions)
             s_f = force / probes["plate_section"]
-            extra = f"nominal stress {s_f:.6g} | {float(r['nominal_stress']):.6g}"
+            extra = f"nominal stress {s_f:.9g} | {float(r['nominal_stress']):.9g}"
             if point and round(t, 9) in point:
-                extra += f" | point P11 {point[round(t, 9)]:.6g}"
+                extra += f" | point P11 {point[round(t, 9)]:.9g}"
         else:
             x = X + uf
             inner = probes["inner_nodes"]
@@ -94,8 +94,8 @@ def main():
                 Z += X[n][2]
                 tw += math.remainder(math.atan2(x[n][1], x[n][0]) - math.atan2(X[n][1], X[n][0]), 2 * math.pi)
                 cnt += 1
-            extra = (f"inner radius {radius:.6g} | {float(r['inner_radius']):.6g}, axial stretch {z / Z:.6g} | "
-                     f"{float(r['axial_stretch']):.6g}, twist {math.degrees(tw / cnt):.5g} | {float(r['twist_deg']):.5g} deg")
+            extra = (f"inner radius {radius:.9g} | {float(r['inner_radius']):.9g}, axial stretch {z / Z:.9g} | "
+                     f"{float(r['axial_stretch']):.9g}, twist {math.degrees(tw / cnt):.6g} | {float(r['twist_deg']):.6g} deg")
         print(f"{k:4d}  {t:<8.4g} {rel:.3e}       {extra}")
     print(f"max over steps of max nodal |u_FEBio - u_softhom| / max |u_softhom|: {worst:.3e}")
     return 0
