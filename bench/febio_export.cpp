@@ -67,8 +67,14 @@ int main(int argc, char** argv) {
       << "<febio_spec version=\"4.0\">\n\t<Module type=\"solid\"/>\n";
     const double T = ms.times.back();
     const int steps = int(ms.times.size());
-    f << "\t<Control>\n\t\t<analysis>STATIC</analysis>\n\t\t<time_steps>" << steps << "</time_steps>\n\t\t<step_size>"
-      << num(T / steps) << "</step_size>\n\t\t<plot_level>PLOT_MAJOR_ITRS</plot_level>\n"
+    f << "\t<Control>\n\t\t<analysis>STATIC</analysis>\n\t\t<time_steps>" << 4 * steps << "</time_steps>\n\t\t<step_size>"
+      << num(T / steps / 4) << "</step_size>\n\t\t<plot_level>PLOT_MAJOR_ITRS</plot_level>\n"
+      // Quarter steps with cut-backs; the output times are must points (the load curve of dtmax, id
+      // 1), so FEBio's log has records at softhom's output times.
+      << "\t\t<time_stepper type=\"default\">\n\t\t\t<max_retries>10</max_retries>\n\t\t\t<opt_iter>10</opt_iter>\n"
+      << "\t\t\t<dtmin>" << num(1e-6 * T / steps) << "</dtmin>\n\t\t\t<dtmax lc=\"1\">" << num(T / steps)
+      << "</dtmax>\n\t\t\t<aggressiveness>0</aggressiveness>\n\t\t\t<cutback>0.5</cutback>\n\t\t\t<dtforce>0</dtforce>\n"
+      << "\t\t</time_stepper>\n"
       << "\t\t<solver type=\"solid\">\n\t\t\t<max_refs>50</max_refs>\n\t\t\t<dtol>1e-6</dtol>\n\t\t\t<etol>1e-8</etol>\n"
       << "\t\t\t<rtol>0</rtol>\n\t\t\t<lstol>0.9</lstol>\n\t\t\t<symmetric_stiffness>symmetric</symmetric_stiffness>\n"
       << "\t\t\t<qn_method type=\"BFGS\"><max_ups>0</max_ups></qn_method>\n\t\t</solver>\n\t</Control>\n";
@@ -138,7 +144,7 @@ int main(int argc, char** argv) {
       f << "\t\t</ElementData>\n\t</MeshData>\n";
     }
     // Boundary conditions and loads; load controllers: 1.. for displacement groups, then pressures.
-    int lc = 0;
+    int lc = 1;  // 1: the must points of the time stepper
     std::map<std::size_t, int> group_lc;
     std::ostringstream curves;
     f << "\t<Boundary>\n";
@@ -171,7 +177,12 @@ int main(int argc, char** argv) {
         << "\">\n\t\t\t<pressure lc=\"" << lc << "\">1</pressure>\n\t\t\t<linear>0</linear>\n"
         << "\t\t\t<symmetric_stiffness>1</symmetric_stiffness>\n\t\t</surface_load>\n";
     }
-    f << "\t</Loads>\n\t<LoadData>\n" << curves.str() << "\t</LoadData>\n";
+    std::ostringstream must;
+    must << "\t\t<load_controller id=\"1\" type=\"loadcurve\">\n\t\t\t<interpolate>STEP</interpolate>\n\t\t\t<points>\n"
+         << "\t\t\t\t<pt>0," << num(T / steps / 4) << "</pt>\n";
+    for (double t : ms.times) must << "\t\t\t\t<pt>" << num(t) << "," << num(T / steps / 4) << "</pt>\n";
+    must << "\t\t\t</points>\n\t\t</load_controller>\n";
+    f << "\t</Loads>\n\t<LoadData>\n" << must.str() << curves.str() << "\t</LoadData>\n";
     const std::string log = out.filename().string() + ".nodes.csv";
     f << "\t<Output>\n\t\t<plotfile type=\"febio\">\n\t\t\t<var type=\"displacement\"/>\n\t\t</plotfile>\n"
       << "\t\t<logfile>\n\t\t\t<node_data data=\"ux;uy;uz\" delim=\",\" file=\"" << log << "\"/>\n";
