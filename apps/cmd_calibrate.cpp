@@ -1,8 +1,10 @@
 // softhom calibrate: fits the homogeneous Gent + HGO (+ QLV) model to curves (RVE runs, campaign
 // stores, experiments) with the material-point driver under each curve's own mixed control.
 // Writes OUT/material.toml (a `softhom point` [material] table), OUT/summary.json, OUT/response.csv
-// (curve name, index, x, data, model), OUT/curves/<name>.csv and, when python3 + matplotlib are available,
+// (curve name, index, x, data, model), OUT/curves/<name>.csv, OUT/material.feb + OUT/material.inp (FEBio
+// and Abaqus cards, docs/material-cards.md) and, when python3 + matplotlib are available,
 // OUT/fit.png (studies/plot_calibration.py).
+#include <algorithm>
 #include <cstdlib>
 #include <iostream>
 #include <sstream>
@@ -13,6 +15,7 @@
 #include "softhom/io/summary.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/studies/calibration.hpp"
+#include "softhom/studies/material_cards.hpp"
 
 namespace softhom::app {
 namespace {
@@ -78,6 +81,9 @@ int run_calibrate(const CommandOptions& options) {
 
   std::filesystem::create_directories(options.out);
   studies::write_calibration_files(options.out, input, result);
+  // FEBio and Abaqus cards of the same material (docs/material-cards.md); their stress differences on
+  // the calibration load paths go into the cards' comments.
+  const studies::CardComparison cards = studies::write_material_cards(options.out, input, result);
   nlohmann::json summary = io::summary_base("calibrate", options.scene, table);
   const nlohmann::json fields = studies::result_json(input, result);  // named: items() must not outlive it
   for (const auto& [k, v] : fields.items()) summary[k] = v;
@@ -99,6 +105,12 @@ int run_calibrate(const CommandOptions& options) {
       else s << "not evaluable: " << c.error << "\n";
     }
     for (const auto& w : result.warnings) s << "  warning: " << w << "\n";
+    double febio_max = 0.0, abaqus_max = 0.0;
+    for (const auto& d : cards.febio) febio_max = std::max(febio_max, d.ok ? d.max_rel : 0.0);
+    for (const auto& d : cards.abaqus) abaqus_max = std::max(abaqus_max, d.ok ? d.max_rel : 0.0);
+    s << "  cards: material.feb (max rel. stress difference " << febio_max << "), material.inp (Yeoh matrix, "
+      << abaqus_max << ")\n";
+    for (const auto& w : cards.warnings) s << "  warning: " << w << "\n";
     std::cerr << s.str() << "[calibrate] " << result.model_evaluations << " model evaluations, " << result.wall_time_s
               << " s\n";
   }
