@@ -9,7 +9,7 @@
 //   gmsh only: [[boundary]] surface, fix = ["x", "y", "z"]; [probe] surface; [regions.<volume>]
 //   [material] (+ [material_lower] for actuators), [load] control, path = [[t, v], ...], steps,
 //   [solver]   tolerance, max_newton_iterations, max_krylov_iterations, max_cutbacks, substeps,
-//              mixed_pressure, max_step_seconds, formulation, linear_solver, verbose
+//              mixed_pressure, max_step_seconds, formulation, linear_solver, petsc_options, verbose
 //   [output]   fields = true | false | [t1, t2, ...] (field snapshots at these load-path times)
 #include <filesystem>
 #include <vector>
