@@ -10,6 +10,7 @@
 #include "scene_source.hpp"
 #include "softhom/io/fields.hpp"
 #include "softhom/io/files.hpp"
+#include "softhom/io/mpi.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/macro/scene.hpp"
@@ -57,7 +58,12 @@ std::vector<std::string> response_columns(const macro::Structure& structure) {
 
 }  // namespace
 
-int run_macro(const CommandOptions& options) {
+int run_macro(const CommandOptions& given) {
+  // Under mpirun every rank runs the same (replicated) Newton iteration and shares the petsc linear
+  // solver; rank 0 alone writes response.csv, the fields and summary.json, and reports progress.
+  const bool root = mpi::world_rank() == 0;
+  CommandOptions options = given;
+  if (!root) options.quiet = true;
   const auto wall_start = std::chrono::steady_clock::now();
   const LoadedScene scene = load_scene_or_default(options, "macro_tube_plane_strain");
   const macro::MacroScene ms = macro::parse_macro_scene(scene.table, scene.file);
@@ -69,10 +75,15 @@ int run_macro(const CommandOptions& options) {
               << sim.num_free_dofs() << " free dofs, "
               << fe::to_string(sim.solver_kind()) << "\n";
 
-  io::ProgressiveCsv table(options.out / "response.csv", response_columns(structure));
-  table.add_row(macro::probe_values(structure, sim));
+  std::unique_ptr<io::ProgressiveCsv> table_on_root;
+  if (root) table_on_root = std::make_unique<io::ProgressiveCsv>(options.out / "response.csv", response_columns(structure));
+  auto add_row = [&] {
+    const auto row = macro::probe_values(structure, sim);
+    if (table_on_root) table_on_root->add_row(row);
+  };
+  add_row();
   std::unique_ptr<io::FieldWriter> writer;
-  if (ms.fields) {
+  if (ms.fields && root) {
     writer = std::make_unique<io::FieldWriter>(options.out / "fields", field_mesh(structure.model.mesh));
     writer->set_attribute("frame", "global Cartesian frame of the structure's mesh (x, y, z); tensors row-major");
     if (ms.fields_at(0.0)) write_fields(*writer, sim);
@@ -87,7 +98,7 @@ int run_macro(const CommandOptions& options) {
       error = step.message;
       break;
     }
-    table.add_row(macro::probe_values(structure, sim));
+    add_row();
     if (writer && ms.fields_at(t)) write_fields(*writer, sim);
     ++done;
     progress.update(tag + "t = " + format_number(t) + " / " + format_number(ms.times.back()) + " (" +
@@ -101,8 +112,10 @@ int run_macro(const CommandOptions& options) {
   progress.finish();
   for (const auto& line : sim.stats().log)
     if (!options.quiet) std::cerr << tag << line << "\n";
-  table.flush();
   if (writer) writer->close();
+  if (!root) return run_exit_code(completed);
+  io::ProgressiveCsv& table = *table_on_root;
+  table.flush();
 
   const fe::RunStats st = sim.stats();
   nlohmann::json summary = io::summary_base("macro", scene.file, scene.table);
@@ -117,6 +130,7 @@ int run_macro(const CommandOptions& options) {
   summary["elements"] = structure.model.mesh.num_elements();
   summary["dofs"] = sim.num_free_dofs();
   summary["linear_solver"] = fe::to_string(sim.solver_kind());
+  summary["mpi_ranks"] = mpi::world_size();
   summary["assembly_time_s"] = st.assembly_time;
   summary["analysis_time_s"] = st.linear.analysis;
   summary["factorization_time_s"] = st.linear.factorization;

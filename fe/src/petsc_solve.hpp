@@ -36,6 +36,12 @@ class PetscSolver final : public LinearSolver {
   PetscSolver(const PetscSolver&) = delete;
   PetscSolver& operator=(const PetscSolver&) = delete;
 
+  /// Three-field elements: the system is solved uncondensed in (u, p_e) (see petsc_solve.cpp), one
+  /// pressure unknown per mixed element k with free equations eq[off[k] .. off[k+1]) (−1: prescribed).
+  /// Before analyze.
+  void set_mixed(const std::vector<int>& off, const std::vector<int>& eq);
+  /// The element data of the next factorize: d_k = ∂θ_k/∂u (at off[k] ..) and c_k = V_k U″(θ_k).
+  void set_mixed_tangent(const std::vector<double>& d, const std::vector<double>& c);
   /// Distributed matrix with the pattern of A (free dofs) plus the identity rows; near-nullspace.
   void analyze(const CscMatrix& A) override;
   /// Copies the values of A into the distributed matrix; the preconditioner is rebuilt at the next solve.

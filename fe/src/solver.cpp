@@ -108,8 +108,8 @@ void Simulation::Impl::build_linear_solvers() {
   if (kind == SolverKind::automatic)
     kind = dofs_.num_free >= options_.petsc_min_dofs ? SolverKind::petsc : SolverKind::cholmod;
   if (kind == SolverKind::petsc) {
+    // Analysed at the first solve, once the three-field elements are known (build_mixed).
     petsc_ = std::make_unique<PetscSolver>(model_.mesh, dofs_, options_.petsc_options);
-    petsc_->analyze(K_);
     linear_ = petsc_.get();
     return;
   }
