@@ -154,12 +154,18 @@ std::vector<double> scene_times(const std::string& name, int steps) {
 }  // namespace
 
 TEST(PetscMacro, CookMembraneEqualsCholmodAndKrylovCountsStayFlat) {
-  // Krylov iterations per linear solve on two meshes × two K/G: the (u, p) field split keeps them
-  // bounded (measured, 1 and 2 ranks: BENCHMARKS.md "Macro solver on PETSc"); the bound is ~1.5×
-  // the largest measured mean so a regression to the condensed AMG (counts growing with K/G) fails.
-  double worst_mean = 0.0;
-  for (int n : {6, 12})
-    for (double kg : {1e2, 1e4}) {
+  // Krylov iterations per linear solve (= per Newton step here) on two meshes × two K/G at rtol 1e-10.
+  // Measured means (1 rank / 2 ranks): 6×6: 52 / 52 at K/G 1e2, 53 / 53 at 1e4; 12×12: 62 / 66 and
+  // 72 / 75. The bounds: ≤ 1.5× from K/G 1e2 to 1e4 (measured ≤ 1.16; the condensed AMG broke down
+  // at 1e4), ≤ 1.6× from 6×6 to 12×12 (measured ≤ 1.4: not flat, the diagonal Schur approximation of
+  // the Q1/P0 pair degrades with h), and < 100 per solve.
+  double mean[2][2];
+  const int meshes[2] = {6, 12};
+  const double ratios[2] = {1e2, 1e4};
+  for (int a = 0; a < 2; ++a)
+    for (int c = 0; c < 2; ++c) {
+      const int n = meshes[a];
+      const double kg = ratios[c];
       const FeModel m = cook(n, kg);
       const RunResult direct = run(m, SolverKind::cholmod, 1.0);
       const RunResult petsc = run(m, SolverKind::petsc, 1.0);
@@ -168,14 +174,20 @@ TEST(PetscMacro, CookMembraneEqualsCholmodAndKrylovCountsStayFlat) {
       EXPECT_NEAR(tip_p / tip_d, 1.0, 1e-6) << "n = " << n << ", K/G = " << kg;
       EXPECT_LT(relative_difference(petsc.u, direct.u), 1e-6);
       EXPECT_LT(rank_spread(petsc.u), 1e-12);  // the gathered solution is one vector on every rank
-      const double mean = double(petsc.stats.krylov_iterations) / std::max(1, petsc.stats.linear.solves);
-      worst_mean = std::max(worst_mean, mean);
+      mean[a][c] = double(petsc.stats.krylov_iterations) / std::max(1, petsc.stats.linear.solves);
       if (mpi::world_rank() == 0)
         std::cerr << "cook " << n << "x" << n << " K/G " << kg << ": tip " << tip_p << " (cholmod " << tip_d << "), "
                   << petsc.stats.krylov_iterations << " Krylov its in " << petsc.stats.linear.solves << " solves, "
                   << petsc.stats.newton_iterations << " Newton\n";
     }
-  EXPECT_LT(worst_mean, 60.0);
+  for (int a = 0; a < 2; ++a) {
+    EXPECT_LT(mean[a][1], 1.5 * mean[a][0]) << "K/G growth, mesh " << meshes[a];
+    for (int c = 0; c < 2; ++c) {
+      EXPECT_LT(mean[a][c], 100.0);
+      EXPECT_GT(mean[a][c], 1.0);  // an iterative solve, not a direct one
+    }
+  }
+  for (int c = 0; c < 2; ++c) EXPECT_LT(mean[1][c], 1.6 * mean[0][c]) << "mesh growth, K/G " << ratios[c];
 }
 
 TEST(PetscMacro, PlaneStrainTubeUnderVolumeControlEqualsCholmod) {
@@ -224,7 +236,8 @@ steps = 6
 
 TEST(PetscMacro, BalloonThroughItsPressureMaximumEqualsCholmod) {
   // Volume control past the limit point of the Gent sphere (macro_balloon.toml): the pressure
-  // maximum lies near hoop stretch 1.4 (V/V0 ≈ 2.7, output step 4 of 30); 8 steps pass it.
+  // maximum lies near hoop stretch 1.45 (output steps 4–5 of 30, CHOLMOD run of the scene); at step 8
+  // the pressure is 2.7 % below it (columns: time, pressure, stretch, volume, inner_radius).
   const std::string name = "macro_balloon";
   fe::NewtonOptions o;
   double t_end = 0.0;
@@ -232,6 +245,10 @@ TEST(PetscMacro, BalloonThroughItsPressureMaximumEqualsCholmod) {
   const std::vector<double> times = scene_times(name, 8);
   const std::vector<double> a = scene_response(s, o, SolverKind::cholmod, times);
   const std::vector<double> b = scene_response(s, o, SolverKind::petsc, times);
+  ASSERT_EQ(b.size(), 8u * 5u);
+  double p_max = 0.0;
+  for (int k = 0; k < 8; ++k) p_max = std::max(p_max, b[5 * k + 1]);
+  EXPECT_LT(b[5 * 7 + 1], 0.99 * p_max) << "the limit point is passed";
   EXPECT_LT(relative_difference(b, a), 1e-6);
   EXPECT_LT(rank_spread(b), 1e-12);
 }
