@@ -82,6 +82,7 @@ int cook_table(const std::string& options) {
         std::printf("%3dx%-2d %8.0e %8d %7d %7d %12.1f %9.2f%s\n", n, n, kg, sim.num_free_dofs(), s.newton_iterations,
                     s.linear.solves, double(s.krylov_iterations) / std::max(1, s.linear.solves), seconds_since(t0),
                     ok ? "" : "  (failed)");
+      std::fflush(stdout);
     }
   return 0;
 }
@@ -138,6 +139,7 @@ int tube_run(double dofs, int steps, const std::string& options) {
                   wall / std::max(1, st.newton_iterations), st.linear.factorization, st.linear.solve, st.assembly_time,
                   io::peak_memory_bytes() / 1048576.0, io::peak_memory_bytes() / double(sim.num_free_dofs()),
                   ok ? "" : "  (failed)");
+    std::fflush(stdout);
   }
   return 0;
 }

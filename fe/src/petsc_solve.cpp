@@ -10,6 +10,8 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "softhom/materials/errors.hpp"
+
 namespace softhom::fe {
 namespace {
 
@@ -142,7 +144,7 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
   check(PetscOptionsClear(nullptr), "PetscOptionsClear");
   check(PetscOptionsInsertString(nullptr, kSplitDefaults), "PetscOptionsInsertString (defaults)");
   if (!options.empty() && PetscOptionsInsertString(nullptr, options.c_str()) != 0)
-    throw std::invalid_argument("solver.petsc_options: PETSc cannot parse \"" + options + "\"");
+    throw InputError("solver.petsc_options", options, "PETSc cannot parse these options");
   PetscBool set = PETSC_FALSE;
   PetscReal rtol = 0.0;
   PetscOptionsGetReal(nullptr, nullptr, "-ksp_rtol", &rtol, &set);
