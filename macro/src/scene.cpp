@@ -237,8 +237,7 @@ const KeyTable<fe::NewtonOptions>& newton_table() {
                                         {"petsc", fe::SolverKind::petsc}},
                                        {}},
                 "linear solver: cholmod (sparse Cholesky, LU when it fails), umfpack (LU), petsc (GMRES + "
-                "algebraic multigrid over MPI ranks); auto: cholmod below 500000 free dofs (where its factor fits the "
-                "memory), petsc above")
+                "algebraic multigrid over MPI ranks); auto: cholmod (petsc is faster at no measured size yet)")
         .text("petsc_options", &O::petsc_options,
               "PETSc options database entries for the petsc solver, e.g. \"-ksp_rtol 1e-10 -pc_type hypre\"")
         .flag("verbose", &O::verbose, "Newton iteration log on stderr");

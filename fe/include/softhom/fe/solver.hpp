@@ -40,11 +40,10 @@ struct NewtonOptions {
   bool line_search = true;
   int initial_substeps = 1;   ///< sub-steps per output interval at the start
   SolverKind solver = SolverKind::automatic;  ///< umfpack: always LU; petsc: Krylov + AMG; otherwise Cholesky first
-  /// automatic: PETSc from this many free dofs on. Not a speed crossover (the measured PETSc path was
-  /// slower than CHOLMOD at every size that fits, BENCHMARKS.md "Macro solver on PETSc") but where the
-  /// CHOLMOD factor stops fitting a 24 GiB machine shared by several runs (~6 GiB at 5e5 dofs, 16 GiB
-  /// at 1.1e6).
-  int petsc_min_dofs = 500000;
+  /// automatic: PETSc from this many free dofs on — where it beats CHOLMOD. No measured size does yet
+  /// (BENCHMARKS.md "Macro solver on PETSc": its default preconditioner fails on the 3D tube), so auto
+  /// stays with CHOLMOD.
+  int petsc_min_dofs = 2147483647;
   /// Options for PETSc's options database (PetscOptionsInsertString), e.g. "-ksp_type fgmres -pc_type hypre".
   std::string petsc_options;
   bool mixed = true;          ///< three-field (u, θ, p) iteration for laws with a volumetric modulus
