@@ -10,6 +10,7 @@
 #include "scene_source.hpp"
 #include "softhom/io/fields.hpp"
 #include "softhom/io/files.hpp"
+#include "softhom/io/mpi.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/macro/devices.hpp"
@@ -63,7 +64,12 @@ int run_macro(const CommandOptions& options) {
   return run_macro_scene(options, load_scene_or_default(options, "macro_tube_plane_strain"));
 }
 
-int run_macro_scene(const CommandOptions& options, const LoadedScene& scene) {
+int run_macro_scene(const CommandOptions& given, const LoadedScene& scene) {
+  // Under mpirun every rank runs the same (replicated) Newton iteration and shares the petsc linear
+  // solver; rank 0 alone writes response.csv, device.csv, the fields and summary.json, and reports progress.
+  const bool root = mpi::world_rank() == 0;
+  CommandOptions options = given;
+  if (!root) options.quiet = true;
   const auto wall_start = std::chrono::steady_clock::now();
   const macro::MacroScene ms = macro::parse_macro_scene(scene.table, scene.file, macro::mesh_cache_dir(options.out));
   const macro::Structure structure = macro::build_structure(ms.spec);
@@ -74,8 +80,13 @@ int run_macro_scene(const CommandOptions& options, const LoadedScene& scene) {
               << sim.num_free_dofs() << " free dofs, "
               << fe::to_string(sim.solver_kind()) << "\n";
 
-  io::ProgressiveCsv table(options.out / "response.csv", response_columns(structure));
-  table.add_row(macro::probe_values(structure, sim));
+  std::unique_ptr<io::ProgressiveCsv> table_on_root;
+  if (root) table_on_root = std::make_unique<io::ProgressiveCsv>(options.out / "response.csv", response_columns(structure));
+  auto add_row = [&] {
+    const auto row = macro::probe_values(structure, sim);
+    if (table_on_root) table_on_root->add_row(row);
+  };
+  add_row();
   // [device]: the device's own quantities (device.csv) and its geometric stop (gripper fingertips).
   std::unique_ptr<macro::DeviceProbe> device;
   std::unique_ptr<io::ProgressiveCsv> device_table;
@@ -83,12 +94,12 @@ int run_macro_scene(const CommandOptions& options, const LoadedScene& scene) {
   std::vector<double> device_row;
   if (ms.device.kind != macro::DeviceKind::none) {
     device = std::make_unique<macro::DeviceProbe>(ms.device, structure);
-    device_table = std::make_unique<io::ProgressiveCsv>(options.out / "device.csv", device->columns());
+    if (root) device_table = std::make_unique<io::ProgressiveCsv>(options.out / "device.csv", device->columns());
     device_row = device->values(sim);
-    device_table->add_row(device_row);
+    if (device_table) device_table->add_row(device_row);
   }
   std::unique_ptr<io::FieldWriter> writer;
-  if (ms.fields) {
+  if (ms.fields && root) {
     writer = std::make_unique<io::FieldWriter>(options.out / "fields", field_mesh(structure.model.mesh));
     writer->set_attribute("frame", "global Cartesian frame of the structure's mesh (x, y, z); tensors row-major");
     if (ms.fields_at(0.0)) write_fields(*writer, sim);
@@ -103,17 +114,17 @@ int run_macro_scene(const CommandOptions& options, const LoadedScene& scene) {
       error = step.message;
       break;
     }
-    table.add_row(macro::probe_values(structure, sim));
+    add_row();
     if (writer && ms.fields_at(t)) write_fields(*writer, sim);
     ++done;
     if (device) {
       const std::vector<double> row = device->values(sim);
-      device_table->add_row(row);
+      if (device_table) device_table->add_row(row);
       const double next = done < ms.times.size() ? ms.times[done] : t;
       device_stop = device->stop_reason(row, &device_row, next);
       device_row = row;
       if (!device_stop.empty()) {
-        std::cerr << tag << device_stop << " at t = " << format_number(t) << "\n";
+        if (root) std::cerr << tag << device_stop << " at t = " << format_number(t) << "\n";
         break;
       }
     }
@@ -128,9 +139,11 @@ int run_macro_scene(const CommandOptions& options, const LoadedScene& scene) {
   progress.finish();
   for (const auto& line : sim.stats().log)
     if (!options.quiet) std::cerr << tag << line << "\n";
+  if (writer) writer->close();
+  if (!root) return run_exit_code(completed);
+  io::ProgressiveCsv& table = *table_on_root;
   table.flush();
   if (device_table) device_table->flush();
-  if (writer) writer->close();
 
   const fe::RunStats st = sim.stats();
   nlohmann::json summary = io::summary_base("macro", scene.file, scene.table);
@@ -158,6 +171,7 @@ int run_macro_scene(const CommandOptions& options, const LoadedScene& scene) {
   summary["elements"] = structure.model.mesh.num_elements();
   summary["dofs"] = sim.num_free_dofs();
   summary["linear_solver"] = fe::to_string(sim.solver_kind());
+  summary["mpi_ranks"] = mpi::world_size();
   summary["assembly_time_s"] = st.assembly_time;
   summary["analysis_time_s"] = st.linear.analysis;
   summary["factorization_time_s"] = st.linear.factorization;

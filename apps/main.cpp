@@ -21,6 +21,7 @@
 #include "scene_source.hpp"
 #include "run_control.hpp"
 #include "softhom/io/fields.hpp"
+#include "softhom/fe/petsc.hpp"
 #include "softhom/io/mpi.hpp"
 #include "softhom/io/files.hpp"
 #include "softhom/io/scene.hpp"
@@ -136,6 +137,10 @@ int main(int argc, char** argv) {
   using namespace softhom;
   // MPI only under an MPI launcher (mpirun, srun); a plain start is the one-process program.
   mpi::Environment mpi_environment(argc, argv);
+  // PETSc (the macro petsc linear solver, initialised on first use) ends before MPI does.
+  struct PetscScope {
+    ~PetscScope() { fe::petsc_finalize(); }
+  } petsc_scope;
   CLI::App cli{"softhom " + io::softhom_version() +
                ": multiscale mechanics of soft fiber composites (materials, FFT/FE RVE, macro FE)"};
   cli.set_version_flag("--version", "softhom " + io::softhom_version());

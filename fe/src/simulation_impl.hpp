@@ -12,6 +12,7 @@
 
 #include "softhom/fe/krylov.hpp"
 #include "softhom/fe/solver.hpp"
+#include "petsc_solve.hpp"
 
 namespace softhom::fe {
 namespace detail {
@@ -131,6 +132,8 @@ struct Simulation::Impl {
   /// elements with a lagged factor); refactorizes and retries once.
   bool krylov_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why);
   bool refactor(std::string& why);
+  /// The petsc solver's solve (petsc_solve.cpp): a new preconditioner for every new tangent, GMRES to `tol`.
+  bool petsc_linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why);
   void saddle_current();  ///< fills sad_db_, sad_cb_ from the last tangent assembly
   void mixed_update(const std::vector<double>& du, double alpha);
   /// The uncondensed Krylov space is in use: three-field elements and factors large enough to be lagged.
@@ -153,6 +156,7 @@ struct Simulation::Impl {
   DofMap dofs_;
   CscMatrix K_;
   std::unique_ptr<LinearSolver> chol_, lu_;  ///< Cholesky of the symmetric part; LU (created on demand)
+  std::unique_ptr<PetscSolver> petsc_;       ///< the petsc solver (then neither chol_ nor lu_)
   LinearSolver* linear_ = nullptr;            ///< the one holding the current factor
   bool lu_this_step_ = false;                 ///< the symmetric part was indefinite in this step: LU
   bool refactor_first_ = false;               ///< the lagged factor failed at the last step's first iteration

@@ -105,7 +105,14 @@ void Simulation::Impl::build_linear_solvers() {
   SolverKind kind = options_.solver;
   // Automatic: Cholesky of the symmetric part (exact without follower pressure, a GMRES
   // preconditioner with it); refactor() switches to LU if that part is not positive definite.
-  if (kind == SolverKind::automatic) kind = SolverKind::cholmod;
+  if (kind == SolverKind::automatic)
+    kind = dofs_.num_free >= options_.petsc_min_dofs ? SolverKind::petsc : SolverKind::cholmod;
+  if (kind == SolverKind::petsc) {
+    // Analysed at the first solve, once the three-field elements are known (build_mixed).
+    petsc_ = std::make_unique<PetscSolver>(model_.mesh, dofs_, options_.petsc_options);
+    linear_ = petsc_.get();
+    return;
+  }
   if (kind == SolverKind::umfpack) lu_ = make_linear_solver(SolverKind::umfpack);
   else chol_ = make_linear_solver(SolverKind::cholmod);
   linear_ = chol_ ? chol_.get() : lu_.get();
@@ -772,7 +779,7 @@ ElementFields Simulation::Impl::element_fields() const {
 
 SolverTimes Simulation::Impl::linear_times() const {
   SolverTimes s;
-  for (const auto* ls : {chol_.get(), lu_.get()}) {  // both factorizations' work
+  for (const LinearSolver* ls : {chol_.get(), lu_.get(), static_cast<LinearSolver*>(petsc_.get())}) {  // both factorizations' work
     if (!ls) continue;
     const SolverTimes& t = ls->times();
     s.analysis += t.analysis;

@@ -119,6 +119,7 @@ const char* to_string(SolverKind kind) {
     case SolverKind::automatic: return "automatic";
     case SolverKind::cholmod: return "cholmod";
     case SolverKind::umfpack: return "umfpack";
+    case SolverKind::petsc: return "petsc";
   }
   return "?";
 }

@@ -240,9 +240,13 @@ const KeyTable<fe::NewtonOptions>& newton_table() {
         .choice("linear_solver", &O::solver,
                 Choices<fe::SolverKind>{{{"auto", fe::SolverKind::automatic},
                                         {"cholmod", fe::SolverKind::cholmod},
-                                        {"umfpack", fe::SolverKind::umfpack}},
+                                        {"umfpack", fe::SolverKind::umfpack},
+                                        {"petsc", fe::SolverKind::petsc}},
                                        {}},
-                "sparse direct solver (auto: Cholesky first, LU when it fails)")
+                "linear solver: cholmod (sparse Cholesky, LU when it fails), umfpack (LU), petsc (GMRES + "
+                "algebraic multigrid over MPI ranks); auto: cholmod (petsc is faster at no measured size yet)")
+        .text("petsc_options", &O::petsc_options,
+              "PETSc options database entries for the petsc solver, e.g. \"-ksp_rtol 1e-10 -pc_type hypre\"")
         .flag("verbose", &O::verbose, "Newton iteration log on stderr");
     return k;
   }();

@@ -39,7 +39,13 @@ struct NewtonOptions {
   double max_step_seconds = 0.0;  ///< wall-time budget of one output interval's cut-backs [s]; 0: unlimited
   bool line_search = true;
   int initial_substeps = 1;   ///< sub-steps per output interval at the start
-  SolverKind solver = SolverKind::automatic;  ///< umfpack: always LU; otherwise Cholesky first
+  SolverKind solver = SolverKind::automatic;  ///< umfpack: always LU; petsc: Krylov + AMG; otherwise Cholesky first
+  /// automatic: PETSc from this many free dofs on — where it beats CHOLMOD. No measured size does yet
+  /// (BENCHMARKS.md "Macro solver on PETSc": its default preconditioner fails on the 3D tube), so auto
+  /// stays with CHOLMOD.
+  int petsc_min_dofs = 2147483647;
+  /// Options for PETSc's options database (PetscOptionsInsertString), e.g. "-ksp_type fgmres -pc_type hypre".
+  std::string petsc_options;
   bool mixed = true;          ///< three-field (u, θ, p) iteration for laws with a volumetric modulus
   int refactor_after = 8;     ///< refresh the factorization after a solve needing 3× more GMRES iterations
                               ///< (or whose iterations cost half a factorization)

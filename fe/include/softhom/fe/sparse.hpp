@@ -42,7 +42,9 @@ struct DofMap {
 /// Pattern of the stiffness restricted to free dofs: every pair of dofs sharing an element.
 CscMatrix build_pattern(const Mesh& mesh, const DofMap& dofs);
 
-enum class SolverKind { automatic, cholmod, umfpack };
+/// automatic: CHOLMOD (LU when it fails) below NewtonOptions::petsc_min_dofs free dofs, PETSc above;
+/// petsc: Krylov + AMG over MPI (fe/src/petsc_solve.hpp).
+enum class SolverKind { automatic, cholmod, umfpack, petsc };
 const char* to_string(SolverKind kind);
 
 /// Times of the last run of each phase, accumulated over calls [s].

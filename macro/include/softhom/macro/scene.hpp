@@ -10,7 +10,7 @@
 //              geometry.geo + mesh_size instead of geometry.file; [device] (devices.hpp)
 //   [material] (+ [material_lower] for actuators), [load] control, path = [[t, v], ...], steps,
 //   [solver]   tolerance, max_newton_iterations, max_krylov_iterations, max_cutbacks, substeps,
-//              mixed_pressure, max_step_seconds, formulation, linear_solver, verbose
+//              mixed_pressure, max_step_seconds, formulation, linear_solver, petsc_options, verbose
 //   [output]   fields = true | false | [t1, t2, ...] (field snapshots at these load-path times)
 #include <filesystem>
 #include <vector>

@@ -1,0 +1,163 @@
+// The macro engine's petsc linear solver: Krylov iterations per Newton step over mesh size and K/G
+// (Cook's membrane, plane strain), and the helix tube (bench_macro's tube, follower pressure) with
+// CHOLMOD vs PETSc: wall time, Newton and Krylov iterations, peak memory.
+//
+//   bench_macro_petsc --cook                 n = 8, 16, 32 × K/G = 1e2 … 1e5, one load step
+//   bench_macro_petsc --tube DOFS [STEPS]    helix tube, cholmod then petsc (under mpirun: petsc only)
+//   mpirun -n 2 bench_macro_petsc --tube DOFS [STEPS]
+// PETSC_OPTIONS in the environment is not read; pass options with --options "…".
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "softhom/fe/petsc.hpp"
+#include "softhom/fe/solver.hpp"
+#include "softhom/io/files.hpp"
+#include "softhom/io/mpi.hpp"
+#include "softhom/macro/structures.hpp"
+#include "softhom/materials/laws.hpp"
+
+using namespace softhom;
+using namespace softhom::fe;
+
+namespace {
+
+FeModel cook(int n, double kg) {
+  Mesh mesh;
+  auto id = [&](int i, int j, int k) { return i + (n + 1) * (j + (n + 1) * k); };
+  for (int k = 0; k <= 1; ++k)
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        const double xi = double(i) / n, eta = double(j) / n;
+        const double yb = 44.0 * xi, yt = 44.0 + 16.0 * xi;
+        mesh.nodes.push_back(Vec3(48.0 * xi, yb + eta * (yt - yb), 1.0 * k));
+      }
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i)
+      mesh.hexes.push_back({id(i, j, 0), id(i + 1, j, 0), id(i + 1, j + 1, 0), id(i, j + 1, 0), id(i, j, 1),
+                            id(i + 1, j, 1), id(i + 1, j + 1, 1), id(i, j + 1, 1)});
+  FeModel m;
+  m.mesh = mesh;
+  const double G = 83.3;
+  m.element_material.assign(mesh.num_elements(), make_material(make_neo_hookean({G, kg * G})));
+  DirichletGroup clamp, plane;
+  for (int node = 0; node < mesh.num_nodes(); ++node) {
+    if (mesh.nodes[node][0] < 1e-9)
+      for (int c = 0; c < 2; ++c) clamp.dofs.push_back(3 * node + c);
+    plane.dofs.push_back(3 * node + 2);
+  }
+  m.dirichlet = {clamp, plane};
+  NodalLoad load;
+  for (int j = 0; j < n; ++j)
+    for (int k = 0; k <= 1; ++k)
+      for (int jj : {j, j + 1}) {
+        load.dofs.push_back(3 * id(n, jj, k) + 1);
+        load.scale.push_back(5.0 / (4.0 * n));
+      }
+  load.value = PiecewiseLinear{{0.0, 1.0}, {0.0, 1.0}};
+  m.nodal_loads = {load};
+  return m;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+int cook_table(const std::string& options) {
+  if (mpi::world_rank() == 0)
+    std::printf("%6s %8s %8s %7s %7s %12s %9s\n", "mesh", "K/G", "dofs", "newton", "solves", "krylov/solve", "time[s]");
+  for (int n : {8, 16, 32})
+    for (double kg : {1e2, 1e3, 1e4, 1e5}) {
+      NewtonOptions o;
+      o.solver = SolverKind::petsc;
+      o.petsc_options = options;
+      const auto t0 = std::chrono::steady_clock::now();
+      Simulation sim(cook(n, kg), o);
+      const bool ok = sim.advance_to(1.0).reached();
+      const RunStats s = sim.stats();
+      if (mpi::world_rank() == 0)
+        std::printf("%3dx%-2d %8.0e %8d %7d %7d %12.1f %9.2f%s\n", n, n, kg, sim.num_free_dofs(), s.newton_iterations,
+                    s.linear.solves, double(s.krylov_iterations) / std::max(1, s.linear.solves), seconds_since(t0),
+                    ok ? "" : "  (failed)");
+      std::fflush(stdout);
+    }
+  return 0;
+}
+
+macro::StructureSpec helix_tube(double dofs) {
+  // bench/macro.cpp's tube: R_i 5, R_o 7.5, L 50, cap 2.5, ecoflex-anisotropic ±45°, cubes of edge h.
+  macro::StructureSpec spec;
+  spec.kind = macro::StructureKind::tube;
+  macro::TubeSpec t;
+  t.inner_radius = 5.0;
+  t.outer_radius = 7.5;
+  t.length = 50.0;
+  t.sweep_deg = 360.0;
+  t.cap_thickness = 2.5;
+  const double h = std::cbrt(3.0 * 2.5 * 2 * M_PI * 6.25 * 50.0 / dofs);
+  t.radial_cells = std::max(1, int(std::lround(2.5 / h)));
+  t.circumferential_cells = std::max(8, int(std::lround(2 * M_PI * 6.25 / h / 4)) * 4);
+  t.axial_cells = std::max(1, int(std::lround(50.0 / h)));
+  t.cap_axial_cells = std::max(1, int(std::lround(2.5 / h)));
+  t.cap_core_cells = std::max(1, int(std::lround(5.0 / h)));
+  spec.tube = t;
+  GentHGOParams p;
+  p.G = 0.017;
+  p.Jm = 14.0;
+  p.K = 2000.0;
+  const double a = 45.0 * M_PI / 180.0;
+  p.fibers = {{Vec3(std::sin(a), std::cos(a), 0.0), 0.8, 18.0}, {Vec3(-std::sin(a), std::cos(a), 0.0), 0.8, 18.0}};
+  spec.material = make_material(make_gent_hgo(p));
+  spec.fiber_frame = macro::FiberFrame::cylindrical;
+  spec.control = macro::LoadControl::pressure;
+  spec.load = {{0.0, 180.0}, {0.0, 0.004}};
+  return spec;
+}
+
+int tube_run(double dofs, int steps, const std::string& options) {
+  const macro::Structure s = macro::build_structure(helix_tube(dofs));
+  std::vector<SolverKind> kinds{SolverKind::petsc};
+  if (mpi::world_size() == 1) kinds.insert(kinds.begin(), SolverKind::cholmod);
+  for (SolverKind kind : kinds) {
+    NewtonOptions o;
+    o.solver = kind;
+    o.petsc_options = options;
+    const auto t0 = std::chrono::steady_clock::now();
+    Simulation sim(s.model, o);
+    bool ok = true;
+    for (int k = 1; k <= steps && ok; ++k) ok = sim.advance_to(180.0 * k / steps).reached();
+    const double wall = seconds_since(t0);
+    const RunStats st = sim.stats();
+    if (mpi::world_rank() == 0)
+      std::printf("tube %s ranks %d dofs %d steps %d newton %d krylov %d (%.1f/solve) wall %.2f s  %.3f s/newton  "
+                  "factor+setup %.2f s solve %.2f s assembly %.2f s  peak %.0f MiB (%.0f B/dof)%s\n",
+                  to_string(kind), mpi::world_size(), sim.num_free_dofs(), st.steps, st.newton_iterations,
+                  st.krylov_iterations, double(st.krylov_iterations) / std::max(1, st.linear.solves), wall,
+                  wall / std::max(1, st.newton_iterations), st.linear.factorization, st.linear.solve, st.assembly_time,
+                  io::peak_memory_bytes() / 1048576.0, io::peak_memory_bytes() / double(sim.num_free_dofs()),
+                  ok ? "" : "  (failed)");
+    std::fflush(stdout);
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  mpi::Environment env(argc, argv);
+  std::string options;
+  std::vector<std::string> args;
+  for (int k = 1; k < argc; ++k) {
+    if (std::strcmp(argv[k], "--options") == 0 && k + 1 < argc) options = argv[++k];
+    else args.push_back(argv[k]);
+  }
+  int rc = 2;
+  if (!args.empty() && args[0] == "--cook") rc = cook_table(options);
+  else if (args.size() >= 2 && args[0] == "--tube") rc = tube_run(std::stod(args[1]), args.size() >= 3 ? std::stoi(args[2]) : 4, options);
+  else std::fprintf(stderr, "usage: bench_macro_petsc --cook | --tube DOFS [STEPS] [--options \"...\"]\n");
+  petsc_finalize();
+  return rc;
+}

@@ -1,0 +1,14 @@
+#pragma once
+// PETSc's life cycle for the petsc linear solver ([solver] linear_solver = "petsc"). PETSc is
+// initialised lazily, the first time a PETSc solver is built: with the MPI that softhom started under
+// an MPI launcher (softhom/io/mpi.hpp), or PETSc's own one-process start otherwise.
+
+namespace softhom::fe {
+
+/// PetscInitialize on first use; later calls do nothing.
+void petsc_initialize();
+/// PetscFinalize if PETSc was initialised and not yet finalised. Call before MPI_Finalize (main() does);
+/// a process whose MPI PETSc started itself also finalises at exit.
+void petsc_finalize();
+
+}  // namespace softhom::fe

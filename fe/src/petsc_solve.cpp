@@ -1,0 +1,418 @@
+// The PETSc linear solver (petsc_solve.hpp): distributed tangent, GMRES + GAMG with the rigid-body
+// near-nullspace, and PETSc's life cycle.
+#include "petsc_solve.hpp"
+
+#include <petscksp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <stdexcept>
+
+#include "softhom/materials/errors.hpp"
+
+namespace softhom::fe {
+namespace {
+
+bool g_initialised = false, g_finalised = false;
+
+/// A failed PETSc call is a broken build or an exhausted machine, not a user error.
+void check(PetscErrorCode code, const char* what) {
+  if (code != 0) throw std::runtime_error(std::string("PETSc: ") + what + " failed (error " + std::to_string(int(code)) + ")");
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// Settings of the field split's blocks, inserted before the user's options (which override them):
+/// the displacement block by one V-cycle of BoomerAMG (on Cook's membrane 1.2–2.4× fewer iterations than
+/// GAMG with the rigid-body modes, BENCHMARKS.md), the Schur complement by the inverse of its diagonal
+/// approximation ("selfp": A_pp − A_pu diag(A_uu)⁻¹ A_up, diagonal for element pressures).
+constexpr const char* kSplitDefaults =
+    "-fieldsplit_u_ksp_type preonly -fieldsplit_u_pc_type hypre -fieldsplit_u_pc_hypre_type boomeramg "
+    "-fieldsplit_p_ksp_type preonly -fieldsplit_p_pc_type jacobi";
+
+}  // namespace
+
+void petsc_initialize() {
+  if (g_initialised) return;
+  int mpi_up = 0;
+  MPI_Initialized(&mpi_up);
+  // PETSc's own handler would print to stderr and abort on signals; softhom handles its signals itself.
+  check(PetscInitializeNoArguments(), "PetscInitialize");
+  PetscPopSignalHandler();
+  g_initialised = true;
+  // PETSc started MPI itself (no launcher): nobody else finalises, so do it at exit.
+  if (!mpi_up) std::atexit([] { petsc_finalize(); });
+}
+
+void petsc_finalize() {
+  if (!g_initialised || g_finalised) return;
+  g_finalised = true;
+  PetscFinalize();
+}
+
+// The uncondensed three-field system. The condensed tangent is K_c = A + Σ_k c_k d_k d_kᵀ with
+// c_k = V_k U″(θ_k) ~ V_k κ: at κ/G ~ 1e5 an AMG of K_c sees a nearly incompressible operator and its
+// Krylov counts grow with κ/G. With one pressure unknown per mixed element, scaled so that its column
+// is the unit vector n_k = d_k/|d_k| (p_k = π_k/|d_k|) and its row by c_k|d_k|,
+//     [ A              N ] [u]   [b]
+//     [ c_k|d_k| d_kᵀ −1 ] [π] = [0]
+// has the same u (π_k = c_k|d_k| d_kᵀu, A u + Σ n_k π_k = K_c u), and the condensed residual is
+// r_u + Σ n_k r_π,k: a small residual of this system is a small residual of K_c u = b (so the tolerance
+// keeps its meaning). Field split (Schur complement, upper factorization): BoomerAMG on A (or GAMG with
+// the rigid-body near-nullspace composed on the split, -fieldsplit_u_pc_type gamg), Jacobi on the Schur approximation A_ππ − A_πu diag(A)⁻¹ A_uπ = −(1 + c_k n_kᵀ
+// diag(A)⁻¹ d_k), the scaled pressure mass 1/G + 1/κ of the element.
+struct PetscSolver::Data {
+  MPI_Comm comm = MPI_COMM_NULL;  // PETSC_COMM_WORLD once PETSc is up
+  int rank = 0, size = 1;
+  PetscInt ndof = 0, lo = 0, hi = 0;  // owned dof range [lo, hi)
+  std::vector<int> dof_of_eq;         // free equation → dof
+  const DofMap* dofs = nullptr;
+  PetscInt nnodes = 0;
+  std::vector<double> coords;         // owned nodes' coordinates (near-nullspace)
+  // Three-field elements (empty: the condensed system alone).
+  std::vector<int> sad_off, sad_eq;
+  std::vector<double> sad_d, sad_c;
+  PetscInt np = 0, plo = 0, phi = 0;         // owned mixed elements [plo, phi)
+  std::vector<PetscInt> first;               // per rank: its first global index (u then π block)
+  std::vector<std::vector<std::pair<int, int>>> row_elems;  // owned dof → (element k, position q)
+  Mat A = nullptr;
+  KSP ksp = nullptr;
+  Vec b = nullptr, x = nullptr, all = nullptr;
+  VecScatter to_all = nullptr;
+  IS is_u = nullptr, is_p = nullptr;
+  double dirichlet_diagonal = 1.0;
+  double option_rtol = 0.0;  // -ksp_rtol of the options (0: none)
+  std::vector<PetscInt> cols;
+  std::vector<PetscScalar> vals;
+  std::vector<double> a_values;  // A = K − Σ c d dᵀ (three-field), K's pattern
+
+  bool saddle() const { return !sad_c.empty() || !sad_off.empty(); }
+  PetscInt dof_lo(int r) const { return 3 * (nnodes * r / size); }
+  PetscInt elem_lo(int r) const { return np * r / size; }
+  int owner_of_dof(PetscInt g) const {
+    int r = int(std::min<PetscInt>(size - 1, (g / 3) * size / std::max<PetscInt>(nnodes, 1)));
+    while (r > 0 && g < dof_lo(r)) --r;
+    while (r + 1 < size && g >= dof_lo(r + 1)) ++r;
+    return r;
+  }
+  int owner_of_elem(PetscInt k) const {
+    int r = int(std::min<PetscInt>(size - 1, k * size / std::max<PetscInt>(np, 1)));
+    while (r > 0 && k < elem_lo(r)) --r;
+    while (r + 1 < size && k >= elem_lo(r + 1)) ++r;
+    return r;
+  }
+  /// Global PETSc index of dof g and of element pressure k (rank blocks [u_r, π_r]).
+  PetscInt gu(PetscInt g) const {
+    if (!saddle()) return g;
+    const int r = owner_of_dof(g);
+    return first[r] + g - dof_lo(r);
+  }
+  PetscInt gp(PetscInt k) const {
+    const int r = owner_of_elem(k);
+    return first[r] + (dof_lo(r + 1) - dof_lo(r)) + k - elem_lo(r);
+  }
+  bool local(PetscInt col) const { return col >= first[rank] && col < first[rank + 1]; }
+  double d_norm(int k) const {
+    double s = 0.0;
+    for (int q = sad_off[k]; q < sad_off[k + 1]; ++q)
+      if (sad_eq[q] >= 0) s += sad_d[q] * sad_d[q];
+    return s > 0.0 ? std::sqrt(s) : 1.0;
+  }
+};
+
+PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string& options) : d_(std::make_unique<Data>()) {
+  petsc_initialize();
+  Data& d = *d_;
+  d.comm = PETSC_COMM_WORLD;
+  MPI_Comm_rank(d.comm, &d.rank);
+  MPI_Comm_size(d.comm, &d.size);
+  d.nnodes = mesh.num_nodes();
+  d.ndof = 3 * d.nnodes;
+  d.lo = d.dof_lo(d.rank);
+  d.hi = d.dof_lo(d.rank + 1);
+  d.dofs = &dofs;
+  d.dof_of_eq.assign(dofs.num_free, -1);
+  for (int k = 0; k < int(dofs.eq.size()); ++k)
+    if (dofs.eq[k] >= 0) d.dof_of_eq[dofs.eq[k]] = k;
+  for (PetscInt n = d.lo / 3; n < d.hi / 3; ++n)
+    for (int i = 0; i < 3; ++i) d.coords.push_back(mesh.nodes[n][i]);
+  // One database per solver: the options of an earlier simulation in this process do not carry over.
+  check(PetscOptionsClear(nullptr), "PetscOptionsClear");
+  check(PetscOptionsInsertString(nullptr, kSplitDefaults), "PetscOptionsInsertString (defaults)");
+  if (!options.empty() && PetscOptionsInsertString(nullptr, options.c_str()) != 0)
+    throw InputError("solver.petsc_options", options, "PETSc cannot parse these options");
+  PetscBool set = PETSC_FALSE;
+  PetscReal rtol = 0.0;
+  PetscOptionsGetReal(nullptr, nullptr, "-ksp_rtol", &rtol, &set);
+  if (set && options.find("-ksp_rtol") != std::string::npos) d.option_rtol = rtol;
+}
+
+PetscSolver::~PetscSolver() {
+  if (!d_ || g_finalised) return;  // PETSc's objects went with PetscFinalize
+  Data& d = *d_;
+  if (d.to_all) VecScatterDestroy(&d.to_all);
+  if (d.all) VecDestroy(&d.all);
+  if (d.b) VecDestroy(&d.b);
+  if (d.x) VecDestroy(&d.x);
+  if (d.ksp) KSPDestroy(&d.ksp);
+  if (d.A) MatDestroy(&d.A);
+  if (d.is_u) ISDestroy(&d.is_u);
+  if (d.is_p) ISDestroy(&d.is_p);
+}
+
+int PetscSolver::ranks() const { return d_->size; }
+
+std::string PetscSolver::description() const {
+  if (!d_->ksp) return "petsc";
+  KSPType kt;
+  PCType pt;
+  PC pc;
+  KSPGetType(d_->ksp, &kt);
+  KSPGetPC(d_->ksp, &pc);
+  PCGetType(pc, &pt);
+  std::string s = std::string(kt ? kt : "?") + " + " + (pt ? pt : "?");
+  if (d_->saddle() && pt && std::string(pt) == PCFIELDSPLIT) s += " (u, p) Schur: boomeramg on u, jacobi on the Schur diagonal";
+  return s;
+}
+
+void PetscSolver::set_mixed(const std::vector<int>& off, const std::vector<int>& eq) {
+  Data& d = *d_;
+  d.sad_off = off;
+  d.sad_eq = eq;
+  d.np = off.empty() ? 0 : PetscInt(off.size()) - 1;
+  if (d.np == 0) d.sad_off.clear();
+}
+
+void PetscSolver::set_mixed_tangent(const std::vector<double>& dk, const std::vector<double>& ck) {
+  d_->sad_d = dk;
+  d_->sad_c = ck;
+}
+
+void PetscSolver::analyze(const CscMatrix& K) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Data& d = *d_;
+  const std::vector<int>& eq = d.dofs->eq;
+  const bool saddle = d.saddle();
+  const PetscInt nu = d.hi - d.lo;
+  d.plo = saddle ? d.elem_lo(d.rank) : 0;
+  d.phi = saddle ? d.elem_lo(d.rank + 1) : 0;
+  const PetscInt nlocal = nu + (d.phi - d.plo);
+  d.first.assign(d.size + 1, 0);
+  for (int r = 0; r < d.size; ++r)
+    d.first[r + 1] = d.first[r] + (d.dof_lo(r + 1) - d.dof_lo(r)) + (saddle ? d.elem_lo(r + 1) - d.elem_lo(r) : 0);
+  const PetscInt nglobal = d.first[d.size];
+  if (saddle) {
+    d.row_elems.assign(nu, {});
+    for (PetscInt k = 0; k < d.np; ++k)
+      for (int q = d.sad_off[k]; q < d.sad_off[k + 1]; ++q)
+        if (d.sad_eq[q] >= 0) {
+          const PetscInt g = d.dof_of_eq[d.sad_eq[q]];
+          if (g >= d.lo && g < d.hi) d.row_elems[g - d.lo].push_back({int(k), q});
+        }
+  }
+  // Preallocation per owned row: row r of K is column r's pattern (structurally symmetric).
+  std::vector<PetscInt> dnz(nlocal, 1), onz(nlocal, 0);
+  for (PetscInt g = d.lo; g < d.hi; ++g) {
+    const int r = eq[g];
+    if (r < 0) continue;
+    PetscInt in = 0, out = 0;
+    for (int k = K.colptr[r]; k < K.colptr[r + 1]; ++k) d.local(d.gu(d.dof_of_eq[K.rowind[k]])) ? ++in : ++out;
+    if (saddle)
+      for (const auto& [k, q] : d.row_elems[g - d.lo]) d.local(d.gp(k)) ? ++in : ++out;
+    dnz[g - d.lo] = in;
+    onz[g - d.lo] = out;
+  }
+  for (PetscInt k = d.plo; k < d.phi; ++k) {
+    PetscInt in = 1, out = 0;
+    for (int q = d.sad_off[k]; q < d.sad_off[k + 1]; ++q)
+      if (d.sad_eq[q] >= 0) d.local(d.gu(d.dof_of_eq[d.sad_eq[q]])) ? ++in : ++out;
+    dnz[nu + k - d.plo] = in;
+    onz[nu + k - d.plo] = out;
+  }
+  check(MatCreate(d.comm, &d.A), "MatCreate");
+  check(MatSetSizes(d.A, nlocal, nlocal, nglobal, nglobal), "MatSetSizes");
+  check(MatSetType(d.A, MATAIJ), "MatSetType");
+  if (!saddle) check(MatSetBlockSize(d.A, 3), "MatSetBlockSize");
+  check(MatSeqAIJSetPreallocation(d.A, 0, dnz.data()), "MatSeqAIJSetPreallocation");
+  check(MatMPIAIJSetPreallocation(d.A, 0, dnz.data(), 0, onz.data()), "MatMPIAIJSetPreallocation");
+  check(MatSetOption(d.A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE), "MatSetOption");
+  // Rigid-body modes from the owned nodes' coordinates: GAMG's near-nullspace (three translations and
+  // three rotations; without them smoothed aggregation sees a scalar Laplacian per component and its
+  // counts grow with the mesh).
+  Vec xyz;
+  check(VecCreateMPIWithArray(d.comm, 3, nu, d.ndof, d.coords.data(), &xyz), "VecCreateMPIWithArray");
+  MatNullSpace nsp;
+  check(MatNullSpaceCreateRigidBody(xyz, &nsp), "MatNullSpaceCreateRigidBody");
+  check(MatCreateVecs(d.A, &d.x, &d.b), "MatCreateVecs");
+  check(VecScatterCreateToAll(d.x, &d.to_all, &d.all), "VecScatterCreateToAll");
+  check(KSPCreate(d.comm, &d.ksp), "KSPCreate");
+  check(KSPSetType(d.ksp, KSPGMRES), "KSPSetType");
+  // GMRES: the follower-pressure tangent is unsymmetric (and the field split's preconditioner too).
+  // Right preconditioning: the tolerance is on the true residual ‖b − A x‖/‖b‖, as for the CHOLMOD
+  // path's GMRES.
+  check(KSPGMRESSetRestart(d.ksp, 200), "KSPGMRESSetRestart");
+  // Classical Gram–Schmidt loses orthogonality on these badly scaled systems (κ/G up to 1e5) at tight
+  // tolerances: GMRES then stagnates and reports a breakdown at the restart (Cook 6 × 6, K/G = 1e4);
+  // refined CGS converges in 53 iterations there.
+  check(KSPGMRESSetCGSRefinementType(d.ksp, KSP_GMRES_CGS_REFINE_ALWAYS), "KSPGMRESSetCGSRefinementType");
+  check(KSPSetPCSide(d.ksp, PC_RIGHT), "KSPSetPCSide");
+  check(KSPSetTolerances(d.ksp, 1e-8, 1e-300, PETSC_DEFAULT, 2000), "KSPSetTolerances");
+  PC pc;
+  check(KSPGetPC(d.ksp, &pc), "KSPGetPC");
+  if (saddle) {
+    std::vector<PetscInt> iu(nu), ip(d.phi - d.plo);
+    for (PetscInt i = 0; i < nu; ++i) iu[i] = d.first[d.rank] + i;
+    for (PetscInt i = 0; i < d.phi - d.plo; ++i) ip[i] = d.first[d.rank] + nu + i;
+    check(ISCreateGeneral(d.comm, nu, iu.data(), PETSC_COPY_VALUES, &d.is_u), "ISCreateGeneral");
+    check(ISCreateGeneral(d.comm, PetscInt(ip.size()), ip.data(), PETSC_COPY_VALUES, &d.is_p), "ISCreateGeneral");
+    check(ISSetBlockSize(d.is_u, 3), "ISSetBlockSize");
+    // The field split hands the near-nullspace composed on the IS to its displacement block.
+    check(PetscObjectCompose(reinterpret_cast<PetscObject>(d.is_u), "nearnullspace", reinterpret_cast<PetscObject>(nsp)),
+          "PetscObjectCompose");
+    check(PCSetType(pc, PCFIELDSPLIT), "PCSetType");
+    check(PCFieldSplitSetIS(pc, "u", d.is_u), "PCFieldSplitSetIS");
+    check(PCFieldSplitSetIS(pc, "p", d.is_p), "PCFieldSplitSetIS");
+    check(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "PCFieldSplitSetType");
+    check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER), "PCFieldSplitSetSchurFactType");
+    check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr), "PCFieldSplitSetSchurPre");
+  } else {
+    check(MatSetNearNullSpace(d.A, nsp), "MatSetNearNullSpace");
+    check(PCSetType(pc, PCGAMG), "PCSetType");
+  }
+  MatNullSpaceDestroy(&nsp);
+  VecDestroy(&xyz);
+  check(KSPSetFromOptions(d.ksp), "KSPSetFromOptions");
+  times_.analysis += seconds_since(t0);
+}
+
+bool PetscSolver::factorize(const CscMatrix& K) {
+  if (!d_->A) analyze(K);
+  const auto t0 = std::chrono::steady_clock::now();
+  Data& d = *d_;
+  const std::vector<int>& eq = d.dofs->eq;
+  const bool saddle = d.saddle();
+  // The Dirichlet rows' diagonal: the mean free diagonal of the first tangent, so the identity rows
+  // neither dominate nor vanish in the smoothers.
+  if (times_.factorizations == 0) {
+    double sum = 0.0;
+    for (int c = 0; c < K.n; ++c) {
+      const long k = K.find(c, c);
+      if (k >= 0) sum += std::abs(K.values[k]);
+    }
+    d.dirichlet_diagonal = K.n > 0 && sum > 0.0 ? sum / K.n : 1.0;
+  }
+  const double* kv = K.values.data();
+  std::vector<double> dn;
+  if (saddle) {
+    // A = K_c − Σ_k c_k d_k d_kᵀ on the owned rows (the cancellation costs κ/G · ε ~ 1e-11 of A).
+    if (d.sad_c.size() != std::size_t(d.np)) throw std::logic_error("PetscSolver: mixed tangent not set");
+    d.a_values = K.values;
+    dn.resize(d.np);
+    for (PetscInt k = 0; k < d.np; ++k) dn[k] = d.d_norm(int(k));
+    for (PetscInt g = d.lo; g < d.hi; ++g) {
+      const int r = eq[g];
+      if (r < 0) continue;
+      for (const auto& [k, q] : d.row_elems[g - d.lo])
+        for (int q2 = d.sad_off[k]; q2 < d.sad_off[k + 1]; ++q2) {
+          const int c = d.sad_eq[q2];
+          if (c < 0) continue;
+          d.a_values[K.find(r, c)] -= d.sad_c[k] * d.sad_d[q] * d.sad_d[q2];
+        }
+    }
+    kv = d.a_values.data();
+  }
+  for (PetscInt g = d.lo; g < d.hi; ++g) {
+    const int r = eq[g];
+    const PetscInt row = d.gu(g);
+    if (r < 0) {
+      check(MatSetValue(d.A, row, row, d.dirichlet_diagonal, INSERT_VALUES), "MatSetValue");
+      continue;
+    }
+    d.cols.clear();
+    d.vals.clear();
+    for (int k = K.colptr[r]; k < K.colptr[r + 1]; ++k) {
+      d.cols.push_back(d.gu(d.dof_of_eq[K.rowind[k]]));
+      d.vals.push_back(kv[K.mirror.empty() ? K.find(r, K.rowind[k]) : K.mirror[k]]);
+    }
+    if (saddle)
+      for (const auto& [k, q] : d.row_elems[g - d.lo]) {
+        d.cols.push_back(d.gp(k));
+        d.vals.push_back(d.sad_d[q] / dn[k]);
+      }
+    check(MatSetValues(d.A, 1, &row, PetscInt(d.cols.size()), d.cols.data(), d.vals.data(), INSERT_VALUES), "MatSetValues");
+  }
+  for (PetscInt k = d.plo; k < d.phi; ++k) {
+    d.cols.clear();
+    d.vals.clear();
+    const double w = d.sad_c[k] * dn[k];
+    for (int q = d.sad_off[k]; q < d.sad_off[k + 1]; ++q)
+      if (d.sad_eq[q] >= 0) {
+        d.cols.push_back(d.gu(d.dof_of_eq[d.sad_eq[q]]));
+        d.vals.push_back(w * d.sad_d[q]);
+      }
+    d.cols.push_back(d.gp(k));
+    d.vals.push_back(-1.0);
+    const PetscInt row = d.gp(k);
+    check(MatSetValues(d.A, 1, &row, PetscInt(d.cols.size()), d.cols.data(), d.vals.data(), INSERT_VALUES), "MatSetValues");
+  }
+  check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+  check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  check(KSPSetOperators(d.ksp, d.A, d.A), "KSPSetOperators");
+  // The multigrid hierarchy of this tangent now (its cost is the "factorization" of this solver).
+  check(KSPSetUp(d.ksp), "KSPSetUp");
+  times_.factorization += seconds_since(t0);
+  ++times_.factorizations;
+  times_.factor_nnz = 0.0;
+  return true;
+}
+
+void PetscSolver::solve(const std::vector<double>& b, std::vector<double>& x) {
+  const KrylovOutcome o = solve(b, x, 1e-12);
+  if (!o.converged) throw std::runtime_error("PETSc: the linear solve did not converge (" + o.reason + ")");
+}
+
+KrylovOutcome PetscSolver::solve(const std::vector<double>& b, std::vector<double>& x, double rtol) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Data& d = *d_;
+  const std::vector<int>& eq = d.dofs->eq;
+  PetscScalar* bv;
+  check(VecSet(d.b, 0.0), "VecSet");
+  check(VecGetArray(d.b, &bv), "VecGetArray");
+  for (PetscInt g = d.lo; g < d.hi; ++g) bv[g - d.lo] = eq[g] >= 0 ? b[eq[g]] : 0.0;  // u block first on every rank
+  check(VecRestoreArray(d.b, &bv), "VecRestoreArray");
+  if (d.option_rtol > 0.0) rtol = std::min(rtol, d.option_rtol);
+  PetscInt maxit;
+  PetscReal r0, a0, dt0;
+  KSPGetTolerances(d.ksp, &r0, &a0, &dt0, &maxit);
+  check(KSPSetTolerances(d.ksp, rtol, 1e-300, PETSC_DEFAULT, maxit), "KSPSetTolerances");
+  check(KSPSolve(d.ksp, d.b, d.x), "KSPSolve");
+  KrylovOutcome o;
+  KSPConvergedReason reason;
+  KSPGetConvergedReason(d.ksp, &reason);
+  PetscInt its;
+  KSPGetIterationNumber(d.ksp, &its);
+  o.iterations = int(its);
+  o.converged = reason > 0;
+  o.reason = KSPConvergedReasons[reason];
+  PetscReal rnorm, bnorm;
+  KSPGetResidualNorm(d.ksp, &rnorm);
+  VecNorm(d.b, NORM_2, &bnorm);
+  o.relative_residual = bnorm > 0.0 ? rnorm / bnorm : 0.0;
+  // Every rank runs the same Newton iteration: the whole solution to every rank.
+  check(VecScatterBegin(d.to_all, d.x, d.all, INSERT_VALUES, SCATTER_FORWARD), "VecScatterBegin");
+  check(VecScatterEnd(d.to_all, d.x, d.all, INSERT_VALUES, SCATTER_FORWARD), "VecScatterEnd");
+  const PetscScalar* av;
+  check(VecGetArrayRead(d.all, &av), "VecGetArrayRead");
+  x.assign(d.dof_of_eq.size(), 0.0);
+  for (std::size_t k = 0; k < d.dof_of_eq.size(); ++k) x[k] = av[d.gu(d.dof_of_eq[k])];
+  check(VecRestoreArrayRead(d.all, &av), "VecRestoreArrayRead");
+  times_.solve += seconds_since(t0);
+  ++times_.solves;
+  return o;
+}
+
+}  // namespace softhom::fe
