@@ -47,6 +47,12 @@ void Cell::setup(const toml::table& scene) {
     throw InputError("solver.scheme", to_string(s.solver.scheme),
                      "a Cell needs newton-cg (its consistent tangent is the Newton linearization)");
   options_ = s.solver;
+  // The homogenized tangent is read off the stored tangent field: single-precision storage (the default of
+  // a plain run, where it only preconditions Newton) would round ∂P̄/∂F̄ at about 1e-7 relative. A Cell
+  // keeps double unless its scene asks for single.
+  const toml::table* solver_table = scene["solver"].as_table();
+  if (!solver_table || !solver_table->contains("tangent_precision"))
+    options_.tangent_precision = rve::TangentPrecision::double_precision;
   solver_ = std::make_unique<rve::FftRveSolver>(s.image, s.matrix, s.fiber, s.fiber_angle_deg, Mat3::Identity(), options_);
   has_history_ = s.matrix->state_size() > 0 || s.fiber->state_size() > 0;
   initial_.solver = solver_->state();

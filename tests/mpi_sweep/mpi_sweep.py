@@ -172,10 +172,15 @@ def errors_from_rank0_only(a, work):
     out = work / "busy"
     first = Job([a.softhom] + sweep_args(out))
     check(first.wait_for(r"\[sweep\]", 60), "the one-process sweep shows no progress: %s" % tail(first.stderr()))
-    rc, err, _ = run(mpirun(a, 2, *sweep_args(out)), seconds=60)
-    still_running = first.p.poll() is None
+    # Paused, the first sweep holds the lock however fast the machine is (no race with its end).
+    os.kill(first.p.pid, signal.SIGSTOP)
+    try:
+        rc, err, _ = run(mpirun(a, 2, *sweep_args(out)), seconds=60)
+        still_running = first.p.poll() is None
+    finally:
+        os.kill(first.p.pid, signal.SIGCONT)
     faults.check_exit(first.wait(120), first.stderr(), allowed=(0,))
-    check(still_running, "the first sweep ended before the MPI one was refused: make the campaign longer")
+    check(still_running, "the first sweep ended before the MPI one was refused")
     check(rc == 1, "a busy directory on 2 ranks: exit %d, expected 1: %s" % (rc, tail(err)))
     check(len(re.findall(r"in use by another softhom sweep", err)) == 1 and str(first.p.pid) in err,
           "the refusal is not printed once naming pid %d: %s" % (first.p.pid, tail(err, 1200)))
