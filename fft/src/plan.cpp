@@ -10,6 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "plan_rigor.hpp"
+
 namespace softhom::fft {
 namespace {
 
@@ -22,24 +24,6 @@ std::mutex& planner_mutex() {
 void init_threads_once() {
   static std::once_flag flag;
   std::call_once(flag, [] { fftw_init_threads(); });
-}
-
-unsigned flags_of(PlanRigor r) {
-  switch (r) {
-    case PlanRigor::estimate: return FFTW_ESTIMATE;
-    case PlanRigor::measure: return FFTW_MEASURE;
-    case PlanRigor::patient: return FFTW_PATIENT;
-  }
-  return FFTW_MEASURE;
-}
-
-const char* name_of(PlanRigor r) {
-  switch (r) {
-    case PlanRigor::estimate: return "estimate";
-    case PlanRigor::measure: return "measure";
-    case PlanRigor::patient: return "patient";
-  }
-  return "?";
 }
 
 }  // namespace
@@ -59,7 +43,7 @@ BatchedFFT::BatchedFFT(const Grid& grid, int fields, const PlanOptions& options,
   // FFTW is row-major with the last index fastest: dims (n3, n2, n1) match our i1-fastest layout.
   int dims[3] = {grid.n[2], grid.n[1], grid.n[0]};
   const int nv = int(grid.voxels()), nm = int(grid.modes());
-  const unsigned flags = flags_of(options.rigor);
+  const unsigned flags = detail::fftw_flags(options.rigor);
   {
     std::lock_guard<std::mutex> lock(planner_mutex());
     init_threads_once();
@@ -110,7 +94,7 @@ void BatchedFFT::backward() { fftw_execute(static_cast<fftw_plan>(backward_plan_
 std::string BatchedFFT::describe() const {
   std::ostringstream os;
   os << "fftw3 r2c " << transformed_fields() << " x " << grid_.n[0] << "x" << grid_.n[1] << "x" << grid_.n[2] << ", "
-     << threads_ << " threads, " << name_of(rigor_);
+     << threads_ << " threads, " << detail::rigor_name(rigor_);
   return os.str();
 }
 

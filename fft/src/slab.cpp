@@ -11,6 +11,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "plan_rigor.hpp"
+
 namespace softhom::fft {
 namespace {
 
@@ -27,24 +29,6 @@ void init_fftw_mpi_once() {
     fftw_init_threads();
     fftw_mpi_init();
   });
-}
-
-unsigned rigor_flags(PlanRigor r) {
-  switch (r) {
-    case PlanRigor::estimate: return FFTW_ESTIMATE;
-    case PlanRigor::measure: return FFTW_MEASURE;
-    case PlanRigor::patient: return FFTW_PATIENT;
-  }
-  return FFTW_MEASURE;
-}
-
-const char* rigor_name(PlanRigor r) {
-  switch (r) {
-    case PlanRigor::estimate: return "estimate";
-    case PlanRigor::measure: return "measure";
-    case PlanRigor::patient: return "patient";
-  }
-  return "?";
 }
 
 }  // namespace
@@ -166,7 +150,7 @@ SlabFFT::SlabFFT(const SlabDecomposition& slabs, int fields, const PlanOptions& 
   work_ = fftw_alloc_real(work_doubles_);
   if (!real_ || !spectrum_ || !work_) throw std::bad_alloc();
   set_buffers(real_, real_stride_, spectrum_, slabs.local_modes());
-  const unsigned flags = rigor_flags(options.rigor);
+  const unsigned flags = detail::fftw_flags(options.rigor);
   {
     std::lock_guard<std::mutex> lock(slab_planner_mutex());
     // Wisdom: rank 0 reads it and hands it to all (planning is collective and must agree), then
@@ -273,7 +257,7 @@ std::string SlabFFT::describe() const {
   std::ostringstream os;
   os << "fftw3-mpi r2c " << transformed_fields() << " x " << g.n[0] << "x" << g.n[1] << "x" << g.n[2] << ", "
      << slabs_.size() << " ranks (slabs of " << slabs_.max_planes() << " planes i3), " << threads_
-     << " threads/rank, " << rigor_name(rigor_);
+     << " threads/rank, " << detail::rigor_name(rigor_);
   return os.str();
 }
 

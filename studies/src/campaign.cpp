@@ -512,6 +512,20 @@ class ChainScheduler {
 // ---------------------------------------------------------------------------------------------
 // Record: counts and progress lines of the finished cases.
 
+SweepReport start_report(const Campaign& campaign, const CampaignStore& store, bool retry_failed, bool quiet,
+                         std::vector<bool>& todo) {
+  SweepReport report;
+  report.total = int(campaign.cases.size());
+  report.store = store.store_path();
+  report.csv = store.csv_path();
+  report.removed_temporaries = store.removed_temporaries();
+  if (!quiet)
+    for (const auto& p : report.removed_temporaries) std::cerr << "[sweep] removed stale temporary " << p.string() << "\n";
+  todo = cases_to_run(campaign, store.records(), retry_failed);
+  report.skipped = int(std::count(todo.begin(), todo.end(), false));
+  return report;
+}
+
 void count_and_log(SweepReport& report, const CaseRecord& r, bool quiet) {
   ++report.finished;
   if (r.status != "ok") ++report.failed;
@@ -542,20 +556,12 @@ SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& 
   using namespace sweep_detail;
   const auto start = Clock::now();
   check_case_ids(campaign);
-  SweepReport report;
-  report.total = int(campaign.cases.size());
-
   // Write: the directory is ours until `store` goes (lock, stale temporaries removed, store read).
   CampaignStore store(dir);
-  report.store = store.store_path();
-  report.csv = store.csv_path();
-  report.removed_temporaries = store.removed_temporaries();
-  if (!options.quiet)
-    for (const auto& p : report.removed_temporaries) std::cerr << "[sweep] removed stale temporary " << p.string() << "\n";
 
   // Schedule.
-  const std::vector<bool> todo = cases_to_run(campaign, store.records(), options.retry_failed);
-  report.skipped = int(std::count(todo.begin(), todo.end(), false));
+  std::vector<bool> todo;
+  SweepReport report = start_report(campaign, store, options.retry_failed, options.quiet, todo);
   const bool warm = options.warm_start && campaign.warm_start;
   std::vector<Chain> chains = plan_chains(campaign, todo, warm);
   int to_run = 0;

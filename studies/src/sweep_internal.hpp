@@ -42,6 +42,10 @@ std::vector<bool> cases_to_run(const Campaign& campaign, const std::map<std::str
 std::vector<Chain> plan_chains(const Campaign& campaign, const std::vector<bool>& todo, bool warm);
 /// Runs one chain: members to be stored are announced by ctx.case_started / ctx.case_finished.
 void run_chain(const ChainContext& ctx, const std::vector<int>& members, const std::vector<bool>& store, int last);
+/// A report for `campaign` on the opened store (its files, the stale temporaries it removed, printed
+/// unless quiet) and the cases to run, counting the stored ones as skipped.
+SweepReport start_report(const Campaign& campaign, const CampaignStore& store, bool retry_failed, bool quiet,
+                         std::vector<bool>& todo);
 /// Counts a stored record in the report and prints its "[sweep] id: ok, ..." line (unless quiet).
 void count_and_log(SweepReport& report, const CaseRecord& r, bool quiet);
 /// "[sweep] done 3/6 (failed 0), running 2, skipped 0 | elapsed ..., ETA ...".

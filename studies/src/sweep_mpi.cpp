@@ -224,18 +224,10 @@ void send_ints(const std::vector<int>& m, int to, int tag) {
 SweepReport run_writer(const Campaign& campaign, const fs::path& dir, const SweepOptions& options, CampaignStore& store,
                        Clock::time_point start) {
   const int ranks = mpi::world_size();
-  SweepReport report;
-  report.total = int(campaign.cases.size());
+  std::vector<bool> todo;
+  SweepReport report = start_report(campaign, store, options.retry_failed, options.quiet, todo);
   report.ranks = ranks;
   report.cases_per_rank.assign(ranks, 0);
-  report.store = store.store_path();
-  report.csv = store.csv_path();
-  report.removed_temporaries = store.removed_temporaries();
-  if (!options.quiet)
-    for (const auto& p : report.removed_temporaries) std::cerr << "[sweep] removed stale temporary " << p.string() << "\n";
-
-  const std::vector<bool> todo = cases_to_run(campaign, store.records(), options.retry_failed);
-  report.skipped = int(std::count(todo.begin(), todo.end(), false));
   const bool warm = options.warm_start && campaign.warm_start;
   const std::vector<Chain> chains = plan_chains(campaign, todo, warm);
   int to_run = 0;
