@@ -3,7 +3,7 @@
 // Scenes come in as Python dicts (converted key by key into the TOML table the scene parsers read, so
 // every refusal names the same TOML path as on the command line), TOML text or a file. Jobs run through
 // the same entry points as the `softhom` program (apps/: run_point_scene, run_rve_scene,
-// run_macro_scene; studies: calibrate, read_store). While a job runs, the GIL is released and SIGINT
+// run_macro_scene; studies: calibrate, read_store, Cell). While a job runs, the GIL is released and SIGINT
 // asks softhom's loops to stop (materials/interrupt.hpp), which becomes KeyboardInterrupt here.
 #include <omp.h>
 #include <pybind11/numpy.h>
@@ -34,6 +34,7 @@
 #include "softhom/materials/scene_keys.hpp"
 #include "softhom/studies/calibration.hpp"
 #include "softhom/studies/campaign.hpp"
+#include "softhom/studies/cell.hpp"
 
 namespace py = pybind11;
 namespace fs = std::filesystem;
@@ -375,6 +376,75 @@ py::dict calibrate(const std::string& kind, py::handle calibration, const std::s
   return r;
 }
 
+// ---------------------------------------------------------------------------------------------
+// One RVE cell as a constitutive law (softhom/studies/cell.hpp): F̄ in, P̄ and ∂P̄/∂F̄ out, state kept.
+
+using Array33 = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+Mat3 to_mat3(const Array33& a, const char* name) {
+  if (a.ndim() != 2 || a.shape(0) != 3 || a.shape(1) != 3) throw InputError(name, "an array of another shape", "must be [3, 3]");
+  Mat3 m;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m(r, c) = a.at(r, c);
+  return m;
+}
+
+py::array_t<double> from_mat3(const Mat3& m) {
+  py::array_t<double> a({py::ssize_t(3), py::ssize_t(3)});
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) a.mutable_at(r, c) = m(r, c);
+  return a;
+}
+
+std::unique_ptr<studies::Cell> make_cell(const std::string& kind, py::handle scene, double tangent_tolerance) {
+  studies::CellOptions o;
+  o.tangent_tolerance = tangent_tolerance;
+  return std::make_unique<studies::Cell>(load_scene(kind, scene, "").table, o);
+}
+
+/// {"converged", "error", "F", "P", "tangent" ([9, 9], row 3i+j = P̄_ij, column 3k+l = F̄_kl; None
+/// without), iteration counts and seconds}. `stress_prescribed` ([3, 3] bools, or None): those components
+/// take P̄ = P_target, the others F̄ = F. GIL released; Ctrl-C stops the solve (KeyboardInterrupt).
+py::dict solve_cell(studies::Cell& cell, const Array33& F, double dt, bool tangent, py::object stress_prescribed,
+                    py::object P_target) {
+  const Mat3 Fm = to_mat3(F, "F");
+  std::array<bool, 9> prescribed{};
+  Mat3 Pm = Mat3::Zero();
+  if (!stress_prescribed.is_none()) {
+    const auto mask = stress_prescribed.cast<py::array_t<bool, py::array::c_style | py::array::forcecast>>();
+    if (mask.ndim() != 2 || mask.shape(0) != 3 || mask.shape(1) != 3)
+      throw InputError("stress_prescribed", "an array of another shape", "must be [3, 3] booleans");
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) prescribed[std::size_t(3 * r + c)] = mask.at(r, c);
+  }
+  if (!P_target.is_none()) Pm = to_mat3(P_target.cast<Array33>(), "P_target");
+  studies::CellResult r;
+  run_job("", 0, [&] {
+    r = cell.solve_mixed(Fm, Pm, prescribed, dt, tangent);
+    return 0;
+  });
+  py::dict d;
+  d["converged"] = r.converged;
+  d["error"] = r.error;
+  d["F"] = from_mat3(r.F);
+  d["P"] = from_mat3(r.P);
+  if (tangent && r.converged) {
+    py::array_t<double> A({py::ssize_t(9), py::ssize_t(9)});
+    for (int i = 0; i < 9; ++i)
+      for (int j = 0; j < 9; ++j) A.mutable_at(i, j) = r.tangent(i, j);
+    d["tangent"] = A;
+  } else {
+    d["tangent"] = py::none();
+  }
+  d["newton_iterations"] = r.counts.newton_iterations;
+  d["krylov_iterations"] = r.counts.krylov_iterations;
+  d["cutbacks"] = r.counts.cutbacks;
+  d["tangent_krylov_iterations"] = r.tangent_krylov_iterations;
+  d["solve_seconds"] = r.solve_seconds;
+  d["tangent_seconds"] = r.tangent_seconds;
+  return d;
+}
+
 std::string default_scene(const std::string& command) {
   const std::string name = app::default_scene_name(command);
   const auto& scenes = app::embedded_scenes();
@@ -443,6 +513,25 @@ PYBIND11_MODULE(_softhom, m) {
     s << softhom::python::to_table(d, "");
     return s.str();
   }, py::arg("scene"), "a scene dict as TOML text");
-  // The one-RVE-cell facade (rve/include/softhom/rve/cell.hpp: a cell at a macro F̄ → P̄, dP̄/dF̄, state)
-  // is bound here once it is part of the rve library: class Cell with evaluate(F̄, state, dt).
+
+  // One RVE cell (softhom/studies/cell.hpp). States are values: copy one out per quadrature point.
+  py::class_<studies::CellState>(m, "CellState")
+      .def("copy", [](const studies::CellState& s) { return s; })
+      .def("__copy__", [](const studies::CellState& s) { return s; })
+      .def("__deepcopy__", [](const studies::CellState& s, py::dict) { return s; }, py::arg("memo"))
+      .def_property_readonly("P", [](const studies::CellState& s) { return from_mat3(s.P); })
+      .def_property_readonly("time", [](const studies::CellState& s) { return s.time; });
+  py::class_<studies::Cell>(m, "Cell")
+      .def(py::init(&softhom::python::make_cell), py::arg("kind"), py::arg("scene"), py::arg("tangent_tolerance"))
+      .def("solve", &softhom::python::solve_cell, py::arg("F"), py::arg("dt") = 0.0, py::arg("tangent") = true,
+           py::arg("stress_prescribed") = py::none(), py::arg("P_target") = py::none())
+      .def("commit", &studies::Cell::commit)
+      .def("state", &studies::Cell::state)
+      .def("trial_state", &studies::Cell::trial_state)
+      .def("initial_state", &studies::Cell::initial_state)
+      .def("restore", &studies::Cell::restore, py::arg("state"))
+      .def_property_readonly("has_history", &studies::Cell::has_history)
+      .def_property_readonly("memory_bytes", &studies::Cell::memory_bytes)
+      .def_property_readonly("achieved_volume_fraction", &studies::Cell::achieved_volume_fraction)
+      .def("describe", &studies::Cell::describe);
 }

@@ -23,17 +23,15 @@ import numpy as np
 import pandas as pd
 
 from . import _softhom
-from ._softhom import InputError, Material
+from ._softhom import CellState, InputError, Material
 
 __all__ = [
-    "InputError", "EvaluationError", "Material", "RunResult", "CalibrationResult", "material", "presets",
+    "InputError", "EvaluationError", "Material", "Cell", "CellState", "RunResult", "CalibrationResult", "material", "presets",
     "default_scene", "to_toml", "run_point", "run_rve", "run_macro", "open_campaign", "calibrate", "__version__",
 ]
 
 __version__ = _softhom.version()
 
-# The one-cell facade (softhom::rve::Cell: a periodic cell at a macroscopic F → P, dP/dF, state) is
-# exported here as `Cell` once the compiled module binds it (python/softhom_module.cpp).
 
 
 class EvaluationError(ArithmeticError):
@@ -84,6 +82,54 @@ def material(spec: Any) -> Material:
     table as TOML text (with or without its ``[material]`` header)."""
     kind, payload = _scene(spec)
     return _softhom.make_material(kind, payload)
+
+
+class Cell:
+    """One periodic RVE cell (FFT engine) as a constitutive law, for FE² quadrature points.
+
+    Built from an RVE scene (dict, TOML text or path; its [load] table is not used). ``solve(F)``
+    solves the cell at the macroscopic F̄ ([3, 3]) from the committed state and returns a dict with
+    ``converged``, ``error``, ``F``, ``P`` (P̄ [MPa]) and ``tangent`` (∂P̄/∂F̄ [9, 9], row 3i+j = P̄_ij,
+    column 3k+l = F̄_kl; the solver's own linearization) plus iteration counts and seconds.
+    ``stress_prescribed`` ([3, 3] booleans) with ``P_target`` gives mixed control. ``solve`` never
+    commits: ``commit()`` makes its result the start of the next solve, ``state()`` copies the
+    committed state out, ``restore(state)`` puts one back (one Cell serves many points)."""
+
+    def __init__(self, scene: Any, tangent_tolerance: float = 1e-6):
+        kind, payload = _scene(scene)
+        self._cell = _softhom.Cell(kind, payload, tangent_tolerance)
+
+    def solve(self, F: Any, dt: float = 0.0, tangent: bool = True, stress_prescribed: Any = None,
+              P_target: Any = None) -> dict:
+        return self._cell.solve(np.asarray(F, dtype=float), dt, tangent,
+                                None if stress_prescribed is None else np.asarray(stress_prescribed, dtype=bool),
+                                None if P_target is None else np.asarray(P_target, dtype=float))
+
+    def commit(self) -> None:
+        self._cell.commit()
+
+    def state(self) -> CellState:
+        return self._cell.state()
+
+    def trial_state(self) -> CellState:
+        return self._cell.trial_state()
+
+    def initial_state(self) -> CellState:
+        return self._cell.initial_state()
+
+    def restore(self, state: CellState) -> None:
+        self._cell.restore(state)
+
+    @property
+    def has_history(self) -> bool:
+        return self._cell.has_history
+
+    @property
+    def memory_bytes(self) -> int:
+        return self._cell.memory_bytes
+
+    def describe(self) -> str:
+        return self._cell.describe()
 
 
 def presets() -> list[str]:
