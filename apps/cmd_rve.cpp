@@ -134,12 +134,8 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
       if (writer) writer->end_step();
     } else if (f && writer) {
       writer->begin_step(s.t);
-      writer->add("F", f->F, 9, io::Centering::cell, "1");
-      writer->add("P", f->P, 9, io::Centering::cell, "MPa");
-      writer->add("sigma", f->sigma, 9, io::Centering::cell, "MPa");
-      writer->add("von_mises", f->von_mises, 1, io::Centering::cell, "MPa");
-      writer->add("fiber_fraction", f->fiber_fraction, 1, io::Centering::cell, "1");
-      writer->add("displacement", f->displacement, 3, io::Centering::node, "cell_size unit");
+      for (const RveFieldView& field : rve_field_views(*f))
+        writer->add(field.name, *field.values, field.components, field.centering, field.unit);
       writer->end_step();
     }
     progress.update(rve_progress_line("[rve " + scene.name + "] ", s, t_end));

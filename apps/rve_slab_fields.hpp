@@ -11,6 +11,7 @@
 #include <mpi.h>
 
 #include <algorithm>
+#include <array>
 #include <span>
 #include <vector>
 
@@ -19,6 +20,26 @@
 #include "softhom/rve/fft_solver.hpp"
 
 namespace softhom::app {
+
+/// One field of fields.h5 of an FFT cell: its dataset name, values, components, centering and unit.
+struct RveFieldView {
+  const char* name;
+  const std::vector<double>* values;
+  int components;
+  io::Centering centering;
+  const char* unit;
+};
+
+/// The fields an FFT cell writes at an output step, in file order (one list for the one-process and
+/// the distributed writer).
+inline std::array<RveFieldView, 6> rve_field_views(const rve::RveFields& f) {
+  return {{{"F", &f.F, 9, io::Centering::cell, "1"},
+           {"P", &f.P, 9, io::Centering::cell, "MPa"},
+           {"sigma", &f.sigma, 9, io::Centering::cell, "MPa"},
+           {"von_mises", &f.von_mises, 1, io::Centering::cell, "MPa"},
+           {"fiber_fraction", &f.fiber_fraction, 1, io::Centering::cell, "1"},
+           {"displacement", &f.displacement, 3, io::Centering::node, "cell_size unit"}}};
+}
 
 /// `writer` on rank 0 (inside begin_step/end_step), null elsewhere; `f` this rank's slab of the fields
 /// (cells of its planes i3, corner nodes of its planes, the last rank's also of i3 = n3).
@@ -30,22 +51,9 @@ inline void write_slab_fields(io::FieldWriter* writer, const fft::SlabDecomposit
     const fft::Slab& s = d.slab(r);
     return std::size_t(s.count) + (s.count > 0 && s.begin + s.count == n[2] ? 1 : 0);
   };
-  struct Field {
-    const char* name;
-    const std::vector<double>* values;
-    int components;
-    io::Centering centering;
-    const char* unit;
-  };
-  const Field fields[] = {{"F", &f.F, 9, io::Centering::cell, "1"},
-                          {"P", &f.P, 9, io::Centering::cell, "MPa"},
-                          {"sigma", &f.sigma, 9, io::Centering::cell, "MPa"},
-                          {"von_mises", &f.von_mises, 1, io::Centering::cell, "MPa"},
-                          {"fiber_fraction", &f.fiber_fraction, 1, io::Centering::cell, "1"},
-                          {"displacement", &f.displacement, 3, io::Centering::node, "cell_size unit"}};
   std::vector<double> buffer;  // rank 0: one slab of one field
   int tag = 90;
-  for (const Field& field : fields) {
+  for (const RveFieldView& field : rve_field_views(f)) {
     ++tag;
     auto values_of = [&](int r) {
       const std::size_t planes = field.centering == io::Centering::cell ? std::size_t(d.slab(r).count) : node_planes(r);

@@ -86,64 +86,48 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
     Vec24 r;
     Mat24 Ke;
     Mat3 sigma;
-    std::array<int, 24> gdof;
-    // Tet10 elements: the steps of the hex8 body below with 10 nodes (tet10_element.hpp).
     Vec30 r10;
     Mat30 K10;
-    std::array<int, 30> gdof10;
-    auto tet_element = [&](int e) {
-      const int t = e - mesh.num_hexes();
-      const Tet10& tet = mesh.tets[t];
-      const Tet10Coords ue = gather(u, tet);
-      const int off = state_offset_[e];
-      Tet10MixedVolume mv;
-      const bool me = mixed && mix_bulk_[e] > 0.0;
-      if (me) {
-        mv.bulk = mix_bulk_[e];
-        mv.theta = mix_theta_[e];
-        mv.p = mix_p_[e];
-      }
-      const MaterialStatus st = tet10_internal_force(
-          tet_geometry_[t], ue, *model_.element_material[e], off >= 0 ? state_old_.data() + off : nullptr,
-          off >= 0 ? state_new_.data() + off : nullptr, dt, model_.formulation, r10, tangent ? &K10 : nullptr,
-          &sigma, me ? &mv : nullptr);
-      if (st != MaterialStatus::ok) {
-        int expected = -1;
-        if (failed.compare_exchange_strong(expected, e)) failed_status = int(st);
-        return;
-      }
-      if (me) {
-        mix_theta_u_[e] = mv.theta_u;
-        mix_d_tet_[t] = mv.d;
-      }
+    // The steps after the element kernel, the same for hex8 and tet10 (NN nodes): Cauchy stress, the
+    // residuals (R, and in the mixed iteration R_true / R_u with the element's volume shifts), the
+    // tangent scattered column by column into K (block: the element's node-pair offsets) and, for a
+    // prescribed column, its increment into the predictor's right-hand side (K_fc Δu_c).
+    auto scatter = [&](int e, const auto& nodes, const auto& re, const auto& Kel, const auto* mv, const long* block) {
+      constexpr int NN = int(std::tuple_size_v<std::decay_t<decltype(nodes)>>);
+      constexpr int ND = 3 * NN;
+      std::array<int, ND> gdof;
       for (int c = 0; c < 9; ++c) out.cauchy[9 * std::size_t(e) + c] = sigma(c / 3, c % 3);
-      for (int a = 0; a < 10; ++a)
-        for (int i = 0; i < 3; ++i) gdof10[3 * a + i] = 3 * tet[a] + i;
-      for (int q = 0; q < 30; ++q) R[gdof10[q]] += r10[q];
+      for (int a = 0; a < NN; ++a)
+        for (int i = 0; i < 3; ++i) gdof[3 * a + i] = 3 * nodes[a] + i;
+      for (int q = 0; q < ND; ++q) R[gdof[q]] += re[q];
       if (mixed)
-        for (int q = 0; q < 30; ++q) {
-          Rt[gdof10[q]] += r10[q] - (me ? mv.shift * mv.d[q] : 0.0);
-          Ru[gdof10[q]] += r10[q] - (me ? mv.shift_u * mv.d[q] : 0.0);
+        for (int q = 0; q < ND; ++q) {
+          Rt[gdof[q]] += re[q] - (mv ? mv->shift * mv->d[q] : 0.0);
+          Ru[gdof[q]] += re[q] - (mv ? mv->shift_u * mv->d[q] : 0.0);
         }
       if (!tangent) return;
-      for (int b = 0; b < 10; ++b)
+      for (int b = 0; b < NN; ++b)
         for (int j = 0; j < 3; ++j) {
           const int cl = 3 * b + j;
-          const int col = eq[gdof10[cl]];
+          const int col = eq[gdof[cl]];
           if (col < 0) {
-            if (predictor && du_c[gdof10[cl]] != 0.0)
-              for (int rw = 0; rw < 30; ++rw) drhs[gdof10[rw]] += K10(rw, cl) * du_c[gdof10[cl]];
+            if (predictor && du_c[gdof[cl]] != 0.0)
+              for (int rw = 0; rw < ND; ++rw) drhs[gdof[rw]] += Kel(rw, cl) * du_c[gdof[cl]];
             continue;
           }
           double* column = kv + K_.colptr[col];
-          for (int a = 0; a < 10; ++a) {
-            const long o = tet_block_[t][10 * a + b];
+          for (int a = 0; a < NN; ++a) {
+            const long o = block[NN * a + b];
             if (o < 0) continue;
-            const auto& fr = free_rank_[tet[a]];
+            const auto& fr = free_rank_[nodes[a]];
             for (int i = 0; i < 3; ++i)
-              if (fr[i] >= 0) column[o + fr[i]] += K10(3 * a + i, cl);
+              if (fr[i] >= 0) column[o + fr[i]] += Kel(3 * a + i, cl);
           }
         }
+    };
+    auto claim_failure = [&](int e, MaterialStatus st) {
+      int expected = -1;
+      if (failed.compare_exchange_strong(expected, e)) failed_status = int(st);
     };
     for (const std::vector<int>& color : colors_) {
       // Elements of one colour share no node: plain (non-atomic) updates are race-free.
@@ -151,70 +135,52 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
       for (std::size_t k = 0; k < color.size(); ++k) {
         const int e = color[k];
         if (failed.load(std::memory_order_relaxed) >= 0) continue;
+        const int off = state_offset_[e];
+        const double* state_old = off >= 0 ? state_old_.data() + off : nullptr;
+        double* state_new = off >= 0 ? state_new_.data() + off : nullptr;
+        const bool me = mixed && mix_bulk_[e] > 0.0;
         if (mesh.is_tet(e)) {
-          tet_element(e);
+          const int t = e - mesh.num_hexes();
+          const Tet10& tet = mesh.tets[t];
+          Tet10MixedVolume mv;
+          if (me) {
+            mv.bulk = mix_bulk_[e];
+            mv.theta = mix_theta_[e];
+            mv.p = mix_p_[e];
+          }
+          const MaterialStatus st = tet10_internal_force(tet_geometry_[t], gather(u, tet), *model_.element_material[e],
+                                                         state_old, state_new, dt, model_.formulation, r10,
+                                                         tangent ? &K10 : nullptr, &sigma, me ? &mv : nullptr);
+          if (st != MaterialStatus::ok) {
+            claim_failure(e, st);
+            continue;
+          }
+          if (me) {
+            mix_theta_u_[e] = mv.theta_u;
+            mix_d_tet_[t] = mv.d;
+          }
+          scatter(e, tet, r10, K10, me ? &mv : nullptr, tet_block_[t].data());
           continue;
         }
         const Hex& hex = mesh.hexes[e];
-        const Mat83 ue = gather(u, hex);
-        const int off = state_offset_[e];
         MixedVolume mv;
-        const bool me = mixed && mix_bulk_[e] > 0.0;
         if (me) {
           mv.bulk = mix_bulk_[e];
           mv.theta = mix_theta_[e];
           mv.p = mix_p_[e];
         }
-        const MaterialStatus st = hex8_internal_force(
-            geometry_[e], ue, *model_.element_material[e], off >= 0 ? state_old_.data() + off : nullptr,
-            off >= 0 ? state_new_.data() + off : nullptr, dt, model_.formulation, r, tangent ? &Ke : nullptr,
-            &sigma, me ? &mv : nullptr);
+        const MaterialStatus st = hex8_internal_force(geometry_[e], gather(u, hex), *model_.element_material[e],
+                                                      state_old, state_new, dt, model_.formulation, r,
+                                                      tangent ? &Ke : nullptr, &sigma, me ? &mv : nullptr);
         if (st != MaterialStatus::ok) {
-          int expected = -1;
-          if (failed.compare_exchange_strong(expected, e)) failed_status = int(st);
+          claim_failure(e, st);
           continue;
         }
         if (me) {
           mix_theta_u_[e] = mv.theta_u;
           mix_d_[e] = mv.d;
         }
-        for (int c = 0; c < 9; ++c) out.cauchy[9 * std::size_t(e) + c] = sigma(c / 3, c % 3);
-        for (int a = 0; a < 8; ++a)
-          for (int i = 0; i < 3; ++i) gdof[3 * a + i] = 3 * hex[a] + i;
-        for (int q = 0; q < 24; ++q) R[gdof[q]] += r[q];
-        if (mixed) {
-          if (me) {
-            for (int q = 0; q < 24; ++q) {
-              Rt[gdof[q]] += r[q] - mv.shift * mv.d[q];
-              Ru[gdof[q]] += r[q] - mv.shift_u * mv.d[q];
-            }
-          } else {
-            for (int q = 0; q < 24; ++q) {
-              Rt[gdof[q]] += r[q];
-              Ru[gdof[q]] += r[q];
-            }
-          }
-        }
-        if (!tangent) continue;
-        for (int b = 0; b < 8; ++b)
-          for (int j = 0; j < 3; ++j) {
-            const int cl = 3 * b + j;
-            const int col = eq[gdof[cl]];
-            if (col < 0) {
-              // Prescribed column: its increment enters the predictor's right-hand side (K_fc Δu_c).
-              if (predictor && du_c[gdof[cl]] != 0.0)
-                for (int rw = 0; rw < 24; ++rw) drhs[gdof[rw]] += Ke(rw, cl) * du_c[gdof[cl]];
-              continue;
-            }
-            double* column = kv + K_.colptr[col];
-            for (int a = 0; a < 8; ++a) {
-              const long o = block_[e][8 * a + b];
-              if (o < 0) continue;
-              const auto& fr = free_rank_[hex[a]];
-              for (int i = 0; i < 3; ++i)
-                if (fr[i] >= 0) column[o + fr[i]] += Ke(3 * a + i, cl);
-            }
-          }
+        scatter(e, hex, r, Ke, me ? &mv : nullptr, block_[e].data());
       }
     }
   }

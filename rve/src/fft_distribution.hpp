@@ -13,9 +13,11 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "softhom/fft/slab.hpp"
+#include "softhom/io/mpi.hpp"
 #include "diagnostics.hpp"
 #include "softhom/rve/fft_solver.hpp"
 #include "softhom/materials/errors.hpp"
@@ -27,12 +29,8 @@ namespace softhom::rve::detail {
 /// with fewer planes than ranks is an InputError on microstructure.grid (every rank throws it).
 inline std::unique_ptr<fft::SlabDecomposition> make_slabs(const fft::Grid& grid, bool distributed,
                                                           const std::string& grid_text) {
-  int initialized = 0, finalized = 0;
-  MPI_Initialized(&initialized);
-  MPI_Finalized(&finalized);
-  if (!distributed || !initialized || finalized) return nullptr;
-  int ranks = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  if (!distributed || !mpi::active()) return nullptr;
+  const int ranks = mpi::world_size();
   if (ranks == 1) return nullptr;
   if (grid.is_section())
     throw InputError("microstructure.grid", grid_text,
@@ -49,40 +47,33 @@ inline std::unique_ptr<fft::SlabDecomposition> make_slabs(const fft::Grid& grid,
 /// their (global) voxel.
 template <class Sums>
 void reduce_pass_sums(Sums& s, const fft::SlabDecomposition& slabs) {
+  // One list of the additive members, walked to pack them and again to unpack the sums.
+  auto each_member = [&s](auto&& f) {
+    f(s.P);
+    f(s.A);
+    for (int x = 0; x < 2; ++x) {
+      f(s.phase_A[x]);
+      f(s.phase_A_w[x]);
+      f(s.phase_P[x]);
+      f(s.phase_F[x]);
+      f(s.phase_PFt[x]);
+      f(s.phase_J[x]);
+      f(s.phase_w[x]);
+    }
+  };
   std::vector<double> b;
   b.reserve(400);
-  auto put = [&](const auto& m) {
-    for (int i = 0; i < int(m.size()); ++i) b.push_back(m.data()[i]);
-  };
-  auto put1 = [&](double x) { b.push_back(x); };
-  put(s.P);
-  put(s.A);
-  for (int x = 0; x < 2; ++x) {
-    put(s.phase_A[x]);
-    put1(s.phase_A_w[x]);
-    put(s.phase_P[x]);
-    put(s.phase_F[x]);
-    put(s.phase_PFt[x]);
-    put1(s.phase_J[x]);
-    put1(s.phase_w[x]);
-  }
+  each_member([&](auto& m) {
+    if constexpr (std::is_arithmetic_v<std::decay_t<decltype(m)>>) b.push_back(m);
+    else b.insert(b.end(), m.data(), m.data() + m.size());
+  });
   slabs.sum(b.data(), int(b.size()));
   std::size_t k = 0;
-  auto get = [&](auto& m) {
-    for (int i = 0; i < int(m.size()); ++i) m.data()[i] = b[k++];
-  };
-  auto get1 = [&](double& x) { x = b[k++]; };
-  get(s.P);
-  get(s.A);
-  for (int x = 0; x < 2; ++x) {
-    get(s.phase_A[x]);
-    get1(s.phase_A_w[x]);
-    get(s.phase_P[x]);
-    get(s.phase_F[x]);
-    get(s.phase_PFt[x]);
-    get1(s.phase_J[x]);
-    get1(s.phase_w[x]);
-  }
+  each_member([&](auto& m) {
+    if constexpr (std::is_arithmetic_v<std::decay_t<decltype(m)>>) m = b[k++];
+    else
+      for (int i = 0; i < int(m.size()); ++i) m.data()[i] = b[k++];
+  });
   for (int x = 0; x < 2; ++x) slabs.min_location(s.margin[x], s.v_margin[x]);
 }
 
