@@ -170,6 +170,27 @@ void GradientOperator::divergence(const Complex* stress, Complex* out, double sc
   });
 }
 
+void GradientOperator::gradient_block(const Complex* ui, int q, Complex* out) const {
+  const std::size_t nm = local_modes();
+  const int nc = columns();
+#pragma omp parallel
+  for_modes([&](std::size_t k, const Complex* D, double) {
+    for (int j = 0; j < nc; ++j) out[std::size_t(j) * nm + k] = D[3 * q + j] * ui[k];
+  });
+}
+
+void GradientOperator::divergence_block(const Complex* stress, int q, Complex* out_i, double scale, bool accumulate) const {
+  const std::size_t nm = local_modes();
+  const int nc = columns();
+  const double wq = quadrature_[q].weight;
+#pragma omp parallel
+  for_modes([&](std::size_t k, const Complex* D, double) {
+    Complex acc = 0.0;
+    for (int j = 0; j < nc; ++j) acc += wq * std::conj(D[3 * q + j]) * stress[std::size_t(j) * nm + k];
+    out_i[k] = accumulate ? out_i[k] + scale * acc : scale * acc;
+  });
+}
+
 double GradientOperator::divergence_dot(const Complex* stress, Complex* out, double scale, const Complex* x) const {
   const std::size_t nm = local_modes();
   const int nq = points(), nc = columns();

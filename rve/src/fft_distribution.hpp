@@ -116,13 +116,13 @@ inline void reduce_hot_spots(HotSpots& h, const fft::SlabDecomposition& slabs, s
 }
 
 /// Corner displacements of this rank's planes i3 (the last rank's also of i3 = n3, from the upper halo
-/// of ũ): ũ in fft fields 0, 3, 6, as node_displacement() leaves it.
-inline std::vector<double> slab_node_displacement(const fft::SlabDecomposition& d, fft::FieldTransform& t,
+/// of ũ): ũ in fields 0, step, 2·step of t, as node_displacement() leaves it.
+inline std::vector<double> slab_node_displacement(const fft::SlabDecomposition& d, fft::FieldTransform& t, int step,
                                                 const fft::Grid& grid, const Mat3& G) {
   const std::array<int, 3>& n = grid.n;
   const std::size_t plane = d.plane_voxels(), count = std::size_t(d.slab().count), stride = plane * (count + 1);
   std::vector<double> uh(3 * stride, 0.0);
-  for (int i = 0; i < 3; ++i) std::copy(t.real(3 * i), t.real(3 * i) + plane * count, uh.data() + i * stride);
+  for (int i = 0; i < 3; ++i) std::copy(t.real(step * i), t.real(step * i) + plane * count, uh.data() + i * stride);
   d.fill_upper_halo(uh.data(), stride, 3);
   const bool last = d.slab().count > 0 && d.slab().begin + d.slab().count == n[2];
   const std::size_t m1 = n[0] + 1, m2 = n[1] + 1, m3 = count + (last ? 1 : 0);

@@ -15,6 +15,7 @@
 
 #include "softhom/fe/krylov.hpp"
 #include "softhom/fe/line_search.hpp"
+#include "softhom/fft/field_buffer.hpp"
 #include "softhom/fft/stencil.hpp"
 #include "softhom/materials/interrupt.hpp"
 #include "softhom/materials/errors.hpp"
@@ -297,9 +298,13 @@ struct FftRveSolver::Impl {
     // are transformed (the voxel loops treat those columns as zero).
     const bool with_stencil = opt.scheme == FftScheme::newton_cg && opt.krylov_operator == KrylovOperator::stencil &&
                               fft::StencilGradient::supported(op);
-    if (dist)  // room for the stencil store's lower halo plane after the fields (see stencil_store())
-      fft = std::make_unique<fft::SlabFFT>(*dist, 9 * nq, opt.plan, op.columns(), 0,
-                                           with_stencil ? 24 * dist->plane_voxels() : 0);
+    // With the stencil operator ∇ũ and P stay in real space (transformed block by block through fft3,
+    // gradient_to_real() and residual()): no spectrum of the 9·nq fields. Distributed: room for the
+    // stencil store's lower halo plane after the fields (see stencil_store()).
+    if (with_stencil)
+      fft = std::make_unique<fft::FieldBuffer>(9 * nq, N, dist ? 24 * dist->plane_voxels() : 0);
+    else if (dist)
+      fft = std::make_unique<fft::SlabFFT>(*dist, 9 * nq, opt.plan, op.columns());
     else
       fft = std::make_unique<fft::BatchedFFT>(grid, 9 * nq, opt.plan, op.columns());
     if (with_stencil) {
@@ -345,6 +350,7 @@ struct FftRveSolver::Impl {
     s.modes = NM;
     s.points = NP;
     s.fft_fields = std::size_t(fft->fields());
+    s.fft_spectra = fft->transformed_fields() ? s.fft_fields : 0;
     s.fft3_fields = fft3 ? std::size_t(fft3->fields()) : 0;
     s.tangent_values = tangent_f.empty() ? tangent.size() : tangent_f.size();
     s.tangent_value_bytes = tangent_f.empty() ? sizeof(double) : sizeof(float);
@@ -373,6 +379,7 @@ struct FftRveSolver::Impl {
     s.modes = NM;
     s.points = NP;
     s.fft_fields = std::size_t(9 * nq);
+    s.fft_spectra = with_stencil ? 0 : s.fft_fields;
     s.fft3_fields = with_stencil ? 3 : 0;
     const bool single = with_stencil && opt.tangent_precision == TangentPrecision::single_precision;
     s.tangent_values = newton ? 45 * (with_stencil ? (NP + 7) / 8 * 8 : NP) : 0;
@@ -578,17 +585,54 @@ struct FftRveSolver::Impl {
     return MaterialStatus(failure);
   }
 
-  /// ∇ũ into the real buffer.
+  /// ∇ũ into the real buffer. Stencil operator: block (q, i) by block through fft3 (fft has no spectrum).
   void gradient_to_real(const std::vector<Complex>& uh) {
-    op.gradient(uh.data(), fft->spectrum(0), false);
+    if (!stencil) {
+      op.gradient(uh.data(), fft->spectrum(0), false);
+      fft->backward();
+      return;
+    }
+    const int ncol = op.columns();
+    if (ncol < 3) std::fill(fft3->spectrum(2), fft3->spectrum(2) + NM, Complex(0.0));  // defined values in the unused field
+    for (int q = 0; q < nq; ++q)
+      for (int i = 0; i < 3; ++i) {
+        op.gradient_block(uh.data() + std::size_t(i) * NM, q, fft3->spectrum(0));
+        fft3->backward();
+        for (int j = 0; j < ncol; ++j) copy_field(fft3->real(j), fft->real(9 * q + 3 * i + j));
+      }
+  }
+  void copy_field(const double* from, double* to) const {
+#pragma omp parallel for schedule(static)
+    for (std::size_t v = 0; v < N; ++v) to[v] = from[v];
+  }
+  /// Three component spectra (3·NM) to real space; returns the transform holding them and the field
+  /// step between the components (fft: fields 0, 3, 6, which are transformed for any number of columns;
+  /// fft3: 0, 1, 2).
+  std::pair<fft::FieldTransform*, int> vector_to_real(const std::vector<Complex>& uh) {
+    if (stencil) {
+      std::copy(uh.begin(), uh.begin() + std::ptrdiff_t(3 * NM), fft3->spectrum(0));
+      fft3->backward();
+      return {fft3.get(), 1};
+    }
+    for (int i = 0; i < 3; ++i) std::copy(uh.begin() + i * NM, uh.begin() + (i + 1) * NM, fft->spectrum(3 * i));
     fft->backward();
+    return {fft.get(), 3};
   }
 
   /// Residual of the current state: r_u = Dᴴ P̂ and the macro stress error. Expects P in the real
   /// buffer (after evaluate_points).
   void residual(const std::array<bool, 9>& free, const Vec9& P_target, KVec& r) {
-    fft->forward();
-    op.divergence(fft->spectrum(0), r.u.data(), 1.0 / double(Ntot));
+    if (stencil) {
+      for (int q = 0; q < nq; ++q)
+        for (int i = 0; i < 3; ++i) {
+          for (int j = 0; j < op.columns(); ++j) copy_field(fft->real(9 * q + 3 * i + j), fft3->real(j));
+          fft3->forward();
+          op.divergence_block(fft3->spectrum(0), q, r.u.data() + std::size_t(i) * NM, 1.0 / double(Ntot), q > 0);
+        }
+    } else {
+      fft->forward();
+      op.divergence(fft->spectrum(0), r.u.data(), 1.0 / double(Ntot));
+    }
     const Vec9 Pl = T_load * sums.P;
     for (int c = 0; c < 9; ++c) r.f[c] = free[c] ? Pl[c] - P_target[c] : 0.0;
   }
@@ -1054,11 +1098,9 @@ struct FftRveSolver::Impl {
         h.see_matrix_point(v0 + v, mat[0]->limit_margin(F), F.determinant(), composite);
         if (mixed[0] && !composite) h.see_pressure(v0 + v, p_trial[p]);
       }
-    // Nodal forces Dᴴ P in real space: the three components into fields 0, 3, 6 (transformed for any
-    // number of columns).
-    for (int i = 0; i < 3; ++i) std::copy(r.u.begin() + i * NM, r.u.begin() + (i + 1) * NM, fft->spectrum(3 * i));
-    fft->backward();
-    h.see_forces(fft->real(0), fft->real(3), fft->real(6), N);
+    // Nodal forces Dᴴ P in real space.
+    const auto [t, step] = vector_to_real(r.u);
+    h.see_forces(t->real(0), t->real(step), t->real(2 * step), N);
     if (dist) {
       h.v_force += v0;
       detail::reduce_hot_spots(h, *dist, N);
@@ -1359,7 +1401,9 @@ struct FftRveSolver::Impl {
       if (state_size[x]) hist_old[x].swap(hist_new[x]);
     commit_pressures(true);
   }
-  std::vector<double> slab_node_displacement(const Mat3& G) { return detail::slab_node_displacement(*dist, *fft, grid, G); }
+  std::vector<double> slab_node_displacement(fft::FieldTransform& t, int step, const Mat3& G) {
+    return detail::slab_node_displacement(*dist, t, step, grid, G);
+  }
 
   void restore() {
     u = u_committed;
@@ -1414,11 +1458,9 @@ struct FftRveSolver::Impl {
   /// continued). ũ at the corners is the c2r transform of its spectrum (rotated/hex: the nodal
   /// displacement of the discretization; spectral: the trigonometric interpolant). Uses fft's buffers.
   std::vector<double> node_displacement() {
-    // The three components into fields 0, 3, 6, which are transformed for any number of columns.
-    for (int i = 0; i < 3; ++i) std::copy(u.begin() + i * NM, u.begin() + (i + 1) * NM, fft->spectrum(3 * i));
-    fft->backward();
+    const auto [t, step] = vector_to_real(u);
     const Mat3 G = to_grid(Fbar) - Mat3::Identity();
-    if (dist) return slab_node_displacement(G);
+    if (dist) return slab_node_displacement(*t, step, G);
     const std::array<int, 3>& n = grid.n;
     const std::size_t m1 = n[0] + 1, m2 = n[1] + 1, m3 = n[2] + 1;
     std::vector<double> out(3 * m1 * m2 * m3);
@@ -1427,7 +1469,7 @@ struct FftRveSolver::Impl {
         for (std::size_t i1 = 0; i1 < m1; ++i1) {
           const std::size_t v = i1 % n[0] + std::size_t(n[0]) * (i2 % n[1] + std::size_t(n[1]) * (i3 % n[2]));
           const Vec3 y(double(i1) * grid.spacing(0), double(i2) * grid.spacing(1), double(i3) * grid.spacing(2));
-          const Vec3 uy = G * y + Vec3(fft->real(0)[v], fft->real(3)[v], fft->real(6)[v]);
+          const Vec3 uy = G * y + Vec3(t->real(0)[v], t->real(step)[v], t->real(2 * step)[v]);
           double* o = &out[3 * (i1 + m1 * (i2 + m2 * i3))];
           for (int c = 0; c < 3; ++c) o[c] = uy[c];
         }
@@ -1442,9 +1484,14 @@ FftRveSolver::~FftRveSolver() = default;
 
 const fft::Grid& FftRveSolver::grid() const { return impl_->grid; }
 int FftRveSolver::quadrature_points() const { return impl_->nq; }
-std::string FftRveSolver::fft_description() const { return impl_->fft->describe(); }
+std::string FftRveSolver::fft_description() const {
+  // With the stencil operator every transform is fft3's (3 fields); fft holds real fields only.
+  return impl_->stencil ? impl_->fft3->describe() : impl_->fft->describe();
+}
 double FftRveSolver::achieved_volume_fraction() const { return impl_->achieved_vf; }
-double FftRveSolver::planning_seconds() const { return impl_->fft->planning_seconds(); }
+double FftRveSolver::planning_seconds() const {
+  return impl_->fft->planning_seconds() + (impl_->fft3 ? impl_->fft3->planning_seconds() : 0.0);
+}
 std::vector<double> FftRveSolver::displacement() { return impl_->node_displacement(); }
 const fft::SlabDecomposition* FftRveSolver::slabs() const { return impl_->dist.get(); }
 std::size_t FftRveSolver::memory_bytes() const {

@@ -28,7 +28,8 @@ inline std::size_t storage_total(const StorageList& l) {
 /// Sizes that decide the solver's storage (counted from the arrays, or planned from the problem).
 struct StorageSizes {
   std::size_t voxels = 0, modes = 0, points = 0;
-  std::size_t fft_fields = 0;          ///< fields of the evaluation transform (9 · points per voxel)
+  std::size_t fft_fields = 0;          ///< real fields of the evaluation (9 · points per voxel)
+  std::size_t fft_spectra = 0;         ///< their spectra (0 with the stencil operator: 3 at a time in fft3's)
   std::size_t fft3_fields = 0;         ///< 3 with the stencil Krylov operator, else 0
   std::size_t tangent_values = 0;      ///< stored tangent entries (padded)
   std::size_t tangent_value_bytes = 8; ///< 8 double, 4 float
@@ -47,7 +48,7 @@ constexpr std::size_t kMixedBytesPerPoint = 2 * (9 * 4 + 8) + 3 * 8 + 9 * 4;
 inline StorageList storage_list(const StorageSizes& s) {
   const std::size_t field = 8 * s.voxels + 16 * s.modes;  // one real field and its half spectrum
   StorageList l;
-  l.emplace_back("fft_buffers", s.fft_fields * field);
+  l.emplace_back("fft_buffers", s.fft_fields * 8 * s.voxels + s.fft_spectra * 16 * s.modes);
   if (s.fft3_fields) l.emplace_back("fft3_buffers", s.fft3_fields * field);
   if (s.tangent_values) l.emplace_back("tangents", s.tangent_values * s.tangent_value_bytes);
   l.emplace_back("reference_green", s.green_values * 8);

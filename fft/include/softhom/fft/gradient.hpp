@@ -90,6 +90,15 @@ class GradientOperator {
   /// divergence() fused with the weighted inner product Σ_k m_k Re(x̄_k · out_k) (m_k: mode_weight),
   /// which it returns.
   double divergence_dot(const Complex* stress, Complex* out, double scale, const Complex* x) const;
+  /// One block (point q, row i) of gradient(): out[j] = D_qj u_i for the columns j < columns(), `ui` the
+  /// spectrum of one displacement component. With the Krylov operator in stencil form the solver's
+  /// evaluation transforms ∇ũ block by block through a 3-field spectrum instead of holding the 9·nq
+  /// spectra of a gradient set (BENCHMARKS.md, "FFT memory per voxel").
+  void gradient_block(const Complex* ui, int q, Complex* out) const;
+  /// One block of divergence(): out_i (+)= scale w_q Σ_j conj(D_qj) stress[j] (j < columns(); `stress`
+  /// the spectra of row i of point q's stress). Summed over q (accumulate after the first) and for each
+  /// row i it is divergence(), for one point (rotated) to the bit.
+  void divergence_block(const Complex* stress, int q, Complex* out_i, double scale, bool accumulate) const;
   /// out = K0(k)⁻¹ r(k) with K0_ik = Σ_q w_q Σ_jl conj(D_qj) C0_(3i+j)(3k+l) D_ql, the stiffness of a
   /// homogeneous reference medium with (major-symmetric, elliptic) tangent C0; 0 on the kernel.
   /// This is the Green operator of the reference problem: the preconditioner of the Newton–Krylov
