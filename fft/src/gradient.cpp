@@ -254,8 +254,11 @@ void GradientOperator::solve_reference(const Matrix9& C0, const Complex* r, Comp
 void ReferenceGreen::set(const Matrix9& C0) {
   const std::size_t nm = op_.local_modes();
   const int nq = op_.points();
-  table_.resize(9 * nm);
-  double* T = table_.data();
+  table_.resize(single_ ? 0 : 9 * nm);
+  table_f_.resize(single_ ? 9 * nm : 0);
+  double* Td = table_.data();
+  float* Tf = table_f_.data();
+  const bool single = single_;
 #pragma omp parallel
   op_.for_modes([&](std::size_t k, const Complex* D, double) {
     // As solve_reference(): M_jl = Σ_q w_q conj(D_qj) D_ql, K0_ik = Σ_jl C0_(ij)(kl) M_jl.
@@ -263,9 +266,16 @@ void ReferenceGreen::set(const Matrix9& C0) {
     for (int q = 0; q < nq; ++q)
       for (int j = 0; j < 3; ++j)
         for (int l = 0; l < 3; ++l) M(j, l) += op_.quadrature_[q].weight * std::conj(D[3 * q + j]) * D[3 * q + l];
-    double* t = T + 9 * k;
-    for (int c = 0; c < 9; ++c) t[c] = 0.0;
-    if (!(M.trace().real() > 0.0)) return;  // kernel mode: the Green operator is 0 there
+    double t[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    auto store = [&] {
+      for (int c = 0; c < 9; ++c) {
+        if (single)
+          Tf[9 * k + c] = float(t[c]);
+        else
+          Td[9 * k + c] = t[c];
+      }
+    };
+    if (!(M.trace().real() > 0.0)) return store();  // kernel mode: the Green operator is 0 there
     Eigen::Matrix3cd K0;
     for (int i = 0; i < 3; ++i)
       for (int kk = 0; kk < 3; ++kk) {
@@ -285,30 +295,34 @@ void ReferenceGreen::set(const Matrix9& C0) {
     t[6] = G(0, 2).imag();
     t[7] = G(1, 2).real();
     t[8] = G(1, 2).imag();
+    store();
   });
 }
 
 namespace {
-/// z = G r with G Hermitian from its packed upper triangle.
-inline void green_mul(const double* t, const Complex r[3], Complex z[3]) {
+/// z = G r with G Hermitian from its packed upper triangle (double or float table, double arithmetic).
+template <class T>
+inline void green_mul(const T* t, const Complex r[3], Complex z[3]) {
   const Complex g01(t[3], t[4]), g02(t[5], t[6]), g12(t[7], t[8]);
-  z[0] = t[0] * r[0] + g01 * r[1] + g02 * r[2];
-  z[1] = std::conj(g01) * r[0] + t[1] * r[1] + g12 * r[2];
-  z[2] = std::conj(g02) * r[0] + std::conj(g12) * r[1] + t[2] * r[2];
+  z[0] = double(t[0]) * r[0] + g01 * r[1] + g02 * r[2];
+  z[1] = std::conj(g01) * r[0] + double(t[1]) * r[1] + g12 * r[2];
+  z[2] = std::conj(g02) * r[0] + std::conj(g12) * r[1] + double(t[2]) * r[2];
 }
 }  // namespace
 
 void ReferenceGreen::apply(const Complex* r, Complex* out, double scale) const {
   const std::size_t nm = op_.local_modes();
   const double inv = 1.0 / scale;
-  const double* T = table_.data();
+  with_table([&](const auto* T) {
 #pragma omp parallel for schedule(static)
-  for (std::size_t k = 0; k < nm; ++k) {
-    const Complex rk[3] = {r[k], r[nm + k], r[2 * nm + k]};
-    Complex z[3];
-    green_mul(T + 9 * k, rk, z);
-    for (int i = 0; i < 3; ++i) out[std::size_t(i) * nm + k] = inv * z[i];
-  }
+    for (std::size_t k = 0; k < nm; ++k) {
+      const Complex rk[3] = {r[k], r[nm + k], r[2 * nm + k]};
+      Complex z[3];
+      green_mul(T + 9 * k, rk, z);
+      for (int i = 0; i < 3; ++i) out[std::size_t(i) * nm + k] = inv * z[i];
+    }
+    return 0.0;
+  });
 }
 
 double ReferenceGreen::apply_dot(const Complex* r, Complex* out, double scale) const {
@@ -316,7 +330,7 @@ double ReferenceGreen::apply_dot(const Complex* r, Complex* out, double scale) c
   const std::size_t nm = op_.local_modes(), m1 = std::size_t(g.half_n1()), rows = nm / m1;
   const bool even1 = g.n[0] % 2 == 0;
   const double inv = 1.0 / scale;
-  const double* T = table_.data();
+  return with_table([&](const auto* T) {
   double s = 0.0;
 #pragma omp parallel for schedule(static) reduction(+ : s)
   for (std::size_t row = 0; row < rows; ++row)
@@ -334,6 +348,7 @@ double ReferenceGreen::apply_dot(const Complex* r, Complex* out, double scale) c
       s += w * d;
     }
   return s;
+  });
 }
 
 double ReferenceGreen::cg_update(double alpha, const Complex* p, const Complex* Ap, Complex* x, Complex* r, Complex* z,
@@ -343,7 +358,7 @@ double ReferenceGreen::cg_update(double alpha, const Complex* p, const Complex* 
   const bool even1 = g.n[0] % 2 == 0;
   const double inv = 1.0 / scale;
   const double alpha_ap = alpha * ap_scale;  // = alpha when ap_scale = 1 (bit-identical to the plain update)
-  const double* T = table_.data();
+  return with_table([&](const auto* T) {
   double s = 0.0;
 #pragma omp parallel for schedule(static) reduction(+ : s)
   for (std::size_t row = 0; row < rows; ++row)
@@ -367,6 +382,7 @@ double ReferenceGreen::cg_update(double alpha, const Complex* p, const Complex* 
       s += w * d;
     }
   return s;
+  });
 }
 
 }  // namespace softhom::fft

@@ -201,7 +201,9 @@ struct FftRveSolver::Impl {
 
   // Scratch.
   PassSums sums;
-  std::vector<Complex> du_last;      // last converged increment (extrapolation predictor)
+  // Last converged increment (extrapolation predictor) in float: it only places the first iterate of
+  // the next step, which Newton corrects (6e-8 relative of the increment), at half the storage.
+  std::vector<std::complex<float>> du_last;
   Mat3 dF_last = Mat3::Zero();
   double dt_last = 0.0;
   bool extrapolate = true;
@@ -322,8 +324,10 @@ struct FftRveSolver::Impl {
     // zero-padded to whole blocks; Fourier operator: per point.
     // Single precision (stencil only): tangent_f instead of tangent.
     if (opt.scheme == FftScheme::newton_cg) {
-      if (stencil && opt.tangent_precision == TangentPrecision::single_precision)
+      if (stencil && opt.tangent_precision == TangentPrecision::single_precision) {
         tangent_f.assign(45 * ((NP + 7) / 8 * 8), 0.0f);
+        green.use_single_precision(true);  // the preconditioner's table too (fft::ReferenceGreen)
+      }
       else
         tangent.assign(45 * (stencil ? (NP + 7) / 8 * 8 : NP), 0.0);
     }
@@ -354,7 +358,8 @@ struct FftRveSolver::Impl {
     s.fft3_fields = fft3 ? std::size_t(fft3->fields()) : 0;
     s.tangent_values = tangent_f.empty() ? tangent.size() : tangent_f.size();
     s.tangent_value_bytes = tangent_f.empty() ? sizeof(double) : sizeof(float);
-    s.green_values = std::max(green.memory_bytes() / sizeof(double), 9 * NM);  // tabulated at the first solve
+    s.green_values = 9 * NM;  // tabulated at the first solve
+    s.green_value_bytes = tangent_f.empty() ? sizeof(double) : sizeof(float);
     s.history_values = hist_old[0].size() + hist_old[1].size();
     s.laminate_values = lam_a.size();
     s.composite_voxels = comp_normal.size();
@@ -362,12 +367,12 @@ struct FftRveSolver::Impl {
     s.spectral_vectors = spectral_vectors();
     return s;
   }
-  /// 3-component half spectra: ũ, committed ũ, last increment, the step's residual and Newton step,
-  /// and the CG work vectors (r, z, p, and Ap unless the stencil operator leaves it in fft3's buffer);
-  /// the fixed point keeps ũ, its copies, the residual and the update.
+  /// 3-component half spectra (double): ũ, committed ũ, the step's residual and Newton step, and the
+  /// CG work vectors (r, z, p, and Ap unless the stencil operator leaves it in fft3's buffer); the
+  /// fixed point keeps ũ, its copy, the residual and the update. (+ ũ's last increment in float.)
   std::size_t spectral_vectors() const {
-    if (opt.scheme != FftScheme::newton_cg) return 5;
-    return 5 + 3 + (stencil ? 0 : 1);
+    if (opt.scheme != FftScheme::newton_cg) return 4;
+    return 4 + 3 + (stencil ? 0 : 1);
   }
   /// The same sizes planned from the problem size before anything is allocated (composite voxels
   /// counted as none: their arrays are small).
@@ -385,9 +390,10 @@ struct FftRveSolver::Impl {
     s.tangent_values = newton ? 45 * (with_stencil ? (NP + 7) / 8 * 8 : NP) : 0;
     s.tangent_value_bytes = single ? sizeof(float) : sizeof(double);
     s.green_values = 9 * NM;
+    s.green_value_bytes = single ? sizeof(float) : sizeof(double);
     s.history_values = NP * std::size_t(state_size[0] + state_size[1]);
     s.mixed_points = mixed_active ? NP : 0;
-    s.spectral_vectors = !newton ? 5 : 5 + 3 + (with_stencil ? 0 : 1);
+    s.spectral_vectors = !newton ? 4 : 4 + 3 + (with_stencil ? 0 : 1);
     return s;
   }
   /// Bytes the solver will allocate for this grid and these options (planned_sizes()), saturating for
@@ -1179,7 +1185,7 @@ struct FftRveSolver::Impl {
         bool extrapolated = false;
         if (extrapolate && dt_last > 0.0 && !du_last.empty()) {
           const double ratio = dt / dt_last;
-          for (std::size_t i = 0; i < u.size(); ++i) u[i] = u_committed[i] + ratio * du_last[i];
+          for (std::size_t i = 0; i < u.size(); ++i) u[i] = u_committed[i] + ratio * Complex(du_last[i]);
           Fbar = Fbar_committed + ratio * dF_last;
           for (int c = 0; c < 9; ++c)
             if (!free[c]) Fbar(c / 3, c % 3) = target(c / 3, c % 3);
@@ -1391,7 +1397,7 @@ struct FftRveSolver::Impl {
   void commit(double dt) {
     // Remember the converged increment: the next step starts from its linear extrapolation.
     du_last.resize(u.size());
-    for (std::size_t i = 0; i < u.size(); ++i) du_last[i] = u[i] - u_committed[i];
+    for (std::size_t i = 0; i < u.size(); ++i) du_last[i] = std::complex<float>(u[i] - u_committed[i]);
     dF_last = Fbar - Fbar_committed;
     dt_last = dt;
     u_committed = u;
@@ -1510,7 +1516,7 @@ FftRveState FftRveSolver::state() const {
   s.history_matrix = m.hist_old[0];
   s.history_fiber = m.hist_old[1];
   s.laminate = m.lam_a;
-  s.du_last = m.du_last;
+  s.du_last.assign(m.du_last.begin(), m.du_last.end());
   s.dF_last = m.dF_last;
   s.dt_last = m.dt_last;
   return s;
@@ -1534,7 +1540,7 @@ void FftRveSolver::set_state(const FftRveState& s) {
   m.hist_old[0] = m.hist_new[0] = s.history_matrix;
   m.hist_old[1] = m.hist_new[1] = s.history_fiber;
   m.lam_a = m.lam_a_trial = s.laminate;
-  m.du_last = s.du_last;
+  m.du_last.assign(s.du_last.begin(), s.du_last.end());
   m.dF_last = s.dF_last;
   m.dt_last = s.dt_last;
 }
