@@ -187,12 +187,19 @@ struct FftRveSolver::Impl {
   bool mixed_active = false;                       // any phase mixed
   bool linearized_pressure = false;                // evaluate with p from the last linearization
   double predictor_ratio = -1.0;                   // ≥ 0: predictor, p = p_committed + ratio · dp_last
-  std::vector<double> p_trial, p_committed, dp_last;  // per point pressures of the mixed iteration
+  // Per point pressures of the mixed iteration: of the last evaluation (double), and the committed one
+  // with its last increment, which only place the extrapolated predictor (float).
+  std::vector<double> p_trial;
+  std::vector<float> p_committed, dp_last;
   // per point: c = W_V″ cof F (9, float), s (1, double): p(F) = s + c:F; s is taken with the rounded c,
   // so p(F_k) = W_V′(J_k) to double round-off and only the slope is perturbed (≈ 6e-8 relative).
   std::vector<float> lin_cur, lin_next;
   std::vector<double> lin_cur_s, lin_next_s;
-  std::vector<float> dP_full;                      // per point: P_full − P̂ (9), a correction of the residual
+  // Per point: P_full − P̂ = −(p − W_V′(J)) cof F, a correction of the residual, is parallel to the slope
+  // c = W_V″(J) cof F of the same evaluation: stored as the factor (1 float instead of 9), the slopes
+  // being in *lin_evaluated (lin_next until accept_linearization() swaps them into lin_cur).
+  std::vector<float> dP_ratio;
+  const std::vector<float>* lin_evaluated = &lin_next;
   double achieved_vf = 0.0;
 
   // Unknowns (current and committed).
@@ -292,9 +299,9 @@ struct FftRveSolver::Impl {
       lin_cur_s.assign(NP, 0.0);
       lin_next_s.assign(NP, 0.0);
       p_trial.assign(NP, 0.0);
-      p_committed.assign(NP, 0.0);
-      dp_last.assign(NP, 0.0);
-      dP_full.assign(9 * NP, 0.0f);
+      p_committed.assign(NP, 0.0f);
+      dp_last.assign(NP, 0.0f);
+      dP_ratio.assign(NP, 0.0f);
     }
     // Section grids: the i3 columns of ∇ũ vanish and Div does not read them, so 6 of 9 fields per point
     // are transformed (the voxel loops treat those columns as zero).
@@ -441,7 +448,7 @@ struct FftRveSolver::Impl {
       // Extrapolated predictor: the pressure is extrapolated itself. A linearly extrapolated F leaves
       // the curved J = 1 manifold by O(ΔF²), which W_V′(J) or any linearization turns into K ΔF²
       // (tens of MPa against a matrix G of 0.017 MPa); the pressure history is smooth instead.
-      pr = p_committed[p] + predictor_ratio * dp_last[p];
+      pr = double(p_committed[p]) + predictor_ratio * double(dp_last[p]);
     } else if (linearized_pressure) {
       const float* l = &lin_cur[9 * p];
       pr = lin_cur_s[p];
@@ -456,8 +463,7 @@ struct FftRveSolver::Impl {
       s0 -= double(ln[c]) * F(c / 3, c % 3);
     }
     lin_next_s[p] = s0;
-    float* d = &dP_full[9 * p];
-    for (int c = 0; c < 9; ++c) d[c] = float(-q * cof(c / 3, c % 3));
+    dP_ratio[p] = float(-q / ddU);
     if (q == 0.0) return;
     P += q * cof;
     if (A) {
@@ -488,6 +494,7 @@ struct FftRveSolver::Impl {
   /// Evaluates every material point at F = F̄ + ∇ũ (gradient already in fft->real), writes P into the
   /// real buffer in place, stores tangents when asked; fills `sums`. Returns the first failure.
   MaterialStatus evaluate_points(const Mat3& Fbar_grid, double dt, bool with_tangent) {
+    lin_evaluated = &lin_next;  // pressure_correction() writes this evaluation's slopes there
     const double invN = 1.0 / double(Ntot);
     int failure = 0;
     PassSums total;
@@ -659,10 +666,15 @@ struct FftRveSolver::Impl {
 #pragma omp for schedule(static)
       for (std::size_t v = 0; v < N; ++v)
         for (int q = 0; q < nq; ++q) {
-          const float* d = &dP_full[9 * (v * nq + q)];
+          const std::size_t p = v * nq + q;
+          const float* slope = &(*lin_evaluated)[9 * p];
+          const double ratio = dP_ratio[p];
           double* base = fft->real(9 * q) + v;
-          for (int c = 0; c < 9; ++c) base[std::size_t(c) * N] += d[c];
-          for (int c = 0; c < 9; ++c) local[c] += op.quadrature()[q].weight * d[c];
+          for (int c = 0; c < 9; ++c) {
+            const double d = ratio * double(slope[c]);
+            base[std::size_t(c) * N] += d;
+            local[c] += op.quadrature()[q].weight * d;
+          }
         }
 #pragma omp critical
       mean += local;
@@ -678,13 +690,14 @@ struct FftRveSolver::Impl {
     if (mixed_active) {
       lin_cur.swap(lin_next);
       lin_cur_s.swap(lin_next_s);
+      lin_evaluated = lin_evaluated == &lin_next ? &lin_cur : &lin_next;
     }
   }
   void commit_pressures(bool track_increment) {
     if (!mixed_active) return;
     for (std::size_t p = 0; p < NP; ++p) {
-      dp_last[p] = track_increment ? p_trial[p] - p_committed[p] : 0.0;
-      p_committed[p] = p_trial[p];
+      dp_last[p] = track_increment ? float(p_trial[p] - double(p_committed[p])) : 0.0f;
+      p_committed[p] = float(p_trial[p]);
     }
   }
 

@@ -43,8 +43,9 @@ struct StorageSizes {
 };
 
 /// Bytes of the mixed (u, p) arrays per point: two linearizations (9 float slopes + 1 double offset
-/// each), three pressures (double) and P_full − P̂ (9 float).
-constexpr std::size_t kMixedBytesPerPoint = 2 * (9 * 4 + 8) + 3 * 8 + 9 * 4;
+/// each), the pressure of the last evaluation (double), the committed one and its increment (float)
+/// and P_full − P̂ as a multiple of the slopes (1 float).
+constexpr std::size_t kMixedBytesPerPoint = 2 * (9 * 4 + 8) + 8 + 2 * 4 + 4;
 
 inline StorageList storage_list(const StorageSizes& s) {
   const std::size_t field = 8 * s.voxels + 16 * s.modes;  // one real field and its half spectrum
