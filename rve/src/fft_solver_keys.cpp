@@ -54,7 +54,7 @@ const io::KeyTable<FftSolverOptions>& fft_solver_keys() {
                 "operator of the Krylov iteration")
         .choice("tangent_precision", &O::tangent_precision,
                 {{"double", TangentPrecision::double_precision}, {"single", TangentPrecision::single_precision}},
-                "storage of the stencil operator's tangents")
+                "storage of the stencil operator's tangents and of the preconditioner's Green table")
         .custom("fftw", "choice", "FFTW planning rigor",
                 [](const toml::node& n, const std::string& f, O& o) {
                   static const io::Choices<fft::PlanRigor> c{

@@ -45,31 +45,44 @@ FftSolverOptions quick() {
 
 }  // namespace
 
-// Bytes per voxel of the default solve (rotated, stencil Krylov operator, float tangents). The accounting
-// is exact arithmetic on the array sizes, so the bounds are tight (a regression of one 3-component
-// spectral vector is +24 B per voxel in 3D, +25.5 B on a 32² section): 32² ecoflex/glass section (mixed
-// (u, p) arrays, composite voxels) 784.5 B measured (1148 B before the storage cuts); 16³ compressible
-// neo-Hookean cell (no pressure arrays) 662.6 B measured.
+// Bytes per voxel of the default solve (rotated, stencil Krylov operator, float tangents and Green table).
+// The accounting is exact arithmetic on the array sizes, so the bounds are tight: each margin (3.9 B,
+// 2.1 B) is below one 3-component spectral vector (25.5 B per voxel on a 32² section, 27 B on 16³) and
+// below any one of the cuts, and above the composite voxels' arrays' dependence on the image (< 1 B).
+// 32² ecoflex/glass section (mixed (u, p) arrays, composite voxels) 636.1 B measured (1148 → 785 B
+// before); 16³ compressible neo-Hookean cell (no pressure arrays) 547.9 B measured (662.6 B before).
 TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
   const PhaseImage section = circle_image(32, 0.27);
   FftRveSolver eco(section, ecoflex(), glass(), 45.0, Mat3::Identity(), quick());
   const double eco_bpv = double(eco.memory_bytes()) / double(section.voxels());
-  EXPECT_LE(eco_bpv, 790.0);
+  EXPECT_LE(eco_bpv, 640.0);
   const auto eco_arrays = by_array(eco);
   EXPECT_EQ(eco_arrays.count("history"), 0u);  // elastic phases: no internal variables
   EXPECT_GT(eco_arrays.count("mixed_pressure"), 0u);
   EXPECT_GT(eco_arrays.count("composites"), 0u);
+  // ∇ũ / P in real space only (9 doubles per point, no spectrum); the mixed arrays 108 B per point.
+  EXPECT_EQ(eco_arrays.at("fft_buffers"), 9u * 8u * section.voxels());
+  EXPECT_EQ(eco_arrays.at("mixed_pressure"), 108u * section.voxels());
 
   const PhaseImage cube = extruded(circle_image(16, 0.27), 16);
   FftRveSolver nh(cube, neo_hookean(1.0, 10.0), glass(), 45.0, Mat3::Identity(), quick());
   const double nh_bpv = double(nh.memory_bytes()) / double(cube.voxels());
-  EXPECT_LE(nh_bpv, 670.0);
+  EXPECT_LE(nh_bpv, 550.0);
   const auto nh_arrays = by_array(nh);
   EXPECT_EQ(nh_arrays.count("mixed_pressure"), 0u);  // K/G = 10 < mixed_pressure_ratio
   EXPECT_EQ(nh_arrays.count("history"), 0u);
-  // Float tangents: 45 values of 4 bytes per point.
+  // Float tangents: 45 values of 4 bytes per point; float Green table: 9 values of 4 bytes per mode.
   EXPECT_EQ(nh_arrays.at("tangents"), 45u * 4u * cube.voxels());
-  std::printf("[ info     ] bytes/voxel: 32^2 ecoflex/glass %.1f, 16^3 neo-Hooke %.1f\n", eco_bpv, nh_bpv);
+  EXPECT_EQ(nh_arrays.at("reference_green"), 9u * 4u * (16u / 2u + 1u) * 16u * 16u);
+
+  // Hex (8 points per voxel): the 72 real fields stay, their spectra (72 · 16 · 9/16 = 648 B per voxel
+  // on 16³) are gone.
+  FftSolverOptions hex = quick();
+  hex.discretization = fft::Discretization::hex;
+  FftRveSolver nh_hex(cube, neo_hookean(1.0, 10.0), glass(), 45.0, Mat3::Identity(), hex);
+  EXPECT_EQ(by_array(nh_hex).at("fft_buffers"), 72u * 8u * cube.voxels());
+  std::printf("[ info     ] bytes/voxel: 32^2 ecoflex/glass %.1f, 16^3 neo-Hooke %.1f, 16^3 neo-Hooke hex %.1f\n", eco_bpv,
+              nh_bpv, double(nh_hex.memory_bytes()) / double(cube.voxels()));
   for (const auto& [name, bytes] : eco.memory_breakdown())
     std::printf("[ info     ]   32^2 %-18s %8.1f B/voxel\n", name.c_str(), double(bytes) / double(section.voxels()));
 }

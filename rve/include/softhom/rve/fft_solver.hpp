@@ -112,10 +112,12 @@ struct FftSolverOptions {
   KrylovOperator krylov_operator = KrylovOperator::stencil;
   /// Tangents of the stencil Krylov operator stored in float (180 instead of 360 B per point, the
   /// default: the largest array of the solver, see BENCHMARKS.md "FFT memory per voxel"): the Krylov
-  /// iteration is bound by that stream. The residual, the material and the preconditioner stay
-  /// double, so the converged answer is the same to the Newton tolerance; the Krylov operator is the
-  /// exact one perturbed by ≈ 6e-8 relative per tangent entry (symmetric, so CG/MINRES still apply),
-  /// which inexact Newton absorbs. The Fourier operator always keeps double.
+  /// iteration is bound by that stream. With them the reference Green table of the preconditioner is
+  /// float too (36 instead of 72 B per mode; any symmetric positive definite preconditioner leaves the
+  /// solution as it is). The residual, the material and all arithmetic stay double, so the converged
+  /// answer is the same to the Newton tolerance; the Krylov operator is the exact one perturbed by
+  /// ≈ 6e-8 relative per tangent entry (symmetric, so CG/MINRES still apply), which inexact Newton
+  /// absorbs. The Fourier operator always keeps double.
   TangentPrecision tangent_precision = TangentPrecision::single_precision;
   /// Wall-time budget of one output step's cut-backs [s] (StepControlOptions::max_step_seconds; 0: none).
   double max_step_seconds = 0.0;
