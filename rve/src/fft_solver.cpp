@@ -334,9 +334,9 @@ struct FftRveSolver::Impl {
       if (stencil && opt.tangent_precision == TangentPrecision::single_precision) {
         tangent_f.assign(45 * ((NP + 7) / 8 * 8), 0.0f);
         green.use_single_precision(true);  // the preconditioner's table too (fft::ReferenceGreen)
-      }
-      else
+      } else {
         tangent.assign(45 * (stencil ? (NP + 7) / 8 * 8 : NP), 0.0);
+      }
     }
     u.assign(3 * NM, 0.0);
     u_committed = u;
