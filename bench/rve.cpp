@@ -283,23 +283,26 @@ int main(int argc, char** argv) {
         std::fflush(stdout);
       }
   } else if (mode == "eigen") {
-    // bench_rve eigen [n ...] [case=0|1] [binary] [mixed=0]: the freefiber cell loaded to λ_k = 1 +
+    // bench_rve eigen [n ...] [case=0|1] [binary] [mixed=0] [k=K]: the freefiber cell loaded to λ_k = 1 +
     // k/16 (k = 1 … 8, k steps); at each converged state the fluctuation Newton operator assembled
     // densely (FftRveSolver::dense_fluctuation_operator) and its negative eigenvalues counted, with the
     // frequency of the most negative eigenvector (Σ |D_k|² v² / max |D_k|²: 1 = the grid's highest
     // frequency, small = long waves).
     int c = 1;
     bool binary = false, mixed = true;
+    int only_k = 0;  // "k=K": only the state after K steps
     sizes.clear();
     for (int i = 2; i < argc; ++i) {
       if (std::strncmp(argv[i], "case=", 5) == 0) c = std::atoi(argv[i] + 5);
       else if (std::strcmp(argv[i], "binary") == 0) binary = true;
       else if (std::strcmp(argv[i], "mixed=0") == 0) mixed = false;
+      else if (std::strncmp(argv[i], "k=", 2) == 0) only_k = std::atoi(argv[i] + 2);
       else sizes.push_back(std::atoi(argv[i]));
     }
     if (sizes.empty()) sizes = {8};
     for (int n : sizes)
       for (int k = 1; k <= 8; ++k) {
+        if (only_k > 0 && k != only_k) continue;
         const double lambda = 1.0 + k / 16.0;
         MixedControl control = ramp(lambda, k);
         if (c == 1) {
