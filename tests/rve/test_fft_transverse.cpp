@@ -6,7 +6,7 @@
 // What the figures say (bench_rve freefiber ... fe=D kg=X disc=D): the FE answer converges with the
 // mesh (K/G = 100: P22 0.066242, 0.066178, 0.066170 at L/8, L/16, L/24) and the FFT hex discretization
 // converges to it at first order (0.0839, 0.0750, 0.0704 at 32², 64², 128²), while the rotated scheme
-// converges to a value 23 % below it (0.0507, 0.0506, 0.0501) — at K/G = 1.2e5 41 % below (0.0533 at
+// converges to a value 23 % below it (0.0507, 0.0506, 0.0501) — at K/G = 1.2e5 40 % below (0.0533 at
 // 32² against the FE 0.08847). The rotated (and spectral) discretization is inconsistent for in-plane
 // flow of a nearly incompressible matrix around a stiff fiber; the indefinite Newton systems of this case
 // come with it (none with hex at K/G = 100), not from a bifurcation of the cell: the 8² and 16² Newton
