@@ -23,6 +23,14 @@
 //                                  as bench_rve_fe) on n² sections (2) or n³ cells (3, the section extruded),
 //                                  error against the FE reference and against each discretization's own
 //                                  Richardson extrapolation; cheapest setting reaching 1 % and 0.1 %
+//   bench_rve freefiber [n ...] [case=0..5 ...] [fe=D ...] [disc=D] [kg=K/G] [binary] [plain] [homogeneous]
+//                       [minres_below=X] [fe_p0] [reference=geometric]
+//                                  glass fiber in a Gent matrix along / across the fiber with the fiber
+//                                  stretch free (BENCHMARKS.md "FFT solver cost"); fe=D: the FE engine on
+//                                  the same cell and control (mesh L/D) as the reference
+//   bench_rve eigen [n ...] [case=0|1] [k=K] [disc=D] [binary] [mixed=0]
+//                                  negative and zero eigenvalues of the dense fluctuation Newton operator
+//                                  at the converged states of that cell (small n)
 //   bench_rve resolution pdms|ecoflex [n ...]
 //                                  time versus error of P11 at λ = 1.5 (8 steps) for each discretization,
 //                                  error against the Richardson extrapolation of the two finest grids
@@ -283,13 +291,14 @@ int main(int argc, char** argv) {
         std::fflush(stdout);
       }
   } else if (mode == "eigen") {
-    // bench_rve eigen [n ...] [case=0|1] [binary] [mixed=0] [k=K]: the freefiber cell loaded to λ_k = 1 +
+    // bench_rve eigen [n ...] [case=0|1] [binary] [mixed=0] [k=K] [disc=D]: the freefiber cell loaded to λ_k = 1 +
     // k/16 (k = 1 … 8, k steps); at each converged state the fluctuation Newton operator assembled
     // densely (FftRveSolver::dense_fluctuation_operator) and its negative eigenvalues counted, with the
     // frequency of the most negative eigenvector (Σ |D_k|² v² / max |D_k|²: 1 = the grid's highest
     // frequency, small = long waves).
     int c = 1;
     bool binary = false, mixed = true;
+    fft::Discretization disc = fft::Discretization::rotated;  // "disc=..."
     int only_k = 0;  // "k=K": only the state after K steps
     sizes.clear();
     for (int i = 2; i < argc; ++i) {
@@ -297,6 +306,7 @@ int main(int argc, char** argv) {
       else if (std::strcmp(argv[i], "binary") == 0) binary = true;
       else if (std::strcmp(argv[i], "mixed=0") == 0) mixed = false;
       else if (std::strncmp(argv[i], "k=", 2) == 0) only_k = std::atoi(argv[i] + 2);
+      else if (std::strncmp(argv[i], "disc=", 5) == 0) disc = fft::parse_discretization(argv[i] + 5);
       else sizes.push_back(std::atoi(argv[i]));
     }
     if (sizes.empty()) sizes = {8};
@@ -319,6 +329,7 @@ int main(int argc, char** argv) {
         o.tolerance = 1e-8;
         o.mixed_pressure = mixed;
         o.tangent_precision = TangentPrecision::double_precision;
+        o.discretization = disc;
         PhaseImage image = circle_cell(n);
         if (binary)
           for (std::size_t v = 0; v < image.voxels(); ++v) {
@@ -334,8 +345,12 @@ int main(int argc, char** argv) {
         Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(S);
         const Eigen::VectorXd& ev = es.eigenvalues();
         const double top = ev.cwiseAbs().maxCoeff();
-        int negative = 0;
-        for (Eigen::Index i = 0; i < ev.size(); ++i) negative += ev[i] < -1e-12 * top;
+        int negative = 0, zero = 0;  // zero: |λ| ≤ 1e-12 max, the mean mode, the imaginary parts of the
+                                     // self-conjugate modes and the null modes of the gradient (rotated: (π, π))
+        for (Eigen::Index i = 0; i < ev.size(); ++i) {
+          negative += ev[i] < -1e-12 * top;
+          zero += std::abs(ev[i]) <= 1e-12 * top;
+        }
         const double lap_max = *std::max_element(d.laplacian.begin(), d.laplacian.end());
         double freq = 0.0;
         const Eigen::VectorXd v = es.eigenvectors().col(0);
@@ -344,11 +359,11 @@ int main(int argc, char** argv) {
         double smallest_positive = top;
         for (Eigen::Index i = 0; i < ev.size(); ++i)
           if (ev[i] > 1e-12 * top) smallest_positive = std::min(smallest_positive, ev[i]);
-        std::printf("eigen case %d n %3d %s%s lambda %.4f %4s newton %4d P22 %.6g F11 %.6g unknowns %zu asym %.1e negative %d "
+        std::printf("eigen case %d n %3d %s%s lambda %.4f %4s newton %4d P22 %.6g F11 %.6g unknowns %zu asym %.1e negative %d zero %d "
                     "min %.3e (freq %.2f) min positive %.3e max %.3e\n",
                     c, n, binary ? "binary " : "", mixed ? "mixed" : "plain", lambda, r.completed ? "ok" : "FAIL",
                     r.newton_iterations, r.steps.back().P(1, 1), r.steps.back().F(0, 0), d.laplacian.size(), asym,
-                    negative, ev[0], freq, smallest_positive, top);
+                    negative, zero, ev[0], freq, smallest_positive, top);
         std::fflush(stdout);
       }
   } else if (mode == "resolution") {
