@@ -23,10 +23,19 @@
 //                                  as bench_rve_fe) on n² sections (2) or n³ cells (3, the section extruded),
 //                                  error against the FE reference and against each discretization's own
 //                                  Richardson extrapolation; cheapest setting reaching 1 % and 0.1 %
+//   bench_rve freefiber [n ...] [case=0..5 ...] [fe=D ...] [disc=D] [kg=K/G] [binary] [plain] [homogeneous]
+//                       [minres_below=X] [fe_p0] [reference=geometric]
+//                                  glass fiber in a Gent matrix along / across the fiber with the fiber
+//                                  stretch free (BENCHMARKS.md "FFT solver cost"); fe=D: the FE engine on
+//                                  the same cell and control (mesh L/D) as the reference
+//   bench_rve eigen [n ...] [case=0|1] [k=K] [disc=D] [binary] [mixed=0]
+//                                  negative and zero eigenvalues of the dense fluctuation Newton operator
+//                                  at the converged states of that cell (small n)
 //   bench_rve resolution pdms|ecoflex [n ...]
 //                                  time versus error of P11 at λ = 1.5 (8 steps) for each discretization,
 //                                  error against the Richardson extrapolation of the two finest grids
 #include <omp.h>
+#include <Eigen/Eigenvalues>
 #include <time.h>
 
 #include <algorithm>
@@ -43,6 +52,8 @@
 #include "softhom/io/files.hpp"
 #include "softhom/materials/laws.hpp"
 #include "softhom/materials/library.hpp"
+#include "softhom/rve/fe_mesh.hpp"
+#include "softhom/rve/fe_solver.hpp"
 #include "softhom/rve/fft_solver.hpp"
 #include "softhom/rve/geometry.hpp"
 
@@ -166,21 +177,49 @@ int main(int argc, char** argv) {
     // Gent matrix K/G = 1.2e5 + glass fiber along e1 (α = 90°), λ = 1.5 in 8 steps: uniaxial stress
     // along the fiber, then transverse (F22 = λ) with the fiber stretch F11 free (P11 = 0); and the
     // transverse case with the fiber along e2 (α = 0°, F22 free) for comparison.
+    // "fe=D" arguments: the same cell and control on the conforming FE mesh (mesh_size = L/D,
+    // interface L/(3D)), the independent reference of the FFT answer.
     std::vector<int> cases;  // "case=K" arguments (0–5) select cases; "reference=geometric" the medium
+    std::vector<double> fe_divisions;
     bool geometric = false;
+    fft::Discretization disc = fft::Discretization::rotated;  // "disc=rotated|hex|spectral"
+    bool binary = false;
+    bool homogeneous = false;  // "homogeneous": the fiber phase made of the matrix law (closed-form check)
+    double minres_below = -1.0;
+    double matrix_kg = 1.2e5;  // "kg=X": matrix K/G
+    bool plain = false;        // "plain": FFT without the mixed (u, p) iteration
+    bool fe_p0 = false;        // "fe_p0": FE with the P2/P0 pressure space instead of P2+bubble/P1  // "minres_below=X": FftSolverOptions::minres_below (default: the solver's)  // "binary": voxels rounded to one phase (no composite voxels / laminate rule)
     sizes.clear();
     for (int i = 2; i < argc; ++i) {
       if (std::strncmp(argv[i], "case=", 5) == 0)
         cases.push_back(std::atoi(argv[i] + 5));
+      else if (std::strncmp(argv[i], "fe=", 3) == 0)
+        fe_divisions.push_back(std::atof(argv[i] + 3));
       else if (std::strcmp(argv[i], "reference=geometric") == 0)
         geometric = true;
+      else if (std::strncmp(argv[i], "minres_below=", 13) == 0)
+        minres_below = std::atof(argv[i] + 13);
+      else if (std::strcmp(argv[i], "binary") == 0)
+        binary = true;
+      else if (std::strcmp(argv[i], "homogeneous") == 0)
+        homogeneous = true;
+      else if (std::strcmp(argv[i], "plain") == 0)
+        plain = true;
+      else if (std::strcmp(argv[i], "fe_p0") == 0)
+        fe_p0 = true;
+      else if (std::strncmp(argv[i], "kg=", 3) == 0)
+        matrix_kg = std::atof(argv[i] + 3);
+      else if (std::strncmp(argv[i], "disc=", 5) == 0)
+        disc = fft::parse_discretization(argv[i] + 5);
       else
         sizes.push_back(std::atoi(argv[i]));
     }
-    if (sizes.empty()) sizes = {32};
-    const auto matrix = [] { return make_material(make_gent_hgo({0.017, 14.0, 0.017 * 1.2e5, {}, FiberInvariant::full, true})); };
-    const auto glass = [] { return make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))); };
-    for (int n : sizes)
+    if (sizes.empty() && fe_divisions.empty()) sizes = {32};
+    const auto matrix = [&] { return make_material(make_gent_hgo({0.017, 14.0, 0.017 * matrix_kg, {}, FiberInvariant::full, true})); };
+    const auto glass = [&] {
+      return homogeneous ? matrix() : make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3)));
+    };
+    for (int n : sizes.empty() ? std::vector<int>{0} : sizes)
       for (int c = 0; c < 6; ++c) {
         if (!cases.empty() && std::find(cases.begin(), cases.end(), c) == cases.end()) continue;
         MixedControl control = ramp(1.5, 8);
@@ -202,21 +241,129 @@ int main(int argc, char** argv) {
           }
         }
         if (c == 2) angle = 0.0;
+        const char* name[6] = {"along-fiber", "transverse-F11-free", "transverse-a0", "transverse-no-shear", "transverse-minres",
+                               "transverse-F11-given"};
+        for (double d : fe_divisions) {
+          FiberCellSpec spec;
+          spec.shape = SectionShape::circle;
+          spec.arrangement = Arrangement::square;
+          spec.volume_fraction = 0.23;
+          spec.radius = 0.2;
+          const Section section = generate_section(spec);
+          SectionMeshOptions mo;
+          mo.mesh_size = section.L1 / d;
+          mo.interface_size = mo.mesh_size / 3.0;
+          FeSolverOptions fo;
+          fo.tolerance = 1e-8;
+          if (fe_p0) fo.pressure = FePressure::p0;
+          FeRveSolver fe(mesh_section(section, mo), matrix(), glass(), angle, Mat3::Identity(), fo);
+          const auto t0 = std::chrono::steady_clock::now();
+          const RveRunResult r = fe.run(control);
+          const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+          std::printf("freefiber-fe %-20s L/%-3g elements %6d %4s newton %4d cutbacks %d time %7.2f s P %.9g %.9g F11 %.9g solver %s\n",
+                      name[c], d, fe.num_elements(), r.completed ? "ok" : "FAIL", r.newton_iterations, r.cutbacks, sec,
+                      r.steps.back().P(0, 0), r.steps.back().P(1, 1), r.steps.back().F(0, 0), fe.linear_solver().c_str());
+          std::fflush(stdout);
+        }
+        if (n == 0) continue;
         FftSolverOptions o;
         o.tolerance = 1e-6;
         if (c == 4) o.minres_below = 1e300;  // MINRES on every negative curvature
+        if (minres_below >= 0.0) o.minres_below = minres_below;
         if (geometric) o.reference = ReferenceMedium::geometric;
-        FftRveSolver solver(circle_cell(n), matrix(), glass(), angle, Mat3::Identity(), o);
+        o.discretization = disc;
+        if (plain) o.mixed_pressure = false;
+        PhaseImage image = circle_cell(n);
+        if (binary)
+          for (std::size_t v = 0; v < image.voxels(); ++v) {
+            image.fiber_fraction[v] = image.fiber_fraction[v] >= 0.5 ? 1.0 : 0.0;
+            image.normal[v].setZero();
+          }
+        FftRveSolver solver(image, matrix(), glass(), angle, Mat3::Identity(), o);
         const auto t0 = std::chrono::steady_clock::now();
         const RveRunResult r = solver.run(control);
         const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        const char* name[6] = {"along-fiber", "transverse-F11-free", "transverse-a0", "transverse-no-shear", "transverse-minres",
-                               "transverse-F11-given"};
-        std::printf("freefiber %-20s n %4d %4s newton %4d krylov %7d krylov/newton %7.1f cutbacks %d shifted %d minres %d time %7.2f s P %.6g %.6g F11 %.6g\n",
+        std::printf("freefiber %-20s n %4d %4s newton %4d krylov %7d krylov/newton %7.1f cutbacks %d shifted %d minres %d discarded %d time %7.2f s P %.6g %.6g F11 %.6g\n",
                     name[c], n, r.completed ? "ok" : "FAIL", r.newton_iterations, r.krylov_iterations,
                     r.newton_iterations ? double(r.krylov_iterations) / r.newton_iterations : 0.0, r.cutbacks,
-                    r.shifted_solves, r.minres_solves, sec, r.steps.back().P(0, 0), r.steps.back().P(1, 1), r.steps.back().F(0, 0));
+                    r.shifted_solves, r.minres_solves, r.discarded_krylov_iterations, sec, r.steps.back().P(0, 0), r.steps.back().P(1, 1), r.steps.back().F(0, 0));
         for (const std::string& l : r.log) std::printf("  log: %s\n", l.c_str());
+        std::fflush(stdout);
+      }
+  } else if (mode == "eigen") {
+    // bench_rve eigen [n ...] [case=0|1] [binary] [mixed=0] [k=K] [disc=D]: the freefiber cell loaded to λ_k = 1 +
+    // k/16 (k = 1 … 8, k steps); at each converged state the fluctuation Newton operator assembled
+    // densely (FftRveSolver::dense_fluctuation_operator) and its negative eigenvalues counted, with the
+    // frequency of the most negative eigenvector (Σ |D_k|² v² / max |D_k|²: 1 = the grid's highest
+    // frequency, small = long waves).
+    int c = 1;
+    bool binary = false, mixed = true;
+    fft::Discretization disc = fft::Discretization::rotated;  // "disc=..."
+    int only_k = 0;  // "k=K": only the state after K steps
+    sizes.clear();
+    for (int i = 2; i < argc; ++i) {
+      if (std::strncmp(argv[i], "case=", 5) == 0) c = std::atoi(argv[i] + 5);
+      else if (std::strcmp(argv[i], "binary") == 0) binary = true;
+      else if (std::strcmp(argv[i], "mixed=0") == 0) mixed = false;
+      else if (std::strncmp(argv[i], "k=", 2) == 0) only_k = std::atoi(argv[i] + 2);
+      else if (std::strncmp(argv[i], "disc=", 5) == 0) disc = fft::parse_discretization(argv[i] + 5);
+      else sizes.push_back(std::atoi(argv[i]));
+    }
+    if (sizes.empty()) sizes = {8};
+    for (int n : sizes)
+      for (int k = 1; k <= 8; ++k) {
+        if (only_k > 0 && k != only_k) continue;
+        const double lambda = 1.0 + k / 16.0;
+        MixedControl control = ramp(lambda, k);
+        if (c == 1) {
+          const auto zero = PiecewiseLinear::constant(0.0);
+          for (int q = 0; q < 9; ++q) {
+            control.kind[q] = ControlKind::stress;
+            control.value[q] = zero;
+          }
+          control.kind[4] = ControlKind::deformation;
+          control.value[4] = PiecewiseLinear{{0.0, 1.0}, {1.0, lambda}};
+          for (int q : {3, 5, 2}) control.kind[q] = ControlKind::deformation;
+        }
+        FftSolverOptions o;
+        o.tolerance = 1e-8;
+        o.mixed_pressure = mixed;
+        o.tangent_precision = TangentPrecision::double_precision;
+        o.discretization = disc;
+        PhaseImage image = circle_cell(n);
+        if (binary)
+          for (std::size_t v = 0; v < image.voxels(); ++v) {
+            image.fiber_fraction[v] = image.fiber_fraction[v] >= 0.5 ? 1.0 : 0.0;
+            image.normal[v].setZero();
+          }
+        FftRveSolver solver(image, make_material(make_gent_hgo({0.017, 14.0, 0.017 * 1.2e5, {}, FiberInvariant::full, true})),
+                            make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))), 90.0, Mat3::Identity(), o);
+        const RveRunResult r = solver.run(control);
+        const FftRveSolver::DenseOperator d = solver.dense_fluctuation_operator();
+        const Eigen::MatrixXd S = 0.5 * (d.K + d.K.transpose());
+        const double asym = (d.K - d.K.transpose()).norm() / d.K.norm();
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(S);
+        const Eigen::VectorXd& ev = es.eigenvalues();
+        const double top = ev.cwiseAbs().maxCoeff();
+        int negative = 0, zero = 0;  // zero: |λ| ≤ 1e-12 max, the mean mode, the imaginary parts of the
+                                     // self-conjugate modes and the null modes of the gradient (rotated: (π, π))
+        for (Eigen::Index i = 0; i < ev.size(); ++i) {
+          negative += ev[i] < -1e-12 * top;
+          zero += std::abs(ev[i]) <= 1e-12 * top;
+        }
+        const double lap_max = *std::max_element(d.laplacian.begin(), d.laplacian.end());
+        double freq = 0.0;
+        const Eigen::VectorXd v = es.eigenvectors().col(0);
+        for (Eigen::Index i = 0; i < v.size(); ++i) freq += d.laplacian[std::size_t(i)] / lap_max * v[i] * v[i] / v.squaredNorm();
+        // the smallest eigenvalue above the zero rows (|λ| < 1e-12 top)
+        double smallest_positive = top;
+        for (Eigen::Index i = 0; i < ev.size(); ++i)
+          if (ev[i] > 1e-12 * top) smallest_positive = std::min(smallest_positive, ev[i]);
+        std::printf("eigen case %d n %3d %s%s lambda %.4f %4s newton %4d P22 %.6g F11 %.6g unknowns %zu asym %.1e negative %d zero %d "
+                    "min %.3e (freq %.2f) min positive %.3e max %.3e\n",
+                    c, n, binary ? "binary " : "", mixed ? "mixed" : "plain", lambda, r.completed ? "ok" : "FAIL",
+                    r.newton_iterations, r.steps.back().P(1, 1), r.steps.back().F(0, 0), d.laplacian.size(), asym,
+                    negative, zero, ev[0], freq, smallest_positive, top);
         std::fflush(stdout);
       }
   } else if (mode == "resolution") {

@@ -1334,14 +1334,18 @@ struct FftRveSolver::Impl {
       double shift = continuation ? ptc_shift : lm_shift;
       const double lin_tol = prescribed_reached ? eta : std::min(eta, 1e-3);
       for (int attempt = 0; attempt < 8; ++attempt) {
-        out.krylov_iterations += pcg(b, free, lin_tol, dx, shift, breakdown);
+        const int cg_iterations = pcg(b, free, lin_tol, dx, shift, breakdown);
+        out.krylov_iterations += cg_iterations;
         if (!breakdown) break;
+        out.discarded_krylov_iterations += cg_iterations;
         // Negative curvature near the solution (the residual is already small): an indefinite
         // equilibrium tangent, not a transient of the iteration — solve it as it is (MINRES).
         if (minres_mode && shift == 0.0 && prescribed_reached &&
             err < opt.minres_below) {
           bool converged = false;
-          out.krylov_iterations += pminres(b, free, lin_tol, dx, converged);
+          const int minres_iterations = pminres(b, free, lin_tol, dx, converged);
+          out.krylov_iterations += minres_iterations;
+          if (!converged) out.discarded_krylov_iterations += minres_iterations;
           ++out.minres_solves;
           if (converged) {
             breakdown = false;
@@ -1641,6 +1645,32 @@ Mat9 FftRveSolver::homogenized_tangent(double krylov_tolerance, RveCounts* count
   }
   if (counts) counts->krylov_iterations += iterations;
   return C;
+}
+
+FftRveSolver::DenseOperator FftRveSolver::dense_fluctuation_operator() {
+  Impl& m = *impl_;
+  const std::size_t n = 6 * m.NM;
+  if (n > 4096 || m.dist)
+    throw InputError("microstructure.grid", std::to_string(m.Ntot) + " voxels",
+                     "the dense Newton operator is for one-process cells of at most 4096 unknowns");
+  const std::array<bool, 9> prescribed{};
+  DenseOperator out;
+  out.K.resize(Eigen::Index(n), Eigen::Index(n));
+  out.laplacian.resize(n);
+  KVec e{std::vector<Complex>(3 * m.NM, 0.0), Vec9::Zero()}, y{std::vector<Complex>(3 * m.NM), Vec9::Zero()};
+  for (std::size_t j = 0; j < n; ++j) {
+    const std::size_t a = j / 2;
+    out.laplacian[j] = m.op.laplacian(m.op.mode_offset() + a % m.NM);
+    e.u[a] = j % 2 ? Complex(0.0, 1.0) : Complex(1.0, 0.0);
+    m.apply(e, prescribed, y);
+    e.u[a] = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t b = i / 2;
+      const double w = m.grid.mode_weight(b % m.NM);
+      out.K(Eigen::Index(i), Eigen::Index(j)) = w * (i % 2 ? y.u[b].imag() : y.u[b].real());
+    }
+  }
+  return out;
 }
 
 }  // namespace softhom::rve

@@ -141,6 +141,7 @@ struct RveCounts {
   int cutbacks = 0;                    ///< failed sub-steps
   int shifted_solves = 0;              ///< Levenberg–Marquardt retries of indefinite linear solves
   int minres_solves = 0;               ///< indefinite linear solves by MINRES (FftSolverOptions::indefinite_solver)
+  int discarded_krylov_iterations = 0; ///< of krylov_iterations: in linear solves abandoned at negative curvature
   int continuation_iterations = 0;     ///< pseudo-transient iterations (FftSolverOptions::max_continuation_iterations)
   RveCounts& operator+=(const RveCounts& o) {
     newton_iterations += o.newton_iterations;
@@ -149,6 +150,7 @@ struct RveCounts {
     cutbacks += o.cutbacks;
     shifted_solves += o.shifted_solves;
     minres_solves += o.minres_solves;
+    discarded_krylov_iterations += o.discarded_krylov_iterations;
     continuation_iterations += o.continuation_iterations;
     return *this;
   }
@@ -268,6 +270,20 @@ class FftRveSolver {
   /// Throws InputError("solver.scheme") for Moulinec–Suquet (no tangents are stored) and
   /// ConvergenceError when a linear solve does not converge.
   Mat9 homogenized_tangent(double krylov_tolerance = 1e-10, RveCounts* counts = nullptr);
+
+  /// The Newton operator K_uu of the fluctuation (every macro component prescribed) with the stored
+  /// tangent field of the last Newton iterate, assembled densely for small cells (eigen-analysis of the
+  /// stability of a converged state): K(i, j) = ⟨e_i, K_uu e_j⟩ in the inner product of the Krylov space
+  /// (half spectrum with mode weights), basis e_{2a} = real and e_{2a+1} = imaginary unit of spectral
+  /// entry a = c·modes + k; `laplacian[i]` = |D_k|² of its mode (0 for the mean mode, large at the
+  /// grid's Nyquist frequencies). Its inertia is that of K_uu (Sylvester), apart from zero rows of the
+  /// mean and of the imaginary parts of self-conjugate modes. InputError("microstructure.grid") above
+  /// 4096 unknowns; one process only.
+  struct DenseOperator {
+    Eigen::MatrixXd K;
+    std::vector<double> laplacian;
+  };
+  DenseOperator dense_fluctuation_operator();
 
  private:
   struct Impl;

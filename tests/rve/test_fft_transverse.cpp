@@ -1,0 +1,142 @@
+// Transverse loading of a glass fiber in a nearly incompressible Gent matrix with the fiber stretch
+// free (F22 = λ, F21 = F23 = F13 = 0 prescribed, every other P̄ component zero), the case of
+// BENCHMARKS.md "FFT solver cost": the conforming FE engine as the reference of the FFT engine, and the
+// cost of the FFT Newton iteration on it.
+//
+// What the figures say (bench_rve freefiber ... fe=D kg=X disc=D): the FE answer converges with the
+// mesh (K/G = 100: P22 0.066242, 0.066178, 0.066170 at L/8, L/16, L/24) and the FFT hex discretization
+// converges to it at first order (0.0839, 0.0750, 0.0704 at 32², 64², 128²), while the rotated scheme
+// converges to a value 23 % below it (0.0507, 0.0506, 0.0501) — at K/G = 1.2e5 40 % below (0.0533 at
+// 32² against the FE 0.08847). The rotated (and spectral) discretization is inconsistent for in-plane
+// flow of a nearly incompressible matrix around a stiff fiber; the indefinite Newton systems of this case
+// come with it (none with hex at K/G = 100), not from a bifurcation of the cell: the 8² and 16² Newton
+// operators of the converged rotated states are positive definite at every step (bench_rve eigen).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "softhom/materials/laws.hpp"
+#include "softhom/rve/fe_mesh.hpp"
+#include "softhom/rve/fe_solver.hpp"
+#include "softhom/rve/fft_solver.hpp"
+#include "softhom/rve/geometry.hpp"
+
+using namespace softhom;
+using namespace softhom::rve;
+
+namespace {
+
+Section circle_section() {
+  FiberCellSpec spec;
+  spec.shape = SectionShape::circle;
+  spec.arrangement = Arrangement::square;
+  spec.volume_fraction = 0.23;
+  spec.radius = 0.2;
+  return generate_section(spec);
+}
+
+MaterialPtr gent_matrix(double k_over_g) {
+  return make_material(make_gent_hgo({0.017, 14.0, 0.017 * k_over_g, {}, FiberInvariant::full, true}));
+}
+MaterialPtr glass() { return make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))); }
+
+/// F22: 1 → 1.5 in 8 steps; F21 = F23 = F13 = 0; every other component stress-free.
+MixedControl transverse_fiber_free() {
+  MixedControl c = uniaxial_control(PiecewiseLinear{{0.0, 1.0}, {1.0, 1.5}});
+  c.times.clear();
+  for (int s = 1; s <= 8; ++s) c.times.push_back(s / 8.0);
+  for (int k = 0; k < 9; ++k) {
+    c.kind[k] = ControlKind::stress;
+    c.value[k] = PiecewiseLinear::constant(0.0);
+  }
+  c.kind[4] = ControlKind::deformation;
+  c.value[4] = PiecewiseLinear{{0.0, 1.0}, {1.0, 1.5}};
+  for (int k : {3, 5, 2}) c.kind[k] = ControlKind::deformation;
+  return c;
+}
+
+RveRunResult fe_run(double k_over_g, double divisions) {
+  const Section section = circle_section();
+  SectionMeshOptions mo;
+  mo.mesh_size = section.L1 / divisions;
+  mo.interface_size = mo.mesh_size / 3.0;
+  FeSolverOptions fo;
+  fo.tolerance = 1e-8;
+  FeRveSolver fe(mesh_section(section, mo), gent_matrix(k_over_g), glass(), 90.0, Mat3::Identity(), fo);
+  return fe.run(transverse_fiber_free());
+}
+
+RveRunResult fft_run(double k_over_g, int n, fft::Discretization d) {
+  FftSolverOptions o;
+  o.tolerance = 1e-6;
+  o.discretization = d;
+  o.plan.rigor = fft::PlanRigor::estimate;
+  FftRveSolver s(voxelize_section(circle_section(), n, n), gent_matrix(k_over_g), glass(), 90.0, Mat3::Identity(), o);
+  return s.run(transverse_fiber_free());
+}
+
+void print(const char* what, const RveRunResult& r) {
+  std::printf("[ info     ] %s: Newton %d, Krylov %d (discarded %d), shifted %d, cut-backs %d, P22 %.7g, F11 %.7g\n", what,
+              r.newton_iterations, r.krylov_iterations, r.discarded_krylov_iterations, r.shifted_solves, r.cutbacks,
+              r.steps.back().P(1, 1), r.steps.back().F(0, 0));
+}
+
+}  // namespace
+
+// K/G = 100, where the hex discretization does not lock at 32²–64²: its first-order Richardson
+// extrapolation 2 P(64²) − P(32²) = 0.06620 agrees with the FE reference (0.066242 at L/8, which
+// is within 1.1e-3 of the L/24 value 0.066170) to 7e-4. Tolerance 1 %: the extrapolation's O(h²)
+// remainder (the 64²–128² pair gives 0.06567, 0.8 % lower). The rotated scheme at 32² is asserted to lie
+// 15–35 % below the reference (measured 23.4 %): this test fails when that discretization changes,
+// in either direction — a consistent scheme for this case should replace the band by the tolerance above.
+TEST(FftRveTransverse, HexConvergesToTheFeReferenceAndRotatedDoesNot) {
+  const RveRunResult fe = fe_run(100.0, 8);
+  ASSERT_TRUE(fe.completed) << fe.error;
+  print("FE L/8", fe);
+  const double reference = fe.steps.back().P(1, 1);
+  EXPECT_NEAR(reference, 0.066170, 3e-3 * 0.066170);  // the L/24 value; L/8 is 1.1e-3 above it
+  EXPECT_NEAR(fe.steps.back().P(0, 0), 0.0, 1e-10);
+
+  const RveRunResult h32 = fft_run(100.0, 32, fft::Discretization::hex), h64 = fft_run(100.0, 64, fft::Discretization::hex);
+  ASSERT_TRUE(h32.completed && h64.completed) << h32.error << h64.error;
+  print("FFT hex 32²", h32);
+  print("FFT hex 64²", h64);
+  const double richardson = 2.0 * h64.steps.back().P(1, 1) - h32.steps.back().P(1, 1);
+  EXPECT_NEAR(richardson, reference, 0.01 * reference);
+  // No negative curvature at all on the hex path (0 shifted solves measured at 32², 64², 128²).
+  EXPECT_EQ(h32.shifted_solves + h64.shifted_solves, 0);
+
+  const RveRunResult rot = fft_run(100.0, 32, fft::Discretization::rotated);
+  ASSERT_TRUE(rot.completed) << rot.error;
+  print("FFT rotated 32²", rot);
+  const double gap = 1.0 - rot.steps.back().P(1, 1) / reference;
+  EXPECT_GT(gap, 0.15);
+  EXPECT_LT(gap, 0.35);
+}
+
+// The case of BENCHMARKS.md (K/G = 1.2e5) on an 8² section with the default (rotated) discretization:
+// measured 103 Newton / 12 144 Krylov (26 shifted solves, 914 Krylov iterations in abandoned solves),
+// P22 0.0521527 (32²: 0.0533, 128² at K/G = 1000: 0.0522 — the rotated scheme's limit, flat in n).
+// Bounds: counts + 15 % (the thread count and float tangents move them by up to 10 %), P22 within 1 % of
+// the measured value (the 8²–32² spread of the rotated answer is 2 %). The FE reference (L/4, 0.09046;
+// L/24: 0.08847) is 40 % higher: asserted as a band, as above, so that a change of the discretization
+// shows here.
+TEST(FftRveTransverse, EcoflexCostAndAnswerOnASmallCell) {
+  const RveRunResult r = fft_run(1.2e5, 8, fft::Discretization::rotated);
+  ASSERT_TRUE(r.completed) << r.error;
+  print("FFT rotated 8²", r);
+  EXPECT_LE(r.newton_iterations, 119);
+  EXPECT_LE(r.krylov_iterations, 13966);
+  EXPECT_LE(r.discarded_krylov_iterations, r.krylov_iterations);
+  EXPECT_NEAR(r.steps.back().P(1, 1), 0.0521527, 0.01 * 0.0521527);
+  EXPECT_NEAR(r.steps.back().P(0, 0), 0.0, 1e-8);
+
+  const RveRunResult fe = fe_run(1.2e5, 4);
+  ASSERT_TRUE(fe.completed) << fe.error;
+  print("FE L/4", fe);
+  EXPECT_NEAR(fe.steps.back().P(1, 1), 0.08847, 0.03 * 0.08847);  // L/4 is 2.3 % above the L/24 value
+  const double gap = 1.0 - r.steps.back().P(1, 1) / fe.steps.back().P(1, 1);
+  EXPECT_GT(gap, 0.3);
+  EXPECT_LT(gap, 0.5);
+}
