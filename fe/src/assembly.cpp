@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <ctime>
 #include <cmath>
 #include <iostream>
 #include <sstream>
@@ -50,7 +51,11 @@ MaterialStatus Simulation::Impl::assemble(double t, double dt, bool tangent, con
     du_c.swap(out.dirichlet_rhs);
     out.dirichlet_rhs.assign(ndof, 0.0);
   }
+  const auto t_loop = std::chrono::steady_clock::now();
+  const double cpu_loop = process_cpu_seconds();
   assemble_elements(dt, tangent, u, du_c, out);
+  stats_.element_loop_time += seconds_since(t_loop);
+  stats_.element_loop_cpu += process_cpu_seconds() - cpu_loop;
   reduce_element_sums(out);
   if (out.status != MaterialStatus::ok) {
     if (tangent && distributed_) petsc_->end_fill();  // collective; the tangent is not used

@@ -805,6 +805,7 @@ SolverTimes Simulation::Impl::linear_times() const {
 RunStats Simulation::Impl::stats() const {
   RunStats s = stats_;
   s.linear = linear_times();
+  s.assembled_elements = distributed_ ? int(owned_elements_.size()) : model_.mesh.num_elements();
   return s;
 }
 

@@ -79,7 +79,11 @@ struct RunStats {
   int krylov_iterations = 0;  ///< GMRES iterations (one preconditioner solve each)
   int tangent_assemblies = 0;   ///< assemblies with the tangent (residual + K)
   int residual_assemblies = 0;  ///< residual-only assemblies (the residual-first convergence test)
+  int assembled_elements = 0;   ///< elements this rank evaluates: all, but its own share on the petsc path under MPI
   double assembly_time = 0.0;
+  /// Of assembly_time: the element loop alone (kernels and their scatter into the matrix, without the
+  /// sums over the ranks and the matrix assembly of distributed runs), wall and CPU seconds of this process.
+  double element_loop_time = 0.0, element_loop_cpu = 0.0;
   double krylov_time = 0.0;   ///< GMRES without its preconditioner solves (matrix products, orthogonalization)
   SolverTimes linear;         ///< analysis / factorization / solve times
   std::vector<std::string> log;  ///< cut-backs and notes, human readable (expected events once)
