@@ -144,7 +144,8 @@ class Simulation {
   /// Pressure of the cavity control (or 0 without one).
   double cavity_pressure() const;
   /// Reaction force: Σ of the converged state's internal forces over `dofs` (e.g. a loaded face's
-  /// x-dofs). Evaluates no material (so it never advances a viscoelastic history).
+  /// x-dofs). Evaluates no material (so it never advances a viscoelastic history). On the petsc path
+  /// under MPI a collective call before the first step (each rank sums its own elements).
   double reaction(const std::vector<int>& dofs) const;
   ElementFields element_fields() const;
   /// Statistics so far (linear-solver times of the current solver object).
@@ -156,7 +157,8 @@ class Simulation {
   int num_free_dofs() const;
   const FeModel& model() const;
 
-  /// Element residual and tangent at the current state (for diagnostics and tests).
+  /// Element residual and tangent at the current state (for diagnostics and tests). On the petsc path
+  /// under MPI a rank holds the history of its own elements only (RunStats::assembled_elements).
   MaterialStatus element_force(int e, const Mat83& u, Vec24& r, Mat24* K) const;
   /// The same for a tet10 element e (≥ mesh.num_hexes()).
   MaterialStatus element_force(int e, const Tet10Coords& u, Vec30& r, Mat30* K) const;
