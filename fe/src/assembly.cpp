@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <ctime>
 #include <cmath>
 #include <iostream>
 #include <sstream>
@@ -34,9 +35,11 @@ MaterialStatus Simulation::Impl::assemble(double t, double dt, bool tangent, con
     out.R_true.clear();
     out.R_u.clear();
   }
-  out.cauchy.resize(9 * std::size_t(mesh.num_elements()));
+  if (distributed_) out.cauchy.assign(9 * std::size_t(mesh.num_elements()), 0.0);  // summed at commit
+  else out.cauchy.resize(9 * std::size_t(mesh.num_elements()));
   if (tangent) {
-    K_.set_zero();
+    if (distributed_) petsc_->begin_fill();
+    else K_.set_zero();
     ++k_version_;
     ++stats_.tangent_assemblies;
   } else {
@@ -48,8 +51,14 @@ MaterialStatus Simulation::Impl::assemble(double t, double dt, bool tangent, con
     du_c.swap(out.dirichlet_rhs);
     out.dirichlet_rhs.assign(ndof, 0.0);
   }
+  const auto t_loop = std::chrono::steady_clock::now();
+  const double cpu_loop = process_cpu_seconds();
   assemble_elements(dt, tangent, u, du_c, out);
+  stats_.element_loop_time += seconds_since(t_loop);
+  stats_.element_loop_cpu += process_cpu_seconds() - cpu_loop;
+  reduce_element_sums(out);
   if (out.status != MaterialStatus::ok) {
+    if (tangent && distributed_) petsc_->end_fill();  // collective; the tangent is not used
     stats_.assembly_time += seconds_since(t0);
     return out.status;
   }
@@ -57,6 +66,7 @@ MaterialStatus Simulation::Impl::assemble(double t, double dt, bool tangent, con
   out.fint = mixed ? out.R_true : out.R;  // before the loads: the internal forces alone
 
   assemble_loads(t, tangent, u, cavity_p, du_c, out);
+  if (tangent && distributed_) petsc_->end_fill();
   stats_.assembly_time += seconds_since(t0);
   return MaterialStatus::ok;
 }
@@ -80,7 +90,8 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
   // Small meshes assemble on one thread: the work per colour is a few microseconds, and on a shared
   // (oversubscribed) 2-core machine every OpenMP barrier of a spinning runtime can cost a time slice
   // (measured 4x slower assembly with 2 threads at load 8 on the 256-element plane-strain tube).
-  const int threads = mesh.num_elements() >= 4000 ? omp_get_max_threads() : 1;
+  // Distributed assembly: one thread (PETSc's MatSetValues is not thread-safe; one rank per core).
+  const int threads = mesh.num_elements() >= 4000 && !distributed_ ? omp_get_max_threads() : 1;
 #pragma omp parallel num_threads(threads)
   {
     Vec24 r;
@@ -115,6 +126,7 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
               for (int rw = 0; rw < ND; ++rw) drhs[gdof[rw]] += Kel(rw, cl) * du_c[gdof[cl]];
             continue;
           }
+          if (distributed_) continue;
           double* column = kv + K_.colptr[col];
           for (int a = 0; a < NN; ++a) {
             const long o = block[NN * a + b];
@@ -124,6 +136,13 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
               if (fr[i] >= 0) column[o + fr[i]] += Kel(3 * a + i, cl);
           }
         }
+      if (distributed_) {
+        // Three-field elements enter uncondensed, c = V_e U″(θ) as in saddle_current.
+        const double c = mv ? (mesh.is_tet(e) ? tet_geometry_[e - mesh.num_hexes()].volume : geometry_[e].volume) *
+                                  volumetric_d2U(mix_bulk_[e], mix_theta_[e])
+                            : 0.0;
+        petsc_->add_element(e, NN, nodes.data(), Kel.data(), mv ? mv->d.data() : nullptr, c);
+      }
     };
     auto claim_failure = [&](int e, MaterialStatus st) {
       int expected = -1;
@@ -240,7 +259,9 @@ void Simulation::Impl::assemble_loads(double t, bool tangent, const std::vector<
             for (int i = 0; i < 3; ++i) {
               const int row = eq[3 * q[k] + i];
               if (row < 0) continue;
-              if (col >= 0)
+              if (col >= 0 && distributed_)
+                petsc_->add_entry(3 * q[k] + i, cdof, pk * da(3 * k + i, 3 * m + j));
+              else if (col >= 0)
                 kv[K_.find(row, col)] += pk * da(3 * k + i, 3 * m + j);
               else if (predictor && du_c[cdof] != 0.0)
                 drhs[3 * q[k] + i] += pk * da(3 * k + i, 3 * m + j) * du_c[cdof];

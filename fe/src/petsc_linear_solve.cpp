@@ -15,7 +15,7 @@ bool Simulation::Impl::petsc_linear_solve(const std::vector<double>& b, std::vec
   if (norm(b) == 0.0) return true;
   if (factor_version_ != k_version_ || !factor_valid_) {
     // Three-field elements: the uncondensed (u, p_e) system with its field split (petsc_solve.cpp).
-    if (!sad_elem_.empty()) {
+    if (!sad_elem_.empty() && !distributed_) {  // (distributed: the element loop fills the pressures)
       if (first_factorization_) petsc_->set_mixed(sad_off_, sad_eq_);
       saddle_current();
       petsc_->set_mixed_tangent(sad_db_, sad_cb_);

@@ -5,6 +5,7 @@
 #include <petscksp.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -89,8 +90,15 @@ struct PetscSolver::Data {
   std::vector<PetscInt> cols;
   std::vector<PetscScalar> vals;
   std::vector<double> a_values;  // A = K − Σ c d dᵀ (three-field), K's pattern
+  std::vector<PetscInt> dnz, onz;  // preallocation of the owned rows (create_system)
+  // Distributed assembly (distribute): the PETSc row of every mesh dof and of every element's pressure
+  // (−1: none), the owner of every node, this rank's mesh dofs in row order.
+  const Mesh* mesh = nullptr;
+  bool distributed = false, mixed_rows = false, diagonal_known = false;
+  std::vector<PetscInt> urow, prow, owned_dofs;
+  std::vector<int> node_owner;
 
-  bool saddle() const { return !sad_c.empty() || !sad_off.empty(); }
+  bool saddle() const { return mixed_rows || !sad_c.empty() || !sad_off.empty(); }
   PetscInt dof_lo(int r) const { return 3 * (nnodes * r / size); }
   PetscInt elem_lo(int r) const { return np * r / size; }
   int owner_of_dof(PetscInt g) const {
@@ -107,6 +115,7 @@ struct PetscSolver::Data {
   }
   /// Global PETSc index of dof g and of element pressure k (rank blocks [u_r, π_r]).
   PetscInt gu(PetscInt g) const {
+    if (distributed) return urow[g];
     if (!saddle()) return g;
     const int r = owner_of_dof(g);
     return first[r] + g - dof_lo(r);
@@ -130,6 +139,7 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
   d.comm = PETSC_COMM_WORLD;
   MPI_Comm_rank(d.comm, &d.rank);
   MPI_Comm_size(d.comm, &d.size);
+  d.mesh = &mesh;
   d.nnodes = mesh.num_nodes();
   d.ndof = 3 * d.nnodes;
   d.lo = d.dof_lo(d.rank);
@@ -204,7 +214,6 @@ void PetscSolver::analyze(const CscMatrix& K) {
   d.first.assign(d.size + 1, 0);
   for (int r = 0; r < d.size; ++r)
     d.first[r + 1] = d.first[r] + (d.dof_lo(r + 1) - d.dof_lo(r)) + (saddle ? d.elem_lo(r + 1) - d.elem_lo(r) : 0);
-  const PetscInt nglobal = d.first[d.size];
   if (saddle) {
     d.row_elems.assign(nu, {});
     for (PetscInt k = 0; k < d.np; ++k)
@@ -233,6 +242,20 @@ void PetscSolver::analyze(const CscMatrix& K) {
     dnz[nu + k - d.plo] = in;
     onz[nu + k - d.plo] = out;
   }
+  d.dnz = std::move(dnz);
+  d.onz = std::move(onz);
+  create_system();
+  times_.analysis += seconds_since(t0);
+}
+
+void PetscSolver::create_system() {
+  Data& d = *d_;
+  const bool saddle = d.saddle();
+  const PetscInt nu = d.hi - d.lo;
+  const PetscInt nlocal = nu + (d.phi - d.plo);
+  const PetscInt nglobal = d.first[d.size];
+  const std::vector<PetscInt>& dnz = d.dnz;
+  const std::vector<PetscInt>& onz = d.onz;
   check(MatCreate(d.comm, &d.A), "MatCreate");
   check(MatSetSizes(d.A, nlocal, nlocal, nglobal, nglobal), "MatSetSizes");
   check(MatSetType(d.A, MATAIJ), "MatSetType");
@@ -286,13 +309,20 @@ void PetscSolver::analyze(const CscMatrix& K) {
   MatNullSpaceDestroy(&nsp);
   VecDestroy(&xyz);
   check(KSPSetFromOptions(d.ksp), "KSPSetFromOptions");
-  times_.analysis += seconds_since(t0);
 }
 
 bool PetscSolver::factorize(const CscMatrix& K) {
   if (!d_->A) analyze(K);
   const auto t0 = std::chrono::steady_clock::now();
   Data& d = *d_;
+  if (d.distributed) {  // the matrix is filled by the element loop (add_element .. end_fill)
+    check(KSPSetOperators(d.ksp, d.A, d.A), "KSPSetOperators");
+    check(KSPSetUp(d.ksp), "KSPSetUp");
+    times_.factorization += seconds_since(t0);
+    ++times_.factorizations;
+    times_.factor_nnz = 0.0;
+    return true;
+  }
   const std::vector<int>& eq = d.dofs->eq;
   const bool saddle = d.saddle();
   // The Dirichlet rows' diagonal: the mean free diagonal of the first tangent, so the identity rows
@@ -382,7 +412,10 @@ KrylovOutcome PetscSolver::solve(const std::vector<double>& b, std::vector<doubl
   PetscScalar* bv;
   check(VecSet(d.b, 0.0), "VecSet");
   check(VecGetArray(d.b, &bv), "VecGetArray");
-  for (PetscInt g = d.lo; g < d.hi; ++g) bv[g - d.lo] = eq[g] >= 0 ? b[eq[g]] : 0.0;  // u block first on every rank
+  if (d.distributed)
+    for (std::size_t i = 0; i < d.owned_dofs.size(); ++i) bv[i] = eq[d.owned_dofs[i]] >= 0 ? b[eq[d.owned_dofs[i]]] : 0.0;
+  else
+    for (PetscInt g = d.lo; g < d.hi; ++g) bv[g - d.lo] = eq[g] >= 0 ? b[eq[g]] : 0.0;  // u block first on every rank
   check(VecRestoreArray(d.b, &bv), "VecRestoreArray");
   if (d.option_rtol > 0.0) rtol = std::min(rtol, d.option_rtol);
   PetscInt maxit;
@@ -413,6 +446,168 @@ KrylovOutcome PetscSolver::solve(const std::vector<double>& b, std::vector<doubl
   times_.solve += seconds_since(t0);
   ++times_.solves;
   return o;
+}
+
+// Distributed assembly: rows rank by rank, [u_r (3 per owned node, ascending node), π_r (the owned
+// three-field elements, ascending)], as in the replicated layout, so create_system's index sets and
+// near-nullspace apply unchanged.
+void PetscSolver::distribute(const std::vector<int>& element_owner, const std::vector<int>& node_owner,
+                             const std::vector<int>& mixed_elements) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Data& d = *d_;
+  const Mesh& mesh = *d.mesh;
+  const std::vector<int>& eq = d.dofs->eq;
+  const int ne = mesh.num_elements();
+  d.distributed = true;
+  d.mixed_rows = !mixed_elements.empty();
+  d.node_owner = node_owner;
+  std::vector<PetscInt> nodes_of(d.size, 0), pressures_of(d.size, 0);
+  for (int n = 0; n < d.nnodes; ++n) ++nodes_of[node_owner[n]];
+  for (int e : mixed_elements) ++pressures_of[element_owner[e]];
+  d.first.assign(d.size + 1, 0);
+  for (int r = 0; r < d.size; ++r) d.first[r + 1] = d.first[r] + 3 * nodes_of[r] + pressures_of[r];
+  std::vector<PetscInt> next_u(d.first.begin(), d.first.end() - 1), next_p(d.size);
+  for (int r = 0; r < d.size; ++r) next_p[r] = d.first[r] + 3 * nodes_of[r];
+  d.urow.assign(d.ndof, -1);
+  d.owned_dofs.clear();
+  d.coords.clear();
+  for (int n = 0; n < d.nnodes; ++n) {
+    const int r = node_owner[n];
+    for (int i = 0; i < 3; ++i) d.urow[3 * n + i] = next_u[r]++;
+    if (r != d.rank) continue;
+    for (int i = 0; i < 3; ++i) {
+      d.owned_dofs.push_back(3 * n + i);
+      d.coords.push_back(mesh.nodes[n][i]);
+    }
+  }
+  d.prow.assign(ne, -1);
+  for (int e : mixed_elements) d.prow[e] = next_p[element_owner[e]]++;
+  // The replicated layout's ranges, by size: create_system needs nu = hi − lo and phi − plo.
+  d.lo = 0;
+  d.hi = 3 * nodes_of[d.rank];
+  d.plo = 0;
+  d.phi = pressures_of[d.rank];
+  const PetscInt nu = d.hi, nlocal = nu + d.phi, row0 = d.first[d.rank];
+  // Preallocation: row (n, i) couples to the free dofs of every node sharing an element with n and to
+  // the pressures of the three-field elements around n; a prescribed row holds its diagonal alone.
+  std::vector<int> local(d.nnodes, -1);
+  for (int n = 0, k = 0; n < d.nnodes; ++n)
+    if (node_owner[n] == d.rank) local[n] = k++;
+  std::vector<std::vector<int>> elems(nu / 3);
+  for (int e = 0; e < ne; ++e) {
+    const int* en = mesh.element_nodes(e);
+    for (int a = 0; a < mesh.element_size(e); ++a)
+      if (local[en[a]] >= 0) elems[local[en[a]]].push_back(e);
+  }
+  d.dnz.assign(nlocal, 1);
+  d.onz.assign(nlocal, 0);
+  std::vector<int> neighbours;
+  for (int n = 0; n < d.nnodes; ++n) {
+    if (local[n] < 0) continue;
+    neighbours.clear();
+    PetscInt in = 0, out = 0;
+    for (int e : elems[local[n]]) {
+      const int* en = mesh.element_nodes(e);
+      neighbours.insert(neighbours.end(), en, en + mesh.element_size(e));
+      if (d.prow[e] >= 0) element_owner[e] == d.rank ? ++in : ++out;
+    }
+    std::sort(neighbours.begin(), neighbours.end());
+    neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
+    for (int m : neighbours)
+      for (int j = 0; j < 3; ++j)
+        if (eq[3 * m + j] >= 0) node_owner[m] == d.rank ? ++in : ++out;
+    for (int i = 0; i < 3; ++i)
+      if (eq[3 * n + i] >= 0) {
+        d.dnz[d.urow[3 * n + i] - row0] = in;
+        d.onz[d.urow[3 * n + i] - row0] = out;
+      }
+  }
+  for (int e : mixed_elements) {
+    if (element_owner[e] != d.rank) continue;
+    PetscInt in = 1, out = 0;
+    const int* en = mesh.element_nodes(e);
+    for (int a = 0; a < mesh.element_size(e); ++a)
+      for (int j = 0; j < 3; ++j)
+        if (eq[3 * en[a] + j] >= 0) node_owner[en[a]] == d.rank ? ++in : ++out;
+    d.dnz[d.prow[e] - row0] = in;
+    d.onz[d.prow[e] - row0] = out;
+  }
+  create_system();
+  times_.analysis += seconds_since(t0);
+}
+
+bool PetscSolver::distributed() const { return d_->distributed; }
+
+void PetscSolver::begin_fill() { check(MatZeroEntries(d_->A), "MatZeroEntries"); }
+
+void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke, const double* dk, double c) {
+  Data& d = *d_;
+  const std::vector<int>& eq = d.dofs->eq;
+  const int nd = 3 * nn;
+  std::array<int, 30> pos;
+  std::array<PetscInt, 31> rows;
+  int nf = 0;
+  for (int q = 0; q < nd; ++q) {
+    const int g = 3 * nodes[q / 3] + q % 3;
+    if (eq[g] < 0) continue;
+    pos[nf] = q;
+    rows[nf++] = d.urow[g];
+  }
+  if (nf == 0) return;
+  std::array<PetscScalar, 31 * 31> v;  // row-major, PETSc's default orientation
+  for (int i = 0; i < nf; ++i)
+    for (int j = 0; j < nf; ++j)
+      v[i * nf + j] = Ke[pos[i] + nd * pos[j]] - (dk ? c * dk[pos[i]] * dk[pos[j]] : 0.0);
+  check(MatSetValues(d.A, nf, rows.data(), nf, rows.data(), v.data(), ADD_VALUES), "MatSetValues");
+  if (!dk) return;
+  double s = 0.0;
+  for (int i = 0; i < nf; ++i) s += dk[pos[i]] * dk[pos[i]];
+  const double dn = s > 0.0 ? std::sqrt(s) : 1.0;
+  const PetscInt pr = d.prow[e];
+  for (int i = 0; i < nf; ++i) v[i] = dk[pos[i]] / dn;
+  check(MatSetValues(d.A, nf, rows.data(), 1, &pr, v.data(), ADD_VALUES), "MatSetValues");
+  for (int i = 0; i < nf; ++i) v[i] = c * dn * dk[pos[i]];
+  rows[nf] = pr;
+  v[nf] = -1.0;
+  check(MatSetValues(d.A, 1, &pr, nf + 1, rows.data(), v.data(), ADD_VALUES), "MatSetValues");
+}
+
+void PetscSolver::add_entry(int row_dof, int col_dof, double v) {
+  Data& d = *d_;
+  if (d.node_owner[row_dof / 3] != d.rank) return;
+  check(MatSetValue(d.A, d.urow[row_dof], d.urow[col_dof], v, ADD_VALUES), "MatSetValue");
+}
+
+void PetscSolver::end_fill() {
+  Data& d = *d_;
+  const std::vector<int>& eq = d.dofs->eq;
+  auto add_dirichlet = [&](double value) {
+    for (PetscInt g : d.owned_dofs)
+      if (eq[g] < 0) check(MatSetValue(d.A, d.urow[g], d.urow[g], value, ADD_VALUES), "MatSetValue");
+  };
+  // (The first assembly keeps only the entries set, so the prescribed diagonals are set to 0 first.)
+  add_dirichlet(d.diagonal_known ? d.dirichlet_diagonal : 0.0);
+  check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+  check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  if (d.diagonal_known) return;
+  // The Dirichlet rows' diagonal: the mean free diagonal of the first tangent (as in factorize).
+  Vec diag;
+  check(MatCreateVecs(d.A, nullptr, &diag), "MatCreateVecs");
+  check(MatGetDiagonal(d.A, diag), "MatGetDiagonal");
+  const PetscScalar* dv;
+  check(VecGetArrayRead(diag, &dv), "VecGetArrayRead");
+  double sum = 0.0;
+  for (std::size_t i = 0; i < d.owned_dofs.size(); ++i)
+    if (eq[d.owned_dofs[i]] >= 0) sum += std::abs(dv[i]);
+  check(VecRestoreArrayRead(diag, &dv), "VecRestoreArrayRead");
+  VecDestroy(&diag);
+  MPI_Allreduce(MPI_IN_PLACE, &sum, 1, MPI_DOUBLE, MPI_SUM, d.comm);
+  const int nfree = d.dofs->num_free;
+  d.dirichlet_diagonal = nfree > 0 && sum > 0.0 ? sum / nfree : 1.0;
+  d.diagonal_known = true;
+  add_dirichlet(d.dirichlet_diagonal);
+  check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+  check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
 }
 
 }  // namespace softhom::fe

@@ -9,7 +9,8 @@
 // whole blocks for the aggregation. Rank r owns a contiguous range of nodes (the generated meshes are
 // numbered along the structure, so a range is a compact slab). The mesh, the Newton iteration and the
 // assembly are replicated on every rank; each rank copies its owned rows into the distributed matrix,
-// and the solution is gathered to every rank.
+// and the solution is gathered to every rank. Distributed assembly (distribute) instead: each rank
+// adds its own elements' matrices, rows numbered rank by rank along an element partition.
 #include <memory>
 #include <string>
 #include <vector>
@@ -53,6 +54,27 @@ class PetscSolver final : public LinearSolver {
   KrylovOutcome solve(const std::vector<double>& b, std::vector<double>& x, double rtol);
   SolverKind kind() const override { return SolverKind::petsc; }
   double reciprocal_condition() const override { return 1.0; }
+  /// Distributed assembly (the petsc path under MPI, replacing analyze / factorize's copy of A): rank r
+  /// fills only the entries of the elements it owns (`element_owner`) and owns the rows of the nodes
+  /// of `node_owner` r, numbered rank by rank (then the element pressures of its elements in
+  /// `mixed_elements`, the three-field ones). Creates the matrix, preallocated per rank from the mesh,
+  /// and the Krylov solver.
+  void distribute(const std::vector<int>& element_owner, const std::vector<int>& node_owner,
+                  const std::vector<int>& mixed_elements);
+  bool distributed() const;
+  /// One tangent into the distributed matrix (every rank, collective at end_fill): begin_fill, then
+  /// add_element for the owned elements and add_entry for the loads, then end_fill.
+  void begin_fill();
+  /// Element e's matrix Ke (3·nn dofs of `nodes`, column-major) on its free dofs. A three-field
+  /// element (d = ∂θ_e/∂u, c = V_e U″(θ_e); d null otherwise) enters uncondensed: Ke − c d dᵀ on u, its
+  /// pressure column d/|d| and its row c|d| dᵀ, −1 (the layout of the comment in petsc_solve.cpp).
+  void add_element(int e, int nn, const int* nodes, const double* Ke, const double* d, double c);
+  /// K(row_dof, col_dof) += v for free mesh dofs, kept only on the rank owning the row (every rank
+  /// passes the same entries).
+  void add_entry(int row_dof, int col_dof, double v);
+  /// The prescribed rows' identity (scaled to the mean free diagonal of the first tangent) and the
+  /// assembly of the off-rank contributions.
+  void end_fill();
   /// Ranks sharing the system.
   int ranks() const;
   /// The Krylov method and preconditioner in use, e.g. "gmres + gamg".
@@ -61,6 +83,8 @@ class PetscSolver final : public LinearSolver {
  private:
   struct Data;
   std::unique_ptr<Data> d_;
+  /// Matrix (with Data::dnz, onz), vectors, near-nullspace and Krylov solver of the layout in Data.
+  void create_system();
 };
 
 }  // namespace softhom::fe

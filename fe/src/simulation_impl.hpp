@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,6 +21,12 @@ namespace detail {
 
 inline double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+inline double process_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
 inline double norm(const std::vector<double>& v) {
@@ -91,6 +98,17 @@ struct Simulation::Impl {
   void build_colouring();       ///< element colours: no shared node within one colour
   void build_scatter();         ///< CSC positions of every element's node-pair blocks
   void build_mixed();           ///< three-field element unknowns and the uncondensed Krylov space
+  // Distributed assembly (distributed_assembly.cpp): the petsc path under MPI with more than one rank.
+  /// The petsc solver runs under MPI: each rank assembles its own elements into the PETSc matrix.
+  bool petsc_distributed() const;
+  void build_partition();           ///< element owners (sets distributed_, owned_elements_)
+  void build_distributed_system();  ///< the PETSc matrix's rows from the partition (after build_mixed)
+  /// Sums over the ranks of the owned elements' residuals (and the first failed element).
+  void reduce_element_sums(Assembly& out) const;
+  /// The element stresses of every element (each rank computed its own): before a commit.
+  void reduce_cauchy(std::vector<double>& cauchy) const;
+  /// Σ over the ranks (distributed assembly), v itself otherwise.
+  double sum_over_ranks(double v) const;
 
   // One sub-step (solver.cpp): predictor, Newton iteration with line search, commit.
   StepAttempt try_step(double t_new, double dt);
@@ -157,6 +175,14 @@ struct Simulation::Impl {
   CscMatrix K_;
   std::unique_ptr<LinearSolver> chol_, lu_;  ///< Cholesky of the symmetric part; LU (created on demand)
   std::unique_ptr<PetscSolver> petsc_;       ///< the petsc solver (then neither chol_ nor lu_)
+  // Distributed assembly: this rank evaluates owned_elements_ only (their history alone is stored);
+  // K_ and the scatter positions stay empty (the matrix is PETSc's). Mesh, geometry and the Newton
+  // vectors (u, R, ...) stay replicated; the residuals are summed over the ranks after the element loop.
+  bool distributed_ = false;
+  std::vector<int> element_owner_, owned_elements_;
+  int mpi_rank_ = 0;
+  /// This rank evaluates element e (always without distributed assembly).
+  bool owns(int e) const { return !distributed_ || element_owner_[e] == mpi_rank_; }
   LinearSolver* linear_ = nullptr;            ///< the one holding the current factor
   bool lu_this_step_ = false;                 ///< the symmetric part was indefinite in this step: LU
   bool refactor_first_ = false;               ///< the lagged factor failed at the last step's first iteration

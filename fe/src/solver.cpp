@@ -21,12 +21,14 @@ using namespace detail;
 Simulation::Impl::Impl(FeModel model, NewtonOptions options) : model_(std::move(model)), options_(options) {
   model_.validate();
   build_dofs();
+  build_partition();
   build_geometry();
   build_history();
   build_linear_solvers();
   build_colouring();
   build_scatter();
   build_mixed();
+  build_distributed_system();
   const Mesh& mesh = model_.mesh;
   const int ndof = mesh.num_dofs();
   u_.assign(ndof, 0.0);
@@ -55,7 +57,7 @@ void Simulation::Impl::build_dofs() {
     throw InputError("boundary", "", "the body is not constrained against " + list +
                                          " (its stiffness is singular); prescribe displacements that hold it, e.g. a [[boundary]] with fix");
   }
-  K_ = build_pattern(mesh, dofs_);
+  if (!petsc_distributed()) K_ = build_pattern(mesh, dofs_);  // else the matrix is PETSc's alone
 
 }
 
@@ -86,7 +88,7 @@ void Simulation::Impl::build_history() {
   std::size_t total = 0;
   for (int e = 0; e < mesh.num_elements(); ++e) {
     const int ns = model_.element_material[e]->state_size();
-    if (ns > 0) {
+    if (ns > 0 && owns(e)) {
       state_offset_[e] = int(total);
       total += gauss_points(mesh, e) * std::size_t(ns);
     }
@@ -121,6 +123,10 @@ void Simulation::Impl::build_linear_solvers() {
 
 void Simulation::Impl::build_colouring() {
   const Mesh& mesh = model_.mesh;
+  if (distributed_) {  // one thread per rank fills PETSc's matrix: the owned elements in one list
+    colors_ = {owned_elements_};
+    return;
+  }
   // Greedy element colouring: elements of one colour share no node, so assembly needs no atomics.
   {
     std::vector<std::vector<int>> node_elems(mesh.num_nodes());
@@ -144,6 +150,7 @@ void Simulation::Impl::build_colouring() {
 }
 
 void Simulation::Impl::build_scatter() {
+  if (distributed_) return;  // no K_
   const Mesh& mesh = model_.mesh;
   // Scatter positions: build_pattern stores the rows of the three columns of node b identically
   // (node-major, components ascending), so one offset per node pair locates a 3x3 block.
@@ -418,6 +425,7 @@ void Simulation::Impl::commit(NewtonIterate& n, Assembly& as, int iterations) {
   u_ = std::move(n.u);
   cavity_pressure_ = n.p;
   std::swap(state_old_, state_new_);
+  reduce_cauchy(as.cauchy);
   cauchy_.swap(as.cauchy);
   fint_.swap(as.fint);
   if (!mix_bulk_.empty()) {
@@ -714,6 +722,7 @@ double Simulation::Impl::reaction(const std::vector<int>& dofs) const {
   std::vector<char> want(model_.mesh.num_dofs(), 0);
   for (int d : dofs) want[d] = 1;
   for (int e = 0; e < model_.mesh.num_elements(); ++e) {
+    if (!owns(e)) continue;  // distributed: each rank its own elements, summed below
     const int* en = model_.mesh.element_nodes(e);
     const int nen = model_.mesh.element_size(e);
     bool touches = false;
@@ -735,7 +744,7 @@ double Simulation::Impl::reaction(const std::vector<int>& dofs) const {
       for (int i = 0; i < 3; ++i)
         if (want[3 * hex[a] + i]) sum += r[3 * a + i];
   }
-  return sum;
+  return sum_over_ranks(sum);
 }
 
 ElementFields Simulation::Impl::element_fields() const {
@@ -796,6 +805,7 @@ SolverTimes Simulation::Impl::linear_times() const {
 RunStats Simulation::Impl::stats() const {
   RunStats s = stats_;
   s.linear = linear_times();
+  s.assembled_elements = distributed_ ? int(owned_elements_.size()) : model_.mesh.num_elements();
   return s;
 }
 

@@ -1,6 +1,6 @@
 // The petsc linear solver of the macro engine against the CHOLMOD path, on 1 and 2 MPI ranks (the suite
-// runs under `mpirun -n 1` and `mpirun -n 2`; every rank runs the same replicated Newton iteration
-// and the ranks share the distributed PETSc system). With a tight Krylov tolerance (-ksp_rtol 1e-10)
+// runs under `mpirun -n 1` and `mpirun -n 2`; every rank runs the same Newton iteration, assembles
+// its own elements into the shared distributed PETSc system and sums the residuals with the others). With a tight Krylov tolerance (-ksp_rtol 1e-10)
 // the converged states agree with the direct solves to the Newton tolerance: relative 1e-6 on the
 // responses (the Newton tolerance is 1e-8 of the force scale; the condition numbers of these small
 // meshes bring that to ~1e-7 in displacement at most).

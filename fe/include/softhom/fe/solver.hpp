@@ -79,7 +79,11 @@ struct RunStats {
   int krylov_iterations = 0;  ///< GMRES iterations (one preconditioner solve each)
   int tangent_assemblies = 0;   ///< assemblies with the tangent (residual + K)
   int residual_assemblies = 0;  ///< residual-only assemblies (the residual-first convergence test)
+  int assembled_elements = 0;   ///< elements this rank evaluates: all, but its own share on the petsc path under MPI
   double assembly_time = 0.0;
+  /// Of assembly_time: the element loop alone (kernels and their scatter into the matrix, without the
+  /// sums over the ranks and the matrix assembly of distributed runs), wall and CPU seconds of this process.
+  double element_loop_time = 0.0, element_loop_cpu = 0.0;
   double krylov_time = 0.0;   ///< GMRES without its preconditioner solves (matrix products, orthogonalization)
   SolverTimes linear;         ///< analysis / factorization / solve times
   std::vector<std::string> log;  ///< cut-backs and notes, human readable (expected events once)
@@ -140,7 +144,8 @@ class Simulation {
   /// Pressure of the cavity control (or 0 without one).
   double cavity_pressure() const;
   /// Reaction force: Σ of the converged state's internal forces over `dofs` (e.g. a loaded face's
-  /// x-dofs). Evaluates no material (so it never advances a viscoelastic history).
+  /// x-dofs). Evaluates no material (so it never advances a viscoelastic history). On the petsc path
+  /// under MPI a collective call before the first step (each rank sums its own elements).
   double reaction(const std::vector<int>& dofs) const;
   ElementFields element_fields() const;
   /// Statistics so far (linear-solver times of the current solver object).
@@ -152,7 +157,8 @@ class Simulation {
   int num_free_dofs() const;
   const FeModel& model() const;
 
-  /// Element residual and tangent at the current state (for diagnostics and tests).
+  /// Element residual and tangent at the current state (for diagnostics and tests). On the petsc path
+  /// under MPI a rank holds the history of its own elements only (RunStats::assembled_elements).
   MaterialStatus element_force(int e, const Mat83& u, Vec24& r, Mat24* K) const;
   /// The same for a tet10 element e (≥ mesh.num_hexes()).
   MaterialStatus element_force(int e, const Tet10Coords& u, Vec30& r, Mat30* K) const;
