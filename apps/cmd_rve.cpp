@@ -29,6 +29,14 @@
 namespace softhom::app {
 namespace {
 
+/// Bytes of the phase image as the ranks hold it (fractions, normals, directions), the largest rank's.
+double phase_image_bytes_per_rank(const rve::PhaseImage& im, const fft::SlabDecomposition* slabs) {
+  double b = double(im.fiber_fraction.size() * sizeof(double) +
+                    (im.normal.size() + im.fiber_direction.size()) * sizeof(Eigen::Vector3d));
+  if (slabs) MPI_Allreduce(MPI_IN_PLACE, &b, 1, MPI_DOUBLE, MPI_MAX, slabs->comm());
+  return b;
+}
+
 io::VoxelGrid voxel_grid(const rve::PhaseImage& im) {
   io::VoxelGrid g;
   g.cells = im.n;
@@ -58,7 +66,9 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   }
   // [load] is parsed only when the run needs it (unknown tables are refused by the scene parser).
   const bool wants_microstructure_only = studies::parse_rve_output(scene.table, nullptr).microstructure_only;
-  const studies::RveSceneSetup setup = studies::parse_rve_scene(scene.table, !wants_microstructure_only, options.out);
+  // A 3D cell under an MPI launcher: each rank builds and holds only its slab of the phase image.
+  const studies::RveSceneSetup setup =
+      studies::parse_rve_scene(scene.table, !wants_microstructure_only, options.out, !wants_microstructure_only);
   const rve::PhaseImage& image = setup.image;
   const MaterialPtr& matrix = setup.matrix;
   const MaterialPtr& fiber = setup.fiber;
@@ -116,6 +126,7 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
 
   rve::FftRveSolver solver(image, matrix, fiber, alpha, control.frame, solver_options);
   const fft::SlabDecomposition* slabs = solver.slabs();
+  const double image_bytes = phase_image_bytes_per_rank(image, slabs);  // collective
   const double t_end = control.times.back();
   std::unique_ptr<io::FieldWriter> writer;
   if (fields_mode != "none" && root) {
@@ -183,6 +194,7 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   for (const auto& [array, bytes] : solver.memory_breakdown()) breakdown[array] = bytes;
   summary["solver_memory_by_array"] = breakdown;
   summary["solver_bytes_per_voxel"] = double(solver.memory_bytes()) / double(image.voxels());
+  summary["phase_image_bytes_per_rank"] = image_bytes;  // the scene's image as a rank holds it (largest rank)
   if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start))
     return run_exit_code(false);
   if (!options.quiet)

@@ -283,6 +283,7 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   summary["tangent_precision"] = nullptr;
   summary["solver_memory_by_array"] = nullptr;  // FFT engine only
   summary["solver_bytes_per_voxel"] = nullptr;
+  summary["phase_image_bytes_per_rank"] = nullptr;  // FFT engine only (its voxel image)
   summary["indefinite_solver"] = nullptr;
   summary["tolerance"] = settings.solver.tolerance;
   summary["fft"] = nullptr;

@@ -43,14 +43,23 @@ void HotSpots::see_forces(const double* f0, const double* f1, const double* f2, 
 }
 
 std::string voxel_name(const std::array<int, 3>& n, const std::vector<double>& phi, std::size_t v) {
+  return voxel_name(n, FractionOf([&phi](std::size_t w) { return phi[w]; }), v);
+}
+
+std::string voxel_name(const std::array<int, 3>& n, const FractionOf& phi, std::size_t v) {
   std::ostringstream s;
   s << "voxel (" << v % n[0] << ", " << (v / n[0]) % n[1];
   if (n[2] > 1) s << ", " << v / (std::size_t(n[0]) * n[1]);
-  s << ", fiber fraction " << phi[v] << ")";
+  s << ", fiber fraction " << phi(v) << ")";
   return s.str();
 }
 
 std::string describe_hot_spots(const HotSpots& h, const std::array<int, 3>& n, const std::vector<double>& phi,
+                               bool matrix_mixed, double F11_committed) {
+  return describe_hot_spots(h, n, FractionOf([&phi](std::size_t w) { return phi[w]; }), matrix_mixed, F11_committed);
+}
+
+std::string describe_hot_spots(const HotSpots& h, const std::array<int, 3>& n, const FractionOf& phi,
                                bool matrix_mixed, double F11_committed) {
   auto name = [&](std::size_t v) { return voxel_name(n, phi, v); };
   std::ostringstream s;

@@ -4,6 +4,7 @@
 // residual concentrates) and the sentence that names them, e.g. Gent locking or an inverted matrix.
 #include <array>
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -29,10 +30,15 @@ struct HotSpots {
 
 /// "voxel (i1, i2[, i3], fiber fraction φ)".
 std::string voxel_name(const std::array<int, 3>& n, const std::vector<double>& phi, std::size_t v);
+/// Fiber fraction of a voxel of the whole grid (a distributed cell holds its slab only).
+using FractionOf = std::function<double(std::size_t)>;
+std::string voxel_name(const std::array<int, 3>& n, const FractionOf& phi, std::size_t v);
 
 /// The hot spots as a sentence for the failure message; names a reached domain limit (Gent locking)
 /// with the last converged F11 (load frame), or an inverted matrix.
 std::string describe_hot_spots(const HotSpots& h, const std::array<int, 3>& n, const std::vector<double>& phi,
+                               bool matrix_mixed, double F11_committed);
+std::string describe_hot_spots(const HotSpots& h, const std::array<int, 3>& n, const FractionOf& phi,
                                bool matrix_mixed, double F11_committed);
 
 }  // namespace softhom::rve::detail

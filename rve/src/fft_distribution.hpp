@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -20,6 +21,7 @@
 #include "softhom/io/mpi.hpp"
 #include "diagnostics.hpp"
 #include "softhom/rve/fft_solver.hpp"
+#include "softhom/rve/geometry.hpp"
 #include "softhom/materials/errors.hpp"
 
 namespace softhom::rve::detail {
@@ -41,6 +43,45 @@ inline std::unique_ptr<fft::SlabDecomposition> make_slabs(const fft::Grid& grid,
                      std::to_string(grid.n[2]) + " planes i3 cannot be distributed over " + std::to_string(ranks) +
                          " ranks (at least one plane per rank: use at most " + std::to_string(grid.n[2]) + " ranks)");
   return std::make_unique<fft::SlabDecomposition>(grid, MPI_COMM_WORLD);
+}
+
+/// The phase image a rank of `slabs` reads: a slab image of exactly its planes (extrude_planes(),
+/// slab_of(), one halo plane for −∇φ normal estimates), or a whole image (its planes are then taken from
+/// it). Throws std::invalid_argument for a slab image of other planes.
+inline void check_slab_image(const PhaseImage& image, const fft::SlabDecomposition* slabs) {
+  if (!image.is_slab()) return;
+  if (!slabs)
+    throw std::invalid_argument("a slab phase image (planes " + std::to_string(image.plane_begin) + "+" +
+                                std::to_string(image.plane_count) + ") needs the distributed solver");
+  if (image.plane_begin != slabs->slab().begin || image.plane_count != slabs->slab().count ||
+      (image.plane_count > 0 && image.halo < 1))
+    throw std::invalid_argument("the slab phase image (planes " + std::to_string(image.plane_begin) + "+" +
+                                std::to_string(image.plane_count) + ", halo " + std::to_string(image.halo) +
+                                ") is not this rank's slab (" + std::to_string(slabs->slab().begin) + "+" +
+                                std::to_string(slabs->slab().count) + ", halo 1)");
+}
+
+/// The first fiber fraction outside [0, 1] of any rank (lowest rank first), or nullopt when there is none
+/// anywhere (collective: the same answer, hence the same InputError, on every rank).
+inline std::optional<double> first_bad_fraction(const fft::SlabDecomposition& slabs, std::optional<double> mine) {
+  const double flag_value[2] = {mine ? 1.0 : 0.0, mine ? *mine : 0.0};
+  std::vector<double> all(2 * std::size_t(slabs.size()));
+  slabs.all_gather(flag_value, 2, all.data());
+  for (int r = 0; r < slabs.size(); ++r)
+    if (all[2 * r] != 0.0) return all[2 * r + 1];
+  return std::nullopt;
+}
+
+/// The fiber fractions of voxels of the whole grid on every rank, each from the rank that owns it (`phi`:
+/// its slab's fractions, from voxel v0 on), summed over the ranks: exact, as one term is non-zero.
+/// Collective (failure messages name voxels with their fraction).
+inline std::vector<double> fractions_of(const fft::SlabDecomposition& slabs, const std::vector<double>& phi,
+                                        std::size_t v0, const std::vector<std::size_t>& voxels) {
+  std::vector<double> f(voxels.size(), 0.0);
+  for (std::size_t k = 0; k < voxels.size(); ++k)
+    if (voxels[k] >= v0 && voxels[k] < v0 + phi.size()) f[k] = phi[voxels[k] - v0];
+  slabs.sum(f.data(), int(f.size()));
+  return f;
 }
 
 /// Sums every additive member of a pass's PassSums over the ranks; the smallest limit margins keep

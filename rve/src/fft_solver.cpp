@@ -158,7 +158,6 @@ struct FftRveSolver::Impl {
   int nq;
   std::size_t N, NM, NP;
   std::size_t Ntot = 0, v0 = 0;
-  std::vector<double> phi_all;      // distributed: the fiber fraction of every voxel (failure diagnosis)
   std::unique_ptr<fft::FieldTransform> fft;
   // Stencil form of the Krylov operator (KrylovOperator::stencil, rotated/hex): the real-space
   // gradient/adjoint and a 3-field transform for the displacement and the nodal forces. The stencil
@@ -234,7 +233,11 @@ struct FftRveSolver::Impl {
     }
     R = grid_rotation(angle);
     T_load = rotation_operator(R);
-    a0_load = R * image.mean_fiber_direction();  // y3 unless the image gives per-voxel directions
+    detail::check_slab_image(image, dist.get());
+    // y3 unless the image gives per-voxel directions (a slab image: the orientation sums of all slabs)
+    Eigen::Matrix3d orientation = image.owned_orientation_sum();
+    if (dist && image.is_slab()) dist->sum(orientation.data(), 9);
+    a0_load = R * principal_fiber_axis(orientation);
     // global → load: frameᵀ; load → grid: Rᵀ.
     const Mat3 Q = R.transpose() * frame.transpose();
     mat[0] = MaterialPtr(matrix->rotated(Q));
@@ -258,13 +261,18 @@ struct FftRveSolver::Impl {
     }
     // Refuse a grid that cannot fit before anything of its size is allocated.
     detail::refuse_if_too_big(planned_bytes(), "microstructure.grid", grid_text(grid.n));
-    if (image.fiber_fraction.size() != Ntot)
+    if (image.fiber_fraction.size() != image.held_voxels())
       throw InputError("microstructure", "", "phase image has " + std::to_string(image.fiber_fraction.size()) +
-                                                 " values for " + std::to_string(Ntot) + " voxels");
-    // Every rank checks the whole image (the same InputError everywhere), keeps its slab.
+                                                 " values for " + std::to_string(image.held_voxels()) + " voxels");
+    // Every rank checks the image it holds (whole or its slab); the first bad value of any rank is the
+    // InputError on every rank. Each keeps the fractions of its planes.
+    std::optional<double> bad;
     for (double f : image.fiber_fraction)
-      if (!(f >= 0.0 && f <= 1.0)) throw InputError("microstructure", std::to_string(f), "fiber fraction outside [0, 1]");
-    phi.assign(image.fiber_fraction.begin() + std::ptrdiff_t(v0), image.fiber_fraction.begin() + std::ptrdiff_t(v0 + N));
+      if (!(f >= 0.0 && f <= 1.0) && !bad) bad = f;
+    if (dist && image.is_slab()) bad = detail::first_bad_fraction(*dist, bad);
+    if (bad) throw InputError("microstructure", std::to_string(*bad), "fiber fraction outside [0, 1]");
+    const std::size_t first = image.is_slab() ? image.owned_offset() : v0;  // this rank's voxel v0 in the arrays
+    phi.assign(image.fiber_fraction.begin() + std::ptrdiff_t(first), image.fiber_fraction.begin() + std::ptrdiff_t(first + N));
     comp_id.assign(N, -1);
     double vf = 0.0;
     for (std::size_t v = 0; v < N; ++v) {
@@ -274,16 +282,12 @@ struct FftRveSolver::Impl {
       vf += f;
       if (f > 0.0 && f < 1.0) {
         comp_id[v] = int(comp_normal.size());
-        Vec3 n = image.normal.size() == Ntot ? image.normal[v0 + v] : Vec3::Zero();
+        Vec3 n = image.normal.size() == image.held_voxels() ? image.normal[first + v] : Vec3::Zero();
         if (!(n.norm() > 0.5)) n = detail::estimate_interface_normal(image, v0 + v);
         comp_normal.push_back(n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero());
       }
     }
-    if (dist) {
-      vf = dist->sum(vf);
-      phi_all = image.fiber_fraction;
-      for (double& f : phi_all) f = f < kPhaseEps ? 0.0 : f > 1.0 - kPhaseEps ? 1.0 : f;
-    }
+    if (dist) vf = dist->sum(vf);
     achieved_vf = vf / double(Ntot);
     lam_a.assign(comp_normal.size() * nq * 3, 0.0);
     lam_a_trial = lam_a;
@@ -1126,9 +1130,18 @@ struct FftRveSolver::Impl {
     }
     return h;
   }
-  std::string voxel_name(std::size_t v) const { return detail::voxel_name(grid.n, dist ? phi_all : phi, v); }
+  // Distributed: collective, the fractions of the named voxels come from the ranks that own them.
+  std::string voxel_name(std::size_t v) const {
+    if (!dist) return detail::voxel_name(grid.n, phi, v);
+    const double f = detail::fractions_of(*dist, phi, v0, {v})[0];
+    return detail::voxel_name(grid.n, detail::FractionOf([f](std::size_t) { return f; }), v);
+  }
   std::string describe(const detail::HotSpots& h) const {
-    return detail::describe_hot_spots(h, grid.n, dist ? phi_all : phi, mixed[0], Fbar_committed(0, 0));
+    if (!dist) return detail::describe_hot_spots(h, grid.n, phi, mixed[0], Fbar_committed(0, 0));
+    const std::vector<std::size_t> named{h.v_margin, h.v_J_min, h.v_force, h.v_p};
+    const std::vector<double> f = detail::fractions_of(*dist, phi, v0, named);
+    auto fraction = [&](std::size_t v) { return f[std::find(named.begin(), named.end(), v) - named.begin()]; };
+    return detail::describe_hot_spots(h, grid.n, detail::FractionOf(fraction), mixed[0], Fbar_committed(0, 0));
   }
 
   // ---------------------------------------------------------------------------------------------

@@ -633,10 +633,97 @@ PhaseImage extrude(const PhaseImage& s, int n3) {
   return out;
 }
 
-Eigen::Vector3d PhaseImage::mean_fiber_direction() const {
-  if (fiber_direction.size() != voxels() || fiber_fraction.size() != voxels()) return Eigen::Vector3d::UnitZ();
+namespace {
+
+int periodic(int i, int n) { return ((i % n) + n) % n; }
+
+/// A slab image's frame (n, size, planes) with empty arrays; checks the planes.
+PhaseImage slab_frame(const std::array<int, 3>& n, const std::array<double, 3>& size, int begin, int count, int halo) {
+  if (count < 0 || begin < 0 || begin + count > n[2] || halo < 0)
+    throw std::invalid_argument("slab image: planes [" + std::to_string(begin) + ", " + std::to_string(begin + count) +
+                                ") with halo " + std::to_string(halo) + " do not fit n3 = " + std::to_string(n[2]));
+  PhaseImage out;
+  out.n = n;
+  out.size = size;
+  out.slab = true;
+  out.plane_begin = begin;
+  out.plane_count = count;
+  out.halo = count > 0 ? halo : 0;  // a rank without planes reads none
+  return out;
+}
+
+}  // namespace
+
+PhaseImage extrude_planes(const PhaseImage& s, int n3, int begin, int count, int halo) {
+  const std::string grid_text = "[" + std::to_string(s.n[0]) + ", " + std::to_string(s.n[1]) + ", " + std::to_string(n3) + "]";
+  if (n3 < 1) throw InputError("microstructure.grid", grid_text, "n3 must be at least 1");
+  if (s.n[2] != 1 || s.is_slab()) throw std::invalid_argument("extrude_planes: the input must be a single-layer section image");
+  PhaseImage out = slab_frame({s.n[0], s.n[1], n3}, {s.size[0], s.size[1], n3 * (s.size[0] / s.n[0])}, begin, count, halo);
+  const std::size_t layer = std::size_t(s.n[0]) * s.n[1], planes = std::size_t(count) + 2 * std::size_t(out.halo);
+  detail::refuse_if_too_big(image_bytes(layer * planes), "microstructure.grid", grid_text);
+  out.fiber_fraction.reserve(layer * planes);
+  out.normal.reserve(layer * planes);
+  for (std::size_t k = 0; k < planes; ++k) {
+    out.fiber_fraction.insert(out.fiber_fraction.end(), s.fiber_fraction.begin(), s.fiber_fraction.end());
+    out.normal.insert(out.normal.end(), s.normal.begin(), s.normal.end());
+    if (!s.fiber_direction.empty())
+      out.fiber_direction.insert(out.fiber_direction.end(), s.fiber_direction.begin(), s.fiber_direction.end());
+  }
+  return out;
+}
+
+PhaseImage slab_of(const PhaseImage& whole, int begin, int count, int halo) {
+  if (whole.is_slab()) throw std::invalid_argument("slab_of: the input must be a whole image");
+  PhaseImage out = slab_frame(whole.n, whole.size, begin, count, halo);
+  const std::size_t layer = std::size_t(whole.n[0]) * whole.n[1];
+  auto copy_planes = [&](const auto& from, auto& to) {
+    if (from.size() != whole.voxels()) return;  // absent (normals, directions)
+    to.reserve(out.held_voxels());
+    for (int k = begin - out.halo; k < begin + count + out.halo; ++k) {
+      const auto first = from.begin() + std::ptrdiff_t(layer * std::size_t(periodic(k, whole.n[2])));
+      to.insert(to.end(), first, first + std::ptrdiff_t(layer));
+    }
+  };
+  copy_planes(whole.fiber_fraction, out.fiber_fraction);
+  copy_planes(whole.normal, out.normal);
+  copy_planes(whole.fiber_direction, out.fiber_direction);
+  return out;
+}
+
+std::size_t PhaseImage::held_voxels() const {
+  return is_slab() ? std::size_t(n[0]) * n[1] * (std::size_t(plane_count) + 2 * std::size_t(halo)) : voxels();
+}
+std::size_t PhaseImage::owned_voxels() const { return is_slab() ? std::size_t(n[0]) * n[1] * std::size_t(plane_count) : voxels(); }
+std::size_t PhaseImage::owned_offset() const { return is_slab() ? std::size_t(n[0]) * n[1] * std::size_t(halo) : 0; }
+
+std::size_t PhaseImage::index_of(int i1, int i2, int i3) const {
+  int l = periodic(i3, n[2]);
+  if (is_slab()) {
+    if (plane_count == 0) throw std::out_of_range("PhaseImage::index_of: the slab holds no planes");
+    // The first held position of plane i3 (with n3 < held planes a plane is held twice, equal both times).
+    l = periodic(i3 - (plane_begin - halo), n[2]);
+    if (l >= plane_count + 2 * halo)
+      throw std::out_of_range("PhaseImage::index_of: plane " + std::to_string(i3) + " is not held by the slab [" +
+                              std::to_string(plane_begin) + ", " + std::to_string(plane_begin + plane_count) + ")");
+  }
+  return std::size_t(periodic(i1, n[0])) + std::size_t(n[0]) * (std::size_t(periodic(i2, n[1])) + std::size_t(n[1]) * std::size_t(l));
+}
+
+double PhaseImage::owned_fiber_sum() const {
+  if (fiber_fraction.size() != held_voxels()) return 0.0;
+  const auto first = fiber_fraction.begin() + std::ptrdiff_t(owned_offset());
+  return std::accumulate(first, first + std::ptrdiff_t(owned_voxels()), 0.0);
+}
+
+Eigen::Matrix3d PhaseImage::owned_orientation_sum() const {
   Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
-  for (std::size_t v = 0; v < fiber_direction.size(); ++v) M += fiber_fraction[v] * fiber_direction[v] * fiber_direction[v].transpose();
+  if (fiber_direction.size() != held_voxels() || fiber_fraction.size() != held_voxels()) return M;
+  for (std::size_t v = owned_offset(); v < owned_offset() + owned_voxels(); ++v)
+    M += fiber_fraction[v] * fiber_direction[v] * fiber_direction[v].transpose();
+  return M;
+}
+
+Eigen::Vector3d principal_fiber_axis(const Eigen::Matrix3d& M) {
   if (!(M.trace() > 0.0)) return Eigen::Vector3d::UnitZ();
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(M);
   Eigen::Vector3d a = es.eigenvectors().col(2);  // eigenvalues ascending
@@ -645,9 +732,12 @@ Eigen::Vector3d PhaseImage::mean_fiber_direction() const {
   return a[k] < 0.0 ? Eigen::Vector3d(-a) : a;
 }
 
+Eigen::Vector3d PhaseImage::mean_fiber_direction() const { return principal_fiber_axis(owned_orientation_sum()); }
+
 double PhaseImage::volume_fraction() const {
   if (fiber_fraction.empty()) return 0.0;
-  return std::accumulate(fiber_fraction.begin(), fiber_fraction.end(), 0.0) / double(fiber_fraction.size());
+  if (!is_slab()) return std::accumulate(fiber_fraction.begin(), fiber_fraction.end(), 0.0) / double(fiber_fraction.size());
+  return owned_voxels() ? owned_fiber_sum() / double(owned_voxels()) : 0.0;
 }
 
 }  // namespace softhom::rve

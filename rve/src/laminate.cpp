@@ -76,12 +76,7 @@ MaterialStatus laminate_point(const LaminatePoint& pt, const Mat3& F, double f, 
 Vec3 estimate_interface_normal(const PhaseImage& im, std::size_t v) {
   const int n1 = im.n[0], n2 = im.n[1], n3 = im.n[2];
   const int i1 = int(v % n1), i2 = int((v / n1) % n2), i3 = int(v / (std::size_t(n1) * n2));
-  auto at = [&](int a, int b, int c) {
-    a = (a + n1) % n1;
-    b = (b + n2) % n2;
-    c = (c + n3) % n3;
-    return im.fiber_fraction[a + std::size_t(n1) * (b + std::size_t(n2) * c)];
-  };
+  auto at = [&](int a, int b, int c) { return im.fiber_fraction[im.index_of(a, b, c)]; };  // periodic; a slab's halo
   Vec3 g(n1 > 1 ? (at(i1 + 1, i2, i3) - at(i1 - 1, i2, i3)) * n1 / im.size[0] : 0.0,
          n2 > 1 ? (at(i1, i2 + 1, i3) - at(i1, i2 - 1, i3)) * n2 / im.size[1] : 0.0,
          n3 > 1 ? (at(i1, i2, i3 + 1) - at(i1, i2, i3 - 1)) * n3 / im.size[2] : 0.0);

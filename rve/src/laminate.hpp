@@ -28,6 +28,7 @@ MaterialStatus laminate_point(const LaminatePoint& pt, const Mat3& F, double f, 
 
 /// Normal of a composite voxel of an imported image without normals: −∇φ by central differences
 /// (pointing out of the fiber); zero when the neighbourhood is flat (then the Voigt rule is used).
+/// `v` is a voxel of the whole grid (of an owned plane of a slab image, whose halo holds the neighbours).
 Vec3 estimate_interface_normal(const PhaseImage& im, std::size_t v);
 
 }  // namespace softhom::rve::detail

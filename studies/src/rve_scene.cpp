@@ -11,6 +11,7 @@
 #include "softhom/materials/library.hpp"
 #include "softhom/materials/scene_keys.hpp"
 #include "softhom/rve/fft_solver_keys.hpp"
+#include "softhom/rve/slab_image.hpp"
 
 namespace softhom::studies {
 namespace {
@@ -321,9 +322,10 @@ void check_fiber_count(const rve::FiberCellSpec& spec, const std::vector<int>& n
                          std::to_string(int(spec.volume_fraction * n[0] * n[1] / kMinPixelsPerFiber)) + " fibers)");
 }
 
-/// The phase image (grid frame) of [microstructure]; `target_vf` is the requested fraction.
+/// The phase image (grid frame) of [microstructure]; `target_vf` is the requested fraction. `distributed`:
+/// a generated 3D cell is voxelized as this rank's slab image only (rve::distributed_planes()).
 rve::PhaseImage phase_image_of(const toml::table& t, const MicroKeys& m, bool grid_given, double& target_vf,
-                               std::string& geometry_note) {
+                               std::string& geometry_note, bool distributed = false) {
   const std::string p = "microstructure";
   const std::vector<int>& n = m.grid;
   if (m.image) {
@@ -341,21 +343,27 @@ rve::PhaseImage phase_image_of(const toml::table& t, const MicroKeys& m, bool gr
   }
   const rve::FiberCellSpec spec = cell_spec(m.cell);
   target_vf = spec.volume_fraction;
+  // Straight fibers: a 3D cell is its section extruded, the whole cell or (distributed) this rank's planes.
+  const int n3 = n.size() == 3 ? n[2] : 1;
+  const std::optional<rve::SlabPlanes> planes = distributed && n3 > 1 ? rve::distributed_planes({n[0], n[1], n3}) : std::nullopt;
+  auto extruded = [&](const rve::PhaseImage& section) {
+    if (planes) return rve::extrude_planes(section, n3, planes->begin, planes->count, rve::kSlabImageHalo);
+    return n3 > 1 ? rve::extrude(section, n3) : section;
+  };
   if (target_vf == 0.0) {
-    rve::PhaseImage im;
-    im.n = {n[0], n[1], n.size() == 3 ? n[2] : 1};
+    rve::PhaseImage section;
+    section.n = {n[0], n[1], 1};
     const double h = 1.0 / n[0];
-    im.size = {1.0, n[1] * h, im.n[2] * h};
-    im.fiber_fraction.assign(im.voxels(), 0.0);
+    section.size = {1.0, n[1] * h, h};
+    section.fiber_fraction.assign(section.voxels(), 0.0);
     geometry_note = "matrix only";
-    return im;
+    return extruded(section);
   }
   check_fiber_count(spec, n, p);
   const rve::Section section = rve::generate_section(spec, p);
   rve::PhaseImage im;
   try {
-    im = rve::voxelize_section(section, n[0], n[1]);
-    if (n.size() == 3 && n[2] > 1) im = rve::extrude(im, n[2]);
+    im = extruded(rve::voxelize_section(section, n[0], n[1]));
   } catch (const std::invalid_argument& e) {
     throw InputError(p + ".grid", io::describe_value(*t.get("grid")), e.what());
   }
@@ -560,7 +568,7 @@ MixedControl parse_rve_load(const toml::table& scene) {
   return parse_load(*top.load, "load");
 }
 
-RveSceneSetup parse_rve_scene(const toml::table& scene, bool with_load, const std::filesystem::path& out) {
+RveSceneSetup parse_rve_scene(const toml::table& scene, bool with_load, const std::filesystem::path& out, bool distributed) {
   const toml::table& micro = rve_microstructure(scene);
   RveSceneSetup s;
   const RvePhases phases = parse_rve_phases(scene);
@@ -568,12 +576,13 @@ RveSceneSetup parse_rve_scene(const toml::table& scene, bool with_load, const st
   s.fiber = phases.fiber;
   bool grid_given = false;
   const MicroKeys m = read_micro(micro, grid_given);
-  s.image = phase_image_of(micro, m, grid_given, s.target_vf, s.geometry_note);
+  s.image = phase_image_of(micro, m, grid_given, s.target_vf, s.geometry_note, distributed);
   if (s.target_vf > 0.0 && !phases.has_fiber) throw InputError("phases.fiber", "", "missing (the cell has fibers)");
   // Per-voxel fiber directions only steer the fiber-rotation measure: the solver has no per-voxel
   // material frames, so phases with fiber families of their own would silently ignore them.
   if (!s.image.fiber_direction.empty() && (!s.matrix->fiber_directions().empty() || !s.fiber->fiber_directions().empty()))
     throw InputError("microstructure.image.direction_dataset", "", "per-voxel fiber directions need isotropic phases (a phase has fiber families)");
+  if (distributed) s.image = rve::rank_image(std::move(s.image));  // an imported image: read whole, kept as a slab
   s.fiber_angle_deg = m.fiber_angle_deg;
   if (with_load) s.control = parse_rve_load(scene);
   s.output = parse_rve_output(scene, with_load ? &s.control : nullptr);

@@ -2,7 +2,8 @@
 """`softhom rve` on a 3D cell under `mpirun -n 2` against the one-process run: one fields.h5 with the
 same datasets (every step, every field, to 1e-10 relative: the distributed solve differs only in the
 order of floating-point sums, see tests/mpi_fft/test_distributed_fft_cell.cpp), the same response.csv,
-summary.json with "ranks": 2 from rank 0 alone; and the clear error (exit 2 naming microstructure.grid
+summary.json with "ranks": 2 from rank 0 alone, the phase image held per rank as a slab (plus halo
+planes) and the achieved volume fraction reduced over the ranks; and the clear error (exit 2 naming microstructure.grid
 and the rank count) for a section grid or fewer planes i3 than ranks.
 
 usage: cli_distributed_rve.py --softhom BIN --mpiexec MPIEXEC --work DIR
@@ -123,6 +124,15 @@ def main():
     for k in ("newton_iterations", "krylov_iterations"):
         if s1[k] != s2[k]:
             failures.append("summary %s: %s vs %s" % (k, s1[k], s2[k]))
+    # The phase image as a rank holds it: whole on one process; on 2 ranks the largest slab (⌈7/2⌉ = 4
+    # planes) and one halo plane each side, 32 B per voxel (fraction + normal). Exact byte counts: a
+    # rank holding the whole image shows 7 planes.
+    plane = 10 * 8 * 32
+    if s1.get("phase_image_bytes_per_rank") != 7 * plane or s2.get("phase_image_bytes_per_rank") != (4 + 2) * plane:
+        failures.append("phase image bytes per rank: %s (one process, expected %d) / %s (2 ranks, expected %d)" % (
+            s1.get("phase_image_bytes_per_rank"), 7 * plane, s2.get("phase_image_bytes_per_rank"), 6 * plane))
+    if abs(s1["volume_fraction_achieved"] - s2["volume_fraction_achieved"]) > 1e-14:
+        failures.append("achieved volume fraction: %r vs %r" % (s1["volume_fraction_achieved"], s2["volume_fraction_achieved"]))
     print("Newton / Krylov: %s / %s (one process), %s / %s (2 ranks)" % (
         s1["newton_iterations"], s1["krylov_iterations"], s2["newton_iterations"], s2["krylov_iterations"]))
 

@@ -100,8 +100,12 @@ struct RveSceneSetup {
 
 /// Parses [microstructure], [phases], [load], [solver], [output] of an RVE scene (every error an
 /// InputError naming the TOML path). `with_load = false` skips [load] (microstructure-only runs);
-/// `out` is the run's output directory (for solver.fftw_wisdom).
-RveSceneSetup parse_rve_scene(const toml::table& scene, bool with_load = true, const std::filesystem::path& out = {});
+/// `out` is the run's output directory (for solver.fftw_wisdom). `distributed`: the image is this rank's
+/// slab image (rve/slab_image.hpp) when MPI runs more than one rank on a 3D grid, for a solver with
+/// FftSolverOptions::distributed (collective); generated cells are voxelized per slab, imported images
+/// are read whole and cut.
+RveSceneSetup parse_rve_scene(const toml::table& scene, bool with_load = true, const std::filesystem::path& out = {},
+                              bool distributed = false);
 
 /// Key documentation of the tables both RVE engines share (top level, microstructure, image, phases,
 /// materials, load, output); the engines' [solver] tables are added by rve_scene_tables().
