@@ -19,8 +19,8 @@ constexpr double kMeshBytesPerDof = 4096.0;
 // The PETSc Krylov path instead of a factor: its copies of the tangent (the uncondensed AIJ matrix,
 // the field split's displacement block and hypre's copy of it, ~80 entries per row for tet10), the
 // multigrid hierarchy and the GMRES basis (8 bytes per dof and iteration, up to the restart of 200).
-// Measured on the fine cPASMO scene (1.22e6 dofs, tet10): 7.8 kB per dof of peak before the first
-// solve ends, ~10 kB with its ~180 GMRES iterations (BENCHMARKS.md, "Device scenes").
+// Measured on the cPASMO scenes (tet10): 9.6–10 kB per dof of peak from 3e4 to 1.6e5 dofs, 8.1 kB at
+// 1.22e6 dofs after 70 of the ~170 GMRES iterations of its first solve (BENCHMARKS.md, "Device scenes").
 constexpr double kKrylovBytesPerDof = 6144.0;
 
 double plate_nodes(const PlateSpec& p, bool tet10) {
