@@ -561,12 +561,14 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
   MacroScene m;
   read_geometry_table(scene, scene_file, mesh_cache, m.spec);
   m.device = read_device(scene.get("device"));
+  // The linear solver first: the memory estimate holds a factorization only on the direct path.
+  read_solver(scene, m);
+  m.spec.factorized_solver = m.newton.solver != fe::SolverKind::petsc;
   // Before the materials and anything else: a 1000 x 1000 x 10 box is refused with its memory estimate.
   refuse_if_too_large(m.spec, double(softhom::available_memory_bytes()), size_field(m.spec));
   read_materials(scene, m.spec);
   read_output(scene, m);  // before the load: the field times join the output times
   read_load(scene, m);
-  read_solver(scene, m);
   return m;
 }
 

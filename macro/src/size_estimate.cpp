@@ -16,6 +16,12 @@ constexpr double kFactorBytesPerDof = 16.0 * 1024 * 1024 * 1024 / 1.1e6;
 // Mesh, element geometry and history, the stiffness (~81 entries per column for hex8: values, row
 // indices, transposed positions, CHOLMOD's copy of the upper triangle) and the Newton/GMRES vectors.
 constexpr double kMeshBytesPerDof = 4096.0;
+// The PETSc Krylov path instead of a factor: its copies of the tangent (the uncondensed AIJ matrix,
+// the field split's displacement block and hypre's copy of it, ~80 entries per row for tet10), the
+// multigrid hierarchy and the GMRES basis (8 bytes per dof and iteration, up to the restart of 200).
+// Measured on the cPASMO scenes (tet10): 9.6–10 kB per dof of peak from 3e4 to 1.6e5 dofs, 8.1 kB at
+// 1.22e6 dofs after 70 of the ~170 GMRES iterations of its first solve (BENCHMARKS.md, "Device scenes").
+constexpr double kKrylovBytesPerDof = 6144.0;
 
 double plate_nodes(const PlateSpec& p, bool tet10) {
   const int m = tet10 ? 2 : 1;  // tet10: a mid node on every edge (and the split's diagonals)
@@ -56,7 +62,8 @@ SizeEstimate estimate_size(const StructureSpec& spec) {
   }
   e.dofs = 3.0 * e.nodes;
   e.mesh_bytes = kMeshBytesPerDof * e.dofs;
-  e.factor_bytes = kFactorBytesPerDof * e.dofs;
+  if (spec.factorized_solver) e.factor_bytes = kFactorBytesPerDof * e.dofs;
+  else e.krylov_bytes = kKrylovBytesPerDof * e.dofs;
   return e;
 }
 
@@ -82,7 +89,9 @@ void refuse_if_too_large(const StructureSpec& spec, double available_bytes, cons
                                       ", " + std::to_string(spec.plate.cells[2]) + "]"
                                 : "";
   throw InputError(field, value, "the structure is too large for this machine: " + std::string(dofs) + " dofs need about " +
-                                  gib(e.bytes()) + " (mesh " + gib(e.mesh_bytes) + ", factorization " + gib(e.factor_bytes) +
+                                  gib(e.bytes()) + " (mesh " + gib(e.mesh_bytes) +
+                                  (spec.factorized_solver ? ", factorization " + gib(e.factor_bytes)
+                                                          : ", PETSc matrix, multigrid and Krylov basis " + gib(e.krylov_bytes)) +
                                   ") but " + gib(available_bytes) + " are available; use fewer cells");
 }
 

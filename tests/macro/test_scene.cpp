@@ -211,3 +211,26 @@ path = [[0.0, 1.0], [1.0, 1.5]]
   EXPECT_NE(msg.find("too large for this machine"), std::string::npos) << msg;
   EXPECT_NE(msg.find("GiB"), std::string::npos) << msg;
 }
+
+TEST(MacroScene, PetscSceneIsEstimatedWithoutAFactor) {
+  // The same 3.3e7-dof box on the PETSc path is still refused (mesh and Krylov storage alone ~250 GiB),
+  // but its estimate holds no factorization: the solver is read before the refusal.
+  const std::string plate = R"(
+[geometry]
+type = "plate"
+size = [10.0, 10.0, 0.5]
+cells = [1000, 1000, 10]
+[material]
+preset = "ecoflex"
+[load]
+control = "stretch"
+path = [[0.0, 1.0], [1.0, 1.5]]
+[solver]
+linear_solver = "petsc"
+)";
+  const std::string msg = error_of(plate);
+  EXPECT_NE(msg.find("too large for this machine"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("PETSc"), std::string::npos) << msg;
+  EXPECT_EQ(msg.find("factorization"), std::string::npos) << msg;
+  EXPECT_NE(error_of(replaced(plate, "\"petsc\"", "\"cholmod\"")).find("factorization"), std::string::npos);
+}

@@ -221,6 +221,26 @@ TEST(StepLoop, WallTimeBudgetEndsTheCutBacks) {
   EXPECT_EQ(sim.time(), 0.0);
 }
 
+TEST(SizeEstimate, KrylovPathHoldsNoFactor) {
+  // 1.11e6 dofs: the direct path's estimate is 4.1 kB (mesh) + 15.6 kB (factor) per dof ≈ 20.4 GiB,
+  // refused in 12 GiB; the PETSc path holds no factor but its matrix copies, multigrid and GMRES basis
+  // (6.1 kB per dof, measured on the fine cPASMO scene, BENCHMARKS.md): 10.6 GiB, which fits.
+  StructureSpec spec = plate_spec(1.1);
+  spec.plate.cells = {99, 99, 36};
+  const SizeEstimate direct = estimate_size(spec);
+  spec.factorized_solver = false;
+  const SizeEstimate krylov = estimate_size(spec);
+  EXPECT_EQ(krylov.factor_bytes, 0.0);
+  EXPECT_GT(krylov.krylov_bytes, 0.0);
+  EXPECT_EQ(direct.krylov_bytes, 0.0);
+  EXPECT_DOUBLE_EQ(krylov.mesh_bytes, direct.mesh_bytes);
+  EXPECT_NEAR(krylov.bytes() / direct.bytes(), (4096.0 + 6144.0) / (4096.0 + 16.0 * (1 << 30) / 1.1e6), 1e-12);
+  const double twelve = 12.0 * (1 << 30);
+  EXPECT_NO_THROW(refuse_if_too_large(spec, twelve, size_field(spec)));
+  spec.factorized_solver = true;
+  EXPECT_THROW(refuse_if_too_large(spec, twelve, size_field(spec)), InputError);
+}
+
 TEST(SizeEstimate, ThousandByThousandBoxIsRefusedBeforeBuilding) {
   StructureSpec spec = plate_spec(1.1);
   spec.plate.cells = {1000, 1000, 10};

@@ -64,6 +64,9 @@ struct StructureSpec {
   LoadControl control = LoadControl::pressure;
   PiecewiseLinear load;               ///< λ(t), p(t) [MPa] or V/V0(t)
   fe::Formulation formulation = fe::Formulation::fbar;
+  /// The linear solver factorizes the tangent (CHOLMOD/UMFPACK); false: the PETSc Krylov path, whose
+  /// memory estimate holds a multigrid hierarchy and a Krylov basis instead of a factor.
+  bool factorized_solver = true;
 };
 
 struct Structure {
@@ -90,8 +93,9 @@ namespace softhom::macro {
 struct SizeEstimate {
   double nodes = 0.0, dofs = 0.0;  ///< dofs: 3 per node (constraints not subtracted)
   double mesh_bytes = 0.0;         ///< mesh, element data, stiffness pattern and work vectors
-  double factor_bytes = 0.0;       ///< the factorization (Cholesky or LU fill)
-  double bytes() const { return mesh_bytes + factor_bytes; }
+  double factor_bytes = 0.0;       ///< the factorization (Cholesky or LU fill); 0 on the Krylov path
+  double krylov_bytes = 0.0;       ///< Krylov path: PETSc's matrix, multigrid hierarchy and GMRES basis
+  double bytes() const { return mesh_bytes + factor_bytes + krylov_bytes; }
 };
 SizeEstimate estimate_size(const StructureSpec& spec);
 
