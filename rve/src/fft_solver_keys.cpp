@@ -55,6 +55,10 @@ const io::KeyTable<FftSolverOptions>& fft_solver_keys() {
         .choice("tangent_precision", &O::tangent_precision,
                 {{"double", TangentPrecision::double_precision}, {"single", TangentPrecision::single_precision}},
                 "storage of the stencil operator's tangents")
+        .choice("preconditioner", &O::preconditioner,
+                io::Choices<Preconditioner>{{{"jacobi-green", Preconditioner::jacobi_green}, {"green", Preconditioner::green}},
+                                            {{"jacobi_green", "jacobi-green"}}},
+                "Newton-CG preconditioner (jacobi-green: real-space diagonal scaling of the reference Green operator; stencil operator only)")
         .custom("fftw", "choice", "FFTW planning rigor",
                 [](const toml::node& n, const std::string& f, O& o) {
                   static const io::Choices<fft::PlanRigor> c{
