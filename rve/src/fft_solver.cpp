@@ -352,6 +352,7 @@ struct FftRveSolver::Impl {
     s.tangent_values = tangent_f.empty() ? tangent.size() : tangent_f.size();
     s.tangent_value_bytes = tangent_f.empty() ? sizeof(double) : sizeof(float);
     s.green_values = std::max(green.memory_bytes() / sizeof(double), 9 * NM);  // tabulated at the first solve
+    s.jacobi_values = jacobi_green() ? 3 * N : 0;                              // likewise
     s.history_values = hist_old[0].size() + hist_old[1].size();
     s.laminate_values = lam_a.size();
     s.composite_voxels = comp_normal.size();
@@ -381,6 +382,7 @@ struct FftRveSolver::Impl {
     s.tangent_values = newton ? 45 * (with_stencil ? (NP + 7) / 8 * 8 : NP) : 0;
     s.tangent_value_bytes = single ? sizeof(float) : sizeof(double);
     s.green_values = 9 * NM;
+    s.jacobi_values = with_stencil && opt.preconditioner == Preconditioner::jacobi_green ? 3 * N : 0;
     s.history_values = NP * std::size_t(state_size[0] + state_size[1]);
     s.mixed_points = mixed_active ? NP : 0;
     s.spectral_vectors = !newton ? 5 : 5 + 3 + (with_stencil ? 0 : 1);

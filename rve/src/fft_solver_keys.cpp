@@ -56,9 +56,8 @@ const io::KeyTable<FftSolverOptions>& fft_solver_keys() {
                 {{"double", TangentPrecision::double_precision}, {"single", TangentPrecision::single_precision}},
                 "storage of the stencil operator's tangents")
         .choice("preconditioner", &O::preconditioner,
-                io::Choices<Preconditioner>{{{"jacobi-green", Preconditioner::jacobi_green}, {"green", Preconditioner::green}},
-                                            {{"jacobi_green", "jacobi-green"}}},
-                "Newton-CG preconditioner (jacobi-green: real-space diagonal scaling of the reference Green operator; stencil operator only)")
+                {{"green", Preconditioner::green}, {"jacobi-green", Preconditioner::jacobi_green}},
+                "Newton-CG preconditioner (jacobi-green: the Green operator scaled by the real-space node diagonal; stencil operator only)")
         .custom("fftw", "choice", "FFTW planning rigor",
                 [](const toml::node& n, const std::string& f, O& o) {
                   static const io::Choices<fft::PlanRigor> c{
