@@ -5,10 +5,13 @@
 //
 // G₀ the reference-medium Green operator K0⁻¹ (per Fourier mode, fft::ReferenceGreen), D the diagonal
 // of the stencil system operator K = Bᵀ A B at node y and component i, D0 that of K0 (the same for every
-// node). For a homogeneous cell S = I and M⁻¹ = G₀; with stiff inclusions the diagonal scaling takes
-// out the local stiffness contrast that a single reference medium cannot represent (Ladecký,
-// Pultarová, Zeman et al., the displacement-based FFT-FE Jacobi–Green preconditioner), which bounds the
-// Krylov iterations independently of the grid where the Green preconditioner alone grows with it.
+// node). For a homogeneous cell S = I and M⁻¹ = G₀; with heterogeneous stiffness the diagonal scaling
+// takes out the local stiffness level that one reference medium cannot represent (the Jacobi–Green
+// preconditioner of the displacement-based FFT-FE literature, Ladecký, Pultarová, Zeman et al.).
+// Measured on the glass/ecoflex cells it takes more CG iterations than G₀ alone: 8–15× with the nearly
+// incompressible matrix (its node diagonal is its bulk stiffness, not the shear stiffness the slow modes
+// see), 1.1–1.8× with a compressible one; it gains (1.8×) on a small 3D hex cell (BENCHMARKS.md, "FFT
+// solver cost"). Hence an option, not the default.
 //
 // S is diagonal in real space and G₀ in Fourier space, so the CG vectors live in real space (nodal
 // values; the stencil operator needs no transform at all) and the preconditioner transforms three

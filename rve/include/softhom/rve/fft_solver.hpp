@@ -124,10 +124,11 @@ struct FftSolverOptions {
   /// green: the reference-medium Green operator K0⁻¹ per Fourier mode (CG on spectra), the default.
   /// jacobi_green: S K0⁻¹ S with S the real-space diagonal scaling (D0/D)^½ of the stencil operator's
   /// node diagonal D (rve/src/fft_preconditioner.hpp), CG on nodal fields, the same two 3-field
-  /// transforms per iteration. Measured on the glass/ecoflex cells it takes more iterations than green
-  /// (8× at K/G = 1.2e5, 1.1–1.8× with a compressible matrix, rotated and hex; BENCHMARKS.md, "FFT
-  /// solver cost"): the mean-tangent reference already balances the two phases, and the node diagonal of
-  /// a nearly incompressible matrix is its bulk stiffness, which the scaling then wrongly equalises.
+  /// transforms per iteration (+0–10 % time). Measured on the glass/ecoflex cells it takes more
+  /// iterations than green (8–15× at K/G = 1.2e5, growing with the grid; 1.1–1.8× with a compressible
+  /// matrix, rotated and hex) and fewer only on a small 3D hex cell (BENCHMARKS.md, "FFT solver cost"):
+  /// the node diagonal of a nearly incompressible matrix is its bulk stiffness, which the scaling then
+  /// equalises instead of the shear stiffness.
   /// Stencil operator only (otherwise green); Levenberg–Marquardt-shifted solves, MINRES and the
   /// homogenized tangent's solves use green.
   Preconditioner preconditioner = Preconditioner::green;
