@@ -995,11 +995,14 @@ struct FftRveSolver::Impl {
     // points), one gather pass Bᵀ δP with ⟨p, Ap⟩, FFT of 3 fields, the same CG update pass reading Ap
     // from the FFT buffer.
     CgSpace space{*this, free, Minv, free_idx, 1.0 + shift, shift};
-    const krylov::CgResult res =
-        jacobi_green() && shift == 0.0
-            ? detail::jacobi_green_pcg(*this, b, free, [&](const Vec9& rf) { Vec9 zf; precondition_macro(rf, Minv, free_idx, zf, 1.0); return zf; },
-                                       krylov_controls(rel_tol), x)
-            : krylov::pcg(space, b, x, cg_r, cg_z, cg_p, cg_Ap, krylov_controls(rel_tol));
+    auto macro = [&](const Vec9& rf) {
+      Vec9 zf;
+      precondition_macro(rf, Minv, free_idx, zf, 1.0);
+      return zf;
+    };
+    const krylov::CgResult res = jacobi_green() && shift == 0.0
+                                     ? detail::jacobi_green_pcg(*this, b, free, macro, krylov_controls(rel_tol), x)
+                                     : krylov::pcg(space, b, x, cg_r, cg_z, cg_p, cg_Ap, krylov_controls(rel_tol));
     breakdown = res.breakdown;
     krylov_seconds += std::chrono::duration<double>(Clock::now() - start).count();
     return res.iterations;
