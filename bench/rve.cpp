@@ -409,8 +409,11 @@ int main(int argc, char** argv) {
     std::vector<KrylovOperator> ops;
     std::vector<TangentPrecision> precisions;
     int repeats = 1, fftw_threads = 0;
+    Preconditioner preconditioner = Preconditioner::green;  // "preconditioner=jacobi-green": the other one
     for (int i = 2; i < argc; ++i) {
-      if (std::strncmp(argv[i], "threads=", 8) == 0)
+      if (std::strcmp(argv[i], "preconditioner=jacobi-green") == 0)
+        preconditioner = Preconditioner::jacobi_green;
+      else if (std::strncmp(argv[i], "threads=", 8) == 0)
         thread_counts.push_back(std::atoi(argv[i] + 8));
       else if (std::strncmp(argv[i], "fftw_threads=", 13) == 0)
         fftw_threads = std::max(1, std::atoi(argv[i] + 13));
@@ -491,6 +494,7 @@ int main(int argc, char** argv) {
                 o.discretization = d;
                 o.krylov_operator = kop;
                 o.tangent_precision = prec;
+                o.preconditioner = preconditioner;
                 o.max_newton_iterations = 1;
                 o.max_cutbacks = 0;
                 o.krylov_tolerance = 1e-30;
@@ -522,11 +526,11 @@ int main(int argc, char** argv) {
             const double nv = double(g.voxels());
             // Transformed fields per Krylov iteration: stencil 3 back + 3 forward; Fourier 3·nq·columns each way.
             const double own_ms = stencil ? fft3_ms : fft_used_ms, own_cpu = stencil ? cpu3 : cpu_used;
-            std::printf("fftcost %4dx%4dx%4d %-9s %-8s %-6s threads %d per-krylov %8.3f ms (cpu %8.3f, in-solver %8.3f) | "
+            std::printf("fftcost %4dx%4dx%4d %-9s %-8s %-6s %s threads %d per-krylov %8.3f ms (cpu %8.3f, in-solver %8.3f) | "
                         "fft9 %7.3f ms (cpu %7.3f) ratio-9 %5.2f (cpu %5.2f) | own fft %7.3f ms (%d fields) ratio-own %5.2f "
                         "(cpu %5.2f) | whole step %.3f s (%d its) mem/voxel %5.0f B (rss %5.0f B) peak-rss %.0f MB load %s\n",
                         g.n[0], g.n[1], g.n[2], fft::to_string(d), stencil ? "stencil" : "fourier",
-                        stencil ? to_string(prec) : "double", threads, kry_ms, kry_cpu_ms,
+                        stencil ? to_string(prec) : "double", to_string(stencil ? preconditioner : Preconditioner::green), threads, kry_ms, kry_cpu_ms,
                         1e3 * kry_wall, fft9_ms, cpu9, kry_ms / fft9_ms, kry_cpu_ms / cpu9, own_ms,
                         stencil ? 3 : used_fields, kry_ms / own_ms, kry_cpu_ms / own_cpu, whole, its1, double(mem) / nv,
                         rss / nv, double(io::peak_memory_bytes()) / 1048576.0, load_average().c_str());

@@ -21,6 +21,7 @@
 #include "softhom/materials/errors.hpp"
 #include "diagnostics.hpp"
 #include "fft_distribution.hpp"
+#include "fft_preconditioner.hpp"
 #include "fft_storage.hpp"
 #include "laminate.hpp"
 #include "memory_budget.hpp"
@@ -36,6 +37,7 @@ const char* to_string(ReferenceMedium r) {
 }
 const char* to_string(KrylovOperator k) { return k == KrylovOperator::stencil ? "stencil" : "fourier"; }
 const char* to_string(TangentPrecision t) { return t == TangentPrecision::single_precision ? "single" : "double"; }
+const char* to_string(Preconditioner p) { return p == Preconditioner::jacobi_green ? "jacobi-green" : "green"; }
 
 Mat3 grid_rotation(double fiber_angle_deg) {
   const double a = fiber_angle_deg * 3.14159265358979323846 / 180.0;
@@ -180,6 +182,7 @@ struct FftRveSolver::Impl {
   std::vector<float> tangent_f;     // the same in float (stencil operator, TangentPrecision::single_precision)
   double krylov_seconds = 0.0;      // time in the linear solves (operator, preconditioner, vector ops)
   KVec cg_r, cg_z, cg_p, cg_Ap;     // CG work vectors, kept between solves (no allocation per solve)
+  std::vector<float> jacobi_s;      // Preconditioner::jacobi_green: the real-space scaling S (3 per node)
   // Mixed (pressure) Newton iteration for nearly incompressible phases (see pressure_correction()).
   bool mixed[2] = {false, false};
   double K_vol[2] = {0.0, 0.0};
@@ -371,6 +374,7 @@ struct FftRveSolver::Impl {
     s.tangent_value_bytes = tangent_f.empty() ? sizeof(double) : sizeof(float);
     s.green_values = 9 * NM;  // tabulated at the first solve
     s.green_value_bytes = tangent_f.empty() ? sizeof(double) : sizeof(float);
+    s.jacobi_values = jacobi_green() ? 3 * N : 0;  // set with the reference medium
     s.history_values = hist_old[0].size() + hist_old[1].size();
     s.laminate_values = lam_a.size();
     s.composite_voxels = comp_normal.size();
@@ -402,6 +406,7 @@ struct FftRveSolver::Impl {
     s.tangent_value_bytes = single ? sizeof(float) : sizeof(double);
     s.green_values = 9 * NM;
     s.green_value_bytes = single ? sizeof(float) : sizeof(double);
+    s.jacobi_values = with_stencil && opt.preconditioner == Preconditioner::jacobi_green ? 3 * N : 0;
     s.history_values = NP * std::size_t(state_size[0] + state_size[1]);
     s.mixed_points = mixed_active ? NP : 0;
     s.spectral_vectors = !newton ? 4 : 4 + 3 + (with_stencil ? 0 : 1);
@@ -937,6 +942,10 @@ struct FftRveSolver::Impl {
   void set_reference() {
     choose_reference();
     green.set(C0);
+    if (jacobi_green()) detail::set_jacobi_scaling(*this);
+  }
+  bool jacobi_green() const {
+    return opt.preconditioner == Preconditioner::jacobi_green && stencil && opt.scheme == FftScheme::newton_cg;
   }
   void choose_reference() {
     if (opt.reference == ReferenceMedium::geometric && opt.scheme == FftScheme::newton_cg &&
@@ -1053,7 +1062,14 @@ struct FftRveSolver::Impl {
     // points), one gather pass Bᵀ δP with ⟨p, Ap⟩, FFT of 3 fields, the same CG update pass reading Ap
     // from the FFT buffer.
     CgSpace space{*this, free, Minv, free_idx, 1.0 + shift, shift};
-    const krylov::CgResult res = krylov::pcg(space, b, x, cg_r, cg_z, cg_p, cg_Ap, krylov_controls(rel_tol));
+    auto macro = [&](const Vec9& rf) {
+      Vec9 zf;
+      precondition_macro(rf, Minv, free_idx, zf, 1.0);
+      return zf;
+    };
+    const krylov::CgResult res = jacobi_green() && shift == 0.0
+                                     ? detail::jacobi_green_pcg(*this, b, free, macro, krylov_controls(rel_tol), x)
+                                     : krylov::pcg(space, b, x, cg_r, cg_z, cg_p, cg_Ap, krylov_controls(rel_tol));
     breakdown = res.breakdown;
     krylov_seconds += std::chrono::duration<double>(Clock::now() - start).count();
     return res.iterations;

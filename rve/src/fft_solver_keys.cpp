@@ -55,6 +55,9 @@ const io::KeyTable<FftSolverOptions>& fft_solver_keys() {
         .choice("tangent_precision", &O::tangent_precision,
                 {{"double", TangentPrecision::double_precision}, {"single", TangentPrecision::single_precision}},
                 "storage of the stencil operator's tangents and of the preconditioner's Green table")
+        .choice("preconditioner", &O::preconditioner,
+                {{"green", Preconditioner::green}, {"jacobi-green", Preconditioner::jacobi_green}},
+                "Newton-CG preconditioner (jacobi-green: the Green operator scaled by the real-space node diagonal; stencil operator only)")
         .custom("fftw", "choice", "FFTW planning rigor",
                 [](const toml::node& n, const std::string& f, O& o) {
                   static const io::Choices<fft::PlanRigor> c{

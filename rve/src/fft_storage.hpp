@@ -35,6 +35,7 @@ struct StorageSizes {
   std::size_t tangent_value_bytes = 8; ///< 8 double, 4 float
   std::size_t green_values = 0;        ///< reference Green operator table
   std::size_t green_value_bytes = 8;   ///< 8 double, 4 float (with float tangents)
+  std::size_t jacobi_values = 0;       ///< Jacobi–Green scaling, 3 per node (floats; 0 with the Green preconditioner)
   std::size_t history_values = 0;      ///< internal variables, one copy (both phases)
   std::size_t laminate_values = 0;     ///< jump vectors of the composite points, one copy
   std::size_t composite_voxels = 0;    ///< composite voxels (interface normal each)
@@ -54,6 +55,7 @@ inline StorageList storage_list(const StorageSizes& s) {
   if (s.fft3_fields) l.emplace_back("fft3_buffers", s.fft3_fields * field);
   if (s.tangent_values) l.emplace_back("tangents", s.tangent_values * s.tangent_value_bytes);
   l.emplace_back("reference_green", s.green_values * s.green_value_bytes);
+  if (s.jacobi_values) l.emplace_back("jacobi_scaling", s.jacobi_values * 4);
   if (s.history_values) l.emplace_back("history", 2 * 8 * s.history_values);
   l.emplace_back("phase_image", s.voxels * (8 + 4));  // fiber fraction, composite index
   if (s.composite_voxels) l.emplace_back("composites", 2 * 8 * s.laminate_values + 24 * s.composite_voxels);

@@ -56,6 +56,8 @@ enum class KrylovOperator { stencil, fourier };
 /// What the Newton–CG solver does when CG meets negative curvature near the solution (see
 /// FftSolverOptions::indefinite_solver).
 enum class IndefiniteSolver { minres, shift };
+/// Preconditioner of the Newton–CG linear solves (FftSolverOptions::preconditioner).
+enum class Preconditioner { green, jacobi_green };
 /// Storage of the tangents read by the stencil Krylov operator (FftSolverOptions::tangent_precision).
 enum class TangentPrecision { double_precision, single_precision };
 const char* to_string(FftScheme s);
@@ -63,6 +65,8 @@ const char* to_string(ReferenceMedium r);
 const char* to_string(KrylovOperator k);
 /// "double" | "single".
 const char* to_string(TangentPrecision t);
+/// "green" | "jacobi-green".
+const char* to_string(Preconditioner p);
 
 struct FftSolverOptions {
   fft::Discretization discretization = fft::Discretization::rotated;
@@ -119,6 +123,17 @@ struct FftSolverOptions {
   /// ≈ 6e-8 relative per tangent entry (symmetric, so CG/MINRES still apply), which inexact Newton
   /// absorbs. The Fourier operator always keeps double.
   TangentPrecision tangent_precision = TangentPrecision::single_precision;
+  /// green: the reference-medium Green operator K0⁻¹ per Fourier mode (CG on spectra), the default.
+  /// jacobi_green: S K0⁻¹ S with S the real-space diagonal scaling (D0/D)^½ of the stencil operator's
+  /// node diagonal D (rve/src/fft_preconditioner.hpp), CG on nodal fields, the same two 3-field
+  /// transforms per iteration (+0–10 % time). Measured on the glass/ecoflex cells it takes more
+  /// iterations than green (8–15× at K/G = 1.2e5, growing with the grid; 1.1–1.8× with a compressible
+  /// matrix, rotated and hex) and fewer only on a small 3D hex cell (BENCHMARKS.md, "FFT solver cost"):
+  /// the node diagonal of a nearly incompressible matrix is its bulk stiffness, which the scaling then
+  /// equalises instead of the shear stiffness.
+  /// Stencil operator only (otherwise green); Levenberg–Marquardt-shifted solves, MINRES and the
+  /// homogenized tangent's solves use green.
+  Preconditioner preconditioner = Preconditioner::green;
   /// Wall-time budget of one output step's cut-backs [s] (StepControlOptions::max_step_seconds; 0: none).
   double max_step_seconds = 0.0;
   fft::PlanOptions plan;         ///< FFTW rigor, threads, wisdom cache
