@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -125,6 +126,8 @@ int tube_run(double dofs, int steps, const std::string& options) {
     NewtonOptions o;
     o.solver = kind;
     o.petsc_options = options;
+    o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
+    if (std::getenv("BM_NOMIX")) o.mixed = false;
     const auto t0 = std::chrono::steady_clock::now();
     Simulation sim(s.model, o);
     bool ok = true;
