@@ -1,7 +1,6 @@
 // The petsc path of fe::Simulation's linear solves (linear_solve.cpp hands over when the petsc solver
 // is in use): no lagged factors here, a fresh multigrid hierarchy for every new tangent, GMRES to the
 // forcing-term tolerance of the Newton iteration.
-#include <cstdlib>
 #include <iostream>
 
 #include "simulation_impl.hpp"
@@ -31,12 +30,6 @@ bool Simulation::Impl::petsc_linear_solve(const std::vector<double>& b, std::vec
   }
   const KrylovOutcome o = petsc_->solve(b, x, tol);
   stats_.krylov_iterations += o.iterations;
-  if (std::getenv("PP_CHECK")) {
-    std::vector<double> y(x.size());
-    K_.multiply(x.data(), y.data());
-    for (std::size_t k = 0; k < y.size(); ++k) y[k] = b[k] - y[k];
-    std::cerr << "      condensed |b-Kx|/|b| = " << norm(y) / norm(b) << "\n";
-  }
   if (options_.verbose)
     std::cerr << "      petsc " << o.iterations << " its, |r|/|b| = " << o.relative_residual << " (" << o.reason << ")\n";
   if (!o.converged) {

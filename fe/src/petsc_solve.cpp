@@ -1,13 +1,13 @@
 // The PETSc linear solver (petsc_solve.hpp): distributed tangent, GMRES + GAMG with the rigid-body
 // near-nullspace, and PETSc's life cycle.
 #include "petsc_solve.hpp"
+#include "petsc_saddle_split.hpp"
 
 #include <petscksp.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
 #include <stdexcept>
 
@@ -96,6 +96,11 @@ struct PetscSolver::Data {
   std::vector<PetscInt> first;               // per rank: its first global index (u then π block)
   std::vector<std::vector<std::pair<int, int>>> row_elems;  // owned dof → (element k, position q)
   Mat A = nullptr;
+  // Augmented-Lagrangian split (petsc_saddle_split.hpp): α of -softhom_al_alpha, the diagonal Schur
+  // preconditioning matrix it gives (null: PETSc's selfp), the volumetric stiffness left to the pressures.
+  double al_alpha = -1.0;
+  Mat schur_pre = nullptr;
+  std::vector<double> kept;
   KSP ksp = nullptr;
   Vec b = nullptr, x = nullptr, all = nullptr;
   VecScatter to_all = nullptr;
@@ -165,6 +170,11 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
   PetscReal rtol = 0.0;
   PetscOptionsGetReal(nullptr, nullptr, "-ksp_rtol", &rtol, &set);
   if (set && options.find("-ksp_rtol") != std::string::npos) d.option_rtol = rtol;
+  PetscReal alpha = 0.0;
+  set = PETSC_FALSE;
+  PetscOptionsGetReal(nullptr, nullptr, "-softhom_al_alpha", &alpha, &set);
+  if (set && alpha < 0.0) throw InputError("solver.petsc_options", options, "-softhom_al_alpha must be >= 0");
+  if (set) d.al_alpha = alpha;
 }
 
 PetscSolver::~PetscSolver() {
@@ -176,6 +186,7 @@ PetscSolver::~PetscSolver() {
   if (d.x) VecDestroy(&d.x);
   if (d.ksp) KSPDestroy(&d.ksp);
   if (d.A) MatDestroy(&d.A);
+  if (d.schur_pre) MatDestroy(&d.schur_pre);
   if (d.is_u) ISDestroy(&d.is_u);
   if (d.is_p) ISDestroy(&d.is_p);
 }
@@ -294,7 +305,13 @@ void PetscSolver::analyze(const CscMatrix& K) {
     check(PCFieldSplitSetIS(pc, "p", d.is_p), "PCFieldSplitSetIS");
     check(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "PCFieldSplitSetType");
     check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER), "PCFieldSplitSetSchurFactType");
-    check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr), "PCFieldSplitSetSchurPre");
+    if (d.al_alpha >= 0.0) {
+      const PetscInt npl = d.phi - d.plo;
+      check(MatCreateAIJ(d.comm, npl, npl, d.np, d.np, 1, nullptr, 0, nullptr, &d.schur_pre), "MatCreateAIJ");
+      check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_USER, d.schur_pre), "PCFieldSplitSetSchurPre");
+    } else {
+      check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr), "PCFieldSplitSetSchurPre");
+    }
   } else {
     check(MatSetNearNullSpace(d.A, nsp), "MatSetNearNullSpace");
     check(PCSetType(pc, PCGAMG), "PCSetType");
@@ -329,6 +346,19 @@ bool PetscSolver::factorize(const CscMatrix& K) {
     d.a_values = K.values;
     dn.resize(d.np);
     for (PetscInt k = 0; k < d.np; ++k) dn[k] = d.d_norm(int(k));
+    AugmentedSplit split;
+    if (d.schur_pre) {
+      split = augmented_split(K, d.sad_off, d.sad_eq, d.sad_d, d.sad_c, d.al_alpha);
+      d.kept = split.kept;
+    } else {
+      d.kept = d.sad_c;
+    }
+    if (d.schur_pre) {
+      for (PetscInt k = d.plo; k < d.phi; ++k)
+        check(MatSetValue(d.schur_pre, k, k, split.schur_diag[k], INSERT_VALUES), "MatSetValue");
+      check(MatAssemblyBegin(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+      check(MatAssemblyEnd(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+    }
     for (PetscInt g = d.lo; g < d.hi; ++g) {
       const int r = eq[g];
       if (r < 0) continue;
@@ -336,7 +366,7 @@ bool PetscSolver::factorize(const CscMatrix& K) {
         for (int q2 = d.sad_off[k]; q2 < d.sad_off[k + 1]; ++q2) {
           const int c = d.sad_eq[q2];
           if (c < 0) continue;
-          d.a_values[K.find(r, c)] -= d.sad_c[k] * d.sad_d[q] * d.sad_d[q2];
+          d.a_values[K.find(r, c)] -= d.kept[k] * d.sad_d[q] * d.sad_d[q2];
         }
     }
     kv = d.a_values.data();
@@ -367,7 +397,7 @@ bool PetscSolver::factorize(const CscMatrix& K) {
   for (PetscInt k = d.plo; k < d.phi; ++k) {
     d.cols.clear();
     d.vals.clear();
-    const double w = d.sad_c[k] * dn[k];
+    const double w = d.kept[k] * dn[k];
     for (int q = d.sad_off[k]; q < d.sad_off[k + 1]; ++q)
       if (d.sad_eq[q] >= 0) {
         d.cols.push_back(d.gu(d.dof_of_eq[d.sad_eq[q]]));
@@ -422,17 +452,6 @@ KrylovOutcome PetscSolver::solve(const std::vector<double>& b, std::vector<doubl
   KSPGetResidualNorm(d.ksp, &rnorm);
   VecNorm(d.b, NORM_2, &bnorm);
   o.relative_residual = bnorm > 0.0 ? rnorm / bnorm : 0.0;
-  if (std::getenv("PP_CHECK")) {
-    Vec r;
-    VecDuplicate(d.b, &r);
-    MatMult(d.A, d.x, r);
-    VecAYPX(r, -1.0, d.b);
-    PetscReal tn, xn;
-    VecNorm(r, NORM_2, &tn);
-    VecNorm(d.x, NORM_2, &xn);
-    std::fprintf(stderr, "      true uncondensed |b-Ax|/|b| = %g, |x| = %g\n", tn / bnorm, xn);
-    VecDestroy(&r);
-  }
   // Every rank runs the same Newton iteration: the whole solution to every rank.
   check(VecScatterBegin(d.to_all, d.x, d.all, INSERT_VALUES, SCATTER_FORWARD), "VecScatterBegin");
   check(VecScatterEnd(d.to_all, d.x, d.all, INSERT_VALUES, SCATTER_FORWARD), "VecScatterEnd");
