@@ -68,10 +68,10 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-/// K/G of the tables: 1e2 … 1e5, or those listed in BENCH_KG (e.g. "1e2,1e5") for a quick look.
-std::vector<double> ratios() {
-  const char* env = std::getenv("BENCH_KG");
-  if (!env) return {1e2, 1e3, 1e4, 1e5};
+/// A comma-separated list of numbers in the environment variable `name`, or `fallback`.
+std::vector<double> list_from_env(const char* name, std::vector<double> fallback) {
+  const char* env = std::getenv(name);
+  if (!env) return fallback;
   std::vector<double> out;
   for (const char* p = env; *p;) {
     char* end = nullptr;
@@ -81,6 +81,9 @@ std::vector<double> ratios() {
   }
   return out;
 }
+
+/// K/G of the tables: 1e2 … 1e5, or those listed in BENCH_KG (e.g. "1e2,1e5") for a quick look.
+std::vector<double> ratios() { return list_from_env("BENCH_KG", {1e2, 1e3, 1e4, 1e5}); }
 
 int cook_table(const std::string& options) {
   if (mpi::world_rank() == 0)
@@ -163,11 +166,12 @@ int tube_run(double dofs, int steps, const std::string& options) {
 }
 
 /// Krylov iterations per Newton step on the helix tube over three meshes (h ratio 1.6) and K/G = 1e2 … 1e5:
-/// the first load step of bench_macro's run (pressure 45 of 180), PETSc only.
+/// the first load step of bench_macro's run (pressure 45 of 180), PETSc only. BENCH_DOFS: other sizes.
 int tube_table(const std::string& options) {
   if (mpi::world_rank() == 0)
-    std::printf("%8s %8s %7s %7s %12s %9s %10s\n", "dofs", "K/G", "newton", "solves", "krylov/solve", "time[s]", "s/newton");
-  for (double target : {1e3, 4e3, 1.6e4})
+    std::printf("%8s %8s %7s %7s %12s %9s %10s %9s %9s\n", "dofs", "K/G", "newton", "solves", "krylov/solve", "time[s]",
+                "s/newton", "setup[s]", "krylov[s]");
+  for (double target : list_from_env("BENCH_DOFS", {1e3, 4e3, 1.6e4}))
     for (double kg : ratios()) {
       const macro::Structure s = macro::build_structure(helix_tube(target, kg));
       NewtonOptions o;
@@ -180,9 +184,10 @@ int tube_table(const std::string& options) {
       const double wall = seconds_since(t0);
       const RunStats st = sim.stats();
       if (mpi::world_rank() == 0)
-        std::printf("%8d %8.0e %7d %7d %12.1f %9.2f %10.3f%s\n", sim.num_free_dofs(), kg, st.newton_iterations,
-                    st.linear.solves, double(st.krylov_iterations) / std::max(1, st.linear.solves), wall,
-                    wall / std::max(1, st.newton_iterations), ok ? "" : "  (failed)");
+        std::printf("%8d %8.0e %7d %7d %12.1f %9.2f %10.3f %9.2f %9.2f%s\n", sim.num_free_dofs(), kg,
+                    st.newton_iterations, st.linear.solves, double(st.krylov_iterations) / std::max(1, st.linear.solves),
+                    wall, wall / std::max(1, st.newton_iterations), st.linear.factorization, st.linear.solve,
+                    ok ? "" : "  (failed)");
       std::fflush(stdout);
     }
   return 0;

@@ -28,9 +28,9 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 /// Settings of the field split's blocks, inserted before the user's options (which override them):
-/// the displacement block by one V-cycle of BoomerAMG (on Cook's membrane 1.2–2.4× fewer iterations than
-/// GAMG with the rigid-body modes, BENCHMARKS.md), the Schur complement by the inverse of its diagonal
-/// approximation ("selfp": A_pp − A_pu diag(A_uu)⁻¹ A_up, diagonal for element pressures).
+/// the displacement block by one V-cycle of BoomerAMG (on the tube and Cook's membrane 1.2–1.7× fewer
+/// iterations than GAMG with the rigid-body modes and flatter over the mesh, BENCHMARKS.md), the Schur
+/// complement by the inverse of its diagonal approximation (petsc_saddle_split.hpp).
 constexpr const char* kSplitDefaults =
     "-fieldsplit_u_ksp_type preonly -fieldsplit_u_pc_type hypre -fieldsplit_u_pc_hypre_type boomeramg "
     "-fieldsplit_p_ksp_type preonly -fieldsplit_p_pc_type jacobi";
@@ -78,9 +78,17 @@ void petsc_finalize() {
 //     [ c_k|d_k| d_kᵀ −1 ] [π] = [0]
 // has the same u (π_k = c_k|d_k| d_kᵀu, A u + Σ n_k π_k = K_c u), and the condensed residual is
 // r_u + Σ n_k r_π,k: a small residual of this system is a small residual of K_c u = b (so the tolerance
-// keeps its meaning). Field split (Schur complement, upper factorization): BoomerAMG on A (or GAMG with
-// the rigid-body near-nullspace composed on the split, -fieldsplit_u_pc_type gamg), Jacobi on the Schur approximation A_ππ − A_πu diag(A)⁻¹ A_uπ = −(1 + c_k n_kᵀ
-// diag(A)⁻¹ d_k), the scaled pressure mass 1/G + 1/κ of the element.
+// keeps its meaning). Field split (Schur complement, full factorization): BoomerAMG on the displacement
+// block (or GAMG with the rigid-body near-nullspace composed on the split, -fieldsplit_u_pc_type gamg),
+// Jacobi on a diagonal Schur approximation. With A alone in the displacement block (no volumetric
+// stiffness, -softhom_al_alpha 0) that diagonal, −(1 + c_k d_kᵀ diag(A)⁻¹ d_k) (selfp's diagonal, the
+// scaled pressure mass 1/G + 1/κ), misses the small eigenvalues of the Q1/P0 pair (no uniform inf-sup
+// constant) and the counts grow ~1.4× per mesh refinement. The default keeps a part γ_k of the element's
+// volumetric stiffness in the displacement block (augmented Lagrangian, petsc_saddle_split.hpp): its
+// Schur complement is diagonal up to O(1/γ) whatever the inf-sup constant (with an exact displacement
+// solve 6–10 GMRES iterations on the tube), and α = 10 (a bulk modulus ~ 10 G in the displacement
+// block) is where one AMG V-cycle on that block does best (α = 1, 3, 30, 100 need 1.2–3× more
+// iterations, BENCHMARKS.md).
 struct PetscSolver::Data {
   MPI_Comm comm = MPI_COMM_NULL;  // PETSC_COMM_WORLD once PETSc is up
   int rank = 0, size = 1;
@@ -96,9 +104,9 @@ struct PetscSolver::Data {
   std::vector<PetscInt> first;               // per rank: its first global index (u then π block)
   std::vector<std::vector<std::pair<int, int>>> row_elems;  // owned dof → (element k, position q)
   Mat A = nullptr;
-  // Augmented-Lagrangian split (petsc_saddle_split.hpp): α of -softhom_al_alpha, the diagonal Schur
+  // Augmented-Lagrangian split (petsc_saddle_split.hpp): α (-softhom_al_alpha), the diagonal Schur
   // preconditioning matrix it gives (null: PETSc's selfp), the volumetric stiffness left to the pressures.
-  double al_alpha = -1.0;
+  double al_alpha = 10.0;
   Mat schur_pre = nullptr;
   std::vector<double> kept;
   KSP ksp = nullptr;
@@ -202,7 +210,7 @@ std::string PetscSolver::description() const {
   KSPGetPC(d_->ksp, &pc);
   PCGetType(pc, &pt);
   std::string s = std::string(kt ? kt : "?") + " + " + (pt ? pt : "?");
-  if (d_->saddle() && pt && std::string(pt) == PCFIELDSPLIT) s += " (u, p) Schur: boomeramg on u, jacobi on the Schur diagonal";
+  if (d_->saddle() && pt && std::string(pt) == PCFIELDSPLIT) s += " (u, p) Schur: augmented u block, jacobi on the Schur diagonal";
   return s;
 }
 
@@ -304,8 +312,13 @@ void PetscSolver::analyze(const CscMatrix& K) {
     check(PCFieldSplitSetIS(pc, "u", d.is_u), "PCFieldSplitSetIS");
     check(PCFieldSplitSetIS(pc, "p", d.is_p), "PCFieldSplitSetIS");
     check(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "PCFieldSplitSetType");
-    check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER), "PCFieldSplitSetSchurFactType");
-    if (d.al_alpha >= 0.0) {
+    // Full factorization: one more displacement solve per iteration than the upper one, 1.1–1.7× fewer
+    // iterations on Cook's membrane and the tube (BENCHMARKS.md).
+    check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_FULL), "PCFieldSplitSetSchurFactType");
+    // -softhom_schur_selfp: PETSc's sparse selfp operator instead (for -fieldsplit_p_pc_type gamg etc.).
+    PetscBool selfp = PETSC_FALSE;
+    PetscOptionsGetBool(nullptr, nullptr, "-softhom_schur_selfp", &selfp, nullptr);
+    if (d.al_alpha >= 0.0 && !selfp) {
       const PetscInt npl = d.phi - d.plo;
       check(MatCreateAIJ(d.comm, npl, npl, d.np, d.np, 1, nullptr, 0, nullptr, &d.schur_pre), "MatCreateAIJ");
       check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_USER, d.schur_pre), "PCFieldSplitSetSchurPre");
@@ -347,7 +360,7 @@ bool PetscSolver::factorize(const CscMatrix& K) {
     dn.resize(d.np);
     for (PetscInt k = 0; k < d.np; ++k) dn[k] = d.d_norm(int(k));
     AugmentedSplit split;
-    if (d.schur_pre) {
+    if (d.al_alpha >= 0.0) {
       split = augmented_split(K, d.sad_off, d.sad_eq, d.sad_d, d.sad_c, d.al_alpha);
       d.kept = split.kept;
     } else {
