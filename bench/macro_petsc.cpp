@@ -3,6 +3,7 @@
 // CHOLMOD vs PETSc: wall time, Newton and Krylov iterations, peak memory.
 //
 //   bench_macro_petsc --cook                 n = 8, 16, 32 × K/G = 1e2 … 1e5, one load step
+//   bench_macro_petsc --tube-table           helix tube, 1e3 / 4e3 / 1e4 dofs × K/G = 1e2 … 1e5, first load step
 //   bench_macro_petsc --tube DOFS [STEPS]    helix tube, cholmod then petsc (under mpirun: petsc only)
 //   mpirun -n 2 bench_macro_petsc --tube DOFS [STEPS]
 //   [mpirun -n R] bench_macro_petsc --scene FILE [STEPS]   a macro scene with its [solver] settings:
@@ -12,6 +13,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -74,11 +76,28 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+/// A comma-separated list of numbers in the environment variable `name`, or `fallback`.
+std::vector<double> list_from_env(const char* name, std::vector<double> fallback) {
+  const char* env = std::getenv(name);
+  if (!env) return fallback;
+  std::vector<double> out;
+  for (const char* p = env; *p;) {
+    char* end = nullptr;
+    out.push_back(std::strtod(p, &end));
+    if (end == p) break;
+    p = *end == ',' ? end + 1 : end;
+  }
+  return out;
+}
+
+/// K/G of the tables: 1e2 … 1e5, or those listed in BENCH_KG (e.g. "1e2,1e5") for a quick look.
+std::vector<double> ratios() { return list_from_env("BENCH_KG", {1e2, 1e3, 1e4, 1e5}); }
+
 int cook_table(const std::string& options) {
   if (mpi::world_rank() == 0)
     std::printf("%6s %8s %8s %7s %7s %12s %9s\n", "mesh", "K/G", "dofs", "newton", "solves", "krylov/solve", "time[s]");
   for (int n : {8, 16, 32})
-    for (double kg : {1e2, 1e3, 1e4, 1e5}) {
+    for (double kg : ratios()) {
       NewtonOptions o;
       o.solver = SolverKind::petsc;
       o.petsc_options = options;
@@ -95,7 +114,7 @@ int cook_table(const std::string& options) {
   return 0;
 }
 
-macro::StructureSpec helix_tube(double dofs) {
+macro::StructureSpec helix_tube(double dofs, double kg = 2000.0 / 0.017) {
   // bench/macro.cpp's tube: R_i 5, R_o 7.5, L 50, cap 2.5, ecoflex-anisotropic ±45°, cubes of edge h.
   macro::StructureSpec spec;
   spec.kind = macro::StructureKind::tube;
@@ -115,7 +134,7 @@ macro::StructureSpec helix_tube(double dofs) {
   GentHGOParams p;
   p.G = 0.017;
   p.Jm = 14.0;
-  p.K = 2000.0;
+  p.K = kg * p.G;
   const double a = 45.0 * M_PI / 180.0;
   p.fibers = {{Vec3(std::sin(a), std::cos(a), 0.0), 0.8, 18.0}, {Vec3(-std::sin(a), std::cos(a), 0.0), 0.8, 18.0}};
   spec.material = make_material(make_gent_hgo(p));
@@ -133,6 +152,7 @@ int tube_run(double dofs, int steps, const std::string& options) {
     NewtonOptions o;
     o.solver = kind;
     o.petsc_options = options;
+    o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
     const auto t0 = std::chrono::steady_clock::now();
     Simulation sim(s.model, o);
     bool ok = true;
@@ -191,6 +211,34 @@ int scene_run(const std::string& file, int steps) {
   return ok ? 0 : 1;
 }
 
+/// Krylov iterations per Newton step on the helix tube over three meshes (h ratios 1.54, 1.27) and K/G = 1e2 … 1e5:
+/// the first load step of bench_macro's run (pressure 45 of 180), PETSc only. BENCH_DOFS: other sizes.
+int tube_table(const std::string& options) {
+  if (mpi::world_rank() == 0)
+    std::printf("%8s %8s %7s %7s %12s %9s %10s %9s %9s\n", "dofs", "K/G", "newton", "solves", "krylov/solve", "time[s]",
+                "s/newton", "setup[s]", "krylov[s]");
+  for (double target : list_from_env("BENCH_DOFS", {1e3, 4e3, 1e4}))
+    for (double kg : ratios()) {
+      const macro::Structure s = macro::build_structure(helix_tube(target, kg));
+      NewtonOptions o;
+      o.solver = SolverKind::petsc;
+      o.petsc_options = options;
+      o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
+      const auto t0 = std::chrono::steady_clock::now();
+      Simulation sim(s.model, o);
+      const bool ok = sim.advance_to(45.0).reached();
+      const double wall = seconds_since(t0);
+      const RunStats st = sim.stats();
+      if (mpi::world_rank() == 0)
+        std::printf("%8d %8.0e %7d %7d %12.1f %9.2f %10.3f %9.2f %9.2f%s\n", sim.num_free_dofs(), kg,
+                    st.newton_iterations, st.linear.solves, double(st.krylov_iterations) / std::max(1, st.linear.solves),
+                    wall, wall / std::max(1, st.newton_iterations), st.linear.factorization, st.linear.solve,
+                    ok ? "" : "  (failed)");
+      std::fflush(stdout);
+    }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -203,9 +251,10 @@ int main(int argc, char** argv) {
   }
   int rc = 2;
   if (!args.empty() && args[0] == "--cook") rc = cook_table(options);
+  else if (!args.empty() && args[0] == "--tube-table") rc = tube_table(options);
   else if (args.size() >= 2 && args[0] == "--scene") rc = scene_run(args[1], args.size() >= 3 ? std::stoi(args[2]) : 1 << 30);
   else if (args.size() >= 2 && args[0] == "--tube") rc = tube_run(std::stod(args[1]), args.size() >= 3 ? std::stoi(args[2]) : 4, options);
-  else std::fprintf(stderr, "usage: bench_macro_petsc --cook | --tube DOFS [STEPS] | --scene FILE [STEPS] [--options \"...\"]\n");
+  else std::fprintf(stderr, "usage: bench_macro_petsc --cook | --tube-table | --tube DOFS [STEPS] | --scene FILE [STEPS] [--options \"...\"]\n");
   petsc_finalize();
   return rc;
 }

@@ -1,6 +1,7 @@
 // The PETSc linear solver (petsc_solve.hpp): distributed tangent, GMRES + GAMG with the rigid-body
 // near-nullspace, and PETSc's life cycle.
 #include "petsc_solve.hpp"
+#include "petsc_saddle_split.hpp"
 
 #include <petscksp.h>
 
@@ -28,12 +29,27 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 /// Settings of the field split's blocks, inserted before the user's options (which override them):
-/// the displacement block by one V-cycle of BoomerAMG (on Cook's membrane 1.2–2.4× fewer iterations than
-/// GAMG with the rigid-body modes, BENCHMARKS.md), the Schur complement by the inverse of its diagonal
-/// approximation ("selfp": A_pp − A_pu diag(A_uu)⁻¹ A_up, diagonal for element pressures).
+/// the displacement block by one V-cycle of BoomerAMG (on the tube and Cook's membrane 1.2–1.7× fewer
+/// iterations than GAMG with the rigid-body modes and flatter over the mesh, BENCHMARKS.md), the Schur
+/// complement by the inverse of its diagonal approximation (petsc_saddle_split.hpp).
 constexpr const char* kSplitDefaults =
     "-fieldsplit_u_ksp_type preonly -fieldsplit_u_pc_type hypre -fieldsplit_u_pc_hypre_type boomeramg "
     "-fieldsplit_p_ksp_type preonly -fieldsplit_p_pc_type jacobi";
+
+/// Sums the entries of repeated columns of one row (INSERT_VALUES keeps only the last of them): a
+/// degenerate hex (a wedge, two corners on one node, as in the tube's cap core) has its coupling to the
+/// element pressure at two positions of d_k that share one dof.
+void merge_repeated_columns(std::vector<PetscInt>& cols, std::vector<PetscScalar>& vals, std::size_t from = 0) {
+  for (std::size_t i = from; i < cols.size(); ++i)
+    for (std::size_t j = i + 1; j < cols.size();)
+      if (cols[j] == cols[i]) {
+        vals[i] += vals[j];
+        cols.erase(cols.begin() + long(j));
+        vals.erase(vals.begin() + long(j));
+      } else {
+        ++j;
+      }
+}
 
 }  // namespace
 
@@ -63,9 +79,17 @@ void petsc_finalize() {
 //     [ c_k|d_k| d_kᵀ −1 ] [π] = [0]
 // has the same u (π_k = c_k|d_k| d_kᵀu, A u + Σ n_k π_k = K_c u), and the condensed residual is
 // r_u + Σ n_k r_π,k: a small residual of this system is a small residual of K_c u = b (so the tolerance
-// keeps its meaning). Field split (Schur complement, upper factorization): BoomerAMG on A (or GAMG with
-// the rigid-body near-nullspace composed on the split, -fieldsplit_u_pc_type gamg), Jacobi on the Schur approximation A_ππ − A_πu diag(A)⁻¹ A_uπ = −(1 + c_k n_kᵀ
-// diag(A)⁻¹ d_k), the scaled pressure mass 1/G + 1/κ of the element.
+// keeps its meaning). Field split (Schur complement, full factorization): BoomerAMG on the displacement
+// block (or GAMG with the rigid-body near-nullspace composed on the split, -fieldsplit_u_pc_type gamg),
+// Jacobi on a diagonal Schur approximation. With A alone in the displacement block (no volumetric
+// stiffness, -softhom_al_alpha 0) that diagonal, −(1 + c_k d_kᵀ diag(A)⁻¹ d_k) (selfp's diagonal, the
+// scaled pressure mass 1/G + 1/κ), misses the small eigenvalues of the Q1/P0 pair (no uniform inf-sup
+// constant) and the counts grow ~1.4× per mesh refinement. The default keeps a part γ_k of the element's
+// volumetric stiffness in the displacement block (augmented Lagrangian, petsc_saddle_split.hpp): its
+// Schur complement is diagonal up to O(1/γ) whatever the inf-sup constant (with an exact displacement
+// solve 6–10 GMRES iterations on the tube), and α = 10 (a bulk modulus ~ 10 G in the displacement
+// block) is where one AMG V-cycle on that block does best (α = 1, 3, 30, 100 need 1.2–3× more
+// iterations, BENCHMARKS.md).
 struct PetscSolver::Data {
   MPI_Comm comm = MPI_COMM_NULL;  // PETSC_COMM_WORLD once PETSc is up
   int rank = 0, size = 1;
@@ -81,6 +105,11 @@ struct PetscSolver::Data {
   std::vector<PetscInt> first;               // per rank: its first global index (u then π block)
   std::vector<std::vector<std::pair<int, int>>> row_elems;  // owned dof → (element k, position q)
   Mat A = nullptr;
+  // Augmented-Lagrangian split (petsc_saddle_split.hpp): α (-softhom_al_alpha), the diagonal Schur
+  // preconditioning matrix it gives (null: PETSc's selfp), the volumetric stiffness left to the pressures.
+  double al_alpha = 10.0;
+  Mat schur_pre = nullptr;
+  std::vector<double> kept;
   KSP ksp = nullptr;
   Vec b = nullptr, x = nullptr, all = nullptr;
   VecScatter to_all = nullptr;
@@ -159,6 +188,11 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
   PetscReal rtol = 0.0;
   PetscOptionsGetReal(nullptr, nullptr, "-ksp_rtol", &rtol, &set);
   if (set && options.find("-ksp_rtol") != std::string::npos) d.option_rtol = rtol;
+  PetscReal alpha = 0.0;
+  set = PETSC_FALSE;
+  PetscOptionsGetReal(nullptr, nullptr, "-softhom_al_alpha", &alpha, &set);
+  if (set && alpha < 0.0) throw InputError("solver.petsc_options", options, "-softhom_al_alpha must be >= 0");
+  if (set) d.al_alpha = alpha;
 }
 
 PetscSolver::~PetscSolver() {
@@ -170,6 +204,7 @@ PetscSolver::~PetscSolver() {
   if (d.x) VecDestroy(&d.x);
   if (d.ksp) KSPDestroy(&d.ksp);
   if (d.A) MatDestroy(&d.A);
+  if (d.schur_pre) MatDestroy(&d.schur_pre);
   if (d.is_u) ISDestroy(&d.is_u);
   if (d.is_p) ISDestroy(&d.is_p);
 }
@@ -185,7 +220,7 @@ std::string PetscSolver::description() const {
   KSPGetPC(d_->ksp, &pc);
   PCGetType(pc, &pt);
   std::string s = std::string(kt ? kt : "?") + " + " + (pt ? pt : "?");
-  if (d_->saddle() && pt && std::string(pt) == PCFIELDSPLIT) s += " (u, p) Schur: boomeramg on u, jacobi on the Schur diagonal";
+  if (d_->saddle() && pt && std::string(pt) == PCFIELDSPLIT) s += " (u, p) Schur: augmented u block, jacobi on the Schur diagonal";
   return s;
 }
 
@@ -300,8 +335,19 @@ void PetscSolver::create_system() {
     check(PCFieldSplitSetIS(pc, "u", d.is_u), "PCFieldSplitSetIS");
     check(PCFieldSplitSetIS(pc, "p", d.is_p), "PCFieldSplitSetIS");
     check(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "PCFieldSplitSetType");
-    check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_UPPER), "PCFieldSplitSetSchurFactType");
-    check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr), "PCFieldSplitSetSchurPre");
+    // Full factorization: one more displacement solve per iteration than the upper one, 1.1–1.7× fewer
+    // iterations on Cook's membrane and the tube (BENCHMARKS.md).
+    check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_FULL), "PCFieldSplitSetSchurFactType");
+    // -softhom_schur_selfp: PETSc's sparse selfp operator instead (for -fieldsplit_p_pc_type gamg etc.).
+    PetscBool selfp = PETSC_FALSE;
+    PetscOptionsGetBool(nullptr, nullptr, "-softhom_schur_selfp", &selfp, nullptr);
+    if (d.al_alpha >= 0.0 && !selfp) {
+      const PetscInt npl = d.phi - d.plo;
+      check(MatCreateAIJ(d.comm, npl, npl, d.np, d.np, 1, nullptr, 0, nullptr, &d.schur_pre), "MatCreateAIJ");
+      check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_USER, d.schur_pre), "PCFieldSplitSetSchurPre");
+    } else {
+      check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr), "PCFieldSplitSetSchurPre");
+    }
   } else {
     check(MatSetNearNullSpace(d.A, nsp), "MatSetNearNullSpace");
     check(PCSetType(pc, PCGAMG), "PCSetType");
@@ -343,6 +389,19 @@ bool PetscSolver::factorize(const CscMatrix& K) {
     d.a_values = K.values;
     dn.resize(d.np);
     for (PetscInt k = 0; k < d.np; ++k) dn[k] = d.d_norm(int(k));
+    AugmentedSplit split;
+    if (d.al_alpha >= 0.0) {
+      split = augmented_split(K, d.sad_off, d.sad_eq, d.sad_d, d.sad_c, d.al_alpha);
+      d.kept = split.kept;
+    } else {
+      d.kept = d.sad_c;
+    }
+    if (d.schur_pre) {
+      for (PetscInt k = d.plo; k < d.phi; ++k)
+        check(MatSetValue(d.schur_pre, k, k, split.schur_diag[k], INSERT_VALUES), "MatSetValue");
+      check(MatAssemblyBegin(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+      check(MatAssemblyEnd(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+    }
     for (PetscInt g = d.lo; g < d.hi; ++g) {
       const int r = eq[g];
       if (r < 0) continue;
@@ -350,7 +409,7 @@ bool PetscSolver::factorize(const CscMatrix& K) {
         for (int q2 = d.sad_off[k]; q2 < d.sad_off[k + 1]; ++q2) {
           const int c = d.sad_eq[q2];
           if (c < 0) continue;
-          d.a_values[K.find(r, c)] -= d.sad_c[k] * d.sad_d[q] * d.sad_d[q2];
+          d.a_values[K.find(r, c)] -= d.kept[k] * d.sad_d[q] * d.sad_d[q2];
         }
     }
     kv = d.a_values.data();
@@ -368,22 +427,26 @@ bool PetscSolver::factorize(const CscMatrix& K) {
       d.cols.push_back(d.gu(d.dof_of_eq[K.rowind[k]]));
       d.vals.push_back(kv[K.mirror.empty() ? K.find(r, K.rowind[k]) : K.mirror[k]]);
     }
-    if (saddle)
+    if (saddle) {
+      const std::size_t first_p = d.cols.size();
       for (const auto& [k, q] : d.row_elems[g - d.lo]) {
         d.cols.push_back(d.gp(k));
         d.vals.push_back(d.sad_d[q] / dn[k]);
       }
+      merge_repeated_columns(d.cols, d.vals, first_p);
+    }
     check(MatSetValues(d.A, 1, &row, PetscInt(d.cols.size()), d.cols.data(), d.vals.data(), INSERT_VALUES), "MatSetValues");
   }
   for (PetscInt k = d.plo; k < d.phi; ++k) {
     d.cols.clear();
     d.vals.clear();
-    const double w = d.sad_c[k] * dn[k];
+    const double w = d.kept[k] * dn[k];
     for (int q = d.sad_off[k]; q < d.sad_off[k + 1]; ++q)
       if (d.sad_eq[q] >= 0) {
         d.cols.push_back(d.gu(d.dof_of_eq[d.sad_eq[q]]));
         d.vals.push_back(w * d.sad_d[q]);
       }
+    merge_repeated_columns(d.cols, d.vals);
     d.cols.push_back(d.gp(k));
     d.vals.push_back(-1.0);
     const PetscInt row = d.gp(k);

@@ -30,7 +30,8 @@ struct PetscTeardown : ::testing::Environment {
 };
 const auto* const kTeardown = ::testing::AddGlobalTestEnvironment(new PetscTeardown);
 
-// The default preconditioner (field split: GAMG on u, Jacobi on the Schur diagonal) with a tight
+// The default preconditioner (field split: augmented displacement block with BoomerAMG, Jacobi on the
+// Schur diagonal) with a tight
 // tolerance; the scene comparisons below use PETSc's distributed LU (MUMPS) as the preconditioner of
 // the same GMRES, which keeps them fast and tests the distributed system itself (matrix, bordered
 // cavity row, unsymmetric follower tangent, gathering) rather than the multigrid's iteration counts.
@@ -151,14 +152,46 @@ std::vector<double> scene_times(const std::string& name, int steps) {
   return std::vector<double>(ms.times.begin(), ms.times.begin() + std::min<std::size_t>(steps, ms.times.size()));
 }
 
+/// bench_macro_petsc's helix tube: ±45° Gent–HGO fibres, κ/G = kg, capped ends (the cap core's
+/// innermost ring is made of degenerate hexes), follower pressure; about `dofs` free dofs.
+macro::Structure helix_tube(double dofs, double kg) {
+  macro::StructureSpec spec;
+  spec.kind = macro::StructureKind::tube;
+  macro::TubeSpec t;
+  t.inner_radius = 5.0;
+  t.outer_radius = 7.5;
+  t.length = 50.0;
+  t.sweep_deg = 360.0;
+  t.cap_thickness = 2.5;
+  const double h = std::cbrt(3.0 * 2.5 * 2 * M_PI * 6.25 * 50.0 / dofs);
+  t.radial_cells = std::max(1, int(std::lround(2.5 / h)));
+  t.circumferential_cells = std::max(8, int(std::lround(2 * M_PI * 6.25 / h / 4)) * 4);
+  t.axial_cells = std::max(1, int(std::lround(50.0 / h)));
+  t.cap_axial_cells = std::max(1, int(std::lround(2.5 / h)));
+  t.cap_core_cells = std::max(1, int(std::lround(5.0 / h)));
+  spec.tube = t;
+  GentHGOParams p;
+  p.G = 0.017;
+  p.Jm = 14.0;
+  p.K = kg * p.G;
+  const double a = 45.0 * M_PI / 180.0;
+  p.fibers = {{Vec3(std::sin(a), std::cos(a), 0.0), 0.8, 18.0}, {Vec3(-std::sin(a), std::cos(a), 0.0), 0.8, 18.0}};
+  spec.material = make_material(make_gent_hgo(p));
+  spec.fiber_frame = macro::FiberFrame::cylindrical;
+  spec.control = macro::LoadControl::pressure;
+  spec.load = {{0.0, 180.0}, {0.0, 0.004}};
+  return macro::build_structure(spec);
+}
+
 }  // namespace
 
-TEST(PetscMacro, CookMembraneEqualsCholmodAndKrylovCountsStayBounded) {
+TEST(PetscMacro, CookMembraneEqualsCholmodAndKrylovCountsStayFlat) {
   // Krylov iterations per linear solve (= per Newton step here) on two meshes × two K/G at rtol 1e-10.
-  // Measured means (1 rank / 2 ranks): 6×6: 52 / 52 at K/G 1e2, 53 / 53 at 1e4; 12×12: 62 / 66 and
-  // 72 / 75. The bounds: ≤ 1.5× from K/G 1e2 to 1e4 (measured ≤ 1.16; the condensed AMG broke down
-  // at 1e4), ≤ 1.6× from 6×6 to 12×12 (measured ≤ 1.4: not flat, the diagonal Schur approximation of
-  // the Q1/P0 pair degrades with h), and < 100 per solve.
+  // Measured means with the default split (1 rank): 6×6: 43.0 at K/G 1e2, 60.7 at 1e4; 12×12: 48.3 and
+  // 47.7 (mesh ratio 1.12 / 0.79, K/G ratio 1.41 / 0.99). The plain split (diagonal Schur of A alone,
+  // upper factorization) measured 52 / 53 and 62 / 72: mesh ratio 1.19 / 1.36, and it grows further on
+  // finer meshes (BENCHMARKS.md). Bounds: mesh ratio < 1.25 (the plain split fails it at K/G 1e4; 10 %
+  // above the measured worst for the other rank count), K/G ratio < 1.6, fewer than 80 per solve.
   double mean[2][2];
   const int meshes[2] = {6, 12};
   const double ratios[2] = {1e2, 1e4};
@@ -181,13 +214,13 @@ TEST(PetscMacro, CookMembraneEqualsCholmodAndKrylovCountsStayBounded) {
                   << petsc.stats.newton_iterations << " Newton\n";
     }
   for (int a = 0; a < 2; ++a) {
-    EXPECT_LT(mean[a][1], 1.5 * mean[a][0]) << "K/G growth, mesh " << meshes[a];
+    EXPECT_LT(mean[a][1], 1.6 * mean[a][0]) << "K/G growth, mesh " << meshes[a];
     for (int c = 0; c < 2; ++c) {
-      EXPECT_LT(mean[a][c], 100.0);
+      EXPECT_LT(mean[a][c], 80.0);
       EXPECT_GT(mean[a][c], 1.0);  // an iterative solve, not a direct one
     }
   }
-  for (int c = 0; c < 2; ++c) EXPECT_LT(mean[1][c], 1.6 * mean[0][c]) << "mesh growth, K/G " << ratios[c];
+  for (int c = 0; c < 2; ++c) EXPECT_LT(mean[1][c], 1.25 * mean[0][c]) << "mesh growth, K/G " << ratios[c];
 }
 
 TEST(PetscMacro, PlaneStrainTubeUnderVolumeControlEqualsCholmod) {
@@ -251,4 +284,33 @@ TEST(PetscMacro, BalloonThroughItsPressureMaximumEqualsCholmod) {
   EXPECT_LT(b[5 * 7 + 1], 0.99 * p_max) << "the limit point is passed";
   EXPECT_LT(relative_difference(b, a), 1e-6);
   EXPECT_LT(rank_spread(b), 1e-12);
+}
+
+TEST(PetscMacro, HelixTubeWithTheDefaultPreconditionerEqualsCholmod) {
+  // The 3D tube (2118 free dofs, κ/G = 1.2e5, follower pressure, degenerate hexes in the caps) to
+  // pressure 45 of 180 in two steps, with the default field split at rtol 1e-10. Before the pressure
+  // couplings of the degenerate hexes were summed, even an exact LU of the PETSc system gave another
+  // tangent (condensed residual 600 × |b|) and the first step was cut back until the run gave up.
+  const macro::Structure s = helix_tube(1e3, 2000.0 / 0.017);
+  RunResult r[2];
+  for (int k = 0; k < 2; ++k) {
+    NewtonOptions o;
+    o.solver = k == 0 ? SolverKind::cholmod : SolverKind::petsc;
+    o.petsc_options = kTight;
+    o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
+    Simulation sim(s.model, o);
+    r[k].reached = sim.advance_to(22.5).reached() && sim.advance_to(45.0).reached();
+    r[k].u = sim.displacement();
+    r[k].stats = sim.stats();
+  }
+  ASSERT_TRUE(r[0].reached && r[1].reached);
+  EXPECT_LT(relative_difference(r[1].u, r[0].u), 1e-6);
+  EXPECT_LT(rank_spread(r[1].u), 1e-12);
+  const double per_solve = double(r[1].stats.krylov_iterations) / std::max(1, r[1].stats.linear.solves);
+  if (mpi::world_rank() == 0)
+    std::cerr << "helix tube: " << r[1].stats.newton_iterations << " Newton (cholmod " << r[0].stats.newton_iterations
+              << "), " << per_solve << " Krylov per solve\n";
+  // Measured 92 per solve (1 rank); the bound leaves 30 % for the other rank count (BoomerAMG's
+  // coarsening depends on the partition).
+  EXPECT_LT(per_solve, 120.0);
 }

@@ -41,8 +41,8 @@ struct NewtonOptions {
   int initial_substeps = 1;   ///< sub-steps per output interval at the start
   SolverKind solver = SolverKind::automatic;  ///< umfpack: always LU; petsc: Krylov + AMG; otherwise Cholesky first
   /// automatic: PETSc from this many free dofs on — where it beats CHOLMOD. No measured size does yet
-  /// (BENCHMARKS.md "Macro solver on PETSc": its default preconditioner fails on the 3D tube), so auto
-  /// stays with CHOLMOD.
+  /// (BENCHMARKS.md "Macro solver on PETSc": on the 3D tube at 1.6e4 dofs the field split is still
+  /// several times slower per Newton iteration), so auto stays with CHOLMOD.
   int petsc_min_dofs = 2147483647;
   /// Options for PETSc's options database (PetscOptionsInsertString), e.g. "-ksp_type fgmres -pc_type hypre".
   std::string petsc_options;
