@@ -126,6 +126,17 @@ struct PetscSolver::Data {
   bool distributed = false, mixed_rows = false, diagonal_known = false;
   std::vector<PetscInt> urow, prow, owned_dofs;
   std::vector<int> node_owner;
+  // Distributed augmented split: the owned three-field elements of this fill, their distinct free rows
+  // and the sums s of d over each (degenerate hexes repeat a node), finished in end_fill once diag(A)
+  // is assembled.
+  struct PendingElement {
+    PetscInt prow = -1;
+    double c = 0.0, dn = 1.0;
+    int n = 0;
+    std::array<PetscInt, 30> rows{};
+    std::array<double, 30> s{};
+  };
+  std::vector<PendingElement> pending;
 
   bool saddle() const { return mixed_rows || !sad_c.empty() || !sad_off.empty(); }
   PetscInt dof_lo(int r) const { return 3 * (nnodes * r / size); }
@@ -343,7 +354,8 @@ void PetscSolver::create_system() {
     PetscOptionsGetBool(nullptr, nullptr, "-softhom_schur_selfp", &selfp, nullptr);
     if (d.al_alpha >= 0.0 && !selfp) {
       const PetscInt npl = d.phi - d.plo;
-      check(MatCreateAIJ(d.comm, npl, npl, d.np, d.np, 1, nullptr, 0, nullptr, &d.schur_pre), "MatCreateAIJ");
+      check(MatCreateAIJ(d.comm, npl, npl, PETSC_DETERMINE, PETSC_DETERMINE, 1, nullptr, 0, nullptr, &d.schur_pre),
+            "MatCreateAIJ");
       check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_USER, d.schur_pre), "PCFieldSplitSetSchurPre");
     } else {
       check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr), "PCFieldSplitSetSchurPre");
@@ -601,7 +613,10 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
 
 bool PetscSolver::distributed() const { return d_->distributed; }
 
-void PetscSolver::begin_fill() { check(MatZeroEntries(d_->A), "MatZeroEntries"); }
+void PetscSolver::begin_fill() {
+  check(MatZeroEntries(d_->A), "MatZeroEntries");
+  d_->pending.clear();
+}
 
 void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke, const double* dk, double c) {
   Data& d = *d_;
@@ -629,10 +644,74 @@ void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke,
   const PetscInt pr = d.prow[e];
   for (int i = 0; i < nf; ++i) v[i] = dk[pos[i]] / dn;
   check(MatSetValues(d.A, nf, rows.data(), 1, &pr, v.data(), ADD_VALUES), "MatSetValues");
-  for (int i = 0; i < nf; ++i) v[i] = c * dn * dk[pos[i]];
+  // With the augmented split the pressure row carries c̃ = c − γ, and γ needs the assembled diag(A):
+  // zeros now (so the pattern survives the first assembly), the values in end_fill.
+  const bool augmented = d.schur_pre != nullptr;
+  for (int i = 0; i < nf; ++i) v[i] = augmented ? 0.0 : c * dn * dk[pos[i]];
   rows[nf] = pr;
   v[nf] = -1.0;
   check(MatSetValues(d.A, 1, &pr, nf + 1, rows.data(), v.data(), ADD_VALUES), "MatSetValues");
+  if (!augmented) return;
+  Data::PendingElement pe;
+  pe.prow = pr;
+  pe.c = c;
+  pe.dn = dn;
+  for (int i = 0; i < nf; ++i) {
+    int j = 0;
+    while (j < pe.n && pe.rows[j] != rows[i]) ++j;
+    if (j == pe.n) {
+      pe.rows[pe.n] = rows[i];
+      pe.s[pe.n++] = 0.0;
+    }
+    pe.s[j] += dk[pos[i]];
+  }
+  d.pending.push_back(pe);
+}
+
+void PetscSolver::finish_augmented_split() {
+  Data& d = *d_;
+  const std::vector<int>& eq = d.dofs->eq;
+  // diag(A) of the displacement block without volumetric stiffness, on every rank (the elements' rows
+  // may belong to a neighbour), and its mean magnitude over the free rows for the floor, as in
+  // augmented_split (petsc_saddle_split.cpp).
+  Vec diag;
+  check(MatCreateVecs(d.A, nullptr, &diag), "MatCreateVecs");
+  check(MatGetDiagonal(d.A, diag), "MatGetDiagonal");
+  const PetscScalar* dv;
+  check(VecGetArrayRead(diag, &dv), "VecGetArrayRead");
+  double sum = 0.0;
+  for (std::size_t i = 0; i < d.owned_dofs.size(); ++i)
+    if (eq[d.owned_dofs[i]] >= 0) sum += std::abs(dv[i]);
+  check(VecRestoreArrayRead(diag, &dv), "VecRestoreArrayRead");
+  MPI_Allreduce(MPI_IN_PLACE, &sum, 1, MPI_DOUBLE, MPI_SUM, d.comm);
+  const double mean = d.dofs->num_free > 0 ? sum / d.dofs->num_free : 1.0;
+  check(VecScatterBegin(d.to_all, diag, d.all, INSERT_VALUES, SCATTER_FORWARD), "VecScatterBegin");
+  check(VecScatterEnd(d.to_all, diag, d.all, INSERT_VALUES, SCATTER_FORWARD), "VecScatterEnd");
+  VecDestroy(&diag);
+  const PetscScalar* da;
+  check(VecGetArrayRead(d.all, &da), "VecGetArrayRead");
+  PetscInt schur_lo = 0;
+  check(MatGetOwnershipRange(d.schur_pre, &schur_lo, nullptr), "MatGetOwnershipRange");
+  const PetscInt p_first = d.first[d.rank] + d.hi;  // this rank's first pressure row in A
+  std::array<PetscScalar, 30 * 30> v;
+  for (const Data::PendingElement& pe : d.pending) {
+    double x = 0.0;
+    for (int i = 0; i < pe.n; ++i) x += pe.s[i] * pe.s[i] / std::max(std::abs(da[pe.rows[i]]), 1e-3 * mean);
+    const double gamma = x > 0.0 ? std::min(d.al_alpha / x, 0.5 * pe.c) : 0.0;
+    const double kept = pe.c - gamma;
+    for (int i = 0; i < pe.n; ++i)
+      for (int j = 0; j < pe.n; ++j) v[i * pe.n + j] = gamma * pe.s[i] * pe.s[j];
+    check(MatSetValues(d.A, pe.n, pe.rows.data(), pe.n, pe.rows.data(), v.data(), ADD_VALUES), "MatSetValues");
+    for (int i = 0; i < pe.n; ++i) v[i] = kept * pe.dn * pe.s[i];
+    check(MatSetValues(d.A, 1, &pe.prow, pe.n, pe.rows.data(), v.data(), ADD_VALUES), "MatSetValues");
+    const PetscInt k = schur_lo + (pe.prow - p_first);
+    check(MatSetValue(d.schur_pre, k, k, -1.0 - kept * x / (1.0 + gamma * x), INSERT_VALUES), "MatSetValue");
+  }
+  check(VecRestoreArrayRead(d.all, &da), "VecRestoreArrayRead");
+  check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+  check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  check(MatAssemblyBegin(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+  check(MatAssemblyEnd(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
 }
 
 void PetscSolver::add_entry(int row_dof, int col_dof, double v) {
@@ -652,7 +731,10 @@ void PetscSolver::end_fill() {
   add_dirichlet(d.diagonal_known ? d.dirichlet_diagonal : 0.0);
   check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
   check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
-  if (d.diagonal_known) return;
+  if (d.diagonal_known) {
+    if (d.schur_pre) finish_augmented_split();
+    return;
+  }
   // The Dirichlet rows' diagonal: the mean free diagonal of the first tangent (as in factorize).
   Vec diag;
   check(MatCreateVecs(d.A, nullptr, &diag), "MatCreateVecs");
@@ -671,6 +753,7 @@ void PetscSolver::end_fill() {
   add_dirichlet(d.dirichlet_diagonal);
   check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
   check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  if (d.schur_pre) finish_augmented_split();
 }
 
 }  // namespace softhom::fe

@@ -67,7 +67,8 @@ class PetscSolver final : public LinearSolver {
   void begin_fill();
   /// Element e's matrix Ke (3·nn dofs of `nodes`, column-major) on its free dofs. A three-field
   /// element (d = ∂θ_e/∂u, c = V_e U″(θ_e); d null otherwise) enters uncondensed: Ke − c d dᵀ on u, its
-  /// pressure column d/|d| and its row c|d| dᵀ, −1 (the layout of the comment in petsc_solve.cpp).
+  /// pressure column d/|d| and its row c|d| dᵀ, −1 (the layout of the comment in petsc_solve.cpp);
+  /// with the augmented split the part γ of c it keeps on u is added at end_fill.
   void add_element(int e, int nn, const int* nodes, const double* Ke, const double* d, double c);
   /// K(row_dof, col_dof) += v for free mesh dofs, kept only on the rank owning the row (every rank
   /// passes the same entries).
@@ -85,6 +86,8 @@ class PetscSolver final : public LinearSolver {
   std::unique_ptr<Data> d_;
   /// Matrix (with Data::dnz, onz), vectors, near-nullspace and Krylov solver of the layout in Data.
   void create_system();
+  /// The augmented split of the owned three-field elements once diag(A) is assembled (end_fill).
+  void finish_augmented_split();
 };
 
 }  // namespace softhom::fe
