@@ -668,12 +668,9 @@ void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke,
   d.pending.push_back(pe);
 }
 
-void PetscSolver::finish_augmented_split() {
+double PetscSolver::mean_free_diagonal(bool gather) {
   Data& d = *d_;
   const std::vector<int>& eq = d.dofs->eq;
-  // diag(A) of the displacement block without volumetric stiffness, on every rank (the elements' rows
-  // may belong to a neighbour), and its mean magnitude over the free rows for the floor, as in
-  // augmented_split (petsc_saddle_split.cpp).
   Vec diag;
   check(MatCreateVecs(d.A, nullptr, &diag), "MatCreateVecs");
   check(MatGetDiagonal(d.A, diag), "MatGetDiagonal");
@@ -683,11 +680,22 @@ void PetscSolver::finish_augmented_split() {
   for (std::size_t i = 0; i < d.owned_dofs.size(); ++i)
     if (eq[d.owned_dofs[i]] >= 0) sum += std::abs(dv[i]);
   check(VecRestoreArrayRead(diag, &dv), "VecRestoreArrayRead");
-  MPI_Allreduce(MPI_IN_PLACE, &sum, 1, MPI_DOUBLE, MPI_SUM, d.comm);
-  const double mean = d.dofs->num_free > 0 ? sum / d.dofs->num_free : 1.0;
-  check(VecScatterBegin(d.to_all, diag, d.all, INSERT_VALUES, SCATTER_FORWARD), "VecScatterBegin");
-  check(VecScatterEnd(d.to_all, diag, d.all, INSERT_VALUES, SCATTER_FORWARD), "VecScatterEnd");
+  if (gather) {
+    check(VecScatterBegin(d.to_all, diag, d.all, INSERT_VALUES, SCATTER_FORWARD), "VecScatterBegin");
+    check(VecScatterEnd(d.to_all, diag, d.all, INSERT_VALUES, SCATTER_FORWARD), "VecScatterEnd");
+  }
   VecDestroy(&diag);
+  MPI_Allreduce(MPI_IN_PLACE, &sum, 1, MPI_DOUBLE, MPI_SUM, d.comm);
+  const int nfree = d.dofs->num_free;
+  return nfree > 0 && sum > 0.0 ? sum / nfree : 1.0;
+}
+
+void PetscSolver::finish_augmented_split() {
+  Data& d = *d_;
+  // diag(A) of the displacement block without volumetric stiffness, on every rank (the elements' rows
+  // may belong to a neighbour), and its mean magnitude over the free rows for the floor, as in
+  // augmented_split (petsc_saddle_split.cpp).
+  const double mean = mean_free_diagonal(true);
   const PetscScalar* da;
   check(VecGetArrayRead(d.all, &da), "VecGetArrayRead");
   PetscInt schur_lo = 0;
@@ -736,19 +744,7 @@ void PetscSolver::end_fill() {
     return;
   }
   // The Dirichlet rows' diagonal: the mean free diagonal of the first tangent (as in factorize).
-  Vec diag;
-  check(MatCreateVecs(d.A, nullptr, &diag), "MatCreateVecs");
-  check(MatGetDiagonal(d.A, diag), "MatGetDiagonal");
-  const PetscScalar* dv;
-  check(VecGetArrayRead(diag, &dv), "VecGetArrayRead");
-  double sum = 0.0;
-  for (std::size_t i = 0; i < d.owned_dofs.size(); ++i)
-    if (eq[d.owned_dofs[i]] >= 0) sum += std::abs(dv[i]);
-  check(VecRestoreArrayRead(diag, &dv), "VecRestoreArrayRead");
-  VecDestroy(&diag);
-  MPI_Allreduce(MPI_IN_PLACE, &sum, 1, MPI_DOUBLE, MPI_SUM, d.comm);
-  const int nfree = d.dofs->num_free;
-  d.dirichlet_diagonal = nfree > 0 && sum > 0.0 ? sum / nfree : 1.0;
+  d.dirichlet_diagonal = mean_free_diagonal(false);
   d.diagonal_known = true;
   add_dirichlet(d.dirichlet_diagonal);
   check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");

@@ -88,6 +88,9 @@ class PetscSolver final : public LinearSolver {
   void create_system();
   /// The augmented split of the owned three-field elements once diag(A) is assembled (end_fill).
   void finish_augmented_split();
+  /// Mean |diag(A)| over the free mesh dofs of all ranks (collective); with `gather`, the whole
+  /// diagonal is also left on every rank in Data::all.
+  double mean_free_diagonal(bool gather);
 };
 
 }  // namespace softhom::fe
