@@ -53,19 +53,7 @@ void analyze(const std::filesystem::path& scene_file, toml::table scene, double 
   }
   cholmod_common cm;
   cholmod_start(&cm);
-  // The settings of fe::CholmodSolver (fe/src/sparse.cpp): the better of AMD and METIS, coarse
-  // supernode amalgamation.
-  cm.supernodal = CHOLMOD_SUPERNODAL;
-  cm.nmethods = 2;
-  cm.method[0].ordering = CHOLMOD_AMD;
-  cm.method[1].ordering = CHOLMOD_METIS;
-  cm.postorder = 1;
-  const std::size_t nrelax[3] = {16, 64, 192};
-  const double zrelax[3] = {0.9, 0.3, 0.15};
-  for (int k = 0; k < 3; ++k) {
-    cm.nrelax[k] = nrelax[k];
-    cm.zrelax[k] = zrelax[k];
-  }
+  fe::apply_cholmod_settings(cm);  // the direct path's own settings
   cholmod_sparse* A = cholmod_allocate_sparse(K.n, K.n, rows.size(), 1, 1, 1, CHOLMOD_PATTERN, &cm);
   std::copy(colptr.begin(), colptr.end(), static_cast<int*>(A->p));
   std::copy(rows.begin(), rows.end(), static_cast<int*>(A->i));

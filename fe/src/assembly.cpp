@@ -103,7 +103,8 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
     // residuals (R, and in the mixed iteration R_true / R_u with the element's volume shifts), the
     // tangent scattered column by column into K (block: the element's node-pair offsets) and, for a
     // prescribed column, its increment into the predictor's right-hand side (K_fc Δu_c).
-    auto scatter = [&](int e, const auto& nodes, const auto& re, const auto& Kel, const auto* mv, const long* block) {
+    auto scatter = [&](int e, const auto& nodes, const auto& re, const auto& Kel, const auto* mv, const long* block,
+                       double volume) {
       constexpr int NN = int(std::tuple_size_v<std::decay_t<decltype(nodes)>>);
       constexpr int ND = 3 * NN;
       std::array<int, ND> gdof;
@@ -138,9 +139,7 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
         }
       if (distributed_) {
         // Three-field elements enter uncondensed, c = V_e U″(θ) as in saddle_current.
-        const double c = mv ? (mesh.is_tet(e) ? tet_geometry_[e - mesh.num_hexes()].volume : geometry_[e].volume) *
-                                  volumetric_d2U(mix_bulk_[e], mix_theta_[e])
-                            : 0.0;
+        const double c = mv ? volume * volumetric_d2U(mix_bulk_[e], mix_theta_[e]) : 0.0;
         petsc_->add_element(e, NN, nodes.data(), Kel.data(), mv ? mv->d.data() : nullptr, c);
       }
     };
@@ -148,58 +147,48 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
       int expected = -1;
       if (failed.compare_exchange_strong(expected, e)) failed_status = int(st);
     };
+    // One element of either kind: its kernel (hex8_internal_force or tet10_internal_force) from the
+    // committed state, then what it leaves for the iteration (θ_e(u) and ∂θ_e/∂u of a three-field
+    // element) and the scatter. `mv` is the element's fresh mixed-volume record.
+    auto element = [&](int e, const auto& geometry, const auto& nodes, auto kernel, auto& re, auto& Kel, auto& mv,
+                       auto& d_of_element, const long* block) {
+      const int off = state_offset_[e];
+      const bool me = mixed && mix_bulk_[e] > 0.0;
+      if (me) {
+        mv.bulk = mix_bulk_[e];
+        mv.theta = mix_theta_[e];
+        mv.p = mix_p_[e];
+      }
+      const MaterialStatus st = kernel(geometry, gather(u, nodes), *model_.element_material[e],
+                                       off >= 0 ? state_old_.data() + off : nullptr,
+                                       off >= 0 ? state_new_.data() + off : nullptr, dt, model_.formulation, re,
+                                       tangent ? &Kel : nullptr, &sigma, me ? &mv : nullptr);
+      if (st != MaterialStatus::ok) {
+        claim_failure(e, st);
+        return;
+      }
+      if (me) {
+        mix_theta_u_[e] = mv.theta_u;
+        d_of_element = mv.d;
+      }
+      scatter(e, nodes, re, Kel, me ? &mv : nullptr, block, geometry.volume);
+    };
+    const auto hex_kernel = [](auto&&... a) { return hex8_internal_force(a...); };
+    const auto tet_kernel = [](auto&&... a) { return tet10_internal_force(a...); };
     for (const std::vector<int>& color : colors_) {
       // Elements of one colour share no node: plain (non-atomic) updates are race-free.
 #pragma omp for schedule(dynamic, 32)
       for (std::size_t k = 0; k < color.size(); ++k) {
         const int e = color[k];
         if (failed.load(std::memory_order_relaxed) >= 0) continue;
-        const int off = state_offset_[e];
-        const double* state_old = off >= 0 ? state_old_.data() + off : nullptr;
-        double* state_new = off >= 0 ? state_new_.data() + off : nullptr;
-        const bool me = mixed && mix_bulk_[e] > 0.0;
         if (mesh.is_tet(e)) {
           const int t = e - mesh.num_hexes();
-          const Tet10& tet = mesh.tets[t];
           Tet10MixedVolume mv;
-          if (me) {
-            mv.bulk = mix_bulk_[e];
-            mv.theta = mix_theta_[e];
-            mv.p = mix_p_[e];
-          }
-          const MaterialStatus st = tet10_internal_force(tet_geometry_[t], gather(u, tet), *model_.element_material[e],
-                                                         state_old, state_new, dt, model_.formulation, r10,
-                                                         tangent ? &K10 : nullptr, &sigma, me ? &mv : nullptr);
-          if (st != MaterialStatus::ok) {
-            claim_failure(e, st);
-            continue;
-          }
-          if (me) {
-            mix_theta_u_[e] = mv.theta_u;
-            mix_d_tet_[t] = mv.d;
-          }
-          scatter(e, tet, r10, K10, me ? &mv : nullptr, tet_block_[t].data());
-          continue;
+          element(e, tet_geometry_[t], mesh.tets[t], tet_kernel, r10, K10, mv, mix_d_tet_[t], tet_block_[t].data());
+        } else {
+          MixedVolume mv;
+          element(e, geometry_[e], mesh.hexes[e], hex_kernel, r, Ke, mv, mix_d_[e], block_[e].data());
         }
-        const Hex& hex = mesh.hexes[e];
-        MixedVolume mv;
-        if (me) {
-          mv.bulk = mix_bulk_[e];
-          mv.theta = mix_theta_[e];
-          mv.p = mix_p_[e];
-        }
-        const MaterialStatus st = hex8_internal_force(geometry_[e], gather(u, hex), *model_.element_material[e],
-                                                      state_old, state_new, dt, model_.formulation, r,
-                                                      tangent ? &Ke : nullptr, &sigma, me ? &mv : nullptr);
-        if (st != MaterialStatus::ok) {
-          claim_failure(e, st);
-          continue;
-        }
-        if (me) {
-          mix_theta_u_[e] = mv.theta_u;
-          mix_d_[e] = mv.d;
-        }
-        scatter(e, hex, r, Ke, me ? &mv : nullptr, block_[e].data());
       }
     }
   }

@@ -373,14 +373,19 @@ bool PetscSolver::factorize(const CscMatrix& K) {
   if (!d_->A) analyze(K);
   const auto t0 = std::chrono::steady_clock::now();
   Data& d = *d_;
-  if (d.distributed) {  // the matrix is filled by the element loop (add_element .. end_fill)
-    check(KSPSetOperators(d.ksp, d.A, d.A), "KSPSetOperators");
-    check(KSPSetUp(d.ksp), "KSPSetUp");
-    times_.factorization += seconds_since(t0);
-    ++times_.factorizations;
-    times_.factor_nnz = 0.0;
-    return true;
-  }
+  // Distributed: the element loop has filled the matrix (begin_fill .. end_fill).
+  if (!d.distributed) copy_tangent(K);
+  check(KSPSetOperators(d.ksp, d.A, d.A), "KSPSetOperators");
+  // The multigrid hierarchy of this tangent now (its cost is the "factorization" of this solver).
+  check(KSPSetUp(d.ksp), "KSPSetUp");
+  times_.factorization += seconds_since(t0);
+  ++times_.factorizations;
+  times_.factor_nnz = 0.0;
+  return true;
+}
+
+void PetscSolver::copy_tangent(const CscMatrix& K) {
+  Data& d = *d_;
   const std::vector<int>& eq = d.dofs->eq;
   const bool saddle = d.saddle();
   // The Dirichlet rows' diagonal: the mean free diagonal of the first tangent, so the identity rows
@@ -466,13 +471,6 @@ bool PetscSolver::factorize(const CscMatrix& K) {
   }
   check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
   check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
-  check(KSPSetOperators(d.ksp, d.A, d.A), "KSPSetOperators");
-  // The multigrid hierarchy of this tangent now (its cost is the "factorization" of this solver).
-  check(KSPSetUp(d.ksp), "KSPSetUp");
-  times_.factorization += seconds_since(t0);
-  ++times_.factorizations;
-  times_.factor_nnz = 0.0;
-  return true;
 }
 
 void PetscSolver::solve(const std::vector<double>& b, std::vector<double>& x) {

@@ -86,6 +86,9 @@ class PetscSolver final : public LinearSolver {
   std::unique_ptr<Data> d_;
   /// Matrix (with Data::dnz, onz), vectors, near-nullspace and Krylov solver of the layout in Data.
   void create_system();
+  /// The one-process path: the owned rows of the replicated tangent K (uncondensed for three-field
+  /// elements) into the PETSc matrix.
+  void copy_tangent(const CscMatrix& K);
   /// The augmented split of the owned three-field elements once diag(A) is assembled (end_fill).
   void finish_augmented_split();
   /// Mean |diag(A)| over the free mesh dofs of all ranks (collective); with `gather`, the whole

@@ -124,6 +124,28 @@ const char* to_string(SolverKind kind) {
   return "?";
 }
 
+void apply_cholmod_settings(cholmod_common& common) {
+  // Always supernodal LLᵀ: a simplicial LDLᵀ would silently factorize an indefinite tangent
+  // (past a limit point) instead of reporting it, and supernodal is faster on 3D meshes anyway.
+  common.supernodal = CHOLMOD_SUPERNODAL;
+  // Ordering: the smaller fill of AMD and METIS nested dissection. On tube meshes of 1e5 dofs AMD
+  // gives ~9x the flops of METIS (424 vs 48 GFlop per factorization); on small or 2D meshes AMD
+  // may win, and both orderings cost little next to one factorization.
+  common.nmethods = 2;
+  common.method[0].ordering = CHOLMOD_AMD;
+  common.method[1].ordering = CHOLMOD_METIS;
+  common.postorder = 1;
+  // Coarser supernode amalgamation than CHOLMOD's defaults (4/16/48, 0.8/0.1/0.05): fewer, larger
+  // dense blocks for the BLAS. Idle 2-core box, 1e5-dof tube pattern (`bench_macro --factor 1e5`,
+  // best of 2, two runs): 3.74 / 3.47 s with the defaults, 2.29 / 2.47 s with these.
+  const std::size_t nrelax[3] = {16, 64, 192};
+  const double zrelax[3] = {0.9, 0.3, 0.15};
+  for (int k = 0; k < 3; ++k) {
+    common.nrelax[k] = nrelax[k];
+    common.zrelax[k] = zrelax[k];
+  }
+}
+
 namespace {
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -135,27 +157,9 @@ class CholmodSolver final : public LinearSolver {
  public:
   CholmodSolver() {
     cholmod_start(&common_);
-    // Always supernodal LLᵀ: a simplicial LDLᵀ would silently factorize an indefinite tangent
-    // (past a limit point) instead of reporting it, and supernodal is faster on 3D meshes anyway.
-    common_.supernodal = CHOLMOD_SUPERNODAL;
+    apply_cholmod_settings(common_);
     // "Not positive definite" is an expected outcome (the caller falls back to LU and logs it).
     common_.print = 0;
-    // Ordering: the smaller fill of AMD and METIS nested dissection. On tube meshes of 1e5 dofs AMD
-    // gives ~9x the flops of METIS (424 vs 48 GFlop per factorization); on small or 2D meshes AMD
-    // may win, and both orderings cost little next to one factorization.
-    common_.nmethods = 2;
-    common_.method[0].ordering = CHOLMOD_AMD;
-    common_.method[1].ordering = CHOLMOD_METIS;
-    common_.postorder = 1;
-    // Coarser supernode amalgamation than CHOLMOD's defaults (4/16/48, 0.8/0.1/0.05): fewer, larger
-    // dense blocks for the BLAS. Idle 2-core box, 1e5-dof tube pattern (`bench_macro --factor 1e5`,
-    // best of 2, two runs): 3.74 / 3.47 s with the defaults, 2.29 / 2.47 s with these.
-    const std::size_t nrelax[3] = {16, 64, 192};
-    const double zrelax[3] = {0.9, 0.3, 0.15};
-    for (int k = 0; k < 3; ++k) {
-      common_.nrelax[k] = nrelax[k];
-      common_.zrelax[k] = zrelax[k];
-    }
   }
   ~CholmodSolver() override {
     if (factor_) cholmod_free_factor(&factor_, &common_);

@@ -62,6 +62,21 @@ fe::Mesh make_plate(const PlateSpec& s) {
   return mesh;
 }
 
+fe::Mesh make_cook_membrane(int n) {
+  check_cells(n, "geometry.cells");
+  Mesh mesh;
+  add_block(mesh, {n, n, 1}, [](double xi, double eta, double z) {
+    const double yb = 44.0 * xi, yt = 44.0 + 16.0 * xi;  // bottom and top edge at x = 48 xi
+    return Vec3(48.0 * xi, yb + eta * (yt - yb), z);
+  });
+  fe::name_boundary_faces(mesh, [](const Vec3& c, const Vec3& nrm) -> std::string {
+    if (c[0] < 1e-9 && nrm[0] < -0.5) return "clamped";
+    if (c[0] > 48.0 - 1e-9 && nrm[0] > 0.5) return "tip";
+    return "";
+  });
+  return mesh;
+}
+
 fe::Mesh make_tube(const TubeSpec& s) {
   check_positive(s.inner_radius, "geometry.inner_radius");
   if (!(s.outer_radius > s.inner_radius))

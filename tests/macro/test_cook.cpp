@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include "softhom/fe/solver.hpp"
+#include "softhom/macro/geometry.hpp"
 #include "softhom/materials/laws.hpp"
 
 using namespace softhom;
@@ -20,19 +21,8 @@ constexpr double kReference = 7.7;  // u_y at C for E = 250, ν = 0.4999, F = 10
 
 /// Tip deflection u_y(48, 60) per 100 N of total shear, from a load small enough for linearity.
 double cook_tip(int n, Formulation f, int* iterations = nullptr) {
-  Mesh mesh;
+  const Mesh mesh = macro::make_cook_membrane(n);
   auto id = [&](int i, int j, int k) { return i + (n + 1) * (j + (n + 1) * k); };
-  for (int k = 0; k <= 1; ++k)
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) {
-        const double xi = double(i) / n, eta = double(j) / n;
-        const double yb = 44.0 * xi, yt = 44.0 + 16.0 * xi;
-        mesh.nodes.push_back(Vec3(48.0 * xi, yb + eta * (yt - yb), 1.0 * k));
-      }
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i)
-      mesh.hexes.push_back({id(i, j, 0), id(i + 1, j, 0), id(i + 1, j + 1, 0), id(i, j + 1, 0), id(i, j, 1),
-                            id(i + 1, j, 1), id(i + 1, j + 1, 1), id(i, j + 1, 1)});
   FeModel m;
   m.mesh = mesh;
   m.formulation = f;

@@ -15,6 +15,7 @@
 #include "softhom/fe/solver.hpp"
 #include "softhom/io/mpi.hpp"
 #include "softhom/io/scene.hpp"
+#include "softhom/macro/geometry.hpp"
 #include "softhom/macro/scene.hpp"
 #include "softhom/macro/structures.hpp"
 #include "softhom/materials/laws.hpp"
@@ -40,19 +41,8 @@ constexpr const char* kDistributedLu = "-ksp_rtol 1e-10 -pc_type lu -pc_factor_m
 
 /// Cook's membrane (tests/macro/test_cook.cpp) with n × n hex8 in plane strain and K/G = kg.
 FeModel cook(int n, double kg) {
-  Mesh mesh;
+  const Mesh mesh = macro::make_cook_membrane(n);
   auto id = [&](int i, int j, int k) { return i + (n + 1) * (j + (n + 1) * k); };
-  for (int k = 0; k <= 1; ++k)
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) {
-        const double xi = double(i) / n, eta = double(j) / n;
-        const double yb = 44.0 * xi, yt = 44.0 + 16.0 * xi;
-        mesh.nodes.push_back(Vec3(48.0 * xi, yb + eta * (yt - yb), 1.0 * k));
-      }
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i)
-      mesh.hexes.push_back({id(i, j, 0), id(i + 1, j, 0), id(i + 1, j + 1, 0), id(i, j + 1, 0), id(i, j, 1),
-                            id(i + 1, j, 1), id(i + 1, j + 1, 1), id(i, j + 1, 1)});
   FeModel m;
   m.mesh = mesh;
   const double G = 83.3;

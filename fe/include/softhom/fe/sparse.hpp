@@ -8,6 +8,8 @@
 
 #include "softhom/fe/mesh.hpp"
 
+struct cholmod_common_struct;  // CHOLMOD's workspace (cholmod.h)
+
 namespace softhom::fe {
 
 /// Square CSC matrix; row indices sorted within each column.
@@ -80,5 +82,10 @@ class LinearSolver {
 /// CHOLMOD (supernodal LLᵀ of the symmetric part (A + Aᵀ)/2, so a nearly symmetric A gives a
 /// preconditioner; fill-reducing ordering: the better of AMD and METIS) or UMFPACK (general LU).
 std::unique_ptr<LinearSolver> make_linear_solver(SolverKind kind);
+
+/// The CHOLMOD solver's factorization settings (supernodal LLᵀ, the better of AMD and METIS, its
+/// supernode amalgamation) on a started workspace, for tools that run CHOLMOD's analysis on softhom's
+/// patterns themselves.
+void apply_cholmod_settings(cholmod_common_struct& common);
 
 }  // namespace softhom::fe

@@ -39,6 +39,12 @@ struct SphereSpec {
 };
 fe::Mesh make_sphere_octant(const SphereSpec& spec);
 
+/// Cook's membrane: the tapered panel with corners (0, 0), (48, 44), (48, 60), (0, 44), one element
+/// thick (0 ≤ z ≤ 1), n × n × 1 hex8. Node (i, j, k) of the n × n grid
+/// (i along x, j from bottom to top edge, k = 0, 1) has the id i + (n + 1)(j + (n + 1) k), so the tip
+/// corner (48, 60, 0) is node n + (n + 1) n. Surfaces: clamped (x = 0), tip (x = 48).
+fe::Mesh make_cook_membrane(int n);
+
 /// Element centroids (reference).
 std::vector<Vec3> element_centroids(const fe::Mesh& mesh);
 
