@@ -553,7 +553,14 @@ void FieldWriter::close() {
 
 void silence_hdf5_errors() { silence_hdf5(); }
 
-Dataset read_dataset(const std::filesystem::path& file, const std::string& dataset) {
+namespace {
+
+/// Planes [first, first + count) of the first dimension, periodic; null: the whole dataset.
+struct PlaneRange {
+  long first = 0, count = 0;
+};
+
+Dataset read_dataset_impl(const std::filesystem::path& file, const std::string& dataset, const PlaneRange* planes) {
   silence_hdf5();
   std::error_code ec;
   if (!fs::is_regular_file(file, ec)) throw std::runtime_error("read_dataset: no such file '" + file.string() + "'");
@@ -599,11 +606,45 @@ Dataset read_dataset(const std::filesystem::path& file, const std::string& datas
   };
   hsize_t attr_index = 0;
   H5Aiterate2(d.get(), H5_INDEX_NAME, H5_ITER_NATIVE, &attr_index, read_attr, &out.attributes);
-  out.values.resize(static_cast<std::size_t>(n));
-  // HDF5 converts any integer or float type to native double on read.
-  if (n > 0 && H5Dread(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.values.data()) < 0)
-    hdf5_fail(what);
+  if (!planes) {
+    out.values.resize(static_cast<std::size_t>(n));
+    // HDF5 converts any integer or float type to native double on read.
+    if (n > 0 && H5Dread(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.values.data()) < 0)
+      hdf5_fail(what);
+    return out;
+  }
+  if (planes->count == 0) return out;  // dims, type and attributes only
+  if (rank < 1 || planes->count < 0) throw std::runtime_error(what + ": planes need a dataset of rank >= 1");
+  const long n0 = long(dims[0]);
+  const std::size_t per_plane = n0 > 0 ? std::size_t(n) / std::size_t(n0) : 0;
+  out.values.resize(per_plane * std::size_t(planes->count));
+  if (per_plane == 0) return out;
+  // One hyperslab per run of consecutive planes (a periodic range wraps at most a few times).
+  std::vector<hsize_t> start(dims.size(), 0), count(dims);
+  double* to = out.values.data();
+  for (long k = planes->first; k < planes->first + planes->count;) {
+    const long p0 = ((k % n0) + n0) % n0;
+    const long run = std::min(n0 - p0, planes->first + planes->count - k);
+    start[0] = hsize_t(p0);
+    count[0] = hsize_t(run);
+    if (H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr) < 0) hdf5_fail(what);
+    Handle memory = checked(H5Screate_simple(rank, count.data(), nullptr), H5Sclose, what);
+    if (H5Dread(d.get(), H5T_NATIVE_DOUBLE, memory.get(), space.get(), H5P_DEFAULT, to) < 0) hdf5_fail(what);
+    to += per_plane * std::size_t(run);
+    k += run;
+  }
   return out;
+}
+
+}  // namespace
+
+Dataset read_dataset(const std::filesystem::path& file, const std::string& dataset) {
+  return read_dataset_impl(file, dataset, nullptr);
+}
+
+Dataset read_dataset_planes(const std::filesystem::path& file, const std::string& dataset, long first, long count) {
+  const PlaneRange planes{first, count};
+  return read_dataset_impl(file, dataset, &planes);
 }
 
 }  // namespace softhom::io

@@ -7,6 +7,7 @@
 
 #include "softhom/io/fields.hpp"
 #include "softhom/io/keys.hpp"
+#include "softhom/io/mpi.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/library.hpp"
 #include "softhom/materials/scene_keys.hpp"
@@ -22,10 +23,13 @@ std::string dims_string(const std::vector<std::size_t>& d) {
   return s + "]";
 }
 
+/// Voxel v of the image's arrays (a slab image's: counted from its first held plane) in whole-grid indices.
 std::string voxel_string(const rve::PhaseImage& im, std::size_t v) {
   const std::size_t n1 = std::size_t(im.n[0]), n2 = std::size_t(im.n[1]);
+  long i3 = long(v / (n1 * n2));
+  if (im.is_slab()) i3 = ((i3 + im.plane_begin - im.halo) % im.n[2] + im.n[2]) % im.n[2];
   return "voxel (i1, i2, i3) = (" + std::to_string(v % n1) + ", " + std::to_string((v / n1) % n2) + ", " +
-         std::to_string(v / (n1 * n2)) + ")";
+         std::to_string(i3) + ")";
 }
 
 /// A number or a list of three positive numbers (x, y, z order) → 3 values; `field` names errors.
@@ -53,17 +57,28 @@ io::Dataset read_image_dataset(const std::filesystem::path& file, const std::str
   }
 }
 
+/// The planes of `dataset` an image holds: all of them, or a slab image's own planes and halo.
+io::Dataset read_held_planes(const std::filesystem::path& file, const std::string& name, const std::string& field,
+                             const rve::PhaseImage& im) {
+  if (!im.is_slab()) return read_image_dataset(file, name, field);
+  try {
+    return io::read_dataset_planes(file, name, long(im.plane_begin) - im.halo, long(im.plane_count) + 2L * im.halo);
+  } catch (const std::runtime_error& e) {
+    throw InputError(field, name, e.what());
+  }
+}
+
 /// Reads a per-voxel vector dataset (dims = image dims + [3]) into unit vectors, zero vectors kept where
 /// `zero_ok(v)`; `what` names the vectors in messages. Throws InputError on `field`.
 std::vector<Eigen::Vector3d> read_vector_field(const std::filesystem::path& file, const std::string& name,
                                                const std::string& field, const std::vector<std::size_t>& image_dims,
                                                const rve::PhaseImage& im, const std::function<bool(std::size_t)>& zero_ok,
                                                const std::string& where_required) {
-  const io::Dataset d = read_image_dataset(file, name, field);
+  const io::Dataset d = read_held_planes(file, name, field, im);
   std::vector<std::size_t> want = image_dims;
   want.push_back(3);
   if (d.dims != want) throw InputError(field, name + " " + dims_string(d.dims), "expected dims " + dims_string(want) + " (image dims + 3 components)");
-  std::vector<Eigen::Vector3d> out(im.voxels());
+  std::vector<Eigen::Vector3d> out(im.held_voxels());
   bool any_nonzero = false;
   for (std::size_t v = 0; v < out.size(); ++v) {
     const Eigen::Vector3d a(d.values[3 * v], d.values[3 * v + 1], d.values[3 * v + 2]);
@@ -72,7 +87,7 @@ std::vector<Eigen::Vector3d> read_vector_field(const std::filesystem::path& file
     any_nonzero |= len > 0.0;
     if (len > 0.0) out[v] = a / len;
     else if (zero_ok(v)) out[v].setZero();
-    else if (!any_nonzero && std::all_of(d.values.begin(), d.values.end(), [](double x) { return x == 0.0; }))
+    else if (!any_nonzero && !im.is_slab() && std::all_of(d.values.begin(), d.values.end(), [](double x) { return x == 0.0; }))
       throw InputError(field, name, "every vector is zero (they are required " + where_required + ")");
     else throw InputError(field, name, "zero vector at " + voxel_string(im, v) + " (fiber fraction " + format_number(im.fiber_fraction[v]) + "; required " + where_required + ")");
   }
@@ -222,7 +237,7 @@ const io::KeyTable<ImageKeys>& image_keys() {
 
 }  // namespace
 
-rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p, std::string& geometry_note) {
+rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p, std::string& geometry_note, bool distributed) {
   ImageKeys keys;
   image_keys().read(img, p, keys);
   std::filesystem::path file = keys.file;
@@ -233,7 +248,13 @@ rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p,
   std::error_code ec;
   if (!std::filesystem::is_regular_file(file, ec)) throw InputError(p + ".file", file.string(), "no such file");
   const std::string& dataset = keys.dataset;
-  const io::Dataset d = read_image_dataset(file, dataset, p + ".dataset");
+  // Dims, type and attributes first: a distributed 3D cell then reads only its slab's planes.
+  io::Dataset d;
+  try {
+    d = io::read_dataset_planes(file, dataset, 0, 0);
+  } catch (const std::runtime_error& e) {
+    throw InputError(p + ".dataset", dataset, e.what());
+  }
 
   rve::PhaseImage im;
   // C order: [n3][n2][n1] or [n2][n1] → i1 fastest, as in PhaseImage.
@@ -243,6 +264,13 @@ rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p,
   if (d.dims.size() == 2) im.n = {int(d.dims[1]), int(d.dims[0]), 1};
   else if (d.dims.size() == 3) im.n = {int(d.dims[2]), int(d.dims[1]), int(d.dims[0])};
   else throw InputError(p + ".dataset", dataset + " " + dims_string(d.dims), "must be 2D [n2][n1] (a section) or 3D [n3][n2][n1]");
+  if (const std::optional<rve::SlabPlanes> planes = distributed && im.n[2] > 1 ? rve::distributed_planes(im.n) : std::nullopt) {
+    im.slab = true;
+    im.plane_begin = planes->begin;
+    im.plane_count = planes->count;
+    im.halo = planes->count > 0 ? rve::kSlabImageHalo : 0;  // a rank without planes holds none
+  }
+  d.values = read_held_planes(file, dataset, p + ".dataset", im).values;
 
   // Integer datasets hold phase ids; floating-point datasets hold fiber volume fractions in [0, 1].
   im.fiber_fraction.resize(d.values.size());
@@ -322,14 +350,23 @@ void check_fiber_count(const rve::FiberCellSpec& spec, const std::vector<int>& n
                          std::to_string(int(spec.volume_fraction * n[0] * n[1] / kMinPixelsPerFiber)) + " fibers)");
 }
 
+/// The fiber fraction of the whole cell: a slab image's owned sums added over the ranks.
+double cell_volume_fraction(const rve::PhaseImage& im) {
+  if (!im.is_slab() || !mpi::active()) return im.volume_fraction();
+  double sum = im.owned_fiber_sum();
+  MPI_Allreduce(MPI_IN_PLACE, &sum, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  return sum / double(im.voxels());
+}
+
 /// The phase image (grid frame) of [microstructure]; `target_vf` is the requested fraction. `distributed`:
-/// a generated 3D cell is voxelized as this rank's slab image only (rve::distributed_planes()).
+/// a 3D cell is held as this rank's slab image only (rve::distributed_planes()): a generated one is
+/// voxelized per slab, an imported one read per slab.
 rve::PhaseImage phase_image_of(const toml::table& t, const MicroKeys& m, bool grid_given, double& target_vf,
                                std::string& geometry_note, bool distributed = false) {
   const std::string p = "microstructure";
   const std::vector<int>& n = m.grid;
   if (m.image) {
-    rve::PhaseImage im = import_phase_image(*m.image->as_table(), p + ".image", geometry_note);
+    rve::PhaseImage im = import_phase_image(*m.image->as_table(), p + ".image", geometry_note, distributed);
     // An explicit grid must agree with the image (it is otherwise taken from the image).
     if (grid_given) {
       const std::array<int, 3> g{n[0], n[1], n.size() == 3 ? n[2] : 1};
@@ -338,7 +375,7 @@ rve::PhaseImage phase_image_of(const toml::table& t, const MicroKeys& m, bool gr
                          "contradicts the image grid [" + std::to_string(im.n[0]) + ", " + std::to_string(im.n[1]) + ", " +
                              std::to_string(im.n[2]) + "] (omit grid with an image)");
     }
-    target_vf = im.volume_fraction();
+    target_vf = cell_volume_fraction(im);
     return im;
   }
   const rve::FiberCellSpec spec = cell_spec(m.cell);
@@ -582,7 +619,7 @@ RveSceneSetup parse_rve_scene(const toml::table& scene, bool with_load, const st
   // material frames, so phases with fiber families of their own would silently ignore them.
   if (!s.image.fiber_direction.empty() && (!s.matrix->fiber_directions().empty() || !s.fiber->fiber_directions().empty()))
     throw InputError("microstructure.image.direction_dataset", "", "per-voxel fiber directions need isotropic phases (a phase has fiber families)");
-  if (distributed) s.image = rve::rank_image(std::move(s.image));  // an imported image: read whole, kept as a slab
+  if (distributed) s.image = rve::rank_image(std::move(s.image));  // a section image: extruded whole, kept as a slab
   s.fiber_angle_deg = m.fiber_angle_deg;
   if (with_load) s.control = parse_rve_load(scene);
   s.output = parse_rve_output(scene, with_load ? &s.control : nullptr);

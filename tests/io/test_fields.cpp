@@ -2,6 +2,7 @@
 // unfinished writer leaves nothing behind.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -101,6 +102,23 @@ TEST(FieldWriter, VoxelGridTwoStepsRoundTrip) {
   EXPECT_EQ(d.dims, (std::vector<std::size_t>{3, 4, 5, 3}));  // node dims = cells + 1
   EXPECT_EQ(d.values, u);
   EXPECT_EQ(io::read_dataset(h5, "/step_1/energy").values, energy);
+
+  // Planes of the slowest dimension, taken periodically: what one rank of a distributed cell reads.
+  // Rows of s0 are planes of 3·4·9 values; [-1, 3) of 2 planes is planes 1, 0, 1, 0 (wrapped twice).
+  const std::size_t plane = 3 * 4 * 9;
+  const auto wrapped = io::read_dataset_planes(h5, "/step_0/stress", -1, 4);
+  EXPECT_EQ(wrapped.dims, s0.dims);  // the whole dataset's dims
+  ASSERT_EQ(wrapped.values.size(), 4 * plane);
+  for (std::size_t k = 0; k < 4; ++k) {
+    const std::size_t from = (k % 2 == 0 ? 1 : 0) * plane;
+    EXPECT_TRUE(std::equal(stress0.begin() + std::ptrdiff_t(from), stress0.begin() + std::ptrdiff_t(from + plane),
+                           wrapped.values.begin() + std::ptrdiff_t(k * plane))) << "plane " << k;
+  }
+  EXPECT_EQ(io::read_dataset_planes(h5, "/step_0/stress", 1, 1).values,
+            std::vector<double>(stress0.begin() + std::ptrdiff_t(plane), stress0.end()));
+  const auto header = io::read_dataset_planes(h5, "/step_0/phase", 0, 0);  // dims and type only
+  EXPECT_EQ(header.dims, p.dims);
+  EXPECT_TRUE(header.values.empty());
 
   const std::string x = slurp(tmp.path / "fields.xdmf");
   EXPECT_NE(x.find(R"(GridType="Collection" CollectionType="Temporal")"), std::string::npos) << x;

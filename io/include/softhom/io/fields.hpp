@@ -85,6 +85,11 @@ struct Dataset {
 /// Throws std::runtime_error naming the file and dataset when the file is missing, not HDF5, has no
 /// such dataset, or the dataset is not numeric.
 Dataset read_dataset(const std::filesystem::path& file, const std::string& dataset);
+/// The same for the planes [first, first + count) of the first (slowest) dimension only, taken
+/// periodically (first may be negative, and a plane is read twice when count exceeds dims[0]): `values`
+/// holds those planes in that order, `dims` the whole dataset's. count = 0 reads dims, type and
+/// attributes only. What one rank of a distributed cell reads of an image: O(voxels / ranks).
+Dataset read_dataset_planes(const std::filesystem::path& file, const std::string& dataset, long first, long count);
 
 /// One dataset of a voxel image: `components` (1 or 3) values per voxel, x fastest; stored as uint8
 /// when `as_uint8` (values must be integers in [0, 255]), else as float64.

@@ -40,8 +40,11 @@ double microstructure_fiber_angle(const toml::table& microstructure);
 /// fiber fractions in [0, 1]), normal_dataset (optional interface normals, dims + [3]),
 /// direction_dataset (optional per-voxel fiber direction, grid frame, dims + [3], non-zero in fiber),
 /// voxel_size or cell_size (number or [x, y, z]; default: the dataset's attributes of those names, else
-/// cubic voxels with L1 = 1). Every problem is an InputError naming the key.
-rve::PhaseImage import_phase_image(const toml::table& image, const std::string& p, std::string& geometry_note);
+/// cubic voxels with L1 = 1). Every problem is an InputError naming the key. `distributed` (collective):
+/// a 3D image is read and held as this rank's slab image (rve/slab_image.hpp), only its planes and halo
+/// read from the file (io::read_dataset_planes), when MPI runs more than one rank.
+rve::PhaseImage import_phase_image(const toml::table& image, const std::string& p, std::string& geometry_note,
+                                   bool distributed = false);
 
 /// The per-user cache directory ${XDG_CACHE_HOME:-$HOME/.cache}/softhom.
 std::filesystem::path user_cache_dir();
