@@ -184,6 +184,7 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   summary["krylov_operator"] = rve::to_string(solver_options.krylov_operator);
   summary["tangent_precision"] = rve::to_string(solver_options.tangent_precision);
   summary["preconditioner"] = rve::to_string(solver_options.preconditioner);
+  summary["volumetric"] = rve::to_string(solver_options.volumetric);
   summary["indefinite_solver"] = solver_options.indefinite_solver == rve::IndefiniteSolver::minres ? "minres" : "shift";
   summary["tolerance"] = solver_options.tolerance;
   summary["fft"] = solver.fft_description();

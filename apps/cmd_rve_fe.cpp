@@ -282,6 +282,7 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   summary["krylov_operator"] = nullptr;  // FFT-engine keys: same summary contract
   summary["tangent_precision"] = nullptr;
   summary["preconditioner"] = nullptr;
+  summary["volumetric"] = nullptr;
   summary["solver_memory_by_array"] = nullptr;  // FFT engine only
   summary["solver_bytes_per_voxel"] = nullptr;
   summary["phase_image_bytes_per_rank"] = nullptr;  // FFT engine only (its voxel image)

@@ -23,7 +23,7 @@
 //                                  as bench_rve_fe) on n² sections (2) or n³ cells (3, the section extruded),
 //                                  error against the FE reference and against each discretization's own
 //                                  Richardson extrapolation; cheapest setting reaching 1 % and 0.1 %
-//   bench_rve freefiber [n ...] [case=0..5 ...] [fe=D ...] [disc=D] [kg=K/G] [binary] [plain] [homogeneous]
+//   bench_rve freefiber [n ...] [case=0..5 ...] [fe=D ...] [disc=D] [kg=K/G] [binary] [plain] [homogeneous] [fbar]
 //                       [minres_below=X] [fe_p0] [reference=geometric]
 //                                  glass fiber in a Gent matrix along / across the fiber with the fiber
 //                                  stretch free (BENCHMARKS.md "FFT solver cost"); fe=D: the FE engine on
@@ -188,6 +188,7 @@ int main(int argc, char** argv) {
     double minres_below = -1.0;
     double matrix_kg = 1.2e5;  // "kg=X": matrix K/G
     bool plain = false;        // "plain": FFT without the mixed (u, p) iteration
+    bool fbar = false;         // "fbar": hex with [solver] volumetric = "mean-dilatation"
     bool fe_p0 = false;        // "fe_p0": FE with the P2/P0 pressure space instead of P2+bubble/P1  // "minres_below=X": FftSolverOptions::minres_below (default: the solver's)  // "binary": voxels rounded to one phase (no composite voxels / laminate rule)
     sizes.clear();
     for (int i = 2; i < argc; ++i) {
@@ -205,6 +206,8 @@ int main(int argc, char** argv) {
         homogeneous = true;
       else if (std::strcmp(argv[i], "plain") == 0)
         plain = true;
+      else if (std::strcmp(argv[i], "fbar") == 0)
+        fbar = true;
       else if (std::strcmp(argv[i], "fe_p0") == 0)
         fe_p0 = true;
       else if (std::strncmp(argv[i], "kg=", 3) == 0)
@@ -273,6 +276,10 @@ int main(int argc, char** argv) {
         if (geometric) o.reference = ReferenceMedium::geometric;
         o.discretization = disc;
         if (plain) o.mixed_pressure = false;
+        if (fbar) {
+          o.discretization = fft::Discretization::hex;
+          o.volumetric = VolumetricKinematics::mean_dilatation;
+        }
         PhaseImage image = circle_cell(n);
         if (binary)
           for (std::size_t v = 0; v < image.voxels(); ++v) {

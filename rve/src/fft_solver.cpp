@@ -21,6 +21,7 @@
 #include "softhom/materials/errors.hpp"
 #include "diagnostics.hpp"
 #include "fft_distribution.hpp"
+#include "fft_mean_dilatation.hpp"
 #include "fft_preconditioner.hpp"
 #include "fft_storage.hpp"
 #include "laminate.hpp"
@@ -38,6 +39,9 @@ const char* to_string(ReferenceMedium r) {
 const char* to_string(KrylovOperator k) { return k == KrylovOperator::stencil ? "stencil" : "fourier"; }
 const char* to_string(TangentPrecision t) { return t == TangentPrecision::single_precision ? "single" : "double"; }
 const char* to_string(Preconditioner p) { return p == Preconditioner::jacobi_green ? "jacobi-green" : "green"; }
+const char* to_string(VolumetricKinematics v) {
+  return v == VolumetricKinematics::mean_dilatation ? "mean-dilatation" : "pointwise";
+}
 
 Mat3 grid_rotation(double fiber_angle_deg) {
   const double a = fiber_angle_deg * 3.14159265358979323846 / 180.0;
@@ -183,6 +187,10 @@ struct FftRveSolver::Impl {
   double krylov_seconds = 0.0;      // time in the linear solves (operator, preconditioner, vector ops)
   KVec cg_r, cg_z, cg_p, cg_Ap;     // CG work vectors, kept between solves (no allocation per solve)
   std::vector<float> jacobi_s;      // Preconditioner::jacobi_green: the real-space scaling S (3 per node)
+  // VolumetricKinematics::mean_dilatation: points evaluated at F̄_q, `tangent` holds K_q, the voxel
+  // coupling of the Newton operator lives here (fft_mean_dilatation.hpp).
+  bool mean_dilatation = false;
+  detail::MeanDilatationCoupling md_coupling;
   // Mixed (pressure) Newton iteration for nearly incompressible phases (see pressure_correction()).
   bool mixed[2] = {false, false};
   double K_vol[2] = {0.0, 0.0};
@@ -255,11 +263,12 @@ struct FftRveSolver::Impl {
     mu_ref = 0.5 * (G0 + G1);
     lambda_ref = 0.5 * ((K0 - 2.0 / 3.0 * G0) + (K1 - 2.0 / 3.0 * G1));
 
+    mean_dilatation = check_mean_dilatation(opt, op);
     for (int x = 0; x < 2; ++x) {
       K_vol[x] = mat[x]->volumetric_modulus();
       const double G = mat[x]->initial_shear_modulus();
       mixed[x] = opt.scheme == FftScheme::newton_cg && opt.mixed_pressure && K_vol[x] > 0.0 &&
-                 K_vol[x] >= opt.mixed_pressure_ratio * G;
+                 K_vol[x] >= opt.mixed_pressure_ratio * G && !mean_dilatation;
       mixed_active = mixed_active || mixed[x];
     }
     // Refuse a grid that cannot fit before anything of its size is allocated.
@@ -345,6 +354,7 @@ struct FftRveSolver::Impl {
         tangent.assign(45 * (stencil ? (NP + 7) / 8 * 8 : NP), 0.0);
       }
     }
+    if (mean_dilatation) md_coupling.resize(N, nq);
     u.assign(3 * NM, 0.0);
     u_committed = u;
     if (opt.scheme == FftScheme::newton_cg) {
@@ -352,6 +362,19 @@ struct FftRveSolver::Impl {
       for (KVec* v : {&cg_r, &cg_z, &cg_p}) v->u.assign(3 * NM, 0.0);
       if (!stencil) cg_Ap.u.assign(3 * NM, 0.0);
     }
+  }
+
+  /// VolumetricKinematics::mean_dilatation needs several points per voxel (hex) and the stencil
+  /// operator of the Newton–CG scheme (its batches hold whole voxels, where the voxel coupling is added).
+  static bool check_mean_dilatation(const FftSolverOptions& o, const fft::GradientOperator& op) {
+    if (o.volumetric != VolumetricKinematics::mean_dilatation) return false;
+    const char* v = to_string(o.volumetric);
+    if (o.discretization != fft::Discretization::hex)
+      throw InputError("solver.volumetric", v, "needs discretization = \"hex\" (got \"" + std::string(fft::to_string(o.discretization)) + "\")");
+    if (o.scheme != FftScheme::newton_cg) throw InputError("solver.volumetric", v, "needs scheme = \"newton-cg\"");
+    if (o.krylov_operator != KrylovOperator::stencil || !fft::StencilGradient::supported(op))
+      throw InputError("solver.volumetric", v, "needs krylov_operator = \"stencil\" (and a grid with n1, n2 > 1)");
+    return true;
   }
 
   /// "[n1, n2]" (sections) or "[n1, n2, n3]", as the scene writes the grid.
@@ -379,6 +402,7 @@ struct FftRveSolver::Impl {
     s.laminate_values = lam_a.size();
     s.composite_voxels = comp_normal.size();
     s.mixed_points = p_trial.size();
+    s.mean_dilatation_values = md_coupling.memory_bytes() / sizeof(double);
     s.spectral_vectors = spectral_vectors();
     return s;
   }
@@ -409,6 +433,7 @@ struct FftRveSolver::Impl {
     s.jacobi_values = with_stencil && opt.preconditioner == Preconditioner::jacobi_green ? 3 * N : 0;
     s.history_values = NP * std::size_t(state_size[0] + state_size[1]);
     s.mixed_points = mixed_active ? NP : 0;
+    s.mean_dilatation_values = opt.volumetric == VolumetricKinematics::mean_dilatation ? 18 * NP + N : 0;
     s.spectral_vectors = !newton ? 4 : 4 + 3 + (with_stencil ? 0 : 1);
     return s;
   }
@@ -513,18 +538,27 @@ struct FftRveSolver::Impl {
       Mat3 Px[2], Fx[2];
       Mat9 A_point;
       const int ncol = op.columns();
+      detail::MeanDilatationVoxel md;
+      std::unique_ptr<detail::MeanDilatationResponse> md_out;
+      if (mean_dilatation) md_out = std::make_unique<detail::MeanDilatationResponse>();
 #pragma omp for schedule(static)
       for (std::size_t v = 0; v < N; ++v) {
         int seen;
 #pragma omp atomic read
         seen = failure;
         if (seen) continue;
+        if (mean_dilatation && !prepare_mean_dilatation(v, Fbar_grid, md)) {
+#pragma omp atomic write
+          failure = int(MaterialStatus::inverted);
+          continue;
+        }
         for (int q = 0; q < nq; ++q) {
           const std::size_t p = v * nq + q;
           double* base = fft->real(9 * q) + v;
           Mat3 F;
           for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) F(i, j) = Fbar_grid(i, j) + (j < ncol ? base[std::size_t(3 * i + j) * N] : 0.0);
+          if (mean_dilatation) F = md.modified(q);
           Mat3 P;
           Mat9* A = with_tangent ? &A_point : nullptr;
           MaterialStatus s;
@@ -586,6 +620,12 @@ struct FftRveSolver::Impl {
             failure = code;
             break;
           }
+          if (mean_dilatation) {  // the voxel's stresses and tangents follow from all its points (below)
+            md_out->P[q] = P;
+            if (A) md_out->K[q] = *A;
+            ++md.evaluated;
+            continue;
+          }
           for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) base[std::size_t(3 * i + j) * N] = P(i, j);
           local.P += w * flatten(P);
@@ -594,6 +634,7 @@ struct FftRveSolver::Impl {
             store_tangent(p, *A);
           }
         }
+        if (mean_dilatation && md.evaluated == nq) finish_mean_dilatation(v, md, *md_out, with_tangent, local);
       }
 #pragma omp critical
       total.add(local);
@@ -605,6 +646,42 @@ struct FftRveSolver::Impl {
       if (!failure) detail::reduce_pass_sums(sums, *dist);
     }
     return MaterialStatus(failure);
+  }
+
+  /// F_q = F̄ + ∇ũ_q of voxel v (gradient in fft->real) into `md`, and its J̄, α_q; false if inverted.
+  bool prepare_mean_dilatation(std::size_t v, const Mat3& Fbar_grid, detail::MeanDilatationVoxel& md) const {
+    const int ncol = op.columns();
+    double w[8];
+    for (int q = 0; q < nq; ++q) {
+      const double* base = fft->real(9 * q) + v;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) md.F[q](i, j) = Fbar_grid(i, j) + (j < ncol ? base[std::size_t(3 * i + j) * N] : 0.0);
+      w[q] = op.quadrature()[q].weight;
+    }
+    return md.prepare(nq, w);
+  }
+  /// The laws' P̄_q, A_q (in out.P, out.K) at F̄_q of voxel v → the stresses of the discrete energy
+  /// into the real buffer, K_q into the tangent store and the voxel coupling (fft_mean_dilatation.hpp).
+  void finish_mean_dilatation(std::size_t v, const detail::MeanDilatationVoxel& md, detail::MeanDilatationResponse& out,
+                              bool with_tangent, PassSums& local) {
+    Mat3 Pbar[8];
+    Mat9 Abar[8];
+    for (int q = 0; q < nq; ++q) {
+      Pbar[q] = out.P[q];
+      if (with_tangent) Abar[q] = out.K[q];
+    }
+    detail::mean_dilatation_response(md, Pbar, with_tangent ? Abar : nullptr, out);
+    const double invN = 1.0 / double(Ntot);
+    for (int q = 0; q < nq; ++q) {
+      double* base = fft->real(9 * q) + v;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) base[std::size_t(3 * i + j) * N] = out.P[q](i, j);
+      local.P += md.w[q] * invN * flatten(out.P[q]);
+      if (with_tangent) store_tangent(v * nq + q, out.K[q]);
+    }
+    if (!with_tangent) return;
+    local.A += invN * out.voxel_tangent;
+    md_coupling.store(v, out);
   }
 
   /// ∇ũ into the real buffer. Stencil operator: block (q, i) by block through fft3 (fft has no spectrum).
@@ -815,6 +892,7 @@ struct FftRveSolver::Impl {
           fft::symmetric_product_batch(Tf + 45 * p0, dF, dP);
         else
           fft::symmetric_product_batch(T + 45 * p0, dF, dP);  // block p0/8 starts at 360·p0/8
+        if (mean_dilatation) md_coupling.add_to_batch<B>(p0, count, wq, dF, dP);
         for (int l = 0; l < count; ++l) {
           if (shift != 0.0)
             for (int a = 0; a < 9; ++a) {

@@ -58,6 +58,10 @@ const io::KeyTable<FftSolverOptions>& fft_solver_keys() {
         .choice("preconditioner", &O::preconditioner,
                 {{"green", Preconditioner::green}, {"jacobi-green", Preconditioner::jacobi_green}},
                 "Newton-CG preconditioner (jacobi-green: the Green operator scaled by the real-space node diagonal; stencil operator only)")
+        .choice("volumetric", &O::volumetric,
+                {{"pointwise", VolumetricKinematics::pointwise}, {"mean-dilatation", VolumetricKinematics::mean_dilatation}},
+                "volumetric kinematics of the quadrature points (mean-dilatation: one volume ratio per voxel, hex only; "
+                "locking-free for nearly incompressible matrices)")
         .custom("fftw", "choice", "FFTW planning rigor",
                 [](const toml::node& n, const std::string& f, O& o) {
                   static const io::Choices<fft::PlanRigor> c{

@@ -40,6 +40,7 @@ struct StorageSizes {
   std::size_t laminate_values = 0;     ///< jump vectors of the composite points, one copy
   std::size_t composite_voxels = 0;    ///< composite voxels (interface normal each)
   std::size_t mixed_points = 0;        ///< points carried by the mixed (u, p) iteration arrays (0: none)
+  std::size_t mean_dilatation_values = 0;  ///< voxel coupling of the mean-dilatation tangent (doubles; 0: pointwise)
   std::size_t spectral_vectors = 0;    ///< 3-component half spectra (unknowns, state and Krylov vectors)
 };
 
@@ -60,6 +61,7 @@ inline StorageList storage_list(const StorageSizes& s) {
   l.emplace_back("phase_image", s.voxels * (8 + 4));  // fiber fraction, composite index
   if (s.composite_voxels) l.emplace_back("composites", 2 * 8 * s.laminate_values + 24 * s.composite_voxels);
   if (s.mixed_points) l.emplace_back("mixed_pressure", kMixedBytesPerPoint * s.mixed_points);
+  if (s.mean_dilatation_values) l.emplace_back("mean_dilatation", 8 * s.mean_dilatation_values);
   l.emplace_back("spectral_vectors", s.spectral_vectors * 3 * 16 * s.modes);
   l.emplace_back("last_increment", 3 * 8 * s.modes);  // ũ's last converged increment, complex float
   return l;

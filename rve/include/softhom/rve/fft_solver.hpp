@@ -60,6 +60,8 @@ enum class IndefiniteSolver { minres, shift };
 enum class Preconditioner { green, jacobi_green };
 /// Storage of the tangents read by the stencil Krylov operator (FftSolverOptions::tangent_precision).
 enum class TangentPrecision { double_precision, single_precision };
+/// Volumetric kinematics of the quadrature points (FftSolverOptions::volumetric).
+enum class VolumetricKinematics { pointwise, mean_dilatation };
 const char* to_string(FftScheme s);
 const char* to_string(ReferenceMedium r);
 const char* to_string(KrylovOperator k);
@@ -67,6 +69,8 @@ const char* to_string(KrylovOperator k);
 const char* to_string(TangentPrecision t);
 /// "green" | "jacobi-green".
 const char* to_string(Preconditioner p);
+/// "pointwise" | "mean-dilatation".
+const char* to_string(VolumetricKinematics v);
 
 struct FftSolverOptions {
   fft::Discretization discretization = fft::Discretization::rotated;
@@ -134,6 +138,14 @@ struct FftSolverOptions {
   /// Stencil operator only (otherwise green); Levenberg–Marquardt-shifted solves, MINRES and the
   /// homogenized tangent's solves use green.
   Preconditioner preconditioner = Preconditioner::green;
+  /// pointwise: every quadrature point deforms with its own F_q. mean_dilatation (discretization hex,
+  /// Newton–CG with the stencil operator): every point of a voxel sees the voxel's volume ratio,
+  /// F̄_q = (J̄/J_q)^{1/3} F_q with J̄ the voxel mean of J_q, in the variationally consistent form (the
+  /// energy Σ w_q W(F̄_q), its exact gradient and Hessian; Q1/P0 for decoupled laws, one pressure per
+  /// voxel; rve/src/fft_mean_dilatation.hpp). The hex scheme then no longer locks with a nearly
+  /// incompressible matrix and converges to the FE answer under transverse load, where rotated does not
+  /// (BENCHMARKS.md, "FFT solver cost"). The mixed (u, p) iteration is not used with it.
+  VolumetricKinematics volumetric = VolumetricKinematics::pointwise;
   /// Wall-time budget of one output step's cut-backs [s] (StepControlOptions::max_step_seconds; 0: none).
   double max_step_seconds = 0.0;
   fft::PlanOptions plan;         ///< FFTW rigor, threads, wisdom cache
