@@ -262,9 +262,10 @@ TEST(PetscMacro, BalloonThroughItsPressureMaximumEqualsCholmod) {
   // stretch 2.5 with the petsc path's default under cavity control (MUMPS's LU preconditioning GMRES;
   // only the tolerance is set): the pressure maximum lies near hoop stretch 1.45 (output steps 4–5 of
   // 30, CHOLMOD run of the scene); the last pressure is well below it (columns: time, pressure,
-  // stretch, volume, inner_radius).
+  // stretch, volume, inner_radius). On more ranks the first 8 steps (past the maximum, 2.7 % below
+  // it at step 8): the distributed system through the limit point at a quarter of the cost.
   const std::string name = "macro_balloon";
-  constexpr int kSteps = 30;
+  const int kSteps = mpi::world_size() == 1 ? 30 : 8;
   fe::NewtonOptions o;
   double t_end = 0.0;
   const macro::Structure s = scene_structure(name, kSteps, o, t_end);
@@ -317,6 +318,9 @@ TEST(PetscMacro, HelixTubeKrylovCountsOverMeshAndBulkModulus) {
   // measured worst + 15–45 % for the other rank count's coarsening), fewer than 100 per solve. The
   // plain split (A alone in the displacement block) measured 53.3 / 120.1 on 2 118 dofs (K/G ratio
   // 2.25, above 100 per solve) and failed the 7 785-dof K/G 1e5 step: it fails all three bounds.
+  // One rank only (four tube runs, the 2-rank suite's time limit): the distributed split's counts are
+  // bounded by the Cook and 2 118-dof tube tests on both rank counts.
+  if (mpi::world_size() > 1) GTEST_SKIP() << "one-rank check";
   double mean[2][2];
   const double meshes[2] = {1e3, 4e3};
   const double ratios[2] = {1e2, 1e5};
