@@ -31,9 +31,17 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 /// Settings of the field split's blocks, inserted before the user's options (which override them):
 /// the displacement block by one V-cycle of BoomerAMG (on the tube and Cook's membrane 1.2–1.7× fewer
 /// iterations than GAMG with the rigid-body modes and flatter over the mesh, BENCHMARKS.md), the Schur
-/// complement by the inverse of its diagonal approximation (petsc_saddle_split.hpp).
+/// complement by the inverse of its diagonal approximation (petsc_saddle_split.hpp). BoomerAMG's own
+/// defaults (Falgout coarsening, strong threshold 0.25) suit 2D scalar problems: on 3D hex8 elasticity
+/// their hierarchy has operator complexity ~4.8, and HMIS coarsening with threshold 0.7, ext+i
+/// interpolation truncated to 4 entries and one level of aggressive coarsening costs 2.4–3× less CPU
+/// per Newton iteration on the helix tube for 1.3–1.7× more GMRES iterations (the settings of the tuned
+/// tet10 device scenes, BENCHMARKS.md).
 constexpr const char* kSplitDefaults =
     "-fieldsplit_u_ksp_type preonly -fieldsplit_u_pc_type hypre -fieldsplit_u_pc_hypre_type boomeramg "
+    "-fieldsplit_u_pc_hypre_boomeramg_coarsen_type HMIS -fieldsplit_u_pc_hypre_boomeramg_strong_threshold 0.7 "
+    "-fieldsplit_u_pc_hypre_boomeramg_interp_type ext+i -fieldsplit_u_pc_hypre_boomeramg_P_max 4 "
+    "-fieldsplit_u_pc_hypre_boomeramg_agg_nl 1 "
     "-fieldsplit_p_ksp_type preonly -fieldsplit_p_pc_type jacobi";
 
 /// Sums the entries of repeated columns of one row (INSERT_VALUES keeps only the last of them): a

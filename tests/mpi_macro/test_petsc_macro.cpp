@@ -123,9 +123,9 @@ macro::Structure scene_structure(const std::string& name, int steps, fe::NewtonO
 
 /// A scene's probe responses after `steps` output steps with the given solver.
 std::vector<double> scene_response(const macro::Structure& s, fe::NewtonOptions o, SolverKind kind,
-                                   const std::vector<double>& times) {
+                                   const std::vector<double>& times, const char* petsc_options = kDistributedLu) {
   o.solver = kind;
-  o.petsc_options = kDistributedLu;
+  o.petsc_options = petsc_options;
   o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
   fe::Simulation sim(s.model, o);
   std::vector<double> out;
@@ -258,20 +258,24 @@ steps = 6
 }
 
 TEST(PetscMacro, BalloonThroughItsPressureMaximumEqualsCholmod) {
-  // Volume control past the limit point of the Gent sphere (macro_balloon.toml): the pressure
-  // maximum lies near hoop stretch 1.45 (output steps 4–5 of 30, CHOLMOD run of the scene); at step 8
-  // the pressure is 2.7 % below it (columns: time, pressure, stretch, volume, inner_radius).
+  // Volume control past the limit point of the Gent sphere (macro_balloon.toml), all 30 steps to hoop
+  // stretch 2.5 with the petsc path's default under cavity control (MUMPS's LU preconditioning GMRES;
+  // only the tolerance is set): the pressure maximum lies near hoop stretch 1.45 (output steps 4–5 of
+  // 30, CHOLMOD run of the scene); the last pressure is well below it (columns: time, pressure,
+  // stretch, volume, inner_radius). On more ranks the first 8 steps (past the maximum, 2.7 % below
+  // it at step 8): the distributed system through the limit point at a quarter of the cost.
   const std::string name = "macro_balloon";
+  const int kSteps = mpi::world_size() == 1 ? 30 : 8;
   fe::NewtonOptions o;
   double t_end = 0.0;
-  const macro::Structure s = scene_structure(name, 8, o, t_end);
-  const std::vector<double> times = scene_times(name, 8);
+  const macro::Structure s = scene_structure(name, kSteps, o, t_end);
+  const std::vector<double> times = scene_times(name, kSteps);
   const std::vector<double> a = scene_response(s, o, SolverKind::cholmod, times);
-  const std::vector<double> b = scene_response(s, o, SolverKind::petsc, times);
-  ASSERT_EQ(b.size(), 8u * 5u);
+  const std::vector<double> b = scene_response(s, o, SolverKind::petsc, times, kTight);
+  ASSERT_EQ(b.size(), std::size_t(kSteps) * 5u);
   double p_max = 0.0;
-  for (int k = 0; k < 8; ++k) p_max = std::max(p_max, b[5 * k + 1]);
-  EXPECT_LT(b[5 * 7 + 1], 0.99 * p_max) << "the limit point is passed";
+  for (int k = 0; k < kSteps; ++k) p_max = std::max(p_max, b[5 * k + 1]);
+  EXPECT_LT(b[5 * (kSteps - 1) + 1], 0.99 * p_max) << "the limit point is passed";
   EXPECT_LT(relative_difference(b, a), 1e-6);
   EXPECT_LT(rank_spread(b), 1e-12);
 }
@@ -300,7 +304,47 @@ TEST(PetscMacro, HelixTubeWithTheDefaultPreconditionerEqualsCholmod) {
   if (mpi::world_rank() == 0)
     std::cerr << "helix tube: " << r[1].stats.newton_iterations << " Newton (cholmod " << r[0].stats.newton_iterations
               << "), " << per_solve << " Krylov per solve\n";
-  // Measured 92 per solve (1 rank); the bound leaves 30 % for the other rank count (BoomerAMG's
-  // coarsening depends on the partition).
-  EXPECT_LT(per_solve, 120.0);
+  // Measured 130 per solve on 1 rank, 149 on 2 (92 / 85 with BoomerAMG's own settings, whose V-cycle
+  // costs 2.4–3× more); the bound leaves 14 % above the worst (BoomerAMG's coarsening depends on the
+  // partition).
+  EXPECT_LT(per_solve, 170.0);
+}
+
+TEST(PetscMacro, HelixTubeKrylovCountsOverMeshAndBulkModulus) {
+  // The first load step of the helix tube (pressure 45 of 180) with the default split and the default
+  // Newton forcing terms, as `bench_macro_petsc --tube-table` runs it (BENCHMARKS.md, "Macro solver on
+  // PETSc"): mean GMRES iterations per solve on 2 118 and 7 785 free dofs × K/G 1e2 and 1e5.
+  // Measured (1 rank): 2 118 dofs 40.0 / 43.6 at K/G 1e2 / 1e5, 7 785 dofs 43.7 / 59.8: mesh ratio
+  // (h / 1.54) 1.09 / 1.37, K/G ratio 1.09 / 1.37. Bounds: mesh ratio < 1.6 and K/G ratio < 2.0 (the
+  // measured worst + 15–45 % for the other rank count's coarsening), fewer than 100 per solve. The
+  // plain split (A alone in the displacement block) measured 53.3 / 120.1 on 2 118 dofs (K/G ratio
+  // 2.25, above 100 per solve) and failed the 7 785-dof K/G 1e5 step: it fails all three bounds.
+  // One rank only (four tube runs, the 2-rank suite's time limit): the distributed split's counts are
+  // bounded by the Cook and 2 118-dof tube tests on both rank counts.
+  if (mpi::world_size() > 1) GTEST_SKIP() << "one-rank check";
+  double mean[2][2];
+  const double meshes[2] = {1e3, 4e3};
+  const double ratios[2] = {1e2, 1e5};
+  for (int a = 0; a < 2; ++a)
+    for (int c = 0; c < 2; ++c) {
+      const macro::Structure s = helix_tube(meshes[a], ratios[c]);
+      NewtonOptions o;
+      o.solver = SolverKind::petsc;
+      o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
+      Simulation sim(s.model, o);
+      ASSERT_TRUE(sim.advance_to(45.0).reached()) << meshes[a] << " " << ratios[c];
+      const RunStats st = sim.stats();
+      mean[a][c] = double(st.krylov_iterations) / std::max(1, st.linear.solves);
+      if (mpi::world_rank() == 0)
+        std::cerr << "helix tube " << sim.num_free_dofs() << " dofs, K/G " << ratios[c] << ": " << mean[a][c]
+                  << " Krylov per solve, " << st.newton_iterations << " Newton\n";
+    }
+  for (int a = 0; a < 2; ++a) {
+    EXPECT_LT(mean[a][1], 2.0 * mean[a][0]) << "K/G growth, mesh " << meshes[a];
+    for (int c = 0; c < 2; ++c) {
+      EXPECT_LT(mean[a][c], 100.0);
+      EXPECT_GT(mean[a][c], 1.0);
+    }
+  }
+  for (int c = 0; c < 2; ++c) EXPECT_LT(mean[1][c], 1.6 * mean[0][c]) << "mesh growth, K/G " << ratios[c];
 }
