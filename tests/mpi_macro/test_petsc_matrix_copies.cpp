@@ -48,13 +48,13 @@ FeModel cook8() {
   return m;
 }
 
-struct Run {
+struct CookRun {
   std::vector<double> u;
   RunStats stats;
   PetscMatrixBytes bytes;
 };
 
-Run run(const FeModel& m, SolverKind kind, const std::string& petsc) {
+CookRun run_cook(const FeModel& m, SolverKind kind, const std::string& petsc) {
   NewtonOptions o;
   o.solver = kind;
   o.petsc_options = petsc;
@@ -76,9 +76,9 @@ double relative_difference(const std::vector<double>& a, const std::vector<doubl
 
 TEST(PetscMatrixCopies, TheFieldSplitUsesTheNestedDisplacementBlockItself) {
   const FeModel m = cook8();
-  const Run direct = run(m, SolverKind::cholmod, "");
-  const Run nest = run(m, SolverKind::petsc, "-ksp_rtol 1e-10");
-  const Run flat = run(m, SolverKind::petsc, "-ksp_rtol 1e-10 -softhom_nest 0");
+  const CookRun direct = run_cook(m, SolverKind::cholmod, "");
+  const CookRun nest = run_cook(m, SolverKind::petsc, "-ksp_rtol 1e-10");
+  const CookRun flat = run_cook(m, SolverKind::petsc, "-ksp_rtol 1e-10 -softhom_nest 0");
   // Both layouts solve the same system with the same preconditioner: the CHOLMOD answer to the Newton
   // tolerance (1e-6, as test_petsc_macro.cpp), and each other's to far below it (only the order of the
   // sums in the matrix products differs; 1e-8 leaves room for a Krylov iteration more or less at 1e-10).
