@@ -315,6 +315,12 @@ void PetscSolver::create_system() {
   const PetscInt nglobal = d.first[d.size];
   PetscBool use_nest = PETSC_TRUE;
   PetscOptionsGetBool(nullptr, nullptr, "-softhom_nest", &use_nest, nullptr);
+  // The nest serves the field split alone: another preconditioner (-pc_type lu with MUMPS, ilu, ...)
+  // needs one AIJ matrix.
+  char pc_type[64] = "";
+  PetscBool pc_set = PETSC_FALSE;
+  PetscOptionsGetString(nullptr, nullptr, "-pc_type", pc_type, sizeof pc_type, &pc_set);
+  if (pc_set && std::string(pc_type) != PCFIELDSPLIT) use_nest = PETSC_FALSE;
   if (!d.dnz_p.empty() && use_nest) {
     std::vector<PetscInt> nu_of(d.size);
     PetscInt mine = nu;
