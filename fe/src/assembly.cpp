@@ -90,8 +90,10 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
   // Small meshes assemble on one thread: the work per colour is a few microseconds, and on a shared
   // (oversubscribed) 2-core machine every OpenMP barrier of a spinning runtime can cost a time slice
   // (measured 4x slower assembly with 2 threads at load 8 on the 256-element plane-strain tube).
-  // Distributed assembly: one thread (PETSc's MatSetValues is not thread-safe; one rank per core).
-  const int threads = mesh.num_elements() >= 4000 && !distributed_ ? omp_get_max_threads() : 1;
+  // Distributed assembly on several ranks: one thread (one rank per core). On one process the threads
+  // share the colours and take turns at PETSc's MatSetValues (not thread-safe); the elements of one
+  // colour share no node, hence no matrix entry, so the sums do not depend on that order.
+  const int threads = mesh.num_elements() >= 4000 && !(distributed_ && mpi_ranks_ > 1) ? omp_get_max_threads() : 1;
 #pragma omp parallel num_threads(threads)
   {
     Vec24 r;
@@ -140,6 +142,7 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
       if (distributed_) {
         // Three-field elements enter uncondensed, c = V_e U″(θ) as in saddle_current.
         const double c = mv ? volume * volumetric_d2U(mix_bulk_[e], mix_theta_[e]) : 0.0;
+#pragma omp critical(softhom_petsc_fill)
         petsc_->add_element(e, NN, nodes.data(), Kel.data(), mv ? mv->d.data() : nullptr, c);
       }
     };

@@ -1,6 +1,6 @@
-// Distributed assembly of fe::Simulation (the petsc path under MPI): an element partition, each rank's
-// elements straight into the PETSc matrix (petsc_solve.cpp), and the sums over the ranks that keep the
-// replicated Newton iteration identical on every rank.
+// Distributed assembly of fe::Simulation (the petsc path, on one process or under MPI): an element
+// partition, each rank's elements straight into the PETSc matrix (petsc_solve.cpp), and the sums over
+// the ranks that keep the replicated Newton iteration identical on every rank.
 #include <mpi.h>
 
 #include <algorithm>
@@ -18,8 +18,9 @@ bool Simulation::Impl::petsc_distributed() const {
   SolverKind kind = options_.solver;
   if (kind == SolverKind::automatic)
     kind = dofs_.num_free >= options_.petsc_min_dofs ? SolverKind::petsc : SolverKind::cholmod;
-  // Only under an MPI launcher: the one-process program keeps the replicated assembly into K_.
-  return kind == SolverKind::petsc && mpi::active();
+  // Also the one-process program (one part): the elements go straight into PETSc's matrix, so neither
+  // the CSC tangent with its transposed positions nor a copy of it exists on the petsc path.
+  return kind == SolverKind::petsc;
 }
 
 void Simulation::Impl::build_partition() {
@@ -30,7 +31,8 @@ void Simulation::Impl::build_partition() {
   // nearly equal cost, so equal counts in compact slabs balance the work with few interface nodes
   // (BENCHMARKS.md, "Distributed assembly").
   mpi_rank_ = mpi::world_rank();
-  element_owner_ = partition_elements_rcb(mesh, mpi::world_size());
+  mpi_ranks_ = mpi::world_size();
+  element_owner_ = partition_elements_rcb(mesh, mpi_ranks_);
   owned_elements_.clear();
   for (int e = 0; e < mesh.num_elements(); ++e)
     if (element_owner_[e] == mpi_rank_) owned_elements_.push_back(e);
@@ -71,7 +73,7 @@ void sum_in_place(std::vector<double>& v) {
 }  // namespace
 
 void Simulation::Impl::reduce_element_sums(Assembly& out) const {
-  if (!distributed_) return;
+  if (!distributed_ || mpi_ranks_ == 1) return;
   // Every rank then holds the same sums (MPI's reductions give one result to all ranks), so the norms,
   // the convergence test, the line search and the cavity row agree bit for bit across the ranks.
   sum_in_place(out.R);
@@ -88,11 +90,11 @@ void Simulation::Impl::reduce_element_sums(Assembly& out) const {
 }
 
 void Simulation::Impl::reduce_cauchy(std::vector<double>& cauchy) const {
-  if (distributed_) sum_in_place(cauchy);  // the other ranks' elements hold zeros
+  if (distributed_ && mpi_ranks_ > 1) sum_in_place(cauchy);  // the other ranks' elements hold zeros
 }
 
 double Simulation::Impl::sum_over_ranks(double v) const {
-  if (distributed_) MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  if (distributed_ && mpi_ranks_ > 1) MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
   return v;
 }
 

@@ -1,6 +1,7 @@
 // The PETSc linear solver (petsc_solve.hpp): distributed tangent, GMRES + GAMG with the rigid-body
 // near-nullspace, and PETSc's life cycle.
 #include "petsc_solve.hpp"
+#include "petsc_nest.hpp"
 #include "petsc_saddle_split.hpp"
 
 #include <petscksp.h>
@@ -18,6 +19,7 @@ namespace softhom::fe {
 namespace {
 
 bool g_initialised = false, g_finalised = false;
+PetscMatrixBytes g_matrix_bytes;  // of the last PetscSolver's first set-up (account_matrices)
 
 /// A failed PETSc call is a broken build or an exhausted machine, not a user error.
 void check(PetscErrorCode code, const char* what) {
@@ -128,6 +130,17 @@ struct PetscSolver::Data {
   std::vector<PetscScalar> vals;
   std::vector<double> a_values;  // A = K − Σ c d dᵀ (three-field), K's pattern
   std::vector<PetscInt> dnz, onz;  // preallocation of the owned rows (create_system)
+  // Distributed three-field system: dnz, onz count the displacement columns alone and these the
+  // pressure columns; the matrix is then a nest of its four blocks (petsc_nest.hpp) unless
+  // -softhom_nest 0 asks for one AIJ matrix.
+  std::vector<PetscInt> dnz_p, onz_p;
+  std::unique_ptr<NestedSaddleMatrix> nest;
+  /// MatSetValues on the system in its own numbering (routed to the nest's blocks).
+  void set_values(PetscInt nr, const PetscInt* rows, PetscInt nc, const PetscInt* cols, const PetscScalar* v,
+                  InsertMode mode) {
+    if (nest) nest->add(nr, rows, nc, cols, v, mode);
+    else check(MatSetValues(A, nr, rows, nc, cols, v, mode), "MatSetValues");
+  }
   // Distributed assembly (distribute): the PETSc row of every mesh dof and of every element's pressure
   // (−1: none), the owner of every node, this rank's mesh dofs in row order.
   const Mesh* mesh = nullptr;
@@ -308,15 +321,36 @@ void PetscSolver::create_system() {
   const PetscInt nu = d.hi - d.lo;
   const PetscInt nlocal = nu + (d.phi - d.plo);
   const PetscInt nglobal = d.first[d.size];
-  const std::vector<PetscInt>& dnz = d.dnz;
-  const std::vector<PetscInt>& onz = d.onz;
-  check(MatCreate(d.comm, &d.A), "MatCreate");
-  check(MatSetSizes(d.A, nlocal, nlocal, nglobal, nglobal), "MatSetSizes");
-  check(MatSetType(d.A, MATAIJ), "MatSetType");
-  if (!saddle) check(MatSetBlockSize(d.A, 3), "MatSetBlockSize");
-  check(MatSeqAIJSetPreallocation(d.A, 0, dnz.data()), "MatSeqAIJSetPreallocation");
-  check(MatMPIAIJSetPreallocation(d.A, 0, dnz.data(), 0, onz.data()), "MatMPIAIJSetPreallocation");
-  check(MatSetOption(d.A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE), "MatSetOption");
+  PetscBool use_nest = PETSC_TRUE;
+  PetscOptionsGetBool(nullptr, nullptr, "-softhom_nest", &use_nest, nullptr);
+  // The nest serves the field split alone: another preconditioner (-pc_type lu with MUMPS, ilu, ...)
+  // needs one AIJ matrix.
+  char pc_type[64] = "";
+  PetscBool pc_set = PETSC_FALSE;
+  PetscOptionsGetString(nullptr, nullptr, "-pc_type", pc_type, sizeof pc_type, &pc_set);
+  if (pc_set && std::string(pc_type) != PCFIELDSPLIT) use_nest = PETSC_FALSE;
+  if (!d.dnz_p.empty() && use_nest) {
+    std::vector<PetscInt> nu_of(d.size);
+    PetscInt mine = nu;
+    MPI_Allgather(&mine, 1, MPIU_INT, nu_of.data(), 1, MPIU_INT, d.comm);
+    d.nest = std::make_unique<NestedSaddleMatrix>();
+    d.nest->create(d.comm, d.rank, d.first, nu_of, d.dnz, d.onz, d.dnz_p, d.onz_p);
+    d.A = d.nest->whole();
+    check(PetscObjectReference(reinterpret_cast<PetscObject>(d.A)), "PetscObjectReference");
+  } else {
+    std::vector<PetscInt> dnz = d.dnz, onz = d.onz;
+    for (std::size_t i = 0; i < d.dnz_p.size(); ++i) {
+      dnz[i] += d.dnz_p[i];
+      onz[i] += d.onz_p[i];
+    }
+    check(MatCreate(d.comm, &d.A), "MatCreate");
+    check(MatSetSizes(d.A, nlocal, nlocal, nglobal, nglobal), "MatSetSizes");
+    check(MatSetType(d.A, MATAIJ), "MatSetType");
+    if (!saddle) check(MatSetBlockSize(d.A, 3), "MatSetBlockSize");
+    check(MatSeqAIJSetPreallocation(d.A, 0, dnz.data()), "MatSeqAIJSetPreallocation");
+    check(MatMPIAIJSetPreallocation(d.A, 0, dnz.data(), 0, onz.data()), "MatMPIAIJSetPreallocation");
+    check(MatSetOption(d.A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE), "MatSetOption");
+  }
   // Rigid-body modes from the owned nodes' coordinates: GAMG's near-nullspace (three translations and
   // three rotations; without them smoothed aggregation sees a scalar Laplacian per component and its
   // counts grow with the mesh).
@@ -324,7 +358,9 @@ void PetscSolver::create_system() {
   check(VecCreateMPIWithArray(d.comm, 3, nu, d.ndof, d.coords.data(), &xyz), "VecCreateMPIWithArray");
   MatNullSpace nsp;
   check(MatNullSpaceCreateRigidBody(xyz, &nsp), "MatNullSpaceCreateRigidBody");
-  check(MatCreateVecs(d.A, &d.x, &d.b), "MatCreateVecs");
+  // Plain MPI vectors in the system's layout (a nest's own would be nested vectors).
+  check(VecCreateMPI(d.comm, nlocal, nglobal, &d.x), "VecCreateMPI");
+  check(VecDuplicate(d.x, &d.b), "VecDuplicate");
   check(VecScatterCreateToAll(d.x, &d.to_all, &d.all), "VecScatterCreateToAll");
   check(KSPCreate(d.comm, &d.ksp), "KSPCreate");
   check(KSPSetType(d.ksp, KSPGMRES), "KSPSetType");
@@ -344,8 +380,18 @@ void PetscSolver::create_system() {
     std::vector<PetscInt> iu(nu), ip(d.phi - d.plo);
     for (PetscInt i = 0; i < nu; ++i) iu[i] = d.first[d.rank] + i;
     for (PetscInt i = 0; i < d.phi - d.plo; ++i) ip[i] = d.first[d.rank] + nu + i;
-    check(ISCreateGeneral(d.comm, nu, iu.data(), PETSC_COPY_VALUES, &d.is_u), "ISCreateGeneral");
-    check(ISCreateGeneral(d.comm, PetscInt(ip.size()), ip.data(), PETSC_COPY_VALUES, &d.is_p), "ISCreateGeneral");
+    if (d.nest) {
+      // The nest's own index sets: the field split then takes its blocks themselves, no copies.
+      IS rows[2];
+      check(MatNestGetISs(d.A, rows, nullptr), "MatNestGetISs");
+      d.is_u = rows[0];
+      d.is_p = rows[1];
+      check(PetscObjectReference(reinterpret_cast<PetscObject>(d.is_u)), "PetscObjectReference");
+      check(PetscObjectReference(reinterpret_cast<PetscObject>(d.is_p)), "PetscObjectReference");
+    } else {
+      check(ISCreateGeneral(d.comm, nu, iu.data(), PETSC_COPY_VALUES, &d.is_u), "ISCreateGeneral");
+      check(ISCreateGeneral(d.comm, PetscInt(ip.size()), ip.data(), PETSC_COPY_VALUES, &d.is_p), "ISCreateGeneral");
+    }
     check(ISSetBlockSize(d.is_u, 3), "ISSetBlockSize");
     // The field split hands the near-nullspace composed on the IS to its displacement block.
     check(PetscObjectCompose(reinterpret_cast<PetscObject>(d.is_u), "nearnullspace", reinterpret_cast<PetscObject>(nsp)),
@@ -389,7 +435,31 @@ bool PetscSolver::factorize(const CscMatrix& K) {
   times_.factorization += seconds_since(t0);
   ++times_.factorizations;
   times_.factor_nnz = 0.0;
+  if (times_.factorizations == 1) account_matrices();
   return true;
+}
+
+PetscMatrixBytes petsc_last_matrix_bytes() { return g_matrix_bytes; }
+
+void PetscSolver::account_matrices() {
+  Data& d = *d_;
+  MatInfo info;
+  // Allocated entries × (value + column index): PETSc 3.18's MatInfo::memory is always 0.
+  const double entry = double(sizeof(PetscScalar) + sizeof(PetscInt));
+  g_matrix_bytes = {};
+  if (d.nest) g_matrix_bytes.system = d.nest->bytes();
+  else if (MatGetInfo(d.A, MAT_LOCAL, &info) == 0) g_matrix_bytes.system = info.nz_allocated * entry;
+  PC pc;
+  PCType type;
+  if (KSPGetPC(d.ksp, &pc) != 0 || PCGetType(pc, &type) != 0 || !type || std::string(type) != PCFIELDSPLIT) return;
+  PetscInt n = 0;
+  KSP* sub = nullptr;
+  if (PCFieldSplitGetSubKSP(pc, &n, &sub) != 0 || n < 1) return;
+  Mat amat = nullptr, pmat = nullptr;
+  KSPGetOperators(sub[0], &amat, &pmat);
+  if (pmat && (!d.nest || pmat != d.nest->block(0, 0)) && MatGetInfo(pmat, MAT_LOCAL, &info) == 0)
+    g_matrix_bytes.split_copy = info.nz_allocated * entry;
+  PetscFree(sub);
 }
 
 void PetscSolver::copy_tangent(const CscMatrix& K) {
@@ -582,15 +652,19 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
   }
   d.dnz.assign(nlocal, 1);
   d.onz.assign(nlocal, 0);
+  if (d.mixed_rows) {
+    d.dnz_p.assign(nlocal, 0);
+    d.onz_p.assign(nlocal, 0);
+  }
   std::vector<int> neighbours;
   for (int n = 0; n < d.nnodes; ++n) {
     if (local[n] < 0) continue;
     neighbours.clear();
-    PetscInt in = 0, out = 0;
+    PetscInt in = 0, out = 0, in_p = 0, out_p = 0;
     for (int e : elems[local[n]]) {
       const int* en = mesh.element_nodes(e);
       neighbours.insert(neighbours.end(), en, en + mesh.element_size(e));
-      if (d.prow[e] >= 0) element_owner[e] == d.rank ? ++in : ++out;
+      if (d.prow[e] >= 0) element_owner[e] == d.rank ? ++in_p : ++out_p;
     }
     std::sort(neighbours.begin(), neighbours.end());
     neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
@@ -601,17 +675,22 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
       if (eq[3 * n + i] >= 0) {
         d.dnz[d.urow[3 * n + i] - row0] = in;
         d.onz[d.urow[3 * n + i] - row0] = out;
+        if (d.mixed_rows) {
+          d.dnz_p[d.urow[3 * n + i] - row0] = in_p;
+          d.onz_p[d.urow[3 * n + i] - row0] = out_p;
+        }
       }
   }
   for (int e : mixed_elements) {
     if (element_owner[e] != d.rank) continue;
-    PetscInt in = 1, out = 0;
+    PetscInt in = 0, out = 0;
     const int* en = mesh.element_nodes(e);
     for (int a = 0; a < mesh.element_size(e); ++a)
       for (int j = 0; j < 3; ++j)
         if (eq[3 * en[a] + j] >= 0) node_owner[en[a]] == d.rank ? ++in : ++out;
     d.dnz[d.prow[e] - row0] = in;
     d.onz[d.prow[e] - row0] = out;
+    d.dnz_p[d.prow[e] - row0] = 1;  // its own diagonal
   }
   create_system();
   times_.analysis += seconds_since(t0);
@@ -620,7 +699,8 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
 bool PetscSolver::distributed() const { return d_->distributed; }
 
 void PetscSolver::begin_fill() {
-  check(MatZeroEntries(d_->A), "MatZeroEntries");
+  if (d_->nest) d_->nest->zero();
+  else check(MatZeroEntries(d_->A), "MatZeroEntries");
   d_->pending.clear();
 }
 
@@ -642,21 +722,21 @@ void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke,
   for (int i = 0; i < nf; ++i)
     for (int j = 0; j < nf; ++j)
       v[i * nf + j] = Ke[pos[i] + nd * pos[j]] - (dk ? c * dk[pos[i]] * dk[pos[j]] : 0.0);
-  check(MatSetValues(d.A, nf, rows.data(), nf, rows.data(), v.data(), ADD_VALUES), "MatSetValues");
+  d.set_values(nf, rows.data(), nf, rows.data(), v.data(), ADD_VALUES);
   if (!dk) return;
   double s = 0.0;
   for (int i = 0; i < nf; ++i) s += dk[pos[i]] * dk[pos[i]];
   const double dn = s > 0.0 ? std::sqrt(s) : 1.0;
   const PetscInt pr = d.prow[e];
   for (int i = 0; i < nf; ++i) v[i] = dk[pos[i]] / dn;
-  check(MatSetValues(d.A, nf, rows.data(), 1, &pr, v.data(), ADD_VALUES), "MatSetValues");
+  d.set_values(nf, rows.data(), 1, &pr, v.data(), ADD_VALUES);
   // With the augmented split the pressure row carries c̃ = c − γ, and γ needs the assembled diag(A):
   // zeros now (so the pattern survives the first assembly), the values in end_fill.
   const bool augmented = d.schur_pre != nullptr;
   for (int i = 0; i < nf; ++i) v[i] = augmented ? 0.0 : c * dn * dk[pos[i]];
   rows[nf] = pr;
   v[nf] = -1.0;
-  check(MatSetValues(d.A, 1, &pr, nf + 1, rows.data(), v.data(), ADD_VALUES), "MatSetValues");
+  d.set_values(1, &pr, nf + 1, rows.data(), v.data(), ADD_VALUES);
   if (!augmented) return;
   Data::PendingElement pe;
   pe.prow = pr;
@@ -678,7 +758,7 @@ double PetscSolver::mean_free_diagonal(bool gather) {
   Data& d = *d_;
   const std::vector<int>& eq = d.dofs->eq;
   Vec diag;
-  check(MatCreateVecs(d.A, nullptr, &diag), "MatCreateVecs");
+  check(VecDuplicate(d.x, &diag), "VecDuplicate");
   check(MatGetDiagonal(d.A, diag), "MatGetDiagonal");
   const PetscScalar* dv;
   check(VecGetArrayRead(diag, &dv), "VecGetArrayRead");
@@ -702,6 +782,10 @@ void PetscSolver::finish_augmented_split() {
   // may belong to a neighbour), and its mean magnitude over the free rows for the floor, as in
   // augmented_split (petsc_saddle_split.cpp).
   const double mean = mean_free_diagonal(true);
+  // In the element order (the threads of the one-process fill append in any order): the sums of the
+  // γ terms are then the same in every run.
+  std::sort(d.pending.begin(), d.pending.end(),
+            [](const Data::PendingElement& a, const Data::PendingElement& b) { return a.prow < b.prow; });
   const PetscScalar* da;
   check(VecGetArrayRead(d.all, &da), "VecGetArrayRead");
   PetscInt schur_lo = 0;
@@ -715,9 +799,9 @@ void PetscSolver::finish_augmented_split() {
     const double kept = pe.c - gamma;
     for (int i = 0; i < pe.n; ++i)
       for (int j = 0; j < pe.n; ++j) v[i * pe.n + j] = gamma * pe.s[i] * pe.s[j];
-    check(MatSetValues(d.A, pe.n, pe.rows.data(), pe.n, pe.rows.data(), v.data(), ADD_VALUES), "MatSetValues");
+    d.set_values(pe.n, pe.rows.data(), pe.n, pe.rows.data(), v.data(), ADD_VALUES);
     for (int i = 0; i < pe.n; ++i) v[i] = kept * pe.dn * pe.s[i];
-    check(MatSetValues(d.A, 1, &pe.prow, pe.n, pe.rows.data(), v.data(), ADD_VALUES), "MatSetValues");
+    d.set_values(1, &pe.prow, pe.n, pe.rows.data(), v.data(), ADD_VALUES);
     const PetscInt k = schur_lo + (pe.prow - p_first);
     check(MatSetValue(d.schur_pre, k, k, -1.0 - kept * x / (1.0 + gamma * x), INSERT_VALUES), "MatSetValue");
   }
@@ -731,7 +815,8 @@ void PetscSolver::finish_augmented_split() {
 void PetscSolver::add_entry(int row_dof, int col_dof, double v) {
   Data& d = *d_;
   if (d.node_owner[row_dof / 3] != d.rank) return;
-  check(MatSetValue(d.A, d.urow[row_dof], d.urow[col_dof], v, ADD_VALUES), "MatSetValue");
+  const PetscInt r = d.urow[row_dof], c = d.urow[col_dof];
+  d.set_values(1, &r, 1, &c, &v, ADD_VALUES);
 }
 
 void PetscSolver::end_fill() {
@@ -739,7 +824,7 @@ void PetscSolver::end_fill() {
   const std::vector<int>& eq = d.dofs->eq;
   auto add_dirichlet = [&](double value) {
     for (PetscInt g : d.owned_dofs)
-      if (eq[g] < 0) check(MatSetValue(d.A, d.urow[g], d.urow[g], value, ADD_VALUES), "MatSetValue");
+      if (eq[g] < 0) d.set_values(1, &d.urow[g], 1, &d.urow[g], &value, ADD_VALUES);
   };
   // (The first assembly keeps only the entries set, so the prescribed diagonals are set to 0 first.)
   add_dirichlet(d.diagonal_known ? d.dirichlet_diagonal : 0.0);

@@ -91,6 +91,8 @@ class PetscSolver final : public LinearSolver {
   void copy_tangent(const CscMatrix& K);
   /// The augmented split of the owned three-field elements once diag(A) is assembled (end_fill).
   void finish_augmented_split();
+  /// The bytes of SolverTimes: the system matrix and the field split's displacement block.
+  void account_matrices();
   /// Mean |diag(A)| over the free mesh dofs of all ranks (collective); with `gather`, the whole
   /// diagonal is also left on every rank in Data::all.
   double mean_free_diagonal(bool gather);

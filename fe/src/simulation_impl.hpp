@@ -98,8 +98,9 @@ struct Simulation::Impl {
   void build_colouring();       ///< element colours: no shared node within one colour
   void build_scatter();         ///< CSC positions of every element's node-pair blocks
   void build_mixed();           ///< three-field element unknowns and the uncondensed Krylov space
-  // Distributed assembly (distributed_assembly.cpp): the petsc path under MPI with more than one rank.
-  /// The petsc solver runs under MPI: each rank assembles its own elements into the PETSc matrix.
+  // Distributed assembly (distributed_assembly.cpp): the petsc path, on one process or under MPI.
+  /// The petsc solver is in use: each rank (the one process included) assembles its own elements into
+  /// the PETSc matrix.
   bool petsc_distributed() const;
   void build_partition();           ///< element owners (sets distributed_, owned_elements_)
   void build_distributed_system();  ///< the PETSc matrix's rows from the partition (after build_mixed)
@@ -180,7 +181,7 @@ struct Simulation::Impl {
   // vectors (u, R, ...) stay replicated; the residuals are summed over the ranks after the element loop.
   bool distributed_ = false;
   std::vector<int> element_owner_, owned_elements_;
-  int mpi_rank_ = 0;
+  int mpi_rank_ = 0, mpi_ranks_ = 1;
   /// This rank evaluates element e (always without distributed assembly).
   bool owns(int e) const { return !distributed_ || element_owner_[e] == mpi_rank_; }
   LinearSolver* linear_ = nullptr;            ///< the one holding the current factor

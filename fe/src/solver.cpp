@@ -130,7 +130,7 @@ void Simulation::Impl::build_linear_solvers() {
 
 void Simulation::Impl::build_colouring() {
   const Mesh& mesh = model_.mesh;
-  if (distributed_) {  // one thread per rank fills PETSc's matrix: the owned elements in one list
+  if (distributed_ && mpi_ranks_ > 1) {  // one thread per rank fills PETSc's matrix: the owned elements in one list
     colors_ = {owned_elements_};
     return;
   }
@@ -207,15 +207,21 @@ void Simulation::Impl::build_mixed() {
       mix_theta_u_ = mix_theta_conv_;
       mix_d_.assign(mesh.num_hexes(), Vec24::Zero());
       mix_d_tet_.assign(mesh.tets.size(), Vec30::Zero());
-      // Element pressure unknowns of the uncondensed Krylov space (linear_solve).
+      // Element pressure unknowns of the uncondensed Krylov space (linear_solve). The petsc path needs
+      // the element list alone (its matrix holds the element pressures; no equation lists).
       sad_off_.push_back(0);
       for (int e = 0; e < mesh.num_elements(); ++e) {
         if (mix_bulk_[e] <= 0.0) continue;
         sad_elem_.push_back(e);
+        if (distributed_) continue;
         const int* en = mesh.element_nodes(e);
         for (int a = 0; a < mesh.element_size(e); ++a)
           for (int i = 0; i < 3; ++i) sad_eq_.push_back(dofs_.eq[3 * en[a] + i]);
         sad_off_.push_back(int(sad_eq_.size()));
+      }
+      if (distributed_) {
+        sad_off_.clear();
+        return;
       }
       // The element colouring carried over to them: race-free parallel scatters of Σ_e d_e a_e.
       std::vector<int> index(mesh.num_elements(), -1);
