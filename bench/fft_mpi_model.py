@@ -18,7 +18,7 @@ import sys
 t_voxel = float(sys.argv[1]) * 1e-6 if len(sys.argv) > 1 else 0.27e-6
 alpha = float(sys.argv[2]) * 1e-6 if len(sys.argv) > 2 else 2e-6
 beta = float(sys.argv[3]) * 1e9 if len(sys.argv) > 3 else 1e9
-bytes_voxel = float(sys.argv[4]) if len(sys.argv) > 4 else 600.0
+bytes_voxel = float(sys.argv[4]) if len(sys.argv) > 4 else 474.0
 image_voxel = float(sys.argv[5]) if len(sys.argv) > 5 else 32.0
 
 print("t_voxel %.3g us, alpha %.3g us, beta %.3g GB/s per rank" % (t_voxel * 1e6, alpha * 1e6, beta / 1e9))

@@ -4,7 +4,7 @@
 //   bench_rve contrast [n ...]     fiber/matrix shear contrast 10 … 1e6, one load step λ = 1.05
 //   bench_rve bulk [n ...]         matrix K/G 10 … 1.2e5 at contrast 230, λ = 1.5 in 8 steps, mixed (u,p)
 //                                  Newton iteration on and off
-//   bench_rve fftcost [disc ...] [grid ...] [threads=1|2 ...] [operator=fourier|stencil ...] [repeat=N]
+//   bench_rve fftcost [disc ...] [grid ...] [threads=1|2 ...] [operator=fourier|stencil ...] [repeat=N] [compact=off]
 //                    [precision=double|single ...] [fftw_threads=N]
 //                                  cost of one Krylov iteration (time in the linear solves / iterations)
 //                                  vs a 9-field FFT round trip (ratio-9) and vs the round trip of the fields
@@ -417,8 +417,11 @@ int main(int argc, char** argv) {
     std::vector<TangentPrecision> precisions;
     int repeats = 1, fftw_threads = 0;
     Preconditioner preconditioner = Preconditioner::green;  // "preconditioner=jacobi-green": the other one
+    bool compact = true;  // "compact=off": the stored 9×9 float tangents instead of compact ones
     for (int i = 2; i < argc; ++i) {
-      if (std::strcmp(argv[i], "preconditioner=jacobi-green") == 0)
+      if (std::strcmp(argv[i], "compact=off") == 0)
+        compact = false;
+      else if (std::strcmp(argv[i], "preconditioner=jacobi-green") == 0)
         preconditioner = Preconditioner::jacobi_green;
       else if (std::strncmp(argv[i], "threads=", 8) == 0)
         thread_counts.push_back(std::atoi(argv[i] + 8));
@@ -502,6 +505,7 @@ int main(int argc, char** argv) {
                 o.krylov_operator = kop;
                 o.tangent_precision = prec;
                 o.preconditioner = preconditioner;
+                o.compact_tangent = compact;
                 o.max_newton_iterations = 1;
                 o.max_cutbacks = 0;
                 o.krylov_tolerance = 1e-30;
@@ -533,11 +537,11 @@ int main(int argc, char** argv) {
             const double nv = double(g.voxels());
             // Transformed fields per Krylov iteration: stencil 3 back + 3 forward; Fourier 3·nq·columns each way.
             const double own_ms = stencil ? fft3_ms : fft_used_ms, own_cpu = stencil ? cpu3 : cpu_used;
-            std::printf("fftcost %4dx%4dx%4d %-9s %-8s %-6s %s threads %d per-krylov %8.3f ms (cpu %8.3f, in-solver %8.3f) | "
+            std::printf("fftcost %4dx%4dx%4d %-9s %-8s %-6s %s compact=%s threads %d per-krylov %8.3f ms (cpu %8.3f, in-solver %8.3f) | "
                         "fft9 %7.3f ms (cpu %7.3f) ratio-9 %5.2f (cpu %5.2f) | own fft %7.3f ms (%d fields) ratio-own %5.2f "
                         "(cpu %5.2f) | whole step %.3f s (%d its) mem/voxel %5.0f B (rss %5.0f B) peak-rss %.0f MB load %s\n",
                         g.n[0], g.n[1], g.n[2], fft::to_string(d), stencil ? "stencil" : "fourier",
-                        stencil ? to_string(prec) : "double", to_string(stencil ? preconditioner : Preconditioner::green), threads, kry_ms, kry_cpu_ms,
+                        stencil ? to_string(prec) : "double", to_string(stencil ? preconditioner : Preconditioner::green), compact ? "on" : "off", threads, kry_ms, kry_cpu_ms,
                         1e3 * kry_wall, fft9_ms, cpu9, kry_ms / fft9_ms, kry_cpu_ms / cpu9, own_ms,
                         stencil ? 3 : used_fields, kry_ms / own_ms, kry_cpu_ms / own_cpu, whole, its1, double(mem) / nv,
                         rss / nv, double(io::peak_memory_bytes()) / 1048576.0, load_average().c_str());

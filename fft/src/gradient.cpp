@@ -342,7 +342,7 @@ double ReferenceGreen::apply_dot(const Complex* r, Complex* out, double scale) c
       green_mul(T + 9 * k, rk, z);
       double d = 0.0;
       for (int i = 0; i < 3; ++i) {
-        out[std::size_t(i) * nm + k] = inv * z[i];
+        if (out) out[std::size_t(i) * nm + k] = inv * z[i];
         d += std::real(std::conj(rk[i]) * (inv * z[i]));
       }
       s += w * d;
@@ -376,12 +376,33 @@ double ReferenceGreen::cg_update(double alpha, const Complex* p, const Complex* 
       green_mul(T + 9 * k, rk, zk);
       double d = 0.0;
       for (int i = 0; i < 3; ++i) {
-        z[std::size_t(i) * nm + k] = inv * zk[i];
+        if (z) z[std::size_t(i) * nm + k] = inv * zk[i];
         d += std::real(std::conj(rk[i]) * (inv * zk[i]));
       }
       s += w * d;
     }
   return s;
+  });
+}
+
+void ReferenceGreen::direction_update(const Complex* r, double beta, Complex* p, Complex* copy, double scale) const {
+  const std::size_t nm = op_.local_modes();
+  const double inv = 1.0 / scale;
+  with_table([&](const auto* T) {
+#pragma omp parallel for schedule(static)
+    for (std::size_t k = 0; k < nm; ++k) {
+      const Complex rk[3] = {r[k], r[nm + k], r[2 * nm + k]};
+      Complex z[3];
+      green_mul(T + 9 * k, rk, z);
+      for (int i = 0; i < 3; ++i) {
+        const std::size_t a = std::size_t(i) * nm + k;
+        const Complex zi = inv * z[i];
+        const Complex v = beta == 0.0 ? zi : zi + beta * p[a];
+        p[a] = v;
+        copy[a] = v;
+      }
+    }
+    return 0.0;
   });
 }
 

@@ -118,6 +118,16 @@ class GentHGOLaw final : public ElasticLaw {
     for (const auto& f : fibers_) d.push_back(f.a0);
     return d;
   }
+  /// Gent without fiber families is isotropic in (Ī1, J): W1 and W11 as in compute().
+  bool has_compact_linearization() const override { return fibers_.empty(); }
+  bool compact_linearization(const Mat3& /*F*/, const Mat3& C, double J, CompactLinearization& L) const override {
+    if (!fibers_.empty()) return false;
+    const double I1b = C.trace() / std::cbrt(J * J);
+    const double W1 = 0.5 * p_.G * p_.Jm / (p_.Jm - (I1b - 3.0));
+    const double W11 = 2.0 * W1 * W1 / (p_.G * p_.Jm);
+    L = isochoric_compact_linearization(W1, W11, I1b, J, p_.K);
+    return true;
+  }
   std::unique_ptr<ElasticLaw> rotated(const Mat3& Q) const override {
     GentHGOParams q = p_;
     for (auto& f : q.fibers) f.direction = Q * f.direction;

@@ -66,6 +66,14 @@ class IsotropicI1Law final : public ElasticLaw {
   std::unique_ptr<ElasticLaw> rotated(const Mat3& /*Q*/) const override {
     return std::make_unique<IsotropicI1Law>(e_);  // isotropic: nothing to rotate
   }
+  bool has_compact_linearization() const override { return true; }
+  bool compact_linearization(const Mat3& /*F*/, const Mat3& C, double J, CompactLinearization& L) const override {
+    const double I1b = C.trace() / std::cbrt(J * J);
+    double W1, W11;
+    e_.derivatives(I1b - 3.0, W1, W11);
+    L = isochoric_compact_linearization(W1, W11, I1b, J, e_.K());
+    return true;
+  }
 
  private:
   MaterialStatus compute(InvariantAssembler::Form form, const Mat3& F, const Mat3& C, double J, Mat3& stress,
@@ -121,6 +129,13 @@ class LameLogNeoHookeanLaw final : public ElasticLaw {
   double initial_bulk_modulus() const override { return p_.K; }
   std::unique_ptr<ElasticLaw> rotated(const Mat3& /*Q*/) const override {
     return std::make_unique<LameLogNeoHookeanLaw>(p_);  // isotropic
+  }
+  /// W_1 = μ/2, W_J = (λ ln J − μ)/J, W_JJ = (μ + λ(1 − ln J))/J², no mixed or I1I1 terms.
+  bool has_compact_linearization() const override { return true; }
+  bool compact_linearization(const Mat3& /*F*/, const Mat3& /*C*/, double J, CompactLinearization& L) const override {
+    const double lnJ = std::log(J);
+    L = compact_from_derivatives(0.5 * p_.mu, (lambda_ * lnJ - p_.mu) / J, 0.0, 0.0, (p_.mu + lambda_ * (1.0 - lnJ)) / (J * J), J);
+    return true;
   }
 
  private:

@@ -19,6 +19,7 @@
 #include "softhom/fft/stencil.hpp"
 #include "softhom/materials/interrupt.hpp"
 #include "softhom/materials/errors.hpp"
+#include "compact_tangents.hpp"
 #include "diagnostics.hpp"
 #include "fft_distribution.hpp"
 #include "fft_mean_dilatation.hpp"
@@ -184,6 +185,7 @@ struct FftRveSolver::Impl {
   std::vector<double> hist_old[2], hist_new[2];
   std::vector<double> tangent;      // packed symmetric tangent per material point p = v nq + q (45 each)
   std::vector<float> tangent_f;     // the same in float (stencil operator, TangentPrecision::single_precision)
+  std::unique_ptr<detail::CompactTangents> compact;  // instead of tangent_f where the laws allow (compact_tangents.hpp)
   double krylov_seconds = 0.0;      // time in the linear solves (operator, preconditioner, vector ops)
   KVec cg_r, cg_z, cg_p, cg_Ap;     // CG work vectors, kept between solves (no allocation per solve)
   std::vector<float> jacobi_s;      // Preconditioner::jacobi_green: the real-space scaling S (3 per node)
@@ -348,7 +350,10 @@ struct FftRveSolver::Impl {
     // Single precision (stencil only): tangent_f instead of tangent.
     if (opt.scheme == FftScheme::newton_cg) {
       if (stencil && opt.tangent_precision == TangentPrecision::single_precision) {
-        tangent_f.assign(45 * ((NP + 7) / 8 * 8), 0.0f);
+        if (compact_tangents_apply())
+          compact = std::make_unique<detail::CompactTangents>(NP, comp_normal.size() * std::size_t(nq));
+        else
+          tangent_f.assign(45 * ((NP + 7) / 8 * 8), 0.0f);
         green.use_single_precision(true);  // the preconditioner's table too (fft::ReferenceGreen)
       } else {
         tangent.assign(45 * (stencil ? (NP + 7) / 8 * 8 : NP), 0.0);
@@ -359,7 +364,9 @@ struct FftRveSolver::Impl {
     u_committed = u;
     if (opt.scheme == FftScheme::newton_cg) {
       // CG work vectors once, here (pcg() reuses them), so that memory_bytes() is what a run holds.
-      for (KVec* v : {&cg_r, &cg_z, &cg_p}) v->u.assign(3 * NM, 0.0);
+      // Stencil operator: no z (CgSpace recomputes K0⁻¹ r in the direction update) and no Ap (fft3's buffer).
+      for (KVec* v : {&cg_r, &cg_p}) v->u.assign(3 * NM, 0.0);
+      if (!stencil) cg_z.u.assign(3 * NM, 0.0);
       if (!stencil) cg_Ap.u.assign(3 * NM, 0.0);
     }
   }
@@ -393,10 +400,13 @@ struct FftRveSolver::Impl {
     s.fft_fields = std::size_t(fft->fields());
     s.fft_spectra = fft->transformed_fields() ? s.fft_fields : 0;
     s.fft3_fields = fft3 ? std::size_t(fft3->fields()) : 0;
+    const bool single = !tangent_f.empty() || compact;
     s.tangent_values = tangent_f.empty() ? tangent.size() : tangent_f.size();
-    s.tangent_value_bytes = tangent_f.empty() ? sizeof(double) : sizeof(float);
+    s.tangent_value_bytes = single ? sizeof(float) : sizeof(double);
+    s.compact_values = compact ? compact->record_values() : 0;
+    s.composite_tangent_values = compact ? compact->full_values() : 0;
     s.green_values = 9 * NM;  // tabulated at the first solve
-    s.green_value_bytes = tangent_f.empty() ? sizeof(double) : sizeof(float);
+    s.green_value_bytes = single ? sizeof(float) : sizeof(double);
     s.jacobi_values = jacobi_green() ? 3 * N : 0;  // set with the reference medium
     s.history_values = hist_old[0].size() + hist_old[1].size();
     s.laminate_values = lam_a.size();
@@ -407,11 +417,11 @@ struct FftRveSolver::Impl {
     return s;
   }
   /// 3-component half spectra (double): ũ, committed ũ, the step's residual and Newton step, and the
-  /// CG work vectors (r, z, p, and Ap unless the stencil operator leaves it in fft3's buffer); the
+  /// CG work vectors (r, p, and z and Ap unless the stencil operator: z recomputed, Ap in fft3's buffer); the
   /// fixed point keeps ũ, its copy, the residual and the update. (+ ũ's last increment in float.)
   std::size_t spectral_vectors() const {
     if (opt.scheme != FftScheme::newton_cg) return 4;
-    return 4 + 3 + (stencil ? 0 : 1);
+    return 4 + (stencil ? (jacobi_green() ? 3 : 2) : 4);  // jacobi_green_pcg() keeps its z
   }
   /// The same sizes planned from the problem size before anything is allocated (composite voxels
   /// counted as none: their arrays are small).
@@ -427,6 +437,10 @@ struct FftRveSolver::Impl {
     s.fft3_fields = with_stencil ? 3 : 0;
     const bool single = with_stencil && opt.tangent_precision == TangentPrecision::single_precision;
     s.tangent_values = newton ? 45 * (with_stencil ? (NP + 7) / 8 * 8 : NP) : 0;
+    if (single && compact_tangents_apply()) {  // composite points' full tangents: counted as none
+      s.tangent_values = 0;
+      s.compact_values = std::size_t(kCompactValues) * ((NP + 7) / 8 * 8);
+    }
     s.tangent_value_bytes = single ? sizeof(float) : sizeof(double);
     s.green_values = 9 * NM;
     s.green_value_bytes = single ? sizeof(float) : sizeof(double);
@@ -434,7 +448,7 @@ struct FftRveSolver::Impl {
     s.history_values = NP * std::size_t(state_size[0] + state_size[1]);
     s.mixed_points = mixed_active ? NP : 0;
     s.mean_dilatation_values = opt.volumetric == VolumetricKinematics::mean_dilatation ? 18 * NP + N : 0;
-    s.spectral_vectors = !newton ? 4 : 4 + 3 + (with_stencil ? 0 : 1);
+    s.spectral_vectors = !newton ? 4 : 4 + (with_stencil ? (opt.preconditioner == Preconditioner::jacobi_green ? 3 : 2) : 4);
     return s;
   }
   /// Bytes the solver will allocate for this grid and these options (planned_sizes()), saturating for
@@ -443,6 +457,27 @@ struct FftRveSolver::Impl {
     if (double(N) * 1e4 * double(nq) >= double(std::numeric_limits<std::size_t>::max()))
       return std::numeric_limits<std::size_t>::max();
     return detail::storage_total(detail::storage_list(planned_sizes()));
+  }
+
+  /// Compact tangents (FftSolverOptions::compact_tangent) when both phases' laws have them, the
+  /// preconditioner does not read the stored tangents (jacobi_green) and the stored tangent is the law's
+  /// (with mean dilatation it is K_q of the voxel's energy, not a law's linearization). With
+  /// single-precision stencil tangents.
+  bool compact_tangents_apply() const {
+    return opt.compact_tangent && opt.preconditioner != Preconditioner::jacobi_green &&
+           opt.volumetric != VolumetricKinematics::mean_dilatation &&
+           mat[0]->has_compact_linearization() && mat[1]->has_compact_linearization();
+  }
+  /// Compact record of pure point p of phase x at F (after its evaluation and pressure_correction()): the
+  /// mixed iteration's q ∂cof/∂F, q = p − W_V′(J), is part of the tangent.
+  void store_compact(int x, std::size_t p, const Mat3& F) {
+    CompactLinearization L;
+    mat[x]->compact_linearization(F, L);
+    if (mixed[x]) {
+      const double J = F.determinant();
+      add_pressure_stiffness(L, p_trial[p] - 0.5 * K_vol[x] * (J - 1.0 / J), J);
+    }
+    compact->store(p, F, L);
   }
 
   Mat3 to_grid(const Mat3& X_load) const { return R.transpose() * X_load * R; }
@@ -513,6 +548,10 @@ struct FftRveSolver::Impl {
 
   /// Packed symmetric tangent of point p into `tangent` (layout: see the constructor).
   void store_tangent(std::size_t p, const Mat9& A) {
+    if (compact) {  // pure points: store_compact()
+      if (comp_id[p / nq] >= 0) compact->store_full(std::size_t(comp_id[p / nq]) * nq + p % nq, A);
+      return;
+    }
     if (!stencil) return pack_symmetric(A, &tangent[45 * p]);
     double S[45];
     pack_symmetric(A, S);
@@ -569,6 +608,7 @@ struct FftRveSolver::Impl {
             s = mat[x]->evaluate(F, state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr,
                                  state_size[x] ? hist_new[x].data() + p * state_size[x] : nullptr, dt, P, A);
             if (s == MaterialStatus::ok && mixed[x]) pressure_correction(x, p, F, P, A);
+            if (s == MaterialStatus::ok && A && compact) store_compact(x, p, F);
             if (s == MaterialStatus::ok && A && opt.reference == ReferenceMedium::geometric) {
               local.phase_A[x] += w * (*A);
               local.phase_A_w[x] += w;
@@ -888,7 +928,13 @@ struct FftRveSolver::Impl {
         alignas(64) double dF[9 * B];
         for (int c = 0; c < 9; ++c)
           for (int l = 0; l < B; ++l) dF[c * B + l] = dFbar[c] + grad[c * B + l];
-        if (Tf)
+        if (compact)
+          compact->product(p0, count, dF, dP, [&](int l) {
+            const std::size_t p = p0 + std::size_t(l);
+            const int c = comp_id[p / nq];
+            return c < 0 ? -1L : long(c) * nq + long(p % nq);
+          });
+        else if (Tf)
           fft::symmetric_product_batch(Tf + 45 * p0, dF, dP);
         else
           fft::symmetric_product_batch(T + 45 * p0, dF, dP);  // block p0/8 starts at 360·p0/8
@@ -944,18 +990,23 @@ struct FftRveSolver::Impl {
   /// spectrum buffer, which the CG update reads with the factor 1/N (no extra pass). ⟨p, Ap⟩ is then
   /// taken on the real fields, which equals the half-spectrum sum because the CG vectors are spectra of
   /// real fields (b comes from r2c transforms, and D, K0⁻¹ map k and −k to complex conjugates).
+  /// `r_for_z` (stencil operator): z.u is not stored, p ← K0⁻¹ r / `z_scale` + βp from the residual.
   double apply_direction(const KVec& z, double beta, KVec& p, const std::array<bool, 9>& free, KVec& Ap,
-                         double shift) {
+                         double shift, const KVec* r_for_z = nullptr, double z_scale = 1.0) {
     if (stencil) {
       // p ← z + βp, and a copy for the c2r transform (which destroys its input).
       Complex* s3 = fft3->spectrum(0);
       const Complex* zu = z.u.data();
       Complex* pu = p.u.data();
+      if (r_for_z) {
+        green.direction_update(r_for_z->u.data(), beta, pu, s3, z_scale);
+      } else {
 #pragma omp parallel for schedule(static)
-      for (std::size_t a = 0; a < 3 * NM; ++a) {
-        const Complex v = beta == 0.0 ? zu[a] : zu[a] + beta * pu[a];
-        pu[a] = v;
-        s3[a] = v;
+        for (std::size_t a = 0; a < 3 * NM; ++a) {
+          const Complex v = beta == 0.0 ? zu[a] : zu[a] + beta * pu[a];
+          pu[a] = v;
+          s3[a] = v;
+        }
       }
       p.f = beta == 0.0 ? Vec9(z.f) : Vec9(z.f + beta * p.f);
       fft3->backward();
@@ -1062,7 +1113,9 @@ struct FftRveSolver::Impl {
     const Eigen::MatrixXd& Minv;
     const std::vector<int>& free_idx;
     double scale, shift;
+    const KVec* r_live = nullptr;  // CG's r, when z.u is not stored (stencil operator)
     void start(const KVec& b, KVec& x, KVec& r) {
+      r_live = &r;
       r.u = b.u;
       r.f = b.f;
       x.u.assign(3 * m.NM, 0.0);
@@ -1070,14 +1123,14 @@ struct FftRveSolver::Impl {
     }
     double precondition_dot(const KVec& r, KVec& z) {
       precondition_macro(r.f, Minv, free_idx, z.f, scale);
-      return m.global_sum(m.green.apply_dot(r.u.data(), z.u.data(), scale)) + r.f.dot(z.f);
+      return m.global_sum(m.green.apply_dot(r.u.data(), z.u.empty() ? nullptr : z.u.data(), scale)) + r.f.dot(z.f);
     }
     double direction(const KVec& z, double beta, KVec& p, KVec& Ap) {
-      return m.apply_direction(z, beta, p, free, Ap, shift);
+      return m.apply_direction(z, beta, p, free, Ap, shift, z.u.empty() ? r_live : nullptr, scale);
     }
     double update(double alpha, const KVec& p, const KVec& Ap, KVec& x, KVec& r, KVec& z) {
       double rz_new = m.stencil ? m.green.cg_update(alpha, p.u.data(), m.fft3->spectrum(0), x.u.data(), r.u.data(),
-                                                    z.u.data(), scale, 1.0 / double(m.Ntot))
+                                                    z.u.empty() ? nullptr : z.u.data(), scale, 1.0 / double(m.Ntot))
                                 : m.green.cg_update(alpha, p.u.data(), Ap.u.data(), x.u.data(), r.u.data(), z.u.data(), scale);
       rz_new = m.global_sum(rz_new);
       x.f += alpha * p.f;
@@ -1131,7 +1184,8 @@ struct FftRveSolver::Impl {
     const auto start = Clock::now();
     const std::vector<int> free_idx = free_indices(free);
     const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
-    for (KVec* v : {&cg_z, &cg_p}) v->u.resize(3 * NM);
+    cg_p.u.resize(3 * NM);
+    if (!stencil) cg_z.u.resize(3 * NM);  // the stencil operator's CG recomputes z (CgSpace::direction)
     if (!stencil) cg_Ap.u.resize(3 * NM);  // the stencil operator leaves Ap in fft3's spectrum buffer
     // Per iteration (Fourier operator): one fused pass p ← z + βp → ∇p, FFT⁻¹ of 6·nq (section) or 9·nq
     // fields, the tangent pass, FFT, one fused pass Div → Ap and ⟨p, Ap⟩, one fused pass x += αp,
@@ -1422,7 +1476,7 @@ struct FftRveSolver::Impl {
       for (auto& c : b.u) c = -c;
       b.f = -b.f;
       if (!prescribed_reached) {
-        KVec& e = cg_z;
+        KVec& e = cg_r;  // pcg() overwrites it with b
         KVec& Ke = cg_p;
         e.u.assign(3 * NM, 0.0);
         e.f = flatten(dFp);
@@ -1726,7 +1780,8 @@ Mat9 FftRveSolver::homogenized_tangent(double krylov_tolerance, RveCounts* count
   const Eigen::MatrixXd no_macro(0, 0);
   KVec e{std::vector<Complex>(3 * m.NM, 0.0), Vec9::Zero()}, b{std::vector<Complex>(3 * m.NM), Vec9::Zero()};
   KVec x{std::vector<Complex>(3 * m.NM, 0.0), Vec9::Zero()}, y{std::vector<Complex>(3 * m.NM), Vec9::Zero()};
-  for (KVec* v : {&m.cg_z, &m.cg_p}) v->u.resize(3 * m.NM);
+  m.cg_p.u.resize(3 * m.NM);
+  if (!m.stencil) m.cg_z.u.resize(3 * m.NM);
   if (!m.stencil) m.cg_Ap.u.resize(3 * m.NM);
   Mat9 C = Mat9::Zero();
   int iterations = 0;

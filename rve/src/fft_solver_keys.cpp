@@ -55,6 +55,8 @@ const io::KeyTable<FftSolverOptions>& fft_solver_keys() {
         .choice("tangent_precision", &O::tangent_precision,
                 {{"double", TangentPrecision::double_precision}, {"single", TangentPrecision::single_precision}},
                 "storage of the stencil operator's tangents and of the preconditioner's Green table")
+        .flag("compact_tangent", &O::compact_tangent,
+              "single tangents: isotropic laws store F and five scalars per point instead of the 9x9 tangent (not with jacobi-green or volumetric = mean-dilatation)")
         .choice("preconditioner", &O::preconditioner,
                 {{"green", Preconditioner::green}, {"jacobi-green", Preconditioner::jacobi_green}},
                 "Newton-CG preconditioner (jacobi-green: the Green operator scaled by the real-space node diagonal; stencil operator only)")

@@ -33,6 +33,8 @@ struct StorageSizes {
   std::size_t fft3_fields = 0;         ///< 3 with the stencil Krylov operator, else 0
   std::size_t tangent_values = 0;      ///< stored tangent entries (padded)
   std::size_t tangent_value_bytes = 8; ///< 8 double, 4 float
+  std::size_t compact_values = 0;      ///< compact tangent records (floats, 14 per point, padded)
+  std::size_t composite_tangent_values = 0;  ///< full tangents of the composite points with compact ones (floats)
   std::size_t green_values = 0;        ///< reference Green operator table
   std::size_t green_value_bytes = 8;   ///< 8 double, 4 float (with float tangents)
   std::size_t jacobi_values = 0;       ///< Jacobi–Green scaling, 3 per node (floats; 0 with the Green preconditioner)
@@ -55,11 +57,13 @@ inline StorageList storage_list(const StorageSizes& s) {
   l.emplace_back("fft_buffers", s.fft_fields * 8 * s.voxels + s.fft_spectra * 16 * s.modes);
   if (s.fft3_fields) l.emplace_back("fft3_buffers", s.fft3_fields * field);
   if (s.tangent_values) l.emplace_back("tangents", s.tangent_values * s.tangent_value_bytes);
+  if (s.compact_values) l.emplace_back("compact_tangents", s.compact_values * 4);
   l.emplace_back("reference_green", s.green_values * s.green_value_bytes);
   if (s.jacobi_values) l.emplace_back("jacobi_scaling", s.jacobi_values * 4);
   if (s.history_values) l.emplace_back("history", 2 * 8 * s.history_values);
   l.emplace_back("phase_image", s.voxels * (8 + 4));  // fiber fraction, composite index
-  if (s.composite_voxels) l.emplace_back("composites", 2 * 8 * s.laminate_values + 24 * s.composite_voxels);
+  if (s.composite_voxels)
+    l.emplace_back("composites", 2 * 8 * s.laminate_values + 24 * s.composite_voxels + 4 * s.composite_tangent_values);
   if (s.mixed_points) l.emplace_back("mixed_pressure", kMixedBytesPerPoint * s.mixed_points);
   if (s.mean_dilatation_values) l.emplace_back("mean_dilatation", 8 * s.mean_dilatation_values);
   l.emplace_back("spectral_vectors", s.spectral_vectors * 3 * 16 * s.modes);

@@ -45,17 +45,18 @@ FftSolverOptions quick() {
 
 }  // namespace
 
-// Bytes per voxel of the default solve (rotated, stencil Krylov operator, float tangents and Green table).
-// The accounting is exact arithmetic on the array sizes, so the bounds are tight: each margin (3.9 B,
-// 2.1 B) is below one 3-component spectral vector (25.5 B per voxel on a 32² section, 27 B on 16³) and
-// below any one of the cuts, and above the composite voxels' arrays' dependence on the image (< 1 B).
-// 32² ecoflex/glass section (mixed (u, p) arrays, composite voxels) 636.1 B measured (1148 → 785 B
-// before); 16³ compressible neo-Hookean cell (no pressure arrays) 547.9 B measured (662.6 B before).
+// Bytes per voxel of the default solve (rotated, stencil Krylov operator, compact float tangents, float
+// Green table, CG without a stored z). The accounting is exact arithmetic on the array sizes, so the
+// bounds are tight: each margin (< 3 B) is below one 3-component spectral vector (25.5 B per voxel on a
+// 32² section, 27 B on 16³) and below any one of the cuts, and above the composite voxels' arrays'
+// dependence on the image (< 1 B). 32² ecoflex/glass section (mixed (u, p) arrays, composite voxels)
+// 497.1 B measured (1148 → 785 → 636.1 B before); 16³ compressible neo-Hookean cell (no pressure arrays)
+// ≈ 422 B (547.9 B before the compact tangents and z).
 TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
   const PhaseImage section = circle_image(32, 0.27);
   FftRveSolver eco(section, ecoflex(), glass(), 45.0, Mat3::Identity(), quick());
   const double eco_bpv = double(eco.memory_bytes()) / double(section.voxels());
-  EXPECT_LE(eco_bpv, 640.0);
+  EXPECT_LE(eco_bpv, 500.0);
   const auto eco_arrays = by_array(eco);
   EXPECT_EQ(eco_arrays.count("history"), 0u);  // elastic phases: no internal variables
   EXPECT_GT(eco_arrays.count("mixed_pressure"), 0u);
@@ -63,16 +64,22 @@ TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
   // ∇ũ / P in real space only (9 doubles per point, no spectrum); the mixed arrays 108 B per point.
   EXPECT_EQ(eco_arrays.at("fft_buffers"), 9u * 8u * section.voxels());
   EXPECT_EQ(eco_arrays.at("mixed_pressure"), 108u * section.voxels());
+  EXPECT_EQ(eco_arrays.at("compact_tangents"), 14u * 4u * section.voxels());
+  // CG's r and p only (z recomputed from r, Ap in fft3's buffer) next to ũ, committed ũ, residual, step.
+  EXPECT_EQ(eco_arrays.at("spectral_vectors"), 6u * 3u * 16u * (32u / 2u + 1u) * 32u);
 
   const PhaseImage cube = extruded(circle_image(16, 0.27), 16);
   FftRveSolver nh(cube, neo_hookean(1.0, 10.0), glass(), 45.0, Mat3::Identity(), quick());
   const double nh_bpv = double(nh.memory_bytes()) / double(cube.voxels());
-  EXPECT_LE(nh_bpv, 550.0);
+  EXPECT_LE(nh_bpv, 425.0);
   const auto nh_arrays = by_array(nh);
   EXPECT_EQ(nh_arrays.count("mixed_pressure"), 0u);  // K/G = 10 < mixed_pressure_ratio
   EXPECT_EQ(nh_arrays.count("history"), 0u);
-  // Float tangents: 45 values of 4 bytes per point; float Green table: 9 values of 4 bytes per mode.
-  EXPECT_EQ(nh_arrays.at("tangents"), 45u * 4u * cube.voxels());
+  // Compact tangents (both laws isotropic in (I1, J)): F and 5 scalars, 14 floats per point, and no
+  // stored 9×9 tangent except the composite points' (in "composites"); float Green table: 9 values of
+  // 4 bytes per mode.
+  EXPECT_EQ(nh_arrays.count("tangents"), 0u);
+  EXPECT_EQ(nh_arrays.at("compact_tangents"), 14u * 4u * cube.voxels());
   EXPECT_EQ(nh_arrays.at("reference_green"), 9u * 4u * (16u / 2u + 1u) * 16u * 16u);
 
   // Hex (8 points per voxel): the 72 real fields stay, their spectra (72 · 16 · 9/16 = 648 B per voxel
@@ -92,8 +99,9 @@ TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
 // Krylov operators; the memory held after a run is the one counted before it.
 TEST(FftRveMemory, PlannedBytesFollowTheStorage) {
   const PhaseImage section = circle_image(12, 0.27);
-  for (int variant = 0; variant < 4; ++variant) {
+  for (int variant = 0; variant < 5; ++variant) {
     FftSolverOptions o = quick();
+    if (variant == 4) o.compact_tangent = false;
     if (variant == 1) o.krylov_operator = KrylovOperator::fourier;
     if (variant == 2) o.scheme = FftScheme::moulinec_suquet;
     if (variant == 3) o.tangent_precision = TangentPrecision::double_precision;
@@ -102,4 +110,28 @@ TEST(FftRveMemory, PlannedBytesFollowTheStorage) {
     const std::size_t composites = arrays.count("composites") ? arrays.at("composites") : 0;
     EXPECT_EQ(s.memory_bytes(), s.planned_memory_bytes() + composites) << "variant " << variant;
   }
+}
+
+// The compact tangents change the stored operator by float rounding only: the same converged stress as
+// the stored 9×9 float tangents to the Newton tolerance (both stop at a relative residual of 1e-8; the
+// stress difference is bounded by a modest multiple of it, as in MixedPressureIterationSameSolution),
+// on an ecoflex (K/G = 1.2e5, mixed (u, p)) + glass section with composite voxels (full tangents there).
+TEST(FftRveMemory, CompactTangentsSameSolution) {
+  const PhaseImage im = circle_image(12, 0.27);
+  const MixedControl control = softhom::rve::testing::uniaxial_ramp(1.2, 2);
+  FftSolverOptions o = quick();
+  o.tolerance = 1e-8;
+  FftRveSolver compact(im, ecoflex(), glass(), 45.0, control.frame, o);
+  o.compact_tangent = false;
+  FftRveSolver full(im, ecoflex(), glass(), 45.0, control.frame, o);
+  EXPECT_GT(by_array(compact).count("compact_tangents"), 0u);
+  EXPECT_EQ(by_array(full).count("compact_tangents"), 0u);
+  const RveRunResult rc = compact.run(control), rf = full.run(control);
+  ASSERT_TRUE(rc.completed && rf.completed) << rc.error << rf.error;
+  const Mat3 Pc = rc.steps.back().P, Pf = rf.steps.back().P;
+  EXPECT_LT((Pc - Pf).norm() / Pf.norm(), 1e-6);
+  EXPECT_GT(Pc(0, 0), 0.0);
+  std::printf("[ info     ] compact: Newton %d Krylov %d; full: Newton %d Krylov %d; P11 %.10f / %.10f\n",
+              int(rc.newton_iterations), int(rc.krylov_iterations), int(rf.newton_iterations), int(rf.krylov_iterations),
+              Pc(0, 0), Pf(0, 0));
 }

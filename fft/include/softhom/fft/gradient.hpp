@@ -141,6 +141,10 @@ class ReferenceGreen {
   void apply(const Complex* r, Complex* out, double scale = 1.0) const;
   /// out = K0⁻¹ r / scale, returns Σ_k m_k Re(r̄_k · out_k). `r` and `out` must not alias.
   double apply_dot(const Complex* r, Complex* out, double scale = 1.0) const;
+  /// (`out` / `z` null in apply_dot and cg_update: only the sum, K0⁻¹ r not stored; see direction_update.)
+  /// p ← K0⁻¹ r / scale + β p and copy ← p: the CG direction update with z = K0⁻¹ r recomputed from r
+  /// instead of stored (the same values as cg_update's z followed by p ← z + βp, bit for bit).
+  void direction_update(const Complex* r, double beta, Complex* p, Complex* copy, double scale = 1.0) const;
   /// Fused CG update: x += α p, r −= α ap_scale Ap, z = K0⁻¹ r / scale; returns Σ_k m_k Re(r̄_k · z_k).
   /// (`ap_scale`: Ap may be handed over unnormalised, straight from an FFT buffer.)
   double cg_update(double alpha, const Complex* p, const Complex* Ap, Complex* x, Complex* r, Complex* z,

@@ -28,6 +28,16 @@ class ElasticLaw {
   /// converts second_piola() with piola_tangent_from_material(); a law may override it with a fused
   /// kernel that never forms the 9x9 CC (the tests check that both routes agree).
   virtual MaterialStatus first_piola(const Mat3& F, const Mat3& C, double J, Mat3& P, Mat9* A) const;
+
+  /// See Material::compact_linearization (`C` = FᵀF, `J` = det F > 0).
+  virtual bool has_compact_linearization() const { return false; }
+  virtual bool compact_linearization(const Mat3& F, const Mat3& C, double J, CompactLinearization& L) const {
+    (void)F;
+    (void)C;
+    (void)J;
+    (void)L;
+    return false;
+  }
 };
 
 using ElasticLawPtr = std::shared_ptr<const ElasticLaw>;
@@ -101,6 +111,10 @@ class HyperelasticMaterial final : public Material {
   double volumetric_modulus() const override { return law_->initial_bulk_modulus(); }
   std::vector<Vec3> fiber_directions() const override { return law_->fiber_directions(); }
   double limit_margin(const Mat3& F) const override { return law_->limit_margin(F); }
+  bool has_compact_linearization() const override { return law_->has_compact_linearization(); }
+  bool compact_linearization(const Mat3& F, CompactLinearization& L) const override {
+    return law_->compact_linearization(F, F.transpose() * F, F.determinant(), L);
+  }
   std::unique_ptr<Material> rotated(const Mat3& Q) const override {
     return std::make_unique<HyperelasticMaterial>(ElasticLawPtr(law_->rotated(Q)));
   }

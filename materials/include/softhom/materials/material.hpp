@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "softhom/materials/compact_linearization.hpp"
 #include "softhom/materials/tensor.hpp"
 
 namespace softhom {
@@ -42,6 +43,17 @@ class Material {
   /// laws).
   virtual MaterialStatus evaluate(const Mat3& F, const double* state_old, double* state_new, double dt,
                                   Mat3& P, Mat9* A) const = 0;
+
+  /// Whether compact_linearization() is available: isotropic elastic laws written in (I1, J) (see
+  /// compact_linearization.hpp). Anisotropic, viscoelastic and any other law: false (the default).
+  virtual bool has_compact_linearization() const { return false; }
+  /// The tangent at F as F plus five scalars (CompactLinearization), when has_compact_linearization();
+  /// returns false otherwise. To be called at an F where evaluate() succeeded (no checks repeated).
+  virtual bool compact_linearization(const Mat3& F, CompactLinearization& L) const {
+    (void)F;
+    (void)L;
+    return false;
+  }
 
   /// Small-strain moduli at F = I (instantaneous for viscoelastic laws). Solvers use these to choose
   /// reference media; they are not used to compute stresses.

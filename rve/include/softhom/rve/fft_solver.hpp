@@ -127,6 +127,12 @@ struct FftSolverOptions {
   /// ≈ 6e-8 relative per tangent entry (symmetric, so CG/MINRES still apply), which inexact Newton
   /// absorbs. The Fourier operator always keeps double.
   TangentPrecision tangent_precision = TangentPrecision::single_precision;
+  /// With single-precision tangents (stencil operator, green preconditioner): the pure points of phases
+  /// whose law has a compact linearization (Material::has_compact_linearization: isotropic laws in
+  /// (I1, J)) store F and five scalars (56 B) instead of the packed 9×9 tangent (180 B), and the Krylov
+  /// operator forms δP from them on the fly (rve/src/compact_tangents.hpp). Composite points and other
+  /// laws keep the stored tangent. The same operator to float rounding.
+  bool compact_tangent = true;
   /// green: the reference-medium Green operator K0⁻¹ per Fourier mode (CG on spectra), the default.
   /// jacobi_green: S K0⁻¹ S with S the real-space diagonal scaling (D0/D)^½ of the stencil operator's
   /// node diagonal D (rve/src/fft_preconditioner.hpp), CG on nodal fields, the same two 3-field
