@@ -26,6 +26,7 @@
 
 #include "softhom/io/mpi.hpp"
 #include "softhom/io/scene.hpp"
+#include "softhom/macro/cook_membrane.hpp"
 #include "softhom/macro/geometry.hpp"
 #include "softhom/macro/scene.hpp"
 #include "softhom/macro/structures.hpp"
@@ -36,31 +37,7 @@ using namespace softhom::fe;
 
 namespace {
 
-FeModel cook(int n, double kg) {
-  const Mesh mesh = macro::make_cook_membrane(n);
-  auto id = [&](int i, int j, int k) { return i + (n + 1) * (j + (n + 1) * k); };
-  FeModel m;
-  m.mesh = mesh;
-  const double G = 83.3;
-  m.element_material.assign(mesh.num_elements(), make_material(make_neo_hookean({G, kg * G})));
-  DirichletGroup clamp, plane;
-  for (int node = 0; node < mesh.num_nodes(); ++node) {
-    if (mesh.nodes[node][0] < 1e-9)
-      for (int c = 0; c < 2; ++c) clamp.dofs.push_back(3 * node + c);
-    plane.dofs.push_back(3 * node + 2);
-  }
-  m.dirichlet = {clamp, plane};
-  NodalLoad load;
-  for (int j = 0; j < n; ++j)
-    for (int k = 0; k <= 1; ++k)
-      for (int jj : {j, j + 1}) {
-        load.dofs.push_back(3 * id(n, jj, k) + 1);
-        load.scale.push_back(5.0 / (4.0 * n));
-      }
-  load.value = PiecewiseLinear{{0.0, 1.0}, {0.0, 1.0}};
-  m.nodal_loads = {load};
-  return m;
-}
+FeModel cook(int n, double kg) { return macro::make_cook_membrane_problem(n, 83.3, kg, 5.0); }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -9,7 +9,7 @@
 #include <cmath>
 
 #include "softhom/fe/solver.hpp"
-#include "softhom/macro/geometry.hpp"
+#include "softhom/macro/cook_membrane.hpp"
 #include "softhom/materials/laws.hpp"
 
 using namespace softhom;
@@ -21,39 +21,18 @@ constexpr double kReference = 7.7;  // u_y at C for E = 250, ν = 0.4999, F = 10
 
 /// Tip deflection u_y(48, 60) per 100 N of total shear, from a load small enough for linearity.
 double cook_tip(int n, Formulation f, int* iterations = nullptr) {
-  const Mesh mesh = macro::make_cook_membrane(n);
-  auto id = [&](int i, int j, int k) { return i + (n + 1) * (j + (n + 1) * k); };
-  FeModel m;
-  m.mesh = mesh;
-  m.formulation = f;
   // E = 250 with K/G = 1e5 (ν = 0.499995; ν = 0.4999 changes the reference by < 0.1 %).
   const double E = 250.0, kg = 1e5, nu = (3 * kg - 2) / (2 * (3 * kg + 1));
   const double G = E / (2 * (1 + nu));
-  m.element_material.assign(mesh.num_elements(), make_material(make_neo_hookean({G, kg * G})));
-  DirichletGroup clamp, plane;
-  for (int node = 0; node < mesh.num_nodes(); ++node) {
-    if (mesh.nodes[node][0] < 1e-9)
-      for (int c = 0; c < 2; ++c) clamp.dofs.push_back(3 * node + c);
-    plane.dofs.push_back(3 * node + 2);  // plane strain
-  }
-  m.dirichlet = {clamp, plane};
-  // Consistent nodal forces of a uniform shear traction on the face x = 48 (height 16, thickness 1).
   const double F = 100.0 * 1e-4;  // small: linear response (|u| ~ 1e-3, nonlinearity ~ 1e-4)
-  NodalLoad load;
-  for (int j = 0; j < n; ++j)
-    for (int k = 0; k <= 1; ++k)
-      for (int jj : {j, j + 1}) {
-        load.dofs.push_back(3 * id(n, jj, k) + 1);
-        load.scale.push_back(F / (4.0 * n));  // (16/n)·1 area, traction F/16, a quarter per node
-      }
-  load.value = PiecewiseLinear{{0.0, 1.0}, {0.0, 1.0}};
-  m.nodal_loads = {load};
+  FeModel m = macro::make_cook_membrane_problem(n, G, kg, F);
+  m.formulation = f;
   NewtonOptions o;
   o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
   Simulation sim(m, o);
   EXPECT_TRUE(sim.advance_to(1.0).reached());
   if (iterations) *iterations = sim.stats().newton_iterations;
-  return sim.displacement()[3 * id(n, n, 0) + 1] * (100.0 / F);
+  return sim.displacement()[macro::cook_tip_dof(n)] * (100.0 / F);
 }
 
 }  // namespace

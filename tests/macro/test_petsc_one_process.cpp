@@ -9,6 +9,7 @@
 
 #include "softhom/fe/petsc.hpp"
 #include "softhom/fe/solver.hpp"
+#include "softhom/macro/cook_membrane.hpp"
 #include "softhom/macro/geometry.hpp"
 #include "softhom/materials/laws.hpp"
 
@@ -17,32 +18,7 @@ using namespace softhom::fe;
 
 namespace {
 
-FeModel cook6() {
-  const int n = 6;
-  const Mesh mesh = macro::make_cook_membrane(n);
-  auto id = [&](int i, int j, int k) { return i + (n + 1) * (j + (n + 1) * k); };
-  FeModel m;
-  m.mesh = mesh;
-  const double G = 83.3;
-  m.element_material.assign(mesh.num_elements(), make_material(make_neo_hookean({G, 1e4 * G})));
-  DirichletGroup clamp, plane;
-  for (int node = 0; node < mesh.num_nodes(); ++node) {
-    if (mesh.nodes[node][0] < 1e-9)
-      for (int c = 0; c < 2; ++c) clamp.dofs.push_back(3 * node + c);
-    plane.dofs.push_back(3 * node + 2);
-  }
-  m.dirichlet = {clamp, plane};
-  NodalLoad load;
-  for (int j = 0; j < n; ++j)
-    for (int k = 0; k <= 1; ++k)
-      for (int jj : {j, j + 1}) {
-        load.dofs.push_back(3 * id(n, jj, k) + 1);
-        load.scale.push_back(5.0 / (4.0 * n));
-      }
-  load.value = PiecewiseLinear{{0.0, 1.0}, {0.0, 1.0}};
-  m.nodal_loads = {load};
-  return m;
-}
+FeModel cook6() { return macro::make_cook_membrane_problem(6, 83.3, 1e4, 5.0); }
 
 std::vector<double> solve(const FeModel& m, SolverKind kind) {
   NewtonOptions o;

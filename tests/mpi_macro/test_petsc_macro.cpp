@@ -15,6 +15,7 @@
 #include "softhom/fe/solver.hpp"
 #include "softhom/io/mpi.hpp"
 #include "softhom/io/scene.hpp"
+#include "softhom/macro/cook_membrane.hpp"
 #include "softhom/macro/geometry.hpp"
 #include "softhom/macro/scene.hpp"
 #include "softhom/macro/structures.hpp"
@@ -40,33 +41,8 @@ const char* const kTight = std::getenv("PM_OPTS") ? std::getenv("PM_OPTS") : "-k
 constexpr const char* kDistributedLu = "-ksp_rtol 1e-10 -pc_type lu -pc_factor_mat_solver_type mumps";
 
 /// Cook's membrane (tests/macro/test_cook.cpp) with n × n hex8 in plane strain and K/G = kg.
-FeModel cook(int n, double kg) {
-  const Mesh mesh = macro::make_cook_membrane(n);
-  auto id = [&](int i, int j, int k) { return i + (n + 1) * (j + (n + 1) * k); };
-  FeModel m;
-  m.mesh = mesh;
-  const double G = 83.3;
-  m.element_material.assign(mesh.num_elements(), make_material(make_neo_hookean({G, kg * G})));
-  DirichletGroup clamp, plane;
-  for (int node = 0; node < mesh.num_nodes(); ++node) {
-    if (mesh.nodes[node][0] < 1e-9)
-      for (int c = 0; c < 2; ++c) clamp.dofs.push_back(3 * node + c);
-    plane.dofs.push_back(3 * node + 2);
-  }
-  m.dirichlet = {clamp, plane};
-  NodalLoad load;  // a shear of 5 N over the tip face: moderately nonlinear (tip ~ 0.4 mm)
-  for (int j = 0; j < n; ++j)
-    for (int k = 0; k <= 1; ++k)
-      for (int jj : {j, j + 1}) {
-        load.dofs.push_back(3 * id(n, jj, k) + 1);
-        load.scale.push_back(5.0 / (4.0 * n));
-      }
-  load.value = PiecewiseLinear{{0.0, 1.0}, {0.0, 1.0}};
-  m.nodal_loads = {load};
-  return m;
-}
+FeModel cook(int n, double kg) { return macro::make_cook_membrane_problem(n, 83.3, kg, 5.0); }
 
-int cook_tip_dof(int n) { return 3 * (n + (n + 1) * n) + 1; }
 
 struct RunResult {
   std::vector<double> u;
@@ -193,7 +169,7 @@ TEST(PetscMacro, CookMembraneEqualsCholmodAndKrylovCountsStayFlat) {
       const RunResult direct = run(m, SolverKind::cholmod, 1.0);
       const RunResult petsc = run(m, SolverKind::petsc, 1.0);
       ASSERT_TRUE(direct.reached && petsc.reached) << n << " " << kg;
-      const double tip_d = direct.u[cook_tip_dof(n)], tip_p = petsc.u[cook_tip_dof(n)];
+      const double tip_d = direct.u[macro::cook_tip_dof(n)], tip_p = petsc.u[macro::cook_tip_dof(n)];
       EXPECT_NEAR(tip_p / tip_d, 1.0, 1e-6) << "n = " << n << ", K/G = " << kg;
       EXPECT_LT(relative_difference(petsc.u, direct.u), 1e-6);
       EXPECT_LT(rank_spread(petsc.u), 1e-12);  // the gathered solution is one vector on every rank
