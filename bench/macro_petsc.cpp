@@ -26,7 +26,7 @@
 
 #include "softhom/io/mpi.hpp"
 #include "softhom/io/scene.hpp"
-#include "softhom/macro/cook_membrane.hpp"
+#include "softhom/macro/benchmark_problems.hpp"
 #include "softhom/macro/geometry.hpp"
 #include "softhom/macro/scene.hpp"
 #include "softhom/macro/structures.hpp"
@@ -81,35 +81,7 @@ int cook_table(const std::string& options) {
   return 0;
 }
 
-macro::StructureSpec helix_tube(double dofs, double kg = 2000.0 / 0.017) {
-  // bench/macro.cpp's tube: R_i 5, R_o 7.5, L 50, cap 2.5, ecoflex-anisotropic ±45°, cubes of edge h.
-  macro::StructureSpec spec;
-  spec.kind = macro::StructureKind::tube;
-  macro::TubeSpec t;
-  t.inner_radius = 5.0;
-  t.outer_radius = 7.5;
-  t.length = 50.0;
-  t.sweep_deg = 360.0;
-  t.cap_thickness = 2.5;
-  const double h = std::cbrt(3.0 * 2.5 * 2 * M_PI * 6.25 * 50.0 / dofs);
-  t.radial_cells = std::max(1, int(std::lround(2.5 / h)));
-  t.circumferential_cells = std::max(8, int(std::lround(2 * M_PI * 6.25 / h / 4)) * 4);
-  t.axial_cells = std::max(1, int(std::lround(50.0 / h)));
-  t.cap_axial_cells = std::max(1, int(std::lround(2.5 / h)));
-  t.cap_core_cells = std::max(1, int(std::lround(5.0 / h)));
-  spec.tube = t;
-  GentHGOParams p;
-  p.G = 0.017;
-  p.Jm = 14.0;
-  p.K = kg * p.G;
-  const double a = 45.0 * M_PI / 180.0;
-  p.fibers = {{Vec3(std::sin(a), std::cos(a), 0.0), 0.8, 18.0}, {Vec3(-std::sin(a), std::cos(a), 0.0), 0.8, 18.0}};
-  spec.material = make_material(make_gent_hgo(p));
-  spec.fiber_frame = macro::FiberFrame::cylindrical;
-  spec.control = macro::LoadControl::pressure;
-  spec.load = {{0.0, 180.0}, {0.0, 0.004}};
-  return spec;
-}
+macro::StructureSpec helix_tube(double dofs, double kg = 2000.0 / 0.017) { return macro::make_helix_tube_spec(dofs, kg); }
 
 int tube_run(double dofs, int steps, const std::string& options) {
   const macro::Structure s = macro::build_structure(helix_tube(dofs));

@@ -9,7 +9,7 @@
 #include <cmath>
 
 #include "softhom/fe/solver.hpp"
-#include "softhom/macro/cook_membrane.hpp"
+#include "softhom/macro/benchmark_problems.hpp"
 #include "softhom/materials/laws.hpp"
 
 using namespace softhom;

@@ -9,7 +9,7 @@
 
 #include "softhom/fe/petsc.hpp"
 #include "softhom/fe/solver.hpp"
-#include "softhom/macro/cook_membrane.hpp"
+#include "softhom/macro/benchmark_problems.hpp"
 #include "softhom/macro/geometry.hpp"
 #include "softhom/materials/laws.hpp"
 

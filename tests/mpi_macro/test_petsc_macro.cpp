@@ -15,7 +15,7 @@
 #include "softhom/fe/solver.hpp"
 #include "softhom/io/mpi.hpp"
 #include "softhom/io/scene.hpp"
-#include "softhom/macro/cook_membrane.hpp"
+#include "softhom/macro/benchmark_problems.hpp"
 #include "softhom/macro/geometry.hpp"
 #include "softhom/macro/scene.hpp"
 #include "softhom/macro/structures.hpp"
@@ -118,36 +118,8 @@ std::vector<double> scene_times(const std::string& name, int steps) {
   return std::vector<double>(ms.times.begin(), ms.times.begin() + std::min<std::size_t>(steps, ms.times.size()));
 }
 
-/// bench_macro_petsc's helix tube: ±45° Gent–HGO fibres, κ/G = kg, capped ends (the cap core's
-/// innermost ring is made of degenerate hexes), follower pressure; about `dofs` free dofs.
-macro::Structure helix_tube(double dofs, double kg) {
-  macro::StructureSpec spec;
-  spec.kind = macro::StructureKind::tube;
-  macro::TubeSpec t;
-  t.inner_radius = 5.0;
-  t.outer_radius = 7.5;
-  t.length = 50.0;
-  t.sweep_deg = 360.0;
-  t.cap_thickness = 2.5;
-  const double h = std::cbrt(3.0 * 2.5 * 2 * M_PI * 6.25 * 50.0 / dofs);
-  t.radial_cells = std::max(1, int(std::lround(2.5 / h)));
-  t.circumferential_cells = std::max(8, int(std::lround(2 * M_PI * 6.25 / h / 4)) * 4);
-  t.axial_cells = std::max(1, int(std::lround(50.0 / h)));
-  t.cap_axial_cells = std::max(1, int(std::lround(2.5 / h)));
-  t.cap_core_cells = std::max(1, int(std::lround(5.0 / h)));
-  spec.tube = t;
-  GentHGOParams p;
-  p.G = 0.017;
-  p.Jm = 14.0;
-  p.K = kg * p.G;
-  const double a = 45.0 * M_PI / 180.0;
-  p.fibers = {{Vec3(std::sin(a), std::cos(a), 0.0), 0.8, 18.0}, {Vec3(-std::sin(a), std::cos(a), 0.0), 0.8, 18.0}};
-  spec.material = make_material(make_gent_hgo(p));
-  spec.fiber_frame = macro::FiberFrame::cylindrical;
-  spec.control = macro::LoadControl::pressure;
-  spec.load = {{0.0, 180.0}, {0.0, 0.004}};
-  return macro::build_structure(spec);
-}
+/// bench_macro_petsc's helix tube (macro::make_helix_tube_spec), κ/G = kg, about `dofs` free dofs.
+macro::Structure helix_tube(double dofs, double kg) { return macro::build_structure(macro::make_helix_tube_spec(dofs, kg)); }
 
 }  // namespace
 

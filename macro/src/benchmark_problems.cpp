@@ -1,0 +1,69 @@
+// The shared test and benchmark problems (see benchmark_problems.hpp).
+#include "softhom/macro/benchmark_problems.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "softhom/macro/geometry.hpp"
+#include "softhom/materials/laws.hpp"
+
+namespace softhom::macro {
+
+fe::FeModel make_cook_membrane_problem(int n, double G, double bulk_over_shear, double shear_force) {
+  fe::FeModel m;
+  m.mesh = make_cook_membrane(n);
+  auto id = [&](int i, int j, int k) { return i + (n + 1) * (j + (n + 1) * k); };
+  m.element_material.assign(m.mesh.num_elements(), make_material(make_neo_hookean({G, bulk_over_shear * G})));
+  fe::DirichletGroup clamp, plane;
+  for (int node = 0; node < m.mesh.num_nodes(); ++node) {
+    if (m.mesh.nodes[node][0] < 1e-9)
+      for (int c = 0; c < 2; ++c) clamp.dofs.push_back(3 * node + c);
+    plane.dofs.push_back(3 * node + 2);  // plane strain
+  }
+  m.dirichlet = {clamp, plane};
+  // The tip face (height 16, thickness 1) in n × 1 quads: each carries shear_force / n, a quarter per node.
+  fe::NodalLoad load;
+  for (int j = 0; j < n; ++j)
+    for (int k = 0; k <= 1; ++k)
+      for (int jj : {j, j + 1}) {
+        load.dofs.push_back(3 * id(n, jj, k) + 1);
+        load.scale.push_back(shear_force / (4.0 * n));
+      }
+  load.value = PiecewiseLinear{{0.0, 1.0}, {0.0, 1.0}};
+  m.nodal_loads = {load};
+  return m;
+}
+
+int cook_tip_dof(int n) { return 3 * (n + (n + 1) * n) + 1; }
+
+StructureSpec make_helix_tube_spec(double dofs, double bulk_over_shear) {
+  StructureSpec spec;
+  spec.kind = StructureKind::tube;
+  TubeSpec t;
+  t.inner_radius = 5.0;
+  t.outer_radius = 7.5;
+  t.length = 50.0;
+  t.sweep_deg = 360.0;
+  t.cap_thickness = 2.5;
+  // Edge h of near-cubic cells: 3 dofs per node of the wall volume 2.5 · 2π · 6.25 · 50.
+  const double h = std::cbrt(3.0 * 2.5 * 2 * M_PI * 6.25 * 50.0 / dofs);
+  t.radial_cells = std::max(1, int(std::lround(2.5 / h)));
+  t.circumferential_cells = std::max(8, int(std::lround(2 * M_PI * 6.25 / h / 4)) * 4);
+  t.axial_cells = std::max(1, int(std::lround(50.0 / h)));
+  t.cap_axial_cells = std::max(1, int(std::lround(2.5 / h)));
+  t.cap_core_cells = std::max(1, int(std::lround(5.0 / h)));
+  spec.tube = t;
+  GentHGOParams p;
+  p.G = 0.017;
+  p.Jm = 14.0;
+  p.K = bulk_over_shear * p.G;
+  const double a = 45.0 * M_PI / 180.0;
+  p.fibers = {{Vec3(std::sin(a), std::cos(a), 0.0), 0.8, 18.0}, {Vec3(-std::sin(a), std::cos(a), 0.0), 0.8, 18.0}};
+  spec.material = make_material(make_gent_hgo(p));
+  spec.fiber_frame = FiberFrame::cylindrical;
+  spec.control = LoadControl::pressure;
+  spec.load = {{0.0, 180.0}, {0.0, 0.004}};
+  return spec;
+}
+
+}  // namespace softhom::macro
