@@ -67,7 +67,7 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   // [load] is parsed only when the run needs it (unknown tables are refused by the scene parser).
   const bool wants_microstructure_only = studies::parse_rve_output(scene.table, nullptr).microstructure_only;
   // A 3D cell under an MPI launcher: each rank builds and holds only its slab of the phase image.
-  const studies::RveSceneSetup setup =
+  studies::RveSceneSetup setup =
       studies::parse_rve_scene(scene.table, !wants_microstructure_only, options.out, !wants_microstructure_only);
   const rve::PhaseImage& image = setup.image;
   const MaterialPtr& matrix = setup.matrix;
@@ -127,6 +127,11 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   rve::FftRveSolver solver(image, matrix, fiber, alpha, control.frame, solver_options);
   const fft::SlabDecomposition* slabs = solver.slabs();
   const double image_bytes = phase_image_bytes_per_rank(image, slabs);  // collective
+  // The solver keeps what it needs of the image (4 B per voxel, the normals of composite voxels only):
+  // the scene's per-voxel arrays (fractions and normals, 32 B per voxel) are not held through the run.
+  std::vector<double>().swap(setup.image.fiber_fraction);
+  std::vector<Eigen::Vector3d>().swap(setup.image.normal);
+  std::vector<Eigen::Vector3d>().swap(setup.image.fiber_direction);
   const double t_end = control.times.back();
   std::unique_ptr<io::FieldWriter> writer;
   if (fields_mode != "none" && root) {

@@ -73,13 +73,14 @@ inline std::optional<double> first_bad_fraction(const fft::SlabDecomposition& sl
 }
 
 /// The fiber fractions of voxels of the whole grid on every rank, each from the rank that owns it (`phi`:
-/// its slab's fractions, from voxel v0 on), summed over the ranks: exact, as one term is non-zero.
-/// Collective (failure messages name voxels with their fraction).
-inline std::vector<double> fractions_of(const fft::SlabDecomposition& slabs, const std::vector<double>& phi,
-                                        std::size_t v0, const std::vector<std::size_t>& voxels) {
+/// the fraction of its slab's local voxel, `held` voxels from voxel v0 on), summed over the ranks: exact,
+/// as one term is non-zero. Collective (failure messages name voxels with their fraction).
+template <class FractionOfLocal>
+std::vector<double> fractions_of(const fft::SlabDecomposition& slabs, const FractionOfLocal& phi, std::size_t held,
+                                 std::size_t v0, const std::vector<std::size_t>& voxels) {
   std::vector<double> f(voxels.size(), 0.0);
   for (std::size_t k = 0; k < voxels.size(); ++k)
-    if (voxels[k] >= v0 && voxels[k] < v0 + phi.size()) f[k] = phi[voxels[k] - v0];
+    if (voxels[k] >= v0 && voxels[k] < v0 + held) f[k] = phi(voxels[k] - v0);
   slabs.sum(f.data(), int(f.size()));
   return f;
 }

@@ -178,8 +178,11 @@ struct FftRveSolver::Impl {
   int state_size[2] = {0, 0};
   double G_min = 1.0, G_max = 1.0, K_max = 1.0, lambda_ref = 1.0, mu_ref = 1.0;
 
-  std::vector<double> phi;          // fiber fraction per voxel
-  std::vector<int> comp_id;         // composite index per voxel, −1 for pure voxels
+  // Phase of each voxel in 4 bytes: kMatrixVoxel, kFiberVoxel, or the index of a composite voxel, whose
+  // fiber fraction and interface normal are kept per composite voxel (a few percent of the grid) only.
+  static constexpr int kMatrixVoxel = -1, kFiberVoxel = -2;
+  std::vector<int> comp_id;         // per voxel
+  std::vector<double> comp_phi;     // fiber fraction per composite voxel
   std::vector<Vec3> comp_normal;    // per composite voxel (grid frame)
   std::vector<double> lam_a, lam_a_trial;     // laminate jump vector per composite point (3 each)
   std::vector<double> hist_old[2], hist_new[2];
@@ -286,16 +289,17 @@ struct FftRveSolver::Impl {
     if (dist && image.is_slab()) bad = detail::first_bad_fraction(*dist, bad);
     if (bad) throw InputError("microstructure", std::to_string(*bad), "fiber fraction outside [0, 1]");
     const std::size_t first = image.is_slab() ? image.owned_offset() : v0;  // this rank's voxel v0 in the arrays
-    phi.assign(image.fiber_fraction.begin() + std::ptrdiff_t(first), image.fiber_fraction.begin() + std::ptrdiff_t(first + N));
-    comp_id.assign(N, -1);
+    comp_id.assign(N, kMatrixVoxel);
     double vf = 0.0;
     for (std::size_t v = 0; v < N; ++v) {
-      double& f = phi[v];
+      double f = image.fiber_fraction[first + v];
       if (f < kPhaseEps) f = 0.0;
       if (f > 1.0 - kPhaseEps) f = 1.0;
       vf += f;
+      if (f == 1.0) comp_id[v] = kFiberVoxel;
       if (f > 0.0 && f < 1.0) {
         comp_id[v] = int(comp_normal.size());
+        comp_phi.push_back(f);
         Vec3 n = image.normal.size() == image.held_voxels() ? image.normal[first + v] : Vec3::Zero();
         if (!(n.norm() > 0.5)) n = detail::estimate_interface_normal(image, v0 + v);
         comp_normal.push_back(n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero());
@@ -382,6 +386,15 @@ struct FftRveSolver::Impl {
     if (o.krylov_operator != KrylovOperator::stencil || !fft::StencilGradient::supported(op))
       throw InputError("solver.volumetric", v, "needs krylov_operator = \"stencil\" (and a grid with n1, n2 > 1)");
     return true;
+  }
+
+  /// Fiber fraction of local voxel v (0 or 1 for pure voxels).
+  double fraction(std::size_t v) const {
+    const int c = comp_id[v];
+    return c >= 0 ? comp_phi[std::size_t(c)] : c == kFiberVoxel ? 1.0 : 0.0;
+  }
+  detail::FractionOf local_fraction() const {
+    return [this](std::size_t v) { return fraction(v); };
   }
 
   /// "[n1, n2]" (sections) or "[n1, n2, n3]", as the scene writes the grid.
@@ -601,10 +614,10 @@ struct FftRveSolver::Impl {
           Mat3 P;
           Mat9* A = with_tangent ? &A_point : nullptr;
           MaterialStatus s;
-          const double f = phi[v];
+          const double f = fraction(v);
           const double w = op.quadrature()[q].weight * invN;
           if (comp_id[v] < 0) {
-            const int x = f > 0.5 ? 1 : 0;
+            const int x = comp_id[v] == kFiberVoxel ? 1 : 0;
             s = mat[x]->evaluate(F, state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr,
                                  state_size[x] ? hist_new[x].data() + p * state_size[x] : nullptr, dt, P, A);
             if (s == MaterialStatus::ok && mixed[x]) pressure_correction(x, p, F, P, A);
@@ -1255,7 +1268,7 @@ struct FftRveSolver::Impl {
     for (std::size_t v = 0; v < N; ++v)
       for (int q = 0; q < nq; ++q) {
         const std::size_t p = v * nq + q;
-        const double f = phi[v];
+        const double f = fraction(v);
         if (f >= 1.0) continue;
         Mat3 F;
         for (int c = 0; c < 9; ++c)
@@ -1280,14 +1293,14 @@ struct FftRveSolver::Impl {
   }
   // Distributed: collective, the fractions of the named voxels come from the ranks that own them.
   std::string voxel_name(std::size_t v) const {
-    if (!dist) return detail::voxel_name(grid.n, phi, v);
-    const double f = detail::fractions_of(*dist, phi, v0, {v})[0];
+    if (!dist) return detail::voxel_name(grid.n, local_fraction(), v);
+    const double f = detail::fractions_of(*dist, local_fraction(), N, v0, {v})[0];
     return detail::voxel_name(grid.n, detail::FractionOf([f](std::size_t) { return f; }), v);
   }
   std::string describe(const detail::HotSpots& h) const {
-    if (!dist) return detail::describe_hot_spots(h, grid.n, phi, mixed[0], Fbar_committed(0, 0));
+    if (!dist) return detail::describe_hot_spots(h, grid.n, local_fraction(), mixed[0], Fbar_committed(0, 0));
     const std::vector<std::size_t> named{h.v_margin, h.v_J_min, h.v_force, h.v_p};
-    const std::vector<double> f = detail::fractions_of(*dist, phi, v0, named);
+    const std::vector<double> f = detail::fractions_of(*dist, local_fraction(), N, v0, named);
     auto fraction = [&](std::size_t v) { return f[std::find(named.begin(), named.end(), v) - named.begin()]; };
     return detail::describe_hot_spots(h, grid.n, detail::FractionOf(fraction), mixed[0], Fbar_committed(0, 0));
   }
@@ -1610,7 +1623,8 @@ struct FftRveSolver::Impl {
     f.P.assign(9 * N, 0.0);
     f.sigma.assign(9 * N, 0.0);
     f.von_mises.assign(N, 0.0);
-    f.fiber_fraction = phi;
+    f.fiber_fraction.resize(N);
+    for (std::size_t v = 0; v < N; ++v) f.fiber_fraction[v] = fraction(v);
 #pragma omp parallel for schedule(static)
     for (std::size_t v = 0; v < N; ++v) {
       Mat3 Fm = Mat3::Zero(), Pm = Mat3::Zero(), Sm = Mat3::Zero();

@@ -40,7 +40,7 @@ struct StorageSizes {
   std::size_t jacobi_values = 0;       ///< Jacobi–Green scaling, 3 per node (floats; 0 with the Green preconditioner)
   std::size_t history_values = 0;      ///< internal variables, one copy (both phases)
   std::size_t laminate_values = 0;     ///< jump vectors of the composite points, one copy
-  std::size_t composite_voxels = 0;    ///< composite voxels (interface normal each)
+  std::size_t composite_voxels = 0;    ///< composite voxels (interface normal and fiber fraction each)
   std::size_t mixed_points = 0;        ///< points carried by the mixed (u, p) iteration arrays (0: none)
   std::size_t mean_dilatation_values = 0;  ///< voxel coupling of the mean-dilatation tangent (doubles; 0: pointwise)
   std::size_t spectral_vectors = 0;    ///< 3-component half spectra (unknowns, state and Krylov vectors)
@@ -61,9 +61,9 @@ inline StorageList storage_list(const StorageSizes& s) {
   l.emplace_back("reference_green", s.green_values * s.green_value_bytes);
   if (s.jacobi_values) l.emplace_back("jacobi_scaling", s.jacobi_values * 4);
   if (s.history_values) l.emplace_back("history", 2 * 8 * s.history_values);
-  l.emplace_back("phase_image", s.voxels * (8 + 4));  // fiber fraction, composite index
+  l.emplace_back("phase_image", s.voxels * 4);  // phase or composite index
   if (s.composite_voxels)
-    l.emplace_back("composites", 2 * 8 * s.laminate_values + 24 * s.composite_voxels + 4 * s.composite_tangent_values);
+    l.emplace_back("composites", 2 * 8 * s.laminate_values + (24 + 8) * s.composite_voxels + 4 * s.composite_tangent_values);
   if (s.mixed_points) l.emplace_back("mixed_pressure", kMixedBytesPerPoint * s.mixed_points);
   if (s.mean_dilatation_values) l.emplace_back("mean_dilatation", 8 * s.mean_dilatation_values);
   l.emplace_back("spectral_vectors", s.spectral_vectors * 3 * 16 * s.modes);
