@@ -28,17 +28,20 @@ void init_threads_once() {
 
 }  // namespace
 
-BatchedFFT::BatchedFFT(const Grid& grid, int fields, const PlanOptions& options, int columns)
-    : grid_(grid), fields_(fields), columns_(columns), rigor_(options.rigor) {
+BatchedFFT::BatchedFFT(const Grid& grid, int fields, const PlanOptions& options, int columns, bool in_place)
+    : grid_(grid), fields_(fields), columns_(columns), in_place_(in_place), rigor_(options.rigor) {
   if (columns < 1 || columns > 3 || (columns < 3 && fields % 9 != 0))
     throw std::invalid_argument("BatchedFFT: columns must be 1..3, and < 3 only for 3x3 tensor fields");
+  if (in_place && columns != 3) throw std::invalid_argument("BatchedFFT: in-place transforms need columns = 3");
   const auto start = std::chrono::steady_clock::now();
   threads_ = options.threads > 0 ? options.threads : omp_get_max_threads();
-  const std::size_t nr = grid.voxels() * std::size_t(fields), nc = grid.modes() * std::size_t(fields);
-  real_ = fftw_alloc_real(nr);
+  const std::size_t nr = in_place ? 0 : grid.voxels() * std::size_t(fields), nc = grid.modes() * std::size_t(fields);
   spectrum_ = reinterpret_cast<Complex*>(fftw_alloc_complex(nc));
+  real_ = in_place ? reinterpret_cast<double*>(spectrum_) : fftw_alloc_real(nr);
   if (!real_ || !spectrum_) throw std::bad_alloc();
-  set_buffers(real_, grid.voxels(), spectrum_, grid.modes());
+  const std::size_t pitch = in_place ? 2 * std::size_t(grid.half_n1()) : std::size_t(grid.n[0]);
+  set_buffers(real_, in_place ? 2 * grid.modes() : grid.voxels(), spectrum_, grid.modes());
+  set_rows(std::size_t(grid.n[0]), pitch);
 
   // FFTW is row-major with the last index fastest: dims (n3, n2, n1) match our i1-fastest layout.
   int dims[3] = {grid.n[2], grid.n[1], grid.n[0]};
@@ -49,7 +52,14 @@ BatchedFFT::BatchedFFT(const Grid& grid, int fields, const PlanOptions& options,
     init_threads_once();
     if (!options.wisdom_file.empty()) fftw_import_wisdom_from_filename(options.wisdom_file.c_str());
     fftw_plan_with_nthreads(threads_);
-    if (columns == 3) {
+    if (in_place) {
+      // FFTW's in-place layout: real rows padded to 2 (n1/2 + 1) values, fields one spectrum apart.
+      int real_embed[3] = {grid.n[2], grid.n[1], 2 * grid.half_n1()};
+      int half_embed[3] = {grid.n[2], grid.n[1], grid.half_n1()};
+      auto* c = reinterpret_cast<fftw_complex*>(spectrum_);
+      forward_plan_ = fftw_plan_many_dft_r2c(3, dims, fields, real_, real_embed, 1, 2 * nm, c, half_embed, 1, nm, flags);
+      backward_plan_ = fftw_plan_many_dft_c2r(3, dims, fields, c, half_embed, 1, nm, real_, real_embed, 1, 2 * nm, flags);
+    } else if (columns == 3) {
       forward_plan_ = fftw_plan_many_dft_r2c(3, dims, fields, real_, nullptr, 1, nv,
                                              reinterpret_cast<fftw_complex*>(spectrum_), nullptr, 1, nm, flags);
       backward_plan_ = fftw_plan_many_dft_c2r(3, dims, fields, reinterpret_cast<fftw_complex*>(spectrum_), nullptr,
@@ -84,7 +94,7 @@ BatchedFFT::~BatchedFFT() {
     if (forward_plan_) fftw_destroy_plan(static_cast<fftw_plan>(forward_plan_));
     if (backward_plan_) fftw_destroy_plan(static_cast<fftw_plan>(backward_plan_));
   }
-  fftw_free(real_);
+  if (!in_place_) fftw_free(real_);
   fftw_free(spectrum_);
 }
 

@@ -47,6 +47,7 @@ double StencilGradient::divergence_pass_impl(const double* store, double* f, con
   constexpr int L = kNodal ? 3 * NCOR : 3 * D;
   const int n1 = grid_.n[0], n2 = grid_.n[1], n3 = grid_.n[2];
   const std::size_t N = field_stride();  // stride of the force fields (voxels, + a halo plane on a slab)
+  const std::size_t pitch = row_pitch_ ? row_pitch_ : std::size_t(n1);
   double B[NCOR][D];  // one point (rotated): its weight is 1
   for (int c = 0; c < NCOR; ++c)
     for (int j = 0; j < D; ++j) B[c][j] = weight_[0] * coefficient(0, c, j);
@@ -77,7 +78,7 @@ double StencilGradient::divergence_pass_impl(const double* store, double* f, con
               for (int j = 0; j < D; ++j) acc[i] += B[c][j] * o[D * i + j];
           }
         }
-      const std::size_t y = std::size_t(row) * n1 + i1;
+      const std::size_t y = std::size_t(row) * pitch + i1;
       if (dot_with)
         for (int i = 0; i < 3; ++i) local += dot_with[i * N + y] * acc[i];
       for (int i = 0; i < 3; ++i) f[i * N + y] = acc[i];

@@ -346,7 +346,10 @@ struct FftRveSolver::Impl {
         stencil->restrict_to_slab(dist->slab().count);
         fft3 = std::make_unique<fft::SlabFFT>(*dist, 3, opt.plan, 3, 1);  // + the displacement's upper halo
       } else {
-        fft3 = std::make_unique<fft::BatchedFFT>(grid, 3, opt.plan);
+        // In place (the real fields in the spectrum buffer, rows padded): −24 B per voxel. The jacobi-green
+        // preconditioner keeps dense real fields (it reads and writes them voxel by voxel).
+        fft3 = std::make_unique<fft::BatchedFFT>(grid, 3, opt.plan, 3, opt.preconditioner != Preconditioner::jacobi_green);
+        if (fft3->padded_rows()) stencil->set_padded_fields(fft3->real_row_pitch(), fft3->real_stride());
       }
     }
     // Stencil operator: tangents in blocks of 8 points (structure of arrays, fft::symmetric_product_batch()),
@@ -413,6 +416,7 @@ struct FftRveSolver::Impl {
     s.fft_fields = std::size_t(fft->fields());
     s.fft_spectra = fft->transformed_fields() ? s.fft_fields : 0;
     s.fft3_fields = fft3 ? std::size_t(fft3->fields()) : 0;
+    s.fft3_in_place = fft3 && fft3->padded_rows();
     const bool single = !tangent_f.empty() || compact;
     s.tangent_values = tangent_f.empty() ? tangent.size() : tangent_f.size();
     s.tangent_value_bytes = single ? sizeof(float) : sizeof(double);
@@ -448,6 +452,7 @@ struct FftRveSolver::Impl {
     s.fft_fields = std::size_t(9 * nq);
     s.fft_spectra = with_stencil ? 0 : s.fft_fields;
     s.fft3_fields = with_stencil ? 3 : 0;
+    s.fft3_in_place = with_stencil && !dist && opt.preconditioner != Preconditioner::jacobi_green;
     const bool single = with_stencil && opt.tangent_precision == TangentPrecision::single_precision;
     s.tangent_values = newton ? 45 * (with_stencil ? (NP + 7) / 8 * 8 : NP) : 0;
     if (single && compact_tangents_apply()) {  // composite points' full tangents: counted as none
@@ -750,12 +755,24 @@ struct FftRveSolver::Impl {
       for (int i = 0; i < 3; ++i) {
         op.gradient_block(uh.data() + std::size_t(i) * NM, q, fft3->spectrum(0));
         fft3->backward();
-        for (int j = 0; j < ncol; ++j) copy_field(fft3->real(j), fft->real(9 * q + 3 * i + j));
+        for (int j = 0; j < ncol; ++j) copy_from_real(*fft3, j, fft->real(9 * q + 3 * i + j));
       }
   }
-  void copy_field(const double* from, double* to) const {
+  /// Real field `field` of transform t (dense or padded rows, FieldTransform::real_row_pitch()) to and
+  /// from a dense voxel field.
+  void copy_from_real(fft::FieldTransform& t, int field, double* to) const {
+    const double* from = t.real(field);
+    const std::size_t n1 = std::size_t(grid.n[0]), pitch = t.padded_rows() ? t.real_row_pitch() : n1, rows = N / n1;
 #pragma omp parallel for schedule(static)
-    for (std::size_t v = 0; v < N; ++v) to[v] = from[v];
+    for (std::size_t r = 0; r < rows; ++r)
+      for (std::size_t i = 0; i < n1; ++i) to[r * n1 + i] = from[r * pitch + i];
+  }
+  void copy_to_real(const double* from, fft::FieldTransform& t, int field) const {
+    double* to = t.real(field);
+    const std::size_t n1 = std::size_t(grid.n[0]), pitch = t.padded_rows() ? t.real_row_pitch() : n1, rows = N / n1;
+#pragma omp parallel for schedule(static)
+    for (std::size_t r = 0; r < rows; ++r)
+      for (std::size_t i = 0; i < n1; ++i) to[r * pitch + i] = from[r * n1 + i];
   }
   /// Three component spectra (3·NM) to real space; returns the transform holding them and the field
   /// step between the components (fft: fields 0, 3, 6, which are transformed for any number of columns;
@@ -777,7 +794,7 @@ struct FftRveSolver::Impl {
     if (stencil) {
       for (int q = 0; q < nq; ++q)
         for (int i = 0; i < 3; ++i) {
-          for (int j = 0; j < op.columns(); ++j) copy_field(fft->real(9 * q + 3 * i + j), fft3->real(j));
+          for (int j = 0; j < op.columns(); ++j) copy_to_real(fft->real(9 * q + 3 * i + j), *fft3, j);
           fft3->forward();
           op.divergence_block(fft3->spectrum(0), q, r.u.data() + std::size_t(i) * NM, 1.0 / double(Ntot), q > 0);
         }
@@ -1284,7 +1301,13 @@ struct FftRveSolver::Impl {
       }
     // Nodal forces Dᴴ P in real space.
     const auto [t, step] = vector_to_real(r.u);
-    h.see_forces(t->real(0), t->real(step), t->real(2 * step), N);
+    if (t->padded_rows()) {  // dense copies of the three components (a failure path)
+      std::vector<double> f(3 * N);
+      for (int i = 0; i < 3; ++i) copy_from_real(*t, i * step, f.data() + i * N);
+      h.see_forces(f.data(), f.data() + N, f.data() + 2 * N, N);
+    } else {
+      h.see_forces(t->real(0), t->real(step), t->real(2 * step), N);
+    }
     if (dist) {
       h.v_force += v0;
       detail::reduce_hot_spots(h, *dist, N);
@@ -1665,7 +1688,7 @@ struct FftRveSolver::Impl {
     for (std::size_t i3 = 0; i3 < m3; ++i3)
       for (std::size_t i2 = 0; i2 < m2; ++i2)
         for (std::size_t i1 = 0; i1 < m1; ++i1) {
-          const std::size_t v = i1 % n[0] + std::size_t(n[0]) * (i2 % n[1] + std::size_t(n[1]) * (i3 % n[2]));
+          const std::size_t v = t->real_index(i1 % n[0] + std::size_t(n[0]) * (i2 % n[1] + std::size_t(n[1]) * (i3 % n[2])));
           const Vec3 y(double(i1) * grid.spacing(0), double(i2) * grid.spacing(1), double(i3) * grid.spacing(2));
           const Vec3 uy = G * y + Vec3(t->real(0)[v], t->real(step)[v], t->real(2 * step)[v]);
           double* o = &out[3 * (i1 + m1 * (i2 + m2 * i3))];

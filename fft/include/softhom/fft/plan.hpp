@@ -29,6 +29,13 @@ class FieldTransform {
   Complex* spectrum(int field = 0) { return spectrum_base_ + std::size_t(field) * spectrum_stride_; }
   std::size_t real_stride() const { return real_stride_; }
   std::size_t spectrum_stride() const { return spectrum_stride_; }
+  /// With padded_rows(): values from one grid row (fixed i2, i3) of a real field to the next, 2 (n1/2 + 1)
+  /// for an in-place transform (the real rows padded to the length of a half-spectrum row). Dense
+  /// transforms (padded_rows() false) store the voxels contiguously.
+  std::size_t real_row_pitch() const { return row_pitch_; }
+  bool padded_rows() const { return row_pitch_ != row_length_; }
+  /// Position in a real field of voxel v (i1 fastest).
+  std::size_t real_index(std::size_t v) const { return v + (v / row_length_) * (row_pitch_ - row_length_); }
   virtual int fields() const = 0;
   virtual int transformed_fields() const = 0;
   virtual void forward() = 0;
@@ -43,11 +50,16 @@ class FieldTransform {
     spectrum_base_ = spectrum;
     spectrum_stride_ = spectrum_stride;
   }
+  void set_rows(std::size_t length, std::size_t pitch) {
+    row_length_ = length;
+    row_pitch_ = pitch;
+  }
 
  private:
   double* real_base_ = nullptr;
   Complex* spectrum_base_ = nullptr;
   std::size_t real_stride_ = 0, spectrum_stride_ = 0;
+  std::size_t row_length_ = 1, row_pitch_ = 1;
 };
 
 struct PlanOptions {
@@ -63,7 +75,10 @@ class BatchedFFT : public FieldTransform {
   /// columns j < `columns` are transformed; the others are left untouched in both buffers. On a
   /// section grid the gradient has no j = 3 column and the divergence does not read it, so the
   /// solver transforms 6 of 9 fields.
-  BatchedFFT(const Grid& grid, int fields, const PlanOptions& options = {}, int columns = 3);
+  /// `in_place` (columns = 3 only): the real fields live in the spectrum buffer, their rows padded to
+  /// real_row_pitch() = 2 (n1/2 + 1) values (FFTW's in-place layout), which saves the real buffer (8 B per
+  /// voxel and field); forward() then destroys the real fields.
+  BatchedFFT(const Grid& grid, int fields, const PlanOptions& options = {}, int columns = 3, bool in_place = false);
   ~BatchedFFT() override;
   BatchedFFT(const BatchedFFT&) = delete;
   BatchedFFT& operator=(const BatchedFFT&) = delete;
@@ -72,10 +87,11 @@ class BatchedFFT : public FieldTransform {
   int fields() const override { return fields_; }
   /// Fields actually transformed per forward()/backward() (fields · columns / 3).
   int transformed_fields() const override { return fields_ / 3 * columns_ + (columns_ == 3 ? fields_ % 3 : 0); }
-  double* real(int field = 0) { return real_ + std::size_t(field) * grid_.voxels(); }
+  double* real(int field = 0) { return FieldTransform::real(field); }
   Complex* spectrum(int field = 0) { return spectrum_ + std::size_t(field) * grid_.modes(); }
+  bool in_place() const { return in_place_; }
 
-  /// real → spectrum, unnormalised (x̂_k = Σ_x x e^{−ik·x}); the real buffer is preserved.
+  /// real → spectrum, unnormalised (x̂_k = Σ_x x e^{−ik·x}); the real buffer is preserved (not in place).
   void forward() override;
   /// spectrum → real, unnormalised (x = Σ_k x̂_k e^{ik·x}); the spectrum buffer is destroyed.
   void backward() override;
@@ -89,6 +105,7 @@ class BatchedFFT : public FieldTransform {
   int fields_ = 0;
   int threads_ = 1;
   int columns_ = 3;
+  bool in_place_ = false;
   PlanRigor rigor_;
   double* real_ = nullptr;
   Complex* spectrum_ = nullptr;

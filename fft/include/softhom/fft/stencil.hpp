@@ -55,7 +55,16 @@ class StencilGradient {
     planes_ = planes;
     halo_ = true;
   }
-  std::size_t field_stride() const { return plane_voxels() * std::size_t(planes_ + (halo_ ? 1 : 0)); }
+  std::size_t field_stride() const {
+    return padded_stride_ ? padded_stride_ : plane_voxels() * std::size_t(planes_ + (halo_ ? 1 : 0));
+  }
+  /// Displacement and force fields in a transform's in-place layout (one process): rows `row_pitch`
+  /// values apart (FieldTransform::real_row_pitch()), fields `field_stride` apart; the per-voxel store
+  /// stays dense.
+  void set_padded_fields(std::size_t row_pitch, std::size_t field_stride) {
+    row_pitch_ = row_pitch;
+    padded_stride_ = field_stride;
+  }
   std::size_t halo_store_values() const { return halo_ ? plane_voxels() * std::size_t(stored_values()) : 0; }
 
   /// Material points per batch of gradient_pass() (8: one 512-bit register of doubles per component).
@@ -86,6 +95,8 @@ class StencilGradient {
 
   Grid grid_;
   int planes_ = 1;     // planes i3 of the passes (all, or a slab's)
+  std::size_t row_pitch_ = 0;      // values per row of the displacement/force fields (0: n1, dense)
+  std::size_t padded_stride_ = 0;  // their field stride when padded (0: dense, field_stride())
   bool halo_ = false;  // slab: neighbours along i3 come from the halo planes, not from periodic wrapping
   int dims_ = 2;
   int nq_ = 1;
@@ -115,6 +126,7 @@ void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& b
   // With a slab, i3 is local and the row i3 + 1 of the last plane is the halo plane (never wrapped).
   const int n1 = grid_.n[0], n2 = grid_.n[1], n3 = halo_ ? planes_ + 1 : grid_.n[2];
   const std::size_t N = plane_voxels() * std::size_t(planes_), NU = field_stride();
+  const std::size_t pitch = row_pitch_ ? row_pitch_ : std::size_t(n1);
   double B[NQ][NCOR][D];
   for (int q = 0; q < NQ; ++q)
     for (int c = 0; c < NCOR; ++c)
@@ -138,7 +150,7 @@ void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& b
         for (int r = 0; r < NROW; ++r) {
           const int j2 = i2 + (r & 1) == n2 ? 0 : i2 + (r & 1);
           const int j3 = D == 3 ? (i3 + (r >> 1) == n3 ? 0 : i3 + (r >> 1)) : i3;
-          const std::size_t base = std::size_t(n1) * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
+          const std::size_t base = pitch * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
           const std::size_t last = base + (i1 + VB == n1 ? 0 : i1 + VB);  // node after the batch (periodic)
           for (int i = 0; i < 3; ++i) {
             const double* src = u + i * NU + base + i1;
@@ -166,7 +178,7 @@ void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& b
       for (int r = 0; r < NROW; ++r) {
         const int j2 = i2 + (r & 1) == n2 ? 0 : i2 + (r & 1);
         const int j3 = D == 3 ? (i3 + (r >> 1) == n3 ? 0 : i3 + (r >> 1)) : i3;
-        const std::size_t base = std::size_t(n1) * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
+        const std::size_t base = pitch * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
         for (int i = 0; i < 3; ++i) {
           uc[i][2 * r] = u[i * NU + base + i1];
           uc[i][2 * r + 1] = u[i * NU + base + i1p];
