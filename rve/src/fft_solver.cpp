@@ -1639,15 +1639,30 @@ struct FftRveSolver::Impl {
   /// Fields of the converged state (P still in the real buffer, ũ current). Destroys the buffer.
   RveFields fields() {
     RveFields f;
-    std::vector<double> P(fft->real(0), fft->real(0) + 9 * NP);
-    gradient_to_real(u);
-    const Mat3 Fg = to_grid(Fbar);
     f.F.assign(9 * N, 0.0);
     f.P.assign(9 * N, 0.0);
     f.sigma.assign(9 * N, 0.0);
     f.von_mises.assign(N, 0.0);
     f.fiber_fraction.resize(N);
     for (std::size_t v = 0; v < N; ++v) f.fiber_fraction[v] = fraction(v);
+    // P of the last evaluation is in the real buffer, which ∇ũ overwrites next. One point per voxel
+    // (rotated, spectral): P goes straight into the field and σ follows from the voxel's F and P; several
+    // points (hex): σ is the mean of the points' σ, so the points' P are copied (9·nq fields).
+    const bool one_point = nq == 1;
+    std::vector<double> P;
+    if (one_point) {
+#pragma omp parallel for schedule(static)
+      for (std::size_t v = 0; v < N; ++v) {
+        Mat3 Pq;
+        for (int c = 0; c < 9; ++c) Pq(c / 3, c % 3) = fft->real(c)[v];
+        const Mat3 Pl = to_load(Pq);
+        for (int c = 0; c < 9; ++c) f.P[9 * v + c] = Pl(c / 3, c % 3);
+      }
+    } else {
+      P.assign(fft->real(0), fft->real(0) + 9 * NP);
+    }
+    gradient_to_real(u);
+    const Mat3 Fg = to_grid(Fbar);
 #pragma omp parallel for schedule(static)
     for (std::size_t v = 0; v < N; ++v) {
       Mat3 Fm = Mat3::Zero(), Pm = Mat3::Zero(), Sm = Mat3::Zero();
@@ -1655,12 +1670,17 @@ struct FftRveSolver::Impl {
         Mat3 Fq, Pq;
         for (int c = 0; c < 9; ++c) {
           Fq(c / 3, c % 3) = Fg(c / 3, c % 3) + (c % 3 < op.columns() ? fft->real(9 * q + c)[v] : 0.0);
-          Pq(c / 3, c % 3) = P[std::size_t(9 * q + c) * N + v];
+          Pq(c / 3, c % 3) = one_point ? 0.0 : P[std::size_t(9 * q + c) * N + v];
         }
         const double w = op.quadrature()[q].weight;
         Fm += w * to_load(Fq);
+        if (one_point) continue;
         Pm += w * to_load(Pq);
         Sm += w * to_load(cauchy_from_piola(Fq, Pq));
+      }
+      if (one_point) {
+        for (int c = 0; c < 9; ++c) Pm(c / 3, c % 3) = f.P[9 * v + c];
+        Sm = cauchy_from_piola(Fm, Pm);  // frame-covariant: the same as in the grid frame, rotated
       }
       const Mat3 dev = Sm - Sm.trace() / 3.0 * Mat3::Identity();
       f.von_mises[v] = std::sqrt(1.5 * ddot(dev, dev));
