@@ -28,6 +28,19 @@ class CompactTangents {
   void store(std::size_t p, const Mat3& F, const CompactLinearization& L) {
     store_compact_record(&records_[kCompactValues * (p - p % kBatch)], int(p % kBatch), F, L);
   }
+  /// Pure point p: F alone (its record's F, as store() writes it; the five scalars are left as they are).
+  /// The mixed (u, p) iteration keeps the F of each evaluation here, also without a tangent.
+  void store_F(std::size_t p, const Mat3& F) {
+    float* block = &records_[kCompactValues * (p - p % kBatch)] + p % kBatch;
+    for (int c = 0; c < 9; ++c) block[kBatch * c] = float(F(c / 3, c % 3));
+  }
+  /// The F of pure point p's record (rounded to float, widened).
+  Mat3 F(std::size_t p) const {
+    const float* block = &records_[kCompactValues * (p - p % kBatch)] + p % kBatch;
+    Mat3 F;
+    for (int c = 0; c < 9; ++c) F(c / 3, c % 3) = double(block[kBatch * c]);
+    return F;
+  }
   /// Composite point c (composite index · points per voxel + q): the packed symmetric tangent (upper
   /// triangle row by row, symmetrized as for the stored tangents).
   void store_full(std::size_t c, const Mat9& A) {

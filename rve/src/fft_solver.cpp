@@ -202,19 +202,24 @@ struct FftRveSolver::Impl {
   bool mixed_active = false;                       // any phase mixed
   bool linearized_pressure = false;                // evaluate with p from the last linearization
   double predictor_ratio = -1.0;                   // ≥ 0: predictor, p = p_committed + ratio · dp_last
-  // Per point pressures of the mixed iteration: of the last evaluation (double), and the committed one
-  // with its last increment, which only place the extrapolated predictor (float).
-  std::vector<double> p_trial;
-  std::vector<float> p_committed, dp_last;
-  // per point: c = W_V″ cof F (9, float), s (1, double): p(F) = s + c:F; s is taken with the rounded c,
-  // so p(F_k) = W_V′(J_k) to double round-off and only the slope is perturbed (≈ 6e-8 relative).
-  std::vector<float> lin_cur, lin_next;
-  std::vector<double> lin_cur_s, lin_next_s;
+  // Per point pressures of the mixed iteration: of the last evaluation, and the committed one with its
+  // last increment, which only place the extrapolated predictor (float). The evaluation's pressure is
+  // read only to commit it (in float) and to diagnose a failure; its deviation q = p − W_V′(J) in the
+  // tangent is passed on in double (store_compact()), so float loses nothing the iteration uses.
+  std::vector<float> p_trial, p_committed, dp_last;
+  // One linearization per point, p(F) = s + c:F with c = W_V″(J_k) cof F_k (see pressure_slope()) and
+  // s (double) taken with that c, so that p(F_k) = W_V′(J_k) to double round-off and only the slope is
+  // perturbed (≈ 6e-8 relative). pressure_correction() reads it at point p and overwrites it there with
+  // the linearization at the evaluated F, so it holds that of the last evaluation: of the last accepted
+  // iterate once the line search has accepted its trial (the accepted trial is the last one evaluated),
+  // and relinearize_pressures() puts back the accepted one before a trial follows a rejected one (or a
+  // material failure that stopped a pass half way). The slopes c: from the F of the compact tangent
+  // record (float F, written at every evaluation: 36 B per point less), else stored (lin_c, 9 floats).
+  std::vector<float> lin_c;
+  std::vector<double> lin_s;
   // Per point: P_full − P̂ = −(p − W_V′(J)) cof F, a correction of the residual, is parallel to the slope
-  // c = W_V″(J) cof F of the same evaluation: stored as the factor (1 float instead of 9), the slopes
-  // being in *lin_evaluated (lin_next until accept_linearization() swaps them into lin_cur).
+  // c of the same evaluation: stored as the factor (1 float instead of 9).
   std::vector<float> dP_ratio;
-  const std::vector<float>* lin_evaluated = &lin_next;
   double achieved_vf = 0.0;
 
   // Unknowns (current and committed).
@@ -316,11 +321,8 @@ struct FftRveSolver::Impl {
         hist_new[x] = hist_old[x];
       }
     if (mixed_active) {
-      lin_cur.assign(9 * NP, 0.0f);
-      lin_next.assign(9 * NP, 0.0f);
-      lin_cur_s.assign(NP, 0.0);
-      lin_next_s.assign(NP, 0.0);
-      p_trial.assign(NP, 0.0);
+      lin_s.assign(NP, 0.0);
+      p_trial.assign(NP, 0.0f);
       p_committed.assign(NP, 0.0f);
       dp_last.assign(NP, 0.0f);
       dP_ratio.assign(NP, 0.0f);
@@ -366,6 +368,8 @@ struct FftRveSolver::Impl {
         tangent.assign(45 * (stencil ? (NP + 7) / 8 * 8 : NP), 0.0);
       }
     }
+    // The pressure slopes are stored unless the compact records hold the F they follow from.
+    if (mixed_active && !compact) lin_c.assign(9 * NP, 0.0f);
     if (mean_dilatation) md_coupling.resize(N, nq);
     u.assign(3 * NM, 0.0);
     u_committed = u;
@@ -429,6 +433,7 @@ struct FftRveSolver::Impl {
     s.laminate_values = lam_a.size();
     s.composite_voxels = comp_normal.size();
     s.mixed_points = p_trial.size();
+    s.mixed_slope_points = lin_c.size() / 9;
     s.mean_dilatation_values = md_coupling.memory_bytes() / sizeof(double);
     s.spectral_vectors = spectral_vectors();
     return s;
@@ -465,6 +470,7 @@ struct FftRveSolver::Impl {
     s.jacobi_values = with_stencil && opt.preconditioner == Preconditioner::jacobi_green ? 3 * N : 0;
     s.history_values = NP * std::size_t(state_size[0] + state_size[1]);
     s.mixed_points = mixed_active ? NP : 0;
+    s.mixed_slope_points = mixed_active && !(single && compact_tangents_apply()) ? NP : 0;
     s.mean_dilatation_values = opt.volumetric == VolumetricKinematics::mean_dilatation ? 18 * NP + N : 0;
     s.spectral_vectors = !newton ? 4 : 4 + (with_stencil ? (opt.preconditioner == Preconditioner::jacobi_green ? 3 : 2) : 4);
     return s;
@@ -487,14 +493,11 @@ struct FftRveSolver::Impl {
            mat[0]->has_compact_linearization() && mat[1]->has_compact_linearization();
   }
   /// Compact record of pure point p of phase x at F (after its evaluation and pressure_correction()): the
-  /// mixed iteration's q ∂cof/∂F, q = p − W_V′(J), is part of the tangent.
-  void store_compact(int x, std::size_t p, const Mat3& F) {
+  /// mixed iteration's q ∂cof/∂F, q = p − W_V′(J) (pressure_correction()'s value), is part of the tangent.
+  void store_compact(int x, std::size_t p, const Mat3& F, double q) {
     CompactLinearization L;
     mat[x]->compact_linearization(F, L);
-    if (mixed[x]) {
-      const double J = F.determinant();
-      add_pressure_stiffness(L, p_trial[p] - 0.5 * K_vol[x] * (J - 1.0 / J), J);
-    }
+    if (mixed[x]) add_pressure_stiffness(L, q, F.determinant());
     compact->store(p, F, L);
   }
 
@@ -525,33 +528,27 @@ struct FftRveSolver::Impl {
   /// and the right-hand side −Div P_full, P_full the unmodified stress; the merit of the line search is
   /// Div P̂ with the stress P̂ returned here. A finite rotation θ then no longer produces a K θ² pressure
   /// spike that stalls the line search (K/G = 1.2e5 for ecoflex). At convergence p = W_V′(J), P̂ = P_full.
-  void pressure_correction(int x, std::size_t p, const Mat3& F, Mat3& P, Mat9* A) {
-    const double J = F.determinant();
-    const Mat3 cof = J * F.inverse().transpose();
-    const double K = K_vol[x];
-    const double dU = 0.5 * K * (J - 1.0 / J), ddU = 0.5 * K * (1.0 + 1.0 / (J * J));
-    double pr = dU;
+  /// Returns q = p − W_V′(J).
+  double pressure_correction(int x, std::size_t p, const Mat3& F, Mat3& P, Mat9* A) {
+    const VolumetricState vs = volumetric_state(K_vol[x], F);
+    const Mat3& cof = vs.cof;
+    const double J = vs.J;
+    double pr = vs.dU;
     if (predictor_ratio >= 0.0) {
       // Extrapolated predictor: the pressure is extrapolated itself. A linearly extrapolated F leaves
       // the curved J = 1 manifold by O(ΔF²), which W_V′(J) or any linearization turns into K ΔF²
       // (tens of MPa against a matrix G of 0.017 MPa); the pressure history is smooth instead.
       pr = double(p_committed[p]) + predictor_ratio * double(dp_last[p]);
     } else if (linearized_pressure) {
-      const float* l = &lin_cur[9 * p];
-      pr = lin_cur_s[p];
-      for (int c = 0; c < 9; ++c) pr += double(l[c]) * F(c / 3, c % 3);
+      const Mat3 c = pressure_slope(x, p);  // of the last accepted iterate (read before it is overwritten)
+      pr = lin_s[p];
+      for (int k = 0; k < 9; ++k) pr += c(k / 3, k % 3) * F(k / 3, k % 3);
     }
-    const double q = pr - dU;
-    p_trial[p] = pr;
-    float* ln = &lin_next[9 * p];
-    double s0 = dU;
-    for (int c = 0; c < 9; ++c) {
-      ln[c] = float(ddU * cof(c / 3, c % 3));
-      s0 -= double(ln[c]) * F(c / 3, c % 3);
-    }
-    lin_next_s[p] = s0;
-    dP_ratio[p] = float(-q / ddU);
-    if (q == 0.0) return;
+    const double q = pr - vs.dU;
+    p_trial[p] = float(pr);
+    linearize_pressure(x, p, F, vs);
+    dP_ratio[p] = float(-q / vs.ddU);
+    if (q == 0.0) return q;
     P += q * cof;
     if (A) {
       // ∂cof_iJ/∂F_kL = (cof_iJ cof_kL − cof_iL cof_kJ) / J
@@ -561,6 +558,73 @@ struct FftRveSolver::Impl {
           for (int k = 0; k < 3; ++k)
             for (int l = 0; l < 3; ++l)
               (*A)(3 * i + j, 3 * k + l) += w * (cof(i, j) * cof(k, l) - cof(i, l) * cof(k, j));
+    }
+    return q;
+  }
+  /// J, cof F, W_V′(J) and W_V″(J) of the volumetric energy W_V = K/2 ((J² − 1)/2 − ln J) at F.
+  struct VolumetricState {
+    double J, dU, ddU;
+    Mat3 cof;
+  };
+  static VolumetricState volumetric_state(double K, const Mat3& F) {
+    VolumetricState s;
+    s.J = F.determinant();
+    s.cof = s.J * F.inverse().transpose();
+    s.dU = 0.5 * K * (s.J - 1.0 / s.J);
+    s.ddU = 0.5 * K * (1.0 + 1.0 / (s.J * s.J));
+    return s;
+  }
+  /// The slope c of the linearization held at pure point p of mixed phase x (that of the last
+  /// evaluation at p, see lin_s): stored (lin_c), or W_V″(J) cof F recomputed from the float F of the
+  /// compact record, which is what linearize_pressure() took it from.
+  Mat3 pressure_slope(int x, std::size_t p) const {
+    Mat3 c;
+    if (compact) {
+      const VolumetricState vs = volumetric_state(K_vol[x], compact->F(p));
+      c = vs.ddU * vs.cof;
+    } else {
+      const float* l = &lin_c[9 * p];
+      for (int k = 0; k < 9; ++k) c(k / 3, k % 3) = double(l[k]);
+    }
+    return c;
+  }
+  /// The linearization p(F') = s + c:F' at F (volumetric state vs) into point p: c rounded to float (the
+  /// stored slope, or the compact record's F it is recomputed from), s with that c, so that
+  /// p(F) = W_V′(J) to double round-off.
+  void linearize_pressure(int x, std::size_t p, const Mat3& F, const VolumetricState& vs) {
+    Mat3 c;
+    if (compact) {
+      compact->store_F(p, F);  // store_compact() writes it again with the tangent
+      c = pressure_slope(x, p);
+    } else {
+      float* l = &lin_c[9 * p];
+      for (int k = 0; k < 9; ++k) {
+        l[k] = float(vs.ddU * vs.cof(k / 3, k % 3));
+        c(k / 3, k % 3) = double(l[k]);
+      }
+    }
+    double s0 = vs.dU;
+    for (int k = 0; k < 9; ++k) s0 -= c(k / 3, k % 3) * F(k / 3, k % 3);
+    lin_s[p] = s0;
+  }
+  /// Puts back the linearization of the last accepted iterate (∇ũ in the real buffer, F̄ in the grid
+  /// frame) after a rejected line-search trial overwrote it (all or, after a material failure, part of
+  /// it): recomputed at every pure point of a mixed phase as pressure_correction() computed it there,
+  /// not stored a second time (44 B per point). Leaves the real buffer as it is.
+  void relinearize_pressures(const Mat3& Fbar_grid) {
+    const int ncol = op.columns();
+#pragma omp parallel for schedule(static)
+    for (std::size_t v = 0; v < N; ++v) {
+      if (comp_id[v] >= 0) continue;
+      const int x = comp_id[v] == kFiberVoxel ? 1 : 0;
+      if (!mixed[x]) continue;
+      for (int q = 0; q < nq; ++q) {
+        const double* base = fft->real(9 * q) + v;
+        Mat3 F;
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) F(i, j) = Fbar_grid(i, j) + (j < ncol ? base[std::size_t(3 * i + j) * N] : 0.0);
+        linearize_pressure(x, v * nq + q, F, volumetric_state(K_vol[x], F));
+      }
     }
   }
 
@@ -585,7 +649,6 @@ struct FftRveSolver::Impl {
   /// Evaluates every material point at F = F̄ + ∇ũ (gradient already in fft->real), writes P into the
   /// real buffer in place, stores tangents when asked; fills `sums`. Returns the first failure.
   MaterialStatus evaluate_points(const Mat3& Fbar_grid, double dt, bool with_tangent) {
-    lin_evaluated = &lin_next;  // pressure_correction() writes this evaluation's slopes there
     const double invN = 1.0 / double(Ntot);
     int failure = 0;
     PassSums total;
@@ -625,8 +688,9 @@ struct FftRveSolver::Impl {
             const int x = comp_id[v] == kFiberVoxel ? 1 : 0;
             s = mat[x]->evaluate(F, state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr,
                                  state_size[x] ? hist_new[x].data() + p * state_size[x] : nullptr, dt, P, A);
-            if (s == MaterialStatus::ok && mixed[x]) pressure_correction(x, p, F, P, A);
-            if (s == MaterialStatus::ok && A && compact) store_compact(x, p, F);
+            double q_p = 0.0;
+            if (s == MaterialStatus::ok && mixed[x]) q_p = pressure_correction(x, p, F, P, A);
+            if (s == MaterialStatus::ok && A && compact) store_compact(x, p, F, q_p);
             if (s == MaterialStatus::ok && A && opt.reference == ReferenceMedium::geometric) {
               local.phase_A[x] += w * (*A);
               local.phase_A_w[x] += w;
@@ -823,11 +887,13 @@ struct FftRveSolver::Impl {
       for (std::size_t v = 0; v < N; ++v)
         for (int q = 0; q < nq; ++q) {
           const std::size_t p = v * nq + q;
-          const float* slope = &(*lin_evaluated)[9 * p];
           const double ratio = dP_ratio[p];
+          if (ratio == 0.0) continue;  // points without the pressure iteration, or q = 0
+          // The slopes at p are those of this evaluation (pressure_correction() wrote them).
+          const Mat3 slope = pressure_slope(comp_id[v] == kFiberVoxel ? 1 : 0, p);
           double* base = fft->real(9 * q) + v;
           for (int c = 0; c < 9; ++c) {
-            const double d = ratio * double(slope[c]);
+            const double d = ratio * slope(c / 3, c % 3);
             base[std::size_t(c) * N] += d;
             local[c] += op.quadrature()[q].weight * d;
           }
@@ -842,18 +908,11 @@ struct FftRveSolver::Impl {
     merit = merit_hat;
     return err;
   }
-  void accept_linearization() {
-    if (mixed_active) {
-      lin_cur.swap(lin_next);
-      lin_cur_s.swap(lin_next_s);
-      lin_evaluated = lin_evaluated == &lin_next ? &lin_cur : &lin_next;
-    }
-  }
   void commit_pressures(bool track_increment) {
     if (!mixed_active) return;
     for (std::size_t p = 0; p < NP; ++p) {
-      dp_last[p] = track_increment ? float(p_trial[p] - double(p_committed[p])) : 0.0f;
-      p_committed[p] = float(p_trial[p]);
+      dp_last[p] = track_increment ? float(double(p_trial[p]) - double(p_committed[p])) : 0.0f;
+      p_committed[p] = p_trial[p];
     }
   }
 
@@ -1297,7 +1356,7 @@ struct FftRveSolver::Impl {
           F -= f * a * comp_normal[comp_id[v]].transpose();
         }
         h.see_matrix_point(v0 + v, mat[0]->limit_margin(F), F.determinant(), composite);
-        if (mixed[0] && !composite) h.see_pressure(v0 + v, p_trial[p]);
+        if (mixed[0] && !composite) h.see_pressure(v0 + v, double(p_trial[p]));
       }
     // Nodal forces Dᴴ P in real space.
     const auto [t, step] = vector_to_real(r.u);
@@ -1344,6 +1403,16 @@ struct FftRveSolver::Impl {
     if (std::string why = detail::phase_limit_reached(sums.margin, where, Fbar); !why.empty()) return fatal(out, why);
     out.ok = true;
     return out;
+  }
+
+  /// Back to the line search's last accepted iterate ũ − applied · Δũ, F̄_prev (no copy of ũ is kept):
+  /// applied = 0, its ∇ũ in the real buffer.
+  void move_to_accepted(const KVec& dx, double& applied, const Mat3& Fbar_prev) {
+#pragma omp parallel for schedule(static)
+    for (std::size_t i = 0; i < u.size(); ++i) u[i] -= applied * dx.u[i];
+    applied = 0.0;
+    Fbar = Fbar_prev;
+    gradient_to_real(u);
   }
 
   StepOutcome step(const MixedControl& control, double t_new, double dt) {
@@ -1414,12 +1483,21 @@ struct FftRveSolver::Impl {
           out.why = std::string("material call failed (") + to_string(s) + ")";
           return out;
         }
-        accept_linearization();
         err = evaluate_residual(free, P_target, r);
         linearized_pressure = mixed_active;
       } else {
         MaterialStatus last = MaterialStatus::ok;
+        int trials = 0;
         auto trial = [&](double scale) -> std::optional<double> {
+          if (mixed_active && (trials++ > 0 || opt.relinearize_every_trial)) {
+            // The previous trial was rejected and left its linearization (all of it, or part after a
+            // material failure): back to the accepted iterate (applied = 0) and its linearization before
+            // this trial reads it (FftSolverOptions::relinearize_every_trial: before every trial, a check).
+            // A trial evaluated with the rejected one's linearization would still converge to the same
+            // stress, by another path.
+            move_to_accepted(dx, applied, Fbar_prev);
+            relinearize_pressures(to_grid(Fbar));
+          }
           const double move = scale - applied;
 #pragma omp parallel for schedule(static)
           for (std::size_t i = 0; i < u.size(); ++i) u[i] += move * dx.u[i];
@@ -1435,16 +1513,15 @@ struct FftRveSolver::Impl {
         // Continuation accepts any admissible iterate: on the way from the end of one equilibrium
         // branch to the next the residual has to grow before it falls.
         const bool accepted = fe::backtracking_line_search(merit, continuation || had_prescribed_step, trial).accepted;
-        if (accepted) accept_linearization();
         if (!accepted) {
           out.why = last != MaterialStatus::ok ? std::string("material call failed (") + to_string(last) + ")"
                                                : std::string("line search failed");
           // Diagnose the last accepted iterate, not the rejected trial (an overshooting full step of a
           // nearly incompressible matrix can be arbitrarily far from anything the cell can reach).
-          for (std::size_t i = 0; i < u.size(); ++i) u[i] -= applied * dx.u[i];
-          Fbar = Fbar_prev;
-          // r holds the right-hand side of the last solve: re-evaluate the restored iterate's residual.
-          gradient_to_real(u);
+          // r holds the right-hand side of the last solve: re-evaluate the restored iterate's residual,
+          // with its linearization (the trials overwrote it).
+          move_to_accepted(dx, applied, Fbar_prev);
+          if (mixed_active) relinearize_pressures(to_grid(Fbar));
           if (evaluate_points(to_grid(Fbar), dt, false) == MaterialStatus::ok)
             evaluate_residual(free, P_target, r);
           else
@@ -1792,7 +1869,6 @@ RveRunResult FftRveSolver::run(const MixedControl& control,
   m.linearized_pressure = false;
   if (m.evaluate_points(m.to_grid(m.Fbar), 0.0, m.opt.scheme == FftScheme::newton_cg) != MaterialStatus::ok)
     throw ConvergenceError("material call failed at F = I");
-  m.accept_linearization();
   m.commit_pressures(false);
   const double angle0 = fiber_angle_deg(Mat3::Identity(), m.a0_load);
   struct Engine {

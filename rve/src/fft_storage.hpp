@@ -43,14 +43,18 @@ struct StorageSizes {
   std::size_t laminate_values = 0;     ///< jump vectors of the composite points, one copy
   std::size_t composite_voxels = 0;    ///< composite voxels (interface normal and fiber fraction each)
   std::size_t mixed_points = 0;        ///< points carried by the mixed (u, p) iteration arrays (0: none)
+  std::size_t mixed_slope_points = 0;  ///< of them, points whose pressure slopes are stored (0 with compact tangents)
   std::size_t mean_dilatation_values = 0;  ///< voxel coupling of the mean-dilatation tangent (doubles; 0: pointwise)
   std::size_t spectral_vectors = 0;    ///< 3-component half spectra (unknowns, state and Krylov vectors)
 };
 
-/// Bytes of the mixed (u, p) arrays per point: two linearizations (9 float slopes + 1 double offset
-/// each), the pressure of the last evaluation (double), the committed one and its increment (float)
-/// and P_full − P̂ as a multiple of the slopes (1 float).
-constexpr std::size_t kMixedBytesPerPoint = 2 * (9 * 4 + 8) + 8 + 2 * 4 + 4;
+/// Bytes of the mixed (u, p) arrays per point: one linearization's offset (1 double; the one of the last
+/// evaluation, the accepted one being recomputed after a rejected line-search trial), the pressure of the
+/// last evaluation, the committed one and its increment (float) and P_full − P̂ as a multiple of the
+/// slopes (1 float); + the linearization's 9 float slopes where they are stored
+/// (kMixedSlopeBytesPerPoint), not with compact tangents (recomputed from their records' F).
+constexpr std::size_t kMixedBytesPerPoint = 8 + 3 * 4 + 4;
+constexpr std::size_t kMixedSlopeBytesPerPoint = 9 * 4;
 
 inline StorageList storage_list(const StorageSizes& s) {
   const std::size_t field = 8 * s.voxels + 16 * s.modes;  // one real field and its half spectrum
@@ -65,7 +69,8 @@ inline StorageList storage_list(const StorageSizes& s) {
   l.emplace_back("phase_image", s.voxels * 4);  // phase or composite index
   if (s.composite_voxels)
     l.emplace_back("composites", 2 * 8 * s.laminate_values + (24 + 8) * s.composite_voxels + 4 * s.composite_tangent_values);
-  if (s.mixed_points) l.emplace_back("mixed_pressure", kMixedBytesPerPoint * s.mixed_points);
+  if (s.mixed_points)
+    l.emplace_back("mixed_pressure", kMixedBytesPerPoint * s.mixed_points + kMixedSlopeBytesPerPoint * s.mixed_slope_points);
   if (s.mean_dilatation_values) l.emplace_back("mean_dilatation", 8 * s.mean_dilatation_values);
   l.emplace_back("spectral_vectors", s.spectral_vectors * 3 * 16 * s.modes);
   l.emplace_back("last_increment", 3 * 8 * s.modes);  // ũ's last converged increment, complex float

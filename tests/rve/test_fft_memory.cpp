@@ -50,24 +50,32 @@ FftSolverOptions quick() {
 // bounds are tight: each margin (< 3 B) is below one 3-component spectral vector (25.5 B per voxel on a
 // 32² section, 27 B on 16³) and below any one of the cuts, and above the composite voxels' arrays'
 // dependence on the image (< 1 B). 32² ecoflex/glass section (mixed (u, p) arrays, composite voxels)
-// 465.6 B measured (1148 → 785 → 636.1 → 497.1 B before); 16³ compressible neo-Hookean cell (no pressure
-// arrays) 391.3 B (547.9 → 422 B before). The phase image is 4 B per voxel (phase or composite index),
-// the 3-field transform is in place (its real fields inside the spectra).
+// 381.6 B measured (1148 → 785 → 636.1 → 497.1 B before; then the phase image in 4 B per voxel (phase or
+// composite index), the 3-field transform in place (its real fields inside the spectra), one pressure
+// linearization instead of two with its slopes recomputed from the compact records, 108 → 24 B per
+// point); 16³ compressible neo-Hookean cell (no pressure arrays) 391.3 B (547.9 → 422 B before).
 TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
   const PhaseImage section = circle_image(32, 0.27);
   FftRveSolver eco(section, ecoflex(), glass(), 45.0, Mat3::Identity(), quick());
   const double eco_bpv = double(eco.memory_bytes()) / double(section.voxels());
-  EXPECT_LE(eco_bpv, 468.0);
+  EXPECT_LE(eco_bpv, 384.0);
   const auto eco_arrays = by_array(eco);
   EXPECT_EQ(eco_arrays.count("history"), 0u);  // elastic phases: no internal variables
   EXPECT_GT(eco_arrays.count("mixed_pressure"), 0u);
   EXPECT_GT(eco_arrays.count("composites"), 0u);
-  // ∇ũ / P in real space only (9 doubles per point, no spectrum); the mixed arrays 108 B per point.
+  // ∇ũ / P in real space only (9 doubles per point, no spectrum); the mixed arrays 24 B per point: one
+  // linearization's offset (its slopes follow from the compact records' F), the pressures of the last
+  // evaluation and the committed state and its increment (float), the residual correction's factor.
   EXPECT_EQ(eco_arrays.at("fft_buffers"), 9u * 8u * section.voxels());
-  EXPECT_EQ(eco_arrays.at("mixed_pressure"), 108u * section.voxels());
+  EXPECT_EQ(eco_arrays.at("mixed_pressure"), 24u * section.voxels());
   EXPECT_EQ(eco_arrays.at("compact_tangents"), 14u * 4u * section.voxels());
   EXPECT_EQ(eco_arrays.at("phase_image"), 4u * section.voxels());
   EXPECT_EQ(eco_arrays.at("fft3_buffers"), 3u * 16u * (32u / 2u + 1u) * 32u);  // in place: spectra only
+  // Without compact tangents the slopes are stored: + 9 floats per point.
+  FftSolverOptions stored = quick();
+  stored.compact_tangent = false;
+  FftRveSolver eco_stored(section, ecoflex(), glass(), 45.0, Mat3::Identity(), stored);
+  EXPECT_EQ(by_array(eco_stored).at("mixed_pressure"), 60u * section.voxels());
   // CG's r and p only (z recomputed from r, Ap in fft3's buffer) next to ũ, committed ũ, residual, step.
   EXPECT_EQ(eco_arrays.at("spectral_vectors"), 6u * 3u * 16u * (32u / 2u + 1u) * 32u);
 

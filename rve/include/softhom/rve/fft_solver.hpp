@@ -133,6 +133,11 @@ struct FftSolverOptions {
   /// operator forms δP from them on the fly (rve/src/compact_tangents.hpp). Composite points and other
   /// laws keep the stored tangent. The same operator to float rounding.
   bool compact_tangent = true;
+  /// Verification, not a scene key: the mixed (u, p) iteration recomputes the last accepted iterate's
+  /// pressure linearization before every line-search trial, not only after a rejected one (it keeps one
+  /// linearization per point, which each trial overwrites). With a right restore both give the same
+  /// iterates bit for bit; the tests compare them.
+  bool relinearize_every_trial = false;
   /// green: the reference-medium Green operator K0⁻¹ per Fourier mode (CG on spectra), the default.
   /// jacobi_green: S K0⁻¹ S with S the real-space diagonal scaling (D0/D)^½ of the stencil operator's
   /// node diagonal D (rve/src/fft_preconditioner.hpp), CG on nodal fields, the same two 3-field
