@@ -150,6 +150,7 @@ SlabFFT::SlabFFT(const SlabDecomposition& slabs, int fields, const PlanOptions& 
   work_ = fftw_alloc_real(work_doubles_);
   if (!real_ || !spectrum_ || !work_) throw std::bad_alloc();
   set_buffers(real_, real_stride_, spectrum_, slabs.local_modes());
+  set_rows(std::size_t(g.n[0]), std::size_t(g.n[0]));
   const unsigned flags = detail::fftw_flags(options.rigor);
   {
     std::lock_guard<std::mutex> lock(slab_planner_mutex());

@@ -348,9 +348,8 @@ struct FftRveSolver::Impl {
         stencil->restrict_to_slab(dist->slab().count);
         fft3 = std::make_unique<fft::SlabFFT>(*dist, 3, opt.plan, 3, 1);  // + the displacement's upper halo
       } else {
-        // In place (the real fields in the spectrum buffer, rows padded): −24 B per voxel. The jacobi-green
-        // preconditioner keeps dense real fields (it reads and writes them voxel by voxel).
-        fft3 = std::make_unique<fft::BatchedFFT>(grid, 3, opt.plan, 3, opt.preconditioner != Preconditioner::jacobi_green);
+        // In place (the real fields in the spectrum buffer, rows padded): −24 B per voxel.
+        fft3 = std::make_unique<fft::BatchedFFT>(grid, 3, opt.plan, 3, fft3_in_place());
         if (fft3->padded_rows()) stencil->set_padded_fields(fft3->real_row_pitch(), fft3->real_stride());
       }
     }
@@ -403,6 +402,20 @@ struct FftRveSolver::Impl {
   detail::FractionOf local_fraction() const {
     return [this](std::size_t v) { return fraction(v); };
   }
+  /// Phase of pure voxel v (0 matrix, 1 fiber).
+  int pure_phase(std::size_t v) const { return comp_id[v] == kFiberVoxel ? 1 : 0; }
+  /// F = F̄ + ∇ũ at point q of voxel v, ∇ũ in fft's real buffer (the columns j ≥ op.columns() of a section are 0).
+  Mat3 point_F(const Mat3& Fbar_grid, std::size_t v, int q) const {
+    const double* base = fft->real(9 * q) + v;
+    const int ncol = op.columns();
+    Mat3 F;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) F(i, j) = Fbar_grid(i, j) + (j < ncol ? base[std::size_t(3 * i + j) * N] : 0.0);
+    return F;
+  }
+  /// The one-process 3-field transform works in place unless the jacobi-green preconditioner reads its
+  /// real fields voxel by voxel (dense).
+  bool fft3_in_place() const { return !dist && opt.preconditioner != Preconditioner::jacobi_green; }
 
   /// "[n1, n2]" (sections) or "[n1, n2, n3]", as the scene writes the grid.
   static std::string grid_text(const std::array<int, 3>& n) {
@@ -457,7 +470,7 @@ struct FftRveSolver::Impl {
     s.fft_fields = std::size_t(9 * nq);
     s.fft_spectra = with_stencil ? 0 : s.fft_fields;
     s.fft3_fields = with_stencil ? 3 : 0;
-    s.fft3_in_place = with_stencil && !dist && opt.preconditioner != Preconditioner::jacobi_green;
+    s.fft3_in_place = with_stencil && fft3_in_place();
     const bool single = with_stencil && opt.tangent_precision == TangentPrecision::single_precision;
     s.tangent_values = newton ? 45 * (with_stencil ? (NP + 7) / 8 * 8 : NP) : 0;
     if (single && compact_tangents_apply()) {  // composite points' full tangents: counted as none
@@ -612,17 +625,13 @@ struct FftRveSolver::Impl {
   /// it): recomputed at every pure point of a mixed phase as pressure_correction() computed it there,
   /// not stored a second time (44 B per point). Leaves the real buffer as it is.
   void relinearize_pressures(const Mat3& Fbar_grid) {
-    const int ncol = op.columns();
 #pragma omp parallel for schedule(static)
     for (std::size_t v = 0; v < N; ++v) {
       if (comp_id[v] >= 0) continue;
-      const int x = comp_id[v] == kFiberVoxel ? 1 : 0;
+      const int x = pure_phase(v);
       if (!mixed[x]) continue;
       for (int q = 0; q < nq; ++q) {
-        const double* base = fft->real(9 * q) + v;
-        Mat3 F;
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) F(i, j) = Fbar_grid(i, j) + (j < ncol ? base[std::size_t(3 * i + j) * N] : 0.0);
+        const Mat3 F = point_F(Fbar_grid, v, q);
         linearize_pressure(x, v * nq + q, F, volumetric_state(K_vol[x], F));
       }
     }
@@ -657,7 +666,6 @@ struct FftRveSolver::Impl {
       PassSums local;
       Mat3 Px[2], Fx[2];
       Mat9 A_point;
-      const int ncol = op.columns();
       detail::MeanDilatationVoxel md;
       std::unique_ptr<detail::MeanDilatationResponse> md_out;
       if (mean_dilatation) md_out = std::make_unique<detail::MeanDilatationResponse>();
@@ -675,17 +683,14 @@ struct FftRveSolver::Impl {
         for (int q = 0; q < nq; ++q) {
           const std::size_t p = v * nq + q;
           double* base = fft->real(9 * q) + v;
-          Mat3 F;
-          for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) F(i, j) = Fbar_grid(i, j) + (j < ncol ? base[std::size_t(3 * i + j) * N] : 0.0);
-          if (mean_dilatation) F = md.modified(q);
+          const Mat3 F = mean_dilatation ? md.modified(q) : point_F(Fbar_grid, v, q);
           Mat3 P;
           Mat9* A = with_tangent ? &A_point : nullptr;
           MaterialStatus s;
           const double f = fraction(v);
           const double w = op.quadrature()[q].weight * invN;
           if (comp_id[v] < 0) {
-            const int x = comp_id[v] == kFiberVoxel ? 1 : 0;
+            const int x = pure_phase(v);
             s = mat[x]->evaluate(F, state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr,
                                  state_size[x] ? hist_new[x].data() + p * state_size[x] : nullptr, dt, P, A);
             double q_p = 0.0;
@@ -772,12 +777,9 @@ struct FftRveSolver::Impl {
 
   /// F_q = F̄ + ∇ũ_q of voxel v (gradient in fft->real) into `md`, and its J̄, α_q; false if inverted.
   bool prepare_mean_dilatation(std::size_t v, const Mat3& Fbar_grid, detail::MeanDilatationVoxel& md) const {
-    const int ncol = op.columns();
     double w[8];
     for (int q = 0; q < nq; ++q) {
-      const double* base = fft->real(9 * q) + v;
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) md.F[q](i, j) = Fbar_grid(i, j) + (j < ncol ? base[std::size_t(3 * i + j) * N] : 0.0);
+      md.F[q] = point_F(Fbar_grid, v, q);
       w[q] = op.quadrature()[q].weight;
     }
     return md.prepare(nq, w);
@@ -822,18 +824,18 @@ struct FftRveSolver::Impl {
         for (int j = 0; j < ncol; ++j) copy_from_real(*fft3, j, fft->real(9 * q + 3 * i + j));
       }
   }
-  /// Real field `field` of transform t (dense or padded rows, FieldTransform::real_row_pitch()) to and
-  /// from a dense voxel field.
+  /// Real field `field` of grid transform t (dense or padded rows, FieldTransform::real_row_pitch()) to
+  /// and from a dense voxel field.
   void copy_from_real(fft::FieldTransform& t, int field, double* to) const {
     const double* from = t.real(field);
-    const std::size_t n1 = std::size_t(grid.n[0]), pitch = t.padded_rows() ? t.real_row_pitch() : n1, rows = N / n1;
+    const std::size_t n1 = std::size_t(grid.n[0]), pitch = t.real_row_pitch(), rows = N / n1;
 #pragma omp parallel for schedule(static)
     for (std::size_t r = 0; r < rows; ++r)
       for (std::size_t i = 0; i < n1; ++i) to[r * n1 + i] = from[r * pitch + i];
   }
   void copy_to_real(const double* from, fft::FieldTransform& t, int field) const {
     double* to = t.real(field);
-    const std::size_t n1 = std::size_t(grid.n[0]), pitch = t.padded_rows() ? t.real_row_pitch() : n1, rows = N / n1;
+    const std::size_t n1 = std::size_t(grid.n[0]), pitch = t.real_row_pitch(), rows = N / n1;
 #pragma omp parallel for schedule(static)
     for (std::size_t r = 0; r < rows; ++r)
       for (std::size_t i = 0; i < n1; ++i) to[r * pitch + i] = from[r * n1 + i];
@@ -890,7 +892,7 @@ struct FftRveSolver::Impl {
           const double ratio = dP_ratio[p];
           if (ratio == 0.0) continue;  // points without the pressure iteration, or q = 0
           // The slopes at p are those of this evaluation (pressure_correction() wrote them).
-          const Mat3 slope = pressure_slope(comp_id[v] == kFiberVoxel ? 1 : 0, p);
+          const Mat3 slope = pressure_slope(pure_phase(v), p);
           double* base = fft->real(9 * q) + v;
           for (int c = 0; c < 9; ++c) {
             const double d = ratio * slope(c / 3, c % 3);
@@ -1340,15 +1342,12 @@ struct FftRveSolver::Impl {
     detail::HotSpots h;
     gradient_to_real(u);
     const Mat3 Fg = to_grid(Fbar);
-    const int ncol = op.columns();
     for (std::size_t v = 0; v < N; ++v)
       for (int q = 0; q < nq; ++q) {
         const std::size_t p = v * nq + q;
         const double f = fraction(v);
         if (f >= 1.0) continue;
-        Mat3 F;
-        for (int c = 0; c < 9; ++c)
-          F(c / 3, c % 3) = Fg(c / 3, c % 3) + (c % 3 < ncol ? fft->real(9 * q + c)[v] : 0.0);
+        Mat3 F = point_F(Fg, v, q);
         const bool composite = comp_id[v] >= 0;
         if (composite && comp_normal[comp_id[v]].squaredNorm() > 0.0) {
           const std::size_t c = std::size_t(comp_id[v]) * nq + q;
@@ -1360,13 +1359,9 @@ struct FftRveSolver::Impl {
       }
     // Nodal forces Dᴴ P in real space.
     const auto [t, step] = vector_to_real(r.u);
-    if (t->padded_rows()) {  // dense copies of the three components (a failure path)
-      std::vector<double> f(3 * N);
-      for (int i = 0; i < 3; ++i) copy_from_real(*t, i * step, f.data() + i * N);
-      h.see_forces(f.data(), f.data() + N, f.data() + 2 * N, N);
-    } else {
-      h.see_forces(t->real(0), t->real(step), t->real(2 * step), N);
-    }
+    std::vector<double> f(3 * N);  // dense copies of the three components (a failure path)
+    for (int i = 0; i < 3; ++i) copy_from_real(*t, i * step, f.data() + i * N);
+    h.see_forces(f.data(), f.data() + N, f.data() + 2 * N, N);
     if (dist) {
       h.v_force += v0;
       detail::reduce_hot_spots(h, *dist, N);
@@ -1744,14 +1739,12 @@ struct FftRveSolver::Impl {
     for (std::size_t v = 0; v < N; ++v) {
       Mat3 Fm = Mat3::Zero(), Pm = Mat3::Zero(), Sm = Mat3::Zero();
       for (int q = 0; q < nq; ++q) {
-        Mat3 Fq, Pq;
-        for (int c = 0; c < 9; ++c) {
-          Fq(c / 3, c % 3) = Fg(c / 3, c % 3) + (c % 3 < op.columns() ? fft->real(9 * q + c)[v] : 0.0);
-          Pq(c / 3, c % 3) = one_point ? 0.0 : P[std::size_t(9 * q + c) * N + v];
-        }
+        const Mat3 Fq = point_F(Fg, v, q);
         const double w = op.quadrature()[q].weight;
         Fm += w * to_load(Fq);
         if (one_point) continue;
+        Mat3 Pq;
+        for (int c = 0; c < 9; ++c) Pq(c / 3, c % 3) = P[std::size_t(9 * q + c) * N + v];
         Pm += w * to_load(Pq);
         Sm += w * to_load(cauchy_from_piola(Fq, Pq));
       }

@@ -29,9 +29,9 @@ class FieldTransform {
   Complex* spectrum(int field = 0) { return spectrum_base_ + std::size_t(field) * spectrum_stride_; }
   std::size_t real_stride() const { return real_stride_; }
   std::size_t spectrum_stride() const { return spectrum_stride_; }
-  /// With padded_rows(): values from one grid row (fixed i2, i3) of a real field to the next, 2 (n1/2 + 1)
-  /// for an in-place transform (the real rows padded to the length of a half-spectrum row). Dense
-  /// transforms (padded_rows() false) store the voxels contiguously.
+  /// Grid transforms (BatchedFFT, SlabFFT): values from one grid row (fixed i2, i3) of a real field to the
+  /// next, n1 (dense) or 2 (n1/2 + 1) for an in-place transform (the real rows padded to the length of a
+  /// half-spectrum row).
   std::size_t real_row_pitch() const { return row_pitch_; }
   bool padded_rows() const { return row_pitch_ != row_length_; }
   /// Position in a real field of voxel v (i1 fastest).
@@ -87,7 +87,6 @@ class BatchedFFT : public FieldTransform {
   int fields() const override { return fields_; }
   /// Fields actually transformed per forward()/backward() (fields · columns / 3).
   int transformed_fields() const override { return fields_ / 3 * columns_ + (columns_ == 3 ? fields_ % 3 : 0); }
-  double* real(int field = 0) { return FieldTransform::real(field); }
   Complex* spectrum(int field = 0) { return spectrum_ + std::size_t(field) * grid_.modes(); }
   bool in_place() const { return in_place_; }
 
