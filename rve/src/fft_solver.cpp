@@ -171,6 +171,11 @@ struct FftRveSolver::Impl {
   // pass keeps its per-voxel values in fft's real buffer (free during a linear solve).
   std::unique_ptr<fft::StencilGradient> stencil;
   std::unique_ptr<fft::FieldTransform> fft3;
+  // Streamed evaluation (streams_evaluation()): the residual pass, the Krylov operator and the
+  // pointwise passes run through StencilGradient::streamed_pass()/gradient_pass() on fft3's real
+  // buffer; fft is not allocated (no 9-field buffer). stream_scratch: the passes' partial force slices.
+  bool streamed = false;
+  std::vector<double> stream_scratch;
   Mat3 R;            // grid axes in the load frame
   Mat9 T_load;       // X_grid ↦ X_load
   Vec3 a0_load;      // fiber axis in the load frame
@@ -334,7 +339,10 @@ struct FftRveSolver::Impl {
     // With the stencil operator ∇ũ and P stay in real space (transformed block by block through fft3,
     // gradient_to_real() and residual()): no spectrum of the 9·nq fields. Distributed: room for the
     // stencil store's lower halo plane after the fields (see stencil_store()).
-    if (with_stencil)
+    streamed = with_stencil && streams_evaluation();
+    if (streamed)
+      ;  // no 9-field buffer: ∇ũ and P live only inside the streamed passes
+    else if (with_stencil)
       fft = std::make_unique<fft::FieldBuffer>(9 * nq, N, dist ? 24 * dist->plane_voxels() : 0);
     else if (dist)
       fft = std::make_unique<fft::SlabFFT>(*dist, 9 * nq, opt.plan, op.columns());
@@ -343,7 +351,7 @@ struct FftRveSolver::Impl {
     if (with_stencil) {
       stencil = std::make_unique<fft::StencilGradient>(op);
       // Its per-voxel values (≤ 24) live in fft's real buffer (9·nq per voxel), unused during a solve.
-      if (stencil->stored_values() > 9 * nq) throw std::logic_error("stencil values do not fit the FFT buffer");
+      if (!streamed && stencil->stored_values() > 9 * nq) throw std::logic_error("stencil values do not fit the FFT buffer");
       if (dist) {
         stencil->restrict_to_slab(dist->slab().count);
         fft3 = std::make_unique<fft::SlabFFT>(*dist, 3, opt.plan, 3, 1);  // + the displacement's upper halo
@@ -370,12 +378,16 @@ struct FftRveSolver::Impl {
     // The pressure slopes are stored unless the compact records hold the F they follow from.
     if (mixed_active && !compact) lin_c.assign(9 * NP, 0.0f);
     if (mean_dilatation) md_coupling.resize(N, nq);
+    if (streamed) ensure_stream_scratch();
     u.assign(3 * NM, 0.0);
     u_committed = u;
     if (opt.scheme == FftScheme::newton_cg) {
       // CG work vectors once, here (pcg() reuses them), so that memory_bytes() is what a run holds.
       // Stencil operator: no z (CgSpace recomputes K0⁻¹ r in the direction update) and no Ap (fft3's buffer).
-      for (KVec* v : {&cg_r, &cg_p}) v->u.assign(3 * NM, 0.0);
+      // No CG residual of its own (the step's residual is the right-hand side and becomes CG's r, see
+      // pcg()) except for the Jacobi–Green CG on nodal vectors.
+      cg_p.u.assign(3 * NM, 0.0);
+      if (jacobi_green()) cg_r.u.assign(3 * NM, 0.0);
       if (!stencil) cg_z.u.assign(3 * NM, 0.0);
       if (!stencil) cg_Ap.u.assign(3 * NM, 0.0);
     }
@@ -413,6 +425,21 @@ struct FftRveSolver::Impl {
       for (int j = 0; j < 3; ++j) F(i, j) = Fbar_grid(i, j) + (j < ncol ? base[std::size_t(3 * i + j) * N] : 0.0);
     return F;
   }
+  /// The streamed evaluation (no 9-field buffer, fft::StencilGradient::streamed_pass) applies to the
+  /// default solve of elastic phases on one process: the stencil operator (decided by the caller) with
+  /// one point per voxel (rotated), the Green preconditioner (Jacobi–Green reads per-voxel values), no
+  /// history (the field output re-evaluates the laws at the converged F, which a history-dependent law
+  /// cannot repeat) and slices of whole batches of 8 voxels (section rows n1, planes n1·n2).
+  bool streams_evaluation() const {
+    return opt.stream_evaluation && !dist && nq == 1 && !mean_dilatation &&
+           opt.preconditioner == Preconditioner::green && state_size[0] == 0 && state_size[1] == 0 &&
+           fft::StencilGradient::streams(op);
+  }
+  /// The streamed passes' scratch for the team of the next parallel region.
+  void ensure_stream_scratch() {
+    const std::size_t need = stencil->stream_scratch_values(omp_get_max_threads());
+    if (stream_scratch.size() < need) stream_scratch.resize(need);
+  }
   /// The one-process 3-field transform works in place unless the jacobi-green preconditioner reads its
   /// real fields voxel by voxel (dense).
   bool fft3_in_place() const { return !dist && opt.preconditioner != Preconditioner::jacobi_green; }
@@ -430,8 +457,9 @@ struct FftRveSolver::Impl {
     s.voxels = N;
     s.modes = NM;
     s.points = NP;
-    s.fft_fields = std::size_t(fft->fields());
-    s.fft_spectra = fft->transformed_fields() ? s.fft_fields : 0;
+    s.fft_fields = fft ? std::size_t(fft->fields()) : 0;
+    s.fft_spectra = fft && fft->transformed_fields() ? s.fft_fields : 0;
+    s.stream_scratch_values = stream_scratch.size();
     s.fft3_fields = fft3 ? std::size_t(fft3->fields()) : 0;
     s.fft3_in_place = fft3 && fft3->padded_rows();
     const bool single = !tangent_f.empty() || compact;
@@ -451,12 +479,16 @@ struct FftRveSolver::Impl {
     s.spectral_vectors = spectral_vectors();
     return s;
   }
-  /// 3-component half spectra (double): ũ, committed ũ, the step's residual and Newton step, and the
-  /// CG work vectors (r, p, and z and Ap unless the stencil operator: z recomputed, Ap in fft3's buffer); the
-  /// fixed point keeps ũ, its copy, the residual and the update. (+ ũ's last increment in float.)
+  /// 3-component half spectra (double): ũ, committed ũ, the step's residual (which is also CG's r) and
+  /// Newton step, and the CG work vectors (p, and z and Ap unless the stencil operator: z recomputed, Ap
+  /// in fft3's buffer; Jacobi–Green: r, z, p of its own); the fixed point keeps ũ, its copy, the residual
+  /// and the update. (+ ũ's last increment in float.)
+  static std::size_t spectral_vectors(bool newton, bool with_stencil, bool jacobi) {
+    if (!newton) return 4;
+    return 4 + (with_stencil ? (jacobi ? 3 : 1) : 3);
+  }
   std::size_t spectral_vectors() const {
-    if (opt.scheme != FftScheme::newton_cg) return 4;
-    return 4 + (stencil ? (jacobi_green() ? 3 : 2) : 4);  // jacobi_green_pcg() keeps its z
+    return spectral_vectors(opt.scheme == FftScheme::newton_cg, bool(stencil), jacobi_green());
   }
   /// The same sizes planned from the problem size before anything is allocated (composite voxels
   /// counted as none: their arrays are small).
@@ -467,8 +499,10 @@ struct FftRveSolver::Impl {
     s.voxels = N;
     s.modes = NM;
     s.points = NP;
-    s.fft_fields = std::size_t(9 * nq);
+    const bool streams = with_stencil && streams_evaluation();
+    s.fft_fields = streams ? 0 : std::size_t(9 * nq);
     s.fft_spectra = with_stencil ? 0 : s.fft_fields;
+    s.stream_scratch_values = streams ? std::size_t(omp_get_max_threads()) * fft::StencilGradient::stream_scratch_per_thread(grid) : 0;
     s.fft3_fields = with_stencil ? 3 : 0;
     s.fft3_in_place = with_stencil && fft3_in_place();
     const bool single = with_stencil && opt.tangent_precision == TangentPrecision::single_precision;
@@ -485,7 +519,7 @@ struct FftRveSolver::Impl {
     s.mixed_points = mixed_active ? NP : 0;
     s.mixed_slope_points = mixed_active && !(single && compact_tangents_apply()) ? NP : 0;
     s.mean_dilatation_values = opt.volumetric == VolumetricKinematics::mean_dilatation ? 18 * NP + N : 0;
-    s.spectral_vectors = !newton ? 4 : 4 + (with_stencil ? (opt.preconditioner == Preconditioner::jacobi_green ? 3 : 2) : 4);
+    s.spectral_vectors = spectral_vectors(newton, with_stencil, with_stencil && opt.preconditioner == Preconditioner::jacobi_green);
     return s;
   }
   /// Bytes the solver will allocate for this grid and these options (planned_sizes()), saturating for
@@ -620,11 +654,26 @@ struct FftRveSolver::Impl {
     for (int k = 0; k < 9; ++k) s0 -= c(k / 3, k % 3) * F(k / 3, k % 3);
     lin_s[p] = s0;
   }
-  /// Puts back the linearization of the last accepted iterate (∇ũ in the real buffer, F̄ in the grid
-  /// frame) after a rejected line-search trial overwrote it (all or, after a material failure, part of
-  /// it): recomputed at every pure point of a mixed phase as pressure_correction() computed it there,
-  /// not stored a second time (44 B per point). Leaves the real buffer as it is.
+  /// Puts back the linearization of the last accepted iterate (ũ, F̄ in the grid frame) after a rejected
+  /// line-search trial overwrote it (all or, after a material failure, part of it): recomputed at every
+  /// pure point of a mixed phase as pressure_correction() computed it there, not stored a second time
+  /// (44 B per point).
   void relinearize_pressures(const Mat3& Fbar_grid) {
+    if (streamed) {
+      displacement_to_real(u);
+#pragma omp parallel
+      stencil->gradient_pass(fft3->real(0), nullptr, [&](std::size_t p0, int count, const double* grad, double*) {
+        for (int l = 0; l < count; ++l) {
+          const std::size_t v = p0 + std::size_t(l);
+          if (comp_id[v] >= 0 || !mixed[pure_phase(v)]) continue;
+          const int x = pure_phase(v);
+          const Mat3 F = lane_F(Fbar_grid, grad, l);
+          linearize_pressure(x, v, F, volumetric_state(K_vol[x], F));
+        }
+      });
+      return;
+    }
+    gradient_to_real(u);
 #pragma omp parallel for schedule(static)
     for (std::size_t v = 0; v < N; ++v) {
       if (comp_id[v] >= 0) continue;
@@ -655,6 +704,71 @@ struct FftRveSolver::Impl {
     for (int idx = 0; idx < 45; ++idx) block[8 * idx] = S[idx];
   }
 
+  /// Point q of voxel v at F: its phase's law (with the mixed iteration's pressure) or the laminate /
+  /// Voigt rule of a composite voxel. P, the tangent into *A when asked (not stored), the phase sums and
+  /// margins into `local`. Shared by the evaluation passes (stored gradient or streamed).
+  MaterialStatus evaluate_point(std::size_t v, int q, const Mat3& F, double dt, Mat3& P, Mat9* A, PassSums& local) {
+    const double invN = 1.0 / double(Ntot);
+    const std::size_t p = v * nq + q;
+    Mat3 Px[2], Fx[2];
+    MaterialStatus s;
+    const double f = fraction(v);
+    const double w = op.quadrature()[q].weight * invN;
+    if (comp_id[v] < 0) {
+      const int x = pure_phase(v);
+      s = mat[x]->evaluate(F, state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr,
+                           state_size[x] ? hist_new[x].data() + p * state_size[x] : nullptr, dt, P, A);
+      double q_p = 0.0;
+      if (s == MaterialStatus::ok && mixed[x]) q_p = pressure_correction(x, p, F, P, A);
+      if (s == MaterialStatus::ok && A && compact) store_compact(x, p, F, q_p);
+      if (s == MaterialStatus::ok && A && opt.reference == ReferenceMedium::geometric) {
+        local.phase_A[x] += w * (*A);
+        local.phase_A_w[x] += w;
+      }
+      if (s == MaterialStatus::ok) {
+        local.phase_P[x] += w * P;
+        local.phase_F[x] += w * F;
+        local.phase_PFt[x] += w * P * F.transpose();
+        local.phase_J[x] += w * F.determinant();
+        local.phase_w[x] += w;
+        local.see_margin(x, mat[x]->limit_margin(F), v0 + v);
+      }
+    } else {
+      const std::size_t c = std::size_t(comp_id[v]) * nq + q;
+      const Vec3& n = comp_normal[comp_id[v]];
+      if (n.squaredNorm() == 0.0) {
+        // Voigt (equal strain) rule where no interface normal can be found.
+        Mat9 A1, A0;
+        s = mat[1]->evaluate(F, state_size[1] ? hist_old[1].data() + p * state_size[1] : nullptr,
+                             state_size[1] ? hist_new[1].data() + p * state_size[1] : nullptr, dt, Px[1],
+                             A ? &A1 : nullptr);
+        if (s == MaterialStatus::ok)
+          s = mat[0]->evaluate(F, state_size[0] ? hist_old[0].data() + p * state_size[0] : nullptr,
+                               state_size[0] ? hist_new[0].data() + p * state_size[0] : nullptr, dt, Px[0],
+                               A ? &A0 : nullptr);
+        P = f * Px[1] + (1.0 - f) * Px[0];
+        if (A && s == MaterialStatus::ok) *A = f * A1 + (1.0 - f) * A0;
+        Fx[0] = Fx[1] = F;
+      } else {
+        Vec3 a(lam_a_trial[3 * c], lam_a_trial[3 * c + 1], lam_a_trial[3 * c + 2]);
+        s = laminate(F, f, n, a, p, dt, P, A, Px, Fx);
+        if (s == MaterialStatus::ok)
+          for (int i = 0; i < 3; ++i) lam_a_trial[3 * c + i] = a[i];
+      }
+      if (s == MaterialStatus::ok)
+        for (int x = 0; x < 2; ++x) {
+          const double wx = w * (x == 1 ? f : 1.0 - f);
+          local.phase_P[x] += wx * Px[x];
+          local.phase_F[x] += wx * Fx[x];
+          local.phase_PFt[x] += wx * Px[x] * Fx[x].transpose();
+          local.phase_J[x] += wx * Fx[x].determinant();
+          local.phase_w[x] += wx;
+          local.see_margin(x, mat[x]->limit_margin(Fx[x]), v0 + v);
+        }
+    }
+    return s;
+  }
+
   /// Evaluates every material point at F = F̄ + ∇ũ (gradient already in fft->real), writes P into the
   /// real buffer in place, stores tangents when asked; fills `sums`. Returns the first failure.
   MaterialStatus evaluate_points(const Mat3& Fbar_grid, double dt, bool with_tangent) {
@@ -664,7 +778,6 @@ struct FftRveSolver::Impl {
 #pragma omp parallel
     {
       PassSums local;
-      Mat3 Px[2], Fx[2];
       Mat9 A_point;
       detail::MeanDilatationVoxel md;
       std::unique_ptr<detail::MeanDilatationResponse> md_out;
@@ -686,61 +799,8 @@ struct FftRveSolver::Impl {
           const Mat3 F = mean_dilatation ? md.modified(q) : point_F(Fbar_grid, v, q);
           Mat3 P;
           Mat9* A = with_tangent ? &A_point : nullptr;
-          MaterialStatus s;
-          const double f = fraction(v);
           const double w = op.quadrature()[q].weight * invN;
-          if (comp_id[v] < 0) {
-            const int x = pure_phase(v);
-            s = mat[x]->evaluate(F, state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr,
-                                 state_size[x] ? hist_new[x].data() + p * state_size[x] : nullptr, dt, P, A);
-            double q_p = 0.0;
-            if (s == MaterialStatus::ok && mixed[x]) q_p = pressure_correction(x, p, F, P, A);
-            if (s == MaterialStatus::ok && A && compact) store_compact(x, p, F, q_p);
-            if (s == MaterialStatus::ok && A && opt.reference == ReferenceMedium::geometric) {
-              local.phase_A[x] += w * (*A);
-              local.phase_A_w[x] += w;
-            }
-            if (s == MaterialStatus::ok) {
-              local.phase_P[x] += w * P;
-              local.phase_F[x] += w * F;
-              local.phase_PFt[x] += w * P * F.transpose();
-              local.phase_J[x] += w * F.determinant();
-              local.phase_w[x] += w;
-              local.see_margin(x, mat[x]->limit_margin(F), v0 + v);
-            }
-          } else {
-            const std::size_t c = std::size_t(comp_id[v]) * nq + q;
-            const Vec3& n = comp_normal[comp_id[v]];
-            if (n.squaredNorm() == 0.0) {
-              // Voigt (equal strain) rule where no interface normal can be found.
-              Mat9 A1, A0;
-              s = mat[1]->evaluate(F, state_size[1] ? hist_old[1].data() + p * state_size[1] : nullptr,
-                                   state_size[1] ? hist_new[1].data() + p * state_size[1] : nullptr, dt, Px[1],
-                                   A ? &A1 : nullptr);
-              if (s == MaterialStatus::ok)
-                s = mat[0]->evaluate(F, state_size[0] ? hist_old[0].data() + p * state_size[0] : nullptr,
-                                     state_size[0] ? hist_new[0].data() + p * state_size[0] : nullptr, dt, Px[0],
-                                     A ? &A0 : nullptr);
-              P = f * Px[1] + (1.0 - f) * Px[0];
-              if (A && s == MaterialStatus::ok) *A = f * A1 + (1.0 - f) * A0;
-              Fx[0] = Fx[1] = F;
-            } else {
-              Vec3 a(lam_a_trial[3 * c], lam_a_trial[3 * c + 1], lam_a_trial[3 * c + 2]);
-              s = laminate(F, f, n, a, p, dt, P, A, Px, Fx);
-              if (s == MaterialStatus::ok)
-                for (int i = 0; i < 3; ++i) lam_a_trial[3 * c + i] = a[i];
-            }
-            if (s == MaterialStatus::ok)
-              for (int x = 0; x < 2; ++x) {
-                const double wx = w * (x == 1 ? f : 1.0 - f);
-                local.phase_P[x] += wx * Px[x];
-                local.phase_F[x] += wx * Fx[x];
-                local.phase_PFt[x] += wx * Px[x] * Fx[x].transpose();
-                local.phase_J[x] += wx * Fx[x].determinant();
-                local.phase_w[x] += wx;
-                local.see_margin(x, mat[x]->limit_margin(Fx[x]), v0 + v);
-              }
-          }
+          const MaterialStatus s = evaluate_point(v, q, F, dt, P, A, local);
           if (s != MaterialStatus::ok || !P.allFinite()) {
             const int code = s == MaterialStatus::ok ? int(MaterialStatus::not_finite) : int(s);
 #pragma omp atomic write
@@ -868,8 +928,7 @@ struct FftRveSolver::Impl {
       fft->forward();
       op.divergence(fft->spectrum(0), r.u.data(), 1.0 / double(Ntot));
     }
-    const Vec9 Pl = T_load * sums.P;
-    for (int c = 0; c < 9; ++c) r.f[c] = free[c] ? Pl[c] - P_target[c] : 0.0;
+    macro_residual(free, P_target, r);
   }
 
   /// Residual of the evaluated iterate: `r` is the true residual (Div P_full: right-hand side and
@@ -910,6 +969,156 @@ struct FftRveSolver::Impl {
     merit = merit_hat;
     return err;
   }
+  // ---------------------------------------------------------------------------------------------
+  // Streamed evaluation (streams_evaluation()): ∇ũ, the laws and the nodal forces in one real-space
+  // pass over fft3's buffer (fft::StencilGradient::streamed_pass), no 9-field buffer. The same
+  // iterates as the stored path to round-off (the divergence summed in another order).
+
+  /// ũ's real nodal displacement into fft3's real buffer (in place of its spectrum).
+  void displacement_to_real(const std::vector<Complex>& uh) {
+    std::copy(uh.begin(), uh.begin() + std::ptrdiff_t(3 * NM), fft3->spectrum(0));
+    fft3->backward();
+  }
+  /// F = F̄ + ∇ũ of lane l of a stencil batch (its columns j ≥ dims are 0).
+  static Mat3 lane_F(const Mat3& Fbar_grid, const double* grad, int l) {
+    constexpr int B = fft::StencilGradient::kBatch;
+    Mat3 F;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) F(i, j) = Fbar_grid(i, j) + grad[(3 * i + j) * B + l];
+    return F;
+  }
+  /// Σ_k m_k |a_k − b_scale b_k|² / |ξ_k|² over the three components (this rank's modes; b null: 0).
+  double spectral_norm2(const Complex* a, const Complex* b, double b_scale) const {
+    double s = 0.0;
+#pragma omp parallel for reduction(+ : s) schedule(static)
+    for (std::size_t k = 0; k < NM; ++k) {
+      const double lap = op.laplacian(op.mode_offset() + k);
+      if (lap <= 0.0) continue;
+      double e = 0.0;
+      for (int c = 0; c < 3; ++c) e += std::norm(a[c * NM + k] - (b ? b_scale * b[c * NM + k] : Complex(0.0)));
+      s += grid.mode_weight(k) * e / lap;
+    }
+    return global_sum(s);
+  }
+  /// The macro part of the residual from sums.P: the stress error on the free components.
+  void macro_residual(const std::array<bool, 9>& free, const Vec9& P_target, KVec& r) const {
+    const Vec9 Pl = T_load * sums.P;
+    for (int c = 0; c < 9; ++c) r.f[c] = free[c] ? Pl[c] - P_target[c] : 0.0;
+  }
+
+  /// evaluate_points() + evaluate_residual() in one streamed pass: every point at F = F̄ + ∇ũ, its
+  /// tangent stored when asked, the sums, and r = Dᴴ P_full with its relative norm in `err`; the merit
+  /// (line search) of P̂ = P_full − (P_full − P̂) from one more divergence-only pass of the mixed
+  /// correction (which the stored path gets from its second divergence of the 9 fields).
+  MaterialStatus evaluate_streamed(const Mat3& Fbar_grid, double dt, bool with_tangent, const std::array<bool, 9>& free,
+                                   const Vec9& P_target, KVec& r, double& err) {
+    constexpr int B = fft::StencilGradient::kBatch;
+    const double invN = 1.0 / double(Ntot);
+    displacement_to_real(u);
+    ensure_stream_scratch();
+    int failure = 0;
+    PassSums total;
+    Vec9 correction = Vec9::Zero();  // volume mean of P_full − P̂
+#pragma omp parallel
+    {
+      PassSums local;
+      Vec9 local_correction = Vec9::Zero();
+      Mat9 A_point;
+      stencil->streamed_pass(fft3->real(0), stream_scratch.data(), [&](std::size_t p0, int count, const double* grad, double* stress) {
+        for (int l = 0; l < count; ++l) {
+          const std::size_t v = p0 + std::size_t(l);  // one point per voxel
+          int seen;
+#pragma omp atomic read
+          seen = failure;
+          Mat3 P = Mat3::Zero();
+          if (!seen) {
+            Mat9* A = with_tangent ? &A_point : nullptr;
+            const MaterialStatus st = evaluate_point(v, 0, lane_F(Fbar_grid, grad, l), dt, P, A, local);
+            if (st != MaterialStatus::ok || !P.allFinite()) {
+              const int code = st == MaterialStatus::ok ? int(MaterialStatus::not_finite) : int(st);
+#pragma omp atomic write
+              failure = code;
+              P.setZero();
+            } else {
+              local.P += invN * flatten(P);
+              if (A) {
+                local.A += invN * (*A);
+                store_tangent(v, *A);
+              }
+              const double ratio = mixed_active ? double(dP_ratio[v]) : 0.0;
+              if (ratio != 0.0) {  // P_full = P̂ + ratio · slope (evaluate_residual())
+                const Mat3 d = ratio * pressure_slope(pure_phase(v), v);
+                P += d;
+                local_correction += flatten(d);
+              }
+            }
+          }
+          for (int c = 0; c < 9; ++c) stress[c * B + l] = P(c / 3, c % 3);
+        }
+      });
+#pragma omp critical
+      {
+        total.add(local);
+        correction += local_correction;
+      }
+    }
+    sums = total;
+    if (failure) return MaterialStatus(failure);
+    fft3->forward();
+    const Complex* s3 = fft3->spectrum(0);
+    r.u.resize(3 * NM);
+#pragma omp parallel for schedule(static)
+    for (std::size_t a = 0; a < 3 * NM; ++a) r.u[a] = invN * s3[a];
+    if (!mixed_active) {
+      macro_residual(free, P_target, r);
+      err = residual_norm(r, free, P_target);
+      return MaterialStatus::ok;
+    }
+    // Merit of P̂: Dᴴ P̂ = r_u − Dᴴ (P_full − P̂), the correction's divergence in fft3.
+    ensure_stream_scratch();
+#pragma omp parallel
+    stencil->streamed_pass(fft3->real(0), stream_scratch.data(), [&](std::size_t p0, int count, const double*, double* stress) {
+      for (int l = 0; l < count; ++l) {
+        const std::size_t v = p0 + std::size_t(l);
+        const double ratio = dP_ratio[v];
+        const Mat3 d = ratio != 0.0 ? Mat3(ratio * pressure_slope(pure_phase(v), v)) : Mat3::Zero();
+        for (int c = 0; c < 9; ++c) stress[c * B + l] = d(c / 3, c % 3);
+      }
+    }, false);
+    fft3->forward();
+    macro_residual(free, P_target, r);  // of P̂ (sums.P)
+    const double merit_hat = std::sqrt(spectral_norm2(r.u.data(), fft3->spectrum(0), invN) + r.f.squaredNorm());
+    sums.P += invN * correction;
+    macro_residual(free, P_target, r);
+    err = residual_norm(r, free, P_target);
+    merit = merit_hat;
+    return MaterialStatus::ok;
+  }
+
+  /// The undeformed state's points (phase sums, reference medium; tangents for Newton). Streamed: with
+  /// its residual in a CG work vector, which the first solve overwrites.
+  MaterialStatus evaluate_start() {
+    if (!streamed) {
+      gradient_to_real(u);
+      return evaluate_points(to_grid(Fbar), 0.0, opt.scheme == FftScheme::newton_cg);
+    }
+    const std::array<bool, 9> none{};
+    double err = 0.0;
+    cg_p.u.resize(3 * NM);
+    return evaluate_streamed(to_grid(Fbar), 0.0, true, none, Vec9::Zero(), cg_p, err);
+  }
+
+  /// The iterate (ũ, F̄) evaluated: its points (tangents stored when asked) and, when they all succeed,
+  /// the residual r and its relative norm `err` (merit set). Streamed or through the 9-field buffer.
+  MaterialStatus evaluate_iterate(double dt, bool with_tangent, const std::array<bool, 9>& free, const Vec9& P_target,
+                                  KVec& r, double& err) {
+    if (streamed) return evaluate_streamed(to_grid(Fbar), dt, with_tangent, free, P_target, r, err);
+    gradient_to_real(u);
+    const MaterialStatus s = evaluate_points(to_grid(Fbar), dt, with_tangent);
+    if (s == MaterialStatus::ok) err = evaluate_residual(free, P_target, r);
+    return s;
+  }
+
   void commit_pressures(bool track_increment) {
     if (!mixed_active) return;
     for (std::size_t p = 0; p < NP; ++p) {
@@ -1003,19 +1212,23 @@ struct FftRveSolver::Impl {
   /// Stencil form of tangent_product(): the nodal displacement δũ is in fft3's real buffer; ∇δũ, δP
   /// and the per-voxel values of the adjoint (StencilGradient::gradient_pass) in one pass, the latter
   /// into fft's real buffer. Returns the volume mean of δP (grid frame).
-  Vec9 stencil_tangent_product(const Vec9& dFbar, double shift) {
+  /// Streamed (streamed): the adjoint in the same pass, the nodal forces over δũ in fft3's real buffer,
+  /// and ⟨δũ, f⟩ (this rank's sum) into *dot when given.
+  Vec9 stencil_tangent_product(const Vec9& dFbar, double shift, double* dot = nullptr) {
     const Mat9 S = shift * C0;
     Vec9 mean = Vec9::Zero();
     double wq[8];
     for (int q = 0; q < nq; ++q) wq[q] = op.quadrature()[q].weight;
     const double* T = tangent.data();
     const float* Tf = tangent_f.empty() ? nullptr : tangent_f.data();
-#pragma omp parallel
+    if (streamed) ensure_stream_scratch();
+    double dot_sum = 0.0;
+#pragma omp parallel reduction(+ : dot_sum)
     {
       double local[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
       constexpr int B = fft::StencilGradient::kBatch;
       static_assert(B == 8, "fft::symmetric_product_batch() and the tangent blocks hold 8 points");
-      stencil->gradient_pass(fft3->real(0), stencil_store(), [&](std::size_t p0, int count, const double* grad, double* dP) {
+      auto body = [&](std::size_t p0, int count, const double* grad, double* dP) {
         alignas(64) double dF[9 * B];
         for (int c = 0; c < 9; ++c)
           for (int l = 0; l < B; ++l) dF[c * B + l] = dFbar[c] + grad[c * B + l];
@@ -1040,10 +1253,15 @@ struct FftRveSolver::Impl {
           const double w = wq[(p0 + l) % nq];
           for (int c = 0; c < 9; ++c) local[c] += w * dP[c * B + l];
         }
-      });
+      };
+      if (streamed)
+        dot_sum += stencil->streamed_pass(fft3->real(0), stream_scratch.data(), body, true, dot != nullptr);
+      else
+        stencil->gradient_pass(fft3->real(0), stencil_store(), body);
 #pragma omp critical
       for (int c = 0; c < 9; ++c) mean[c] += local[c];
     }
+    if (dot) *dot = dot_sum;
     if (dist) dist->sum(mean.data(), 9);
     return mean / double(Ntot);
   }
@@ -1055,8 +1273,10 @@ struct FftRveSolver::Impl {
       fft3->backward();
       fill_displacement_halo();
       const Vec9 mean = stencil_tangent_product(flatten(to_grid(unflatten(x.f))), shift);
-      fill_store_halo();
-      stencil->divergence_pass(stencil_store(), fft3->real(0), nullptr);
+      if (!streamed) {
+        fill_store_halo();
+        stencil->divergence_pass(stencil_store(), fft3->real(0), nullptr);
+      }
       fft3->forward();
       const double invN = 1.0 / double(Ntot);
       const Complex* s3 = fft3->spectrum(0);
@@ -1102,11 +1322,14 @@ struct FftRveSolver::Impl {
       p.f = beta == 0.0 ? Vec9(z.f) : Vec9(z.f + beta * p.f);
       fft3->backward();
       fill_displacement_halo();
-      const Vec9 mean = stencil_tangent_product(flatten(to_grid(unflatten(p.f))), shift);
-      fill_store_halo();
       // ⟨p, Ap⟩ on the real fields (Parseval: Σ_half m_k Re(p̂_k* Âp_k) = Σ_y p(y)·f(y) / N).
-      const double pAp =
-          global_sum(stencil->divergence_pass(stencil_store(), fft3->real(0), fft3->real(0))) / double(Ntot);
+      double pAp_local = 0.0;
+      const Vec9 mean = stencil_tangent_product(flatten(to_grid(unflatten(p.f))), shift, &pAp_local);
+      if (!streamed) {
+        fill_store_halo();
+        pAp_local = stencil->divergence_pass(stencil_store(), fft3->real(0), fft3->real(0));
+      }
+      const double pAp = global_sum(pAp_local) / double(Ntot);
       fft3->forward();
       const Vec9 ml = T_load * mean;
       for (int c = 0; c < 9; ++c) Ap.f[c] = free[c] ? ml[c] : 0.0;
@@ -1271,7 +1494,10 @@ struct FftRveSolver::Impl {
   /// (K + shift K0) x = b, K0 the reference-medium operator (a Levenberg–Marquardt step, used when K
   /// is indefinite away from the solution). Sets `breakdown` when a direction of non-positive
   /// curvature stops it.
-  int pcg(const KVec& b, const std::array<bool, 9>& free, double rel_tol, KVec& x, double shift, bool& breakdown) {
+  /// `residual`: CG's r (b may be the same vector, which the solve then overwrites; recover_rhs() gets it
+  /// back); null: the member work vector.
+  int pcg(const KVec& b, const std::array<bool, 9>& free, double rel_tol, KVec& x, double shift, bool& breakdown,
+          KVec* residual = nullptr) {
     const auto start = Clock::now();
     const std::vector<int> free_idx = free_indices(free);
     const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
@@ -1292,10 +1518,19 @@ struct FftRveSolver::Impl {
     };
     const krylov::CgResult res = jacobi_green() && shift == 0.0
                                      ? detail::jacobi_green_pcg(*this, b, free, macro, krylov_controls(rel_tol), x)
-                                     : krylov::pcg(space, b, x, cg_r, cg_z, cg_p, cg_Ap, krylov_controls(rel_tol));
+                                     : krylov::pcg(space, b, x, residual ? *residual : cg_r, cg_z, cg_p, cg_Ap,
+                                                   krylov_controls(rel_tol));
     breakdown = res.breakdown;
     krylov_seconds += std::chrono::duration<double>(Clock::now() - start).count();
     return res.iterations;
+  }
+
+  /// The right-hand side b back from the residual r = b − (K + shift K0) x that a solve left in b's
+  /// storage (one operator application; exact up to the recurrence's round-off, for a retry).
+  void recover_rhs(KVec& b, const KVec& x, const std::array<bool, 9>& free, double shift) {
+    cg_p.u.resize(3 * NM);
+    apply(x, free, cg_p, shift);
+    axpy(1.0, cg_p, b);
   }
 
   /// Σ_k m_k Re(āᵤ · bᵤ) + a_f · b_f: the inner product of the Krylov space (half spectrum, mode weights).
@@ -1340,23 +1575,32 @@ struct FftRveSolver::Impl {
   /// Destroys the real buffer.
   detail::HotSpots hot_spots(const KVec& r) {
     detail::HotSpots h;
-    gradient_to_real(u);
     const Mat3 Fg = to_grid(Fbar);
-    for (std::size_t v = 0; v < N; ++v)
-      for (int q = 0; q < nq; ++q) {
-        const std::size_t p = v * nq + q;
-        const double f = fraction(v);
-        if (f >= 1.0) continue;
-        Mat3 F = point_F(Fg, v, q);
-        const bool composite = comp_id[v] >= 0;
-        if (composite && comp_normal[comp_id[v]].squaredNorm() > 0.0) {
-          const std::size_t c = std::size_t(comp_id[v]) * nq + q;
-          const Vec3 a(lam_a_trial[3 * c], lam_a_trial[3 * c + 1], lam_a_trial[3 * c + 2]);
-          F -= f * a * comp_normal[comp_id[v]].transpose();
-        }
-        h.see_matrix_point(v0 + v, mat[0]->limit_margin(F), F.determinant(), composite);
-        if (mixed[0] && !composite) h.see_pressure(v0 + v, double(p_trial[p]));
+    auto see_point = [&](std::size_t v, int q, Mat3 F) {
+      const std::size_t p = v * nq + q;
+      const double f = fraction(v);
+      if (f >= 1.0) return;
+      const bool composite = comp_id[v] >= 0;
+      if (composite && comp_normal[comp_id[v]].squaredNorm() > 0.0) {
+        const std::size_t c = std::size_t(comp_id[v]) * nq + q;
+        const Vec3 a(lam_a_trial[3 * c], lam_a_trial[3 * c + 1], lam_a_trial[3 * c + 2]);
+        F -= f * a * comp_normal[comp_id[v]].transpose();
       }
+      h.see_matrix_point(v0 + v, mat[0]->limit_margin(F), F.determinant(), composite);
+      if (mixed[0] && !composite) h.see_pressure(v0 + v, double(p_trial[p]));
+    };
+    if (streamed) {
+      displacement_to_real(u);
+      // one thread: the points in voxel order, as below (ties name the first voxel)
+#pragma omp parallel num_threads(1)
+      stencil->gradient_pass(fft3->real(0), nullptr, [&](std::size_t p0, int count, const double* grad, double*) {
+        for (int l = 0; l < count; ++l) see_point(p0 + std::size_t(l), 0, lane_F(Fg, grad, l));
+      });
+    } else {
+      gradient_to_real(u);
+      for (std::size_t v = 0; v < N; ++v)
+        for (int q = 0; q < nq; ++q) see_point(v, q, point_F(Fg, v, q));
+    }
     // Nodal forces Dᴴ P in real space.
     const auto [t, step] = vector_to_real(r.u);
     std::vector<double> f(3 * N);  // dense copies of the three components (a failure path)
@@ -1401,13 +1645,12 @@ struct FftRveSolver::Impl {
   }
 
   /// Back to the line search's last accepted iterate ũ − applied · Δũ, F̄_prev (no copy of ũ is kept):
-  /// applied = 0, its ∇ũ in the real buffer.
+  /// applied = 0.
   void move_to_accepted(const KVec& dx, double& applied, const Mat3& Fbar_prev) {
 #pragma omp parallel for schedule(static)
     for (std::size_t i = 0; i < u.size(); ++i) u[i] -= applied * dx.u[i];
     applied = 0.0;
     Fbar = Fbar_prev;
-    gradient_to_real(u);
   }
 
   StepOutcome step(const MixedControl& control, double t_new, double dt) {
@@ -1463,22 +1706,19 @@ struct FftRveSolver::Impl {
           Fbar = Fbar_committed + ratio * dF_last;
           for (int c = 0; c < 9; ++c)
             if (!free[c]) Fbar(c / 3, c % 3) = target(c / 3, c % 3);
-          gradient_to_real(u);
           predictor_ratio = ratio;
-          extrapolated = evaluate_points(to_grid(Fbar), dt, true) == MaterialStatus::ok;
+          extrapolated = evaluate_iterate(dt, true, free, P_target, r, err) == MaterialStatus::ok;
           predictor_ratio = -1.0;
           if (!extrapolated) restore();
           // Its merit (extrapolated pressure) is not comparable with the Newton iterates' (pressure
           // reset to the constraint's linearization), so the first Newton step is taken in full.
           else if (mixed_active) full_first_step = true;
         }
-        if (!extrapolated) gradient_to_real(u);
-        const MaterialStatus s = extrapolated ? MaterialStatus::ok : evaluate_points(to_grid(Fbar), dt, true);
+        const MaterialStatus s = extrapolated ? MaterialStatus::ok : evaluate_iterate(dt, true, free, P_target, r, err);
         if (s != MaterialStatus::ok) {
           out.why = std::string("material call failed (") + to_string(s) + ")";
           return out;
         }
-        err = evaluate_residual(free, P_target, r);
         linearized_pressure = mixed_active;
       } else {
         MaterialStatus last = MaterialStatus::ok;
@@ -1498,10 +1738,8 @@ struct FftRveSolver::Impl {
           for (std::size_t i = 0; i < u.size(); ++i) u[i] += move * dx.u[i];
           applied = scale;
           Fbar = Fbar_prev + scale * step_macro;
-          gradient_to_real(u);
-          last = evaluate_points(to_grid(Fbar), dt, true);
+          last = evaluate_iterate(dt, true, free, P_target, r, err);
           if (last != MaterialStatus::ok) return std::nullopt;
-          err = evaluate_residual(free, P_target, r);
           if (!std::isfinite(err)) return std::nullopt;
           return merit;
         };
@@ -1517,9 +1755,8 @@ struct FftRveSolver::Impl {
           // with its linearization (the trials overwrote it).
           move_to_accepted(dx, applied, Fbar_prev);
           if (mixed_active) relinearize_pressures(to_grid(Fbar));
-          if (evaluate_points(to_grid(Fbar), dt, false) == MaterialStatus::ok)
-            evaluate_residual(free, P_target, r);
-          else
+          double accepted_err = 0.0;
+          if (evaluate_iterate(dt, false, free, P_target, r, accepted_err) != MaterialStatus::ok)
             std::fill(r.u.begin(), r.u.end(), Complex(0.0));
           out.why += "; " + describe(hot_spots(r));
           return out;
@@ -1584,7 +1821,7 @@ struct FftRveSolver::Impl {
       for (auto& c : b.u) c = -c;
       b.f = -b.f;
       if (!prescribed_reached) {
-        KVec& e = cg_r;  // pcg() overwrites it with b
+        KVec& e = dx;  // pcg() starts from zero
         KVec& Ke = cg_p;
         e.u.assign(3 * NM, 0.0);
         e.f = flatten(dFp);
@@ -1602,11 +1839,19 @@ struct FftRveSolver::Impl {
       bool breakdown = false;
       double shift = continuation ? ptc_shift : lm_shift;
       const double lin_tol = prescribed_reached ? eta : std::min(eta, 1e-3);
+      // The solve's residual lives in b's storage (one spectral vector less): after a breakdown b is
+      // recovered for the retry.
+      const bool rhs_in_place = !jacobi_green();
       for (int attempt = 0; attempt < 8; ++attempt) {
-        const int cg_iterations = pcg(b, free, lin_tol, dx, shift, breakdown);
+        const int cg_iterations = pcg(b, free, lin_tol, dx, shift, breakdown, rhs_in_place ? &b : nullptr);
         out.krylov_iterations += cg_iterations;
         if (!breakdown) break;
         out.discarded_krylov_iterations += cg_iterations;
+        if (rhs_in_place) {
+          recover_rhs(b, dx, free, shift);
+          ++out.krylov_iterations;
+          ++out.discarded_krylov_iterations;
+        }
         // Negative curvature near the solution (the residual is already small): an indefinite
         // equilibrium tangent, not a transient of the iteration — solve it as it is (MINRES).
         if (minres_mode && shift == 0.0 && prescribed_reached &&
@@ -1708,6 +1953,46 @@ struct FftRveSolver::Impl {
                                [this](const Mat3& A) { return to_load(A); }, a0_load);
   }
 
+  /// F, P, σ and the von Mises stress of voxel v into the fields (load frame).
+  static void put_voxel_fields(RveFields& f, std::size_t v, const Mat3& Fm, const Mat3& Pm, const Mat3& Sm) {
+    const Mat3 dev = Sm - Sm.trace() / 3.0 * Mat3::Identity();
+    f.von_mises[v] = std::sqrt(1.5 * ddot(dev, dev));
+    for (int c = 0; c < 9; ++c) {
+      f.F[9 * v + c] = Fm(c / 3, c % 3);
+      f.P[9 * v + c] = Pm(c / 3, c % 3);
+      f.sigma[9 * v + c] = Sm(c / 3, c % 3);
+    }
+  }
+  /// P of the last evaluation at voxel v (one point, elastic phases: the streamed evaluation), computed
+  /// again at its F: the law, or the laminate from its converged jump vector; at pure points of a mixed
+  /// phase plus the residual's P_full − P_law = ratio (slope − W_V″ cof F), from the evaluation's
+  /// linearization (pressure_correction(), evaluate_residual()).
+  Mat3 evaluated_stress(std::size_t v, const Mat3& F) const {
+    Mat3 P = Mat3::Zero();
+    if (comp_id[v] < 0) {
+      const int x = pure_phase(v);
+      mat[x]->evaluate(F, nullptr, nullptr, 0.0, P, nullptr);
+      const double ratio = mixed[x] ? double(dP_ratio[v]) : 0.0;
+      if (ratio != 0.0) {
+        const VolumetricState vs = volumetric_state(K_vol[x], F);
+        P += ratio * (pressure_slope(x, v) - vs.ddU * vs.cof);
+      }
+      return P;
+    }
+    const double f = fraction(v);
+    const Vec3& n = comp_normal[comp_id[v]];
+    Mat3 Px[2], Fx[2];
+    if (n.squaredNorm() == 0.0) {
+      mat[1]->evaluate(F, nullptr, nullptr, 0.0, Px[1], nullptr);
+      mat[0]->evaluate(F, nullptr, nullptr, 0.0, Px[0], nullptr);
+      return f * Px[1] + (1.0 - f) * Px[0];
+    }
+    const std::size_t c = std::size_t(comp_id[v]);
+    Vec3 a(lam_a_trial[3 * c], lam_a_trial[3 * c + 1], lam_a_trial[3 * c + 2]);
+    laminate(F, f, n, a, v, 0.0, P, nullptr, Px, Fx);
+    return P;
+  }
+
   /// Fields of the converged state (P still in the real buffer, ũ current). Destroys the buffer.
   RveFields fields() {
     RveFields f;
@@ -1717,6 +2002,21 @@ struct FftRveSolver::Impl {
     f.von_mises.assign(N, 0.0);
     f.fiber_fraction.resize(N);
     for (std::size_t v = 0; v < N; ++v) f.fiber_fraction[v] = fraction(v);
+    if (streamed) {
+      displacement_to_real(u);
+      const Mat3 Fg = to_grid(Fbar);
+#pragma omp parallel
+      stencil->gradient_pass(fft3->real(0), nullptr, [&](std::size_t p0, int count, const double* grad, double*) {
+        for (int l = 0; l < count; ++l) {
+          const std::size_t v = p0 + std::size_t(l);
+          const Mat3 F = lane_F(Fg, grad, l);
+          const Mat3 Fm = to_load(F), Pm = to_load(evaluated_stress(v, F));
+          put_voxel_fields(f, v, Fm, Pm, cauchy_from_piola(Fm, Pm));
+        }
+      });
+      f.displacement = node_displacement();
+      return f;
+    }
     // P of the last evaluation is in the real buffer, which ∇ũ overwrites next. One point per voxel
     // (rotated, spectral): P goes straight into the field and σ follows from the voxel's F and P; several
     // points (hex): σ is the mean of the points' σ, so the points' P are copied (9·nq fields).
@@ -1752,13 +2052,7 @@ struct FftRveSolver::Impl {
         for (int c = 0; c < 9; ++c) Pm(c / 3, c % 3) = f.P[9 * v + c];
         Sm = cauchy_from_piola(Fm, Pm);  // frame-covariant: the same as in the grid frame, rotated
       }
-      const Mat3 dev = Sm - Sm.trace() / 3.0 * Mat3::Identity();
-      f.von_mises[v] = std::sqrt(1.5 * ddot(dev, dev));
-      for (int c = 0; c < 9; ++c) {
-        f.F[9 * v + c] = Fm(c / 3, c % 3);
-        f.P[9 * v + c] = Pm(c / 3, c % 3);
-        f.sigma[9 * v + c] = Sm(c / 3, c % 3);
-      }
+      put_voxel_fields(f, v, Fm, Pm, Sm);
     }
     f.displacement = node_displacement();
     return f;
@@ -1858,10 +2152,8 @@ RveRunResult FftRveSolver::run(const MixedControl& control,
   const auto run_start = Clock::now();
   RveRunResult result;
   // t = 0: the undeformed state (evaluated so that phase sums and the reference are defined).
-  m.gradient_to_real(m.u);
   m.linearized_pressure = false;
-  if (m.evaluate_points(m.to_grid(m.Fbar), 0.0, m.opt.scheme == FftScheme::newton_cg) != MaterialStatus::ok)
-    throw ConvergenceError("material call failed at F = I");
+  if (m.evaluate_start() != MaterialStatus::ok) throw ConvergenceError("material call failed at F = I");
   m.commit_pressures(false);
   const double angle0 = fiber_angle_deg(Mat3::Identity(), m.a0_load);
   struct Engine {

@@ -31,6 +31,7 @@ struct StorageSizes {
   std::size_t fft_fields = 0;          ///< real fields of the evaluation (9 · points per voxel)
   std::size_t fft_spectra = 0;         ///< their spectra (0 with the stencil operator: 3 at a time in fft3's)
   std::size_t fft3_fields = 0;         ///< 3 with the stencil Krylov operator, else 0
+  std::size_t stream_scratch_values = 0;  ///< partial force slices of the streamed passes (doubles; 0: not streamed)
   bool fft3_in_place = false;          ///< their real fields inside the spectra (padded rows, one process)
   std::size_t tangent_values = 0;      ///< stored tangent entries (padded)
   std::size_t tangent_value_bytes = 8; ///< 8 double, 4 float
@@ -59,8 +60,9 @@ constexpr std::size_t kMixedSlopeBytesPerPoint = 9 * 4;
 inline StorageList storage_list(const StorageSizes& s) {
   const std::size_t field = 8 * s.voxels + 16 * s.modes;  // one real field and its half spectrum
   StorageList l;
-  l.emplace_back("fft_buffers", s.fft_fields * 8 * s.voxels + s.fft_spectra * 16 * s.modes);
+  if (s.fft_fields) l.emplace_back("fft_buffers", s.fft_fields * 8 * s.voxels + s.fft_spectra * 16 * s.modes);
   if (s.fft3_fields) l.emplace_back("fft3_buffers", s.fft3_fields * (s.fft3_in_place ? 16 * s.modes : field));
+  if (s.stream_scratch_values) l.emplace_back("stream_scratch", 8 * s.stream_scratch_values);
   if (s.tangent_values) l.emplace_back("tangents", s.tangent_values * s.tangent_value_bytes);
   if (s.compact_values) l.emplace_back("compact_tangents", s.compact_values * 4);
   l.emplace_back("reference_green", s.green_values * s.green_value_bytes);

@@ -24,6 +24,8 @@
 #include <cstddef>
 #include <stdexcept>
 
+#include <omp.h>
+
 #include "softhom/fft/gradient.hpp"
 
 namespace softhom::fft {
@@ -81,6 +83,43 @@ class StencilGradient {
   template <class Body>
   void gradient_pass(const double* u, double* store, Body&& body) const;
 
+  /// Pass 1 without its per-voxel store (`store` null): body(p0, count, grad, stress) sees every batch
+  /// of points and what it writes to stress is not read. The solver's pointwise passes that need F but
+  /// no divergence (pressure linearization, hot spots, field output).
+
+  /// True when streamed_pass() applies: one point per voxel (rotated), one process (no slab), and slices
+  /// (planes i3; rows i2 of a section) of whole batches, so that batches never straddle two slices.
+  bool streams() const { return nq_ == 1 && !halo_ && slice_voxels() % std::size_t(kBatch) == 0; }
+  /// streams() of StencilGradient(op) on one process, before it is built.
+  static bool streams(const GradientOperator& op) {
+    const Grid& g = op.grid();
+    const std::size_t slice = g.is_section() ? std::size_t(g.n[0]) : std::size_t(g.n[0]) * std::size_t(g.n[1]);
+    return supported(op) && op.points() == 1 && slice % std::size_t(kBatch) == 0;
+  }
+  /// Values per thread of stream_scratch_values().
+  static std::size_t stream_scratch_per_thread(const Grid& g) {
+    return 9 * (g.is_section() ? std::size_t(g.n[0]) : std::size_t(g.n[0]) * std::size_t(g.n[1]));
+  }
+  /// Scratch of streamed_pass() for `threads` threads (values): three partial force slices per thread.
+  std::size_t stream_scratch_values(int threads) const { return std::size_t(threads) * stream_scratch_per_thread(grid_); }
+
+  /// Gradient → body → adjoint in one pass, in place and without a per-voxel store (streams()): `uf`
+  /// holds the three displacement fields on entry (layout of gradient_pass) and the nodal forces
+  /// f_i(y) = Σ_c Σ_j B_cj S_ij(y − c) of the stresses body() writes on return. The grid is walked slice
+  /// by slice (planes i3, rows i2 of a section); a slice's voxels add their forces to the node slices s
+  /// and s + 1 (partial sums, three values per node), and node slice s is written over the displacement
+  /// as soon as voxel slice s is done, which no later voxel reads. Each thread walks its own contiguous
+  /// slices; a thread's first node slice also receives its neighbour's last voxel slice, added after a
+  /// barrier. So the 9 (3D) or 6 (section) stress values per voxel of gradient_pass()/divergence_pass()
+  /// are never stored: 72 B per voxel less, and the store's write and read streams are gone.
+  /// Call inside a parallel region, by every thread (barriers); `scratch` holds
+  /// stream_scratch_values(omp_get_num_threads()) values shared by the team. body(p0, count, grad,
+  /// stress) as for gradient_pass() (count = kBatch, p0 a multiple of kBatch); with `gradient` false
+  /// grad is null and `uf` is not read (the divergence of a stress body() computes by itself). Returns
+  /// this thread's share of Σ_y u(y)·f(y) when `dot` (0 otherwise).
+  template <class Body>
+  double streamed_pass(double* uf, double* scratch, Body&& body, bool gradient = true, bool dot = false) const;
+
   /// Pass 2 (own parallel region): f_i(y) = Σ_q w_q Σ_c Σ_j B_qcj S_qij(y − c) from `store`; returns
   /// Σ_y Σ_i dot_with_i(y) f_i(y) (0 when dot_with is null). `f` (3 fields) may alias `dot_with`.
   double divergence_pass(const double* store, double* f, const double* dot_with) const;
@@ -92,6 +131,16 @@ class StencilGradient {
   double divergence_pass_impl(const double* store, double* f, const double* dot_with) const;
 
   std::size_t plane_voxels() const { return std::size_t(grid_.n[0]) * std::size_t(grid_.n[1]); }
+  template <int D, class Body>
+  double streamed_pass_impl(double* uf, double* scratch, Body& body, bool gradient, bool dot) const;
+  /// ∇u of the kBatch voxels from v0 (one point per voxel) into g[3i + j][l]: SIMD along a row when the
+  /// batch lies inside one, else voxel by voxel. n3: planes readable along i3 (periodic below that).
+  template <int D>
+  void batch_gradient(const double* u, std::size_t v0, int nv, int n3, double (*g)[kBatch]) const;
+  /// Slices of streamed_pass(): planes i3 (3D) or rows i2 (section), and their voxels.
+  int slices() const { return dims_ == 3 ? planes_ : grid_.n[1]; }
+  std::size_t slice_voxels() const { return dims_ == 3 ? plane_voxels() : std::size_t(grid_.n[0]); }
+
 
   Grid grid_;
   int planes_ = 1;     // planes i3 of the passes (all, or a slab's)
@@ -116,6 +165,69 @@ void StencilGradient::gradient_pass(const double* u, double* store, Body&& body)
   return gradient_pass_impl<3, 8>(u, store, body);
 }
 
+template <int D>
+void StencilGradient::batch_gradient(const double* u, std::size_t v0, int nv, int n3, double (*g)[kBatch]) const {
+  constexpr int NROW = (1 << D) / 2;  // corner rows (c2, c3)
+  const int n1 = grid_.n[0], n2 = grid_.n[1];
+  const std::size_t NU = field_stride();
+  const std::size_t pitch = row_pitch_ ? row_pitch_ : std::size_t(n1);
+  double B[2 * NROW][D];
+  for (int c = 0; c < 2 * NROW; ++c)
+    for (int j = 0; j < D; ++j) B[c][j] = coefficient(0, c, j);
+  int i1 = int(v0 % n1), i2 = int((v0 / n1) % n2), i3 = int(v0 / (std::size_t(n1) * n2));
+  if (nv == kBatch && i1 + kBatch <= n1) {
+    // Whole batch inside one grid row (every batch when n1 % 8 == 0): the corner values of the 8
+    // voxels are 9 consecutive nodes per corner row and component, so the gradient is computed
+    // lane-wise (SIMD over the 8 voxels) instead of one voxel at a time with 2^d × 3 scalar corner
+    // loads each (measured 11–17 % off this pass at 32³/64³; sections were already bound by the
+    // tangent stream). Other batches (rows not a multiple of 8) take the scalar path below.
+    for (int r = 0; r < NROW; ++r) {
+      const int j2 = i2 + (r & 1) == n2 ? 0 : i2 + (r & 1);
+      const int j3 = D == 3 ? (i3 + (r >> 1) == n3 ? 0 : i3 + (r >> 1)) : i3;
+      const std::size_t base = pitch * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
+      const std::size_t last = base + (i1 + kBatch == n1 ? 0 : i1 + kBatch);  // node after the batch (periodic)
+      for (int i = 0; i < 3; ++i) {
+        const double* src = u + i * NU + base + i1;
+        alignas(64) double row[kBatch + 1];
+        for (int l = 0; l < kBatch; ++l) row[l] = src[l];
+        row[kBatch] = u[i * NU + last];
+        for (int j = 0; j < D; ++j) {
+          const double b0 = B[2 * r][j], b1 = B[2 * r + 1][j];
+          for (int l = 0; l < kBatch; ++l) g[3 * i + j][l] += b0 * row[l] + b1 * row[l + 1];
+        }
+      }
+    }
+    return;
+  }
+  for (int a = 0; a < nv; ++a) {
+    // Nodes of the voxel's corners: rows (i2 + c2, i3 + c3), columns i1 and i1 + 1 (periodic).
+    const int i1p = i1 + 1 == n1 ? 0 : i1 + 1;
+    double uc[3][2 * NROW];
+    for (int r = 0; r < NROW; ++r) {
+      const int j2 = i2 + (r & 1) == n2 ? 0 : i2 + (r & 1);
+      const int j3 = D == 3 ? (i3 + (r >> 1) == n3 ? 0 : i3 + (r >> 1)) : i3;
+      const std::size_t base = pitch * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
+      for (int i = 0; i < 3; ++i) {
+        uc[i][2 * r] = u[i * NU + base + i1];
+        uc[i][2 * r + 1] = u[i * NU + base + i1p];
+      }
+    }
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < D; ++j) {
+        double acc = 0.0;
+        for (int c = 0; c < 2 * NROW; ++c) acc += B[c][j] * uc[i][c];
+        g[3 * i + j][a] = acc;
+      }
+    if (++i1 == n1) {
+      i1 = 0;
+      if (++i2 == n2) {
+        i2 = 0;
+        ++i3;
+      }
+    }
+  }
+}
+
 template <int D, int NQ, class Body>
 void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& body) const {
   constexpr int NCOR = 1 << D;         // voxel corners
@@ -138,71 +250,50 @@ void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& b
   for (long b = 0; b < batches; ++b) {
     const std::size_t v0 = std::size_t(b) * VB;
     const int nv = int(std::min<std::size_t>(VB, N - v0));
-    int i1 = int(v0 % n1), i2 = int((v0 / n1) % n2), i3 = int(v0 / (std::size_t(n1) * n2));
     alignas(64) double g[9][kBatch] = {}, s[9][kBatch];
     if constexpr (NQ == 1) {
-      if (nv == VB && i1 + VB <= n1) {
-        // Rotated, whole batch inside one grid row (every batch when n1 % 8 == 0): the corner values
-        // of the 8 voxels are 9 consecutive nodes per corner row and component, so the gradient is
-        // computed lane-wise (SIMD over the 8 voxels) instead of one voxel at a time with 2^d × 3 scalar
-        // corner loads each (measured 11–17 % off this pass at 32³/64³; sections were already bound by
-        // the tangent stream). Other batches (rows not a multiple of 8) take the scalar path below.
+      batch_gradient<D>(u, v0, nv, n3, g);
+      body(v0, nv, &g[0][0], &s[0][0]);
+      if (!store) continue;
+      double* o = store + L * v0;
+      for (int l = 0; l < nv; ++l)
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < D; ++j) o[L * l + D * i + j] = s[3 * i + j][l];
+      continue;
+    } else {
+      int i1 = int(v0 % n1), i2 = int((v0 / n1) % n2), i3 = int(v0 / (std::size_t(n1) * n2));
+      for (int a = 0; a < nv; ++a) {
+        // Nodes of the voxel's corners: rows (i2 + c2, i3 + c3), columns i1 and i1 + 1 (periodic).
+        const int i1p = i1 + 1 == n1 ? 0 : i1 + 1;
+        double uc[3][NCOR];
         for (int r = 0; r < NROW; ++r) {
           const int j2 = i2 + (r & 1) == n2 ? 0 : i2 + (r & 1);
           const int j3 = D == 3 ? (i3 + (r >> 1) == n3 ? 0 : i3 + (r >> 1)) : i3;
           const std::size_t base = pitch * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
-          const std::size_t last = base + (i1 + VB == n1 ? 0 : i1 + VB);  // node after the batch (periodic)
           for (int i = 0; i < 3; ++i) {
-            const double* src = u + i * NU + base + i1;
-            alignas(64) double row[VB + 1];
-            for (int l = 0; l < VB; ++l) row[l] = src[l];
-            row[VB] = u[i * NU + last];
-            for (int j = 0; j < D; ++j) {
-              const double b0 = B[0][2 * r][j], b1 = B[0][2 * r + 1][j];
-              for (int l = 0; l < VB; ++l) g[3 * i + j][l] += b0 * row[l] + b1 * row[l + 1];
-            }
+            uc[i][2 * r] = u[i * NU + base + i1];
+            uc[i][2 * r + 1] = u[i * NU + base + i1p];
           }
         }
-        body(v0, VB, &g[0][0], &s[0][0]);
-        double* o = store + L * v0;
-        for (int l = 0; l < VB; ++l)
+        for (int q = 0; q < NQ; ++q)
           for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < D; ++j) o[L * l + D * i + j] = s[3 * i + j][l];
-        continue;
-      }
-    }
-    for (int a = 0; a < nv; ++a) {
-      // Nodes of the voxel's corners: rows (i2 + c2, i3 + c3), columns i1 and i1 + 1 (periodic).
-      const int i1p = i1 + 1 == n1 ? 0 : i1 + 1;
-      double uc[3][NCOR];
-      for (int r = 0; r < NROW; ++r) {
-        const int j2 = i2 + (r & 1) == n2 ? 0 : i2 + (r & 1);
-        const int j3 = D == 3 ? (i3 + (r >> 1) == n3 ? 0 : i3 + (r >> 1)) : i3;
-        const std::size_t base = pitch * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
-        for (int i = 0; i < 3; ++i) {
-          uc[i][2 * r] = u[i * NU + base + i1];
-          uc[i][2 * r + 1] = u[i * NU + base + i1p];
-        }
-      }
-      for (int q = 0; q < NQ; ++q)
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < D; ++j) {
-            double acc = 0.0;
-            for (int c = 0; c < NCOR; ++c) acc += B[q][c][j] * uc[i][c];
-            g[3 * i + j][a * NQ + q] = acc;
+            for (int j = 0; j < D; ++j) {
+              double acc = 0.0;
+              for (int c = 0; c < NCOR; ++c) acc += B[q][c][j] * uc[i][c];
+              g[3 * i + j][a * NQ + q] = acc;
+            }
+        if (++i1 == n1) {
+          i1 = 0;
+          if (++i2 == n2) {
+            i2 = 0;
+            ++i3;
           }
-      if (++i1 == n1) {
-        i1 = 0;
-        if (++i2 == n2) {
-          i2 = 0;
-          ++i3;
         }
       }
-    }
-    body(v0 * NQ, nv * NQ, &g[0][0], &s[0][0]);
-    for (int a = 0; a < nv; ++a) {
-      double* o = store + L * (v0 + a);
-      if constexpr (kNodal) {
+      body(v0 * NQ, nv * NQ, &g[0][0], &s[0][0]);
+      if (!store) continue;
+      for (int a = 0; a < nv; ++a) {
+        double* o = store + L * (v0 + a);
         double out[L];
         for (int k = 0; k < L; ++k) out[k] = 0.0;
         for (int q = 0; q < NQ; ++q)
@@ -213,12 +304,117 @@ void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& b
               out[3 * c + i] += w[q] * acc;
             }
         for (int k = 0; k < L; ++k) o[k] = out[k];
-      } else {
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < D; ++j) o[D * i + j] = s[3 * i + j][a];
       }
     }
   }
+}
+
+template <class Body>
+double StencilGradient::streamed_pass(double* uf, double* scratch, Body&& body, bool gradient, bool dot) const {
+  return dims_ == 3 ? streamed_pass_impl<3>(uf, scratch, body, gradient, dot)
+                    : streamed_pass_impl<2>(uf, scratch, body, gradient, dot);
+}
+
+template <int D, class Body>
+double StencilGradient::streamed_pass_impl(double* uf, double* scratch, Body& body, bool gradient, bool dot) const {
+  constexpr int NCOR = 1 << D;
+  const int n1 = grid_.n[0], n2 = grid_.n[1];
+  const int ns = slices();
+  const std::size_t S = slice_voxels(), NU = field_stride();
+  const std::size_t pitch = row_pitch_ ? row_pitch_ : std::size_t(n1);
+  const std::size_t slice_rows = D == 3 ? std::size_t(n2) : 1;
+  // B_cj with the point's weight (1 for the rotated point), corner c = c1 + 2 c2 (+ 4 c3).
+  double B[NCOR][D];
+  for (int c = 0; c < NCOR; ++c)
+    for (int j = 0; j < D; ++j) B[c][j] = weight_[0] * coefficient(0, c, j);
+  // Contiguous slices per thread (threads beyond the slices only meet the barriers).
+  const int team = omp_get_num_threads(), t = omp_get_thread_num();
+  const int active = std::min(team, ns);
+  auto first_slice = [&](int k) { return int(long(k) * ns / active); };
+  double* own = scratch + std::size_t(t) * 9 * S;
+  // Three partial force slices (component-major, 3·S values each): the first node slice, kept until
+  // the neighbour's carry is added, and two rolling ones (node slices s and s + 1). After a thread's
+  // last voxel slice its carry (forces on the next thread's first node slice) is in buffer 1 or 2,
+  // by the parity of its slice count.
+  auto carry_of = [&](int k) {
+    const int count = first_slice(k + 1) - first_slice(k);
+    return scratch + std::size_t(k) * 9 * S + (count % 2 ? 3 : 6) * S;
+  };
+  // Node slice s: f = lo (+ extra) over the displacement, with Σ u·f first.
+  double local_dot = 0.0;
+  auto flush = [&](int s, const double* lo, const double* extra) {
+    for (int i = 0; i < 3; ++i)
+      for (std::size_t r = 0; r < slice_rows; ++r) {
+        double* y = uf + std::size_t(i) * NU + pitch * (std::size_t(s) * slice_rows + r);
+        const double* a = lo + std::size_t(i) * S + r * std::size_t(n1);
+        const double* e = extra ? extra + std::size_t(i) * S + r * std::size_t(n1) : nullptr;
+        for (int i1 = 0; i1 < n1; ++i1) {
+          const double f = e ? a[i1] + e[i1] : a[i1];
+          if (dot) local_dot += y[i1] * f;
+          y[i1] = f;
+        }
+      }
+  };
+  if (t < active) {
+    const int a = first_slice(t), b = first_slice(t + 1);
+    double* first = own;
+    double* lo = first;
+    double* hi = own + 3 * S;
+    double* spare = own + 6 * S;
+    std::fill(first, first + 6 * S, 0.0);
+    for (int s = a; s < b; ++s) {
+      for (std::size_t o = 0; o < S; o += kBatch) {
+        const std::size_t v0 = std::size_t(s) * S + o;
+        alignas(64) double g[9][kBatch] = {}, st[9][kBatch];
+        if (gradient) batch_gradient<D>(uf, v0, kBatch, grid_.n[2], g);
+        body(v0, kBatch, gradient ? &g[0][0] : nullptr, &st[0][0]);
+        // Forces of the batch on its corners: node (i1 + c1, i2 + c2) of slice s + c3 (3D) or node
+        // i1 + c1 of slice s + c2 (section), periodic inside the slice. Lane l is the voxel o + l of the
+        // slice (a batch of a 3D slice may run over rows when n1 is not a multiple of 8).
+        std::size_t node[2][2][kBatch];  // [c2][c1][l]: node index inside the slice
+        {
+          int i1 = int(o % std::size_t(n1)), i2 = D == 3 ? int(o / std::size_t(n1)) : 0;
+          for (int l = 0; l < kBatch; ++l) {
+            const std::size_t r0 = std::size_t(i2) * std::size_t(n1);
+            const std::size_t r1 = D == 3 ? std::size_t(i2 + 1 == n2 ? 0 : i2 + 1) * std::size_t(n1) : r0;
+            const std::size_t j0 = std::size_t(i1), j1 = std::size_t(i1 + 1 == n1 ? 0 : i1 + 1);
+            node[0][0][l] = r0 + j0;
+            node[0][1][l] = r0 + j1;
+            node[1][0][l] = r1 + j0;
+            node[1][1][l] = r1 + j1;
+            if (++i1 == n1) {
+              i1 = 0;
+              ++i2;
+            }
+          }
+        }
+        for (int c = 0; c < NCOR; ++c) {
+          const int c1 = c & 1, c2 = D == 3 ? (c >> 1) & 1 : 0, up = D == 3 ? c >> 2 : c >> 1;
+          double* target = up ? hi : lo;
+          const std::size_t* y = node[c2][c1];
+          for (int i = 0; i < 3; ++i) {
+            double* ti = target + std::size_t(i) * S;
+            for (int l = 0; l < kBatch; ++l) {
+              double acc = 0.0;
+              for (int j = 0; j < D; ++j) acc += B[c][j] * st[3 * i + j][l];
+              ti[y[l]] += acc;
+            }
+          }
+        }
+      }
+      // Node slice s is complete once voxel slice s is done (and s − 1 by this thread): no voxel after
+      // it reads its displacement.
+      if (s > a) flush(s, lo, nullptr);
+      double* freed = s > a ? lo : spare;
+      lo = hi;
+      hi = freed;
+      std::fill(hi, hi + 3 * S, 0.0);
+    }
+  }
+#pragma omp barrier
+  if (t < active) flush(first_slice(t), own, carry_of((t + active - 1) % active));
+#pragma omp barrier
+  return local_dot;
 }
 
 /// y = S x for a batch of StencilGradient::kBatch (8) points: S their packed symmetric 9×9 tangents

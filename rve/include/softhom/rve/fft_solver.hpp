@@ -138,6 +138,10 @@ struct FftSolverOptions {
   /// linearization per point, which each trial overwrites). With a right restore both give the same
   /// iterates bit for bit; the tests compare them.
   bool relinearize_every_trial = false;
+  /// Streamed evaluation where it applies (one process, rotated, stencil operator, elastic phases): the
+  /// material evaluation inside the stencil pass, no 9-field buffer (72 B per voxel). false: the stored
+  /// 9-field path, for the tests that compare the two (same iterates to round-off).
+  bool stream_evaluation = true;
   /// green: the reference-medium Green operator K0⁻¹ per Fourier mode (CG on spectra), the default.
   /// jacobi_green: S K0⁻¹ S with S the real-space diagonal scaling (D0/D)^½ of the stencil operator's
   /// node diagonal D (rve/src/fft_preconditioner.hpp), CG on nodal fields, the same two 3-field
