@@ -418,9 +418,12 @@ int main(int argc, char** argv) {
     int repeats = 1, fftw_threads = 0;
     Preconditioner preconditioner = Preconditioner::green;  // "preconditioner=jacobi-green": the other one
     bool compact = true;  // "compact=off": the stored 9×9 float tangents instead of compact ones
+    bool stream = true;   // "stream=off": the stored 9-field evaluation instead of the streamed one
     for (int i = 2; i < argc; ++i) {
       if (std::strcmp(argv[i], "compact=off") == 0)
         compact = false;
+      else if (std::strcmp(argv[i], "stream=off") == 0)
+        stream = false;
       else if (std::strcmp(argv[i], "preconditioner=jacobi-green") == 0)
         preconditioner = Preconditioner::jacobi_green;
       else if (std::strncmp(argv[i], "threads=", 8) == 0)
@@ -506,6 +509,7 @@ int main(int argc, char** argv) {
                 o.tangent_precision = prec;
                 o.preconditioner = preconditioner;
                 o.compact_tangent = compact;
+                o.stream_evaluation = stream;
                 o.max_newton_iterations = 1;
                 o.max_cutbacks = 0;
                 o.krylov_tolerance = 1e-30;
@@ -537,11 +541,12 @@ int main(int argc, char** argv) {
             const double nv = double(g.voxels());
             // Transformed fields per Krylov iteration: stencil 3 back + 3 forward; Fourier 3·nq·columns each way.
             const double own_ms = stencil ? fft3_ms : fft_used_ms, own_cpu = stencil ? cpu3 : cpu_used;
-            std::printf("fftcost %4dx%4dx%4d %-9s %-8s %-6s %s compact=%s threads %d per-krylov %8.3f ms (cpu %8.3f, in-solver %8.3f) | "
+            std::printf("fftcost %4dx%4dx%4d %-9s %-8s %-6s %s compact=%s stream=%s threads %d per-krylov %8.3f ms (cpu %8.3f, in-solver %8.3f) | "
                         "fft9 %7.3f ms (cpu %7.3f) ratio-9 %5.2f (cpu %5.2f) | own fft %7.3f ms (%d fields) ratio-own %5.2f "
                         "(cpu %5.2f) | whole step %.3f s (%d its) mem/voxel %5.0f B (rss %5.0f B) peak-rss %.0f MB load %s\n",
                         g.n[0], g.n[1], g.n[2], fft::to_string(d), stencil ? "stencil" : "fourier",
-                        stencil ? to_string(prec) : "double", to_string(stencil ? preconditioner : Preconditioner::green), compact ? "on" : "off", threads, kry_ms, kry_cpu_ms,
+                        stencil ? to_string(prec) : "double", to_string(stencil ? preconditioner : Preconditioner::green), compact ? "on" : "off",
+                        stream ? "on" : "off", threads, kry_ms, kry_cpu_ms,
                         1e3 * kry_wall, fft9_ms, cpu9, kry_ms / fft9_ms, kry_cpu_ms / cpu9, own_ms,
                         stencil ? 3 : used_fields, kry_ms / own_ms, kry_cpu_ms / own_cpu, whole, its1, double(mem) / nv,
                         rss / nv, double(io::peak_memory_bytes()) / 1048576.0, load_average().c_str());
@@ -617,6 +622,19 @@ int main(int argc, char** argv) {
           });
         });
         const double gather = best_of([&] { sink += st.divergence_pass(store.data(), f.data(), u.data()); });
+        // The streamed pass (gradient, float tangent product and adjoint in place, no store) on a copy of
+        // u restored before each call (its nodal forces overwrite it); the copy is timed alone and taken off.
+        std::vector<double> uf(u), scratch(st.stream_scratch_values(threads));
+        const double copy = best_of([&] { std::copy(u.begin(), u.end(), uf.begin()); });
+        const double streamed = !st.streams() ? 0.0 : best_of([&] {
+          std::copy(u.begin(), u.end(), uf.begin());
+          double d = 0.0;
+#pragma omp parallel reduction(+ : d)
+          d += st.streamed_pass(uf.data(), scratch.data(), [&](std::size_t p0, int, const double* grad, double* dP) {
+            fft::symmetric_product_batch(Tf.data() + 45 * p0, grad, dP);
+          }, true, true);
+          sink += d;
+        }) - copy;  // 0: the grid does not stream (slices not whole batches)
         const double fft_rt = best_of([&] {
           f3.forward();
           f3.backward();
@@ -630,9 +648,10 @@ int main(int argc, char** argv) {
           f3in.backward();
         });
         std::printf("fftpasses %4dx%4dx%4d threads %d: grad+tangent double %.4f ms, float %.4f ms | gather %.4f ms | "
+                    "streamed (float) %.4f ms = %.2f of stored float | "
                     "fft3 round trip %.4f ms (fftw 1 thread: %.4f ms; in place: %.4f ms) | tangent %0.f/%0.f B per point | load %s (%.3g)\n",
-                    g.n[0], g.n[1], g.n[2], threads, grad_d, grad_f, gather, fft_rt, fft_rt1, fft_in, 360.0, 180.0,
-                    load_average().c_str(), sink);
+                    g.n[0], g.n[1], g.n[2], threads, grad_d, grad_f, gather, streamed, streamed / (grad_f + gather), fft_rt,
+                    fft_rt1, fft_in, 360.0, 180.0, load_average().c_str(), sink);
         std::fflush(stdout);
       }
     omp_set_num_threads(max_threads);

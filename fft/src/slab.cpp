@@ -123,6 +123,12 @@ void SlabDecomposition::fill_lower_halo(double* base, std::size_t values) const 
                prev_, 72, comm_, MPI_STATUS_IGNORE);
 }
 
+void SlabDecomposition::shift_up(const double* send, double* recv, std::size_t values) const {
+  if (slab().count == 0) return;
+  MPI_Sendrecv(send, int(values), MPI_DOUBLE, next_, 73, recv, int(values), MPI_DOUBLE, prev_, 73, comm_,
+               MPI_STATUS_IGNORE);
+}
+
 // ---------------------------------------------------------------------------------------------------
 
 SlabFFT::SlabFFT(const SlabDecomposition& slabs, int fields, const PlanOptions& options, int columns, int halo_planes,

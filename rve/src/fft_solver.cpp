@@ -426,12 +426,12 @@ struct FftRveSolver::Impl {
     return F;
   }
   /// The streamed evaluation (no 9-field buffer, fft::StencilGradient::streamed_pass) applies to the
-  /// default solve of elastic phases on one process: the stencil operator (decided by the caller) with
+  /// default solve of elastic phases, on one process or on slabs: the stencil operator (decided by the caller) with
   /// one point per voxel (rotated), the Green preconditioner (Jacobi–Green reads per-voxel values), no
   /// history (the field output re-evaluates the laws at the converged F, which a history-dependent law
   /// cannot repeat) and slices of whole batches of 8 voxels (section rows n1, planes n1·n2).
   bool streams_evaluation() const {
-    return opt.stream_evaluation && !dist && nq == 1 && !mean_dilatation &&
+    return opt.stream_evaluation && nq == 1 && !mean_dilatation &&
            opt.preconditioner == Preconditioner::green && state_size[0] == 0 && state_size[1] == 0 &&
            fft::StencilGradient::streams(op);
   }
@@ -502,7 +502,8 @@ struct FftRveSolver::Impl {
     const bool streams = with_stencil && streams_evaluation();
     s.fft_fields = streams ? 0 : std::size_t(9 * nq);
     s.fft_spectra = with_stencil ? 0 : s.fft_fields;
-    s.stream_scratch_values = streams ? std::size_t(omp_get_max_threads()) * fft::StencilGradient::stream_scratch_per_thread(grid) : 0;
+    const std::size_t per_thread = fft::StencilGradient::stream_scratch_per_thread(grid);
+    s.stream_scratch_values = streams ? std::size_t(omp_get_max_threads()) * per_thread + (dist ? per_thread / 3 : 0) : 0;
     s.fft3_fields = with_stencil ? 3 : 0;
     s.fft3_in_place = with_stencil && fft3_in_place();
     const bool single = with_stencil && opt.tangent_precision == TangentPrecision::single_precision;
@@ -974,10 +975,16 @@ struct FftRveSolver::Impl {
   // pass over fft3's buffer (fft::StencilGradient::streamed_pass), no 9-field buffer. The same
   // iterates as the stored path to round-off (the divergence summed in another order).
 
-  /// ũ's real nodal displacement into fft3's real buffer (in place of its spectrum).
+  /// ũ's real nodal displacement into fft3's real buffer (in place of its spectrum; on a slab with its
+  /// upper halo plane).
   void displacement_to_real(const std::vector<Complex>& uh) {
     std::copy(uh.begin(), uh.begin() + std::ptrdiff_t(3 * NM), fft3->spectrum(0));
     fft3->backward();
+    fill_displacement_halo();
+  }
+  /// The streamed passes' hand-over of the last plane's forces to the next slab (only called on a slab).
+  auto slab_shift_up() const {
+    return [this](const double* send, double* recv, std::size_t values) { dist->shift_up(send, recv, values); };
   }
   /// F = F̄ + ∇ũ of lane l of a stencil batch (its columns j ≥ dims are 0).
   static Mat3 lane_F(const Mat3& Fbar_grid, const double* grad, int l) {
@@ -1055,7 +1062,7 @@ struct FftRveSolver::Impl {
           }
           for (int c = 0; c < 9; ++c) stress[c * B + l] = P(c / 3, c % 3);
         }
-      });
+      }, true, false, slab_shift_up());
 #pragma omp critical
       {
         total.add(local);
@@ -1063,6 +1070,14 @@ struct FftRveSolver::Impl {
       }
     }
     sums = total;
+    if (dist) {
+      // A failure on any rank fails the pass on all (the same control flow everywhere).
+      failure = dist->max(failure);
+      if (!failure) {
+        detail::reduce_pass_sums(sums, *dist);
+        dist->sum(correction.data(), 9);
+      }
+    }
     if (failure) return MaterialStatus(failure);
     fft3->forward();
     const Complex* s3 = fft3->spectrum(0);
@@ -1084,7 +1099,7 @@ struct FftRveSolver::Impl {
         const Mat3 d = ratio != 0.0 ? Mat3(ratio * pressure_slope(pure_phase(v), v)) : Mat3::Zero();
         for (int c = 0; c < 9; ++c) stress[c * B + l] = d(c / 3, c % 3);
       }
-    }, false);
+    }, false, false, slab_shift_up());
     fft3->forward();
     macro_residual(free, P_target, r);  // of P̂ (sums.P)
     const double merit_hat = std::sqrt(spectral_norm2(r.u.data(), fft3->spectrum(0), invN) + r.f.squaredNorm());
@@ -1255,7 +1270,7 @@ struct FftRveSolver::Impl {
         }
       };
       if (streamed)
-        dot_sum += stencil->streamed_pass(fft3->real(0), stream_scratch.data(), body, true, dot != nullptr);
+        dot_sum += stencil->streamed_pass(fft3->real(0), stream_scratch.data(), body, true, dot != nullptr, slab_shift_up());
       else
         stencil->gradient_pass(fft3->real(0), stencil_store(), body);
 #pragma omp critical
@@ -2095,7 +2110,7 @@ std::string FftRveSolver::fft_description() const {
 }
 double FftRveSolver::achieved_volume_fraction() const { return impl_->achieved_vf; }
 double FftRveSolver::planning_seconds() const {
-  return impl_->fft->planning_seconds() + (impl_->fft3 ? impl_->fft3->planning_seconds() : 0.0);
+  return (impl_->fft ? impl_->fft->planning_seconds() : 0.0) + (impl_->fft3 ? impl_->fft3->planning_seconds() : 0.0);
 }
 std::vector<double> FftRveSolver::displacement() { return impl_->node_displacement(); }
 const fft::SlabDecomposition* FftRveSolver::slabs() const { return impl_->dist.get(); }

@@ -38,8 +38,10 @@ double rel(const Mat3& a, const Mat3& b) { return (a - b).norm() / std::max(b.no
 // the shear stiffness, is far below the forcing term) takes the same count up to one, P equal to 1e-8
 // at tolerance 1e-10 (measured ≤ 5e-14). The ecoflex section (K/G = 1.2e5, mixed (u, p) iteration,
 // composite voxels: perturbation ≈ ε·K/G ≈ 7e-3 on the shear modes, so a near-quadratic Newton step
-// becomes linear with about that factor) at the shipped tolerance 1e-6: P equal to 1e-7 relative (the
-// acceptance bound of the float storage; rve_ecoflex_circ45 at 32²: ≤ 5e-9 measured), at most 30 % + 2
+// becomes linear with about that factor) at tolerance 1e-8: P equal to 1e-7 relative (the acceptance
+// bound of the float storage; measured 1e-10. At the shipped tolerance 1e-6 this small cell's many
+// Levenberg–Marquardt retries leave the path to round-off, and float and double runs end up to 2e-7
+// apart, within the tolerance only; rve_ecoflex_circ45 at 32²: ≤ 5e-9 there), at most 30 % + 2
 // more Newton iterations (measured at 12², 2 steps to λ = 1.3, tolerance 1e-10: 191 → 191 rotated,
 // 136 → 149 hex; rve_ecoflex_circ45 at 32²: +0–2 % Newton, +0–9 % Krylov). The float store is exactly
 // half the double one.
@@ -61,7 +63,7 @@ TEST(FftRve, SinglePrecisionTangentConvergesToDoubleAnswer) {
     const PhaseImage& im = eco ? section : cube;
     const MixedControl control = eco ? uniaxial_ramp(1.2, 1) : uniaxial_ramp(1.3, 2);
     const MaterialPtr m = eco ? ecoflex() : neo_hookean(0.1, 1.0);
-    const double tol = eco ? 1e-6 : 1e-10;
+    const double tol = eco ? 1e-8 : 1e-10;
     FftRveSolver sd(im, m, glass(), 45.0, control.frame, options(k.d, TangentPrecision::double_precision, tol));
     // The stored 9×9 float tangent itself (the compact form is FftRveMemory.CompactTangentsSameSolution's).
     FftSolverOptions single = options(k.d, TangentPrecision::single_precision, tol);

@@ -73,6 +73,9 @@ class SlabDecomposition {
   /// Halo of its adjoint: `values` per plane, stored plane-major from base − values (halo plane) on;
   /// the halo receives the last plane of the previous rank holding planes (periodic). Collective.
   void fill_lower_halo(double* base, std::size_t values) const;
+  /// `values` from `send` to the next rank holding planes, into `recv` from the previous one (periodic:
+  /// what the upper neighbour's first plane needs from this rank's last). Collective.
+  void shift_up(const double* send, double* recv, std::size_t values) const;
 
  private:
   Grid grid_;

@@ -23,6 +23,7 @@
 #include <array>
 #include <cstddef>
 #include <stdexcept>
+#include <type_traits>
 
 #include <omp.h>
 
@@ -87,10 +88,10 @@ class StencilGradient {
   /// of points and what it writes to stress is not read. The solver's pointwise passes that need F but
   /// no divergence (pressure linearization, hot spots, field output).
 
-  /// True when streamed_pass() applies: one point per voxel (rotated), one process (no slab), and slices
-  /// (planes i3; rows i2 of a section) of whole batches, so that batches never straddle two slices.
-  bool streams() const { return nq_ == 1 && !halo_ && slice_voxels() % std::size_t(kBatch) == 0; }
-  /// streams() of StencilGradient(op) on one process, before it is built.
+  /// True when streamed_pass() applies: one point per voxel (rotated) and slices (planes i3; rows i2 of a
+  /// section) of whole batches, so that batches never straddle two slices.
+  bool streams() const { return nq_ == 1 && slice_voxels() % std::size_t(kBatch) == 0; }
+  /// streams() of StencilGradient(op), before it is built.
   static bool streams(const GradientOperator& op) {
     const Grid& g = op.grid();
     const std::size_t slice = g.is_section() ? std::size_t(g.n[0]) : std::size_t(g.n[0]) * std::size_t(g.n[1]);
@@ -100,8 +101,11 @@ class StencilGradient {
   static std::size_t stream_scratch_per_thread(const Grid& g) {
     return 9 * (g.is_section() ? std::size_t(g.n[0]) : std::size_t(g.n[0]) * std::size_t(g.n[1]));
   }
-  /// Scratch of streamed_pass() for `threads` threads (values): three partial force slices per thread.
-  std::size_t stream_scratch_values(int threads) const { return std::size_t(threads) * stream_scratch_per_thread(grid_); }
+  /// Scratch of streamed_pass() for `threads` threads (values): three partial force slices per thread
+  /// (+ the one received from the rank below, on a slab).
+  std::size_t stream_scratch_values(int threads) const {
+    return std::size_t(threads) * stream_scratch_per_thread(grid_) + (halo_ ? stream_scratch_per_thread(grid_) / 3 : 0);
+  }
 
   /// Gradient → body → adjoint in one pass, in place and without a per-voxel store (streams()): `uf`
   /// holds the three displacement fields on entry (layout of gradient_pass) and the nodal forces
@@ -117,8 +121,13 @@ class StencilGradient {
   /// stress) as for gradient_pass() (count = kBatch, p0 a multiple of kBatch); with `gradient` false
   /// grad is null and `uf` is not read (the divergence of a stress body() computes by itself). Returns
   /// this thread's share of Σ_y u(y)·f(y) when `dot` (0 otherwise).
-  template <class Body>
-  double streamed_pass(double* uf, double* scratch, Body&& body, bool gradient = true, bool dot = false) const;
+  /// On a slab (restrict_to_slab) the last plane's voxels read the displacement's upper halo plane and
+  /// their forces on the next rank's first node plane go there: shift_up(send, recv, values) (the
+  /// master thread calls it, SlabDecomposition::shift_up) hands this rank's to the next and the previous
+  /// rank's to this one, which adds them to its first plane.
+  template <class Body, class ShiftUp = std::nullptr_t>
+  double streamed_pass(double* uf, double* scratch, Body&& body, bool gradient = true, bool dot = false,
+                       ShiftUp&& shift_up = nullptr) const;
 
   /// Pass 2 (own parallel region): f_i(y) = Σ_q w_q Σ_c Σ_j B_qcj S_qij(y − c) from `store`; returns
   /// Σ_y Σ_i dot_with_i(y) f_i(y) (0 when dot_with is null). `f` (3 fields) may alias `dot_with`.
@@ -131,8 +140,8 @@ class StencilGradient {
   double divergence_pass_impl(const double* store, double* f, const double* dot_with) const;
 
   std::size_t plane_voxels() const { return std::size_t(grid_.n[0]) * std::size_t(grid_.n[1]); }
-  template <int D, class Body>
-  double streamed_pass_impl(double* uf, double* scratch, Body& body, bool gradient, bool dot) const;
+  template <int D, class Body, class ShiftUp>
+  double streamed_pass_impl(double* uf, double* scratch, Body& body, bool gradient, bool dot, ShiftUp& shift_up) const;
   /// ∇u of the kBatch voxels from v0 (one point per voxel) into g[3i + j][l]: SIMD along a row when the
   /// batch lies inside one, else voxel by voxel. n3: planes readable along i3 (periodic below that).
   template <int D>
@@ -309,26 +318,31 @@ void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& b
   }
 }
 
-template <class Body>
-double StencilGradient::streamed_pass(double* uf, double* scratch, Body&& body, bool gradient, bool dot) const {
-  return dims_ == 3 ? streamed_pass_impl<3>(uf, scratch, body, gradient, dot)
-                    : streamed_pass_impl<2>(uf, scratch, body, gradient, dot);
+template <class Body, class ShiftUp>
+double StencilGradient::streamed_pass(double* uf, double* scratch, Body&& body, bool gradient, bool dot,
+                                      ShiftUp&& shift_up) const {
+  return dims_ == 3 ? streamed_pass_impl<3>(uf, scratch, body, gradient, dot, shift_up)
+                    : streamed_pass_impl<2>(uf, scratch, body, gradient, dot, shift_up);
 }
 
-template <int D, class Body>
-double StencilGradient::streamed_pass_impl(double* uf, double* scratch, Body& body, bool gradient, bool dot) const {
+template <int D, class Body, class ShiftUp>
+double StencilGradient::streamed_pass_impl(double* uf, double* scratch, Body& body, bool gradient, bool dot,
+                                           ShiftUp& shift_up) const {
   constexpr int NCOR = 1 << D;
   const int n1 = grid_.n[0], n2 = grid_.n[1];
   const int ns = slices();
   const std::size_t S = slice_voxels(), NU = field_stride();
   const std::size_t pitch = row_pitch_ ? row_pitch_ : std::size_t(n1);
   const std::size_t slice_rows = D == 3 ? std::size_t(n2) : 1;
+  // Planes along i3 the gradient reads: periodic, or a slab's and its upper halo plane (never wrapped).
+  const int n3 = halo_ ? planes_ + 1 : grid_.n[2];
   // B_cj with the point's weight (1 for the rotated point), corner c = c1 + 2 c2 (+ 4 c3).
   double B[NCOR][D];
   for (int c = 0; c < NCOR; ++c)
     for (int j = 0; j < D; ++j) B[c][j] = weight_[0] * coefficient(0, c, j);
   // Contiguous slices per thread (threads beyond the slices only meet the barriers).
   const int team = omp_get_num_threads(), t = omp_get_thread_num();
+  double* received = halo_ ? scratch + std::size_t(team) * 9 * S : nullptr;  // from the rank below
   const int active = std::min(team, ns);
   auto first_slice = [&](int k) { return int(long(k) * ns / active); };
   double* own = scratch + std::size_t(t) * 9 * S;
@@ -366,7 +380,7 @@ double StencilGradient::streamed_pass_impl(double* uf, double* scratch, Body& bo
       for (std::size_t o = 0; o < S; o += kBatch) {
         const std::size_t v0 = std::size_t(s) * S + o;
         alignas(64) double g[9][kBatch] = {}, st[9][kBatch];
-        if (gradient) batch_gradient<D>(uf, v0, kBatch, grid_.n[2], g);
+        if (gradient) batch_gradient<D>(uf, v0, kBatch, n3, g);
         body(v0, kBatch, gradient ? &g[0][0] : nullptr, &st[0][0]);
         // Forces of the batch on its corners: node (i1 + c1, i2 + c2) of slice s + c3 (3D) or node
         // i1 + c1 of slice s + c2 (section), periodic inside the slice. Lane l is the voxel o + l of the
@@ -412,7 +426,14 @@ double StencilGradient::streamed_pass_impl(double* uf, double* scratch, Body& bo
     }
   }
 #pragma omp barrier
-  if (t < active) flush(first_slice(t), own, carry_of((t + active - 1) % active));
+  if (halo_) {
+    if constexpr (!std::is_same_v<std::decay_t<ShiftUp>, std::nullptr_t>) {
+#pragma omp master
+      shift_up(carry_of(active - 1), received, 3 * S);
+    }
+#pragma omp barrier
+  }
+  if (t < active) flush(first_slice(t), own, t == 0 && halo_ ? received : carry_of((t + active - 1) % active));
 #pragma omp barrier
   return local_dot;
 }
