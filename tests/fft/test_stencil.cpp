@@ -180,8 +180,9 @@ TEST(StencilGradient, ReproducesLinearFieldsAndRejectsSpectral) {
   EXPECT_THROW(StencilGradient(GradientOperator(g, Discretization::spectral)), std::invalid_argument);
 }
 
-// The streamed pass (gradient → body → adjoint in place, slice by slice, no per-voxel store) against
-// gradient_pass() + divergence_pass(): the same nodal forces and ⟨u, f⟩ to round-off on sections and 3D
+// The streamed pass (gradient → body → adjoint in place, slice by slice, two slices of stresses instead
+// of the grid's) against gradient_pass() + divergence_pass(): the same nodal forces to the bit and ⟨u, f⟩
+// to round-off (summed in another order) on sections and 3D
 // grids (rows of 8, 12 and 16 voxels: SIMD batches, batches over rows; 4-voxel rows: a batch spans two
 // rows), dense and padded rows, 1, 2, 3 and more threads than slices (uneven slices per thread, the
 // carry between threads, the periodic wrap of the last slice). With `gradient` off the pass is the
@@ -252,8 +253,9 @@ TEST(StencilGradient, StreamedPassEqualsStoredPasses) {
               diff = std::max(diff, std::abs(f_stored[k] - f3.real(0)[k]));
             }
           EXPECT_GT(scale, 0.1) << label;
-          // Round-off: the same O(10²) flops per node summed in another order.
-          EXPECT_LE(diff, 1e-13 * scale) << label << (gradient ? "" : ", divergence only");
+          // The same gather in the same order (the cancelling terms' round-off is that of the stored
+          // passes, which the Krylov iteration of a K/G = 1e5 matrix is sensitive to): equal to the bit.
+          EXPECT_EQ(diff, 0.0) << label << (gradient ? "" : ", divergence only");
           EXPECT_NEAR(dot_streamed, dot_stored, 1e-12 * std::abs(dot_stored)) << label;
         }
       }

@@ -61,9 +61,9 @@ TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
   FftRveSolver eco(section, ecoflex(), glass(), 45.0, Mat3::Identity(), quick());
   const double eco_bpv = double(eco.memory_bytes()) / double(section.voxels());
   const auto eco_arrays = by_array(eco);
-  // The streamed passes' scratch: three partial force slices (rows of 32 nodes, 3 components) per thread.
+  // The streamed passes' scratch: three stores of a row of 32 voxels (6 stress values each) per thread.
   const std::size_t threads = std::size_t(omp_get_max_threads());
-  EXPECT_EQ(eco_arrays.at("stream_scratch"), threads * 9u * 32u * 8u);
+  EXPECT_EQ(eco_arrays.at("stream_scratch"), threads * 18u * 32u * 8u);
   const double eco_scratch_bpv = double(eco_arrays.at("stream_scratch")) / double(section.voxels());
   EXPECT_LE(eco_bpv - eco_scratch_bpv, 300.0);
   EXPECT_EQ(eco_arrays.count("history"), 0u);  // elastic phases: no internal variables
@@ -96,7 +96,7 @@ TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
   FftRveSolver nh(cube, neo_hookean(1.0, 10.0), glass(), 45.0, Mat3::Identity(), quick());
   const double nh_bpv = double(nh.memory_bytes()) / double(cube.voxels());
   const auto nh_arrays = by_array(nh);
-  EXPECT_EQ(nh_arrays.at("stream_scratch"), threads * 9u * 16u * 16u * 8u);  // planes of 16 × 16 nodes
+  EXPECT_EQ(nh_arrays.at("stream_scratch"), threads * 27u * 16u * 16u * 8u);  // planes of 16 × 16 voxels
   EXPECT_LE(nh_bpv - double(nh_arrays.at("stream_scratch")) / double(cube.voxels()), 300.0);
   EXPECT_EQ(nh_arrays.count("fft_buffers"), 0u);
   EXPECT_EQ(nh_arrays.count("mixed_pressure"), 0u);  // K/G = 10 < mixed_pressure_ratio

@@ -349,18 +349,20 @@ TEST(FftRve, SquareFiberEcoflexTensionStaysSymmetricPastFormerStall) {
 }
 
 // The streamed evaluation (material points inside the stencil pass, no 9-field buffer) against the
-// stored 9-field path it replaces: the same iterates up to the round-off of the divergence, summed in
-// another order. Well-conditioned runs then take the same Newton / Krylov counts and reach the same
-// stress: a compressible 3D cell 8 × 8 × 16 with the fiber inclined to the grid to 1e-12 (measured
-// 1e-14), and a PDMS-like matrix (K/G = 3e3, mixed (u, p)) on a 16² section with composite voxels to
-// 1e-9 (measured 2e-10: the mixed iteration's float pressures and slopes flip their last bit on a
-// round-off difference, 6e-8 of the pressure correction, which Newton then corrects to its tolerance
-// of 1e-8). The ecoflex/glass section (K/G = 1.2e5)
-// with a step size that makes the line search backtrack and the steps cut back amplifies round-off
-// like a change of FFT plan does (±5–10 % Krylov, see BENCHMARKS "Single-precision tangents"): the same
-// stress to the tolerance and counts within 10 %; there the linearization restore of the streamed path
-// is checked bit for bit against recomputing it before every trial. Field output (P re-evaluated at the
-// converged F): its mean is the step's stress.
+// stored 9-field path it replaces. The Krylov operator is the same to the bit (the same gather of the
+// nodal forces); the residual's divergence is the real-space gather instead of the Fourier one, equal to
+// round-off. A compressible 3D cell 8 × 8 × 16 with the fiber inclined to the grid then takes the same
+// Newton / Krylov counts and reaches the same stress to 1e-12 (measured 4e-15). Mixed (u, p) cells
+// amplify round-off: their float pressures and slopes flip a last bit on a round-off difference (6e-8 of
+// the pressure correction), which Newton corrects to its tolerance 1e-8, and ecoflex (K/G = 1.2e5) is as
+// sensitive as a change of FFT plan (±5–10 % Krylov, BENCHMARKS "Single-precision tangents"): the same
+// stress to the tolerance and counts within 10 %, on a PDMS-like section (K/G = 3e3), on the ecoflex/glass
+// section with a step size that makes the line search backtrack and the steps cut back (the
+// linearization restore of the streamed path checked bit for bit against recomputing it before every
+// trial), and on an ecoflex/glass 16 × 16 × 4 cell: a nodal-force sum that adds the cancelling bulk
+// stress terms per voxel instead of per corner row of a node takes 1.5× the Krylov iterations there
+// (measured 4 531 against 2 954). Field output (P re-evaluated at the converged F): its mean is the
+// step's stress.
 TEST(FftRve, StreamedEvaluationEqualsStoredFields) {
   struct OneThread {
     int threads = omp_get_max_threads();
@@ -385,9 +387,22 @@ TEST(FftRve, StreamedEvaluationEqualsStoredFields) {
     MixedControl control;
     bool exact;  // well-conditioned: equal counts
     double P_tolerance;
+    bool cuts_back = false;
   };
-  const Case cases[] = {{"ecoflex/glass 16^2", circle_image(16, 0.27), ecoflex(), uniaxial_ramp(1.5, 2), false, 1e-8},
-                        {"PDMS-like/glass 16^2", circle_image(16, 0.27), neo_hookean(1.0, 3000.0), uniaxial_ramp(1.3, 2), true, 1e-9},
+  PhaseImage eco_cube = circle_image(16, 0.27);
+  eco_cube.n[2] = 4;
+  eco_cube.size[2] = 4.0 / 16.0;
+  {
+    const std::vector<double> f = eco_cube.fiber_fraction;
+    const std::vector<Eigen::Vector3d> nrm = eco_cube.normal;
+    for (int k = 1; k < 4; ++k) {
+      eco_cube.fiber_fraction.insert(eco_cube.fiber_fraction.end(), f.begin(), f.end());
+      eco_cube.normal.insert(eco_cube.normal.end(), nrm.begin(), nrm.end());
+    }
+  }
+  const Case cases[] = {{"ecoflex/glass 16^2", circle_image(16, 0.27), ecoflex(), uniaxial_ramp(1.5, 2), false, 1e-8, true},
+                        {"ecoflex/glass 16x16x4", eco_cube, ecoflex(), uniaxial_ramp(1.2, 2), false, 1e-8},
+                        {"PDMS-like/glass 16^2", circle_image(16, 0.27), neo_hookean(1.0, 3000.0), uniaxial_ramp(1.3, 2), false, 1e-9},
                         {"neo-Hooke/glass 8x8x16", cube, neo_hookean(1.0, 20.0), uniaxial_ramp(1.3, 3), true, 1e-12}};
   for (const Case& c : cases) {
     RveRunResult runs[3];
@@ -420,7 +435,7 @@ TEST(FftRve, StreamedEvaluationEqualsStoredFields) {
       EXPECT_EQ(streamed.cutbacks, stored.cutbacks) << c.name;
       EXPECT_LT(rel(streamed.steps.back().P, stored.steps.back().P), c.P_tolerance) << c.name;
     } else {
-      EXPECT_GT(streamed.cutbacks, 0) << c.name;
+      if (c.cuts_back) EXPECT_GT(streamed.cutbacks, 0) << c.name;
       EXPECT_NEAR(streamed.newton_iterations, stored.newton_iterations, 0.1 * stored.newton_iterations) << c.name;
       EXPECT_NEAR(streamed.krylov_iterations, stored.krylov_iterations, 0.1 * stored.krylov_iterations) << c.name;
       EXPECT_LT(rel(streamed.steps.back().P, stored.steps.back().P), c.P_tolerance) << c.name;

@@ -97,12 +97,12 @@ class StencilGradient {
     const std::size_t slice = g.is_section() ? std::size_t(g.n[0]) : std::size_t(g.n[0]) * std::size_t(g.n[1]);
     return supported(op) && op.points() == 1 && slice % std::size_t(kBatch) == 0;
   }
-  /// Values per thread of stream_scratch_values().
+  /// Values per thread of stream_scratch_values(): three slices of 3·d values per voxel.
   static std::size_t stream_scratch_per_thread(const Grid& g) {
-    return 9 * (g.is_section() ? std::size_t(g.n[0]) : std::size_t(g.n[0]) * std::size_t(g.n[1]));
+    return g.is_section() ? 18 * std::size_t(g.n[0]) : 27 * std::size_t(g.n[0]) * std::size_t(g.n[1]);
   }
-  /// Scratch of streamed_pass() for `threads` threads (values): three partial force slices per thread
-  /// (+ the one received from the rank below, on a slab).
+  /// Scratch of streamed_pass() for `threads` threads (values): three voxel-slice stores per thread (+
+  /// the one received from the rank below, on a slab).
   std::size_t stream_scratch_values(int threads) const {
     return std::size_t(threads) * stream_scratch_per_thread(grid_) + (halo_ ? stream_scratch_per_thread(grid_) / 3 : 0);
   }
@@ -328,112 +328,99 @@ double StencilGradient::streamed_pass(double* uf, double* scratch, Body&& body, 
 template <int D, class Body, class ShiftUp>
 double StencilGradient::streamed_pass_impl(double* uf, double* scratch, Body& body, bool gradient, bool dot,
                                            ShiftUp& shift_up) const {
-  constexpr int NCOR = 1 << D;
+  constexpr int NCOR = 1 << D, NROW = NCOR / 2, L = 3 * D;
   const int n1 = grid_.n[0], n2 = grid_.n[1];
   const int ns = slices();
-  const std::size_t S = slice_voxels(), NU = field_stride();
+  const std::size_t S = slice_voxels(), NU = field_stride(), SL = std::size_t(L) * S;
   const std::size_t pitch = row_pitch_ ? row_pitch_ : std::size_t(n1);
   const std::size_t slice_rows = D == 3 ? std::size_t(n2) : 1;
   // Planes along i3 the gradient reads: periodic, or a slab's and its upper halo plane (never wrapped).
   const int n3 = halo_ ? planes_ + 1 : grid_.n[2];
-  // B_cj with the point's weight (1 for the rotated point), corner c = c1 + 2 c2 (+ 4 c3).
-  double B[NCOR][D];
+  double B[NCOR][D];  // one point (rotated): its weight is 1
   for (int c = 0; c < NCOR; ++c)
     for (int j = 0; j < D; ++j) B[c][j] = weight_[0] * coefficient(0, c, j);
   // Contiguous slices per thread (threads beyond the slices only meet the barriers).
   const int team = omp_get_num_threads(), t = omp_get_thread_num();
-  double* received = halo_ ? scratch + std::size_t(team) * 9 * S : nullptr;  // from the rank below
+  double* received = halo_ ? scratch + std::size_t(team) * 3 * SL : nullptr;  // the rank below's last slice
   const int active = std::min(team, ns);
   auto first_slice = [&](int k) { return int(long(k) * ns / active); };
-  double* own = scratch + std::size_t(t) * 9 * S;
-  // Three partial force slices (component-major, 3·S values each): the first node slice, kept until
-  // the neighbour's carry is added, and two rolling ones (node slices s and s + 1). After a thread's
-  // last voxel slice its carry (forces on the next thread's first node slice) is in buffer 1 or 2,
-  // by the parity of its slice count.
-  auto carry_of = [&](int k) {
+  // Three voxel-slice stores per thread (L values per voxel, as gradient_pass() stores them): the
+  // thread's first slice, kept until its node slice is gathered after the barrier, and two rolling ones
+  // (slices s − 1 and s). A thread's last slice ends in the first (one slice), the second (an even
+  // count) or the third (an odd count > 1) store.
+  auto store_of = [&](int k, int which) { return scratch + (std::size_t(k) * 3 + std::size_t(which)) * SL; };
+  auto last_of = [&](int k) {
     const int count = first_slice(k + 1) - first_slice(k);
-    return scratch + std::size_t(k) * 9 * S + (count % 2 ? 3 : 6) * S;
+    return store_of(k, count == 1 ? 0 : (count % 2 == 0 ? 1 : 2));
   };
-  // Node slice s: f = lo (+ extra) over the displacement, with Σ u·f first.
+  // Node slice s gathered from the stores of voxel slices s − 1 (below) and s (here) in the order and
+  // arithmetic of divergence_pass(), so that the nodal forces are the same to the bit: their terms are
+  // large and cancel (the bulk stress of a nearly incompressible matrix), and summing each corner row's
+  // neighbours first keeps the round-off of the differences, not of the terms. Written over the
+  // displacement, with Σ u·f first.
   double local_dot = 0.0;
-  auto flush = [&](int s, const double* lo, const double* extra) {
-    for (int i = 0; i < 3; ++i)
-      for (std::size_t r = 0; r < slice_rows; ++r) {
-        double* y = uf + std::size_t(i) * NU + pitch * (std::size_t(s) * slice_rows + r);
-        const double* a = lo + std::size_t(i) * S + r * std::size_t(n1);
-        const double* e = extra ? extra + std::size_t(i) * S + r * std::size_t(n1) : nullptr;
-        for (int i1 = 0; i1 < n1; ++i1) {
-          const double f = e ? a[i1] + e[i1] : a[i1];
-          if (dot) local_dot += y[i1] * f;
-          y[i1] = f;
+  auto gather = [&](int s, const double* below, const double* here) {
+    for (std::size_t rr = 0; rr < slice_rows; ++rr) {
+      const int i2 = D == 3 ? int(rr) : s;
+      const double* vrow[NROW];
+      for (int r = 0; r < NROW; ++r) {
+        const int c2 = r & 1, c3 = r >> 1;
+        if constexpr (D == 3) {
+          const int j2 = (i2 - c2 + n2) % n2;
+          vrow[r] = (c3 ? below : here) + std::size_t(L) * std::size_t(n1) * std::size_t(j2);
+        } else {
+          vrow[r] = c2 ? below : here;
         }
       }
+      const std::size_t row = std::size_t(s) * slice_rows + rr;
+      for (int i1 = 0; i1 < n1; ++i1) {
+        const int i1m = i1 == 0 ? n1 - 1 : i1 - 1;
+        double acc[3] = {0.0, 0.0, 0.0};
+        for (int r = 0; r < NROW; ++r)
+          for (int c1 = 0; c1 < 2; ++c1) {
+            const int c = 2 * r + c1;
+            const double* o = vrow[r] + std::size_t(L) * std::size_t(c1 ? i1m : i1);
+            for (int i = 0; i < 3; ++i)
+              for (int j = 0; j < D; ++j) acc[i] += B[c][j] * o[D * i + j];
+          }
+        const std::size_t y = row * pitch + std::size_t(i1);
+        if (dot)
+          for (int i = 0; i < 3; ++i) local_dot += uf[std::size_t(i) * NU + y] * acc[i];
+        for (int i = 0; i < 3; ++i) uf[std::size_t(i) * NU + y] = acc[i];
+      }
+    }
   };
   if (t < active) {
     const int a = first_slice(t), b = first_slice(t + 1);
-    double* first = own;
-    double* lo = first;
-    double* hi = own + 3 * S;
-    double* spare = own + 6 * S;
-    std::fill(first, first + 6 * S, 0.0);
+    const double* prev = nullptr;
     for (int s = a; s < b; ++s) {
+      double* cur = s == a ? store_of(t, 0) : store_of(t, 1 + (s - a + 1) % 2);
       for (std::size_t o = 0; o < S; o += kBatch) {
         const std::size_t v0 = std::size_t(s) * S + o;
         alignas(64) double g[9][kBatch] = {}, st[9][kBatch];
         if (gradient) batch_gradient<D>(uf, v0, kBatch, n3, g);
         body(v0, kBatch, gradient ? &g[0][0] : nullptr, &st[0][0]);
-        // Forces of the batch on its corners: node (i1 + c1, i2 + c2) of slice s + c3 (3D) or node
-        // i1 + c1 of slice s + c2 (section), periodic inside the slice. Lane l is the voxel o + l of the
-        // slice (a batch of a 3D slice may run over rows when n1 is not a multiple of 8).
-        std::size_t node[2][2][kBatch];  // [c2][c1][l]: node index inside the slice
-        {
-          int i1 = int(o % std::size_t(n1)), i2 = D == 3 ? int(o / std::size_t(n1)) : 0;
-          for (int l = 0; l < kBatch; ++l) {
-            const std::size_t r0 = std::size_t(i2) * std::size_t(n1);
-            const std::size_t r1 = D == 3 ? std::size_t(i2 + 1 == n2 ? 0 : i2 + 1) * std::size_t(n1) : r0;
-            const std::size_t j0 = std::size_t(i1), j1 = std::size_t(i1 + 1 == n1 ? 0 : i1 + 1);
-            node[0][0][l] = r0 + j0;
-            node[0][1][l] = r0 + j1;
-            node[1][0][l] = r1 + j0;
-            node[1][1][l] = r1 + j1;
-            if (++i1 == n1) {
-              i1 = 0;
-              ++i2;
-            }
-          }
-        }
-        for (int c = 0; c < NCOR; ++c) {
-          const int c1 = c & 1, c2 = D == 3 ? (c >> 1) & 1 : 0, up = D == 3 ? c >> 2 : c >> 1;
-          double* target = up ? hi : lo;
-          const std::size_t* y = node[c2][c1];
-          for (int i = 0; i < 3; ++i) {
-            double* ti = target + std::size_t(i) * S;
-            for (int l = 0; l < kBatch; ++l) {
-              double acc = 0.0;
-              for (int j = 0; j < D; ++j) acc += B[c][j] * st[3 * i + j][l];
-              ti[y[l]] += acc;
-            }
-          }
-        }
+        double* out = cur + std::size_t(L) * o;
+        for (int l = 0; l < kBatch; ++l)
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < D; ++j) out[L * l + D * i + j] = st[3 * i + j][l];
       }
-      // Node slice s is complete once voxel slice s is done (and s − 1 by this thread): no voxel after
-      // it reads its displacement.
-      if (s > a) flush(s, lo, nullptr);
-      double* freed = s > a ? lo : spare;
-      lo = hi;
-      hi = freed;
-      std::fill(hi, hi + 3 * S, 0.0);
+      // Node slice s is complete once voxel slices s − 1 and s are stored: no voxel after them reads
+      // its displacement.
+      if (s > a) gather(s, prev, cur);
+      prev = cur;
     }
   }
 #pragma omp barrier
   if (halo_) {
     if constexpr (!std::is_same_v<std::decay_t<ShiftUp>, std::nullptr_t>) {
 #pragma omp master
-      shift_up(carry_of(active - 1), received, 3 * S);
+      shift_up(last_of(active - 1), received, SL);
     }
 #pragma omp barrier
   }
-  if (t < active) flush(first_slice(t), own, t == 0 && halo_ ? received : carry_of((t + active - 1) % active));
+  if (t < active)
+    gather(first_slice(t), t == 0 && halo_ ? received : last_of((t + active - 1) % active), store_of(t, 0));
 #pragma omp barrier
   return local_dot;
 }
