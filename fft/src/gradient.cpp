@@ -254,59 +254,57 @@ void GradientOperator::solve_reference(const Matrix9& C0, const Complex* r, Comp
 void ReferenceGreen::set(const Matrix9& C0) {
   const std::size_t nm = op_.local_modes();
   const int nq = op_.points();
-  table_.resize(single_ ? 0 : 9 * nm);
-  table_f_.resize(single_ ? 9 * nm : 0);
+  table_.resize(single_ ? 0 : kValuesPerMode * nm);
+  table_f_.resize(single_ ? kValuesPerMode * nm : 0);
   double* Td = table_.data();
   float* Tf = table_f_.data();
   const bool single = single_;
 #pragma omp parallel
   op_.for_modes([&](std::size_t k, const Complex* D, double) {
-    // As solve_reference(): M_jl = Σ_q w_q conj(D_qj) D_ql, K0_ik = Σ_jl C0_(ij)(kl) M_jl.
-    Eigen::Matrix3cd M = Eigen::Matrix3cd::Zero();
+    // As solve_reference(), with M_jl = Σ_q w_q Re(conj(D_qj) D_ql): its imaginary part is zero but for
+    // round-off (a few ulps of |D|², see the class comment), so K0_ik = Σ_jl C0_(ij)(kl) M_jl is real
+    // symmetric (C0 major-symmetric) and so is its inverse: the upper triangle is kept.
+    Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
     for (int q = 0; q < nq; ++q)
       for (int j = 0; j < 3; ++j)
-        for (int l = 0; l < 3; ++l) M(j, l) += op_.quadrature_[q].weight * std::conj(D[3 * q + j]) * D[3 * q + l];
-    double t[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-    auto store = [&] {
-      for (int c = 0; c < 9; ++c) {
-        if (single)
-          Tf[9 * k + c] = float(t[c]);
-        else
-          Td[9 * k + c] = t[c];
-      }
-    };
-    if (!(M.trace().real() > 0.0)) return store();  // kernel mode: the Green operator is 0 there
-    Eigen::Matrix3cd K0;
-    for (int i = 0; i < 3; ++i)
-      for (int kk = 0; kk < 3; ++kk) {
-        Complex s = 0.0;
-        for (int j = 0; j < 3; ++j)
-          for (int l = 0; l < 3; ++l) s += C0(3 * i + j, 3 * kk + l) * M(j, l);
-        K0(i, kk) = s;
-      }
-    // K0 is Hermitian (C0 major-symmetric, M Hermitian), so is its inverse: keep the upper triangle.
-    const Eigen::Matrix3cd G = K0.inverse();
-    t[0] = G(0, 0).real();
-    t[1] = G(1, 1).real();
-    t[2] = G(2, 2).real();
-    t[3] = G(0, 1).real();
-    t[4] = G(0, 1).imag();
-    t[5] = G(0, 2).real();
-    t[6] = G(0, 2).imag();
-    t[7] = G(1, 2).real();
-    t[8] = G(1, 2).imag();
-    store();
+        for (int l = 0; l < 3; ++l)
+          M(j, l) += op_.quadrature_[q].weight * std::real(std::conj(D[3 * q + j]) * D[3 * q + l]);
+    double t[kValuesPerMode] = {0, 0, 0, 0, 0, 0};
+    if (M.trace() > 0.0) {  // else a kernel mode: the Green operator is 0 there
+      Eigen::Matrix3d K0;
+      for (int i = 0; i < 3; ++i)
+        for (int kk = 0; kk < 3; ++kk) {
+          double s = 0.0;
+          for (int j = 0; j < 3; ++j)
+            for (int l = 0; l < 3; ++l) s += C0(3 * i + j, 3 * kk + l) * M(j, l);
+          K0(i, kk) = s;
+        }
+      const Eigen::Matrix3d G = K0.inverse();
+      t[0] = G(0, 0);
+      t[1] = G(1, 1);
+      t[2] = G(2, 2);
+      t[3] = G(0, 1);
+      t[4] = G(0, 2);
+      t[5] = G(1, 2);
+    }
+    for (int c = 0; c < kValuesPerMode; ++c) {
+      if (single)
+        Tf[kValuesPerMode * k + c] = float(t[c]);
+      else
+        Td[kValuesPerMode * k + c] = t[c];
+    }
   });
 }
 
 namespace {
-/// z = G r with G Hermitian from its packed upper triangle (double or float table, double arithmetic).
+/// z = G r with G real symmetric from its packed upper triangle (double or float table, double
+/// arithmetic): real times complex, 2 multiplications per term.
 template <class T>
 inline void green_mul(const T* t, const Complex r[3], Complex z[3]) {
-  const Complex g01(t[3], t[4]), g02(t[5], t[6]), g12(t[7], t[8]);
-  z[0] = double(t[0]) * r[0] + g01 * r[1] + g02 * r[2];
-  z[1] = std::conj(g01) * r[0] + double(t[1]) * r[1] + g12 * r[2];
-  z[2] = std::conj(g02) * r[0] + std::conj(g12) * r[1] + double(t[2]) * r[2];
+  const double g00 = t[0], g11 = t[1], g22 = t[2], g01 = t[3], g02 = t[4], g12 = t[5];
+  z[0] = g00 * r[0] + g01 * r[1] + g02 * r[2];
+  z[1] = g01 * r[0] + g11 * r[1] + g12 * r[2];
+  z[2] = g02 * r[0] + g12 * r[1] + g22 * r[2];
 }
 }  // namespace
 
@@ -318,7 +316,7 @@ void ReferenceGreen::apply(const Complex* r, Complex* out, double scale) const {
     for (std::size_t k = 0; k < nm; ++k) {
       const Complex rk[3] = {r[k], r[nm + k], r[2 * nm + k]};
       Complex z[3];
-      green_mul(T + 9 * k, rk, z);
+      green_mul(T + kValuesPerMode * k, rk, z);
       for (int i = 0; i < 3; ++i) out[std::size_t(i) * nm + k] = inv * z[i];
     }
     return 0.0;
@@ -339,7 +337,7 @@ double ReferenceGreen::apply_dot(const Complex* r, Complex* out, double scale) c
       const double w = (k1 == 0 || (even1 && 2 * k1 == std::size_t(g.n[0]))) ? 1.0 : 2.0;
       const Complex rk[3] = {r[k], r[nm + k], r[2 * nm + k]};
       Complex z[3];
-      green_mul(T + 9 * k, rk, z);
+      green_mul(T + kValuesPerMode * k, rk, z);
       double d = 0.0;
       for (int i = 0; i < 3; ++i) {
         if (out) out[std::size_t(i) * nm + k] = inv * z[i];
@@ -373,7 +371,7 @@ double ReferenceGreen::cg_update(double alpha, const Complex* p, const Complex* 
         rk[i] = r[a];
       }
       Complex zk[3];
-      green_mul(T + 9 * k, rk, zk);
+      green_mul(T + kValuesPerMode * k, rk, zk);
       double d = 0.0;
       for (int i = 0; i < 3; ++i) {
         if (z) z[std::size_t(i) * nm + k] = inv * zk[i];
@@ -393,7 +391,7 @@ void ReferenceGreen::direction_update(const Complex* r, double beta, Complex* p,
     for (std::size_t k = 0; k < nm; ++k) {
       const Complex rk[3] = {r[k], r[nm + k], r[2 * nm + k]};
       Complex z[3];
-      green_mul(T + 9 * k, rk, z);
+      green_mul(T + kValuesPerMode * k, rk, z);
       for (int i = 0; i < 3; ++i) {
         const std::size_t a = std::size_t(i) * nm + k;
         const Complex zi = inv * z[i];

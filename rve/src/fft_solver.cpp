@@ -467,7 +467,7 @@ struct FftRveSolver::Impl {
     s.tangent_value_bytes = single ? sizeof(float) : sizeof(double);
     s.compact_values = compact ? compact->record_values() : 0;
     s.composite_tangent_values = compact ? compact->full_values() : 0;
-    s.green_values = 9 * NM;  // tabulated at the first solve
+    s.green_values = fft::ReferenceGreen::kValuesPerMode * NM;  // tabulated at the first solve
     s.green_value_bytes = single ? sizeof(float) : sizeof(double);
     s.jacobi_values = jacobi_green() ? 3 * N : 0;  // set with the reference medium
     s.history_values = hist_old[0].size() + hist_old[1].size();
@@ -513,7 +513,7 @@ struct FftRveSolver::Impl {
       s.compact_values = std::size_t(kCompactValues) * ((NP + 7) / 8 * 8);
     }
     s.tangent_value_bytes = single ? sizeof(float) : sizeof(double);
-    s.green_values = 9 * NM;
+    s.green_values = fft::ReferenceGreen::kValuesPerMode * NM;
     s.green_value_bytes = single ? sizeof(float) : sizeof(double);
     s.jacobi_values = with_stencil && opt.preconditioner == Preconditioner::jacobi_green ? 3 * N : 0;
     s.history_values = NP * std::size_t(state_size[0] + state_size[1]);

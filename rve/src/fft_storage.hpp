@@ -37,7 +37,7 @@ struct StorageSizes {
   std::size_t tangent_value_bytes = 8; ///< 8 double, 4 float
   std::size_t compact_values = 0;      ///< compact tangent records (floats, 14 per point, padded)
   std::size_t composite_tangent_values = 0;  ///< full tangents of the composite points with compact ones (floats)
-  std::size_t green_values = 0;        ///< reference Green operator table
+  std::size_t green_values = 0;        ///< reference Green operator table (6 per mode, ReferenceGreen)
   std::size_t green_value_bytes = 8;   ///< 8 double, 4 float (with float tangents)
   std::size_t jacobi_values = 0;       ///< Jacobi–Green scaling, 3 per node (floats; 0 with the Green preconditioner)
   std::size_t history_values = 0;      ///< internal variables, one copy (both phases)

@@ -57,7 +57,7 @@ TEST(GradientBlocks, AssembleGradientAndDivergence) {
     }
 }
 
-// The float table is the double one rounded: z agrees to the float rounding of the 9 entries (relative
+// The float table is the double one rounded: z agrees to the float rounding of the 6 entries (relative
 // 6e-8 each, ≤ 3 terms per component: 5e-7 of |G| |r| with margin), and ⟨r, z⟩ stays positive
 // (a positive definite preconditioner) for a reference medium with K/G = 1e4 (above the ecoflex mean
 // tangent's ≈ 2e3).

@@ -52,10 +52,14 @@ FftSolverOptions quick() {
 // bounds are tight: each margin (< 3 B) is below one 3-component spectral vector (25.5 B per voxel on a
 // 32² section, 27 B on 16³) and below any one of the cuts, and above the composite voxels' arrays'
 // dependence on the image (< 1 B). 32² ecoflex/glass section (mixed (u, p) arrays, composite voxels)
-// 381.6 B measured (1148 → 785 → 636.1 → 497.1 B before; then the phase image in 4 B per voxel (phase or
-// composite index), the 3-field transform in place (its real fields inside the spectra), one pressure
-// linearization instead of two with its slopes recomputed from the compact records, 108 → 24 B per
-// point); 16³ compressible neo-Hookean cell (no pressure arrays) 391.3 B (547.9 → 422 B before).
+// 375.2 B measured (1148 → 785 → 636.1 → 497.1 → 381.6 B before; then the phase image in 4 B per voxel
+// (phase or composite index), the 3-field transform in place (its real fields inside the spectra), one
+// pressure linearization instead of two with its slopes recomputed from the compact records, 108 → 24 B
+// per point; then the Green table of the real symmetric K0⁻¹, 9 → 6 floats per mode, 19.1 → 12.8 B; then
+// the streamed evaluation, no 9-field buffer, −72 B, and the step's residual as CG's r, −25.5 B): 277.7 B
+// + the streamed passes' scratch (three slice stores per thread: 4.5 B per thread on 32², 13.5 B on 16³,
+// shrinking as 1/n with the grid), ≤ 300 B with up to 4 threads; 16³ compressible neo-Hookean cell (no
+// pressure arrays) 285.6 B + scratch (547.9 → 422 → 391.3 → 384.6 B before).
 TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
   const PhaseImage section = circle_image(32, 0.27);
   FftRveSolver eco(section, ecoflex(), glass(), 45.0, Mat3::Identity(), quick());
@@ -65,7 +69,8 @@ TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
   const std::size_t threads = std::size_t(omp_get_max_threads());
   EXPECT_EQ(eco_arrays.at("stream_scratch"), threads * 18u * 32u * 8u);
   const double eco_scratch_bpv = double(eco_arrays.at("stream_scratch")) / double(section.voxels());
-  EXPECT_LE(eco_bpv - eco_scratch_bpv, 300.0);
+  EXPECT_LE(eco_bpv - eco_scratch_bpv, 280.0);
+  if (threads <= 4) EXPECT_LE(eco_bpv, 300.0);
   EXPECT_EQ(eco_arrays.count("history"), 0u);  // elastic phases: no internal variables
   EXPECT_GT(eco_arrays.count("mixed_pressure"), 0u);
   EXPECT_GT(eco_arrays.count("composites"), 0u);
@@ -77,6 +82,8 @@ TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
   EXPECT_EQ(eco_arrays.at("compact_tangents"), 14u * 4u * section.voxels());
   EXPECT_EQ(eco_arrays.at("phase_image"), 4u * section.voxels());
   EXPECT_EQ(eco_arrays.at("fft3_buffers"), 3u * 16u * (32u / 2u + 1u) * 32u);  // in place: spectra only
+  // K0(k) real symmetric: its inverse 6 floats per mode.
+  EXPECT_EQ(eco_arrays.at("reference_green"), 6u * 4u * (32u / 2u + 1u) * 32u);
   // Without compact tangents the slopes are stored: + 9 floats per point.
   FftSolverOptions stored = quick();
   stored.compact_tangent = false;
@@ -97,16 +104,16 @@ TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
   const double nh_bpv = double(nh.memory_bytes()) / double(cube.voxels());
   const auto nh_arrays = by_array(nh);
   EXPECT_EQ(nh_arrays.at("stream_scratch"), threads * 27u * 16u * 16u * 8u);  // planes of 16 × 16 voxels
-  EXPECT_LE(nh_bpv - double(nh_arrays.at("stream_scratch")) / double(cube.voxels()), 300.0);
+  EXPECT_LE(nh_bpv - double(nh_arrays.at("stream_scratch")) / double(cube.voxels()), 288.0);
   EXPECT_EQ(nh_arrays.count("fft_buffers"), 0u);
   EXPECT_EQ(nh_arrays.count("mixed_pressure"), 0u);  // K/G = 10 < mixed_pressure_ratio
   EXPECT_EQ(nh_arrays.count("history"), 0u);
   // Compact tangents (both laws isotropic in (I1, J)): F and 5 scalars, 14 floats per point, and no
-  // stored 9×9 tangent except the composite points' (in "composites"); float Green table: 9 values of
-  // 4 bytes per mode.
+  // stored 9×9 tangent except the composite points' (in "composites"); float Green table: 6 values of
+  // 4 bytes per mode (the upper triangle of the real symmetric K0⁻¹).
   EXPECT_EQ(nh_arrays.count("tangents"), 0u);
   EXPECT_EQ(nh_arrays.at("compact_tangents"), 14u * 4u * cube.voxels());
-  EXPECT_EQ(nh_arrays.at("reference_green"), 9u * 4u * (16u / 2u + 1u) * 16u * 16u);
+  EXPECT_EQ(nh_arrays.at("reference_green"), 6u * 4u * (16u / 2u + 1u) * 16u * 16u);
 
   // Hex (8 points per voxel): the 72 real fields stay, their spectra (72 · 16 · 9/16 = 648 B per voxel
   // on 16³) are gone.
@@ -114,6 +121,7 @@ TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
   hex.discretization = fft::Discretization::hex;
   FftRveSolver nh_hex(cube, neo_hookean(1.0, 10.0), glass(), 45.0, Mat3::Identity(), hex);
   EXPECT_EQ(by_array(nh_hex).at("fft_buffers"), 72u * 8u * cube.voxels());
+  EXPECT_EQ(by_array(nh_hex).at("reference_green"), 6u * 4u * (16u / 2u + 1u) * 16u * 16u);  // real K0 too
   std::printf("[ info     ] bytes/voxel (%zu threads): 32^2 ecoflex/glass %.1f, 16^3 neo-Hooke %.1f, 16^3 neo-Hooke hex %.1f\n",
               threads, eco_bpv, nh_bpv, double(nh_hex.memory_bytes()) / double(cube.voxels()));
   for (const auto& [name, bytes] : eco.memory_breakdown())

@@ -152,7 +152,9 @@ TEST(FftRveTransverse, EcoflexCostAndAnswerOnASmallCell) {
 // 0.088469 from above (32²/64² Richardson 0.08881, +0.4 %); pointwise hex gives 0.584 at 32² (locked),
 // rotated 0.0533 (40 % below). Asserted at 32²: 10–30 % above the FE value (measured +20.8 %, the
 // first-order discretization error at this grid), fewer Newton iterations than rotated's 378 (measured
-// 228; bound + 15 %, the thread count and float tangents move the counts).
+// 228 on 1 thread, 298 on 2 and 290 on 1 with the 6-value Green table, the same P22 to 7 digits: the
+// round-off of the preconditioner decides the line-search cut-backs, 1 or 3, and shifted solves here;
+// bound: the largest + 15 %).
 TEST(FftRveTransverse, MeanDilatationHexConvergesToTheFeReference) {
   const double fe_100 = 0.066170, fe_ecoflex = 0.0884690;  // FE L/24 (HexConvergesToTheFeReference..., BENCHMARKS)
   const RveRunResult m32 = fft_run(100.0, 32, fft::Discretization::hex, VolumetricKinematics::mean_dilatation);
@@ -171,5 +173,5 @@ TEST(FftRveTransverse, MeanDilatationHexConvergesToTheFeReference) {
   EXPECT_GT(excess, 0.10);
   EXPECT_LT(excess, 0.30);
   EXPECT_NEAR(e32.steps.back().P(0, 0), 0.0, 1e-8);
-  EXPECT_LE(e32.newton_iterations, 262);
+  EXPECT_LE(e32.newton_iterations, 343);
 }

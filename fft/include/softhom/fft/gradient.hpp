@@ -123,15 +123,25 @@ class GradientOperator {
 };
 
 /// The reference-medium Green operator K0(k)⁻¹ of GradientOperator::solve_reference, tabulated per
-/// mode for one C0 (a Hermitian 3×3 inverse, 9 doubles per mode). The preconditioner is applied
-/// every Krylov iteration with the same C0, so the 3×3 assembly and inversion (≈ 800 flops per mode)
-/// are paid once per linear solve instead of once per iteration.
+/// mode for one C0. The preconditioner is applied every Krylov iteration with the same C0, so the 3×3
+/// assembly and inversion (≈ 800 flops per mode) are paid once per linear solve instead of once per
+/// iteration.
+///
+/// K0 is Hermitian, and for all three discretizations real symmetric, because M_jl = Σ_q w_q conj(D_qj)
+/// D_ql is real. Spectral: D_j = i ξ_j. Rotated and hex: the points are symmetric under the reflection
+/// ξ → 1 − ξ through the voxel centre with equal weights (rotated: the centre itself), and since
+/// d = e^{ikh} conj(−d) and v(1 − ξ) = e^{ikh} conj(v(ξ)) per direction, the reflected point q' has
+/// D_q'j = −e^{i Σ_m k_m h_m} conj(D_qj): its products are the complex conjugates of q's. (A single hex
+/// point's products are complex; only the pair sum is real.) The table therefore holds the 6 reals of
+/// the symmetric inverse per mode, and applying it is a real matrix times a complex 3-vector.
 class ReferenceGreen {
  public:
   explicit ReferenceGreen(const GradientOperator& op) : op_(op) {}
-  /// Table in float from the next set() on (36 instead of 72 B per mode, and half its stream per Krylov
+  /// Reals tabulated per mode: the upper triangle G00 G11 G22 G01 G02 G12 of the real symmetric K0⁻¹.
+  static constexpr int kValuesPerMode = 6;
+  /// Table in float from the next set() on (half the bytes per mode, and half its stream per Krylov
   /// iteration). A preconditioner only has to be symmetric positive definite: the rounded table is
-  /// Hermitian by construction, and positive definite while the condition number of K0(k) (≈ (λ0 + 2μ0)/μ0
+  /// symmetric by construction, and positive definite while the condition number of K0(k) (≈ (λ0 + 2μ0)/μ0
   /// of the reference medium, ≈ 2e3 for the mean tangent of glass in ecoflex) stays far below the
   /// ≈ 5e6 that entry-wise rounding of 6e-8 can upset; CG then converges to the same solution.
   void use_single_precision(bool single) { single_ = single; }
@@ -158,7 +168,7 @@ class ReferenceGreen {
   }
   const GradientOperator& op_;
   bool single_ = false;
-  std::vector<double> table_;  ///< per mode: G00 G11 G22 (real), Re/Im G01, G02, G12
+  std::vector<double> table_;  ///< per mode: G00 G11 G22 G01 G02 G12
   std::vector<float> table_f_;  ///< the same in float (use_single_precision)
 };
 

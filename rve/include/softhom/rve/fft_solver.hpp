@@ -121,7 +121,7 @@ struct FftSolverOptions {
   /// Tangents of the stencil Krylov operator stored in float (180 instead of 360 B per point, the
   /// default: the largest array of the solver, see BENCHMARKS.md "FFT memory per voxel"): the Krylov
   /// iteration is bound by that stream. With them the reference Green table of the preconditioner is
-  /// float too (36 instead of 72 B per mode; any symmetric positive definite preconditioner leaves the
+  /// float too (24 instead of 48 B per mode; any symmetric positive definite preconditioner leaves the
   /// solution as it is). The residual, the material and all arithmetic stay double, so the converged
   /// answer is the same to the Newton tolerance; the Krylov operator is the exact one perturbed by
   /// ≈ 6e-8 relative per tangent entry (symmetric, so CG/MINRES still apply), which inexact Newton
