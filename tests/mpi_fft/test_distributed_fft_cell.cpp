@@ -178,9 +178,10 @@ TEST(DistributedFftCell, ElasticInclinedFiberStencilMatchesOneProcess) {
 
 // The default solve of elastic phases streams its evaluation (no 9-field buffer) on slabs as on one
 // process: each rank's last plane hands its forces on the next rank's first node plane over
-// (SlabDecomposition::shift_up). A nearly incompressible matrix (K/G = 1e3: the mixed (u, p) iteration,
+// (SlabDecomposition::shift_up). A nearly incompressible matrix (K/G = 200: the mixed (u, p) iteration,
 // whose merit takes a second, divergence-only streamed pass) at tolerance 1e-10 (see
-// MeanDilatationHexMatchesOneProcess). History (QLV, below) keeps the stored fields.
+// MeanDilatationHexMatchesOneProcess; at K/G = 1e3 the last solve's Krylov count can differ by one, the
+// stopping test crossed within round-off). History (QLV, below) keeps the stored fields.
 TEST(DistributedFftCell, StreamedMixedPressureMatchesOneProcess) {
   const PhaseImage im = inclined_fiber({8, 8, 7}, 0.3, 0.5);
   FftSolverOptions opt;
@@ -189,7 +190,7 @@ TEST(DistributedFftCell, StreamedMixedPressureMatchesOneProcess) {
     FftSolverOptions o = opt;
     o.distributed = distributed;
     o.plan.rigor = fft::PlanRigor::estimate;
-    FftRveSolver s(im, neo_hookean(0.5, 500.0), neo_hookean(5.0, 40.0), 0.0, Mat3::Identity(), o);
+    FftRveSolver s(im, neo_hookean(0.5, 100.0), neo_hookean(5.0, 40.0), 0.0, Mat3::Identity(), o);
     bool stored_fields = false, scratch = false, mixed = false;
     for (const auto& [array, bytes] : s.memory_breakdown()) {
       stored_fields = stored_fields || array == "fft_buffers";
@@ -199,7 +200,7 @@ TEST(DistributedFftCell, StreamedMixedPressureMatchesOneProcess) {
     EXPECT_FALSE(stored_fields) << "distributed " << distributed;
     EXPECT_TRUE(scratch && mixed) << "distributed " << distributed;
   }
-  expect_same_solve(im, neo_hookean(0.5, 500.0), neo_hookean(5.0, 40.0), uniaxial(1.1, 2), opt);
+  expect_same_solve(im, neo_hookean(0.5, 100.0), neo_hookean(5.0, 40.0), uniaxial(1.1, 2), opt);
 }
 
 TEST(DistributedFftCell, QlvMatrixHexFourierMatchesOneProcess) {

@@ -356,10 +356,11 @@ TEST(FftRve, SquareFiberEcoflexTensionStaysSymmetricPastFormerStall) {
 // amplify round-off: their float pressures and slopes flip a last bit on a round-off difference (6e-8 of
 // the pressure correction), which Newton corrects to its tolerance 1e-8, and ecoflex (K/G = 1.2e5) is as
 // sensitive as a change of FFT plan (±5–10 % Krylov, BENCHMARKS "Single-precision tangents"): the same
-// stress to the tolerance and counts within 10 %, on a PDMS-like section (K/G = 3e3), on the ecoflex/glass
-// section with a step size that makes the line search backtrack and the steps cut back (the
-// linearization restore of the streamed path checked bit for bit against recomputing it before every
-// trial), and on an ecoflex/glass 16 × 16 × 4 cell: a nodal-force sum that adds the cancelling bulk
+// stress to the tolerance and counts within 10 % on a PDMS-like section (K/G = 3e3) and on an
+// ecoflex/glass 16 × 16 × 4 cell; the stress alone on the ecoflex/glass section with a step size that
+// makes the line search backtrack and the steps cut back, whose path depends on round-off (there the
+// linearization restore of the streamed path is checked bit for bit against recomputing it before every
+// trial). On the 3D cell, a nodal-force sum that adds the cancelling bulk
 // stress terms per voxel instead of per corner row of a node takes 1.5× the Krylov iterations there
 // (measured 4 531 against 2 954). Field output (P re-evaluated at the converged F): its mean is the
 // step's stress.
@@ -435,9 +436,13 @@ TEST(FftRve, StreamedEvaluationEqualsStoredFields) {
       EXPECT_EQ(streamed.cutbacks, stored.cutbacks) << c.name;
       EXPECT_LT(rel(streamed.steps.back().P, stored.steps.back().P), c.P_tolerance) << c.name;
     } else {
-      if (c.cuts_back) EXPECT_GT(streamed.cutbacks, 0) << c.name;
-      EXPECT_NEAR(streamed.newton_iterations, stored.newton_iterations, 0.1 * stored.newton_iterations) << c.name;
-      EXPECT_NEAR(streamed.krylov_iterations, stored.krylov_iterations, 0.1 * stored.krylov_iterations) << c.name;
+      if (c.cuts_back) {
+        // Cut-backs make the path itself depend on round-off (7–16 % Krylov apart measured): the stress only.
+        EXPECT_GT(streamed.cutbacks, 0) << c.name;
+      } else {
+        EXPECT_NEAR(streamed.newton_iterations, stored.newton_iterations, 0.1 * stored.newton_iterations) << c.name;
+        EXPECT_NEAR(streamed.krylov_iterations, stored.krylov_iterations, 0.1 * stored.krylov_iterations) << c.name;
+      }
       EXPECT_LT(rel(streamed.steps.back().P, stored.steps.back().P), c.P_tolerance) << c.name;
     }
     // The restore of the accepted linearization: bit for bit as recomputing it before every trial.
