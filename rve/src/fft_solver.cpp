@@ -173,7 +173,7 @@ struct FftRveSolver::Impl {
   std::unique_ptr<fft::FieldTransform> fft3;
   // Streamed evaluation (streams_evaluation()): the residual pass, the Krylov operator and the
   // pointwise passes run through StencilGradient::streamed_pass()/gradient_pass() on fft3's real
-  // buffer; fft is not allocated (no 9-field buffer). stream_scratch: the passes' partial force slices.
+  // buffer; fft is not allocated (no 9-field buffer). stream_scratch: the passes' slice stores.
   bool streamed = false;
   std::vector<double> stream_scratch;
   Mat3 R;            // grid axes in the load frame
@@ -982,7 +982,7 @@ struct FftRveSolver::Impl {
     fft3->backward();
     fill_displacement_halo();
   }
-  /// The streamed passes' hand-over of the last plane's forces to the next slab (only called on a slab).
+  /// The streamed passes' hand-over of the last plane's stresses to the next slab (only called on a slab).
   auto slab_shift_up() const {
     return [this](const double* send, double* recv, std::size_t values) { dist->shift_up(send, recv, values); };
   }

@@ -31,7 +31,7 @@ struct StorageSizes {
   std::size_t fft_fields = 0;          ///< real fields of the evaluation (9 · points per voxel)
   std::size_t fft_spectra = 0;         ///< their spectra (0 with the stencil operator: 3 at a time in fft3's)
   std::size_t fft3_fields = 0;         ///< 3 with the stencil Krylov operator, else 0
-  std::size_t stream_scratch_values = 0;  ///< partial force slices of the streamed passes (doubles; 0: not streamed)
+  std::size_t stream_scratch_values = 0;  ///< slice stores of the streamed passes (doubles; 0: not streamed)
   bool fft3_in_place = false;          ///< their real fields inside the spectra (padded rows, one process)
   std::size_t tangent_values = 0;      ///< stored tangent entries (padded)
   std::size_t tangent_value_bytes = 8; ///< 8 double, 4 float

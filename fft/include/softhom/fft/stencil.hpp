@@ -107,24 +107,24 @@ class StencilGradient {
     return std::size_t(threads) * stream_scratch_per_thread(grid_) + (halo_ ? stream_scratch_per_thread(grid_) / 3 : 0);
   }
 
-  /// Gradient → body → adjoint in one pass, in place and without a per-voxel store (streams()): `uf`
+  /// Gradient → body → adjoint in one pass, in place and without a store of the grid (streams()): `uf`
   /// holds the three displacement fields on entry (layout of gradient_pass) and the nodal forces
   /// f_i(y) = Σ_c Σ_j B_cj S_ij(y − c) of the stresses body() writes on return. The grid is walked slice
-  /// by slice (planes i3, rows i2 of a section); a slice's voxels add their forces to the node slices s
-  /// and s + 1 (partial sums, three values per node), and node slice s is written over the displacement
-  /// as soon as voxel slice s is done, which no later voxel reads. Each thread walks its own contiguous
-  /// slices; a thread's first node slice also receives its neighbour's last voxel slice, added after a
-  /// barrier. So the 9 (3D) or 6 (section) stress values per voxel of gradient_pass()/divergence_pass()
-  /// are never stored: 72 B per voxel less, and the store's write and read streams are gone.
+  /// by slice (planes i3, rows i2 of a section); a slice's stresses are kept (as gradient_pass() stores
+  /// them), node slice s is gathered from voxel slices s − 1 and s as soon as both are there and
+  /// written over the displacement, which no later voxel reads. Each thread walks its own contiguous
+  /// slices and keeps its first slice's stresses until its neighbour's last slice is there (a barrier).
+  /// So the 9 (3D) or 6 (section) stress values per voxel are kept for three slices per thread, not for
+  /// the grid: 72 B per voxel less, and the nodal forces are divergence_pass()'s to the bit.
   /// Call inside a parallel region, by every thread (barriers); `scratch` holds
   /// stream_scratch_values(omp_get_num_threads()) values shared by the team. body(p0, count, grad,
   /// stress) as for gradient_pass() (count = kBatch, p0 a multiple of kBatch); with `gradient` false
   /// grad is null and `uf` is not read (the divergence of a stress body() computes by itself). Returns
   /// this thread's share of Σ_y u(y)·f(y) when `dot` (0 otherwise).
   /// On a slab (restrict_to_slab) the last plane's voxels read the displacement's upper halo plane and
-  /// their forces on the next rank's first node plane go there: shift_up(send, recv, values) (the
-  /// master thread calls it, SlabDecomposition::shift_up) hands this rank's to the next and the previous
-  /// rank's to this one, which adds them to its first plane.
+  /// the next rank's first node plane needs this rank's last plane of stresses: shift_up(send, recv,
+  /// values) (the master thread calls it, SlabDecomposition::shift_up) hands this rank's to the next and
+  /// the previous rank's to this one, which gathers its first node plane with them.
   template <class Body, class ShiftUp = std::nullptr_t>
   double streamed_pass(double* uf, double* scratch, Body&& body, bool gradient = true, bool dot = false,
                        ShiftUp&& shift_up = nullptr) const;
