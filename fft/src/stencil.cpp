@@ -65,19 +65,18 @@ double StencilGradient::divergence_pass_impl(const double* store, double* f, con
     }
     double local = 0.0;
     for (int i1 = 0; i1 < n1; ++i1) {
-      const int i1m = i1 == 0 ? n1 - 1 : i1 - 1;
       double acc[3] = {0.0, 0.0, 0.0};
-      for (int r = 0; r < NROW; ++r)
-        for (int c1 = 0; c1 < 2; ++c1) {
-          const int c = 2 * r + c1;
-          const double* o = vrow[r] + std::size_t(L) * std::size_t(c1 ? i1m : i1);
-          if constexpr (kNodal) {
+      if constexpr (kNodal) {
+        const int i1m = i1 == 0 ? n1 - 1 : i1 - 1;
+        for (int r = 0; r < NROW; ++r)
+          for (int c1 = 0; c1 < 2; ++c1) {
+            const int c = 2 * r + c1;
+            const double* o = vrow[r] + std::size_t(L) * std::size_t(c1 ? i1m : i1);
             for (int i = 0; i < 3; ++i) acc[i] += o[3 * c + i];
-          } else {
-            for (int i = 0; i < 3; ++i)
-              for (int j = 0; j < D; ++j) acc[i] += B[c][j] * o[D * i + j];
           }
-        }
+      } else {
+        gather_node<D>(vrow, i1, n1, B, acc);
+      }
       const std::size_t y = std::size_t(row) * pitch + i1;
       if (dot_with)
         for (int i = 0; i < 3; ++i) local += dot_with[i * N + y] * acc[i];

@@ -146,6 +146,25 @@ class StencilGradient {
   /// batch lies inside one, else voxel by voxel. n3: planes readable along i3 (periodic below that).
   template <int D>
   void batch_gradient(const double* u, std::size_t v0, int nv, int n3, double (*g)[kBatch]) const;
+  /// The displacement at the 2^d corners of voxel (i1, i2, i3): uc[i][c] (periodic below n3 planes).
+  template <int D>
+  void corner_values(const double* u, int i1, int i2, int i3, int n3, double (*uc)[1 << D]) const;
+  /// Σ_c Σ_j B_cj S_ij(y − c) at node i1 of a row from the stresses of the voxel rows vrow[r] below its
+  /// corner rows r (L = 3·D values per voxel, one point): the gather of divergence_pass() and
+  /// streamed_pass(), one code so that both give the same bits.
+  template <int D>
+  static void gather_node(const double* const* vrow, int i1, int n1, const double (*B)[D], double acc[3]) {
+    constexpr int NROW = (1 << D) / 2, L = 3 * D;
+    const int i1m = i1 == 0 ? n1 - 1 : i1 - 1;
+    acc[0] = acc[1] = acc[2] = 0.0;
+    for (int r = 0; r < NROW; ++r)
+      for (int c1 = 0; c1 < 2; ++c1) {
+        const int c = 2 * r + c1;
+        const double* o = vrow[r] + std::size_t(L) * std::size_t(c1 ? i1m : i1);
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < D; ++j) acc[i] += B[c][j] * o[D * i + j];
+      }
+  }
   /// Slices of streamed_pass(): planes i3 (3D) or rows i2 (section), and their voxels.
   int slices() const { return dims_ == 3 ? planes_ : grid_.n[1]; }
   std::size_t slice_voxels() const { return dims_ == 3 ? plane_voxels() : std::size_t(grid_.n[0]); }
@@ -209,18 +228,8 @@ void StencilGradient::batch_gradient(const double* u, std::size_t v0, int nv, in
     return;
   }
   for (int a = 0; a < nv; ++a) {
-    // Nodes of the voxel's corners: rows (i2 + c2, i3 + c3), columns i1 and i1 + 1 (periodic).
-    const int i1p = i1 + 1 == n1 ? 0 : i1 + 1;
     double uc[3][2 * NROW];
-    for (int r = 0; r < NROW; ++r) {
-      const int j2 = i2 + (r & 1) == n2 ? 0 : i2 + (r & 1);
-      const int j3 = D == 3 ? (i3 + (r >> 1) == n3 ? 0 : i3 + (r >> 1)) : i3;
-      const std::size_t base = pitch * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
-      for (int i = 0; i < 3; ++i) {
-        uc[i][2 * r] = u[i * NU + base + i1];
-        uc[i][2 * r + 1] = u[i * NU + base + i1p];
-      }
-    }
+    corner_values<D>(u, i1, i2, i3, n3, uc);
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < D; ++j) {
         double acc = 0.0;
@@ -237,17 +246,34 @@ void StencilGradient::batch_gradient(const double* u, std::size_t v0, int nv, in
   }
 }
 
+template <int D>
+void StencilGradient::corner_values(const double* u, int i1, int i2, int i3, int n3, double (*uc)[1 << D]) const {
+  constexpr int NROW = (1 << D) / 2;
+  const int n1 = grid_.n[0], n2 = grid_.n[1];
+  const std::size_t NU = field_stride();
+  const std::size_t pitch = row_pitch_ ? row_pitch_ : std::size_t(n1);
+  // Nodes of the voxel's corners: rows (i2 + c2, i3 + c3), columns i1 and i1 + 1 (periodic).
+  const int i1p = i1 + 1 == n1 ? 0 : i1 + 1;
+  for (int r = 0; r < NROW; ++r) {
+    const int j2 = i2 + (r & 1) == n2 ? 0 : i2 + (r & 1);
+    const int j3 = D == 3 ? (i3 + (r >> 1) == n3 ? 0 : i3 + (r >> 1)) : i3;
+    const std::size_t base = pitch * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
+    for (int i = 0; i < 3; ++i) {
+      uc[i][2 * r] = u[i * NU + base + i1];
+      uc[i][2 * r + 1] = u[i * NU + base + i1p];
+    }
+  }
+}
+
 template <int D, int NQ, class Body>
 void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& body) const {
   constexpr int NCOR = 1 << D;         // voxel corners
-  constexpr int NROW = NCOR / 2;       // corner rows (c2, c3)
   constexpr bool kNodal = NQ > 1;      // store nodal forces (hex) or the stress columns (rotated)
   constexpr int L = kNodal ? 3 * NCOR : 3 * D;
   constexpr int VB = kBatch / NQ;      // voxels per batch
   // With a slab, i3 is local and the row i3 + 1 of the last plane is the halo plane (never wrapped).
   const int n1 = grid_.n[0], n2 = grid_.n[1], n3 = halo_ ? planes_ + 1 : grid_.n[2];
-  const std::size_t N = plane_voxels() * std::size_t(planes_), NU = field_stride();
-  const std::size_t pitch = row_pitch_ ? row_pitch_ : std::size_t(n1);
+  const std::size_t N = plane_voxels() * std::size_t(planes_);
   double B[NQ][NCOR][D];
   for (int q = 0; q < NQ; ++q)
     for (int c = 0; c < NCOR; ++c)
@@ -272,18 +298,8 @@ void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& b
     } else {
       int i1 = int(v0 % n1), i2 = int((v0 / n1) % n2), i3 = int(v0 / (std::size_t(n1) * n2));
       for (int a = 0; a < nv; ++a) {
-        // Nodes of the voxel's corners: rows (i2 + c2, i3 + c3), columns i1 and i1 + 1 (periodic).
-        const int i1p = i1 + 1 == n1 ? 0 : i1 + 1;
         double uc[3][NCOR];
-        for (int r = 0; r < NROW; ++r) {
-          const int j2 = i2 + (r & 1) == n2 ? 0 : i2 + (r & 1);
-          const int j3 = D == 3 ? (i3 + (r >> 1) == n3 ? 0 : i3 + (r >> 1)) : i3;
-          const std::size_t base = pitch * (std::size_t(j2) + std::size_t(n2) * std::size_t(j3));
-          for (int i = 0; i < 3; ++i) {
-            uc[i][2 * r] = u[i * NU + base + i1];
-            uc[i][2 * r + 1] = u[i * NU + base + i1p];
-          }
-        }
+        corner_values<D>(u, i1, i2, i3, n3, uc);
         for (int q = 0; q < NQ; ++q)
           for (int i = 0; i < 3; ++i)
             for (int j = 0; j < D; ++j) {
@@ -374,15 +390,8 @@ double StencilGradient::streamed_pass_impl(double* uf, double* scratch, Body& bo
       }
       const std::size_t row = std::size_t(s) * slice_rows + rr;
       for (int i1 = 0; i1 < n1; ++i1) {
-        const int i1m = i1 == 0 ? n1 - 1 : i1 - 1;
-        double acc[3] = {0.0, 0.0, 0.0};
-        for (int r = 0; r < NROW; ++r)
-          for (int c1 = 0; c1 < 2; ++c1) {
-            const int c = 2 * r + c1;
-            const double* o = vrow[r] + std::size_t(L) * std::size_t(c1 ? i1m : i1);
-            for (int i = 0; i < 3; ++i)
-              for (int j = 0; j < D; ++j) acc[i] += B[c][j] * o[D * i + j];
-          }
+        double acc[3];
+        gather_node<D>(vrow, i1, n1, B, acc);
         const std::size_t y = row * pitch + std::size_t(i1);
         if (dot)
           for (int i = 0; i < 3; ++i) local_dot += uf[std::size_t(i) * NU + y] * acc[i];
