@@ -8,18 +8,14 @@
 #include <random>
 
 #include "softhom/fft/field_buffer.hpp"
+#include "fft/fft_test_helpers.hpp"
 #include "softhom/fft/gradient.hpp"
 
 using namespace softhom::fft;
 
 namespace {
 
-std::vector<Complex> random_spectrum(std::size_t n, std::mt19937& rng) {
-  std::uniform_real_distribution<double> U(-1.0, 1.0);
-  std::vector<Complex> x(n);
-  for (auto& c : x) c = Complex(U(rng), U(rng));
-  return x;
-}
+using softhom::fft::testing::random_spectrum;
 
 }  // namespace
 
