@@ -195,9 +195,9 @@ struct JacobiGreenCgSpace {
     }
     p.f = beta == 0.0 ? Vec9(z.f) : Vec9(z.f + beta * p.f);
     m.fill_displacement_halo();
-    const Vec9 mean = m.stencil_tangent_product(flatten(m.to_grid(unflatten(p.f))), 0.0);
-    m.fill_store_halo();
-    const double pKp = m.global_sum(m.stencil->divergence_pass(m.stencil_store(), buf(0), buf(0))) / double(m.Ntot);
+    double pKp_local = 0.0;
+    const Vec9 mean = m.stencil_tangent_product(flatten(m.to_grid(unflatten(p.f))), 0.0, &pKp_local);
+    const double pKp = m.global_sum(pKp_local) / double(m.Ntot);
     const Vec9 ml = m.T_load * mean;
     for (int c = 0; c < 9; ++c) Kp.f[c] = free[c] ? ml[c] : 0.0;
     return pKp + p.f.dot(Kp.f);

@@ -502,8 +502,7 @@ struct FftRveSolver::Impl {
     const bool streams = with_stencil && streams_evaluation();
     s.fft_fields = streams ? 0 : std::size_t(9 * nq);
     s.fft_spectra = with_stencil ? 0 : s.fft_fields;
-    const std::size_t per_thread = fft::StencilGradient::stream_scratch_per_thread(grid);
-    s.stream_scratch_values = streams ? std::size_t(omp_get_max_threads()) * per_thread + (dist ? per_thread / 3 : 0) : 0;
+    s.stream_scratch_values = streams ? fft::StencilGradient::stream_scratch_values(grid, omp_get_max_threads(), bool(dist)) : 0;
     s.fft3_fields = with_stencil ? 3 : 0;
     s.fft3_in_place = with_stencil && fft3_in_place();
     const bool single = with_stencil && opt.tangent_precision == TangentPrecision::single_precision;
@@ -1002,7 +1001,7 @@ struct FftRveSolver::Impl {
       const double lap = op.laplacian(op.mode_offset() + k);
       if (lap <= 0.0) continue;
       double e = 0.0;
-      for (int c = 0; c < 3; ++c) e += std::norm(a[c * NM + k] - (b ? b_scale * b[c * NM + k] : Complex(0.0)));
+      for (int c = 0; c < 3; ++c) e += std::norm(b ? a[c * NM + k] - b_scale * b[c * NM + k] : a[c * NM + k]);
       s += grid.mode_weight(k) * e / lap;
     }
     return global_sum(s);
@@ -1090,7 +1089,6 @@ struct FftRveSolver::Impl {
       return MaterialStatus::ok;
     }
     // Merit of P̂: Dᴴ P̂ = r_u − Dᴴ (P_full − P̂), the correction's divergence in fft3.
-    ensure_stream_scratch();
 #pragma omp parallel
     stencil->streamed_pass(fft3->real(0), stream_scratch.data(), [&](std::size_t p0, int count, const double*, double* stress) {
       for (int l = 0; l < count; ++l) {
@@ -1153,14 +1151,7 @@ struct FftRveSolver::Impl {
 
   /// Relative residual norm (see FftSolverOptions::tolerance).
   double residual_norm(const KVec& r, const std::array<bool, 9>& free, const Vec9& P_target) {
-    double s = 0.0;
-#pragma omp parallel for reduction(+ : s) schedule(static)
-    for (std::size_t k = 0; k < NM; ++k) {
-      const double lap = op.laplacian(op.mode_offset() + k);
-      if (lap <= 0.0) continue;
-      s += grid.mode_weight(k) * (std::norm(r.u[k]) + std::norm(r.u[NM + k]) + std::norm(r.u[2 * NM + k])) / lap;
-    }
-    if (dist) s = dist->sum(s);
+    const double s = spectral_norm2(r.u.data(), nullptr, 0.0);
     merit = std::sqrt(s + r.f.squaredNorm());
     return std::max(std::sqrt(s), r.f.cwiseAbs().maxCoeff()) / stress_scale(free, P_target);
   }
@@ -1224,11 +1215,11 @@ struct FftRveSolver::Impl {
     return mean / double(Ntot);
   }
 
-  /// Stencil form of tangent_product(): the nodal displacement δũ is in fft3's real buffer; ∇δũ, δP
-  /// and the per-voxel values of the adjoint (StencilGradient::gradient_pass) in one pass, the latter
-  /// into fft's real buffer. Returns the volume mean of δP (grid frame).
-  /// Streamed (streamed): the adjoint in the same pass, the nodal forces over δũ in fft3's real buffer,
-  /// and ⟨δũ, f⟩ (this rank's sum) into *dot when given.
+  /// Stencil form of tangent_product() and the adjoint: the nodal displacement δũ in fft3's real buffer
+  /// (with its halo) becomes the nodal forces f = Bᵀ (A + shift C0) (δF̄ + B δũ) there, and ⟨δũ, f⟩ (this
+  /// rank's sum) goes to *dot when given. Streamed: one pass (StencilGradient::streamed_pass); else the
+  /// gradient pass keeps its per-voxel values in fft's real buffer for the gather pass. Returns the
+  /// volume mean of δP (grid frame).
   Vec9 stencil_tangent_product(const Vec9& dFbar, double shift, double* dot = nullptr) {
     const Mat9 S = shift * C0;
     Vec9 mean = Vec9::Zero();
@@ -1276,6 +1267,10 @@ struct FftRveSolver::Impl {
 #pragma omp critical
       for (int c = 0; c < 9; ++c) mean[c] += local[c];
     }
+    if (!streamed) {
+      fill_store_halo();
+      dot_sum = stencil->divergence_pass(stencil_store(), fft3->real(0), dot ? fft3->real(0) : nullptr);
+    }
     if (dot) *dot = dot_sum;
     if (dist) dist->sum(mean.data(), 9);
     return mean / double(Ntot);
@@ -1284,14 +1279,8 @@ struct FftRveSolver::Impl {
   /// y = K x with the stored tangents; x.f holds load-frame macro components (any mask applied by caller).
   void apply(const KVec& x, const std::array<bool, 9>& free, KVec& y, double shift = 0.0) {
     if (stencil) {
-      std::copy(x.u.begin(), x.u.end(), fft3->spectrum(0));
-      fft3->backward();
-      fill_displacement_halo();
+      displacement_to_real(x.u);
       const Vec9 mean = stencil_tangent_product(flatten(to_grid(unflatten(x.f))), shift);
-      if (!streamed) {
-        fill_store_halo();
-        stencil->divergence_pass(stencil_store(), fft3->real(0), nullptr);
-      }
       fft3->forward();
       const double invN = 1.0 / double(Ntot);
       const Complex* s3 = fft3->spectrum(0);
@@ -1340,10 +1329,6 @@ struct FftRveSolver::Impl {
       // ⟨p, Ap⟩ on the real fields (Parseval: Σ_half m_k Re(p̂_k* Âp_k) = Σ_y p(y)·f(y) / N).
       double pAp_local = 0.0;
       const Vec9 mean = stencil_tangent_product(flatten(to_grid(unflatten(p.f))), shift, &pAp_local);
-      if (!streamed) {
-        fill_store_halo();
-        pAp_local = stencil->divergence_pass(stencil_store(), fft3->real(0), fft3->real(0));
-      }
       const double pAp = global_sum(pAp_local) / double(Ntot);
       fft3->forward();
       const Vec9 ml = T_load * mean;

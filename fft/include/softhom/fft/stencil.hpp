@@ -80,13 +80,11 @@ class StencilGradient {
   /// kBatch points, grad[(3i + j)·kBatch + l] = ∇u_q(v)_ij of point p0 + l (structure of arrays, columns
   /// j ≥ dims are 0, lanes l ≥ count are 0); body must write stress in the same layout (columns j ≥ dims
   /// are not read). The pass then writes stored_values() per voxel (voxel-major: store[v·stored_values()
-  /// + …]) for divergence_pass().
+  /// + …]) for divergence_pass(). With `store` null it only hands every batch's gradient to body (what
+  /// body writes to stress is not read): the solver's pointwise passes that need F but no divergence
+  /// (pressure linearization, hot spots, field output).
   template <class Body>
   void gradient_pass(const double* u, double* store, Body&& body) const;
-
-  /// Pass 1 without its per-voxel store (`store` null): body(p0, count, grad, stress) sees every batch
-  /// of points and what it writes to stress is not read. The solver's pointwise passes that need F but
-  /// no divergence (pressure linearization, hot spots, field output).
 
   /// True when streamed_pass() applies: one point per voxel (rotated) and slices (planes i3; rows i2 of a
   /// section) of whole batches, so that batches never straddle two slices.
@@ -97,15 +95,13 @@ class StencilGradient {
     const std::size_t slice = g.is_section() ? std::size_t(g.n[0]) : std::size_t(g.n[0]) * std::size_t(g.n[1]);
     return supported(op) && op.points() == 1 && slice % std::size_t(kBatch) == 0;
   }
-  /// Values per thread of stream_scratch_values(): three slices of 3·d values per voxel.
-  static std::size_t stream_scratch_per_thread(const Grid& g) {
-    return g.is_section() ? 18 * std::size_t(g.n[0]) : 27 * std::size_t(g.n[0]) * std::size_t(g.n[1]);
+  /// Scratch of streamed_pass() for `threads` threads on grid g (values): three voxel-slice stores of
+  /// 3·d values per voxel per thread (+ the one received from the rank below, on a slab).
+  static std::size_t stream_scratch_values(const Grid& g, int threads, bool slab) {
+    const std::size_t slice_store = g.is_section() ? 6 * std::size_t(g.n[0]) : 9 * std::size_t(g.n[0]) * std::size_t(g.n[1]);
+    return (3 * std::size_t(threads) + (slab ? 1 : 0)) * slice_store;
   }
-  /// Scratch of streamed_pass() for `threads` threads (values): three voxel-slice stores per thread (+
-  /// the one received from the rank below, on a slab).
-  std::size_t stream_scratch_values(int threads) const {
-    return std::size_t(threads) * stream_scratch_per_thread(grid_) + (halo_ ? stream_scratch_per_thread(grid_) / 3 : 0);
-  }
+  std::size_t stream_scratch_values(int threads) const { return stream_scratch_values(grid_, threads, halo_); }
 
   /// Gradient → body → adjoint in one pass, in place and without a store of the grid (streams()): `uf`
   /// holds the three displacement fields on entry (layout of gradient_pass) and the nodal forces
@@ -164,6 +160,15 @@ class StencilGradient {
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < D; ++j) acc[i] += B[c][j] * o[D * i + j];
       }
+  }
+  /// A batch's stress columns j < D (structure of arrays s[3i + j][l]) into the per-voxel store `out`
+  /// (L = 3·D values per voxel, voxel-major), as divergence_pass() reads them.
+  template <int D>
+  static void store_stresses(const double (*s)[kBatch], int nv, double* out) {
+    constexpr int L = 3 * D;
+    for (int l = 0; l < nv; ++l)
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < D; ++j) out[L * l + D * i + j] = s[3 * i + j][l];
   }
   /// Slices of streamed_pass(): planes i3 (3D) or rows i2 (section), and their voxels.
   int slices() const { return dims_ == 3 ? planes_ : grid_.n[1]; }
@@ -289,11 +294,7 @@ void StencilGradient::gradient_pass_impl(const double* u, double* store, Body& b
     if constexpr (NQ == 1) {
       batch_gradient<D>(u, v0, nv, n3, g);
       body(v0, nv, &g[0][0], &s[0][0]);
-      if (!store) continue;
-      double* o = store + L * v0;
-      for (int l = 0; l < nv; ++l)
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < D; ++j) o[L * l + D * i + j] = s[3 * i + j][l];
+      if (store) store_stresses<D>(s, nv, store + L * v0);
       continue;
     } else {
       int i1 = int(v0 % n1), i2 = int((v0 / n1) % n2), i3 = int(v0 / (std::size_t(n1) * n2));
@@ -409,10 +410,7 @@ double StencilGradient::streamed_pass_impl(double* uf, double* scratch, Body& bo
         alignas(64) double g[9][kBatch] = {}, st[9][kBatch];
         if (gradient) batch_gradient<D>(uf, v0, kBatch, n3, g);
         body(v0, kBatch, gradient ? &g[0][0] : nullptr, &st[0][0]);
-        double* out = cur + std::size_t(L) * o;
-        for (int l = 0; l < kBatch; ++l)
-          for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < D; ++j) out[L * l + D * i + j] = st[3 * i + j][l];
+        store_stresses<D>(st, kBatch, cur + std::size_t(L) * o);
       }
       // Node slice s is complete once voxel slices s − 1 and s are stored: no voxel after them reads
       // its displacement.
