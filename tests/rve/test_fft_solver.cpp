@@ -38,6 +38,13 @@ FftSolverOptions fast_options(fft::Discretization d, double tol = 1e-10) {
 
 double rel(const Mat3& a, const Mat3& b) { return (a - b).norm() / std::max(b.norm(), 1e-300); }
 
+/// One OpenMP thread while in scope (runs compared bit for bit: the sums over the points add in one order).
+struct OneThread {
+  int threads = omp_get_max_threads();
+  OneThread() { omp_set_num_threads(1); }
+  ~OneThread() { omp_set_num_threads(threads); }
+};
+
 }  // namespace
 
 // A cell whose two phases are the same material (with composite voxels everywhere, so the laminate
@@ -187,11 +194,7 @@ TEST(FftRve, MixedPressureIterationSameSolutionFewerNewtonSteps) {
 // converge to the same stress (1e-6, as in MixedPressureIterationSameSolutionFewerNewtonSteps).
 TEST(FftRve, MixedPressureRestoresTheLinearizationAfterRejectedTrials) {
   // Bit for bit: one thread, so that the sums over the points add in one order in both runs.
-  struct OneThread {
-    int threads = omp_get_max_threads();
-    OneThread() { omp_set_num_threads(1); }
-    ~OneThread() { omp_set_num_threads(threads); }
-  } one_thread;
+  const OneThread one_thread;
   const PhaseImage im = circle_image(12, 0.27);
   const MixedControl control = uniaxial_ramp(1.5, 2);
   Mat3 P_compact = Mat3::Zero();
@@ -365,11 +368,7 @@ TEST(FftRve, SquareFiberEcoflexTensionStaysSymmetricPastFormerStall) {
 // (measured 4 531 against 2 954). Field output (P re-evaluated at the converged F): its mean is the
 // step's stress.
 TEST(FftRve, StreamedEvaluationEqualsStoredFields) {
-  struct OneThread {
-    int threads = omp_get_max_threads();
-    OneThread() { omp_set_num_threads(1); }
-    ~OneThread() { omp_set_num_threads(threads); }
-  } one_thread;
+  const OneThread one_thread;
   PhaseImage cube = circle_image(8, 0.3);
   cube.n = {8, 8, 16};
   cube.size[2] = 2.0;
