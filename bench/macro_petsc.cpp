@@ -100,11 +100,11 @@ int tube_run(double dofs, int steps, const std::string& options) {
     const RunStats st = sim.stats();
     if (mpi::world_rank() == 0)
       std::printf("tube %s ranks %d dofs %d steps %d newton %d krylov %d (%.1f/solve) wall %.2f s  %.3f s/newton  "
-                  "factor+setup %.2f s solve %.2f s assembly %.2f s  peak %.0f MiB (%.0f B/dof)%s\n",
+                  "factor+setup %.2f s solve %.2f s assembly %.2f s (element loop %.2f s)  peak %.0f MiB (%.0f B/dof)%s\n",
                   to_string(kind), mpi::world_size(), sim.num_free_dofs(), st.steps, st.newton_iterations,
                   st.krylov_iterations, double(st.krylov_iterations) / std::max(1, st.linear.solves), wall,
                   wall / std::max(1, st.newton_iterations), st.linear.factorization, st.linear.solve, st.assembly_time,
-                  io::peak_memory_bytes() / 1048576.0, io::peak_memory_bytes() / double(sim.num_free_dofs()),
+                  st.element_loop_time, io::peak_memory_bytes() / 1048576.0, io::peak_memory_bytes() / double(sim.num_free_dofs()),
                   ok ? "" : "  (failed)");
     std::fflush(stdout);
   }

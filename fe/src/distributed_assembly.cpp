@@ -32,6 +32,7 @@ void Simulation::Impl::build_partition() {
   // (BENCHMARKS.md, "Distributed assembly").
   mpi_rank_ = mpi::world_rank();
   mpi_ranks_ = mpi::world_size();
+  if (mpi_rank_ != 0) options_.verbose = false;  // every rank runs the same Newton iteration: one log
   element_owner_ = partition_elements_rcb(mesh, mpi_ranks_);
   owned_elements_.clear();
   for (int e = 0; e < mesh.num_elements(); ++e)

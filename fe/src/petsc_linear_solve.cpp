@@ -1,6 +1,9 @@
 // The petsc path of fe::Simulation's linear solves (linear_solve.cpp hands over when the petsc solver
-// is in use): no lagged factors here, a fresh multigrid hierarchy for every new tangent, GMRES to the
-// forcing-term tolerance of the Newton iteration.
+// is in use): GMRES to the forcing-term tolerance of the Newton iteration, preconditioned by the
+// preconditioner of this tangent or, where its set-up dominates the solve (a factorization such as
+// MUMPS's), of an earlier one, refreshed by the lagged-factor rules of the direct path.
+#include <algorithm>
+#include <chrono>
 #include <iostream>
 
 #include "simulation_impl.hpp"
@@ -9,35 +12,86 @@
 namespace softhom::fe {
 using namespace detail;
 
+bool Simulation::Impl::petsc_reuse_pays() const {
+  // Reuse saves at most one set-up and costs the extra GMRES iterations of a lagged preconditioner. A
+  // multigrid hierarchy costs 5–15 % of its solve (tube, cPASMO: BENCHMARKS.md) and a lagged one cost
+  // up to 5x the iterations at K/G ~ 1e5: never kept. A factorization costs tens to hundreds of its
+  // one-iteration solves, and a lagged one needs a few to twenty iterations, as the direct path's.
+  return options_.reuse_preconditioner && petsc_lag_failures_ < 2 && petsc_iteration_time_ > 0.0 &&
+         petsc_setup_time_ > 0.25 * std::max(1, petsc_fresh_iterations_) * petsc_iteration_time_;
+}
+
+void Simulation::Impl::petsc_set_operator(bool new_preconditioner) {
+  // Three-field elements: the uncondensed (u, p_e) system with its field split (petsc_solve.cpp).
+  if (!sad_elem_.empty() && !distributed_) {  // (distributed: the element loop fills the pressures)
+    if (first_factorization_) petsc_->set_mixed(sad_off_, sad_eq_);
+    saddle_current();
+    petsc_->set_mixed_tangent(sad_db_, sad_cb_);
+  }
+  petsc_operator_version_ = k_version_;
+  if (!new_preconditioner) {
+    petsc_->update_operator(K_);
+    return;
+  }
+  const double before = petsc_->times().factorization;
+  petsc_->factorize(K_);
+  petsc_setup_time_ = petsc_->max_over_ranks(petsc_->times().factorization - before);
+  factor_valid_ = true;
+  factor_stale_ = false;
+  factor_version_ = k_version_;
+  if (first_factorization_)
+    note_once("petsc", "linear solver: petsc (" + petsc_->description() + ", rigid-body near-nullspace) on " +
+                           std::to_string(petsc_->ranks()) + " MPI rank(s)");
+  first_factorization_ = false;
+}
+
 bool Simulation::Impl::petsc_linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol,
                                           std::string& why) {
   x.assign(dofs_.num_free, 0.0);
   if (norm(b) == 0.0) return true;
-  if (factor_version_ != k_version_ || !factor_valid_) {
-    // Three-field elements: the uncondensed (u, p_e) system with its field split (petsc_solve.cpp).
-    if (!sad_elem_.empty() && !distributed_) {  // (distributed: the element loop fills the pressures)
-      if (first_factorization_) petsc_->set_mixed(sad_off_, sad_eq_);
-      saddle_current();
-      petsc_->set_mixed_tangent(sad_db_, sad_cb_);
+  // factor_stale_ also carries the Newton iteration's refresh rules (solver.cpp, newton_correction): a
+  // new preconditioner at the first iteration of an extrapolated step and while the residual does not halve.
+  if (!factor_valid_ || factor_stale_ || (factor_version_ != k_version_ && !petsc_reuse_pays()))
+    petsc_set_operator(true);
+  else if (petsc_operator_version_ != k_version_)
+    petsc_set_operator(false);
+  for (;;) {
+    const bool lagged = factor_version_ != k_version_;
+    // A lagged preconditioner may spend the iterations a new one would save, no more.
+    const int budget = lagged ? petsc_fresh_iterations_ +
+                                    std::clamp(int(petsc_setup_time_ / petsc_iteration_time_), 10, 200)
+                              : 0;
+    const auto t0 = std::chrono::steady_clock::now();
+    const KrylovOutcome o = petsc_->solve(b, x, tol, budget);
+    const double t = petsc_->max_over_ranks(seconds_since(t0));  // every rank takes the same decisions
+    stats_.krylov_iterations += o.iterations;
+    if (o.iterations > 0) {
+      const double per = t / o.iterations;
+      petsc_iteration_time_ = petsc_iteration_time_ > 0.0 ? 0.7 * petsc_iteration_time_ + 0.3 * per : per;
     }
-    petsc_->factorize(K_);
-    factor_valid_ = true;
-    factor_version_ = k_version_;
-    if (first_factorization_)
-      note_once("petsc", "linear solver: petsc (" + petsc_->description() + ", rigid-body near-nullspace) on " +
-                             std::to_string(petsc_->ranks()) + " MPI rank(s)");
-    first_factorization_ = false;
+    if (options_.verbose)
+      std::cerr << "      petsc " << o.iterations << " its, |r|/|b| = " << o.relative_residual << " (" << o.reason << ", "
+                << (lagged ? "lagged" : "fresh") << " preconditioner)\n";
+    if (o.converged) {
+      if (!lagged) {
+        petsc_fresh_iterations_ = o.iterations;
+      } else {
+        petsc_lag_failures_ = 0;
+        // Refreshed at the next tangent once its extra iterations cost 3/4 of a set-up (the direct path's rule).
+        if ((o.iterations - petsc_fresh_iterations_) * petsc_iteration_time_ > 0.75 * petsc_setup_time_) factor_stale_ = true;
+      }
+      return true;
+    }
+    if (!lagged) {
+      why = "linear solver: PETSc " + petsc_->description() + " did not converge in " + std::to_string(o.iterations) +
+            " iterations (" + o.reason + ", |r|/|b| = " + format_number(o.relative_residual) + ")";
+      return false;
+    }
+    // The tangent moved too far from the preconditioner's: a new one, and the solve again.
+    ++petsc_lag_failures_;
+    if (options_.verbose) std::cerr << "      lagged preconditioner failed: rebuild\n";
+    petsc_set_operator(true);
   }
-  const KrylovOutcome o = petsc_->solve(b, x, tol);
-  stats_.krylov_iterations += o.iterations;
-  if (options_.verbose)
-    std::cerr << "      petsc " << o.iterations << " its, |r|/|b| = " << o.relative_residual << " (" << o.reason << ")\n";
-  if (!o.converged) {
-    why = "linear solver: PETSc " + petsc_->description() + " did not converge in " + std::to_string(o.iterations) +
-          " iterations (" + o.reason + ", |r|/|b| = " + format_number(o.relative_residual) + ")";
-    return false;
-  }
-  return true;
 }
 
 }  // namespace softhom::fe

@@ -44,7 +44,10 @@ constexpr const char* kSplitDefaults =
     "-fieldsplit_u_pc_hypre_boomeramg_coarsen_type HMIS -fieldsplit_u_pc_hypre_boomeramg_strong_threshold 0.7 "
     "-fieldsplit_u_pc_hypre_boomeramg_interp_type ext+i -fieldsplit_u_pc_hypre_boomeramg_P_max 4 "
     "-fieldsplit_u_pc_hypre_boomeramg_agg_nl 1 "
-    "-fieldsplit_p_ksp_type preonly -fieldsplit_p_pc_type jacobi";
+    "-fieldsplit_p_ksp_type preonly -fieldsplit_p_pc_type jacobi "
+    // MUMPS (-pc_factor_mat_solver_type mumps, the default under cavity control) ordered by METIS: on the
+    // 5.3e4-dof tube 25 % less factorization time than MUMPS's automatic choice (BENCHMARKS.md).
+    "-mat_mumps_icntl_7 5";
 
 /// Sums the entries of repeated columns of one row (INSERT_VALUES keeps only the last of them): a
 /// degenerate hex (a wedge, two corners on one node, as in the tube's cap core) has its coupling to the
@@ -146,6 +149,18 @@ struct PetscSolver::Data {
   const Mesh* mesh = nullptr;
   bool distributed = false, mixed_rows = false, diagonal_known = false;
   std::vector<PetscInt> urow, prow, owned_dofs;
+  // One process, one AIJ matrix (MUMPS, ILU, ...): once the first fill has fixed the pattern, the
+  // elements' displacement blocks are added straight into the CSR values (build_direct_fill) instead of
+  // through MatSetValues, whose per-entry search doubled the element loop of the CSC path. Per element
+  // from pair_start[e], per node pair (a, b): the position of node b's first free column in the rows of
+  // node a relative to their starts (all free rows of a node have one column set), −1 if either node
+  // has no free dof; `free_rank` numbers each node's free components.
+  bool direct_fill = false;
+  std::vector<std::int64_t> pair_start;
+  std::vector<int> pair_offset;
+  std::vector<std::array<signed char, 3>> free_rank;
+  std::vector<PetscInt> csr_rows;  // row starts of the CSR values (a copy: the pattern is fixed)
+  PetscScalar* csr_values = nullptr;
   std::vector<int> node_owner;
   // Distributed augmented split: the owned three-field elements of this fill, their distinct free rows
   // and the sums s of d over each (degenerate hexes repeat a node), finished in end_fill once diag(A)
@@ -328,7 +343,10 @@ void PetscSolver::create_system() {
   char pc_type[64] = "";
   PetscBool pc_set = PETSC_FALSE;
   PetscOptionsGetString(nullptr, nullptr, "-pc_type", pc_type, sizeof pc_type, &pc_set);
-  if (pc_set && std::string(pc_type) != PCFIELDSPLIT) use_nest = PETSC_FALSE;
+  // Another preconditioner also has no use for the split's augmentation (a second fill of the element
+  // blocks at every tangent: half of the one-process fill time on the tube with MUMPS).
+  const bool field_split = !pc_set || std::string(pc_type) == PCFIELDSPLIT;
+  if (!field_split) use_nest = PETSC_FALSE;
   if (!d.dnz_p.empty() && use_nest) {
     std::vector<PetscInt> nu_of(d.size);
     PetscInt mine = nu;
@@ -376,7 +394,7 @@ void PetscSolver::create_system() {
   check(KSPSetTolerances(d.ksp, 1e-8, 1e-300, PETSC_DEFAULT, 2000), "KSPSetTolerances");
   PC pc;
   check(KSPGetPC(d.ksp, &pc), "KSPGetPC");
-  if (saddle) {
+  if (saddle && field_split) {
     std::vector<PetscInt> iu(nu), ip(d.phi - d.plo);
     for (PetscInt i = 0; i < nu; ++i) iu[i] = d.first[d.rank] + i;
     for (PetscInt i = 0; i < d.phi - d.plo; ++i) ip[i] = d.first[d.rank] + nu + i;
@@ -429,14 +447,31 @@ bool PetscSolver::factorize(const CscMatrix& K) {
   Data& d = *d_;
   // Distributed: the element loop has filled the matrix (begin_fill .. end_fill).
   if (!d.distributed) copy_tangent(K);
+  check(KSPSetReusePreconditioner(d.ksp, PETSC_FALSE), "KSPSetReusePreconditioner");
   check(KSPSetOperators(d.ksp, d.A, d.A), "KSPSetOperators");
-  // The multigrid hierarchy of this tangent now (its cost is the "factorization" of this solver).
+  // The multigrid hierarchy or factor of this tangent now (its cost is the "factorization" of this solver).
   check(KSPSetUp(d.ksp), "KSPSetUp");
   times_.factorization += seconds_since(t0);
   ++times_.factorizations;
   times_.factor_nnz = 0.0;
   if (times_.factorizations == 1) account_matrices();
   return true;
+}
+
+void PetscSolver::update_operator(const CscMatrix& K) {
+  Data& d = *d_;
+  const auto t0 = std::chrono::steady_clock::now();
+  if (!d.distributed) copy_tangent(K);
+  // The operator changes, the preconditioner's own data (hypre's copy and hierarchy, MUMPS's factor,
+  // the field split's blocks) stay those of the tangent last set up.
+  check(KSPSetReusePreconditioner(d.ksp, PETSC_TRUE), "KSPSetReusePreconditioner");
+  check(KSPSetOperators(d.ksp, d.A, d.A), "KSPSetOperators");
+  times_.solve += seconds_since(t0);
+}
+
+double PetscSolver::max_over_ranks(double value) const {
+  if (d_->size > 1) MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_MAX, d_->comm);
+  return value;
 }
 
 PetscMatrixBytes petsc_last_matrix_bytes() { return g_matrix_bytes; }
@@ -556,7 +591,7 @@ void PetscSolver::solve(const std::vector<double>& b, std::vector<double>& x) {
   if (!o.converged) throw std::runtime_error("PETSc: the linear solve did not converge (" + o.reason + ")");
 }
 
-KrylovOutcome PetscSolver::solve(const std::vector<double>& b, std::vector<double>& x, double rtol) {
+KrylovOutcome PetscSolver::solve(const std::vector<double>& b, std::vector<double>& x, double rtol, int max_iterations) {
   const auto t0 = std::chrono::steady_clock::now();
   Data& d = *d_;
   const std::vector<int>& eq = d.dofs->eq;
@@ -572,8 +607,10 @@ KrylovOutcome PetscSolver::solve(const std::vector<double>& b, std::vector<doubl
   PetscInt maxit;
   PetscReal r0, a0, dt0;
   KSPGetTolerances(d.ksp, &r0, &a0, &dt0, &maxit);
-  check(KSPSetTolerances(d.ksp, rtol, 1e-300, PETSC_DEFAULT, maxit), "KSPSetTolerances");
+  check(KSPSetTolerances(d.ksp, rtol, 1e-300, PETSC_DEFAULT, max_iterations > 0 ? std::min<PetscInt>(maxit, max_iterations) : maxit),
+        "KSPSetTolerances");
   check(KSPSolve(d.ksp, d.b, d.x), "KSPSolve");
+  check(KSPSetTolerances(d.ksp, r0, a0, dt0, maxit), "KSPSetTolerances");
   KrylovOutcome o;
   KSPConvergedReason reason;
   KSPGetConvergedReason(d.ksp, &reason);
@@ -699,9 +736,76 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
 bool PetscSolver::distributed() const { return d_->distributed; }
 
 void PetscSolver::begin_fill() {
-  if (d_->nest) d_->nest->zero();
-  else check(MatZeroEntries(d_->A), "MatZeroEntries");
-  d_->pending.clear();
+  Data& d = *d_;
+  if (d.nest) d.nest->zero();
+  else check(MatZeroEntries(d.A), "MatZeroEntries");
+  d.pending.clear();
+  if (d.direct_fill) check(MatSeqAIJGetArray(d.A, &d.csr_values), "MatSeqAIJGetArray");
+}
+
+void PetscSolver::build_direct_fill() {
+  Data& d = *d_;
+  MatType type = nullptr;
+  check(MatGetType(d.A, &type), "MatGetType");
+  if (d.size != 1 || d.nest || std::string(type) != MATSEQAIJ) return;
+  PetscInt n = 0;
+  const PetscInt *ia = nullptr, *ja = nullptr;
+  PetscBool done = PETSC_FALSE;
+  check(MatGetRowIJ(d.A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done), "MatGetRowIJ");
+  if (!done) return;
+  const std::vector<int>& eq = d.dofs->eq;
+  const Mesh& mesh = *d.mesh;
+  d.free_rank.assign(mesh.num_nodes(), {-1, -1, -1});
+  for (int k = 0; k < mesh.num_nodes(); ++k) {
+    signed char r = 0;
+    for (int i = 0; i < 3; ++i)
+      if (eq[3 * k + i] >= 0) d.free_rank[k][i] = r++;
+  }
+  auto first_free = [&](int node) {
+    for (int i = 0; i < 3; ++i)
+      if (eq[3 * node + i] >= 0) return d.urow[3 * node + i];
+    return PetscInt(-1);
+  };
+  d.pair_start.assign(mesh.num_elements() + 1, 0);
+  for (int e = 0; e < mesh.num_elements(); ++e)
+    d.pair_start[e + 1] = d.pair_start[e] + std::int64_t(mesh.element_size(e)) * mesh.element_size(e);
+  d.pair_offset.assign(d.pair_start.back(), -1);
+  bool complete = true;
+  for (int e = 0; e < mesh.num_elements() && complete; ++e) {
+    const int nn = mesh.element_size(e);
+    const int* nodes = mesh.element_nodes(e);
+    for (int a = 0; a < nn && complete; ++a) {
+      const PetscInt row = first_free(nodes[a]);
+      if (row < 0) continue;
+      for (int b = 0; b < nn; ++b) {
+        const PetscInt col = first_free(nodes[b]);
+        if (col < 0) continue;
+        const PetscInt* at = std::lower_bound(ja + ia[row], ja + ia[row + 1], col);
+        if (at == ja + ia[row + 1] || *at != col) {
+          complete = false;  // not in the pattern: keep MatSetValues
+          break;
+        }
+        const int offset = int(at - (ja + ia[row]));
+        // Every free row of node a holds node b's free columns at that offset, in component order.
+        for (int i = 0; i < 3 && complete; ++i) {
+          if (eq[3 * nodes[a] + i] < 0) continue;
+          const PetscInt r = d.urow[3 * nodes[a] + i];
+          for (int j = 0; j < 3 && complete; ++j) {
+            const int q = d.free_rank[nodes[b]][j];
+            complete = q < 0 || (ia[r] + offset + q < ia[r + 1] && ja[ia[r] + offset + q] == d.urow[3 * nodes[b] + j]);
+          }
+        }
+        d.pair_offset[d.pair_start[e] + nn * a + b] = offset;
+      }
+    }
+  }
+  if (complete) d.csr_rows.assign(ia, ia + n + 1);
+  d.direct_fill = complete;
+  check(MatRestoreRowIJ(d.A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done), "MatRestoreRowIJ");
+  if (!complete) {
+    std::vector<std::int64_t>().swap(d.pair_start);
+    std::vector<int>().swap(d.pair_offset);
+  }
 }
 
 void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke, const double* dk, double c) {
@@ -718,11 +822,31 @@ void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke,
     rows[nf++] = d.urow[g];
   }
   if (nf == 0) return;
+  // Ascending rows and columns: PETSc's row insertion then finds each column by a forward search from
+  // the previous one instead of a new bisection (the one-process fill took 2x the CSC scatter's time).
+  for (int i = 1; i < nf; ++i)
+    for (int j = i; j > 0 && rows[j - 1] > rows[j]; --j) {
+      std::swap(rows[j - 1], rows[j]);
+      std::swap(pos[j - 1], pos[j]);
+    }
   std::array<PetscScalar, 31 * 31> v;  // row-major, PETSc's default orientation
-  for (int i = 0; i < nf; ++i)
-    for (int j = 0; j < nf; ++j)
-      v[i * nf + j] = Ke[pos[i] + nd * pos[j]] - (dk ? c * dk[pos[i]] * dk[pos[j]] : 0.0);
-  d.set_values(nf, rows.data(), nf, rows.data(), v.data(), ADD_VALUES);
+  if (d.direct_fill) {
+    const int* pair = d.pair_offset.data() + d.pair_start[e];
+    for (int i = 0; i < nf; ++i) {
+      const int a = pos[i] / 3;
+      PetscScalar* row = d.csr_values + d.csr_rows[rows[i]];
+      for (int j = 0; j < nf; ++j) {
+        const int b = pos[j] / 3;
+        row[pair[nn * a + b] + d.free_rank[nodes[b]][pos[j] % 3]] +=
+            Ke[pos[i] + nd * pos[j]] - (dk ? c * dk[pos[i]] * dk[pos[j]] : 0.0);
+      }
+    }
+  } else {
+    for (int i = 0; i < nf; ++i)
+      for (int j = 0; j < nf; ++j)
+        v[i * nf + j] = Ke[pos[i] + nd * pos[j]] - (dk ? c * dk[pos[i]] * dk[pos[j]] : 0.0);
+    d.set_values(nf, rows.data(), nf, rows.data(), v.data(), ADD_VALUES);
+  }
   if (!dk) return;
   double s = 0.0;
   for (int i = 0; i < nf; ++i) s += dk[pos[i]] * dk[pos[i]];
@@ -822,6 +946,10 @@ void PetscSolver::add_entry(int row_dof, int col_dof, double v) {
 void PetscSolver::end_fill() {
   Data& d = *d_;
   const std::vector<int>& eq = d.dofs->eq;
+  if (d.csr_values) {
+    check(MatSeqAIJRestoreArray(d.A, &d.csr_values), "MatSeqAIJRestoreArray");
+    d.csr_values = nullptr;
+  }
   auto add_dirichlet = [&](double value) {
     for (PetscInt g : d.owned_dofs)
       if (eq[g] < 0) d.set_values(1, &d.urow[g], 1, &d.urow[g], &value, ADD_VALUES);
@@ -841,6 +969,7 @@ void PetscSolver::end_fill() {
   check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
   check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
   if (d.schur_pre) finish_augmented_split();
+  build_direct_fill();  // the pattern is complete now
 }
 
 }  // namespace softhom::fe

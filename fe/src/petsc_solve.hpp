@@ -45,13 +45,17 @@ class PetscSolver final : public LinearSolver {
   void set_mixed_tangent(const std::vector<double>& d, const std::vector<double>& c);
   /// Distributed matrix with the pattern of A (free dofs) plus the identity rows; near-nullspace.
   void analyze(const CscMatrix& A) override;
-  /// Copies the values of A into the distributed matrix; the preconditioner is rebuilt at the next solve.
+  /// Copies the values of A into the distributed matrix and builds the preconditioner of this tangent
+  /// (its seconds: times().factorization).
   bool factorize(const CscMatrix& A) override;
+  /// Copies the values of A into the distributed matrix (distributed: the element loop has) and keeps
+  /// the preconditioner of an earlier tangent: GMRES then solves this tangent with the lagged one.
+  void update_operator(const CscMatrix& A);
   /// Solve to relative residual 1e-12.
   void solve(const std::vector<double>& b, std::vector<double>& x) override;
   /// x = A⁻¹ b on the free dofs (replicated on every rank) to relative residual `rtol` (or the tighter
-  /// -ksp_rtol of the options).
-  KrylovOutcome solve(const std::vector<double>& b, std::vector<double>& x, double rtol);
+  /// -ksp_rtol of the options) in at most `max_iterations` (0: the options' limit).
+  KrylovOutcome solve(const std::vector<double>& b, std::vector<double>& x, double rtol, int max_iterations = 0);
   SolverKind kind() const override { return SolverKind::petsc; }
   double reciprocal_condition() const override { return 1.0; }
   /// Distributed assembly (the petsc path under MPI, replacing analyze / factorize's copy of A): rank r
@@ -76,8 +80,13 @@ class PetscSolver final : public LinearSolver {
   /// The prescribed rows' identity (scaled to the mean free diagonal of the first tangent) and the
   /// assembly of the off-rank contributions.
   void end_fill();
+  /// After the first fill of a one-process AIJ system: the element blocks' positions in its CSR values.
+  void build_direct_fill();
   /// Ranks sharing the system.
   int ranks() const;
+  /// The largest of `value` over the ranks (collective): decisions taken from measured times must be
+  /// the same on every rank, or the ranks part ways at the next collective set-up.
+  double max_over_ranks(double value) const;
   /// The Krylov method and preconditioner in use, e.g. "gmres + gamg".
   std::string description() const;
 

@@ -151,8 +151,13 @@ struct Simulation::Impl {
   /// elements with a lagged factor); refactorizes and retries once.
   bool krylov_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why);
   bool refactor(std::string& why);
-  /// The petsc solver's solve (petsc_solve.cpp): a new preconditioner for every new tangent, GMRES to `tol`.
+  /// The petsc solver's solve (petsc_linear_solve.cpp): GMRES to `tol` with the preconditioner of this
+  /// tangent or, where reuse pays, a lagged one (rebuilt and solved again when it fails).
   bool petsc_linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why);
+  /// The current tangent into PETSc's operator, with a new preconditioner or keeping the last one.
+  void petsc_set_operator(bool new_preconditioner);
+  /// A lagged preconditioner can save more than it costs: its set-up is a large part of a solve.
+  bool petsc_reuse_pays() const;
   void saddle_current();  ///< fills sad_db_, sad_cb_ from the last tangent assembly
   void mixed_update(const std::vector<double>& du, double alpha);
   /// The uncondensed Krylov space is in use: three-field elements and factors large enough to be lagged.
@@ -191,6 +196,12 @@ struct Simulation::Impl {
   long k_version_ = 0, factor_version_ = -1;  ///< tangent assemblies; the one last factorized
   double last_factor_time_ = 0.0, last_factor_flops_ = 0.0;
   double iteration_time_ = 0.0;                  ///< running mean cost of one GMRES iteration [s]
+  // The petsc path's preconditioner reuse (petsc_linear_solve.cpp): the tangent in PETSc's operator, the
+  // last set-up's seconds, a GMRES iteration's (running mean), the last fresh solve's iterations and the
+  // consecutive failed lagged solves (two stop the reuse until the step is done).
+  long petsc_operator_version_ = -1;
+  double petsc_setup_time_ = 0.0, petsc_iteration_time_ = 0.0;
+  int petsc_fresh_iterations_ = 0, petsc_lag_failures_ = 0;
   krylov::GmresWorkspace<std::vector<double>> krylov_;  ///< GMRES basis, M⁻¹ of it, condensed residuals; kept between solves
   // Uncondensed (u, p_e) Krylov space of the three-field iteration (linear_solve): per mixed element k,
   // its element number, the free equation of each element dof (−1 fixed) at sad_off_[k] .. sad_off_[k+1],

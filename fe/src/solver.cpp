@@ -684,6 +684,7 @@ AdvanceResult Simulation::Impl::advance_to(double t_end) {
     time_ = t_new;
     last_dt_ = dt;
     ++stats_.steps;
+    petsc_lag_failures_ = 0;  // the petsc path tries a lagged preconditioner again in the next step
     last_step_ = attempt_counts_;
     result.counts += attempt_counts_;
   };

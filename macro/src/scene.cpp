@@ -247,6 +247,8 @@ const KeyTable<fe::NewtonOptions>& newton_table() {
                 "algebraic multigrid over MPI ranks); auto: cholmod (petsc is faster at no measured size yet)")
         .text("petsc_options", &O::petsc_options,
               "PETSc options database entries for the petsc solver, e.g. \"-ksp_rtol 1e-10 -pc_type hypre\"")
+        .flag("reuse_preconditioner", &O::reuse_preconditioner,
+              "petsc: keep the preconditioner of an earlier tangent where its set-up outweighs its solve (a factorization, e.g. \"-pc_type lu -pc_factor_mat_solver_type mumps\"), while GMRES with it costs less than a new one")
         .flag("verbose", &O::verbose, "Newton iteration log on stderr");
     return k;
   }();

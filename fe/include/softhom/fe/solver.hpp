@@ -44,6 +44,10 @@ struct NewtonOptions {
   /// (BENCHMARKS.md "Macro solver on PETSc": on the 3D tube at 1.6e4 dofs the field split is still
   /// several times slower per Newton iteration), so auto stays with CHOLMOD.
   int petsc_min_dofs = 2147483647;
+  /// petsc: keep a preconditioner whose set-up costs more than a quarter of its solve (a factorization,
+  /// e.g. MUMPS's LU; a multigrid hierarchy costs less) across tangents while GMRES with it costs less
+  /// than a new one, with the refresh rules of the CHOLMOD path's lagged factor.
+  bool reuse_preconditioner = true;
   /// Options for PETSc's options database (PetscOptionsInsertString), e.g. "-ksp_type fgmres -pc_type hypre".
   std::string petsc_options;
   bool mixed = true;          ///< three-field (u, θ, p) iteration for laws with a volumetric modulus
