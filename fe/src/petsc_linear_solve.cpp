@@ -14,9 +14,10 @@ using namespace detail;
 
 bool Simulation::Impl::petsc_reuse_pays() const {
   // Reuse saves at most one set-up and costs the extra GMRES iterations of a lagged preconditioner. A
-  // multigrid hierarchy costs 5–15 % of its solve (tube, cPASMO: BENCHMARKS.md) and a lagged one cost
-  // up to 5x the iterations at K/G ~ 1e5: never kept. A factorization costs tens to hundreds of its
-  // one-iteration solves, and a lagged one needs a few to twenty iterations, as the direct path's.
+  // multigrid hierarchy costs 5–15 % of its solve (tube, cPASMO: BENCHMARKS.md), below the threshold,
+  // and a lagged one cost up to 5x the iterations at K/G ~ 1e5, so it is rebuilt per tangent. A
+  // factorization costs tens to hundreds of its one-iteration solves, and a lagged one needs a few to
+  // twenty iterations, as the direct path's.
   return options_.reuse_preconditioner && petsc_lag_failures_ < 2 && petsc_iteration_time_ > 0.0 &&
          petsc_setup_time_ > 0.25 * std::max(1, petsc_fresh_iterations_) * petsc_iteration_time_;
 }
