@@ -1,4 +1,5 @@
 #include "petsc_nest.hpp"
+#include "petsc_check.hpp"
 
 #include <algorithm>
 #include <stdexcept>
@@ -7,9 +8,7 @@
 namespace softhom::fe {
 namespace {
 
-void check(PetscErrorCode code, const char* what) {
-  if (code != 0) throw std::runtime_error(std::string("PETSc: ") + what + " failed (error " + std::to_string(int(code)) + ")");
-}
+constexpr auto check = petsc_check;
 
 }  // namespace
 

@@ -95,6 +95,9 @@ class PetscSolver final : public LinearSolver {
   std::unique_ptr<Data> d_;
   /// Matrix (with Data::dnz, onz), vectors, near-nullspace and Krylov solver of the layout in Data.
   void create_system();
+  /// -softhom_pmg: the interpolation of the displacement block's two-level multigrid, once the field
+  /// split has set up its sub-solvers (petsc_p_multigrid.hpp).
+  void attach_p_multigrid();
   /// The one-process path: the owned rows of the replicated tangent K (uncondensed for three-field
   /// elements) into the PETSc matrix.
   void copy_tangent(const CscMatrix& K);

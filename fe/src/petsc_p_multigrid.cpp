@@ -1,0 +1,78 @@
+#include "petsc_p_multigrid.hpp"
+
+#include <array>
+
+#include "petsc_check.hpp"
+#include "softhom/fe/tet10.hpp"
+
+namespace softhom::fe {
+
+Mat p_multigrid_interpolation(MPI_Comm comm, int rank, const Mesh& mesh, const std::vector<int>& eq,
+                              const std::vector<int>& node_owner) {
+  const int nn = mesh.num_nodes();
+  int ranks = 1;
+  MPI_Comm_size(comm, &ranks);
+  // Every node's P1 parents: itself for a vertex (a tet corner or any hex node), the two ends of its
+  // edge for a mid-edge node. Mesh and owners are replicated: every rank computes the same numbering.
+  constexpr int kNone = -1;
+  std::vector<std::array<int, 2>> parents(std::size_t(nn), {kNone, kNone});
+  std::vector<char> vertex(std::size_t(nn), 0);
+  for (const Hex& h : mesh.hexes)
+    for (int a : h) vertex[a] = 1;
+  for (const Tet10& t : mesh.tets)
+    for (int a = 0; a < 4; ++a) vertex[t[a]] = 1;
+  for (int n = 0; n < nn; ++n)
+    if (vertex[n]) parents[n] = {n, kNone};
+  for (const Tet10& t : mesh.tets)
+    for (int j = 0; j < 6; ++j) {
+      const int m = t[4 + j];
+      if (!vertex[m] && parents[m][0] == kNone) parents[m] = {t[kTet10Edges[j][0]], t[kTet10Edges[j][1]]};
+    }
+  // Row numbering (the displacement block's) and column numbering (free vertex components), rank by rank.
+  std::vector<PetscInt> rows_of(std::size_t(ranks) + 1, 0), cols_of(std::size_t(ranks) + 1, 0);
+  for (int n = 0; n < nn; ++n) {
+    rows_of[node_owner[n] + 1] += 3;
+    if (vertex[n])
+      for (int i = 0; i < 3; ++i) cols_of[node_owner[n] + 1] += eq[3 * n + i] >= 0;
+  }
+  for (int r = 0; r < ranks; ++r) {
+    rows_of[r + 1] += rows_of[r];
+    cols_of[r + 1] += cols_of[r];
+  }
+  std::vector<PetscInt> next_row(rows_of.begin(), rows_of.end() - 1), next_col(cols_of.begin(), cols_of.end() - 1);
+  std::vector<PetscInt> row(3 * std::size_t(nn), -1), col(3 * std::size_t(nn), -1);
+  for (int n = 0; n < nn; ++n)
+    for (int i = 0; i < 3; ++i) {
+      row[3 * n + i] = next_row[node_owner[n]]++;
+      if (vertex[n] && eq[3 * n + i] >= 0) col[3 * n + i] = next_col[node_owner[n]]++;
+    }
+  const PetscInt local_rows = rows_of[rank + 1] - rows_of[rank], local_cols = cols_of[rank + 1] - cols_of[rank];
+  auto local_col = [&](PetscInt c) { return c >= cols_of[rank] && c < cols_of[rank + 1]; };
+  std::vector<PetscInt> dnz(std::size_t(local_rows), 0), onz(std::size_t(local_rows), 0);
+  for (int n = 0; n < nn; ++n) {
+    if (node_owner[n] != rank) continue;
+    for (int i = 0; i < 3; ++i) {
+      if (eq[3 * n + i] < 0) continue;
+      for (int p : parents[n])
+        if (p != kNone && col[3 * p + i] >= 0) ++(local_col(col[3 * p + i]) ? dnz : onz)[row[3 * n + i] - rows_of[rank]];
+    }
+  }
+  Mat P = nullptr;
+  petsc_check(MatCreateAIJ(comm, local_rows, local_cols, PETSC_DETERMINE, PETSC_DETERMINE, 0, dnz.data(), 0, onz.data(), &P),
+              "MatCreateAIJ (p-multigrid interpolation)");
+  for (int n = 0; n < nn; ++n) {
+    if (node_owner[n] != rank) continue;
+    const double w = parents[n][1] == kNone ? 1.0 : 0.5;
+    for (int i = 0; i < 3; ++i) {
+      if (eq[3 * n + i] < 0) continue;
+      for (int p : parents[n])
+        if (p != kNone && col[3 * p + i] >= 0)
+          petsc_check(MatSetValue(P, row[3 * n + i], col[3 * p + i], w, INSERT_VALUES), "MatSetValue (p-multigrid)");
+    }
+  }
+  petsc_check(MatAssemblyBegin(P, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin (p-multigrid)");
+  petsc_check(MatAssemblyEnd(P, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd (p-multigrid)");
+  return P;
+}
+
+}  // namespace softhom::fe
