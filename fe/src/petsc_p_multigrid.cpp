@@ -47,29 +47,28 @@ Mat p_multigrid_interpolation(MPI_Comm comm, int rank, const Mesh& mesh, const s
       if (vertex[n] && eq[3 * n + i] >= 0) col[3 * n + i] = next_col[node_owner[n]]++;
     }
   const PetscInt local_rows = rows_of[rank + 1] - rows_of[rank], local_cols = cols_of[rank + 1] - cols_of[rank];
-  auto local_col = [&](PetscInt c) { return c >= cols_of[rank] && c < cols_of[rank + 1]; };
-  std::vector<PetscInt> dnz(std::size_t(local_rows), 0), onz(std::size_t(local_rows), 0);
-  for (int n = 0; n < nn; ++n) {
-    if (node_owner[n] != rank) continue;
-    for (int i = 0; i < 3; ++i) {
-      if (eq[3 * n + i] < 0) continue;
-      for (int p : parents[n])
-        if (p != kNone && col[3 * p + i] >= 0) ++(local_col(col[3 * p + i]) ? dnz : onz)[row[3 * n + i] - rows_of[rank]];
-    }
-  }
-  Mat P = nullptr;
-  petsc_check(MatCreateAIJ(comm, local_rows, local_cols, PETSC_DETERMINE, PETSC_DETERMINE, 0, dnz.data(), 0, onz.data(), &P),
-              "MatCreateAIJ (p-multigrid interpolation)");
+  // This rank's entries (row, column, weight), then the preallocation counted from them.
+  struct Entry {
+    PetscInt row, col;
+    double weight;
+  };
+  std::vector<Entry> entries;
   for (int n = 0; n < nn; ++n) {
     if (node_owner[n] != rank) continue;
     const double w = parents[n][1] == kNone ? 1.0 : 0.5;
-    for (int i = 0; i < 3; ++i) {
-      if (eq[3 * n + i] < 0) continue;
-      for (int p : parents[n])
-        if (p != kNone && col[3 * p + i] >= 0)
-          petsc_check(MatSetValue(P, row[3 * n + i], col[3 * p + i], w, INSERT_VALUES), "MatSetValue (p-multigrid)");
-    }
+    for (int i = 0; i < 3; ++i)
+      if (eq[3 * n + i] >= 0)
+        for (int p : parents[n])
+          if (p != kNone && col[3 * p + i] >= 0) entries.push_back({row[3 * n + i], col[3 * p + i], w});
   }
+  std::vector<PetscInt> dnz(std::size_t(local_rows), 0), onz(std::size_t(local_rows), 0);
+  for (const Entry& e : entries)
+    ++(e.col >= cols_of[rank] && e.col < cols_of[rank + 1] ? dnz : onz)[e.row - rows_of[rank]];
+  Mat P = nullptr;
+  petsc_check(MatCreateAIJ(comm, local_rows, local_cols, PETSC_DETERMINE, PETSC_DETERMINE, 0, dnz.data(), 0, onz.data(), &P),
+              "MatCreateAIJ (p-multigrid interpolation)");
+  for (const Entry& e : entries)
+    petsc_check(MatSetValue(P, e.row, e.col, e.weight, INSERT_VALUES), "MatSetValue (p-multigrid)");
   petsc_check(MatAssemblyBegin(P, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin (p-multigrid)");
   petsc_check(MatAssemblyEnd(P, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd (p-multigrid)");
   return P;
