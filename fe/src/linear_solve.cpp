@@ -349,7 +349,9 @@ void Simulation::Impl::saddle_current() {
     const bool tet = mesh.is_tet(e);
     const double* de = tet ? mix_d_tet_[e - mesh.num_hexes()].data() : mix_d_[e].data();
     std::copy(de, de + (sad_off_[k + 1] - sad_off_[k]), sad_db_.begin() + sad_off_[k]);
-    const double V = tet ? tet_geometry_[e - mesh.num_hexes()].volume : geometry_[e].volume;
+    Hex8Geometry hex_scratch;
+    Tet10Geometry tet_scratch;
+    const double V = tet ? tet_geometry(e, tet_scratch).volume : hex_geometry(e, hex_scratch).volume;
     sad_cb_[k] = V * volumetric_d2U(mix_bulk_[e], mix_theta_[e]);
   }
   sad_b_version_ = k_version_;

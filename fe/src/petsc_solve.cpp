@@ -52,14 +52,20 @@ constexpr const char* kSplitDefaults =
 /// kSplitDefaults and before the user's options again: the P1 Galerkin block gets the BoomerAMG settings
 /// of the P2 block above with Chebyshev relaxation (9 % less CPU than hybrid Gauss–Seidel for 3 % more
 /// GMRES iterations on the cPASMO 0.5 mesh), the P2 level one Chebyshev sweep on its diagonal before and
-/// after the coarse correction (two sweeps: 3 % fewer GMRES iterations for 1.4× the CPU time there).
+/// after the coarse correction (two sweeps: 3 % fewer GMRES iterations for 1.4× the CPU time there). The
+/// P1 block gets two V-cycles per application: the coarse solve is ≈ 1/6 of a displacement solve's cost,
+/// and a weak one is most of what makes the counts grow with the load (cPASMO 0.5 mesh, ten steps to 6
+/// kPa: the eighth step's first three solves take 57–65 GMRES iterations with one V-cycle, 44–56 with
+/// two, 36–48 with an exact (LU) coarse solve; over the ten steps 1650 instead of 1924 iterations and
+/// 0.93× KSPSolve's time, BENCHMARKS.md).
 constexpr const char* kPMultigridDefaults =
     "-fieldsplit_u_pc_type mg -fieldsplit_u_pc_mg_levels 2 -fieldsplit_u_pc_mg_galerkin both "
     "-fieldsplit_u_mg_levels_ksp_type chebyshev -fieldsplit_u_mg_levels_pc_type jacobi -fieldsplit_u_mg_levels_ksp_max_it 1 "
     "-fieldsplit_u_mg_coarse_ksp_type preonly -fieldsplit_u_mg_coarse_pc_type hypre -fieldsplit_u_mg_coarse_pc_hypre_type boomeramg "
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_coarsen_type HMIS -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_strong_threshold 0.7 "
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_interp_type ext+i -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_P_max 4 "
-    "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_agg_nl 1 -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_relax_type_all Chebyshev";
+    "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_agg_nl 1 -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_relax_type_all Chebyshev "
+    "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_max_iter 2";
 /// The augmentation under the p-multigrid: its P1 coarse space locks as the block's bulk part α G grows
 /// (one element dilatation per tet), so it wants a smaller α than BoomerAMG on the P2 block itself (10).
 /// Measured on the cPASMO 0.5 mesh (158 481 dofs, two load steps, GMRES iterations / CPU): α = 10:

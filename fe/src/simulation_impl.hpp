@@ -49,6 +49,15 @@ inline Tet10Coords gather(const std::vector<double>& u, const Tet10& tet) {
   return ue;
 }
 
+/// Reference coordinates of element e's N nodes, one row per node.
+template <int N>
+Eigen::Matrix<double, N, 3> element_coords(const Mesh& mesh, int e) {
+  Eigen::Matrix<double, N, 3> X;
+  const int* nodes = mesh.element_nodes(e);
+  for (int a = 0; a < N; ++a) X.row(a) = mesh.nodes[nodes[a]].transpose();
+  return X;
+}
+
 /// Gauss points per element (history blocks).
 inline int gauss_points(const Mesh& mesh, int e) { return mesh.is_tet(e) ? 4 : 8; }
 
@@ -211,8 +220,15 @@ struct Simulation::Impl {
   std::vector<double> sad_db_, sad_cb_, sad_da_, sad_ca_;
   bool sad_a_valid_ = false;
   long sad_b_version_ = -1;  ///< k_version_ of sad_db_, sad_cb_
+  // Gauss-point geometry of the elements this rank evaluates (all of them without distributed assembly):
+  // geometry_slot_[e] indexes geometry_ (hexes) or tet_geometry_ (tets), −1 for another rank's element,
+  // whose geometry is recomputed when asked for (outputs, the public element_force). At 1e6 dofs the
+  // replicated tet10 geometry was 0.3 GiB per rank.
+  std::vector<int> geometry_slot_;
   std::vector<Hex8Geometry> geometry_;
-  std::vector<Tet10Geometry> tet_geometry_;  ///< per tet (element e − num_hexes)
+  std::vector<Tet10Geometry> tet_geometry_;
+  const Hex8Geometry& hex_geometry(int e, Hex8Geometry& scratch) const;
+  const Tet10Geometry& tet_geometry(int e, Tet10Geometry& scratch) const;
   std::vector<std::vector<int>> colors_;  ///< element colours: no shared node within one colour
   std::vector<std::array<long, 64>> block_;  ///< per element, node pair (a, b): K position of (a_0, b_0), −1 if absent
   std::vector<std::array<long, 100>> tet_block_;  ///< the same per tet (10 × 10 node pairs)

@@ -63,23 +63,44 @@ void Simulation::Impl::build_dofs() {
 
 void Simulation::Impl::build_geometry() {
   const Mesh& mesh = model_.mesh;
-  geometry_.resize(mesh.num_hexes());
+  // Every element is checked (an inverted one is refused on every rank alike); only those this rank
+  // evaluates are kept.
+  geometry_slot_.assign(mesh.num_elements(), -1);
+  geometry_.clear();
+  tet_geometry_.clear();
   int bad = -1;
-  for (int e = 0; e < mesh.num_hexes(); ++e) {
-    Mat83 X;
-    for (int a = 0; a < 8; ++a) X.row(a) = mesh.nodes[mesh.hexes[e][a]].transpose();
-    geometry_[e] = hex8_geometry(X);
-    if (!geometry_[e].valid && bad < 0) bad = e;
-  }
-  tet_geometry_.resize(mesh.tets.size());
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-    Tet10Coords X;
-    for (int a = 0; a < 10; ++a) X.row(a) = mesh.nodes[mesh.tets[t][a]].transpose();
-    tet_geometry_[t] = tet10_geometry(X);
-    if (!tet_geometry_[t].valid && bad < 0) bad = mesh.num_hexes() + int(t);
+  for (int e = 0; e < mesh.num_elements(); ++e) {
+    bool valid = false;
+    if (mesh.is_tet(e)) {
+      const Tet10Geometry g = tet10_geometry(element_coords<10>(mesh, e));
+      valid = g.valid;
+      if (owns(e)) {
+        geometry_slot_[e] = int(tet_geometry_.size());
+        tet_geometry_.push_back(g);
+      }
+    } else {
+      const Hex8Geometry g = hex8_geometry(element_coords<8>(mesh, e));
+      valid = g.valid;
+      if (owns(e)) {
+        geometry_slot_[e] = int(geometry_.size());
+        geometry_.push_back(g);
+      }
+    }
+    if (!valid && bad < 0) bad = e;
   }
   if (bad >= 0) throw InputError("mesh", "element " + std::to_string(bad), "non-positive Jacobian at a Gauss point");
+}
 
+const Hex8Geometry& Simulation::Impl::hex_geometry(int e, Hex8Geometry& scratch) const {
+  if (geometry_slot_[e] >= 0) return geometry_[geometry_slot_[e]];
+  scratch = hex8_geometry(element_coords<8>(model_.mesh, e));
+  return scratch;
+}
+
+const Tet10Geometry& Simulation::Impl::tet_geometry(int e, Tet10Geometry& scratch) const {
+  if (geometry_slot_[e] >= 0) return tet_geometry_[geometry_slot_[e]];
+  scratch = tet10_geometry(element_coords<10>(model_.mesh, e));
+  return scratch;
 }
 
 void Simulation::Impl::build_history() {
@@ -241,7 +262,8 @@ void Simulation::Impl::build_mixed() {
 MaterialStatus Simulation::Impl::element_force(int e, const Tet10Coords& u, Vec30& r, Mat30* K) const {
   const int off = state_offset_[e];
   std::vector<double> scratch(off >= 0 ? 4 * model_.element_material[e]->state_size() : 0);
-  return tet10_internal_force(tet_geometry_[e - model_.mesh.num_hexes()], u, *model_.element_material[e],
+  Tet10Geometry scratch_geometry;
+  return tet10_internal_force(tet_geometry(e, scratch_geometry), u, *model_.element_material[e],
                               off >= 0 ? state_old_.data() + off : nullptr, off >= 0 ? scratch.data() : nullptr,
                               last_dt_, model_.formulation, r, K);
 }
@@ -249,7 +271,8 @@ MaterialStatus Simulation::Impl::element_force(int e, const Tet10Coords& u, Vec3
 MaterialStatus Simulation::Impl::element_force(int e, const Mat83& u, Vec24& r, Mat24* K) const {
   const int off = state_offset_[e];
   std::vector<double> scratch(off >= 0 ? 8 * model_.element_material[e]->state_size() : 0);
-  return hex8_internal_force(geometry_[e], u, *model_.element_material[e], off >= 0 ? state_old_.data() + off : nullptr,
+  Hex8Geometry scratch_geometry;
+  return hex8_internal_force(hex_geometry(e, scratch_geometry), u, *model_.element_material[e], off >= 0 ? state_old_.data() + off : nullptr,
                              off >= 0 ? scratch.data() : nullptr, last_dt_, model_.formulation, r, K);
 }
 
@@ -774,15 +797,19 @@ ElementFields Simulation::Impl::element_fields() const {
     Mat3 Fmean = Mat3::Zero();
     if (mesh.is_tet(e)) {
       const int t = e - mesh.num_hexes();
-      const Tet10Kinematics k = tet10_kinematics(tet_geometry_[t], gather(u_, mesh.tets[t]), model_.formulation);
+      Tet10Geometry scratch;
+      const Tet10Geometry& g = tet_geometry(e, scratch);
+      const Tet10Kinematics k = tet10_kinematics(g, gather(u_, mesh.tets[t]), model_.formulation);
       if (!k.ok) continue;
       f.J[e] = k.theta;
-      for (int q = 0; q < 4; ++q) Fmean += (tet_geometry_[t].w[q] / tet_geometry_[t].volume) * k.F[q];
+      for (int q = 0; q < 4; ++q) Fmean += (g.w[q] / g.volume) * k.F[q];
     } else {
-      const Hex8Kinematics k = hex8_kinematics(geometry_[e], gather(u_, mesh.hexes[e]), model_.formulation);
+      Hex8Geometry scratch;
+      const Hex8Geometry& g = hex_geometry(e, scratch);
+      const Hex8Kinematics k = hex8_kinematics(g, gather(u_, mesh.hexes[e]), model_.formulation);
       if (!k.ok) continue;
       f.J[e] = k.theta;
-      for (int q = 0; q < 8; ++q) Fmean += (geometry_[e].w[q] / geometry_[e].volume) * k.F[q];
+      for (int q = 0; q < 8; ++q) Fmean += (g.w[q] / g.volume) * k.F[q];
     }
     const Material& m = *model_.element_material[e];
     Mat3 sigma = Mat3::Zero();
