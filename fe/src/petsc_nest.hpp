@@ -29,6 +29,12 @@ class NestedSaddleMatrix {
   Mat block(int i, int j) const { return blocks_[2 * i + j]; }
   /// MatSetValues of an nr × nc row-major array in the whole system's numbering.
   void add(PetscInt nr, const PetscInt* rows, PetscInt nc, const PetscInt* cols, const PetscScalar* v, InsertMode mode);
+  /// The index of row (or column) g of the whole system in its block's rows (columns).
+  PetscInt block_index(PetscInt g) const {
+    PetscInt b = 0;
+    is_pressure(g, b);
+    return b;
+  }
   void zero();
   void assemble();
   /// Bytes of the four blocks' entries on this rank: allocated entries (PETSc's MatGetInfo) × (value +

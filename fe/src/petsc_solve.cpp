@@ -2,6 +2,7 @@
 // near-nullspace, and PETSc's life cycle.
 #include "petsc_solve.hpp"
 #include "petsc_check.hpp"
+#include "petsc_direct_fill.hpp"
 #include "petsc_nest.hpp"
 #include "petsc_p_multigrid.hpp"
 #include "petsc_saddle_split.hpp"
@@ -172,18 +173,35 @@ struct PetscSolver::Data {
   const Mesh* mesh = nullptr;
   bool distributed = false, mixed_rows = false, diagonal_known = false;
   std::vector<PetscInt> urow, prow, owned_dofs;
-  // One process, one AIJ matrix (MUMPS, ILU, ...): once the first fill has fixed the pattern, the
-  // elements' displacement blocks are added straight into the CSR values (build_direct_fill) instead of
-  // through MatSetValues, whose per-entry search doubled the element loop of the CSC path. Per element
-  // from pair_start[e], per node pair (a, b): the position of node b's first free column in the rows of
-  // node a relative to their starts (all free rows of a node have one column set), −1 if either node
-  // has no free dof; `free_rank` numbers each node's free components.
-  bool direct_fill = false;
-  std::vector<std::int64_t> pair_start;
-  std::vector<int> pair_offset;
-  std::vector<std::array<signed char, 3>> free_rank;
-  std::vector<PetscInt> csr_rows;  // row starts of the CSR values (a copy: the pattern is fixed)
-  PetscScalar* csr_values = nullptr;
+  // Once the first fill has fixed the pattern, the displacement rows of the elements (and of the
+  // augmentation) go straight into the CSR values of the matrix holding them (the nest's u block, or
+  // the one AIJ matrix) instead of through MatSetValues (petsc_direct_fill.hpp).
+  bool pattern_final = false;
+  std::array<DirectFill, 4> fills;  // the nest's blocks (i, j) at 2i + j; the one AIJ matrix at 0
+  void begin_direct_fill() {
+    if (!pattern_final) return;
+    if (!nest) fills[0].begin(A);
+    else
+      for (int k = 0; k < 4; ++k) fills[k].begin(nest->block(k / 2, k % 2));
+  }
+  void end_direct_fill() {
+    for (DirectFill& f : fills) f.end();
+  }
+  /// The nr × nc row-major block v at rows × cols of the system, each set all displacements or all
+  /// pressures (p_rows, p_cols): into the values directly during a fill of the final pattern.
+  void add_block(bool p_rows, int nr, const PetscInt* rows, bool p_cols, int nc, const PetscInt* cols, const PetscScalar* v) {
+    if (!fills[0].active()) {
+      set_values(nr, rows, nc, cols, v, ADD_VALUES);
+    } else if (!nest) {
+      fills[0].add(nr, rows, nc, cols, v);
+    } else {
+      std::array<PetscInt, 32> br, bc;
+      if (nr > 32 || nc > 32) throw std::logic_error("PetscSolver: element block larger than 32");
+      for (int i = 0; i < nr; ++i) br[i] = nest->block_index(rows[i]);
+      for (int j = 0; j < nc; ++j) bc[j] = nest->block_index(cols[j]);
+      fills[2 * p_rows + p_cols].add(nr, br.data(), nc, bc.data(), v);
+    }
+  }
   std::vector<int> node_owner;
   // Distributed augmented split: the owned three-field elements of this fill, their distinct free rows
   // and the sums s of d over each (degenerate hexes repeat a node), finished in end_fill once diag(A)
@@ -813,72 +831,7 @@ void PetscSolver::begin_fill() {
   if (d.nest) d.nest->zero();
   else check(MatZeroEntries(d.A), "MatZeroEntries");
   d.pending.clear();
-  if (d.direct_fill) check(MatSeqAIJGetArray(d.A, &d.csr_values), "MatSeqAIJGetArray");
-}
-
-void PetscSolver::build_direct_fill() {
-  Data& d = *d_;
-  MatType type = nullptr;
-  check(MatGetType(d.A, &type), "MatGetType");
-  if (d.size != 1 || d.nest || std::string(type) != MATSEQAIJ) return;
-  PetscInt n = 0;
-  const PetscInt *ia = nullptr, *ja = nullptr;
-  PetscBool done = PETSC_FALSE;
-  check(MatGetRowIJ(d.A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done), "MatGetRowIJ");
-  if (!done) return;
-  const std::vector<int>& eq = d.dofs->eq;
-  const Mesh& mesh = *d.mesh;
-  d.free_rank.assign(mesh.num_nodes(), {-1, -1, -1});
-  for (int k = 0; k < mesh.num_nodes(); ++k) {
-    signed char r = 0;
-    for (int i = 0; i < 3; ++i)
-      if (eq[3 * k + i] >= 0) d.free_rank[k][i] = r++;
-  }
-  auto first_free = [&](int node) {
-    for (int i = 0; i < 3; ++i)
-      if (eq[3 * node + i] >= 0) return d.urow[3 * node + i];
-    return PetscInt(-1);
-  };
-  d.pair_start.assign(mesh.num_elements() + 1, 0);
-  for (int e = 0; e < mesh.num_elements(); ++e)
-    d.pair_start[e + 1] = d.pair_start[e] + std::int64_t(mesh.element_size(e)) * mesh.element_size(e);
-  d.pair_offset.assign(d.pair_start.back(), -1);
-  bool complete = true;
-  for (int e = 0; e < mesh.num_elements() && complete; ++e) {
-    const int nn = mesh.element_size(e);
-    const int* nodes = mesh.element_nodes(e);
-    for (int a = 0; a < nn && complete; ++a) {
-      const PetscInt row = first_free(nodes[a]);
-      if (row < 0) continue;
-      for (int b = 0; b < nn; ++b) {
-        const PetscInt col = first_free(nodes[b]);
-        if (col < 0) continue;
-        const PetscInt* at = std::lower_bound(ja + ia[row], ja + ia[row + 1], col);
-        if (at == ja + ia[row + 1] || *at != col) {
-          complete = false;  // not in the pattern: keep MatSetValues
-          break;
-        }
-        const int offset = int(at - (ja + ia[row]));
-        // Every free row of node a holds node b's free columns at that offset, in component order.
-        for (int i = 0; i < 3 && complete; ++i) {
-          if (eq[3 * nodes[a] + i] < 0) continue;
-          const PetscInt r = d.urow[3 * nodes[a] + i];
-          for (int j = 0; j < 3 && complete; ++j) {
-            const int q = d.free_rank[nodes[b]][j];
-            complete = q < 0 || (ia[r] + offset + q < ia[r + 1] && ja[ia[r] + offset + q] == d.urow[3 * nodes[b] + j]);
-          }
-        }
-        d.pair_offset[d.pair_start[e] + nn * a + b] = offset;
-      }
-    }
-  }
-  if (complete) d.csr_rows.assign(ia, ia + n + 1);
-  d.direct_fill = complete;
-  check(MatRestoreRowIJ(d.A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done), "MatRestoreRowIJ");
-  if (!complete) {
-    std::vector<std::int64_t>().swap(d.pair_start);
-    std::vector<int>().swap(d.pair_offset);
-  }
+  d.begin_direct_fill();
 }
 
 void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke, const double* dk, double c) {
@@ -903,37 +856,23 @@ void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke,
       std::swap(pos[j - 1], pos[j]);
     }
   std::array<PetscScalar, 31 * 31> v;  // row-major, PETSc's default orientation
-  if (d.direct_fill) {
-    const int* pair = d.pair_offset.data() + d.pair_start[e];
-    for (int i = 0; i < nf; ++i) {
-      const int a = pos[i] / 3;
-      PetscScalar* row = d.csr_values + d.csr_rows[rows[i]];
-      for (int j = 0; j < nf; ++j) {
-        const int b = pos[j] / 3;
-        row[pair[nn * a + b] + d.free_rank[nodes[b]][pos[j] % 3]] +=
-            Ke[pos[i] + nd * pos[j]] - (dk ? c * dk[pos[i]] * dk[pos[j]] : 0.0);
-      }
-    }
-  } else {
-    for (int i = 0; i < nf; ++i)
-      for (int j = 0; j < nf; ++j)
-        v[i * nf + j] = Ke[pos[i] + nd * pos[j]] - (dk ? c * dk[pos[i]] * dk[pos[j]] : 0.0);
-    d.set_values(nf, rows.data(), nf, rows.data(), v.data(), ADD_VALUES);
-  }
+  for (int i = 0; i < nf; ++i)
+    for (int j = 0; j < nf; ++j) v[i * nf + j] = Ke[pos[i] + nd * pos[j]] - (dk ? c * dk[pos[i]] * dk[pos[j]] : 0.0);
+  d.add_block(false, nf, rows.data(), false, nf, rows.data(), v.data());
   if (!dk) return;
   double s = 0.0;
   for (int i = 0; i < nf; ++i) s += dk[pos[i]] * dk[pos[i]];
   const double dn = s > 0.0 ? std::sqrt(s) : 1.0;
   const PetscInt pr = d.prow[e];
   for (int i = 0; i < nf; ++i) v[i] = dk[pos[i]] / dn;
-  d.set_values(nf, rows.data(), 1, &pr, v.data(), ADD_VALUES);
+  d.add_block(false, nf, rows.data(), true, 1, &pr, v.data());
   // With the augmented split the pressure row carries c̃ = c − γ, and γ needs the assembled diag(A):
   // zeros now (so the pattern survives the first assembly), the values in end_fill.
   const bool augmented = d.schur_pre != nullptr;
   for (int i = 0; i < nf; ++i) v[i] = augmented ? 0.0 : c * dn * dk[pos[i]];
-  rows[nf] = pr;
   v[nf] = -1.0;
-  d.set_values(1, &pr, nf + 1, rows.data(), v.data(), ADD_VALUES);
+  d.add_block(true, 1, &pr, false, nf, rows.data(), v.data());
+  d.add_block(true, 1, &pr, true, 1, &pr, &v[nf]);
   if (!augmented) return;
   Data::PendingElement pe;
   pe.prow = pr;
@@ -989,6 +928,7 @@ void PetscSolver::finish_augmented_split() {
   check(MatGetOwnershipRange(d.schur_pre, &schur_lo, nullptr), "MatGetOwnershipRange");
   const PetscInt p_first = d.first[d.rank] + d.hi;  // this rank's first pressure row in A
   std::array<PetscScalar, 30 * 30> v;
+  d.begin_direct_fill();
   for (const Data::PendingElement& pe : d.pending) {
     double x = 0.0;
     for (int i = 0; i < pe.n; ++i) x += pe.s[i] * pe.s[i] / std::max(std::abs(da[pe.rows[i]]), 1e-3 * mean);
@@ -996,13 +936,14 @@ void PetscSolver::finish_augmented_split() {
     const double kept = pe.c - gamma;
     for (int i = 0; i < pe.n; ++i)
       for (int j = 0; j < pe.n; ++j) v[i * pe.n + j] = gamma * pe.s[i] * pe.s[j];
-    d.set_values(pe.n, pe.rows.data(), pe.n, pe.rows.data(), v.data(), ADD_VALUES);
+    d.add_block(false, pe.n, pe.rows.data(), false, pe.n, pe.rows.data(), v.data());
     for (int i = 0; i < pe.n; ++i) v[i] = kept * pe.dn * pe.s[i];
-    d.set_values(1, &pe.prow, pe.n, pe.rows.data(), v.data(), ADD_VALUES);
+    d.add_block(true, 1, &pe.prow, false, pe.n, pe.rows.data(), v.data());
     const PetscInt k = schur_lo + (pe.prow - p_first);
     check(MatSetValue(d.schur_pre, k, k, -1.0 - kept * x / (1.0 + gamma * x), INSERT_VALUES), "MatSetValue");
   }
   check(VecRestoreArrayRead(d.all, &da), "VecRestoreArrayRead");
+  d.end_direct_fill();
   check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
   check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
   check(MatAssemblyBegin(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
@@ -1019,10 +960,7 @@ void PetscSolver::add_entry(int row_dof, int col_dof, double v) {
 void PetscSolver::end_fill() {
   Data& d = *d_;
   const std::vector<int>& eq = d.dofs->eq;
-  if (d.csr_values) {
-    check(MatSeqAIJRestoreArray(d.A, &d.csr_values), "MatSeqAIJRestoreArray");
-    d.csr_values = nullptr;
-  }
+  d.end_direct_fill();
   auto add_dirichlet = [&](double value) {
     for (PetscInt g : d.owned_dofs)
       if (eq[g] < 0) d.set_values(1, &d.urow[g], 1, &d.urow[g], &value, ADD_VALUES);
@@ -1042,7 +980,7 @@ void PetscSolver::end_fill() {
   check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
   check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
   if (d.schur_pre) finish_augmented_split();
-  build_direct_fill();  // the pattern is complete now
+  d.pattern_final = true;
 }
 
 }  // namespace softhom::fe

@@ -80,8 +80,6 @@ class PetscSolver final : public LinearSolver {
   /// The prescribed rows' identity (scaled to the mean free diagonal of the first tangent) and the
   /// assembly of the off-rank contributions.
   void end_fill();
-  /// After the first fill of a one-process AIJ system: the element blocks' positions in its CSR values.
-  void build_direct_fill();
   /// Ranks sharing the system.
   int ranks() const;
   /// The largest of `value` over the ranks (collective): decisions taken from measured times must be
