@@ -58,7 +58,10 @@ constexpr const char* kSplitDefaults =
 /// and a weak one is most of what makes the counts grow with the load (cPASMO 0.5 mesh, ten steps to 6
 /// kPa: the eighth step's first three solves take 57–65 GMRES iterations with one V-cycle, 44–56 with
 /// two, 36–48 with an exact (LU) coarse solve; over the ten steps 1650 instead of 1924 iterations and
-/// 0.93× KSPSolve's time, BENCHMARKS.md).
+/// 0.93× KSPSolve's time, BENCHMARKS.md). With that coarse solve the upper Schur factorization (one
+/// displacement solve per GMRES iteration instead of two) pays: 1.22× the iterations for 0.78× the wall
+/// time over those ten steps. Its longer solves (up to 149 iterations on the 1.2e6-dof mesh) are what
+/// set the GMRES basis's memory there (6 MB per vector and rank), so the restart is capped at 100.
 constexpr const char* kPMultigridDefaults =
     "-fieldsplit_u_pc_type mg -fieldsplit_u_pc_mg_levels 2 -fieldsplit_u_pc_mg_galerkin both "
     "-fieldsplit_u_mg_levels_ksp_type chebyshev -fieldsplit_u_mg_levels_pc_type jacobi -fieldsplit_u_mg_levels_ksp_max_it 1 "
@@ -66,7 +69,7 @@ constexpr const char* kPMultigridDefaults =
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_coarsen_type HMIS -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_strong_threshold 0.7 "
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_interp_type ext+i -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_P_max 4 "
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_agg_nl 1 -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_relax_type_all Chebyshev "
-    "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_max_iter 2";
+    "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_max_iter 2 -pc_fieldsplit_schur_fact_type upper -ksp_gmres_restart 100";
 /// The augmentation under the p-multigrid: its P1 coarse space locks as the block's bulk part α G grows
 /// (one element dilatation per tet), so it wants a smaller α than BoomerAMG on the P2 block itself (10).
 /// Measured on the cPASMO 0.5 mesh (158 481 dofs, two load steps, GMRES iterations / CPU): α = 10:
@@ -214,6 +217,34 @@ struct PetscSolver::Data {
     std::array<double, 30> s{};
   };
   std::vector<PendingElement> pending;
+  // Once the pattern is final, γ comes from the previous tangent's diag(A) (`lagged_diagonal`, every
+  // system row, without the γ terms; its mean magnitude over the free rows): γ only shapes the
+  // preconditioner (the condensed operator A + Σ c d dᵀ is the same for any 0 ≤ γ ≤ c), and the element
+  // pass then adds Ke − (c − γ) d dᵀ at once, with no second pass over the elements. `gamma_diagonal`
+  // collects Σ γ s² per row of such a fill, to take the γ terms out of the next diag(A).
+  std::vector<double> lagged_diagonal;
+  double lagged_mean = 0.0;
+  bool lagged_fill = false;
+  Vec gamma_diagonal = nullptr;
+  struct Augmentation {
+    double gamma = 0.0, kept = 0.0, x = 0.0;
+  };
+  /// γ = min(α / x, c/2), x = Σ s² / max(|diag(A)|, 1e-3 mean) over the element's rows (the bulk part
+  /// α / x kept on u is ~α times its shear stiffness), and the part c − γ left to the pressure.
+  /// The Schur preconditioner's diagonal entry of the element's pressure: −1 − (c − γ) x / (1 + γ x).
+  void set_schur_diagonal(const PendingElement& pe, const Augmentation& a) {
+    PetscInt lo = 0;
+    check(MatGetOwnershipRange(schur_pre, &lo, nullptr), "MatGetOwnershipRange");
+    const PetscInt k = lo + (pe.prow - (first[rank] + hi));  // hi: this rank's displacement rows
+    check(MatSetValue(schur_pre, k, k, -1.0 - a.kept * a.x / (1.0 + a.gamma * a.x), INSERT_VALUES), "MatSetValue");
+  }
+  Augmentation augmentation(const PendingElement& pe, const double* diagonal, double mean) const {
+    Augmentation a;
+    for (int i = 0; i < pe.n; ++i) a.x += pe.s[i] * pe.s[i] / std::max(std::abs(diagonal[pe.rows[i]]), 1e-3 * mean);
+    a.gamma = a.x > 0.0 ? std::min(al_alpha / a.x, 0.5 * pe.c) : 0.0;
+    a.kept = pe.c - a.gamma;
+    return a;
+  }
   // The displacement block's p-multigrid (-softhom_pmg): its interpolation, given to PCMG once the
   // field split has made its sub-solvers.
   bool p_multigrid = false;
@@ -310,6 +341,7 @@ PetscSolver::~PetscSolver() {
   if (d.is_u) ISDestroy(&d.is_u);
   if (d.is_p) ISDestroy(&d.is_p);
   if (d.p_interpolation) MatDestroy(&d.p_interpolation);
+  if (d.gamma_diagonal) VecDestroy(&d.gamma_diagonal);
 }
 
 int PetscSolver::ranks() const { return d_->size; }
@@ -478,7 +510,8 @@ void PetscSolver::create_system() {
     check(PCFieldSplitSetIS(pc, "p", d.is_p), "PCFieldSplitSetIS");
     check(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "PCFieldSplitSetType");
     // Full factorization: one more displacement solve per iteration than the upper one, 1.1–1.7× fewer
-    // iterations on Cook's membrane and the tube (BENCHMARKS.md).
+    // iterations on Cook's membrane and the tube (BENCHMARKS.md). (The p-multigrid of quadratic tets
+    // takes the upper one: kPMultigridDefaults.)
     check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_FULL), "PCFieldSplitSetSchurFactType");
     // -softhom_schur_selfp: PETSc's sparse selfp operator instead (for -fieldsplit_p_pc_type gamg etc.).
     PetscBool selfp = PETSC_FALSE;
@@ -832,6 +865,11 @@ void PetscSolver::begin_fill() {
   else check(MatZeroEntries(d.A), "MatZeroEntries");
   d.pending.clear();
   d.begin_direct_fill();
+  d.lagged_fill = d.schur_pre && d.fills[0].active() && !d.lagged_diagonal.empty();
+  if (d.lagged_fill) {
+    if (!d.gamma_diagonal) check(VecDuplicate(d.x, &d.gamma_diagonal), "VecDuplicate");
+    check(VecSet(d.gamma_diagonal, 0.0), "VecSet");
+  }
 }
 
 void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke, const double* dk, double c) {
@@ -855,47 +893,64 @@ void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke,
       std::swap(rows[j - 1], rows[j]);
       std::swap(pos[j - 1], pos[j]);
     }
+  // A three-field element's distinct free rows and the sums s of d over each (degenerate hexes repeat
+  // a node), for its augmentation.
+  const bool augmented = dk && d.schur_pre != nullptr;
+  Data::PendingElement pe;
+  Data::Augmentation aug;
+  if (augmented) {
+    pe.prow = d.prow[e];
+    pe.c = c;
+    for (int i = 0; i < nf; ++i) {
+      int j = 0;
+      while (j < pe.n && pe.rows[j] != rows[i]) ++j;
+      if (j == pe.n) {
+        pe.rows[pe.n] = rows[i];
+        pe.s[pe.n++] = 0.0;
+      }
+      pe.s[j] += dk[pos[i]];
+    }
+    if (d.lagged_fill) aug = d.augmentation(pe, d.lagged_diagonal.data(), d.lagged_mean);
+  }
+  // What leaves the displacement block for the pressure: c, less the part γ kept on u (at once when
+  // γ is known, else added in finish_augmented_split).
+  const double c_out = d.lagged_fill && augmented ? aug.kept : c;
   std::array<PetscScalar, 31 * 31> v;  // row-major, PETSc's default orientation
   for (int i = 0; i < nf; ++i)
-    for (int j = 0; j < nf; ++j) v[i * nf + j] = Ke[pos[i] + nd * pos[j]] - (dk ? c * dk[pos[i]] * dk[pos[j]] : 0.0);
+    for (int j = 0; j < nf; ++j) v[i * nf + j] = Ke[pos[i] + nd * pos[j]] - (dk ? c_out * dk[pos[i]] * dk[pos[j]] : 0.0);
   d.add_block(false, nf, rows.data(), false, nf, rows.data(), v.data());
   if (!dk) return;
   double s = 0.0;
   for (int i = 0; i < nf; ++i) s += dk[pos[i]] * dk[pos[i]];
   const double dn = s > 0.0 ? std::sqrt(s) : 1.0;
+  pe.dn = dn;
   const PetscInt pr = d.prow[e];
   for (int i = 0; i < nf; ++i) v[i] = dk[pos[i]] / dn;
   d.add_block(false, nf, rows.data(), true, 1, &pr, v.data());
-  // With the augmented split the pressure row carries c̃ = c − γ, and γ needs the assembled diag(A):
-  // zeros now (so the pattern survives the first assembly), the values in end_fill.
-  const bool augmented = d.schur_pre != nullptr;
-  for (int i = 0; i < nf; ++i) v[i] = augmented ? 0.0 : c * dn * dk[pos[i]];
+  // With the augmented split the pressure row carries c̃ = c − γ; without the previous diag(A), zeros
+  // now (so the pattern survives the first assembly) and the values in finish_augmented_split.
+  for (int i = 0; i < nf; ++i) v[i] = !augmented ? c * dn * dk[pos[i]] : d.lagged_fill ? aug.kept * dn * dk[pos[i]] : 0.0;
   v[nf] = -1.0;
   d.add_block(true, 1, &pr, false, nf, rows.data(), v.data());
   d.add_block(true, 1, &pr, true, 1, &pr, &v[nf]);
   if (!augmented) return;
-  Data::PendingElement pe;
-  pe.prow = pr;
-  pe.c = c;
-  pe.dn = dn;
-  for (int i = 0; i < nf; ++i) {
-    int j = 0;
-    while (j < pe.n && pe.rows[j] != rows[i]) ++j;
-    if (j == pe.n) {
-      pe.rows[pe.n] = rows[i];
-      pe.s[pe.n++] = 0.0;
-    }
-    pe.s[j] += dk[pos[i]];
+  if (!d.lagged_fill) {
+    d.pending.push_back(pe);
+    return;
   }
-  d.pending.push_back(pe);
+  std::array<PetscScalar, 30> g;
+  for (int i = 0; i < pe.n; ++i) g[i] = aug.gamma * pe.s[i] * pe.s[i];
+  check(VecSetValues(d.gamma_diagonal, pe.n, pe.rows.data(), g.data(), ADD_VALUES), "VecSetValues");
+  d.set_schur_diagonal(pe, aug);
 }
 
-double PetscSolver::mean_free_diagonal(bool gather) {
+double PetscSolver::mean_free_diagonal(bool gather, bool without_gamma) {
   Data& d = *d_;
   const std::vector<int>& eq = d.dofs->eq;
   Vec diag;
   check(VecDuplicate(d.x, &diag), "VecDuplicate");
   check(MatGetDiagonal(d.A, diag), "MatGetDiagonal");
+  if (without_gamma) check(VecAXPY(diag, -1.0, d.gamma_diagonal), "VecAXPY");
   const PetscScalar* dv;
   check(VecGetArrayRead(diag, &dv), "VecGetArrayRead");
   double sum = 0.0;
@@ -912,42 +967,52 @@ double PetscSolver::mean_free_diagonal(bool gather) {
   return nfree > 0 && sum > 0.0 ? sum / nfree : 1.0;
 }
 
+void PetscSolver::keep_diagonal(bool without_gamma) {
+  Data& d = *d_;
+  d.lagged_mean = mean_free_diagonal(true, without_gamma);
+  const PetscScalar* da;
+  PetscInt n = 0;
+  check(VecGetLocalSize(d.all, &n), "VecGetLocalSize");
+  check(VecGetArrayRead(d.all, &da), "VecGetArrayRead");
+  d.lagged_diagonal.assign(da, da + n);
+  check(VecRestoreArrayRead(d.all, &da), "VecRestoreArrayRead");
+}
+
 void PetscSolver::finish_augmented_split() {
   Data& d = *d_;
   // diag(A) of the displacement block without volumetric stiffness, on every rank (the elements' rows
   // may belong to a neighbour), and its mean magnitude over the free rows for the floor, as in
-  // augmented_split (petsc_saddle_split.cpp).
-  const double mean = mean_free_diagonal(true);
+  // augmented_split (petsc_saddle_split.cpp); kept for the fills to come.
+  keep_diagonal(false);
   // In the element order (the threads of the one-process fill append in any order): the sums of the
   // γ terms are then the same in every run.
   std::sort(d.pending.begin(), d.pending.end(),
             [](const Data::PendingElement& a, const Data::PendingElement& b) { return a.prow < b.prow; });
-  const PetscScalar* da;
-  check(VecGetArrayRead(d.all, &da), "VecGetArrayRead");
-  PetscInt schur_lo = 0;
-  check(MatGetOwnershipRange(d.schur_pre, &schur_lo, nullptr), "MatGetOwnershipRange");
-  const PetscInt p_first = d.first[d.rank] + d.hi;  // this rank's first pressure row in A
   std::array<PetscScalar, 30 * 30> v;
   d.begin_direct_fill();
   for (const Data::PendingElement& pe : d.pending) {
-    double x = 0.0;
-    for (int i = 0; i < pe.n; ++i) x += pe.s[i] * pe.s[i] / std::max(std::abs(da[pe.rows[i]]), 1e-3 * mean);
-    const double gamma = x > 0.0 ? std::min(d.al_alpha / x, 0.5 * pe.c) : 0.0;
-    const double kept = pe.c - gamma;
+    const Data::Augmentation a = d.augmentation(pe, d.lagged_diagonal.data(), d.lagged_mean);
     for (int i = 0; i < pe.n; ++i)
-      for (int j = 0; j < pe.n; ++j) v[i * pe.n + j] = gamma * pe.s[i] * pe.s[j];
+      for (int j = 0; j < pe.n; ++j) v[i * pe.n + j] = a.gamma * pe.s[i] * pe.s[j];
     d.add_block(false, pe.n, pe.rows.data(), false, pe.n, pe.rows.data(), v.data());
-    for (int i = 0; i < pe.n; ++i) v[i] = kept * pe.dn * pe.s[i];
+    for (int i = 0; i < pe.n; ++i) v[i] = a.kept * pe.dn * pe.s[i];
     d.add_block(true, 1, &pe.prow, false, pe.n, pe.rows.data(), v.data());
-    const PetscInt k = schur_lo + (pe.prow - p_first);
-    check(MatSetValue(d.schur_pre, k, k, -1.0 - kept * x / (1.0 + gamma * x), INSERT_VALUES), "MatSetValue");
+    d.set_schur_diagonal(pe, a);
   }
-  check(VecRestoreArrayRead(d.all, &da), "VecRestoreArrayRead");
   d.end_direct_fill();
   check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
   check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
   check(MatAssemblyBegin(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
   check(MatAssemblyEnd(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+}
+
+void PetscSolver::finish_lagged_augmentation() {
+  Data& d = *d_;
+  check(VecAssemblyBegin(d.gamma_diagonal), "VecAssemblyBegin");
+  check(VecAssemblyEnd(d.gamma_diagonal), "VecAssemblyEnd");
+  check(MatAssemblyBegin(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+  check(MatAssemblyEnd(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  keep_diagonal(true);  // diag(A) without this fill's γ terms, for the next one
 }
 
 void PetscSolver::add_entry(int row_dof, int col_dof, double v) {
@@ -970,7 +1035,7 @@ void PetscSolver::end_fill() {
   check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
   check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
   if (d.diagonal_known) {
-    if (d.schur_pre) finish_augmented_split();
+    if (d.schur_pre) d.lagged_fill ? finish_lagged_augmentation() : finish_augmented_split();
     return;
   }
   // The Dirichlet rows' diagonal: the mean free diagonal of the first tangent (as in factorize).

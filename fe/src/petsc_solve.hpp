@@ -99,13 +99,21 @@ class PetscSolver final : public LinearSolver {
   /// The one-process path: the owned rows of the replicated tangent K (uncondensed for three-field
   /// elements) into the PETSc matrix.
   void copy_tangent(const CscMatrix& K);
-  /// The augmented split of the owned three-field elements once diag(A) is assembled (end_fill).
+  /// The augmented split of the owned three-field elements once diag(A) is assembled (end_fill of a
+  /// fill without the previous diag(A): the first one).
   void finish_augmented_split();
+  /// end_fill of a fill that took γ from the previous diag(A): the Schur diagonal's assembly, and this
+  /// tangent's diag(A) without its γ terms kept for the next fill.
+  void finish_lagged_augmentation();
+  /// diag(A) (with `without_gamma`, less Data::gamma_diagonal) on every rank and its mean magnitude
+  /// over the free dofs, kept as Data::lagged_diagonal and lagged_mean (collective).
+  void keep_diagonal(bool without_gamma);
   /// The bytes of SolverTimes: the system matrix and the field split's displacement block.
   void account_matrices();
-  /// Mean |diag(A)| over the free mesh dofs of all ranks (collective); with `gather`, the whole
-  /// diagonal is also left on every rank in Data::all.
-  double mean_free_diagonal(bool gather);
+  /// Mean |diag(A)| (with `without_gamma`, of diag(A) less Data::gamma_diagonal) over the free mesh
+  /// dofs of all ranks (collective); with `gather`, that whole diagonal is also left on every rank in
+  /// Data::all.
+  double mean_free_diagonal(bool gather, bool without_gamma = false);
 };
 
 }  // namespace softhom::fe
