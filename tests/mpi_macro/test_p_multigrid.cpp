@@ -118,9 +118,10 @@ TEST(PMultigrid, CoarseCpasmoEqualsCholmodWithBoundedKrylovCounts) {
   // in the channel), its first two load steps: the default petsc path (p-multigrid on the displacement
   // block) against CHOLMOD. Both converge to the Newton tolerance (1e-8 of the force scale), which puts
   // the displacements within ~1e-7 of each other (measured 2e-11): 1e-6 is the solver comparison's
-  // bound. GMRES per solve measured 36.6 on 1 rank and 36.3 on 2 (rtol 1e-4 at the early Newton
-  // iterations; BoomerAMG on the P2 block: 29); 60 catches a p-multigrid that lost its coarse correction
-  // or its smoother (the α = 10 variant needs 59 per solve on the 0.5 mesh).
+  // bound. GMRES per solve measured 38.2 on 1 rank and 38.0 on 2 with the default upper factorization
+  // (32.4 and 32.3 with the full one; rtol 1e-4 at the early Newton iterations; BoomerAMG on the P2
+  // block: 29); 60 catches a p-multigrid that lost its coarse correction or its smoother (the α = 10
+  // variant needs 59 per solve on the 0.5 mesh).
   const std::string file = std::string(SOFTHOM_SOURCE_DIR) + "/studies/devices/cpasmo_gent_coarse.toml";
   const macro::MacroScene ms = macro::parse_macro_scene(io::load_scene(file), file);
   const macro::Structure s = macro::build_structure(ms.spec);
