@@ -15,9 +15,7 @@
 namespace softhom::fe {
 
 bool Simulation::Impl::petsc_distributed() const {
-  SolverKind kind = options_.solver;
-  if (kind == SolverKind::automatic)
-    kind = dofs_.num_free >= options_.petsc_min_dofs ? SolverKind::petsc : SolverKind::cholmod;
+  const SolverKind kind = resolved_solver();
   // Also the one-process program (one part): the elements go straight into PETSc's matrix, so neither
   // the CSC tangent with its transposed positions nor a copy of it exists on the petsc path.
   return kind == SolverKind::petsc;

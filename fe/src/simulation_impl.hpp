@@ -111,6 +111,8 @@ struct Simulation::Impl {
   /// The petsc solver is in use: each rank (the one process included) assembles its own elements into
   /// the PETSc matrix.
   bool petsc_distributed() const;
+  /// The configured linear solver, `automatic` resolved for this mesh and its free dofs.
+  SolverKind resolved_solver() const;
   void build_partition();           ///< element owners (sets distributed_, owned_elements_)
   void build_distributed_system();  ///< the PETSc matrix's rows from the partition (after build_mixed)
   /// Sums over the ranks of the owned elements' residuals (and the first failed element).

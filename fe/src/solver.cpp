@@ -125,11 +125,9 @@ void Simulation::Impl::build_history() {
 }
 
 void Simulation::Impl::build_linear_solvers() {
-  SolverKind kind = options_.solver;
-  // Automatic: Cholesky of the symmetric part (exact without follower pressure, a GMRES
-  // preconditioner with it); refactor() switches to LU if that part is not positive definite.
-  if (kind == SolverKind::automatic)
-    kind = dofs_.num_free >= options_.petsc_min_dofs ? SolverKind::petsc : SolverKind::cholmod;
+  // Automatic below its PETSc sizes: Cholesky of the symmetric part (exact without follower pressure,
+  // a GMRES preconditioner with it); refactor() switches to LU if that part is not positive definite.
+  const SolverKind kind = resolved_solver();
   if (kind == SolverKind::petsc) {
     // Analysed at the first solve, once the three-field elements are known (build_mixed).
     // Under cavity-volume control the tangent at fixed pressure turns singular at the pressure maximum
@@ -863,6 +861,18 @@ double Simulation::reaction(const std::vector<int>& dofs) const { return impl_->
 ElementFields Simulation::element_fields() const { return impl_->element_fields(); }
 RunStats Simulation::stats() const { return impl_->stats(); }
 const StepCounts& Simulation::last_step_counts() const { return impl_->last_step_; }
+SolverKind automatic_solver(const NewtonOptions& o, long free_dofs, bool quadratic_tets_only, bool cavity_control) {
+  if (o.solver != SolverKind::automatic) return o.solver;
+  if (cavity_control) return SolverKind::cholmod;
+  const long from = quadratic_tets_only ? o.petsc_min_dofs_tet10 : o.petsc_min_dofs;
+  return free_dofs >= from ? SolverKind::petsc : SolverKind::cholmod;
+}
+
+SolverKind Simulation::Impl::resolved_solver() const {
+  const Mesh& mesh = model_.mesh;
+  return automatic_solver(options_, dofs_.num_free, mesh.hexes.empty() && !mesh.tets.empty(), model_.cavity.has_value());
+}
+
 SolverKind Simulation::solver_kind() const { return impl_->linear_->kind(); }
 int Simulation::num_free_dofs() const { return impl_->dofs_.num_free; }
 const FeModel& Simulation::model() const { return impl_->model_; }

@@ -244,7 +244,8 @@ const KeyTable<fe::NewtonOptions>& newton_table() {
                                         {"petsc", fe::SolverKind::petsc}},
                                        {}},
                 "linear solver: cholmod (sparse Cholesky, LU when it fails), umfpack (LU), petsc (GMRES + "
-                "algebraic multigrid over MPI ranks); auto: cholmod (petsc is faster at no measured size yet)")
+                "algebraic multigrid over MPI ranks); auto: petsc for meshes of quadratic tets from 1e5 free dofs on "
+                "(faster than cholmod there, a quarter of its memory), cholmod otherwise and under volume control")
         .text("petsc_options", &O::petsc_options,
               "PETSc options database entries for the petsc solver, e.g. \"-ksp_rtol 1e-10 -pc_type hypre\"")
         .flag("reuse_preconditioner", &O::reuse_preconditioner,
@@ -547,6 +548,19 @@ void read_output(const toml::table& scene, MacroScene& m) {
   m.field_times = o.field_times;
 }
 
+/// The linear solver the scene's `auto` will be (fe::automatic_solver) from the size estimate, before the
+/// mesh is built: the memory guard below counts a factor only on the direct path. (The estimate counts 3
+/// dofs per node, constraints included: within a few per cent above the threshold the run may still
+/// take CHOLMOD, whose factor is then ~1 GiB.)
+fe::SolverKind automatic_solver_of(const toml::table& scene, const MacroScene& m) {
+  const StructureSpec& s = m.spec;
+  const bool quadratic_tets = s.kind == StructureKind::imported ? s.imported.mesh.hexes.empty() && !s.imported.mesh.tets.empty() : s.tet10;
+  if (m.newton.solver != fe::SolverKind::automatic) return m.newton.solver;
+  LoadKeys l;  // (read_load reads it again after the guard; its control is all the choice needs of it)
+  load_table().read(io::read_table(*scene.get("load"), "load"), "load", l);
+  return fe::automatic_solver(m.newton, long(estimate_size(s).dofs), quadratic_tets, l.control == LoadControl::volume);
+}
+
 }  // namespace
 
 bool MacroScene::fields_at(double t) const {
@@ -565,7 +579,7 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
   m.device = read_device(scene.get("device"));
   // The linear solver first: the memory estimate holds a factorization only on the direct path.
   read_solver(scene, m);
-  m.spec.factorized_solver = m.newton.solver != fe::SolverKind::petsc;
+  m.spec.factorized_solver = automatic_solver_of(scene, m) != fe::SolverKind::petsc;
   // Before the materials and anything else: a 1000 x 1000 x 10 box is refused with its memory estimate.
   refuse_if_too_large(m.spec, double(softhom::available_memory_bytes()), size_field(m.spec));
   read_materials(scene, m.spec);

@@ -40,10 +40,12 @@ struct NewtonOptions {
   bool line_search = true;
   int initial_substeps = 1;   ///< sub-steps per output interval at the start
   SolverKind solver = SolverKind::automatic;  ///< umfpack: always LU; petsc: Krylov + AMG; otherwise Cholesky first
-  /// automatic: PETSc from this many free dofs on — where it beats CHOLMOD. No measured size does yet
-  /// (BENCHMARKS.md "Macro solver on PETSc": on the 3D tube at 1.6e4 dofs the field split is still
-  /// several times slower per Newton iteration), so auto stays with CHOLMOD.
+  /// automatic (automatic_solver): PETSc from this many free dofs on, where it beats CHOLMOD. Meshes of
+  /// quadratic tets alone (their p-multigrid) from petsc_min_dofs_tet10 (BENCHMARKS.md "Time per Newton
+  /// step and auto"); other meshes from petsc_min_dofs, which no measured size reaches (on the 3D tube
+  /// at 1.6e4 dofs the field split is several times slower per Newton iteration than the factor).
   int petsc_min_dofs = 2147483647;
+  int petsc_min_dofs_tet10 = 100000;
   /// petsc: keep a preconditioner whose set-up costs more than a quarter of its solve (a factorization,
   /// e.g. MUMPS's LU; a multigrid hierarchy costs less) across tangents while GMRES with it costs less
   /// than a new one, with the refresh rules of the CHOLMOD path's lagged factor.
@@ -73,6 +75,12 @@ struct NewtonOptions {
   double forcing_safeguard = 0.1;
   bool verbose = false;       ///< iteration log on stderr
 };
+
+/// The solver SolverKind::automatic stands for: PETSc from petsc_min_dofs_tet10 free dofs on for a mesh
+/// of quadratic tets alone, from petsc_min_dofs on for any other, CHOLMOD below; always CHOLMOD under
+/// cavity-volume control, where the PETSc path preconditions with MUMPS's LU (a factorization like
+/// CHOLMOD's, of the larger uncondensed system). Other kinds are returned as they are.
+SolverKind automatic_solver(const NewtonOptions& o, long free_dofs, bool quadratic_tets_only, bool cavity_control);
 
 /// Statistics of a run so far.
 struct RunStats {
