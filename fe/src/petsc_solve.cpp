@@ -229,8 +229,6 @@ struct PetscSolver::Data {
   struct Augmentation {
     double gamma = 0.0, kept = 0.0, x = 0.0;
   };
-  /// γ = min(α / x, c/2), x = Σ s² / max(|diag(A)|, 1e-3 mean) over the element's rows (the bulk part
-  /// α / x kept on u is ~α times its shear stiffness), and the part c − γ left to the pressure.
   /// The Schur preconditioner's diagonal entry of the element's pressure: −1 − (c − γ) x / (1 + γ x).
   void set_schur_diagonal(const PendingElement& pe, const Augmentation& a) {
     PetscInt lo = 0;
@@ -238,6 +236,8 @@ struct PetscSolver::Data {
     const PetscInt k = lo + (pe.prow - (first[rank] + hi));  // hi: this rank's displacement rows
     check(MatSetValue(schur_pre, k, k, -1.0 - a.kept * a.x / (1.0 + a.gamma * a.x), INSERT_VALUES), "MatSetValue");
   }
+  /// γ = min(α / x, c/2), x = Σ s² / max(|diag(A)|, 1e-3 mean) over the element's rows (the bulk part
+  /// α / x kept on u is ~α times its shear stiffness), and the part c − γ left to the pressure.
   Augmentation augmentation(const PendingElement& pe, const double* diagonal, double mean) const {
     Augmentation a;
     for (int i = 0; i < pe.n; ++i) a.x += pe.s[i] * pe.s[i] / std::max(std::abs(diagonal[pe.rows[i]]), 1e-3 * mean);

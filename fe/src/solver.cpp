@@ -861,6 +861,7 @@ double Simulation::reaction(const std::vector<int>& dofs) const { return impl_->
 ElementFields Simulation::element_fields() const { return impl_->element_fields(); }
 RunStats Simulation::stats() const { return impl_->stats(); }
 const StepCounts& Simulation::last_step_counts() const { return impl_->last_step_; }
+
 SolverKind automatic_solver(const NewtonOptions& o, long free_dofs, bool quadratic_tets_only, bool cavity_control) {
   if (o.solver != SolverKind::automatic) return o.solver;
   if (cavity_control) return SolverKind::cholmod;
