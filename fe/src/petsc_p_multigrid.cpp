@@ -7,8 +7,8 @@
 
 namespace softhom::fe {
 
-Mat p_multigrid_interpolation(MPI_Comm comm, int rank, const Mesh& mesh, const std::vector<int>& eq,
-                              const std::vector<int>& node_owner) {
+PMultigridSpace p_multigrid_interpolation(MPI_Comm comm, int rank, const Mesh& mesh, const std::vector<int>& eq,
+                                          const std::vector<int>& node_owner) {
   const int nn = mesh.num_nodes();
   int ranks = 1;
   MPI_Comm_size(comm, &ranks);
@@ -28,12 +28,11 @@ Mat p_multigrid_interpolation(MPI_Comm comm, int rank, const Mesh& mesh, const s
       const int m = t[4 + j];
       if (!vertex[m] && parents[m][0] == kNone) parents[m] = {t[kTet10Edges[j][0]], t[kTet10Edges[j][1]]};
     }
-  // Row numbering (the displacement block's) and column numbering (free vertex components), rank by rank.
+  // Row numbering (the displacement block's) and column numbering (vertex components), rank by rank.
   std::vector<PetscInt> rows_of(std::size_t(ranks) + 1, 0), cols_of(std::size_t(ranks) + 1, 0);
   for (int n = 0; n < nn; ++n) {
     rows_of[node_owner[n] + 1] += 3;
-    if (vertex[n])
-      for (int i = 0; i < 3; ++i) cols_of[node_owner[n] + 1] += eq[3 * n + i] >= 0;
+    if (vertex[n]) cols_of[node_owner[n] + 1] += 3;
   }
   for (int r = 0; r < ranks; ++r) {
     rows_of[r + 1] += rows_of[r];
@@ -44,7 +43,7 @@ Mat p_multigrid_interpolation(MPI_Comm comm, int rank, const Mesh& mesh, const s
   for (int n = 0; n < nn; ++n)
     for (int i = 0; i < 3; ++i) {
       row[3 * n + i] = next_row[node_owner[n]]++;
-      if (vertex[n] && eq[3 * n + i] >= 0) col[3 * n + i] = next_col[node_owner[n]]++;
+      if (vertex[n]) col[3 * n + i] = next_col[node_owner[n]]++;
     }
   const PetscInt local_rows = rows_of[rank + 1] - rows_of[rank], local_cols = cols_of[rank + 1] - cols_of[rank];
   // This rank's entries (row, column, weight), then the preallocation counted from them.
@@ -53,25 +52,35 @@ Mat p_multigrid_interpolation(MPI_Comm comm, int rank, const Mesh& mesh, const s
     double weight;
   };
   std::vector<Entry> entries;
+  PMultigridSpace space;
   for (int n = 0; n < nn; ++n) {
     if (node_owner[n] != rank) continue;
+    if (vertex[n])
+      for (int i = 0; i < 3; ++i) space.coarse_coords.push_back(mesh.nodes[n][i]);
     const double w = parents[n][1] == kNone ? 1.0 : 0.5;
-    for (int i = 0; i < 3; ++i)
-      if (eq[3 * n + i] >= 0)
-        for (int p : parents[n])
-          if (p != kNone && col[3 * p + i] >= 0) entries.push_back({row[3 * n + i], col[3 * p + i], w});
+    for (int i = 0; i < 3; ++i) {
+      // Free rows from free parents, prescribed rows from prescribed ones.
+      const bool free = eq[3 * n + i] >= 0;
+      for (int p : parents[n])
+        if (p != kNone && (eq[3 * p + i] >= 0) == free) entries.push_back({row[3 * n + i], col[3 * p + i], w});
+    }
   }
   std::vector<PetscInt> dnz(std::size_t(local_rows), 0), onz(std::size_t(local_rows), 0);
   for (const Entry& e : entries)
     ++(e.col >= cols_of[rank] && e.col < cols_of[rank + 1] ? dnz : onz)[e.row - rows_of[rank]];
-  Mat P = nullptr;
-  petsc_check(MatCreateAIJ(comm, local_rows, local_cols, PETSC_DETERMINE, PETSC_DETERMINE, 0, dnz.data(), 0, onz.data(), &P),
-              "MatCreateAIJ (p-multigrid interpolation)");
+  Mat& P = space.interpolation;
+  petsc_check(MatCreate(comm, &P), "MatCreate (p-multigrid interpolation)");
+  petsc_check(MatSetSizes(P, local_rows, local_cols, PETSC_DETERMINE, PETSC_DETERMINE), "MatSetSizes (p-multigrid)");
+  // Block size 3 in rows and columns: the Galerkin product PᵀAP inherits the columns' one.
+  petsc_check(MatSetBlockSizes(P, 3, 3), "MatSetBlockSizes (p-multigrid)");
+  petsc_check(MatSetType(P, MATAIJ), "MatSetType (p-multigrid)");
+  petsc_check(MatSeqAIJSetPreallocation(P, 0, dnz.data()), "MatSeqAIJSetPreallocation (p-multigrid)");
+  petsc_check(MatMPIAIJSetPreallocation(P, 0, dnz.data(), 0, onz.data()), "MatMPIAIJSetPreallocation (p-multigrid)");
   for (const Entry& e : entries)
     petsc_check(MatSetValue(P, e.row, e.col, e.weight, INSERT_VALUES), "MatSetValue (p-multigrid)");
   petsc_check(MatAssemblyBegin(P, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin (p-multigrid)");
   petsc_check(MatAssemblyEnd(P, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd (p-multigrid)");
-  return P;
+  return space;
 }
 
 }  // namespace softhom::fe

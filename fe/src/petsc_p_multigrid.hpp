@@ -14,12 +14,23 @@
 
 namespace softhom::fe {
 
-/// P as a PETSc MPIAIJ matrix. Rows: the displacement block of the distributed system (the nodes owned
-/// by each rank in `node_owner`, rank by rank, node order within a rank, three components each); columns:
-/// the free components (`eq` ≥ 0) of the vertex nodes, numbered the same way. A prescribed fine row is
-/// zero; a mid-edge node next to a prescribed vertex component takes half of the free one only (the P1
-/// interpolant of a zero boundary value). Hex8 nodes are vertices. Collective.
-Mat p_multigrid_interpolation(MPI_Comm comm, int rank, const Mesh& mesh, const std::vector<int>& eq,
-                              const std::vector<int>& node_owner);
+/// The interpolation and what the coarse level's AMG needs to know about its space.
+struct PMultigridSpace {
+  Mat interpolation = nullptr;          ///< P (owned by the caller: MatDestroy)
+  std::vector<double> coarse_coords;    ///< this rank's coarse vertices' coordinates, x y z per vertex
+};
+
+/// P as a PETSc MPIAIJ matrix of block size 3. Rows: the displacement block of the distributed system
+/// (the nodes owned by each rank in `node_owner`, rank by rank, node order within a rank, three
+/// components each); columns: all three components of the vertex nodes, numbered the same way. A free
+/// fine row interpolates the free vertex components only (a mid-edge node next to a prescribed vertex
+/// component takes half of the free one: the P1 interpolant of a zero boundary value); a prescribed fine
+/// row interpolates the prescribed ones (its vertex itself, or the prescribed ends of its edge). The
+/// prescribed rows of the fine block hold their diagonal alone, so PᵀAP keeps the free and prescribed
+/// coarse components apart while every coarse vertex keeps its three components: the block structure
+/// that lets the coarse AMG aggregate by node and use the rigid-body modes (a slender bending part needs
+/// its rotations in the coarse space). Hex8 nodes are vertices. Collective.
+PMultigridSpace p_multigrid_interpolation(MPI_Comm comm, int rank, const Mesh& mesh, const std::vector<int>& eq,
+                                          const std::vector<int>& node_owner);
 
 }  // namespace softhom::fe

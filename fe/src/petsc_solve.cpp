@@ -50,30 +50,25 @@ constexpr const char* kSplitDefaults =
     "-mat_mumps_icntl_7 5";
 
 /// The displacement block's two-level p-multigrid (-softhom_pmg, petsc_p_multigrid.hpp), inserted after
-/// kSplitDefaults and before the user's options again: the P1 Galerkin block gets the BoomerAMG settings
-/// of the P2 block above with Chebyshev relaxation (9 % less CPU than hybrid Gauss–Seidel for 3 % more
-/// GMRES iterations on the cPASMO 0.5 mesh), the P2 level one Chebyshev sweep on its diagonal before and
-/// after the coarse correction (two sweeps: 3 % fewer GMRES iterations for 1.4× the CPU time there). The
-/// P1 block gets two V-cycles per application: the coarse solve is ≈ 1/6 of a displacement solve's cost,
-/// and a weak one is most of what makes the counts grow with the load (cPASMO 0.5 mesh, ten steps to 6
-/// kPa: the eighth step's first three solves take 57–65 GMRES iterations with one V-cycle, 44–56 with
-/// two, 36–48 with an exact (LU) coarse solve; over the ten steps 1650 instead of 1924 iterations and
-/// 0.93× KSPSolve's time, BENCHMARKS.md). With that coarse solve the upper Schur factorization (one
+/// kSplitDefaults and before the user's options again. The P1 Galerkin block keeps three components per
+/// vertex and carries the rigid-body modes of the vertices, and GAMG (smoothed aggregation) solves it
+/// with two V-cycles per application (a fixed Richardson count without norms, so the preconditioner
+/// stays linear for GMRES). The rotations in its coarse space are what slender parts bending under
+/// pressure need: on a 9.8e4-dof gripper (three load steps) scalar BoomerAMG on the P1 block took 1305
+/// GMRES iterations, BoomerAMG with the block size 829, GAMG with the modes 544 (one V-cycle: 644; an
+/// exact LU coarse solve: 489), and on the cPASMO 0.5 mesh (ten steps) 1984, 1651 and 1678 (BENCHMARKS.md,
+/// "A coarse space with rotations"). The coarse solve is ≈ 1/6 of a displacement solve's cost, and a
+/// weak one is most of what makes the counts grow with the load. The P2 level gets one Chebyshev sweep
+/// on its diagonal before and after the coarse correction (two sweeps: 3 % fewer GMRES iterations for
+/// 1.4× the CPU time on the cPASMO 0.5 mesh). With that coarse solve the upper Schur factorization (one
 /// displacement solve per GMRES iteration instead of two) pays: 1.22× the iterations for 0.78× the wall
-/// time over those ten steps. Its longer solves (up to 149 iterations on the 1.2e6-dof mesh) are what
-/// set the GMRES basis's memory there (6 MB per vector and rank), so the restart is capped at 100.
+/// time over the cPASMO's ten steps. Its longer solves (up to 149 iterations on the 1.2e6-dof mesh) are
+/// what set the GMRES basis's memory there (6 MB per vector and rank), so the restart is capped at 100.
 constexpr const char* kPMultigridDefaults =
     "-fieldsplit_u_pc_type mg -fieldsplit_u_pc_mg_levels 2 -fieldsplit_u_pc_mg_galerkin both "
     "-fieldsplit_u_mg_levels_ksp_type chebyshev -fieldsplit_u_mg_levels_pc_type jacobi -fieldsplit_u_mg_levels_ksp_max_it 1 "
-    "-fieldsplit_u_mg_coarse_ksp_type preonly -fieldsplit_u_mg_coarse_pc_type hypre -fieldsplit_u_mg_coarse_pc_hypre_type boomeramg "
-    "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_coarsen_type HMIS -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_strong_threshold 0.7 "
-    "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_interp_type ext+i -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_P_max 4 "
-    "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_agg_nl 1 -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_relax_type_all Chebyshev "
-    "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_max_iter 2 -pc_fieldsplit_schur_fact_type upper -ksp_gmres_restart 100";
-/// The augmentation under the p-multigrid: its P1 coarse space locks as the block's bulk part α G grows
-/// (one element dilatation per tet), so it wants a smaller α than BoomerAMG on the P2 block itself (10).
-/// Measured on the cPASMO 0.5 mesh (158 481 dofs, two load steps, GMRES iterations / CPU): α = 10:
-/// 654 / 183 s, 3: 424 / 126 s, 1: 357 / 102 s; BoomerAMG on the P2 block (α = 10): 310 / 142 s.
+    "-fieldsplit_u_mg_coarse_ksp_type richardson -fieldsplit_u_mg_coarse_ksp_max_it 2 -fieldsplit_u_mg_coarse_ksp_norm_type none "
+    "-fieldsplit_u_mg_coarse_pc_type gamg -pc_fieldsplit_schur_fact_type upper -ksp_gmres_restart 100";
 constexpr double kPMultigridAlpha = 1.0;
 
 /// Sums the entries of repeated columns of one row (INSERT_VALUES keeps only the last of them): a
@@ -357,7 +352,7 @@ std::string PetscSolver::description() const {
   std::string s = std::string(kt ? kt : "?") + " + " + (pt ? pt : "?");
   if (d_->saddle() && pt && std::string(pt) == PCFIELDSPLIT) {
     s += " (u, p) Schur: augmented u block, jacobi on the Schur diagonal";
-    if (d_->p_multigrid) s += ", P2 -> P1 multigrid with BoomerAMG on the P1 Galerkin block";
+    if (d_->p_multigrid) s += ", P2 -> P1 multigrid with GAMG (rigid-body modes) on the P1 Galerkin block";
   }
   return s;
 }
@@ -577,9 +572,44 @@ void PetscSolver::attach_p_multigrid() {
     owner.resize(std::size_t(d.nnodes));
     for (PetscInt node = 0; node < d.nnodes; ++node) owner[std::size_t(node)] = d.owner_of_dof(3 * node);
   }
-  d.p_interpolation = p_multigrid_interpolation(d.comm, d.rank, *d.mesh, d.dofs->eq, owner);
+  PMultigridSpace space = p_multigrid_interpolation(d.comm, d.rank, *d.mesh, d.dofs->eq, owner);
+  d.p_interpolation = space.interpolation;
   check(PCMGSetInterpolation(pu, 1, d.p_interpolation), "PCMGSetInterpolation");
   check(KSPSetUp(ku), "KSPSetUp (p-multigrid)");
+  // The coarse Galerkin block now exists: give it the rigid-body modes of the P1 vertices. PCMG keeps
+  // that matrix for every later tangent (its product is recomputed in place), so the modes stay with it;
+  // this first hierarchy is rebuilt once, with them.
+  KSP kc = nullptr;
+  Mat coarse = nullptr;
+  check(PCMGGetCoarseSolve(pu, &kc), "PCMGGetCoarseSolve");
+  check(KSPGetOperators(kc, nullptr, &coarse), "KSPGetOperators (coarse)");
+  Vec xyz = nullptr;
+  check(VecCreateMPIWithArray(d.comm, 3, PetscInt(space.coarse_coords.size()), PETSC_DECIDE, space.coarse_coords.data(), &xyz),
+        "VecCreateMPIWithArray (coarse vertices)");
+  MatNullSpace modes = nullptr;
+  check(MatNullSpaceCreateRigidBody(xyz, &modes), "MatNullSpaceCreateRigidBody (coarse)");
+  check(MatSetNearNullSpace(coarse, modes), "MatSetNearNullSpace (coarse)");
+  MatNullSpaceDestroy(&modes);
+  VecDestroy(&xyz);
+  // A fresh coarse preconditioner (the first was set up before the modes existed, and GAMG's levels
+  // cannot be reset in place to other sizes), with the old one's options prefix and operators.
+  Mat coarse_op = nullptr;
+  PC old_pc = nullptr, fresh_pc = nullptr;
+  const char* prefix = nullptr;
+  check(KSPGetOperators(kc, &coarse_op, nullptr), "KSPGetOperators (coarse)");
+  check(PetscObjectReference(reinterpret_cast<PetscObject>(coarse_op)), "PetscObjectReference");
+  check(PetscObjectReference(reinterpret_cast<PetscObject>(coarse)), "PetscObjectReference");
+  check(KSPGetPC(kc, &old_pc), "KSPGetPC (coarse)");
+  check(PCGetOptionsPrefix(old_pc, &prefix), "PCGetOptionsPrefix (coarse)");
+  check(PCCreate(d.comm, &fresh_pc), "PCCreate (coarse)");
+  check(PCSetOptionsPrefix(fresh_pc, prefix), "PCSetOptionsPrefix (coarse)");
+  check(KSPSetPC(kc, fresh_pc), "KSPSetPC (coarse)");
+  check(KSPSetOperators(kc, coarse_op, coarse), "KSPSetOperators (coarse)");
+  check(PCSetFromOptions(fresh_pc), "PCSetFromOptions (coarse)");
+  PCDestroy(&fresh_pc);
+  MatDestroy(&coarse_op);
+  MatDestroy(&coarse);
+  check(KSPSetUp(kc), "KSPSetUp (coarse)");
 }
 
 void PetscSolver::update_operator(const CscMatrix& K) {

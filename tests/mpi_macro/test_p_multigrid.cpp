@@ -41,10 +41,12 @@ Mesh tet10_box(int n) {
 }  // namespace
 
 TEST(PMultigrid, InterpolationReproducesLinearFieldsWithPrescribedComponents) {
-  // x-components prescribed on the face x = 0 and every component of node 0: the free vertex
-  // components interpolate a linear field that vanishes there, so P (vertex values) equals the field
-  // on every free fine row — mid-edge nodes next to a prescribed vertex included — and a prescribed
-  // row is zero. The rows are split over the ranks by an arbitrary owner map (node n → n mod ranks).
+  // x-components prescribed on the face x = 0 and every component of node 0: free fine rows
+  // interpolate the free vertex components, prescribed rows the prescribed ones, so a linear field that
+  // vanishes on the prescribed components comes back exactly on every fine row — mid-edge nodes next to
+  // a prescribed vertex included, prescribed rows zero. Every vertex keeps its three components (block
+  // size 3, for the coarse AMG's rigid-body modes). The rows are split over the ranks by an arbitrary
+  // owner map (node n → n mod ranks).
   petsc_initialize();
   const Mesh mesh = tet10_box(3);
   const int nn = mesh.num_nodes(), ranks = mpi::world_size(), rank = mpi::world_rank();
@@ -59,13 +61,17 @@ TEST(PMultigrid, InterpolationReproducesLinearFieldsWithPrescribedComponents) {
   auto field = [](const Vec3& x, int i) {  // zero on x = 0 for i = 0 and at the origin for all
     return i == 0 ? 0.7 * x.x() : i == 1 ? 0.3 * x.x() - 0.2 * x.y() + 0.5 * x.z() : 0.1 * x.x() + 0.4 * x.y() - 0.6 * x.z();
   };
-  Mat P = p_multigrid_interpolation(PETSC_COMM_WORLD, rank, mesh, eq, owner);
-  PetscInt rows = 0, cols = 0;
+  PMultigridSpace space = p_multigrid_interpolation(PETSC_COMM_WORLD, rank, mesh, eq, owner);
+  Mat P = space.interpolation;
+  PetscInt rows = 0, cols = 0, row_block = 0, col_block = 0;
   MatGetSize(P, &rows, &cols);
+  MatGetBlockSizes(P, &row_block, &col_block);
   EXPECT_EQ(rows, 3 * nn);
+  EXPECT_EQ(row_block, 3);
+  EXPECT_EQ(col_block, 3);
   Vec coarse, fine;
   MatCreateVecs(P, &coarse, &fine);
-  // The coarse numbering: free vertex components, rank by rank, node order within a rank.
+  // The coarse numbering: vertex components, rank by rank, node order within a rank.
   std::vector<char> vertex(nn, 0);
   for (const Tet10& t : mesh.tets)
     for (int a = 0; a < 4; ++a) vertex[t[a]] = 1;
@@ -80,7 +86,7 @@ TEST(PMultigrid, InterpolationReproducesLinearFieldsWithPrescribedComponents) {
       if (owner[n] != r) continue;
       for (int i = 0; i < 3; ++i) {
         fine_row[3 * n + i] = f++;
-        if (!vertex[n] || eq[3 * n + i] < 0) continue;
+        if (!vertex[n]) continue;
         ++expected_cols;
         if (c >= cstart && c < cend) VecSetValue(coarse, c, field(mesh.nodes[n], i), INSERT_VALUES);
         ++c;
@@ -108,6 +114,30 @@ TEST(PMultigrid, InterpolationReproducesLinearFieldsWithPrescribedComponents) {
   MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
   EXPECT_EQ(all, 3 * nn);
   EXPECT_LT(worst, 1e-14);
+  // The prescribed coarse components reach the prescribed fine rows only: a coarse vector that is 1 on
+  // them and 0 elsewhere comes back as 1 on every prescribed fine row (each has prescribed parents: the
+  // face x = 0 is flat) and 0 on every free one.
+  c = 0;
+  for (int r = 0; r < ranks; ++r)
+    for (int n = 0; n < nn; ++n)
+      if (owner[n] == r && vertex[n])
+        for (int i = 0; i < 3; ++i, ++c)
+          if (c >= cstart && c < cend) VecSetValue(coarse, c, eq[3 * n + i] < 0 ? 1.0 : 0.0, INSERT_VALUES);
+  VecAssemblyBegin(coarse);
+  VecAssemblyEnd(coarse);
+  MatMult(P, coarse, fine);
+  VecGetArrayRead(fine, &v);
+  worst = 0.0;
+  for (int n = 0; n < nn; ++n)
+    for (int i = 0; i < 3; ++i) {
+      const PetscInt g = fine_row[3 * n + i];
+      if (g >= rstart && g < rend) worst = std::max(worst, std::abs(v[g - rstart] - (eq[3 * n + i] < 0 ? 1.0 : 0.0)));
+    }
+  VecRestoreArrayRead(fine, &v);
+  MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  EXPECT_LT(worst, 1e-14);
+  // Three coordinates per owned coarse vertex: the rigid-body modes' layout.
+  EXPECT_EQ(PetscInt(space.coarse_coords.size()), cend - cstart);
   VecDestroy(&coarse);
   VecDestroy(&fine);
   MatDestroy(&P);
