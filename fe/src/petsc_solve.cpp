@@ -51,24 +51,29 @@ constexpr const char* kSplitDefaults =
 
 /// The displacement block's two-level p-multigrid (-softhom_pmg, petsc_p_multigrid.hpp), inserted after
 /// kSplitDefaults and before the user's options again. The P1 Galerkin block keeps three components per
-/// vertex and carries the rigid-body modes of the vertices, and GAMG (smoothed aggregation) solves it
-/// with two V-cycles per application (a fixed Richardson count without norms, so the preconditioner
-/// stays linear for GMRES). The rotations in its coarse space are what slender parts bending under
-/// pressure need: on a 9.8e4-dof gripper (three load steps) scalar BoomerAMG on the P1 block took 1305
-/// GMRES iterations, BoomerAMG with the block size 829, GAMG with the modes 544 (one V-cycle: 644; an
-/// exact LU coarse solve: 489), and on the cPASMO 0.5 mesh (ten steps) 1984, 1651 and 1678 (BENCHMARKS.md,
-/// "A coarse space with rotations"). The coarse solve is ≈ 1/6 of a displacement solve's cost, and a
-/// weak one is most of what makes the counts grow with the load. The P2 level gets one Chebyshev sweep
-/// on its diagonal before and after the coarse correction (two sweeps: 3 % fewer GMRES iterations for
-/// 1.4× the CPU time on the cPASMO 0.5 mesh). With that coarse solve the upper Schur factorization (one
+/// vertex (block size 3, which PETSc hands to hypre as three functions: strength and interpolation per
+/// displacement component) and carries the vertices' rigid-body modes; it gets the BoomerAMG settings of
+/// the P2 block above with Chebyshev relaxation and two V-cycles per application. Measured on the cPASMO
+/// 0.5 mesh (ten steps to 6 kPa) and a 9.8e4-dof gripper (three steps), GMRES iterations: scalar
+/// BoomerAMG on the free components (the previous default) 1984 and 1305, BoomerAMG with the three
+/// functions 1651 and 829, GAMG with the rigid-body modes (two V-cycles) 1678 and 544 (BENCHMARKS.md, "A
+/// coarse space with rotations"). GAMG is best on the bending gripper, whose fine scenes select it, but
+/// on the fine cPASMO on 2 ranks its counts jumped from ≈ 60 to ≈ 190 per solve at the eighth load step,
+/// so BoomerAMG stays the default. The coarse solve is ≈ 1/6 of a displacement solve's cost, and a weak
+/// one is most of what makes the counts grow with the load. The P2 level gets one Chebyshev sweep on its
+/// diagonal before and after the coarse correction (two sweeps: 3 % fewer GMRES iterations for 1.4× the
+/// CPU time on the cPASMO 0.5 mesh). With that coarse solve the upper Schur factorization (one
 /// displacement solve per GMRES iteration instead of two) pays: 1.22× the iterations for 0.78× the wall
-/// time over the cPASMO's ten steps. Its longer solves (up to 149 iterations on the 1.2e6-dof mesh) are
+/// time over the cPASMO's ten steps. Its longer solves (up to 158 iterations on the 1.2e6-dof mesh) are
 /// what set the GMRES basis's memory there (6 MB per vector and rank), so the restart is capped at 100.
 constexpr const char* kPMultigridDefaults =
     "-fieldsplit_u_pc_type mg -fieldsplit_u_pc_mg_levels 2 -fieldsplit_u_pc_mg_galerkin both "
     "-fieldsplit_u_mg_levels_ksp_type chebyshev -fieldsplit_u_mg_levels_pc_type jacobi -fieldsplit_u_mg_levels_ksp_max_it 1 "
-    "-fieldsplit_u_mg_coarse_ksp_type richardson -fieldsplit_u_mg_coarse_ksp_max_it 2 -fieldsplit_u_mg_coarse_ksp_norm_type none "
-    "-fieldsplit_u_mg_coarse_pc_type gamg -pc_fieldsplit_schur_fact_type upper -ksp_gmres_restart 100";
+    "-fieldsplit_u_mg_coarse_ksp_type preonly -fieldsplit_u_mg_coarse_pc_type hypre -fieldsplit_u_mg_coarse_pc_hypre_type boomeramg "
+    "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_coarsen_type HMIS -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_strong_threshold 0.7 "
+    "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_interp_type ext+i -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_P_max 4 "
+    "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_agg_nl 1 -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_relax_type_all Chebyshev "
+    "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_max_iter 2 -pc_fieldsplit_schur_fact_type upper -ksp_gmres_restart 100";
 constexpr double kPMultigridAlpha = 1.0;
 
 /// Sums the entries of repeated columns of one row (INSERT_VALUES keeps only the last of them): a
@@ -352,7 +357,7 @@ std::string PetscSolver::description() const {
   std::string s = std::string(kt ? kt : "?") + " + " + (pt ? pt : "?");
   if (d_->saddle() && pt && std::string(pt) == PCFIELDSPLIT) {
     s += " (u, p) Schur: augmented u block, jacobi on the Schur diagonal";
-    if (d_->p_multigrid) s += ", P2 -> P1 multigrid with GAMG (rigid-body modes) on the P1 Galerkin block";
+    if (d_->p_multigrid) s += ", P2 -> P1 multigrid with BoomerAMG (3 functions) on the P1 Galerkin block";
   }
   return s;
 }

@@ -148,8 +148,9 @@ TEST(PMultigrid, CoarseCpasmoEqualsCholmodWithBoundedKrylovCounts) {
   // in the channel), its first two load steps: the default petsc path (p-multigrid on the displacement
   // block) against CHOLMOD. Both converge to the Newton tolerance (1e-8 of the force scale), which puts
   // the displacements within ~1e-7 of each other (measured 2e-11): 1e-6 is the solver comparison's
-  // bound. GMRES per solve measured 38.2 on 1 rank and 38.0 on 2 with the default upper factorization
-  // (32.4 and 32.3 with the full one; rtol 1e-4 at the early Newton iterations; BoomerAMG on the P2
+  // bound. GMRES per solve measured 37.0 on 1 rank and 36.9 on 2 with the default upper factorization
+  // and the coarse block of three functions (38.2 and 38.0 with the scalar coarse block; 32.4 and 32.3
+  // with the full factorization; rtol 1e-4 at the early Newton iterations; BoomerAMG on the P2
   // block: 29); 60 catches a p-multigrid that lost its coarse correction or its smoother (the α = 10
   // variant needs 59 per solve on the 0.5 mesh).
   const std::string file = std::string(SOFTHOM_SOURCE_DIR) + "/studies/devices/cpasmo_gent_coarse.toml";
