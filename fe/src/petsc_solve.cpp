@@ -74,7 +74,24 @@ constexpr const char* kPMultigridDefaults =
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_interp_type ext+i -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_P_max 4 "
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_agg_nl 1 -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_relax_type_all Chebyshev "
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_max_iter 2 -pc_fieldsplit_schur_fact_type upper -ksp_gmres_restart 100";
+/// The augmentation under the p-multigrid: its P1 coarse space locks as the block's bulk part α G grows
+/// (one element dilatation per tet), so it wants a smaller α than BoomerAMG on the P2 block itself (10).
+/// Measured on the cPASMO 0.5 mesh (158 481 dofs, two load steps, GMRES iterations / CPU): α = 10:
+/// 654 / 183 s, 3: 424 / 126 s, 1: 357 / 102 s; BoomerAMG on the P2 block (α = 10): 310 / 142 s.
 constexpr double kPMultigridAlpha = 1.0;
+
+/// The three translations and three rotations of the nodes at `coords` (x y z per node: this rank's
+/// nodes, in the order of its rows): elasticity's near-nullspace, which smoothed aggregation needs in
+/// its coarse spaces (without the rotations it sees a scalar Laplacian per component, and bending parts
+/// defeat it). `global`: the whole length, or PETSC_DECIDE. Collective.
+MatNullSpace rigid_body_modes(MPI_Comm comm, std::vector<double>& coords, PetscInt global = PETSC_DECIDE) {
+  Vec xyz = nullptr;
+  petsc_check(VecCreateMPIWithArray(comm, 3, PetscInt(coords.size()), global, coords.data(), &xyz), "VecCreateMPIWithArray (coordinates)");
+  MatNullSpace modes = nullptr;
+  petsc_check(MatNullSpaceCreateRigidBody(xyz, &modes), "MatNullSpaceCreateRigidBody");
+  VecDestroy(&xyz);
+  return modes;
+}
 
 /// Sums the entries of repeated columns of one row (INSERT_VALUES keeps only the last of them): a
 /// degenerate hex (a wedge, two corners on one node, as in the tube's cap core) has its coupling to the
@@ -460,13 +477,9 @@ void PetscSolver::create_system() {
     check(MatMPIAIJSetPreallocation(d.A, 0, dnz.data(), 0, onz.data()), "MatMPIAIJSetPreallocation");
     check(MatSetOption(d.A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE), "MatSetOption");
   }
-  // Rigid-body modes from the owned nodes' coordinates: GAMG's near-nullspace (three translations and
-  // three rotations; without them smoothed aggregation sees a scalar Laplacian per component and its
-  // counts grow with the mesh).
-  Vec xyz;
-  check(VecCreateMPIWithArray(d.comm, 3, nu, d.ndof, d.coords.data(), &xyz), "VecCreateMPIWithArray");
-  MatNullSpace nsp;
-  check(MatNullSpaceCreateRigidBody(xyz, &nsp), "MatNullSpaceCreateRigidBody");
+  // Rigid-body modes from the owned nodes' coordinates: GAMG's near-nullspace (its counts grow with the
+  // mesh without them).
+  MatNullSpace nsp = rigid_body_modes(d.comm, d.coords, d.ndof);
   // Plain MPI vectors in the system's layout (a nest's own would be nested vectors).
   check(VecCreateMPI(d.comm, nlocal, nglobal, &d.x), "VecCreateMPI");
   check(VecDuplicate(d.x, &d.b), "VecDuplicate");
@@ -529,7 +542,6 @@ void PetscSolver::create_system() {
     check(PCSetType(pc, PCGAMG), "PCSetType");
   }
   MatNullSpaceDestroy(&nsp);
-  VecDestroy(&xyz);
   check(KSPSetFromOptions(d.ksp), "KSPSetFromOptions");
 }
 
@@ -585,23 +597,16 @@ void PetscSolver::attach_p_multigrid() {
   // that matrix for every later tangent (its product is recomputed in place), so the modes stay with it;
   // this first hierarchy is rebuilt once, with them.
   KSP kc = nullptr;
-  Mat coarse = nullptr;
+  Mat coarse_op = nullptr, coarse = nullptr;
   check(PCMGGetCoarseSolve(pu, &kc), "PCMGGetCoarseSolve");
-  check(KSPGetOperators(kc, nullptr, &coarse), "KSPGetOperators (coarse)");
-  Vec xyz = nullptr;
-  check(VecCreateMPIWithArray(d.comm, 3, PetscInt(space.coarse_coords.size()), PETSC_DECIDE, space.coarse_coords.data(), &xyz),
-        "VecCreateMPIWithArray (coarse vertices)");
-  MatNullSpace modes = nullptr;
-  check(MatNullSpaceCreateRigidBody(xyz, &modes), "MatNullSpaceCreateRigidBody (coarse)");
+  check(KSPGetOperators(kc, &coarse_op, &coarse), "KSPGetOperators (coarse)");
+  MatNullSpace modes = rigid_body_modes(d.comm, space.coarse_coords);
   check(MatSetNearNullSpace(coarse, modes), "MatSetNearNullSpace (coarse)");
   MatNullSpaceDestroy(&modes);
-  VecDestroy(&xyz);
   // A fresh coarse preconditioner (the first was set up before the modes existed, and GAMG's levels
   // cannot be reset in place to other sizes), with the old one's options prefix and operators.
-  Mat coarse_op = nullptr;
   PC old_pc = nullptr, fresh_pc = nullptr;
   const char* prefix = nullptr;
-  check(KSPGetOperators(kc, &coarse_op, nullptr), "KSPGetOperators (coarse)");
   check(PetscObjectReference(reinterpret_cast<PetscObject>(coarse_op)), "PetscObjectReference");
   check(PetscObjectReference(reinterpret_cast<PetscObject>(coarse)), "PetscObjectReference");
   check(KSPGetPC(kc, &old_pc), "KSPGetPC (coarse)");
