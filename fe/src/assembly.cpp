@@ -38,6 +38,7 @@ MaterialStatus Simulation::Impl::assemble(double t, double dt, bool tangent, con
   if (distributed_) out.cauchy.assign(9 * std::size_t(mesh.num_elements()), 0.0);  // summed at commit
   else out.cauchy.resize(9 * std::size_t(mesh.num_elements()));
   if (tangent) {
+    if (petsc_) petsc_->set_displacement(u);
     if (distributed_) petsc_->begin_fill();
     else K_.set_zero();
     ++k_version_;
@@ -91,9 +92,11 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
   // (oversubscribed) 2-core machine every OpenMP barrier of a spinning runtime can cost a time slice
   // (measured 4x slower assembly with 2 threads at load 8 on the 256-element plane-strain tube).
   // Distributed assembly on several ranks: one thread (one rank per core). On one process the threads
-  // share the colours and take turns at PETSc's MatSetValues (not thread-safe); the elements of one
-  // colour share no node, hence no matrix entry, so the sums do not depend on that order.
+  // share the colours; the elements of one colour share no node, hence no matrix entry, so the sums do
+  // not depend on the order. The first fill of the PETSc matrix goes through MatSetValues (not
+  // thread-safe), one element at a time; the later ones write straight into its values, concurrently.
   const int threads = mesh.num_elements() >= 4000 && !(distributed_ && mpi_ranks_ > 1) ? omp_get_max_threads() : 1;
+  const bool concurrent_fill = tangent && distributed_ && petsc_->concurrent_fill();
 #pragma omp parallel num_threads(threads)
   {
     Vec24 r;
@@ -142,8 +145,12 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
       if (distributed_) {
         // Three-field elements enter uncondensed, c = V_e U″(θ) as in saddle_current.
         const double c = mv ? volume * volumetric_d2U(mix_bulk_[e], mix_theta_[e]) : 0.0;
+        if (concurrent_fill) {
+          petsc_->add_element(e, NN, nodes.data(), Kel.data(), mv ? mv->d.data() : nullptr, c);
+        } else {
 #pragma omp critical(softhom_petsc_fill)
-        petsc_->add_element(e, NN, nodes.data(), Kel.data(), mv ? mv->d.data() : nullptr, c);
+          petsc_->add_element(e, NN, nodes.data(), Kel.data(), mv ? mv->d.data() : nullptr, c);
+        }
       }
     };
     auto claim_failure = [&](int e, MaterialStatus st) {

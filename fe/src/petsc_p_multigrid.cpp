@@ -55,8 +55,10 @@ PMultigridSpace p_multigrid_interpolation(MPI_Comm comm, int rank, const Mesh& m
   PMultigridSpace space;
   for (int n = 0; n < nn; ++n) {
     if (node_owner[n] != rank) continue;
-    if (vertex[n])
+    if (vertex[n]) {
+      space.coarse_nodes.push_back(n);
       for (int i = 0; i < 3; ++i) space.coarse_coords.push_back(mesh.nodes[n][i]);
+    }
     const double w = parents[n][1] == kNone ? 1.0 : 0.5;
     for (int i = 0; i < 3; ++i) {
       // Free rows from free parents, prescribed rows from prescribed ones.

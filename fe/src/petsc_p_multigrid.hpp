@@ -18,6 +18,7 @@ namespace softhom::fe {
 struct PMultigridSpace {
   Mat interpolation = nullptr;          ///< P (owned by the caller: MatDestroy)
   std::vector<double> coarse_coords;    ///< this rank's coarse vertices' coordinates, x y z per vertex
+  std::vector<int> coarse_nodes;        ///< the mesh nodes of these vertices, in the same order
 };
 
 /// P as a PETSc MPIAIJ matrix of block size 3. Rows: the displacement block of the distributed system

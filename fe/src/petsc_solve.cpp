@@ -14,6 +14,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <stdexcept>
 
 #include "softhom/materials/errors.hpp"
@@ -246,12 +247,23 @@ struct PetscSolver::Data {
   struct Augmentation {
     double gamma = 0.0, kept = 0.0, x = 0.0;
   };
+  // A fill on one process whose pattern is final takes no lock (PetscSolver::concurrent_fill): the
+  // elements of one colour write disjoint rows, so Σ γ s² goes straight into gamma_diagonal's array and
+  // the Schur diagonal into schur_values (its owned rows, NaN where no element wrote), both handed to
+  // PETSc at end_fill.
+  PetscScalar* gamma_values = nullptr;
+  std::vector<double> schur_values;
   /// The Schur preconditioner's diagonal entry of the element's pressure: −1 − (c − γ) x / (1 + γ x).
   void set_schur_diagonal(const PendingElement& pe, const Augmentation& a) {
+    const PetscInt k = pe.prow - (first[rank] + hi);  // this rank's pressure k (hi: its displacement rows)
+    const double value = -1.0 - a.kept * a.x / (1.0 + a.gamma * a.x);
+    if (!schur_values.empty()) {
+      schur_values[std::size_t(k)] = value;
+      return;
+    }
     PetscInt lo = 0;
     check(MatGetOwnershipRange(schur_pre, &lo, nullptr), "MatGetOwnershipRange");
-    const PetscInt k = lo + (pe.prow - (first[rank] + hi));  // hi: this rank's displacement rows
-    check(MatSetValue(schur_pre, k, k, -1.0 - a.kept * a.x / (1.0 + a.gamma * a.x), INSERT_VALUES), "MatSetValue");
+    check(MatSetValue(schur_pre, lo + k, lo + k, value, INSERT_VALUES), "MatSetValue");
   }
   /// γ = min(α / x, c/2), x = Σ s² / max(|diag(A)|, 1e-3 mean) over the element's rows (the bulk part
   /// α / x kept on u is ~α times its shear stiffness), and the part c − γ left to the pressure.
@@ -266,6 +278,12 @@ struct PetscSolver::Data {
   // field split has made its sub-solvers.
   bool p_multigrid = false;
   Mat p_interpolation = nullptr;
+  // The coarse level's solver, its vertices (mesh nodes) and, with -softhom_pmg_current_modes, their
+  // current positions for the next tangent's rigid-body modes (pending until that set-up).
+  KSP coarse_ksp = nullptr;
+  std::vector<int> coarse_nodes;
+  bool current_modes = false, modes_pending = false;
+  std::vector<double> coarse_current;
 
   bool saddle() const { return mixed_rows || !sad_c.empty() || !sad_off.empty(); }
   PetscInt dof_lo(int r) const { return 3 * (nnodes * r / size); }
@@ -338,6 +356,9 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
     check(PetscOptionsInsertString(nullptr, options.c_str()), "PetscOptionsInsertString");
     d.al_alpha = kPMultigridAlpha;
   }
+  PetscBool current_modes = PETSC_FALSE;
+  PetscOptionsGetBool(nullptr, nullptr, "-softhom_pmg_current_modes", &current_modes, nullptr);
+  d.current_modes = d.p_multigrid && current_modes;
   PetscReal alpha = 0.0;
   set = PETSC_FALSE;
   PetscOptionsGetReal(nullptr, nullptr, "-softhom_al_alpha", &alpha, &set);
@@ -553,6 +574,10 @@ bool PetscSolver::factorize(const CscMatrix& K) {
   if (!d.distributed) copy_tangent(K);
   check(KSPSetReusePreconditioner(d.ksp, PETSC_FALSE), "KSPSetReusePreconditioner");
   check(KSPSetOperators(d.ksp, d.A, d.A), "KSPSetOperators");
+  if (d.modes_pending && d.coarse_ksp) {
+    set_coarse_modes(d.coarse_current);
+    d.modes_pending = false;
+  }
   // The multigrid hierarchy or factor of this tangent now (its cost is the "factorization" of this solver).
   check(KSPSetUp(d.ksp), "KSPSetUp");
   attach_p_multigrid();
@@ -596,15 +621,23 @@ void PetscSolver::attach_p_multigrid() {
   // The coarse Galerkin block now exists: give it the rigid-body modes of the P1 vertices. PCMG keeps
   // that matrix for every later tangent (its product is recomputed in place), so the modes stay with it;
   // this first hierarchy is rebuilt once, with them.
-  KSP kc = nullptr;
+  check(PCMGGetCoarseSolve(pu, &d.coarse_ksp), "PCMGGetCoarseSolve");
+  d.coarse_nodes = std::move(space.coarse_nodes);
+  set_coarse_modes(space.coarse_coords);
+  check(KSPSetUp(d.coarse_ksp), "KSPSetUp (coarse)");
+}
+
+void PetscSolver::set_coarse_modes(std::vector<double>& coords) {
+  Data& d = *d_;
+  KSP kc = d.coarse_ksp;
   Mat coarse_op = nullptr, coarse = nullptr;
-  check(PCMGGetCoarseSolve(pu, &kc), "PCMGGetCoarseSolve");
   check(KSPGetOperators(kc, &coarse_op, &coarse), "KSPGetOperators (coarse)");
-  MatNullSpace modes = rigid_body_modes(d.comm, space.coarse_coords);
+  MatNullSpace modes = rigid_body_modes(d.comm, coords);
   check(MatSetNearNullSpace(coarse, modes), "MatSetNearNullSpace (coarse)");
   MatNullSpaceDestroy(&modes);
-  // A fresh coarse preconditioner (the first was set up before the modes existed, and GAMG's levels
-  // cannot be reset in place to other sizes), with the old one's options prefix and operators.
+  // A fresh coarse preconditioner, with the old one's options prefix and operators: GAMG reads the
+  // modes at its first set-up only (later ones reuse its copy), and its levels cannot be reset in place
+  // to other sizes.
   PC old_pc = nullptr, fresh_pc = nullptr;
   const char* prefix = nullptr;
   check(PetscObjectReference(reinterpret_cast<PetscObject>(coarse_op)), "PetscObjectReference");
@@ -619,7 +652,17 @@ void PetscSolver::attach_p_multigrid() {
   PCDestroy(&fresh_pc);
   MatDestroy(&coarse_op);
   MatDestroy(&coarse);
-  check(KSPSetUp(kc), "KSPSetUp (coarse)");
+}
+
+void PetscSolver::set_displacement(const std::vector<double>& u) {
+  Data& d = *d_;
+  if (!d.current_modes || d.coarse_nodes.empty()) return;
+  d.coarse_current.resize(3 * d.coarse_nodes.size());
+  for (std::size_t v = 0; v < d.coarse_nodes.size(); ++v) {
+    const int n = d.coarse_nodes[v];
+    for (int i = 0; i < 3; ++i) d.coarse_current[3 * v + i] = d.mesh->nodes[n][i] + u[3 * std::size_t(n) + i];
+  }
+  d.modes_pending = true;
 }
 
 void PetscSolver::update_operator(const CscMatrix& K) {
@@ -909,7 +952,18 @@ void PetscSolver::begin_fill() {
   if (d.lagged_fill) {
     if (!d.gamma_diagonal) check(VecDuplicate(d.x, &d.gamma_diagonal), "VecDuplicate");
     check(VecSet(d.gamma_diagonal, 0.0), "VecSet");
+    if (d.size == 1) {
+      check(VecGetArray(d.gamma_diagonal, &d.gamma_values), "VecGetArray");
+      PetscInt npl = 0;
+      check(MatGetLocalSize(d.schur_pre, &npl, nullptr), "MatGetLocalSize");
+      d.schur_values.assign(std::size_t(npl), std::numeric_limits<double>::quiet_NaN());
+    }
   }
+}
+
+bool PetscSolver::concurrent_fill() const {
+  const Data& d = *d_;
+  return d.size == 1 && d.fills[0].active() && (!d.schur_pre || d.lagged_fill);
 }
 
 void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke, const double* dk, double c) {
@@ -980,7 +1034,11 @@ void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke,
   }
   std::array<PetscScalar, 30> g;
   for (int i = 0; i < pe.n; ++i) g[i] = aug.gamma * pe.s[i] * pe.s[i];
-  check(VecSetValues(d.gamma_diagonal, pe.n, pe.rows.data(), g.data(), ADD_VALUES), "VecSetValues");
+  if (d.gamma_values) {
+    for (int i = 0; i < pe.n; ++i) d.gamma_values[pe.rows[i]] += g[i];  // one process: rows from 0
+  } else {
+    check(VecSetValues(d.gamma_diagonal, pe.n, pe.rows.data(), g.data(), ADD_VALUES), "VecSetValues");
+  }
   d.set_schur_diagonal(pe, aug);
 }
 
@@ -1048,6 +1106,18 @@ void PetscSolver::finish_augmented_split() {
 
 void PetscSolver::finish_lagged_augmentation() {
   Data& d = *d_;
+  if (d.gamma_values) check(VecRestoreArray(d.gamma_diagonal, &d.gamma_values), "VecRestoreArray");
+  d.gamma_values = nullptr;
+  if (!d.schur_values.empty()) {
+    PetscInt lo = 0;
+    check(MatGetOwnershipRange(d.schur_pre, &lo, nullptr), "MatGetOwnershipRange");
+    for (std::size_t k = 0; k < d.schur_values.size(); ++k)
+      if (!std::isnan(d.schur_values[k])) {
+        const PetscInt row = lo + PetscInt(k);
+        check(MatSetValue(d.schur_pre, row, row, d.schur_values[k], INSERT_VALUES), "MatSetValue");
+      }
+    d.schur_values.clear();
+  }
   check(VecAssemblyBegin(d.gamma_diagonal), "VecAssemblyBegin");
   check(VecAssemblyEnd(d.gamma_diagonal), "VecAssemblyEnd");
   check(MatAssemblyBegin(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");

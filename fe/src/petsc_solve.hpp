@@ -51,6 +51,10 @@ class PetscSolver final : public LinearSolver {
   /// Copies the values of A into the distributed matrix (distributed: the element loop has) and keeps
   /// the preconditioner of an earlier tangent: GMRES then solves this tangent with the lagged one.
   void update_operator(const CscMatrix& A);
+  /// The displacement of the next tangent to be factorized (the whole mesh vector, replicated): with
+  /// -softhom_pmg_current_modes the p-multigrid's coarse level takes the rigid-body modes of the current
+  /// vertex positions at that set-up instead of the reference ones.
+  void set_displacement(const std::vector<double>& u);
   /// Solve to relative residual 1e-12.
   void solve(const std::vector<double>& b, std::vector<double>& x) override;
   /// x = A⁻¹ b on the free dofs (replicated on every rank) to relative residual `rtol` (or the tighter
@@ -74,6 +78,9 @@ class PetscSolver final : public LinearSolver {
   /// pressure column d/|d| and its row c|d| dᵀ, −1 (the layout of the comment in petsc_solve.cpp);
   /// with the augmented split the part γ of c it keeps on u is added at end_fill.
   void add_element(int e, int nn, const int* nodes, const double* Ke, const double* d, double c);
+  /// Whether add_element may run concurrently for elements that share no node (one process, a fill of
+  /// the final pattern straight into the matrix's values); otherwise one call at a time.
+  bool concurrent_fill() const;
   /// K(row_dof, col_dof) += v for free mesh dofs, kept only on the rank owning the row (every rank
   /// passes the same entries).
   void add_entry(int row_dof, int col_dof, double v);
@@ -96,6 +103,9 @@ class PetscSolver final : public LinearSolver {
   /// -softhom_pmg: the interpolation of the displacement block's two-level multigrid, once the field
   /// split has set up its sub-solvers (petsc_p_multigrid.hpp).
   void attach_p_multigrid();
+  /// The coarse level's near-nullspace: the rigid-body modes of its vertices at `coords` (x y z per
+  /// owned vertex), with a fresh coarse preconditioner that will read them at its next set-up.
+  void set_coarse_modes(std::vector<double>& coords);
   /// The one-process path: the owned rows of the replicated tangent K (uncondensed for three-field
   /// elements) into the PETSc matrix.
   void copy_tangent(const CscMatrix& K);

@@ -3,6 +3,7 @@
 // with it (the default for tet10 meshes) gives CHOLMOD's answer on the coarse cPASMO device.
 #include <gtest/gtest.h>
 #include <mpi.h>
+#include <omp.h>
 #include <petscmat.h>
 
 #include <algorithm>
@@ -180,4 +181,44 @@ TEST(PMultigrid, CoarseCpasmoEqualsCholmodWithBoundedKrylovCounts) {
               << " GMRES per solve; CHOLMOD " << stats[0].newton_iterations << " Newton; max |du| / max |u| = " << d / m << "\n";
   EXPECT_LT(d / m, 1e-6);
   EXPECT_LT(per_solve, 60.0);
+}
+
+TEST(PMultigrid, CoarseCpasmoFillsTheSameMatrixOnOneAndTwoThreads) {
+  // On one process the threads share the element colours, and after the first tangent they write
+  // straight into the matrix's values without a lock (fe/src/assembly.cpp, PetscSolver::concurrent_fill):
+  // the elements of one colour share no row, so the matrix is the one-thread matrix to the bit. A race
+  // (two threads adding to one entry, or to γ's diagonal) would lose an element's addition, an O(1)
+  // change of some entries, and move the displacement by far more than the 1e-12 allowed here: 1 and 2
+  // threads differ by 1.0e-15 of max |u| with and without the lock alike (the order of the
+  // threads' sums outside the matrix), with the same Krylov counts. The coarse cPASMO (5 850 tet10,
+  // above the 4 000 elements from which the assembly takes threads), its first load step (the
+  // tangents after the first filled without the lock).
+  if (mpi::world_size() > 1) GTEST_SKIP() << "threads share the assembly on one process only";
+  const std::string file = std::string(SOFTHOM_SOURCE_DIR) + "/studies/devices/cpasmo_gent_coarse.toml";
+  const macro::MacroScene ms = macro::parse_macro_scene(io::load_scene(file), file);
+  const macro::Structure s = macro::build_structure(ms.spec);
+  ASSERT_GE(s.model.mesh.num_elements(), 4000);
+  const int threads_before = omp_get_max_threads();
+  std::vector<double> u[2];
+  RunStats stats[2];
+  for (int k = 0; k < 2; ++k) {
+    omp_set_num_threads(k + 1);
+    NewtonOptions o = ms.newton;
+    o.solver = SolverKind::petsc;
+    o.petsc_options = "";
+    Simulation sim(s.model, o);
+    ASSERT_TRUE(sim.advance_to(ms.times[0]).reached());
+    u[k] = sim.displacement();
+    stats[k] = sim.stats();
+  }
+  omp_set_num_threads(threads_before);
+  ASSERT_GE(stats[0].tangent_assemblies, 3);
+  double d = 0.0, m = 1e-300;
+  for (std::size_t i = 0; i < u[0].size(); ++i) {
+    d = std::max(d, std::abs(u[0][i] - u[1][i]));
+    m = std::max(m, std::abs(u[0][i]));
+  }
+  EXPECT_LT(d / m, 1e-12);
+  EXPECT_EQ(stats[0].krylov_iterations, stats[1].krylov_iterations);
+  EXPECT_EQ(stats[0].newton_iterations, stats[1].newton_iterations);
 }
