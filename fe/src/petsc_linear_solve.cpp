@@ -58,10 +58,14 @@ bool Simulation::Impl::petsc_linear_solve(const std::vector<double>& b, std::vec
     petsc_set_operator(false);
   for (;;) {
     const bool lagged = factor_version_ != k_version_;
-    // A lagged preconditioner may spend the iterations a new one would save, no more.
+    // A lagged preconditioner may spend the iterations a new one would save, no more. The first solve
+    // from a secant start gets five times the last fresh solve's iterations (at least 200): where the
+    // extrapolation overshoots (the gripper's fingers at 200 kPa) GMRES crawls at |r|/|b| ~ 1e-3 for
+    // its whole limit, and a failure there is retried from the converged state (attempt_substep).
     const int budget = lagged ? petsc_fresh_iterations_ +
                                     std::clamp(int(petsc_setup_time_ / petsc_iteration_time_), 10, 200)
-                              : 0;
+                       : secant_first_solve_ ? std::max(200, 5 * petsc_fresh_iterations_)
+                                             : 0;
     const auto t0 = std::chrono::steady_clock::now();
     const KrylovOutcome o = petsc_->solve(b, x, tol, budget);
     const double t = petsc_->max_over_ranks(seconds_since(t0));  // every rank takes the same decisions

@@ -278,8 +278,14 @@ struct PetscSolver::Data {
   // field split has made its sub-solvers.
   bool p_multigrid = false;
   Mat p_interpolation = nullptr;
-  // The coarse level's solver, its vertices (mesh nodes) and, with -softhom_pmg_current_modes, their
-  // current positions for the next tangent's rigid-body modes (pending until that set-up).
+  // The coarse level's solver, its vertices (mesh nodes) and their current positions for the next
+  // tangent's rigid-body modes (pending until that set-up; -softhom_pmg_current_modes 0: the reference
+  // positions throughout). The modes of the reference positions are not those of a body that has
+  // turned or stretched: a rotation δu = W x of the current configuration changes no strain (δF = W F),
+  // δu = W X does (δF = W, strain sym(Fᵀ W) of the order of the displacement gradient), and GAMG's
+  // coarse spaces built from the latter lost the
+  // fine gripper at 150 kPa (2 000 GMRES iterations without progress; 40 per solve with the current
+  // positions, BENCHMARKS.md "The fine gripper").
   KSP coarse_ksp = nullptr;
   std::vector<int> coarse_nodes;
   bool current_modes = false, modes_pending = false;
@@ -356,7 +362,7 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
     check(PetscOptionsInsertString(nullptr, options.c_str()), "PetscOptionsInsertString");
     d.al_alpha = kPMultigridAlpha;
   }
-  PetscBool current_modes = PETSC_FALSE;
+  PetscBool current_modes = PETSC_TRUE;
   PetscOptionsGetBool(nullptr, nullptr, "-softhom_pmg_current_modes", &current_modes, nullptr);
   d.current_modes = d.p_multigrid && current_modes;
   PetscReal alpha = 0.0;
@@ -395,7 +401,17 @@ std::string PetscSolver::description() const {
   std::string s = std::string(kt ? kt : "?") + " + " + (pt ? pt : "?");
   if (d_->saddle() && pt && std::string(pt) == PCFIELDSPLIT) {
     s += " (u, p) Schur: augmented u block, jacobi on the Schur diagonal";
-    if (d_->p_multigrid) s += ", P2 -> P1 multigrid with BoomerAMG (3 functions) on the P1 Galerkin block";
+    if (d_->p_multigrid) {
+      // The coarse solver the options chose (once the hierarchy exists; BoomerAMG by default).
+      std::string coarse = "BoomerAMG (3 functions)";
+      PC pc_coarse = nullptr;
+      PCType ct = nullptr;
+      if (d_->coarse_ksp && KSPGetPC(d_->coarse_ksp, &pc_coarse) == 0 && PCGetType(pc_coarse, &ct) == 0 && ct &&
+          std::string(ct) != PCHYPRE)
+        coarse = std::string(ct) == PCGAMG ? "GAMG (rigid-body modes" + std::string(d_->current_modes ? " of the current positions)" : ")")
+                                           : std::string(ct);
+      s += ", P2 -> P1 multigrid with " + coarse + " on the P1 Galerkin block";
+    }
   }
   return s;
 }
@@ -657,6 +673,11 @@ void PetscSolver::set_coarse_modes(std::vector<double>& coords) {
 void PetscSolver::set_displacement(const std::vector<double>& u) {
   Data& d = *d_;
   if (!d.current_modes || d.coarse_nodes.empty()) return;
+  // BoomerAMG (the default coarse solver) does not read them: no new coarse preconditioner for it.
+  PC pc_coarse = nullptr;
+  PCType type = nullptr;
+  if (KSPGetPC(d.coarse_ksp, &pc_coarse) != 0 || PCGetType(pc_coarse, &type) != 0 || !type || std::string(type) == PCHYPRE)
+    return;
   d.coarse_current.resize(3 * d.coarse_nodes.size());
   for (std::size_t v = 0; v < d.coarse_nodes.size(); ++v) {
     const int n = d.coarse_nodes[v];

@@ -51,9 +51,9 @@ class PetscSolver final : public LinearSolver {
   /// Copies the values of A into the distributed matrix (distributed: the element loop has) and keeps
   /// the preconditioner of an earlier tangent: GMRES then solves this tangent with the lagged one.
   void update_operator(const CscMatrix& A);
-  /// The displacement of the next tangent to be factorized (the whole mesh vector, replicated): with
-  /// -softhom_pmg_current_modes the p-multigrid's coarse level takes the rigid-body modes of the current
-  /// vertex positions at that set-up instead of the reference ones.
+  /// The displacement of the next tangent to be factorized (the whole mesh vector, replicated): a coarse
+  /// solver of the p-multigrid that reads rigid-body modes (GAMG) gets those of the current vertex
+  /// positions at that set-up (-softhom_pmg_current_modes 0: the reference ones throughout).
   void set_displacement(const std::vector<double>& u);
   /// Solve to relative residual 1e-12.
   void solve(const std::vector<double>& b, std::vector<double>& x) override;
