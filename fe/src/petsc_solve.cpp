@@ -283,9 +283,9 @@ struct PetscSolver::Data {
   // positions throughout). The modes of the reference positions are not those of a body that has
   // turned or stretched: a rotation δu = W x of the current configuration changes no strain (δF = W F),
   // δu = W X does (δF = W, strain sym(Fᵀ W) of the order of the displacement gradient), and GAMG's
-  // coarse spaces built from the latter lost the
-  // fine gripper at 150 kPa (2 000 GMRES iterations without progress; 40 per solve with the current
-  // positions, BENCHMARKS.md "The fine gripper").
+  // coarse spaces built from the latter lost the fine gripper at 150–175 kPa (GMRES without progress
+  // over 2 000 iterations; 30–77 per solve to 200 kPa with the current positions, BENCHMARKS.md "A
+  // coarse space with rotations").
   KSP coarse_ksp = nullptr;
   std::vector<int> coarse_nodes;
   bool current_modes = false, modes_pending = false;
