@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <iostream>
 
+#include "relative_difference.hpp"
 #include "softhom/fe/petsc.hpp"
 #include "softhom/fe/solver.hpp"
 #include "softhom/io/mpi.hpp"
@@ -23,6 +24,7 @@
 
 using namespace softhom;
 using namespace softhom::fe;
+using softhom::test::relative_difference;
 
 namespace {
 
@@ -63,19 +65,6 @@ RunResult run(const FeModel& m, SolverKind kind, double t_end, int substeps = 1,
   r.u = sim.displacement();
   r.stats = sim.stats();
   return r;
-}
-
-double max_abs(const std::vector<double>& v) {
-  double m = 0.0;
-  for (double x : v) m = std::max(m, std::abs(x));
-  return m;
-}
-
-/// max |a − b| / max |b|.
-double relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
-  double d = 0.0;
-  for (std::size_t k = 0; k < a.size(); ++k) d = std::max(d, std::abs(a[k] - b[k]));
-  return d / std::max(max_abs(b), 1e-300);
 }
 
 /// Every rank must hold the same solution (replicated Newton iteration): max over ranks of the

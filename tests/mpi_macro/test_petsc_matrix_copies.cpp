@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "relative_difference.hpp"
 #include "softhom/fe/petsc.hpp"
 #include "softhom/fe/solver.hpp"
 #include "softhom/io/mpi.hpp"
@@ -17,6 +18,7 @@
 
 using namespace softhom;
 using namespace softhom::fe;
+using softhom::test::relative_difference;
 
 namespace {
 
@@ -37,15 +39,6 @@ CookRun run_cook(const FeModel& m, SolverKind kind, const std::string& petsc) {
   Simulation sim(m, o);
   EXPECT_TRUE(sim.advance_to(1.0).reached());
   return {sim.displacement(), sim.stats(), kind == SolverKind::petsc ? petsc_last_matrix_bytes() : PetscMatrixBytes{}};
-}
-
-double relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
-  double d = 0.0, s = 1e-300;
-  for (std::size_t k = 0; k < a.size(); ++k) {
-    d = std::max(d, std::abs(a[k] - b[k]));
-    s = std::max(s, std::abs(b[k]));
-  }
-  return d / s;
 }
 
 }  // namespace
