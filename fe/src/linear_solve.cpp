@@ -157,8 +157,9 @@ struct SaddleSpace {
 };
 }  // namespace
 
-bool Simulation::Impl::linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why) {
-  if (petsc_) return petsc_linear_solve(b, x, tol, why);
+bool Simulation::Impl::linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why,
+                                     bool secant_start) {
+  if (petsc_) return petsc_linear_solve(b, x, tol, why, secant_start);
   const int n = dofs_.num_free;
   x.assign(n, 0.0);
   if (norm(b) == 0.0) return true;

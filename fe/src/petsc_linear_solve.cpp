@@ -47,7 +47,7 @@ void Simulation::Impl::petsc_set_operator(bool new_preconditioner) {
 }
 
 bool Simulation::Impl::petsc_linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol,
-                                          std::string& why) {
+                                          std::string& why, bool secant_start) {
   x.assign(dofs_.num_free, 0.0);
   if (norm(b) == 0.0) return true;
   // factor_stale_ also carries the Newton iteration's refresh rules (solver.cpp, newton_correction): a
@@ -64,7 +64,7 @@ bool Simulation::Impl::petsc_linear_solve(const std::vector<double>& b, std::vec
     // its whole limit, and a failure there is retried from the converged state (attempt_substep).
     const int budget = lagged ? petsc_fresh_iterations_ +
                                     std::clamp(int(petsc_setup_time_ / petsc_iteration_time_), 10, 200)
-                       : secant_first_solve_ ? std::max(200, 5 * petsc_fresh_iterations_)
+                       : secant_start ? std::max(200, 5 * petsc_fresh_iterations_)
                                              : 0;
     const auto t0 = std::chrono::steady_clock::now();
     const KrylovOutcome o = petsc_->solve(b, x, tol, budget);

@@ -288,6 +288,13 @@ struct PetscSolver::Data {
   // coarse space with rotations").
   KSP coarse_ksp = nullptr;
   std::vector<int> coarse_nodes;
+  /// The coarse level's preconditioner type ("" before the hierarchy exists).
+  std::string coarse_pc_type() const {
+    PC pc = nullptr;
+    PCType type = nullptr;
+    if (!coarse_ksp || KSPGetPC(coarse_ksp, &pc) != 0 || PCGetType(pc, &type) != 0 || !type) return "";
+    return type;
+  }
   bool current_modes = false, modes_pending = false;
   std::vector<double> coarse_current;
 
@@ -403,13 +410,10 @@ std::string PetscSolver::description() const {
     s += " (u, p) Schur: augmented u block, jacobi on the Schur diagonal";
     if (d_->p_multigrid) {
       // The coarse solver the options chose (once the hierarchy exists; BoomerAMG by default).
-      std::string coarse = "BoomerAMG (3 functions)";
-      PC pc_coarse = nullptr;
-      PCType ct = nullptr;
-      if (d_->coarse_ksp && KSPGetPC(d_->coarse_ksp, &pc_coarse) == 0 && PCGetType(pc_coarse, &ct) == 0 && ct &&
-          std::string(ct) != PCHYPRE)
-        coarse = std::string(ct) == PCGAMG ? "GAMG (rigid-body modes" + std::string(d_->current_modes ? " of the current positions)" : ")")
-                                           : std::string(ct);
+      const std::string type = d_->coarse_pc_type();
+      std::string coarse = type;
+      if (type.empty() || type == PCHYPRE) coarse = "BoomerAMG (3 functions)";
+      else if (type == PCGAMG) coarse = d_->current_modes ? "GAMG (rigid-body modes of the current positions)" : "GAMG (rigid-body modes)";
       s += ", P2 -> P1 multigrid with " + coarse + " on the P1 Galerkin block";
     }
   }
@@ -590,7 +594,7 @@ bool PetscSolver::factorize(const CscMatrix& K) {
   if (!d.distributed) copy_tangent(K);
   check(KSPSetReusePreconditioner(d.ksp, PETSC_FALSE), "KSPSetReusePreconditioner");
   check(KSPSetOperators(d.ksp, d.A, d.A), "KSPSetOperators");
-  if (d.modes_pending && d.coarse_ksp) {
+  if (d.modes_pending) {
     set_coarse_modes(d.coarse_current);
     d.modes_pending = false;
   }
@@ -674,10 +678,8 @@ void PetscSolver::set_displacement(const std::vector<double>& u) {
   Data& d = *d_;
   if (!d.current_modes || d.coarse_nodes.empty()) return;
   // BoomerAMG (the default coarse solver) does not read them: no new coarse preconditioner for it.
-  PC pc_coarse = nullptr;
-  PCType type = nullptr;
-  if (KSPGetPC(d.coarse_ksp, &pc_coarse) != 0 || PCGetType(pc_coarse, &type) != 0 || !type || std::string(type) == PCHYPRE)
-    return;
+  const std::string type = d.coarse_pc_type();
+  if (type.empty() || type == PCHYPRE) return;
   d.coarse_current.resize(3 * d.coarse_nodes.size());
   for (std::size_t v = 0; v < d.coarse_nodes.size(); ++v) {
     const int n = d.coarse_nodes[v];

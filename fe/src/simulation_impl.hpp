@@ -156,15 +156,18 @@ struct Simulation::Impl {
                       const std::vector<double>& du_c, Assembly& out);
 
   // Linear algebra (linear_solve.cpp).
-  /// x = K⁻¹ b (free dofs) to relative residual `tol`; false when no factorization works.
-  bool linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why);
+  /// x = K⁻¹ b (free dofs) to relative residual `tol`; false when no factorization works. `secant_start`:
+  /// the first solve from the secant predictor, whose failure is retried from the converged state.
+  bool linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why,
+                    bool secant_start = false);
   /// GMRES with the current factor as preconditioner (uncondensed (u, p_e) space for three-field
   /// elements with a lagged factor); refactorizes and retries once.
   bool krylov_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why);
   bool refactor(std::string& why);
   /// The petsc solver's solve (petsc_linear_solve.cpp): GMRES to `tol` with the preconditioner of this
   /// tangent or, where reuse pays, a lagged one (rebuilt and solved again when it fails).
-  bool petsc_linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why);
+  bool petsc_linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why,
+                          bool secant_start);
   /// The current tangent into PETSc's operator, with a new preconditioner or keeping the last one.
   void petsc_set_operator(bool new_preconditioner);
   /// A lagged preconditioner can save more than it costs: its set-up is a large part of a solve.
@@ -247,7 +250,6 @@ struct Simulation::Impl {
   int stored_steps_ = 0;                   ///< converged steps behind u_ (capped at 2)
   bool extrapolate_step_ = true;           ///< false while a step is retried without the secant predictor
   bool extrapolated_ = false;              ///< the last try_step started from the secant predictor
-  bool secant_first_solve_ = false;        ///< the linear solve at hand is iteration 0 from that start
   double stiffness_time_ = -1.0;           ///< ≥ 0: time of the pressure in the load stiffness (assemble)
   std::vector<double> state_old_, state_new_;
   std::vector<double> cauchy_;     ///< element-mean Cauchy stress of the last converged state

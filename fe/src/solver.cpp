@@ -503,10 +503,7 @@ bool Simulation::Impl::newton_correction(int it, bool predictor, double rc, doub
   if (it > 0 && rc > 0.5 * rc_last && factor_valid_ && factor_version_ != k_version_) factor_stale_ = true;
   const int factorizations_before = linear_->times().factorizations;
   const bool lagged_before = factor_valid_ && !factor_stale_ && factor_version_ != k_version_;
-  secant_first_solve_ = it == 0 && extrapolated_;
-  const bool solved = linear_solve(n.rhs, n.x1, eta, why);
-  secant_first_solve_ = false;
-  if (!solved) return false;
+  if (!linear_solve(n.rhs, n.x1, eta, why, it == 0 && extrapolated_)) return false;
   if (it == 0 && last_factor_flops_ >= options_.lag_flops) {
     if (lagged_before && linear_->times().factorizations > factorizations_before) refactor_first_ = true;
     else if (lagged_before) refactor_first_ = false;
