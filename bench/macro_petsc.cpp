@@ -2,8 +2,10 @@
 // (Cook's membrane, plane strain), and the helix tube (bench_macro's tube, follower pressure) with
 // CHOLMOD vs PETSc: wall time, Newton and Krylov iterations, peak memory.
 //
-//   bench_macro_petsc --cook                 n = 8, 16, 32 × K/G = 1e2 … 1e5, one load step
-//   bench_macro_petsc --tube-table           helix tube, 1e3 / 4e3 / 1e4 dofs × K/G = 1e2 … 1e5, first load step
+//   bench_macro_petsc --cook                 n = 8, 16, 32 (BENCH_COOK_N) × K/G = 1e2 … 1e5, one load step
+//   bench_macro_petsc --tube-table           helix tube, 1e3 / 4e3 / 1e4 dofs (BENCH_DOFS) × K/G = 1e2 … 1e5,
+//                                            first load step; BENCH_TET10=1: the hexes split into tet10;
+//                                            BENCH_ISOTROPIC=1: the Gent matrix without the fibers
 //   bench_macro_petsc --tube DOFS [STEPS]    helix tube, cholmod then petsc (under mpirun: petsc only)
 //   mpirun -n 2 bench_macro_petsc --tube DOFS [STEPS]
 //   [mpirun -n R] bench_macro_petsc --scene FILE [STEPS]   a macro scene with its [solver] settings:
@@ -63,8 +65,9 @@ std::vector<double> ratios() { return list_from_env("BENCH_KG", {1e2, 1e3, 1e4, 
 int cook_table(const std::string& options) {
   if (mpi::world_rank() == 0)
     std::printf("%6s %8s %8s %7s %7s %12s %9s\n", "mesh", "K/G", "dofs", "newton", "solves", "krylov/solve", "time[s]");
-  for (int n : {8, 16, 32})
+  for (double mesh : list_from_env("BENCH_COOK_N", {8, 16, 32}))
     for (double kg : ratios()) {
+      const int n = int(mesh);
       NewtonOptions o;
       o.solver = SolverKind::petsc;
       o.petsc_options = options;
@@ -81,7 +84,20 @@ int cook_table(const std::string& options) {
   return 0;
 }
 
-macro::StructureSpec helix_tube(double dofs, double kg = 2000.0 / 0.017) { return macro::make_helix_tube_spec(dofs, kg); }
+/// The helix tube of about `dofs` hex8 dofs; with BENCH_TET10 set, its hexes split into 10-node tets (about
+/// 7× the dofs; the PETSc path then takes the p-multigrid of quadratic tets).
+macro::StructureSpec helix_tube(double dofs, double kg = 2000.0 / 0.017) {
+  macro::StructureSpec spec = macro::make_helix_tube_spec(dofs, kg);
+  spec.tet10 = std::getenv("BENCH_TET10") != nullptr;
+  if (std::getenv("BENCH_ISOTROPIC")) {  // the Gent matrix alone: the fibers' share of the counts
+    GentHGOParams p;
+    p.G = 0.017;
+    p.Jm = 14.0;
+    p.K = kg * p.G;
+    spec.material = make_material(make_gent_hgo(p));
+  }
+  return spec;
+}
 
 int tube_run(double dofs, int steps, const std::string& options) {
   const macro::Structure s = macro::build_structure(helix_tube(dofs));

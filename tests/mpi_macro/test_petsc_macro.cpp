@@ -251,9 +251,9 @@ TEST(PetscMacro, HelixTubeKrylovCountsOverMeshAndBulkModulus) {
   // The first load step of the helix tube (pressure 45 of 180) with the default split and the default
   // Newton forcing terms, as `bench_macro_petsc --tube-table` runs it (BENCHMARKS.md, "Macro solver on
   // PETSc"): mean GMRES iterations per solve on 2 118 and 7 785 free dofs × K/G 1e2 and 1e5.
-  // Measured (1 rank): 2 118 dofs 40.0 / 43.6 at K/G 1e2 / 1e5, 7 785 dofs 43.7 / 59.8: mesh ratio
-  // (h / 1.54) 1.09 / 1.37, K/G ratio 1.09 / 1.37. Bounds: mesh ratio < 1.6 and K/G ratio < 2.0 (the
-  // measured worst + 15–45 % for the other rank count's coarsening), fewer than 100 per solve. The
+  // Measured (1 rank): 2 118 dofs 39.3 / 48.4 at K/G 1e2 / 1e5, 7 785 dofs 44.4 / 67.0: mesh ratio
+  // (h / 1.54) 1.13 / 1.38, K/G ratio 1.23 / 1.51. Bounds: mesh ratio < 1.6 and K/G ratio < 2.0 (the
+  // measured worst + 15–30 %), fewer than 100 per solve. The
   // plain split (A alone in the displacement block) measured 53.3 / 120.1 on 2 118 dofs (K/G ratio
   // 2.25, above 100 per solve) and failed the 7 785-dof K/G 1e5 step: it fails all three bounds.
   // One rank only (four tube runs, the 2-rank suite's time limit): the distributed split's counts are
