@@ -71,8 +71,9 @@ int run_macro_scene(const CommandOptions& given, const LoadedScene& scene) {
   CommandOptions options = given;
   if (!root) options.quiet = true;
   const auto wall_start = std::chrono::steady_clock::now();
-  const macro::MacroScene ms = macro::parse_macro_scene(scene.table, scene.file, macro::mesh_cache_dir(options.out));
+  macro::MacroScene ms = macro::parse_macro_scene(scene.table, scene.file, macro::mesh_cache_dir(options.out));
   const macro::Structure structure = macro::build_structure(ms.spec);
+  ms.spec.imported.mesh = fe::Mesh{};  // built into structure.model: not kept twice for the run
   fe::Simulation sim(structure.model, ms.newton);
   const std::string tag = "[macro " + scene.name + "] ";
   if (!options.quiet)

@@ -120,6 +120,9 @@ Structure build_structure(const StructureSpec& spec) {
   refuse_if_too_large(spec, double(softhom::available_memory_bytes()), size_field(spec));
   Structure s;
   s.spec = spec;
+  // model.mesh is the structure's mesh; the spec's copy of an imported one is read from `spec` below
+  // and not kept (on a device mesh every copy is ~25 B per dof on every rank).
+  s.spec.imported.mesh = fe::Mesh{};
   fe::FeModel& m = s.model;
   m.formulation = spec.formulation;
   switch (spec.kind) {
