@@ -194,10 +194,11 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
         if (mesh.is_tet(e)) {
           const int t = e - mesh.num_hexes();
           Tet10MixedVolume mv;
-          element(e, tet_geometry_[geometry_slot_[e]], mesh.tets[t], tet_kernel, r10, K10, mv, mix_d_tet_[t], tet_block_[t].data());
+          element(e, tet_geometry_[geometry_slot_[e]], mesh.tets[t], tet_kernel, r10, K10, mv, mix_d_tet_[geometry_slot_[e]],
+                  tet_block_[t].data());
         } else {
           MixedVolume mv;
-          element(e, geometry_[geometry_slot_[e]], mesh.hexes[e], hex_kernel, r, Ke, mv, mix_d_[e], block_[e].data());
+          element(e, geometry_[geometry_slot_[e]], mesh.hexes[e], hex_kernel, r, Ke, mv, mix_d_[geometry_slot_[e]], block_[e].data());
         }
       }
     }

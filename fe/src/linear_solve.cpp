@@ -348,7 +348,7 @@ void Simulation::Impl::saddle_current() {
   for (int k = 0; k < np; ++k) {
     const int e = sad_elem_[k];
     const bool tet = mesh.is_tet(e);
-    const double* de = tet ? mix_d_tet_[e - mesh.num_hexes()].data() : mix_d_[e].data();
+    const double* de = mixed_gradient(e);
     std::copy(de, de + (sad_off_[k + 1] - sad_off_[k]), sad_db_.begin() + sad_off_[k]);
     Hex8Geometry hex_scratch;
     Tet10Geometry tet_scratch;
@@ -368,10 +368,11 @@ void Simulation::Impl::mixed_update(const std::vector<double>& du, double alpha)
     for (int e = 0; e < ne; ++e) {
       mix_theta_base_[e] = mix_theta_[e];
       mix_p_base_[e] = mix_p_[e];
-      if (mix_bulk_[e] <= 0.0) continue;
+      // Another rank's element: its owner updates it (this rank never reads its θ, p).
+      if (mix_bulk_[e] <= 0.0 || !owns(e)) continue;
       double s = 0.0;
       const int* en = mesh.element_nodes(e);
-      const double* de = mesh.is_tet(e) ? mix_d_tet_[e - mesh.num_hexes()].data() : mix_d_[e].data();
+      const double* de = mixed_gradient(e);
       for (int a = 0; a < mesh.element_size(e); ++a)
         for (int i = 0; i < 3; ++i) s += de[3 * a + i] * du[3 * en[a] + i];
       const double th = mix_theta_[e], K = mix_bulk_[e];

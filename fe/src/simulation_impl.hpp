@@ -241,8 +241,12 @@ struct Simulation::Impl {
   // Three-field iteration (per element; bulk 0 = plain F-bar): iterate, converged and linearization data.
   std::vector<double> mix_bulk_, mix_theta_, mix_p_, mix_theta_conv_, mix_p_conv_, mix_theta_u_;
   std::vector<double> mix_theta_base_, mix_p_base_, mix_dtheta_, mix_dp_;
+  // ∂θ_e/∂u of the elements this rank evaluates, at geometry_slot_[e] (hexes, tets).
   std::vector<Vec24> mix_d_;
-  std::vector<Vec30> mix_d_tet_;  ///< ∂θ_e/∂u per tet
+  std::vector<Vec30> mix_d_tet_;
+  const double* mixed_gradient(int e) const {
+    return model_.mesh.is_tet(e) ? mix_d_tet_[geometry_slot_[e]].data() : mix_d_[geometry_slot_[e]].data();
+  }
   std::vector<double> u_, u_prev_step_;  ///< converged displacement and the one before it (secant predictor)
   double prev_step_time_ = 0.0;            ///< time of u_prev_step_
   std::vector<double> u_prev2_step_;       ///< the converged displacement before u_prev_step_ (quadratic predictor)

@@ -224,8 +224,9 @@ void Simulation::Impl::build_mixed() {
       mix_theta_ = mix_theta_conv_;
       mix_p_ = mix_p_conv_;
       mix_theta_u_ = mix_theta_conv_;
-      mix_d_.assign(mesh.num_hexes(), Vec24::Zero());
-      mix_d_tet_.assign(mesh.tets.size(), Vec30::Zero());
+      // ∂θ/∂u of the elements this rank evaluates, at their geometry slots (built above).
+      mix_d_.assign(geometry_.size(), Vec24::Zero());
+      mix_d_tet_.assign(tet_geometry_.size(), Vec30::Zero());
       // Element pressure unknowns of the uncondensed Krylov space (linear_solve). The petsc path needs
       // the element list alone (its matrix holds the element pressures; no equation lists).
       sad_off_.push_back(0);
