@@ -90,11 +90,9 @@ macro::StructureSpec helix_tube(double dofs, double kg = 2000.0 / 0.017) {
   macro::StructureSpec spec = macro::make_helix_tube_spec(dofs, kg);
   spec.tet10 = std::getenv("BENCH_TET10") != nullptr;
   if (std::getenv("BENCH_ISOTROPIC")) {  // the Gent matrix alone: the fibers' share of the counts
-    GentHGOParams p;
-    p.G = 0.017;
-    p.Jm = 14.0;
-    p.K = kg * p.G;
-    spec.material = make_material(make_gent_hgo(p));
+    GentHGOParams matrix = macro::helix_tube_law(kg);
+    matrix.fibers.clear();
+    spec.material = make_material(make_gent_hgo(matrix));
   }
   return spec;
 }

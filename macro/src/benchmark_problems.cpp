@@ -36,6 +36,16 @@ fe::FeModel make_cook_membrane_problem(int n, double G, double bulk_over_shear, 
 
 int cook_tip_dof(int n) { return 3 * (n + (n + 1) * n) + 1; }
 
+GentHGOParams helix_tube_law(double bulk_over_shear) {
+  GentHGOParams p;
+  p.G = 0.017;
+  p.Jm = 14.0;
+  p.K = bulk_over_shear * p.G;
+  const double a = 45.0 * M_PI / 180.0;
+  p.fibers = {{Vec3(std::sin(a), std::cos(a), 0.0), 0.8, 18.0}, {Vec3(-std::sin(a), std::cos(a), 0.0), 0.8, 18.0}};
+  return p;
+}
+
 StructureSpec make_helix_tube_spec(double dofs, double bulk_over_shear) {
   StructureSpec spec;
   spec.kind = StructureKind::tube;
@@ -53,13 +63,7 @@ StructureSpec make_helix_tube_spec(double dofs, double bulk_over_shear) {
   t.cap_axial_cells = std::max(1, int(std::lround(2.5 / h)));
   t.cap_core_cells = std::max(1, int(std::lround(5.0 / h)));
   spec.tube = t;
-  GentHGOParams p;
-  p.G = 0.017;
-  p.Jm = 14.0;
-  p.K = bulk_over_shear * p.G;
-  const double a = 45.0 * M_PI / 180.0;
-  p.fibers = {{Vec3(std::sin(a), std::cos(a), 0.0), 0.8, 18.0}, {Vec3(-std::sin(a), std::cos(a), 0.0), 0.8, 18.0}};
-  spec.material = make_material(make_gent_hgo(p));
+  spec.material = make_material(make_gent_hgo(helix_tube_law(bulk_over_shear)));
   spec.fiber_frame = FiberFrame::cylindrical;
   spec.control = LoadControl::pressure;
   spec.load = {{0.0, 180.0}, {0.0, 0.004}};

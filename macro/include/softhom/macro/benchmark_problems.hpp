@@ -4,6 +4,7 @@
 // fiber-reinforced helix tube under follower pressure.
 #include "softhom/fe/model.hpp"
 #include "softhom/macro/structures.hpp"
+#include "softhom/materials/laws.hpp"
 
 namespace softhom::macro {
 
@@ -16,9 +17,12 @@ fe::FeModel make_cook_membrane_problem(int n, double G, double bulk_over_shear, 
 /// The y dof of the tip corner (48, 60, 0), where Cook's deflection is read.
 int cook_tip_dof(int n);
 
+/// The helix tube's law: Gent–HGO (Ecoflex, G = 0.017, Jm = 14, K = bulk_over_shear · G, two fiber
+/// families at ±45° to the axis, k1 0.8, k2 18, in the cylindrical frame).
+GentHGOParams helix_tube_law(double bulk_over_shear);
+
 /// The capped ±45° tube: R_i 5, R_o 7.5, L 50, caps 2.5 thick (their cores' innermost ring of degenerate
-/// hexes), near-cubic cells sized for about `dofs` free dofs; Gent–HGO (Ecoflex, G = 0.017, Jm = 14,
-/// K = bulk_over_shear · G, two fiber families k1 0.8, k2 18 in the cylindrical frame); follower
+/// hexes), near-cubic cells sized for about `dofs` free dofs; helix_tube_law(bulk_over_shear); follower
 /// pressure ramped to 0.004 over t ∈ [0, 180].
 StructureSpec make_helix_tube_spec(double dofs, double bulk_over_shear);
 
