@@ -22,6 +22,7 @@
 #include "softhom/rve/geometry.hpp"
 #include "softhom/studies/rve_scene.hpp"
 
+#include "rve_checkpoint.hpp"
 #include "rve_output.hpp"
 #include "rve_slab_fields.hpp"
 #include "softhom/io/mpi.hpp"
@@ -62,10 +63,28 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
       engine = choose_engine(scene.table, why);
       if (!options.quiet) std::cerr << "softhom rve: " << why << "\n";
     }
-    if (engine == "fe") return run_rve_fe(options, scene);
+    if (engine == "fe") {
+      if (options.resume)
+        throw InputError("--resume", "", "continues runs of the FFT engine only (solver.engine = \"fe\" writes no checkpoint)");
+      return run_rve_fe(options, scene);
+    }
   }
   // [load] is parsed only when the run needs it (unknown tables are refused by the scene parser).
   const bool wants_microstructure_only = studies::parse_rve_output(scene.table, nullptr).microstructure_only;
+  if (wants_microstructure_only && options.resume)
+    throw InputError("--resume", "", "output.microstructure_only runs no load path, there is nothing to continue");
+  // A run that stopped before the end of its load path left a checkpoint (rve_checkpoint.hpp): --resume
+  // continues it; a new run into the same --out would overwrite the finished part, so it is refused.
+  RveCheckpoint checkpoint(options.out, scene.table, mpi::world_rank(), mpi::world_size());
+  if (!wants_microstructure_only) {
+    if (options.resume)
+      checkpoint.check_resumable();
+    else if (checkpoint.exists())
+      throw InputError("--out", options.out.string(),
+                       "holds the checkpoint of an unfinished run (" + checkpoint.describe() +
+                           "): continue it with --resume, or remove " + (options.out / "checkpoint.json").string() +
+                           " to start over");
+  }
   // A 3D cell under an MPI launcher: each rank builds and holds only its slab of the phase image.
   studies::RveSceneSetup setup =
       studies::parse_rve_scene(scene.table, !wants_microstructure_only, options.out, !wants_microstructure_only);
@@ -132,18 +151,34 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   std::vector<double>().swap(setup.image.fiber_fraction);
   std::vector<Eigen::Vector3d>().swap(setup.image.normal);
   std::vector<Eigen::Vector3d>().swap(setup.image.fiber_direction);
+  RveResumePoint resumed;
+  if (options.resume) resumed = checkpoint.load(solver);
   const double t_end = control.times.back();
   std::unique_ptr<io::FieldWriter> writer;
+  // A continued run does not rewrite the field steps of the run it continues: its own go to a file of
+  // their own.
+  const std::string fields_stem = resumed.field_steps > 0
+                                      ? "fields_resumed_" + std::to_string(resumed.step_log.size() - 1)
+                                      : std::string("fields");
   if (fields_mode != "none" && root) {
-    writer = std::make_unique<io::FieldWriter>(options.out / "fields", voxel_grid(image));
+    writer = std::make_unique<io::FieldWriter>(options.out / fields_stem, voxel_grid(image));
     set_rve_field_attributes(*writer, alpha, "FFT voxels");
   }
   auto want_fields = [&](double t) { return output.wants_fields(t, t_end); };
   RveRecorder record(options.out, studies::rve_response_columns());
   if (!root) record.csv = io::ProgressiveCsv({}, studies::rve_response_columns());  // kept in memory only
+  if (options.resume) record.take_over(resumed.rows, resumed.step_log);
+  rve::RveCounts totals = resumed.totals;  // of the whole run, for the checkpoint
+  int field_steps = resumed.field_steps;
+  std::vector<std::string> checkpoint_notes;
+  auto wall_seconds = [&] {
+    return resumed.wall_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  };
   Progress progress(options.quiet || !root);
   auto on_step = [&](const rve::RveStep& s, const rve::RveFields* f) {
     record.record(s, studies::rve_response_row(s));
+    totals += s;
+    if (f && fields_mode != "none") ++field_steps;
     if (f && slabs && fields_mode != "none") {
       if (writer) writer->begin_step(s.t);
       write_slab_fields(writer.get(), *slabs, *f);
@@ -155,15 +190,29 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
       writer->end_step();
     }
     progress.update(rve_progress_line("[rve " + scene.name + "] ", s, t_end));
-    if (slabs) {  // every rank stops after the same step (a signal reaches the ranks at different times)
-      raise_test_signal_after(record.steps.size() - 1);
-      if (slabs->max(stop_requested() ? 1 : 0)) throw RunInterrupted{};
-    } else {
-      stop_point(record.steps.size() - 1);
+    // Every rank stops after the same step (a signal reaches the ranks at different times).
+    raise_test_signal_after(record.step_log.size() - 1);
+    const bool stopping = slabs ? slabs->max(stop_requested() ? 1 : 0) != 0 : stop_requested();
+    if (s.t > 0.0) {  // a stop request saves the step at once
+      std::string note = checkpoint.save(solver, slabs, s.t, record, totals, wall_seconds(), field_steps, stopping);
+      if (!note.empty()) checkpoint_notes.push_back(std::move(note));
     }
+    if (stopping) throw RunInterrupted{};
   };
-  const rve::RveRunResult result = run_rve_engine(solver, control, on_step, want_fields, record);
+  rve::RveRunResult result =
+      run_rve_engine(solver, control, on_step, want_fields, record, options.resume ? resumed.t : 0.0);
   progress.finish();
+  if (result.completed || result.stop == rve::RveStop::fatal) {
+    checkpoint.remove();  // nothing to continue: done, or a phase at its material limit
+  } else if (const double t_last = record.step_log.back().value("t", 0.0); t_last > 0.0) {
+    // Failed or out of time: the last converged step, in case the throttle skipped it (collective).
+    std::string note = checkpoint.save(solver, slabs, t_last, record, totals, wall_seconds(), field_steps, true);
+    if (!note.empty()) checkpoint_notes.push_back(std::move(note));
+    if (checkpoint.saved_t() > 0.0)
+      result.log.push_back("checkpoint at t = " + format_number(checkpoint.saved_t()) + ": continue with --resume");
+  }
+  for (auto& note : checkpoint_notes) result.log.push_back(std::move(note));
+  static_cast<rve::RveCounts&>(result) += resumed.totals;
   for (const auto& line : result.log)
     if (!options.quiet && root) std::cerr << "[rve " << scene.name << "] " << line << "\n";
   record.csv.flush();
@@ -202,10 +251,16 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   summary["solver_memory_by_array"] = breakdown;
   summary["solver_bytes_per_voxel"] = double(solver.memory_bytes()) / double(image.voxels());
   summary["phase_image_bytes_per_rank"] = image_bytes;  // the scene's image as a rank holds it (largest rank)
-  if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start))
+  if (fields_mode != "none") summary["fields_file"] = fields_stem + ".xdmf";
+  if (options.resume)
+    summary["resumed"] = {{"from_t", resumed.t},
+                          {"output_steps_before", resumed.step_log.size() - 1},
+                          {"wall_time_s_before", resumed.wall_seconds}};
+  if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start,
+                          resumed.wall_seconds))
     return run_exit_code(false);
   if (!options.quiet)
-    std::cerr << "softhom rve: " << result.steps.size() - 1 << " steps, " << result.newton_iterations
+    std::cerr << "softhom rve: " << step_log.size() - 1 << " steps, " << result.newton_iterations
               << " Newton / " << result.krylov_iterations << " Krylov iterations, " << result.wall_seconds
               << " s → " << options.out.string() << "\n";
   return 0;

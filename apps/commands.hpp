@@ -12,6 +12,8 @@ struct CommandOptions {
   std::filesystem::path out = "softhom-out";
   int threads = 0;              ///< 0: OpenMP default
   bool quiet = false;           ///< no progress on stderr
+  // rve only
+  bool resume = false;          ///< continue the unfinished run whose checkpoint is in `out`
   // sweep / demo only
   int jobs = 0;                 ///< cases in parallel, threads split between them (0: one job per thread)
   bool retry_failed = false;    ///< rerun cases stored as failed

@@ -184,6 +184,10 @@ int main(int argc, char** argv) {
           ->capture_default_str();
       sub->add_flag("--no-warm-start", options.no_warm_start, "run every case from the undeformed state");
     }
+    if (std::string(s.name) == "rve")
+      sub->add_flag("--resume", options.resume,
+                    "continue the unfinished run whose checkpoint is in --out (FFT engine), from its last "
+                    "converged output step");
     if (std::string(s.name) == "sweep")
     {
       sub->add_flag("--retry-failed", options.retry_failed, "rerun the cases stored as failed");

@@ -72,17 +72,26 @@ struct RveRecorder {
     step_log.push_back(rve_step_log_entry(s));
     steps.push_back(s);
   }
+  /// The rows and step log of the run a continued run takes over (`steps` holds this run's only).
+  void take_over(const std::vector<std::vector<double>>& rows, const nlohmann::json& log) {
+    for (const auto& row : rows) csv.add_row(row);
+    step_log = log;
+  }
 };
 
 /// Runs an RVE engine (FFT or FE) with the command's step callback; a RunInterrupted thrown by the
 /// callback (stop_point) becomes the result of the steps converged so far, marked interrupted.
+/// `t_start` > 0: a continued run (FFT engine, its state loaded from a checkpoint).
 template <class Solver, class OnStep, class WantFields>
 rve::RveRunResult run_rve_engine(Solver& solver, const MixedControl& control, OnStep&& on_step, WantFields&& want_fields,
-                                 RveRecorder& record) {
+                                 RveRecorder& record, double t_start = 0.0) {
   const auto start = std::chrono::steady_clock::now();
   rve::RveRunResult result;
   try {
-    result = solver.run(control, on_step, want_fields);
+    if constexpr (requires { solver.run(control, on_step, want_fields, t_start); })
+      result = solver.run(control, on_step, want_fields, t_start);
+    else
+      result = solver.run(control, on_step, want_fields);
   } catch (const RunInterrupted&) {
     result = interrupted_rve_result(std::move(record.steps),
                                     std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
@@ -115,7 +124,7 @@ inline void set_rve_field_attributes(io::FieldWriter& w, double fiber_angle_deg,
 /// when the run stopped early, says so on stderr. Returns whether the run completed.
 inline bool finish_rve_summary(nlohmann::json& summary, const rve::RveRunResult& result, const nlohmann::json& step_log,
                                std::size_t solver_memory_bytes, const std::filesystem::path& out,
-                               std::chrono::steady_clock::time_point wall_start) {
+                               std::chrono::steady_clock::time_point wall_start, double earlier_wall_seconds = 0.0) {
   io::set_run_status(summary, result.completed, result.error);
   summary["steps"] = step_log;
   summary["newton_iterations"] = result.newton_iterations;
@@ -128,10 +137,11 @@ inline bool finish_rve_summary(nlohmann::json& summary, const rve::RveRunResult&
   if (summary.contains("voxels") && summary["voxels"].is_number() && summary["voxels"].get<double>() > 0.0)
     summary["peak_memory_bytes_per_voxel"] = double(io::peak_memory_bytes()) / summary["voxels"].get<double>();
   summary["solve_time_s"] = result.wall_seconds;
-  summary["wall_time_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  summary["wall_time_s"] =
+      earlier_wall_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   io::write_summary(out, summary);
   if (!result.completed)
-    std::cerr << "softhom rve: stopped early: " << result.error << "\nsofthom rve: " << result.steps.size()
+    std::cerr << "softhom rve: stopped early: " << result.error << "\nsofthom rve: " << step_log.size()
               << " converged rows kept in " << (out / "response.csv").string() << "\n";
   return result.completed;
 }

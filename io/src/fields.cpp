@@ -765,4 +765,44 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
   write_file_atomic(xdmf_final, xdmf);
 }
 
+void write_array_file(const std::filesystem::path& path, const std::vector<ArrayToWrite>& arrays) {
+  silence_hdf5();
+  if (!path.parent_path().empty()) {
+    std::error_code ec;
+    fs::create_directories(path.parent_path(), ec);
+    if (ec) throw WriteError(path, "cannot create directory '" + path.parent_path().string() + "'", ec.value());
+  }
+  const fs::path tmp = temporary_path(path);
+  struct Cleanup {  // removes the temporary on any exception below
+    const fs::path& p;
+    bool armed = true;
+    ~Cleanup() {
+      std::error_code ec;
+      if (armed) fs::remove(p, ec);
+    }
+  } cleanup{tmp};
+  {
+    Handle file = checked_write(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), abandon_close, path,
+                                "cannot create temporary '" + tmp.string() + "'");
+    write_string_attribute(file.get(), "softhom_version", softhom_version(), path);
+    for (const ArrayToWrite& a : arrays) {
+      check_name(a.name);
+      if (!a.f64.empty() && !a.f32.empty())
+        throw std::invalid_argument("write_array_file: array '" + a.name + "' given as float64 and float32");
+      static const double nothing = 0.0;  // the buffer of an empty selection (HDF5 wants one)
+      if (!a.f32.empty())
+        write_dataset(file.get(), a.name, H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, a.f32.data(), {hsize_t(a.f32.size())}, path);
+      else
+        write_dataset(file.get(), a.name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, a.f64.empty() ? &nothing : a.f64.data(),
+                      {hsize_t(a.f64.size())}, path);
+    }
+    finish_file(file, path, tmp);
+  }
+  fsync_file(tmp, path);
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) throw WriteError(path, "cannot rename temporary '" + tmp.string() + "' into place", ec.value());
+  cleanup.armed = false;
+}
+
 }  // namespace softhom::io

@@ -212,6 +212,8 @@ struct FftRveSolver::Impl {
   // read only to commit it (in float) and to diagnose a failure; its deviation q = p − W_V′(J) in the
   // tangent is passed on in double (store_compact()), so float loses nothing the iteration uses.
   std::vector<float> p_trial, p_committed, dp_last;
+  FftRveSolver::MixedPressures pending_pressures;  // set_mixed_pressures(): for the next run's start
+  bool has_pending_pressures = false;
   // One linearization per point, p(F) = s + c:F with c = W_V″(J_k) cof F_k (see pressure_slope()) and
   // s (double) taken with that c, so that p(F_k) = W_V′(J_k) to double round-off and only the slope is
   // perturbed (≈ 6e-8 relative). pressure_correction() reads it at point p and overwrites it there with
@@ -2144,17 +2146,62 @@ void FftRveSolver::set_state(const FftRveState& s) {
   m.dt_last = s.dt_last;
 }
 
+FftRveSolver::MixedPressures FftRveSolver::mixed_pressures() const {
+  const Impl& m = *impl_;
+  if (!m.mixed_active) return {};
+  return {m.p_committed, m.dp_last};
+}
+
+FftRveSolver::StateView FftRveSolver::state_view() const {
+  const Impl& m = *impl_;
+  StateView v;
+  v.F = m.Fbar_committed;
+  v.dF_last = m.dF_last;
+  v.dt_last = m.dt_last;
+  v.u = m.u_committed;
+  v.du_last = m.du_last;
+  v.history_matrix = m.hist_old[0];
+  v.history_fiber = m.hist_old[1];
+  v.laminate = m.lam_a;
+  if (m.mixed_active) {
+    v.pressure = m.p_committed;
+    v.pressure_increment = m.dp_last;
+  }
+  return v;
+}
+
+void FftRveSolver::set_mixed_pressures(MixedPressures p) {
+  Impl& m = *impl_;
+  const std::size_t want = m.mixed_active ? m.p_committed.size() : 0;
+  if (p.committed.size() != want || p.increment.size() != want)
+    throw InputError("state", "pressures of " + std::to_string(p.committed.size()) + " and " +
+                                  std::to_string(p.increment.size()) + " points",
+                     "this solver's mixed iteration has " + std::to_string(want));
+  m.pending_pressures = std::move(p);
+  m.has_pending_pressures = true;
+}
+
 RveRunResult FftRveSolver::run(const MixedControl& control,
                                const std::function<void(const RveStep&, const RveFields*)>& on_step,
-                               const std::function<bool(double)>& want_fields) {
+                               const std::function<bool(double)>& want_fields, double t_start) {
   control.validate();
   Impl& m = *impl_;
   const auto run_start = Clock::now();
   RveRunResult result;
-  // t = 0: the undeformed state (evaluated so that phase sums and the reference are defined).
+  // The start state (t = 0: undeformed), evaluated so that phase sums and the reference are defined.
   m.linearized_pressure = false;
-  if (m.evaluate_start() != MaterialStatus::ok) throw ConvergenceError("material call failed at F = I");
+  if (m.evaluate_start() != MaterialStatus::ok)
+    throw ConvergenceError(t_start == 0.0 ? "material call failed at F = I"
+                                          : "material call failed at the start state (t = " + std::to_string(t_start) + ")");
   m.commit_pressures(false);
+  if (m.has_pending_pressures) {
+    // A continued run: the pressures the saved run carried, and the laminate vectors as committed (the
+    // evaluation above iterated them once more from the committed ones).
+    m.p_committed = std::move(m.pending_pressures.committed);
+    m.dp_last = std::move(m.pending_pressures.increment);
+    m.has_pending_pressures = false;
+    m.restore();
+  }
   const double angle0 = fiber_angle_deg(Mat3::Identity(), m.a0_load);
   struct Engine {
     Impl& m;
@@ -2181,7 +2228,7 @@ RveRunResult FftRveSolver::run(const MixedControl& control,
   steps.max_cutbacks = m.opt.max_cutbacks;
   // Distributed: no wall-time budget (each rank's clock would decide the cut-backs on its own).
   steps.max_step_seconds = m.dist ? 0.0 : m.opt.max_step_seconds;
-  detail::run_output_steps(control, steps, engine, result, run_start);
+  detail::run_output_steps(control, steps, engine, result, run_start, t_start);
   result.krylov_seconds = m.krylov_seconds;
   return result;
 }

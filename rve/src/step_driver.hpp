@@ -131,19 +131,21 @@ inline RveStop stop_of(IntervalStatus s) {
 
 /// `engine` provides: SubstepOutcome step(double t_new, double dt); void commit(double dt);
 /// void restore(); RveStep record(double t); void emit(const RveStep&, double last_dt), and is
-/// evaluated at t = 0 already. Records and emits t = 0, then every output step; sets the totals,
-/// error, stop reason, completion flag and wall time (from `run_start`) of `result`.
+/// evaluated at t_start already. From t_start = 0: records and emits t = 0, then every output step.
+/// From a converged output time t_start > 0 (a continued run): the output steps after it only. Sets
+/// the totals, error, stop reason, completion flag and wall time (from `run_start`) of `result`.
 template <class Engine>
 void run_output_steps(const MixedControl& control, const StepControlOptions& steps, Engine& engine,
-                      RveRunResult& result, std::chrono::steady_clock::time_point run_start) {
+                      RveRunResult& result, std::chrono::steady_clock::time_point run_start, double t_start = 0.0) {
   using Clock = std::chrono::steady_clock;
-  {
+  if (t_start == 0.0) {
     const RveStep s0 = engine.record(0.0);
     result.steps.push_back(s0);
     engine.emit(s0, 0.0);
   }
-  double t_prev_out = 0.0;
+  double t_prev_out = t_start;
   for (double t_out : control.times) {
+    if (t_out <= t_start) continue;
     const auto step_start = Clock::now();
     RveStep agg;
     std::vector<double> last_residuals;

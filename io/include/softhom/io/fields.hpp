@@ -70,6 +70,18 @@ class FieldWriter {
   std::unique_ptr<Impl> impl_;
 };
 
+/// One named 1D array of an array file (write_array_file): float64 or float32 values, one of the two
+/// spans non-empty (or both empty: a dataset of length 0).
+struct ArrayToWrite {
+  std::string name;
+  std::span<const double> f64;
+  std::span<const float> f32;
+};
+/// Writes 1D datasets at the root of the HDF5 file `path`, atomically like FieldWriter (a temporary
+/// next to it, fsync, rename): a reader, or a kill -9, sees the old file or the complete new one.
+/// Read back with read_dataset (float32 values convert exactly). Throws WriteError naming `path`.
+void write_array_file(const std::filesystem::path& path, const std::vector<ArrayToWrite>& arrays);
+
 /// Turns HDF5's automatic error-stack printing off for the whole process (main() calls it first):
 /// every HDF5 call of softhom checks its result and reports a failure as one message.
 void silence_hdf5_errors();

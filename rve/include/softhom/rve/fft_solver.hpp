@@ -26,8 +26,10 @@
 //
 // Section grids (n3 = 1) solve the straight-fiber cell with full 3D kinematics: ũ depends on (y1, y2)
 // only but has three components, F̄ is a full 3×3 tensor.
+#include <complex>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -266,15 +268,44 @@ class FftRveSolver {
 
   /// Runs the control. `want_fields(t)` (optional) says whether fields are wanted at an output time;
   /// `on_step` is called after each converged output step with its fields when wanted (else null).
+  /// `t_start` > 0 continues a run: the current state (set_state, set_mixed_pressures) is the one
+  /// converged at that output time of `control`, and the run takes the output steps after it (no
+  /// t = 0 row). With the state and pressures a run saved there it repeats that run's continuation
+  /// operation for operation.
   RveRunResult run(const MixedControl& control,
                    const std::function<void(const RveStep&, const RveFields*)>& on_step = {},
-                   const std::function<bool(double)>& want_fields = {});
+                   const std::function<bool(double)>& want_fields = {}, double t_start = 0.0);
 
   /// The converged (committed) state, e.g. at the end of a run.
   FftRveState state() const;
   /// Makes `s` the current state (a state of a solver with the same grid, phases and options);
   /// throws InputError("state", ...) when its sizes do not fit this solver.
   void set_state(const FftRveState& s);
+
+  /// The mixed (u, p) iteration's pressures at the converged state, one per point of a mixed phase's
+  /// pure points (float, as the solver keeps them; both empty without a mixed phase): the committed
+  /// pressure and its last increment, which places the next step's extrapolated predictor. Not part
+  /// of FftRveState, whose warm starts re-derive them; a restart that must repeat the saved run
+  /// exactly carries them too.
+  struct MixedPressures {
+    std::vector<float> committed, increment;
+  };
+  MixedPressures mixed_pressures() const;
+  /// The converged state's arrays as the solver holds them, without a copy (valid until the solver
+  /// runs or takes another state): what a checkpoint writes, at no extra memory. du_last in float,
+  /// as kept; the pressures as mixed_pressures() (empty without a mixed phase).
+  struct StateView {
+    Mat3 F, dF_last;
+    double dt_last = 0.0;
+    std::span<const fft::Complex> u;
+    std::span<const std::complex<float>> du_last;
+    std::span<const double> history_matrix, history_fiber, laminate;
+    std::span<const float> pressure, pressure_increment;
+  };
+  StateView state_view() const;
+  /// Given to the next run, which takes them after its evaluation of the start state instead of the
+  /// pressures it derives there; throws InputError("state", ...) when their sizes do not fit.
+  void set_mixed_pressures(MixedPressures p);
 
   const fft::Grid& grid() const;
   int quadrature_points() const;

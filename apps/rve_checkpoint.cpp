@@ -1,0 +1,277 @@
+#include "rve_checkpoint.hpp"
+
+#include <chrono>
+#include <cstring>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <system_error>
+
+#include "rve_output.hpp"
+#include "softhom/fft/slab.hpp"
+#include "softhom/io/fields.hpp"
+#include "softhom/io/files.hpp"
+#include "softhom/io/input_error.hpp"
+
+namespace softhom::app {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kFormat = 1;
+constexpr double kCostRatio = 20.0;  // a write waits 20× its own cost: at most ≈ 5 % of the run
+
+double now_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+fs::path record_path(const fs::path& out) { return out / "checkpoint.json"; }
+fs::path state_dir(const fs::path& out) { return out / "checkpoint"; }
+std::string state_file(long step, int rank) {
+  return "step" + std::to_string(step) + "-rank" + std::to_string(rank) + ".h5";
+}
+
+nlohmann::json read_record(const fs::path& out) {
+  std::ifstream in(record_path(out));
+  if (!in) throw InputError("--resume", out.string(), "no checkpoint of an unfinished run in this directory");
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError("--resume", record_path(out).string(), std::string("not a checkpoint record (") + e.what() + ")");
+  }
+}
+
+// "/load/stretch" → "load.stretch"
+std::string dotted(const std::string& pointer) {
+  std::string s = pointer.empty() || pointer[0] != '/' ? pointer : pointer.substr(1);
+  for (char& c : s)
+    if (c == '/') c = '.';
+  return s;
+}
+
+std::string value_at(const nlohmann::json& j, const std::string& pointer) {
+  const nlohmann::json::json_pointer p(pointer);
+  return j.contains(p) ? j.at(p).dump() : std::string("absent");
+}
+
+// Complex arrays as interleaved (re, im) reals: std::complex<T> is laid out as T[2].
+template <class T>
+std::span<const T> interleaved(std::span<const std::complex<T>> z) {
+  return {reinterpret_cast<const T*>(z.data()), 2 * z.size()};
+}
+
+std::vector<double> read_array(const fs::path& file, const std::string& name) {
+  try {
+    return io::read_dataset(file, name).values;
+  } catch (const std::exception& e) {
+    throw InputError("--resume", file.string(), std::string("unreadable checkpoint state (") + e.what() + ")");
+  }
+}
+
+}  // namespace
+
+nlohmann::json checkpoint_fingerprint(const toml::table& scene) {
+  std::ostringstream text;
+  text << toml::json_formatter{scene};
+  nlohmann::json j = nlohmann::json::parse(text.str());
+  j.erase("output");
+  j.erase("description");
+  if (j.contains("solver") && j["solver"].is_object())
+    for (const char* key : {"max_newton_iterations", "max_krylov_iterations", "max_fixed_point_iterations",
+                            "max_cutbacks", "max_step_seconds", "max_continuation_iterations", "fftw", "fftw_wisdom"})
+      j["solver"].erase(key);
+  return j;
+}
+
+RveCheckpoint::RveCheckpoint(fs::path out, const toml::table& scene, int rank, int ranks)
+    : out_(std::move(out)), fingerprint_(checkpoint_fingerprint(scene)), rank_(rank), ranks_(ranks) {}
+
+bool RveCheckpoint::exists() const {
+  std::error_code ec;
+  return fs::is_regular_file(record_path(out_), ec);
+}
+
+std::string RveCheckpoint::describe() const {
+  const nlohmann::json r = read_record(out_);
+  return "t = " + format_number(r.value("t", 0.0)) + ", " + std::to_string(r.value("output_steps", 0)) +
+         " output steps converged";
+}
+
+void RveCheckpoint::check_resumable() const {
+  const nlohmann::json r = read_record(out_);
+  if (r.value("format", 0) != kFormat)
+    throw InputError("--resume", record_path(out_).string(), "a checkpoint of another format (written by another softhom version)");
+  const int ranks = r.value("ranks", 0);
+  if (ranks != ranks_)
+    throw InputError("--resume", out_.string(),
+                     "the checkpoint was written by " + std::to_string(ranks) + " process" + (ranks == 1 ? "" : "es") +
+                         " and continues on as many (this run has " + std::to_string(ranks_) +
+                         "): the state is saved per slab");
+  const nlohmann::json& saved = r.at("scene");
+  if (saved != fingerprint_) {
+    const nlohmann::json patch = nlohmann::json::diff(saved, fingerprint_);
+    const std::string pointer = patch.empty() ? std::string() : patch[0].value("path", std::string());
+    throw InputError("--resume", out_.string(),
+                     "the scene's " + dotted(pointer) + " (" + value_at(fingerprint_, pointer) +
+                         ") differs from the checkpoint's (" + value_at(saved, pointer) +
+                         "): a checkpoint continues only the run that wrote it (iteration limits, "
+                         "cut-backs, max_step_seconds, FFTW planning and [output] may change)");
+  }
+}
+
+RveResumePoint RveCheckpoint::load(rve::FftRveSolver& solver) const {
+  const nlohmann::json r = read_record(out_);
+  const long step = r.at("output_steps").get<long>();
+  const fs::path file = state_dir(out_) / state_file(step, rank_);
+  rve::FftRveState s;
+  {
+    const std::vector<double> macro = read_array(file, "macro");  // F̄ (9), ΔF̄ of the last step (9), its Δt
+    if (macro.size() != 19) throw InputError("--resume", file.string(), "a macro record of " + std::to_string(macro.size()) + " values, not 19");
+    for (int c = 0; c < 9; ++c) {
+      s.F(c / 3, c % 3) = macro[c];
+      s.dF_last(c / 3, c % 3) = macro[9 + c];
+    }
+    s.dt_last = macro[18];
+  }
+  auto complex_array = [&](const std::string& name) {
+    const std::vector<double> v = read_array(file, name);
+    std::vector<fft::Complex> z(v.size() / 2);
+    for (std::size_t i = 0; i < z.size(); ++i) z[i] = {v[2 * i], v[2 * i + 1]};
+    return z;
+  };
+  s.u = complex_array("u");
+  s.du_last = complex_array("du_last");  // float in the file: exact in double, rounded back exactly
+  s.history_matrix = read_array(file, "history_matrix");
+  s.history_fiber = read_array(file, "history_fiber");
+  s.laminate = read_array(file, "laminate");
+  rve::FftRveSolver::MixedPressures p;
+  for (auto [name, to] : {std::pair{"pressure", &p.committed}, std::pair{"pressure_increment", &p.increment}}) {
+    const std::vector<double> v = read_array(file, name);
+    to->assign(v.begin(), v.end());
+  }
+  try {
+    solver.set_state(s);
+    solver.set_mixed_pressures(std::move(p));
+  } catch (const InputError& e) {
+    throw InputError("--resume", file.string(), std::string("the saved state does not fit this cell (") + e.what() + ")");
+  }
+  RveResumePoint point;
+  point.t = r.at("t").get<double>();
+  point.step_log = r.at("step_log");
+  const nlohmann::json& c = r.at("counts");
+  point.totals.newton_iterations = c.value("newton_iterations", 0);
+  point.totals.krylov_iterations = c.value("krylov_iterations", 0);
+  point.totals.substeps = c.value("substeps", 0);
+  point.totals.cutbacks = c.value("cutbacks", 0);
+  point.totals.shifted_solves = c.value("shifted_solves", 0);
+  point.totals.minres_solves = c.value("minres_solves", 0);
+  point.totals.discarded_krylov_iterations = c.value("discarded_krylov_iterations", 0);
+  point.totals.continuation_iterations = c.value("continuation_iterations", 0);
+  point.wall_seconds = r.value("wall_time_s", 0.0);
+  point.field_steps = r.value("field_steps", 0);
+  if (rank_ == 0) {
+    const std::vector<double> flat = read_array(file, "response_rows");
+    const std::size_t width = r.at("row_width").get<std::size_t>();
+    if (width == 0 || flat.size() % width != 0 || flat.size() / width != std::size_t(step) + 1)
+      throw InputError("--resume", file.string(), "response rows do not match the checkpoint record");
+    for (std::size_t i = 0; i < flat.size(); i += width) point.rows.emplace_back(flat.begin() + long(i), flat.begin() + long(i + width));
+  }
+  return point;
+}
+
+std::string RveCheckpoint::save(const rve::FftRveSolver& solver, const fft::SlabDecomposition* slabs, double t,
+                                const RveRecorder& record, const rve::RveCounts& totals, double wall_seconds,
+                                int field_steps, bool force) {
+  const double start = now_seconds();
+  int due = force || last_end_s_ < 0.0 || start - last_end_s_ >= kCostRatio * last_cost_s_;
+  if (slabs) due = slabs->max(rank_ == 0 ? due : 0);  // rank 0's clock decides for all
+  if (!due || t == saved_t_) return {};
+  const long step = long(record.step_log.size()) - 1;
+  const fs::path dir = state_dir(out_);
+  std::string failure;
+  try {
+    // Temporaries a kill -9 left: only one process can tell (their pids may be of other hosts).
+    if (ranks_ == 1) io::remove_stale_temporaries(dir);
+    const rve::FftRveSolver::StateView v = solver.state_view();
+    std::vector<double> macro(19);
+    for (int c = 0; c < 9; ++c) {
+      macro[c] = v.F(c / 3, c % 3);
+      macro[9 + c] = v.dF_last(c / 3, c % 3);
+    }
+    macro[18] = v.dt_last;
+    std::vector<double> rows;
+    std::vector<io::ArrayToWrite> arrays{
+        {"macro", macro, {}},
+        {"u", interleaved(v.u), {}},
+        {"du_last", {}, interleaved(v.du_last)},
+        {"history_matrix", v.history_matrix, {}},
+        {"history_fiber", v.history_fiber, {}},
+        {"laminate", v.laminate, {}},
+        {"pressure", {}, v.pressure},
+        {"pressure_increment", {}, v.pressure_increment},
+    };
+    if (rank_ == 0) {
+      const io::CsvTable& table = record.csv.table();
+      rows.reserve(table.rows() * table.columns().size());
+      for (std::size_t i = 0; i < table.rows(); ++i) {
+        const std::span<const double> row = table.row(i);
+        rows.insert(rows.end(), row.begin(), row.end());
+      }
+      arrays.push_back({"response_rows", rows, {}});
+    }
+    io::write_array_file(dir / state_file(step, rank_), arrays);
+  } catch (const std::exception& e) {
+    failure = e.what();
+  }
+  const int failed = slabs ? slabs->max(failure.empty() ? 0 : 1) : (failure.empty() ? 0 : 1);
+  if (rank_ == 0 && !failed) {
+    nlohmann::json r;
+    r["format"] = kFormat;
+    r["t"] = t;
+    r["output_steps"] = step;
+    r["ranks"] = ranks_;
+    r["row_width"] = record.csv.table().columns().size();
+    r["scene"] = fingerprint_;
+    r["step_log"] = record.step_log;
+    r["counts"] = {{"newton_iterations", totals.newton_iterations},
+                   {"krylov_iterations", totals.krylov_iterations},
+                   {"substeps", totals.substeps},
+                   {"cutbacks", totals.cutbacks},
+                   {"shifted_solves", totals.shifted_solves},
+                   {"minres_solves", totals.minres_solves},
+                   {"discarded_krylov_iterations", totals.discarded_krylov_iterations},
+                   {"continuation_iterations", totals.continuation_iterations}};
+    r["wall_time_s"] = wall_seconds;
+    r["field_steps"] = field_steps;
+    std::vector<std::string> files;
+    for (int k = 0; k < ranks_; ++k) files.push_back("checkpoint/" + state_file(step, k));
+    r["files"] = files;
+    try {
+      io::write_file_atomic(record_path(out_), r.dump(1) + "\n");
+      // The older generation (and anything a killed write left) goes once the record names the new one.
+      std::error_code ec;
+      const std::set<std::string> keep(files.begin(), files.end());
+      for (const auto& e : fs::directory_iterator(dir, ec))
+        if (!keep.count("checkpoint/" + e.path().filename().string()) && !io::temporary_owner(e.path())) fs::remove(e.path(), ec);
+    } catch (const std::exception& e) {
+      failure = e.what();
+    }
+  }
+  const int committed = slabs ? 1 - slabs->max(failed || !failure.empty() ? 1 : 0) : (failed || !failure.empty() ? 0 : 1);
+  last_end_s_ = now_seconds();
+  last_cost_s_ = last_end_s_ - start;
+  if (!committed) return "checkpoint at t = " + format_number(t) + " not written (the previous one is kept): " +
+                         (failure.empty() ? std::string("a rank could not write its state") : failure);
+  saved_t_ = t;
+  return {};
+}
+
+void RveCheckpoint::remove() const {
+  if (rank_ != 0) return;
+  std::error_code ec;
+  fs::remove(record_path(out_), ec);  // first: without the record the state files are no checkpoint
+  fs::remove_all(state_dir(out_), ec);
+}
+
+}  // namespace softhom::app
