@@ -280,6 +280,39 @@ def kill9_resume(softhom, work):
     check_outputs(out)
 
 
+def kill9_resume_rve(softhom, work):
+    """kill -9 in the middle of an RVE run, then --resume: the response must equal an uninterrupted
+    run's byte for byte (one thread), the checkpoint is gone afterwards, and a plain rerun into the
+    stopped run's --out is refused (exit 2 naming --resume) instead of overwriting what converged."""
+    inp = scene_variant("rve_small.toml", work / "scene.toml", load__steps=60, output__fields="none")
+    ref, out = work / "reference", work / "out"
+    rc, err = run(softhom, ["rve", inp, "--out", ref, "--threads", 1])
+    check_exit(rc, err, allowed=(0,))
+    r = Run(softhom, ["rve", inp, "--out", out, "--threads", 1])
+    check(r.wait_for(r"t = 0\.[2-9]", 60), "the run ended or showed no progress: %s" % tail(r.stderr()))
+    os.killpg(r.p.pid, signal.SIGKILL)
+    r.wait(10)
+    check((out / "checkpoint.json").is_file(), "no checkpoint.json after kill -9 past t = 0.2")
+    saved_t = json.loads((out / "checkpoint.json").read_text())["t"]
+    check(0.0 < saved_t < 1.0, "checkpoint at t = %r" % saved_t)
+    # A kill -9 during a state write leaves a temporary named after the dead process: make it certain.
+    (out / "checkpoint" / (".step9999-rank0.h5.tmp-%d" % r.p.pid)).write_bytes(b"\x89HDF\r\n\x1a\n" + b"\0" * 100)
+    rc, err = run(softhom, ["rve", inp, "--out", out, "--threads", 1])
+    check_exit(rc, err, allowed=(2,))
+    check("--resume" in err, "a rerun into a stopped run's --out does not point to --resume: %s" % tail(err))
+    rc, err = run(softhom, ["rve", inp, "--out", out, "--threads", 1, "--resume"])
+    check_exit(rc, err, allowed=(0,))
+    a, b = (ref / "response.csv").read_text(), (out / "response.csv").read_text()
+    check(a == b, "response.csv after kill -9 and --resume differs from the uninterrupted run's")
+    sa, sb = json.loads((ref / "summary.json").read_text()), json.loads((out / "summary.json").read_text())
+    for k in ("newton_iterations", "krylov_iterations", "cutbacks"):
+        check(sa[k] == sb[k], "summary %s: %s uninterrupted, %s resumed" % (k, sa[k], sb[k]))
+    check(len(sb["steps"]) == len(sa["steps"]), "summary step log: %d entries, expected %d" % (len(sb["steps"]), len(sa["steps"])))
+    check(sb.get("resumed", {}).get("from_t") == saved_t, "summary.json does not say where the run resumed")
+    check(not (out / "checkpoint.json").exists() and not (out / "checkpoint").exists(), "checkpoint left after completion")
+    check_outputs(out)
+
+
 def concurrent_sweeps(softhom, work):
     """A second sweep on the same --out while the first runs: refused at once, naming the directory and
     the first one's pid; the first finishes with every case stored."""
@@ -311,6 +344,7 @@ TESTS = {
     "sigterm-rve": sigterm_rve,
     "sigterm-sweep": sigterm_sweep,
     "kill9-resume": kill9_resume,
+    "kill9-resume-rve": kill9_resume_rve,
     "concurrent-sweeps": concurrent_sweeps,
 }
 

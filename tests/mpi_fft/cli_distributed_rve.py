@@ -4,7 +4,9 @@ same datasets (every step, every field, to 1e-10 relative: the distributed solve
 order of floating-point sums, see tests/mpi_fft/test_distributed_fft_cell.cpp), the same response.csv,
 summary.json with "ranks": 2 from rank 0 alone, the phase image held per rank as a slab (plus halo
 planes) and the achieved volume fraction reduced over the ranks; and the clear error (exit 2 naming microstructure.grid
-and the rank count) for a section grid or fewer planes i3 than ranks.
+and the rank count) for a section grid or fewer planes i3 than ranks. A 2-rank run stopped after its
+first step continues with --resume on 2 ranks to the uninterrupted 2-rank response.csv, byte for byte;
+a 1-process resume of its checkpoint is refused.
 
 usage: cli_distributed_rve.py --softhom BIN --mpiexec MPIEXEC --work DIR
 """
@@ -135,6 +137,33 @@ def main():
         failures.append("achieved volume fraction: %r vs %r" % (s1["volume_fraction_achieved"], s2["volume_fraction_achieved"]))
     print("Newton / Krylov: %s / %s (one process), %s / %s (2 ranks)" % (
         s1["newton_iterations"], s1["krylov_iterations"], s2["newton_iterations"], s2["krylov_iterations"]))
+
+    # A 2-rank run stopped after its first step (SIGTERM) continues with --resume on 2 ranks: the same
+    # response.csv byte for byte as the uninterrupted 2-rank run (one thread per rank); on 1 process the
+    # resume is refused, naming the 2 processes that wrote the checkpoint.
+    part = os.path.join(a.work, "resumed")
+    rc, _, err = run(mpi + ["-x", "SOFTHOM_TEST_SIGTERM_AFTER_STEPS=1", a.softhom, "rve", scene, "--out", part], env)
+    record = os.path.join(part, "checkpoint.json")
+    if rc == 0 or not os.path.exists(record) or json.load(open(record)).get("ranks") != 2:
+        failures.append("stopped 2-rank run: exit %d, checkpoint.json %s; stderr %r" % (
+            rc, "present" if os.path.exists(record) else "missing", err[-400:]))
+    rc, _, err = run([a.softhom, "rve", scene, "--out", part, "--resume"], env)
+    print("resume of a 2-rank checkpoint on 1 process: exit %d" % rc)
+    if rc != 2 or "--resume" not in err or "2 processes" not in err:
+        failures.append("1-process resume of a 2-rank checkpoint: exit %d, stderr %r" % (rc, err[-400:]))
+    rc, _, err = run(mpi + [a.softhom, "rve", scene, "--out", part, "--resume"], env)
+    print("resume on 2 ranks: exit %d" % rc)
+    if rc != 0:
+        failures.append("2-rank resume: exit %d, stderr %r" % (rc, err[-400:]))
+    else:
+        same = open(os.path.join(two, "response.csv")).read() == open(os.path.join(part, "response.csv")).read()
+        print("resumed response.csv equal to the uninterrupted run's: %s" % same)
+        if not same:
+            failures.append("the resumed 2-rank response.csv differs from the uninterrupted 2-rank run's")
+        if os.path.exists(record) or os.path.exists(os.path.join(part, "checkpoint")):
+            failures.append("checkpoint left after the resumed run completed")
+        if not os.path.exists(os.path.join(part, "fields_resumed_1.xdmf")):
+            failures.append("the resumed run's fields are not in fields_resumed_1.xdmf: %s" % os.listdir(part))
 
     # Clear errors: a section grid, and fewer planes than ranks.
     for grid, ranks in (("[10, 8]", 2), ("[10, 8, 2]", 3)):

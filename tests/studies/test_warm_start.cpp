@@ -81,6 +81,54 @@ TEST(WarmStart, SolverStateRestartsBitForBit) {
   }
 }
 
+// A restart (softhom rve --resume): a run stopped at an output time continues from the state and the
+// mixed iteration's pressures saved there with run(control, ..., t_start), and repeats the uninterrupted
+// run's remaining steps operation for operation (PDMS: K/G = 3e3, so the mixed (u, p) iteration is
+// active; elastic and QLV).
+TEST(WarmStart, RunContinuedAtAnOutputTimeRepeatsTheUninterruptedRun) {
+  for (const std::string& matrix : {std::string("preset = \"pdms\""),
+                                   std::string("preset = \"pdms\"\nviscoelastic = {g_inf = 0.7, tau = 0.5}")}) {
+    SCOPED_TRACE(matrix);
+    const RveSceneSetup s = cell(matrix);
+    MixedControl control = s.control;
+    control.times = {0.25, 0.5, 0.75, 1.0};
+    auto whole = solver_for(s);
+    const rve::RveRunResult all = whole->run(control);
+    ASSERT_TRUE(all.completed) << all.error;
+    ASSERT_EQ(all.steps.size(), 5u);
+
+    MixedControl first_half = control;
+    first_half.times = {0.25, 0.5};
+    auto stopped = solver_for(s);
+    ASSERT_TRUE(stopped->run(first_half).completed);
+    const rve::FftRveState state = stopped->state();
+    rve::FftRveSolver::MixedPressures pressures = stopped->mixed_pressures();
+    EXPECT_FALSE(pressures.committed.empty());
+    EXPECT_EQ(pressures.committed.size(), stopped->state_view().pressure.size());
+
+    auto resumed = solver_for(s);
+    resumed->set_state(state);
+    resumed->set_mixed_pressures(std::move(pressures));
+    const rve::RveRunResult rest = resumed->run(control, {}, {}, 0.5);
+    ASSERT_TRUE(rest.completed) << rest.error;
+    ASSERT_EQ(rest.steps.size(), 2u);  // t = 0.75 and 1: no t = 0 row
+    for (std::size_t i = 0; i < 2; ++i) {
+      EXPECT_EQ(rest.steps[i].t, all.steps[3 + i].t);
+      EXPECT_EQ(rest.steps[i].P, all.steps[3 + i].P) << i;  // exact: same operations, one thread
+      EXPECT_EQ(rest.steps[i].newton_iterations, all.steps[3 + i].newton_iterations) << i;
+      EXPECT_EQ(rest.steps[i].krylov_iterations, all.steps[3 + i].krylov_iterations) << i;
+    }
+  }
+}
+
+TEST(WarmStart, MixedPressuresOfAnotherSizeAreRejected) {
+  const RveSceneSetup s = cell("preset = \"pdms\"");
+  auto a = solver_for(s);
+  rve::FftRveSolver::MixedPressures p = a->mixed_pressures();
+  p.committed.push_back(0.0f);
+  EXPECT_THROW(a->set_mixed_pressures(p), InputError);
+}
+
 TEST(WarmStart, SolverStateOfAnotherCellIsRejected) {
   const RveSceneSetup s = cell("preset = \"pdms\"");
   auto a = solver_for(s);
