@@ -252,6 +252,9 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   summary["solver_bytes_per_voxel"] = double(solver.memory_bytes()) / double(image.voxels());
   summary["phase_image_bytes_per_rank"] = image_bytes;  // the scene's image as a rank holds it (largest rank)
   if (fields_mode != "none") summary["fields_file"] = fields_stem + ".xdmf";
+  summary["checkpoint"] = {{"writes", checkpoint.writes()},
+                           {"write_time_s", checkpoint.write_seconds()},
+                           {"last_bytes", checkpoint.last_bytes()}};
   if (options.resume)
     summary["resumed"] = {{"from_t", resumed.t},
                           {"output_steps_before", resumed.step_log.size() - 1},

@@ -295,6 +295,8 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   summary["linear_solver_time_s"] = solver.factorization_seconds();
   summary["assembly_time_s"] = solver.assembly_seconds();
   summary["columns"] = io::columns_json(record.csv.table().columns());
+  if (fields_mode != "none") summary["fields_file"] = "fields.xdmf";
+  summary["checkpoint"] = nullptr;  // FFT engine only (--resume)
   if (!finish_rve_summary(summary, result, step_log, solver.memory_bytes(), options.out, wall_start))
     return run_exit_code(false);
   if (!options.quiet)

@@ -148,7 +148,8 @@ int main(int argc, char** argv) {
   cli.footer(
       "Exit codes: 0 completed; 1 stopped early (converged rows kept) or an output file could not be "
       "written; 2 bad command line or scene; 128+N interrupted by signal N (130 Ctrl-C, 143 SIGTERM), "
-      "converged rows and summary.json (status \"interrupted\") kept.");
+      "converged rows and summary.json (status \"interrupted\") kept; softhom rve continues a stopped run "
+      "with --resume.");
   install_stop_handlers();
   io::silence_hdf5_errors();
 

@@ -248,6 +248,13 @@ std::string RveCheckpoint::save(const rve::FftRveSolver& solver, const fft::Slab
     for (int k = 0; k < ranks_; ++k) files.push_back("checkpoint/" + state_file(step, k));
     r["files"] = files;
     try {
+      std::size_t bytes = 0;
+      for (const std::string& f : files) {
+        std::error_code ec;
+        const auto size = fs::file_size(out_ / f, ec);
+        if (!ec) bytes += size;
+      }
+      last_bytes_ = bytes;
       io::write_file_atomic(record_path(out_), r.dump(1) + "\n");
       // The older generation (and anything a killed write left) goes once the record names the new one.
       std::error_code ec;
@@ -261,6 +268,8 @@ std::string RveCheckpoint::save(const rve::FftRveSolver& solver, const fft::Slab
   const int committed = slabs ? 1 - slabs->max(failed || !failure.empty() ? 1 : 0) : (failed || !failure.empty() ? 0 : 1);
   last_end_s_ = now_seconds();
   last_cost_s_ = last_end_s_ - start;
+  ++writes_;
+  write_seconds_ += last_cost_s_;
   if (!committed) return "checkpoint at t = " + format_number(t) + " not written (the previous one is kept): " +
                          (failure.empty() ? std::string("a rank could not write its state") : failure);
   saved_t_ = t;

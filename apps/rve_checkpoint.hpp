@@ -67,6 +67,11 @@ class RveCheckpoint {
                    bool force);
   /// Output time of the last checkpoint written or loaded (-1: none).
   double saved_t() const { return saved_t_; }
+  /// This run's checkpoint writes, the wall time they took, and the bytes of the last one (all ranks'
+  /// files; rank 0 knows them): summary.json "checkpoint".
+  int writes() const { return writes_; }
+  double write_seconds() const { return write_seconds_; }
+  std::size_t last_bytes() const { return last_bytes_; }
   /// Removes the checkpoint (rank 0): the run completed, or it cannot be continued.
   void remove() const;
 
@@ -77,6 +82,9 @@ class RveCheckpoint {
   double saved_t_ = -1.0;
   double last_cost_s_ = 0.0;
   double last_end_s_ = -1.0;  // steady-clock seconds at the end of the last write
+  int writes_ = 0;
+  double write_seconds_ = 0.0;
+  std::size_t last_bytes_ = 0;
 };
 
 /// The scene as a checkpoint identifies it: every table but [output], without `description` and the

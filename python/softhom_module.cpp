@@ -177,9 +177,10 @@ int run_point(const std::string& kind, py::handle scene, const std::string& base
 }
 
 int run_rve(const std::string& kind, py::handle scene, const std::string& base, const std::string& out, int threads,
-            bool quiet) {
+            bool quiet, bool resume) {
   app::LoadedScene s = load_scene(kind, scene, base);
-  const app::CommandOptions o = command_options(out, threads, quiet);
+  app::CommandOptions o = command_options(out, threads, quiet);
+  o.resume = resume;
   return run_job(out, threads, [&] { return app::run_rve_scene(o, std::move(s)); });
 }
 
@@ -502,7 +503,7 @@ PYBIND11_MODULE(_softhom, m) {
   m.def("run_point", &softhom::python::run_point, py::arg("kind"), py::arg("scene"), py::arg("base"), py::arg("out"), py::arg("threads"),
         py::arg("quiet"));
   m.def("run_rve", &softhom::python::run_rve, py::arg("kind"), py::arg("scene"), py::arg("base"), py::arg("out"), py::arg("threads"),
-        py::arg("quiet"));
+        py::arg("quiet"), py::arg("resume") = false);
   m.def("run_macro", &softhom::python::run_macro, py::arg("kind"), py::arg("scene"), py::arg("base"), py::arg("out"), py::arg("threads"),
         py::arg("quiet"));
   m.def("read_campaign", &softhom::python::read_campaign, py::arg("store"));

@@ -184,9 +184,17 @@ def run_point(scene: Any, out: Any = None, threads: int | None = None, quiet: bo
 
 
 def run_rve(scene: Any, out: Any = None, threads: int | None = None, quiet: bool = True,
-            base_dir: Any = None) -> RunResult:
-    """`softhom rve` on a scene (FFT or FE engine, [solver] engine): the homogenized response."""
-    return _run(_softhom.run_rve, scene, out, threads, quiet, base_dir)
+            base_dir: Any = None, resume: bool = False) -> RunResult:
+    """`softhom rve` on a scene (FFT or FE engine, [solver] engine): the homogenized response.
+    ``resume=True`` continues the stopped run whose checkpoint is in ``out`` (``softhom rve --resume``);
+    the result then holds the whole run's rows."""
+    if resume and out is None:
+        raise _input_error("out", None, "resume=True continues the run in an output directory: give out")
+    job = _softhom.run_rve
+    if resume:
+        def job(*args):
+            return _softhom.run_rve(*args, resume=True)
+    return _run(job, scene, out, threads, quiet, base_dir)
 
 
 def run_macro(scene: Any, out: Any = None, threads: int | None = None, quiet: bool = True,

@@ -112,3 +112,25 @@ def test_a_run_that_stops_early_is_a_result(tmp_path, scenes):
     assert summary["status"] == "stopped" and "lock" in summary["error"].lower()
     assert len(response) > 1
     assert np.array_equal(response.to_numpy(), cli_response(tmp_path).to_numpy())
+
+
+def test_run_rve_resumes_a_stopped_run(tmp_path):
+    # The program stopped by SIGTERM after two steps keeps a checkpoint; resume=True continues it to
+    # the uninterrupted run's rows, bit for bit (one thread), and removes the checkpoint.
+    scene = tmp_path / "cell.toml"
+    scene.write_text(softhom.to_toml(RVE))
+    run_cli("rve", scene, "--out", tmp_path / "whole", "--threads", 1)
+    stopped = run_cli("rve", scene, "--out", tmp_path / "part", "--threads", 1,
+                      env={"SOFTHOM_TEST_SIGTERM_AFTER_STEPS": "2"}, check=False)
+    assert stopped.returncode == 128 + signal.SIGTERM
+    assert (tmp_path / "part" / "checkpoint.json").is_file()
+    with pytest.raises(softhom.InputError, match="--resume"):
+        softhom.run_rve(RVE, out=tmp_path / "part", threads=1)  # would overwrite the converged part
+    result = softhom.run_rve(RVE, out=tmp_path / "part", threads=1, resume=True)
+    assert np.array_equal(result.response.to_numpy(), cli_response(tmp_path / "whole").to_numpy())
+    assert result.summary["resumed"]["from_t"] == 0.5
+    assert not (tmp_path / "part" / "checkpoint.json").exists()
+    with pytest.raises(softhom.InputError, match="--resume"):
+        softhom.run_rve(RVE, out=tmp_path / "empty", threads=1, resume=True)
+    with pytest.raises(softhom.InputError, match="out"):
+        softhom.run_rve(RVE, resume=True)
