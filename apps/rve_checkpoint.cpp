@@ -21,6 +21,9 @@ namespace {
 
 constexpr int kFormat = 1;
 constexpr double kCostRatio = 20.0;  // a write waits 20× its own cost: at most ≈ 5 % of the run
+// Before the first write its cost is taken as 50 ms (a small cell's fsync'd HDF5 file takes 10–50 ms
+// here), so the first checkpoint comes after 1 s of run: a shorter run loses little when killed.
+constexpr double kFirstCostGuess = 0.05;
 
 double now_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -85,7 +88,8 @@ nlohmann::json checkpoint_fingerprint(const toml::table& scene) {
 }
 
 RveCheckpoint::RveCheckpoint(fs::path out, const toml::table& scene, int rank, int ranks)
-    : out_(std::move(out)), fingerprint_(checkpoint_fingerprint(scene)), rank_(rank), ranks_(ranks) {}
+    : out_(std::move(out)), fingerprint_(checkpoint_fingerprint(scene)), rank_(rank), ranks_(ranks),
+      last_cost_s_(kFirstCostGuess), last_end_s_(now_seconds()) {}
 
 bool RveCheckpoint::exists() const {
   std::error_code ec;
@@ -184,7 +188,7 @@ std::string RveCheckpoint::save(const rve::FftRveSolver& solver, const fft::Slab
                                 const RveRecorder& record, const rve::RveCounts& totals, double wall_seconds,
                                 int field_steps, bool force) {
   const double start = now_seconds();
-  int due = force || last_end_s_ < 0.0 || start - last_end_s_ >= kCostRatio * last_cost_s_;
+  int due = force || start - last_end_s_ >= kCostRatio * last_cost_s_;
   if (slabs) due = slabs->max(rank_ == 0 ? due : 0);  // rank 0's clock decides for all
   if (!due || t == saved_t_) return {};
   const long step = long(record.step_log.size()) - 1;

@@ -59,8 +59,8 @@ class RveCheckpoint {
   RveResumePoint load(rve::FftRveSolver& solver) const;
 
   /// After a converged output step at t: writes a checkpoint when one is due (the time since the last
-  /// write is at least 20 times what that write took, so checkpoints cost at most about 5 % of the run),
-  /// or always with `force`. Collective over `slabs` (null: one process). A write that fails (full
+  /// write, or since the start, is at least 20 times what that write took, taken as 50 ms before the
+  /// first: checkpoints cost at most about 5 % of the run), or always with `force`. Collective over `slabs` (null: one process). A write that fails (full
   /// disk) leaves the previous checkpoint; the returned message says so (empty when written or not due).
   std::string save(const rve::FftRveSolver& solver, const fft::SlabDecomposition* slabs, double t,
                    const RveRecorder& record, const rve::RveCounts& totals, double wall_seconds, int field_steps,
@@ -81,7 +81,7 @@ class RveCheckpoint {
   int rank_ = 0, ranks_ = 1;
   double saved_t_ = -1.0;
   double last_cost_s_ = 0.0;
-  double last_end_s_ = -1.0;  // steady-clock seconds at the end of the last write
+  double last_end_s_ = 0.0;  // steady-clock seconds at the end of the last write (first: construction)
   int writes_ = 0;
   double write_seconds_ = 0.0;
   std::size_t last_bytes_ = 0;
