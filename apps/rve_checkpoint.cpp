@@ -163,15 +163,7 @@ RveResumePoint RveCheckpoint::load(rve::FftRveSolver& solver) const {
   RveResumePoint point;
   point.t = r.at("t").get<double>();
   point.step_log = r.at("step_log");
-  const nlohmann::json& c = r.at("counts");
-  point.totals.newton_iterations = c.value("newton_iterations", 0);
-  point.totals.krylov_iterations = c.value("krylov_iterations", 0);
-  point.totals.substeps = c.value("substeps", 0);
-  point.totals.cutbacks = c.value("cutbacks", 0);
-  point.totals.shifted_solves = c.value("shifted_solves", 0);
-  point.totals.minres_solves = c.value("minres_solves", 0);
-  point.totals.discarded_krylov_iterations = c.value("discarded_krylov_iterations", 0);
-  point.totals.continuation_iterations = c.value("continuation_iterations", 0);
+  point.totals = rve_counts_from_json(r.at("counts"));
   point.wall_seconds = r.value("wall_time_s", 0.0);
   point.field_steps = r.value("field_steps", 0);
   if (rank_ == 0) {
@@ -238,14 +230,7 @@ std::string RveCheckpoint::save(const rve::FftRveSolver& solver, const fft::Slab
     r["row_width"] = record.csv.table().columns().size();
     r["scene"] = fingerprint_;
     r["step_log"] = record.step_log;
-    r["counts"] = {{"newton_iterations", totals.newton_iterations},
-                   {"krylov_iterations", totals.krylov_iterations},
-                   {"substeps", totals.substeps},
-                   {"cutbacks", totals.cutbacks},
-                   {"shifted_solves", totals.shifted_solves},
-                   {"minres_solves", totals.minres_solves},
-                   {"discarded_krylov_iterations", totals.discarded_krylov_iterations},
-                   {"continuation_iterations", totals.continuation_iterations}};
+    r["counts"] = rve_counts_json(totals);
     r["wall_time_s"] = wall_seconds;
     r["field_steps"] = field_steps;
     std::vector<std::string> files;

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <iostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -27,6 +28,29 @@ namespace softhom::app {
 /// The [output] table of an RVE scene, declared with the scene's other keys (studies/rve_scene.hpp).
 using studies::RveOutputSettings;
 using studies::parse_rve_output;
+
+/// The counters of rve::RveCounts under their summary.json names (run totals, checkpoints).
+inline constexpr std::pair<const char*, int rve::RveCounts::*> rve_count_fields[] = {
+    {"newton_iterations", &rve::RveCounts::newton_iterations},
+    {"krylov_iterations", &rve::RveCounts::krylov_iterations},
+    {"substeps", &rve::RveCounts::substeps},
+    {"cutbacks", &rve::RveCounts::cutbacks},
+    {"shifted_solves", &rve::RveCounts::shifted_solves},
+    {"minres_solves", &rve::RveCounts::minres_solves},
+    {"discarded_krylov_iterations", &rve::RveCounts::discarded_krylov_iterations},
+    {"continuation_iterations", &rve::RveCounts::continuation_iterations}};
+
+inline nlohmann::json rve_counts_json(const rve::RveCounts& c) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [name, member] : rve_count_fields) j[name] = c.*member;
+  return j;
+}
+
+inline rve::RveCounts rve_counts_from_json(const nlohmann::json& j) {
+  rve::RveCounts c;
+  for (const auto& [name, member] : rve_count_fields) c.*member = j.value(name, 0);
+  return c;
+}
 
 /// One entry of summary.json "steps".
 inline nlohmann::json rve_step_log_entry(const rve::RveStep& s) {

@@ -30,6 +30,16 @@ namespace {
 // HDF5 prints its whole error stack to stderr by default; we report errors as exceptions instead.
 void silence_hdf5() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
 
+// A file written under a temporary name: removed on every exit path unless moved into place.
+struct TemporaryFile {
+  fs::path path;
+  bool kept = false;
+  ~TemporaryFile() {
+    std::error_code ec;
+    if (!kept) fs::remove(path, ec);
+  }
+};
+
 // The API-level and the innermost message of the current HDF5 error stack, for exception texts.
 std::string hdf5_error_detail() {
   struct Walk {
@@ -261,6 +271,15 @@ void fsync_file(const fs::path& p, const fs::path& target) {
 }
 
 // Attributes every field file carries at its root, so that a file read on its own says what it holds.
+// fsync, then rename over `target`: the complete file or the previous one, even after a crash.
+void move_into_place(TemporaryFile& temporary, const fs::path& target) {
+  fsync_file(temporary.path, target);
+  std::error_code ec;
+  fs::rename(temporary.path, target, ec);
+  if (ec) throw WriteError(target, "cannot rename temporary '" + temporary.path.string() + "' into place", ec.value());
+  temporary.kept = true;
+}
+
 void write_file_attributes(hid_t file, const fs::path& target) {
   write_string_attribute(file, "softhom_version", softhom_version(), target);
   write_string_attribute(file, "units", "length mm, stress MPa, time s (F, J, fractions dimensionless)", target);
@@ -680,16 +699,8 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
     fs::create_directories(h5_final.parent_path(), ec);
     if (ec) throw WriteError(h5_final, "cannot create directory '" + h5_final.parent_path().string() + "'", ec.value());
   }
-  const fs::path h5_tmp = temporary_path(h5_final);
-  // Removes the temporary on any exception below.
-  struct Cleanup {
-    const fs::path& p;
-    bool armed = true;
-    ~Cleanup() {
-      std::error_code ec;
-      if (armed) fs::remove(p, ec);
-    }
-  } cleanup{h5_tmp};
+  TemporaryFile temporary{temporary_path(h5_final)};
+  const fs::path& h5_tmp = temporary.path;
   const std::string href_file = xml_escape(h5_final.filename().string());
   std::string attrs_xml;
   {
@@ -757,11 +768,7 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
       "        <DataItem Name=\"Spacing\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" +
       number(grid.spacing[2]) + " " + number(grid.spacing[1]) + " " + number(grid.spacing[0]) + "</DataItem>\n" +
       "      </Geometry>\n" + attrs_xml + "    </Grid>\n  </Domain>\n</Xdmf>\n";
-  fsync_file(h5_tmp, h5_final);
-  std::error_code ec;
-  fs::rename(h5_tmp, h5_final, ec);
-  if (ec) throw WriteError(h5_final, "cannot rename temporary '" + h5_tmp.string() + "' into place", ec.value());
-  cleanup.armed = false;
+  move_into_place(temporary, h5_final);
   write_file_atomic(xdmf_final, xdmf);
 }
 
@@ -772,15 +779,8 @@ void write_array_file(const std::filesystem::path& path, const std::vector<Array
     fs::create_directories(path.parent_path(), ec);
     if (ec) throw WriteError(path, "cannot create directory '" + path.parent_path().string() + "'", ec.value());
   }
-  const fs::path tmp = temporary_path(path);
-  struct Cleanup {  // removes the temporary on any exception below
-    const fs::path& p;
-    bool armed = true;
-    ~Cleanup() {
-      std::error_code ec;
-      if (armed) fs::remove(p, ec);
-    }
-  } cleanup{tmp};
+  TemporaryFile temporary{temporary_path(path)};
+  const fs::path& tmp = temporary.path;
   {
     Handle file = checked_write(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), abandon_close, path,
                                 "cannot create temporary '" + tmp.string() + "'");
@@ -798,11 +798,7 @@ void write_array_file(const std::filesystem::path& path, const std::vector<Array
     }
     finish_file(file, path, tmp);
   }
-  fsync_file(tmp, path);
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw WriteError(path, "cannot rename temporary '" + tmp.string() + "' into place", ec.value());
-  cleanup.armed = false;
+  move_into_place(temporary, path);
 }
 
 }  // namespace softhom::io
