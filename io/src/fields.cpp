@@ -271,6 +271,16 @@ void fsync_file(const fs::path& p, const fs::path& target) {
 }
 
 // Attributes every field file carries at its root, so that a file read on its own says what it holds.
+// The temporary of `target`, its directory created.
+TemporaryFile temporary_for(const fs::path& target) {
+  if (!target.parent_path().empty()) {
+    std::error_code ec;
+    fs::create_directories(target.parent_path(), ec);
+    if (ec) throw WriteError(target, "cannot create directory '" + target.parent_path().string() + "'", ec.value());
+  }
+  return TemporaryFile{temporary_path(target)};
+}
+
 // fsync, then rename over `target`: the complete file or the previous one, even after a crash.
 void move_into_place(TemporaryFile& temporary, const fs::path& target) {
   fsync_file(temporary.path, target);
@@ -694,12 +704,7 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
   fs::path h5_final = stem, xdmf_final = stem;
   h5_final += ".h5";
   xdmf_final += ".xdmf";
-  if (!h5_final.parent_path().empty()) {
-    std::error_code ec;
-    fs::create_directories(h5_final.parent_path(), ec);
-    if (ec) throw WriteError(h5_final, "cannot create directory '" + h5_final.parent_path().string() + "'", ec.value());
-  }
-  TemporaryFile temporary{temporary_path(h5_final)};
+  TemporaryFile temporary = temporary_for(h5_final);
   const fs::path& h5_tmp = temporary.path;
   const std::string href_file = xml_escape(h5_final.filename().string());
   std::string attrs_xml;
@@ -774,12 +779,7 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
 
 void write_array_file(const std::filesystem::path& path, const std::vector<ArrayToWrite>& arrays) {
   silence_hdf5();
-  if (!path.parent_path().empty()) {
-    std::error_code ec;
-    fs::create_directories(path.parent_path(), ec);
-    if (ec) throw WriteError(path, "cannot create directory '" + path.parent_path().string() + "'", ec.value());
-  }
-  TemporaryFile temporary{temporary_path(path)};
+  TemporaryFile temporary = temporary_for(path);
   const fs::path& tmp = temporary.path;
   {
     Handle file = checked_write(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), abandon_close, path,

@@ -314,6 +314,39 @@ def kill9_resume_rve(softhom, work):
     check_outputs(out)
 
 
+def sbatch_rve_resume(softhom, work):
+    """scripts/softhom-rve.sbatch submitted three times (srun replaced by a shim that runs the command):
+    stopped by SIGTERM after two steps, continued to the uninterrupted rows, then left alone."""
+    script = HERE.parent.parent / "scripts" / "softhom-rve.sbatch"
+    inp = scene_variant("rve_small.toml", work / "scene.toml", load__steps=6, output__fields="none")
+    ref, out = work / "reference", work / "out"
+    rc, err = run(softhom, ["rve", inp, "--out", ref, "--threads", 1])
+    check_exit(rc, err, allowed=(0,))
+    shim = work / "bin"
+    shim.mkdir()
+    (shim / "srun").write_text('#!/bin/sh\nexec "$@"\n')
+    (shim / "srun").chmod(0o755)
+    env = dict(ENV, SOFTHOM=str(softhom), PATH=str(shim) + os.pathsep + ENV.get("PATH", ""))
+
+    def submit(extra):
+        p = subprocess.run(["bash", str(script), str(inp), str(out)], env=dict(env, **extra), capture_output=True,
+                           text=True, timeout=120)
+        return p.returncode, p.stdout + p.stderr
+
+    rc, log = submit({"SOFTHOM_TEST_SIGTERM_AFTER_STEPS": "2"})
+    check(rc == 128 + signal.SIGTERM, "first submission: exit %d, expected 143: %s" % (rc, tail(log)))
+    check((out / "checkpoint.json").is_file(), "first submission left no checkpoint")
+    rc, log = submit({})
+    check(rc == 0, "second submission: exit %d: %s" % (rc, tail(log)))
+    check((ref / "response.csv").read_text() == (out / "response.csv").read_text(),
+          "the resubmitted run's response.csv differs from the uninterrupted run's")
+    before = (out / "summary.json").read_text()
+    rc, log = submit({})
+    check(rc == 0 and "nothing to do" in log, "third submission: exit %d: %s" % (rc, tail(log)))
+    check((out / "summary.json").read_text() == before, "the third submission rewrote the completed run")
+    check_outputs(out)
+
+
 def concurrent_sweeps(softhom, work):
     """A second sweep on the same --out while the first runs: refused at once, naming the directory and
     the first one's pid; the first finishes with every case stored."""
@@ -346,6 +379,7 @@ TESTS = {
     "sigterm-sweep": sigterm_sweep,
     "kill9-resume": kill9_resume,
     "kill9-resume-rve": kill9_resume_rve,
+    "sbatch-rve-resume": sbatch_rve_resume,
     "concurrent-sweeps": concurrent_sweeps,
 }
 
