@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <iostream>
+#include <optional>
 #include <set>
 
 #include "cmd_keys.hpp"
@@ -152,7 +153,19 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   std::vector<Eigen::Vector3d>().swap(setup.image.normal);
   std::vector<Eigen::Vector3d>().swap(setup.image.fiber_direction);
   RveResumePoint resumed;
-  if (options.resume) resumed = checkpoint.load(solver);
+  if (options.resume) {
+    // Every rank loads its own file; one that cannot must not leave the others waiting in the run.
+    std::optional<InputError> failure;
+    try {
+      resumed = checkpoint.load(solver);
+    } catch (const InputError& e) {
+      failure = e;
+    }
+    if (slabs ? slabs->max(failure ? 1 : 0) : failure.has_value()) {
+      if (failure) throw *failure;
+      throw InputError("--resume", options.out.string(), "another rank could not load its saved state");
+    }
+  }
   const double t_end = control.times.back();
   std::unique_ptr<io::FieldWriter> writer;
   // A continued run does not rewrite the field steps of the run it continues: its own go to a file of
@@ -205,8 +218,11 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   if (result.completed || result.stop == rve::RveStop::fatal) {
     checkpoint.remove();  // nothing to continue: done, or a phase at its material limit
   } else if (const double t_last = record.step_log.back().value("t", 0.0); t_last > 0.0) {
-    // Failed or out of time: the last converged step, in case the throttle skipped it (collective).
-    std::string note = checkpoint.save(solver, slabs, t_last, record, totals, wall_seconds(), field_steps, true);
+    // Failed or out of time: the last converged step, in case the throttle skipped it (collective),
+    // with the totals of the failed attempts too.
+    rve::RveCounts all = result;
+    all += resumed.totals;
+    std::string note = checkpoint.save(solver, slabs, t_last, record, all, wall_seconds(), field_steps, true);
     if (!note.empty()) checkpoint_notes.push_back(std::move(note));
     if (checkpoint.saved_t() > 0.0)
       result.log.push_back("checkpoint at t = " + format_number(checkpoint.saved_t()) + ": continue with --resume");

@@ -124,8 +124,18 @@ void RveCheckpoint::check_resumable() const {
   }
 }
 
-RveResumePoint RveCheckpoint::load(rve::FftRveSolver& solver) const {
+RveResumePoint RveCheckpoint::load(rve::FftRveSolver& solver) {
   const nlohmann::json r = read_record(out_);
+  try {
+    RveResumePoint point = load_state(r, solver);
+    saved_t_ = point.t;  // what is on disk already
+    return point;
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError("--resume", record_path(out_).string(), std::string("an incomplete checkpoint record (") + e.what() + ")");
+  }
+}
+
+RveResumePoint RveCheckpoint::load_state(const nlohmann::json& r, rve::FftRveSolver& solver) const {
   const long step = r.at("output_steps").get<long>();
   const fs::path file = state_dir(out_) / state_file(step, rank_);
   rve::FftRveState s;

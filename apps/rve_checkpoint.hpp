@@ -56,7 +56,7 @@ class RveCheckpoint {
   void check_resumable() const;
   /// Loads this rank's saved state into `solver` (set_state, set_mixed_pressures) and returns the rest
   /// of the saved run. Throws InputError("--resume", ...) on an unreadable or foreign state.
-  RveResumePoint load(rve::FftRveSolver& solver) const;
+  RveResumePoint load(rve::FftRveSolver& solver);
 
   /// After a converged output step at t: writes a checkpoint when one is due (the time since the last
   /// write, or since the start, is at least 20 times what that write took, taken as 50 ms before the
@@ -76,6 +76,8 @@ class RveCheckpoint {
   void remove() const;
 
  private:
+  RveResumePoint load_state(const nlohmann::json& record, rve::FftRveSolver& solver) const;
+
   std::filesystem::path out_;
   nlohmann::json fingerprint_;
   int rank_ = 0, ranks_ = 1;

@@ -6,7 +6,8 @@ summary.json with "ranks": 2 from rank 0 alone, the phase image held per rank as
 planes) and the achieved volume fraction reduced over the ranks; and the clear error (exit 2 naming microstructure.grid
 and the rank count) for a section grid or fewer planes i3 than ranks. A 2-rank run stopped after its
 first step continues with --resume on 2 ranks to the uninterrupted 2-rank response.csv, byte for byte;
-a 1-process resume of its checkpoint is refused.
+a 1-process resume of its checkpoint is refused, and so is a resume with one rank's state file
+missing (exit 2 on both ranks, none left waiting).
 
 usage: cli_distributed_rve.py --softhom BIN --mpiexec MPIEXEC --work DIR
 """
@@ -147,6 +148,16 @@ def main():
     if rc == 0 or not os.path.exists(record) or json.load(open(record)).get("ranks") != 2:
         failures.append("stopped 2-rank run: exit %d, checkpoint.json %s; stderr %r" % (
             rc, "present" if os.path.exists(record) else "missing", err[-400:]))
+    # One rank's state file missing: both ranks stop with exit 2 (none left waiting), naming the file.
+    broken = os.path.join(a.work, "broken")
+    shutil.copytree(part, broken)
+    lost = os.path.join(broken, "checkpoint", "step1-rank1.h5")
+    if os.path.exists(lost):
+        os.remove(lost)
+    rc, _, err = run(mpi + [a.softhom, "rve", scene, "--out", broken, "--resume"], env)
+    print("resume with a rank's state file missing: exit %d" % rc)
+    if rc != 2 or "step1-rank1.h5" not in err:
+        failures.append("resume with a missing state file: exit %d, stderr %r" % (rc, err[-400:]))
     rc, _, err = run([a.softhom, "rve", scene, "--out", part, "--resume"], env)
     print("resume of a 2-rank checkpoint on 1 process: exit %d" % rc)
     if rc != 2 or "--resume" not in err or "2 processes" not in err:
