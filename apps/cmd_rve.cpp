@@ -46,6 +46,28 @@ io::VoxelGrid voxel_grid(const rve::PhaseImage& im) {
   return g;
 }
 
+/// Progress lines inside long sub-steps (FftSolverOptions::on_newton_iteration).
+struct InStepProgress {
+  using Clock = std::chrono::steady_clock;
+  static constexpr double kAfterSeconds = 10.0;
+  Progress* progress = nullptr;  // set once the command's progress exists
+  std::string tag;
+  Clock::time_point substep_start{}, last_line{};
+
+  void newton_iteration(double t_new, int iteration, double residual, int krylov) {
+    const Clock::time_point now = Clock::now();
+    if (iteration == 0) substep_start = now;
+    if (!progress || std::chrono::duration<double>(now - substep_start).count() < kAfterSeconds ||
+        std::chrono::duration<double>(now - last_line).count() < kAfterSeconds)
+      return;
+    last_line = now;
+    progress->update(tag + "step to t = " + format_number(t_new) + ": Newton " + std::to_string(iteration) +
+                     ", residual " + progress_number(residual) + ", Krylov " + std::to_string(krylov) + ", " +
+                     std::to_string(long(std::chrono::duration<double>(now - substep_start).count())) +
+                     " s into the sub-step");
+  }
+};
+
 }  // namespace
 
 int run_rve(const CommandOptions& options) {
@@ -143,6 +165,12 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   const MixedControl& control = setup.control;
   rve::FftSolverOptions solver_options = setup.solver;
   solver_options.distributed = true;  // only when MPI is active with more than one rank
+  // Progress inside a step that runs long (large cells: an output step can take an hour): a line per
+  // Newton iteration once the sub-step has run 10 s, at most one per 10 s.
+  InStepProgress in_step;
+  solver_options.on_newton_iteration = [&in_step](double t_new, int iteration, double residual, int krylov) {
+    in_step.newton_iteration(t_new, iteration, residual, krylov);
+  };
 
   rve::FftRveSolver solver(image, matrix, fiber, alpha, control.frame, solver_options);
   const fft::SlabDecomposition* slabs = solver.slabs();
@@ -188,6 +216,8 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
     return resumed.wall_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   };
   Progress progress(options.quiet || !root);
+  in_step.progress = &progress;
+  in_step.tag = "[rve " + scene.name + "] ";
   auto on_step = [&](const rve::RveStep& s, const rve::RveFields* f) {
     record.record(s, studies::rve_response_row(s));
     totals += s;

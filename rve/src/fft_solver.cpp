@@ -1765,6 +1765,7 @@ struct FftRveSolver::Impl {
         }
       }
       out.residuals.push_back(err);
+      if (opt.on_newton_iteration) opt.on_newton_iteration(t_new, it, err, out.krylov_iterations);
       Mat3 dFp = Mat3::Zero();
       for (int c = 0; c < 9; ++c)
         if (!free[c]) dFp(c / 3, c % 3) = target(c / 3, c % 3) - Fbar(c / 3, c % 3);

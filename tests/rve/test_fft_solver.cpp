@@ -456,3 +456,40 @@ TEST(FftRve, StreamedEvaluationEqualsStoredFields) {
               << rel(streamed.steps.back().P, stored.steps.back().P) << "\n";
   }
 }
+
+// The progress callback (FftSolverOptions::on_newton_iteration) sees every Newton iteration of every
+// sub-step in order: per output step, its iterations 0, 1, … with the residual history the step
+// reports, and a Krylov count that ends at the step's (no cut-back on this cell, one sub-step each).
+TEST(FftRve, NewtonIterationCallbackFollowsTheResidualHistory) {
+  struct Call {
+    double t;
+    int iteration;
+    double residual;
+    int krylov;
+  };
+  std::vector<Call> calls;
+  FftSolverOptions o;
+  o.tolerance = 1e-8;
+  o.plan.rigor = fft::PlanRigor::estimate;
+  o.on_newton_iteration = [&calls](double t, int it, double r, int k) { calls.push_back({t, it, r, k}); };
+  const MixedControl control = uniaxial_ramp(1.2, 2);
+  FftRveSolver solver(circle_image(8, 0.3), make_material(make_neo_hookean({1.0, 10.0})),
+                      make_material(make_neo_hookean({5.0, 50.0})), 0.0, control.frame, o);
+  const RveRunResult r = solver.run(control);
+  ASSERT_TRUE(r.completed) << r.error;
+  ASSERT_EQ(r.cutbacks, 0);
+  std::size_t next = 0;
+  for (std::size_t s = 1; s < r.steps.size(); ++s) {
+    const RveStep& step = r.steps[s];
+    ASSERT_GE(step.residuals.size(), 2u);
+    for (std::size_t i = 0; i < step.residuals.size(); ++i, ++next) {
+      ASSERT_LT(next, calls.size());
+      EXPECT_EQ(calls[next].t, step.t);
+      EXPECT_EQ(calls[next].iteration, int(i));
+      EXPECT_EQ(calls[next].residual, step.residuals[i]);
+    }
+    EXPECT_EQ(calls[next - 1].krylov, step.krylov_iterations);  // one sub-step: all its solves
+    EXPECT_GT(calls[next - 1].krylov, 0);
+  }
+  EXPECT_EQ(next, calls.size());  // no call outside the steps' histories
+}

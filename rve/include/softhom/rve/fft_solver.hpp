@@ -170,6 +170,11 @@ struct FftSolverOptions {
   /// is active with more than one rank; with one rank (or MPI inactive) the one-process solver runs, bit
   /// for bit. 3D grids only, with at least one plane i3 per rank (else InputError on microstructure.grid).
   bool distributed = false;
+  /// Called after each Newton iteration's evaluation (Newton–CG), on every rank: the sub-step's target
+  /// time, the iteration (0: the predictor), its relative residual (the tolerance's measure) and the
+  /// sub-step's Krylov iterations so far. Progress within the long steps of large cells; not a scene
+  /// key. Empty: not called.
+  std::function<void(double t_new, int iteration, double residual, int krylov_iterations)> on_newton_iteration;
 };
 
 /// Grid axes in load-frame coordinates for a fiber at in-plane angle α (spec §7): g3 = a =
