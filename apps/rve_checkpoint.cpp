@@ -98,12 +98,15 @@ bool RveCheckpoint::exists() const {
 
 std::string RveCheckpoint::describe() const {
   const nlohmann::json r = read_record(out_);
-  return "t = " + format_number(r.value("t", 0.0)) + ", " + std::to_string(r.value("output_steps", 0)) +
-         " output steps converged";
+  const auto number = [&](const char* key) { return r.is_object() && r.contains(key) && r[key].is_number() ? r[key].get<double>() : 0.0; };
+  return "t = " + format_number(number("t")) + ", " + format_number(number("output_steps")) + " output steps converged";
 }
 
 void RveCheckpoint::check_resumable() const {
   const nlohmann::json r = read_record(out_);
+  if (!r.is_object() || !r.contains("format") || !r["format"].is_number_integer() || !r.contains("ranks") ||
+      !r["ranks"].is_number_integer() || !r.contains("scene"))
+    throw InputError("--resume", record_path(out_).string(), "an incomplete checkpoint record");
   if (r.value("format", 0) != kFormat)
     throw InputError("--resume", record_path(out_).string(), "a checkpoint of another format (written by another softhom version)");
   const int ranks = r.value("ranks", 0);

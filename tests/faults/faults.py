@@ -301,6 +301,14 @@ def kill9_resume_rve(softhom, work):
     rc, err = run(softhom, ["rve", inp, "--out", out, "--threads", 1])
     check_exit(rc, err, allowed=(2,))
     check("--resume" in err, "a rerun into a stopped run's --out does not point to --resume: %s" % tail(err))
+    # A damaged record (a hand edit, another tool): exit 2 naming it, nothing run.
+    record = (out / "checkpoint.json").read_text()
+    for damaged in ("[1, 2", '{"format": "one"}'):
+        (out / "checkpoint.json").write_text(damaged)
+        rc, err = run(softhom, ["rve", inp, "--out", out, "--threads", 1, "--resume"])
+        check_exit(rc, err, allowed=(2,))
+        check("checkpoint.json" in err, "a damaged record is not named: %s" % tail(err))
+    (out / "checkpoint.json").write_text(record)
     rc, err = run(softhom, ["rve", inp, "--out", out, "--threads", 1, "--resume"])
     check_exit(rc, err, allowed=(0,))
     a, b = (ref / "response.csv").read_text(), (out / "response.csv").read_text()
