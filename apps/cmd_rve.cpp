@@ -245,20 +245,18 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   rve::RveRunResult result =
       run_rve_engine(solver, control, on_step, want_fields, record, options.resume ? resumed.t : 0.0);
   progress.finish();
+  static_cast<rve::RveCounts&>(result) += resumed.totals;  // the whole run's totals
   if (result.completed || result.stop == rve::RveStop::fatal) {
     checkpoint.remove();  // nothing to continue: done, or a phase at its material limit
   } else if (const double t_last = record.step_log.back().value("t", 0.0); t_last > 0.0) {
     // Failed or out of time: the last converged step, in case the throttle skipped it (collective),
     // with the totals of the failed attempts too.
-    rve::RveCounts all = result;
-    all += resumed.totals;
-    std::string note = checkpoint.save(solver, slabs, t_last, record, all, wall_seconds(), field_steps, true);
+    std::string note = checkpoint.save(solver, slabs, t_last, record, result, wall_seconds(), field_steps, true);
     if (!note.empty()) checkpoint_notes.push_back(std::move(note));
     if (checkpoint.saved_t() > 0.0)
       result.log.push_back("checkpoint at t = " + format_number(checkpoint.saved_t()) + ": continue with --resume");
   }
   for (auto& note : checkpoint_notes) result.log.push_back(std::move(note));
-  static_cast<rve::RveCounts&>(result) += resumed.totals;
   for (const auto& line : result.log)
     if (!options.quiet && root) std::cerr << "[rve " << scene.name << "] " << line << "\n";
   record.csv.flush();

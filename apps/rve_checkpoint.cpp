@@ -209,7 +209,6 @@ std::string RveCheckpoint::save(const rve::FftRveSolver& solver, const fft::Slab
       macro[9 + c] = v.dF_last(c / 3, c % 3);
     }
     macro[18] = v.dt_last;
-    std::vector<double> rows;
     std::vector<io::ArrayToWrite> arrays{
         {"macro", macro, {}},
         {"u", interleaved(v.u), {}},
@@ -220,15 +219,7 @@ std::string RveCheckpoint::save(const rve::FftRveSolver& solver, const fft::Slab
         {"pressure", {}, v.pressure},
         {"pressure_increment", {}, v.pressure_increment},
     };
-    if (rank_ == 0) {
-      const io::CsvTable& table = record.csv.table();
-      rows.reserve(table.rows() * table.columns().size());
-      for (std::size_t i = 0; i < table.rows(); ++i) {
-        const std::span<const double> row = table.row(i);
-        rows.insert(rows.end(), row.begin(), row.end());
-      }
-      arrays.push_back({"response_rows", rows, {}});
-    }
+    if (rank_ == 0) arrays.push_back({"response_rows", record.csv.table().values(), {}});
     io::write_array_file(dir / state_file(step, rank_), arrays);
   } catch (const std::exception& e) {
     failure = e.what();

@@ -270,7 +270,6 @@ void fsync_file(const fs::path& p, const fs::path& target) {
   ::close(fd);
 }
 
-// Attributes every field file carries at its root, so that a file read on its own says what it holds.
 // The temporary of `target`, its directory created.
 TemporaryFile temporary_for(const fs::path& target) {
   if (!target.parent_path().empty()) {
@@ -290,6 +289,7 @@ void move_into_place(TemporaryFile& temporary, const fs::path& target) {
   temporary.kept = true;
 }
 
+// Attributes every field file carries at its root, so that a file read on its own says what it holds.
 void write_file_attributes(hid_t file, const fs::path& target) {
   write_string_attribute(file, "softhom_version", softhom_version(), target);
   write_string_attribute(file, "units", "length mm, stress MPa, time s (F, J, fractions dimensionless)", target);

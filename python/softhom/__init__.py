@@ -12,6 +12,7 @@ at the next step and raises KeyboardInterrupt. See docs/python.md.
 """
 from __future__ import annotations
 
+import functools
 import io as _io
 import json
 import os
@@ -190,10 +191,7 @@ def run_rve(scene: Any, out: Any = None, threads: int | None = None, quiet: bool
     the result then holds the whole run's rows."""
     if resume and out is None:
         raise _input_error("out", None, "resume=True continues the run in an output directory: give out")
-    job = _softhom.run_rve
-    if resume:
-        def job(*args):
-            return _softhom.run_rve(*args, resume=True)
+    job = functools.partial(_softhom.run_rve, resume=True) if resume else _softhom.run_rve
     return _run(job, scene, out, threads, quiet, base_dir)
 
 

@@ -212,8 +212,7 @@ struct FftRveSolver::Impl {
   // read only to commit it (in float) and to diagnose a failure; its deviation q = p − W_V′(J) in the
   // tangent is passed on in double (store_compact()), so float loses nothing the iteration uses.
   std::vector<float> p_trial, p_committed, dp_last;
-  FftRveSolver::MixedPressures pending_pressures;  // set_mixed_pressures(): for the next run's start
-  bool has_pending_pressures = false;
+  std::optional<FftRveSolver::MixedPressures> pending_pressures;  // set_mixed_pressures(): for the next run's start
   // One linearization per point, p(F) = s + c:F with c = W_V″(J_k) cof F_k (see pressure_slope()) and
   // s (double) taken with that c, so that p(F_k) = W_V′(J_k) to double round-off and only the slope is
   // perturbed (≈ 6e-8 relative). pressure_correction() reads it at point p and overwrites it there with
@@ -2148,9 +2147,8 @@ void FftRveSolver::set_state(const FftRveState& s) {
 }
 
 FftRveSolver::MixedPressures FftRveSolver::mixed_pressures() const {
-  const Impl& m = *impl_;
-  if (!m.mixed_active) return {};
-  return {m.p_committed, m.dp_last};
+  const StateView v = state_view();
+  return {{v.pressure.begin(), v.pressure.end()}, {v.pressure_increment.begin(), v.pressure_increment.end()}};
 }
 
 FftRveSolver::StateView FftRveSolver::state_view() const {
@@ -2179,7 +2177,6 @@ void FftRveSolver::set_mixed_pressures(MixedPressures p) {
                                   std::to_string(p.increment.size()) + " points",
                      "this solver's mixed iteration has " + std::to_string(want));
   m.pending_pressures = std::move(p);
-  m.has_pending_pressures = true;
 }
 
 RveRunResult FftRveSolver::run(const MixedControl& control,
@@ -2193,14 +2190,14 @@ RveRunResult FftRveSolver::run(const MixedControl& control,
   m.linearized_pressure = false;
   if (m.evaluate_start() != MaterialStatus::ok)
     throw ConvergenceError(t_start == 0.0 ? "material call failed at F = I"
-                                          : "material call failed at the start state (t = " + std::to_string(t_start) + ")");
+                                          : "material call failed at the start state (t = " + format_number(t_start) + ")");
   m.commit_pressures(false);
-  if (m.has_pending_pressures) {
+  if (m.pending_pressures) {
     // A continued run: the pressures the saved run carried, and the laminate vectors as committed (the
     // evaluation above iterated them once more from the committed ones).
-    m.p_committed = std::move(m.pending_pressures.committed);
-    m.dp_last = std::move(m.pending_pressures.increment);
-    m.has_pending_pressures = false;
+    m.p_committed = std::move(m.pending_pressures->committed);
+    m.dp_last = std::move(m.pending_pressures->increment);
+    m.pending_pressures.reset();
     m.restore();
   }
   const double angle0 = fiber_angle_deg(Mat3::Identity(), m.a0_load);

@@ -67,8 +67,8 @@ class CsvTable {
   explicit CsvTable(std::vector<std::string> columns) : columns_(std::move(columns)) {}
   void add_row(const std::vector<double>& row);
   std::size_t rows() const { return columns_.empty() ? 0 : data_.size() / columns_.size(); }
-  /// Row i's values (i < rows()).
-  std::span<const double> row(std::size_t i) const { return {data_.data() + i * columns_.size(), columns_.size()}; }
+  /// Every value, row after row.
+  std::span<const double> values() const { return data_; }
   const std::vector<std::string>& columns() const { return columns_; }
   std::string to_string() const;
   void write(const std::filesystem::path& path) const { write_file_atomic(path, to_string()); }
