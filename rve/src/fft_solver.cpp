@@ -242,6 +242,10 @@ struct FftRveSolver::Impl {
   bool extrapolate = true;
   double merit = 0.0;  // absolute residual norm of the last residual_norm() call (line search)
   Mat9 C0 = Mat9::Identity();
+  // Medium of the Levenberg–Marquardt / continuation shift (see shift_medium()), and the shift the
+  // Green table is tabulated for (K0 of C0 + green_shift · C_shift).
+  Mat9 C_shift = Mat9::Identity();
+  double green_shift = 0.0;
 
   Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPtr fiber, double angle, const Mat3& frame,
        const FftSolverOptions& o)
@@ -1182,12 +1186,12 @@ struct FftRveSolver::Impl {
     y.f += alpha * x.f;
   }
 
-  /// δP = (A + shift C0)(δF̄ + ∇δũ) at every point, in place in the real buffer (which holds ∇δũ on
+  /// δP = (A + shift C_shift)(δF̄ + ∇δũ) at every point, in place in the real buffer (which holds ∇δũ on
   /// the transformed columns); returns the volume mean of δP (grid frame). The one pass over the
   /// stored tangents of a Krylov iteration: fused, no allocation, static schedule (the same voxel
   /// partition as evaluate_points(), which writes the tangents, so each thread reads what it wrote).
   Vec9 tangent_product(const Vec9& dFbar, double shift) {
-    const Mat9 S = shift * C0;  // Levenberg–Marquardt shift (see pcg)
+    const Mat9 S = shift * C_shift;  // Levenberg–Marquardt shift (see pcg)
     const int ncol = op.columns();
     Vec9 mean = Vec9::Zero();
     double wq[8];
@@ -1217,12 +1221,12 @@ struct FftRveSolver::Impl {
   }
 
   /// Stencil form of tangent_product() and the adjoint: the nodal displacement δũ in fft3's real buffer
-  /// (with its halo) becomes the nodal forces f = Bᵀ (A + shift C0) (δF̄ + B δũ) there, and ⟨δũ, f⟩ (this
+  /// (with its halo) becomes the nodal forces f = Bᵀ (A + shift C_shift) (δF̄ + B δũ) there, and ⟨δũ, f⟩ (this
   /// rank's sum) goes to *dot when given. Streamed: one pass (StencilGradient::streamed_pass); else the
   /// gradient pass keeps its per-voxel values in fft's real buffer for the gather pass. Returns the
   /// volume mean of δP (grid frame).
   Vec9 stencil_tangent_product(const Vec9& dFbar, double shift, double* dot = nullptr) {
-    const Mat9 S = shift * C0;
+    const Mat9 S = shift * C_shift;
     Vec9 mean = Vec9::Zero();
     double wq[8];
     for (int q = 0; q < nq; ++q) wq[q] = op.quadrature()[q].weight;
@@ -1373,8 +1377,9 @@ struct FftRveSolver::Impl {
     return idx;
   }
 
-  Eigen::MatrixXd macro_block_inverse(const std::vector<int>& free_idx) const {
-    const Mat9 Cl = T_load * C0 * T_load.transpose();
+  /// Inverse of the free-free block of the (shifted) reference medium C0 + shift · C_shift, load frame.
+  Eigen::MatrixXd macro_block_inverse(const std::vector<int>& free_idx, double shift = 0.0) const {
+    const Mat9 Cl = T_load * (C0 + shift * C_shift) * T_load.transpose();
     const int m = int(free_idx.size());
     Eigen::MatrixXd B(m, m);
     for (int a = 0; a < m; ++a)
@@ -1383,10 +1388,35 @@ struct FftRveSolver::Impl {
   }
 
   /// Chooses the reference medium C0 for the next linear solve(s) and tabulates its Green operator.
-  void set_reference() {
+  /// `shift_without_bulk`: the Levenberg–Marquardt shift of the next solves is that of
+  /// shift_medium(C0), else of C0.
+  void set_reference(bool shift_without_bulk = false) {
     choose_reference();
+    C_shift = shift_without_bulk ? shift_medium(C0) : C0;
     green.set(C0);
+    green_shift = 0.0;
     if (jacobi_green()) detail::set_jacobi_scaling(*this);
+  }
+  /// The Green table for the medium C0 + shift · C_shift (re-tabulated only when the shift changes).
+  void tabulate_green(double shift) {
+    if (shift == green_shift) return;
+    green.set(C0 + shift * C_shift);
+    green_shift = shift;
+  }
+  /// The medium of the Levenberg–Marquardt shift: C0 with its largest stiffness brought down to the
+  /// next one. With a nearly incompressible phase C0's largest eigenvalue is the bulk stiffness (K/G up
+  /// to 1.2e5) and its eigenvector the dilatation; negative curvature of the tangent (a pressure p times
+  /// ∂cof/∂F, far from equilibrium) lives in isochoric modes, at the shear stiffness. A shift of the
+  /// whole C0 would also damp the dilatation, which the Newton step must correct (a linear step leaves
+  /// J − 1 = O(∇u²), a pressure spike K (J − 1)): with shift 10 the iteration then removes the spike
+  /// about 15 % per step. Without the bulk stiffness the shifted step corrects J − 1 at once.
+  static Mat9 shift_medium(const Mat9& C) {
+    Eigen::SelfAdjointEigenSolver<Mat9> es(0.5 * (C + C.transpose()));
+    if (es.info() != Eigen::Success) return C;
+    Vec9 e = es.eigenvalues();
+    if (!(e[7] > 0.0) || !(e[8] > e[7])) return C;
+    e[8] = e[7];
+    return es.eigenvectors() * e.asDiagonal() * es.eigenvectors().transpose();
   }
   bool jacobi_green() const {
     return opt.preconditioner == Preconditioner::jacobi_green && stencil && opt.scheme == FftScheme::newton_cg;
@@ -1492,8 +1522,9 @@ struct FftRveSolver::Impl {
   }
 
   /// PCG on K x = b (x starts at zero); returns iterations. With `shift` > 0 it solves
-  /// (K + shift K0) x = b, K0 the reference-medium operator (a Levenberg–Marquardt step, used when K
-  /// is indefinite away from the solution). Sets `breakdown` when a direction of non-positive
+  /// (K + shift K_S) x = b, K_S the operator of the medium C_shift (a Levenberg–Marquardt step, used
+  /// when K is indefinite away from the solution), preconditioned by the Green operator of
+  /// C0 + shift C_shift. Sets `breakdown` when a direction of non-positive
   /// curvature stops it.
   /// `residual`: CG's r (b may be the same vector, which the solve then overwrites; recover_rhs() gets it
   /// back); null: the member work vector.
@@ -1501,7 +1532,8 @@ struct FftRveSolver::Impl {
           KVec* residual = nullptr) {
     const auto start = Clock::now();
     const std::vector<int> free_idx = free_indices(free);
-    const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
+    tabulate_green(shift);
+    const Eigen::MatrixXd Minv = macro_block_inverse(free_idx, shift);
     cg_p.u.resize(3 * NM);
     if (!stencil) cg_z.u.resize(3 * NM);  // the stencil operator's CG recomputes z (CgSpace::direction)
     if (!stencil) cg_Ap.u.resize(3 * NM);  // the stencil operator leaves Ap in fft3's spectrum buffer
@@ -1511,7 +1543,7 @@ struct FftRveSolver::Impl {
     // fields, one real-space pass ∇p → δP → per-voxel nodal values (SIMD tangent product over 8
     // points), one gather pass Bᵀ δP with ⟨p, Ap⟩, FFT of 3 fields, the same CG update pass reading Ap
     // from the FFT buffer.
-    CgSpace space{*this, free, Minv, free_idx, 1.0 + shift, shift};
+    CgSpace space{*this, free, Minv, free_idx, 1.0, shift};
     auto macro = [&](const Vec9& rf) {
       Vec9 zf;
       precondition_macro(rf, Minv, free_idx, zf, 1.0);
@@ -1526,7 +1558,7 @@ struct FftRveSolver::Impl {
     return res.iterations;
   }
 
-  /// The right-hand side b back from the residual r = b − (K + shift K0) x that a solve left in b's
+  /// The right-hand side b back from the residual r = b − (K + shift K_S) x that a solve left in b's
   /// storage (one operator application; exact up to the recurrence's round-off, for a retry).
   void recover_rhs(KVec& b, const KVec& x, const std::array<bool, 9>& free, double shift) {
     cg_p.u.resize(3 * NM);
@@ -1560,6 +1592,7 @@ struct FftRveSolver::Impl {
   int pminres(const KVec& b, const std::array<bool, 9>& free, double rel_tol, KVec& x, bool& converged) {
     const auto start = Clock::now();
     const std::vector<int> free_idx = free_indices(free);
+    tabulate_green(0.0);
     const Eigen::MatrixXd Minv = macro_block_inverse(free_idx);
     MinresSpace space{*this, free, Minv, free_idx};
     const krylov::MinresResult res = krylov::pminres(space, b, x, krylov_controls(rel_tol));
@@ -1815,7 +1848,12 @@ struct FftRveSolver::Impl {
           return out;
         }
       }
-      set_reference();
+      // The first solve of a step starts from the extrapolated predictor, whose J − 1 = O(Δ∇u²) near
+      // the fibers is a pressure spike K (J − 1) that makes the tangent indefinite (composite voxels,
+      // whose laminate carries the law's own pressure): its shift must leave the dilatation free
+      // (shift_medium()). Later solves shift by C0 itself, which damps every mode alike and measured
+      // better once the spike is gone (BENCHMARKS.md, "FFT Newton iterations").
+      set_reference(it == 0);
       // Right-hand side −r − K [0; ΔF_p] (tangent predictor for the prescribed increment), formed in
       // r's storage: r is not read again before the next evaluation overwrites it. The CG work vectors
       // serve as e and K e (pcg overwrites them).

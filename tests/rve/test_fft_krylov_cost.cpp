@@ -15,10 +15,10 @@ using softhom::rve::testing::circle_image;
 using softhom::rve::testing::uniaxial_ramp;
 
 // 16² section, α = 45°, uniaxial tension to λ = 1.3 in 4 steps, tolerance 1e-6, estimated FFTW plans (the
-// same transforms every run). Counts are deterministic for a given thread count; measured 69 Newton /
-// 4 672 Krylov (67.7 per Newton) with 1 thread, 68 / 4 599 (67.6) with 2. Bounds: the measured counts
-// + 10 % (the spread between thread counts and the float-tangent rounding, BENCHMARKS.md
-// "Single-precision tangents": +0–9 % Krylov).
+// same transforms every run). Counts are deterministic for a given thread count; measured 53 Newton /
+// 3 688 Krylov (69.6 per Newton) with 2 threads, 54 / 3 623 (67.1) with 1. Bounds: the measured counts + 10 %
+// (the spread between thread counts and the float-tangent rounding, BENCHMARKS.md "Single-precision
+// tangents": +0–9 % Krylov).
 TEST(FftRveKrylovCost, KrylovPerNewtonOnASmallEcoflexCell) {
   FftSolverOptions o;
   o.tolerance = 1e-6;
@@ -30,6 +30,30 @@ TEST(FftRveKrylovCost, KrylovPerNewtonOnASmallEcoflexCell) {
   const double per_newton = double(r.krylov_iterations) / double(r.newton_iterations);
   std::printf("[ info     ] Newton %d, Krylov %d, per Newton %.1f, cut-backs %d\n", r.newton_iterations,
               r.krylov_iterations, per_newton, r.cutbacks);
-  EXPECT_LE(per_newton, 75.0);
-  EXPECT_LE(r.newton_iterations, 76);
+  EXPECT_LE(per_newton, 77.0);
+  EXPECT_LE(r.newton_iterations, 59);
+}
+
+// The steps after the first start from the extrapolated predictor, whose J − 1 = O(Δ∇u²) next to the
+// fiber is a pressure spike K (J − 1) of tens of MPa against G = 0.017 MPa: the first tangent is indefinite and
+// its solve shifted (Levenberg–Marquardt). The shift leaves the dilatation free (the bulk stiffness
+// taken out of the shift medium), so that one shifted step removes the spike: measured 11, 10, 9 Newton
+// iterations in steps 2–4 with 1 thread, 10, 10, 9 with 2. With the whole reference medium as the shift
+// the dilatation was damped as much as the shear and the spike fell about 15 % per iteration: 14, 15, 16
+// (1 and 2 threads). Bound 12: between the two.
+TEST(FftRveKrylovCost, FirstShiftedSolveOfAStepRemovesThePredictorsPressureSpike) {
+  FftSolverOptions o;
+  o.tolerance = 1e-6;
+  o.plan.rigor = fft::PlanRigor::estimate;
+  FftRveSolver s(circle_image(16, 0.27), make_material(make_gent_hgo({0.017, 14.0, 2000.0, {}, FiberInvariant::full, true})),
+                 make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))), 45.0, Mat3::Identity(), o);
+  const RveRunResult r = s.run(uniaxial_ramp(1.3, 4));
+  ASSERT_TRUE(r.completed) << r.error;
+  ASSERT_EQ(r.steps.size(), 5u);
+  for (std::size_t k = 2; k < r.steps.size(); ++k) {
+    std::printf("[ info     ] step %zu: Newton %d, Krylov %d, shifted solves %d\n", k, r.steps[k].newton_iterations,
+                r.steps[k].krylov_iterations, r.steps[k].shifted_solves);
+    EXPECT_GE(r.steps[k].shifted_solves, 1) << "step " << k << ": the predictor's tangent was not indefinite";
+    EXPECT_LE(r.steps[k].newton_iterations, 12) << "step " << k;
+  }
 }
