@@ -14,18 +14,26 @@ using namespace softhom::rve;
 using softhom::rve::testing::circle_image;
 using softhom::rve::testing::uniaxial_ramp;
 
-// 16² section, α = 45°, uniaxial tension to λ = 1.3 in 4 steps, tolerance 1e-6, estimated FFTW plans (the
-// same transforms every run). Counts are deterministic for a given thread count; measured 53 Newton /
-// 3 688 Krylov (69.6 per Newton) with 2 threads, 54 / 3 623 (67.1) with 1. Bounds: the measured counts + 10 %
-// (the spread between thread counts and the float-tangent rounding, BENCHMARKS.md "Single-precision
-// tangents": +0–9 % Krylov).
-TEST(FftRveKrylovCost, KrylovPerNewtonOnASmallEcoflexCell) {
+namespace {
+/// The cell of both tests below: 16² section, glass fiber at α = 45° (E = 10, ν = 0.3) in the Gent matrix
+/// (G = 0.017, Jm = 14, K = 2000), uniaxial tension to λ = 1.3 in 4 steps, tolerance 1e-6, estimated
+/// FFTW plans (the same transforms every run).
+RveRunResult run_small_ecoflex_cell() {
   FftSolverOptions o;
   o.tolerance = 1e-6;
   o.plan.rigor = fft::PlanRigor::estimate;
   FftRveSolver s(circle_image(16, 0.27), make_material(make_gent_hgo({0.017, 14.0, 2000.0, {}, FiberInvariant::full, true})),
                  make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))), 45.0, Mat3::Identity(), o);
-  const RveRunResult r = s.run(uniaxial_ramp(1.3, 4));
+  return s.run(uniaxial_ramp(1.3, 4));
+}
+}  // namespace
+
+// Counts are deterministic for a given thread count; measured 53 Newton /
+// 3 688 Krylov (69.6 per Newton) with 2 threads, 54 / 3 623 (67.1) with 1. Bounds: the measured counts + 10 %
+// (the spread between thread counts and the float-tangent rounding, BENCHMARKS.md "Single-precision
+// tangents": +0–9 % Krylov).
+TEST(FftRveKrylovCost, KrylovPerNewtonOnASmallEcoflexCell) {
+  const RveRunResult r = run_small_ecoflex_cell();
   ASSERT_TRUE(r.completed) << r.error;
   const double per_newton = double(r.krylov_iterations) / double(r.newton_iterations);
   std::printf("[ info     ] Newton %d, Krylov %d, per Newton %.1f, cut-backs %d\n", r.newton_iterations,
@@ -42,12 +50,7 @@ TEST(FftRveKrylovCost, KrylovPerNewtonOnASmallEcoflexCell) {
 // the dilatation was damped as much as the shear and the spike fell about 15 % per iteration: 14, 15, 16
 // (1 and 2 threads). Bound 12: between the two.
 TEST(FftRveKrylovCost, FirstShiftedSolveOfAStepRemovesThePredictorsPressureSpike) {
-  FftSolverOptions o;
-  o.tolerance = 1e-6;
-  o.plan.rigor = fft::PlanRigor::estimate;
-  FftRveSolver s(circle_image(16, 0.27), make_material(make_gent_hgo({0.017, 14.0, 2000.0, {}, FiberInvariant::full, true})),
-                 make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))), 45.0, Mat3::Identity(), o);
-  const RveRunResult r = s.run(uniaxial_ramp(1.3, 4));
+  const RveRunResult r = run_small_ecoflex_cell();
   ASSERT_TRUE(r.completed) << r.error;
   ASSERT_EQ(r.steps.size(), 5u);
   for (std::size_t k = 2; k < r.steps.size(); ++k) {
