@@ -1722,6 +1722,7 @@ struct FftRveSolver::Impl {
     linearized_pressure = false;
     double lm_shift = 0.0;
     bool full_first_step = false;
+    bool extrapolated = false;  // the step starts from the extrapolated predictor (else the tangent predictor)
     for (int it = 0; it <= max_it; ++it) {
       if (stop_now()) {
         out.why = "stopped by a signal";
@@ -1733,7 +1734,7 @@ struct FftRveSolver::Impl {
         // Predictor: linear extrapolation of the last converged increment (prescribed components set
         // exactly); the path is smooth, so this lands much closer to the solution than the tangent
         // predictor when the matrix is nearly incompressible. Falls back to the tangent predictor.
-        bool extrapolated = false;
+        extrapolated = false;
         if (extrapolate && dt_last > 0.0 && !du_last.empty()) {
           const double ratio = dt / dt_last;
           for (std::size_t i = 0; i < u.size(); ++i) u[i] = u_committed[i] + ratio * Complex(du_last[i]);
@@ -1848,12 +1849,13 @@ struct FftRveSolver::Impl {
           return out;
         }
       }
-      // The first solve of a step starts from the extrapolated predictor, whose J − 1 = O(Δ∇u²) near
-      // the fibers is a pressure spike K (J − 1) that makes the tangent indefinite (composite voxels,
-      // whose laminate carries the law's own pressure): its shift must leave the dilatation free
+      // The solve after the step's full linear increment (the extrapolated predictor's, else that after
+      // the tangent predictor's step, which is taken in full) starts where J − 1 = O(Δ∇u²) near the
+      // fibers, a pressure spike K (J − 1) that makes the tangent indefinite (composite voxels, whose
+      // laminate carries the law's own pressure): its shift must leave the dilatation free
       // (shift_medium()). Later solves shift by C0 itself, which damps every mode alike and measured
       // better once the spike is gone (BENCHMARKS.md, "FFT Newton iterations").
-      set_reference(it == 0);
+      set_reference(it == 0 || (it == 1 && !extrapolated));
       // Right-hand side −r − K [0; ΔF_p] (tangent predictor for the prescribed increment), formed in
       // r's storage: r is not read again before the next evaluation overwrites it. The CG work vectors
       // serve as e and K e (pcg overwrites them).
