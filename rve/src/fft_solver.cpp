@@ -1310,16 +1310,16 @@ struct FftRveSolver::Impl {
   /// spectrum buffer, which the CG update reads with the factor 1/N (no extra pass). ⟨p, Ap⟩ is then
   /// taken on the real fields, which equals the half-spectrum sum because the CG vectors are spectra of
   /// real fields (b comes from r2c transforms, and D, K0⁻¹ map k and −k to complex conjugates).
-  /// `r_for_z` (stencil operator): z.u is not stored, p ← K0⁻¹ r / `z_scale` + βp from the residual.
+  /// `r_for_z` (stencil operator): z.u is not stored, p ← K0⁻¹ r + βp from the residual.
   double apply_direction(const KVec& z, double beta, KVec& p, const std::array<bool, 9>& free, KVec& Ap,
-                         double shift, const KVec* r_for_z = nullptr, double z_scale = 1.0) {
+                         double shift, const KVec* r_for_z = nullptr) {
     if (stencil) {
       // p ← z + βp, and a copy for the c2r transform (which destroys its input).
       Complex* s3 = fft3->spectrum(0);
       const Complex* zu = z.u.data();
       Complex* pu = p.u.data();
       if (r_for_z) {
-        green.direction_update(r_for_z->u.data(), beta, pu, s3, z_scale);
+        green.direction_update(r_for_z->u.data(), beta, pu, s3);
       } else {
 #pragma omp parallel for schedule(static)
         for (std::size_t a = 0; a < 3 * NM; ++a) {
@@ -1351,22 +1351,21 @@ struct FftRveSolver::Impl {
     return pAp + p.f.dot(Ap.f);
   }
 
-  /// Macro block of the preconditioner: z_f = Minv r_f / scale on the free components.
+  /// Macro block of the preconditioner: z_f = Minv r_f on the free components.
   static void precondition_macro(const Vec9& rf, const Eigen::MatrixXd& macro_inverse, const std::vector<int>& free_idx,
-                                 Vec9& zf, double scale) {
+                                 Vec9& zf) {
     zf.setZero();
     if (free_idx.empty()) return;
     Eigen::VectorXd r(free_idx.size());
     for (std::size_t a = 0; a < free_idx.size(); ++a) r[a] = rf[free_idx[a]];
-    const Eigen::VectorXd z = macro_inverse * r / scale;
+    const Eigen::VectorXd z = macro_inverse * r;
     for (std::size_t a = 0; a < free_idx.size(); ++a) zf[free_idx[a]] = z[a];
   }
 
   /// z = M⁻¹ r: reference-medium Green operator per mode (tabulated by set_reference()), macro block inverse.
-  void precondition(const KVec& r, const Eigen::MatrixXd& macro_inverse, const std::vector<int>& free_idx, KVec& z,
-                    double scale = 1.0) {
-    green.apply(r.u.data(), z.u.data(), scale);
-    precondition_macro(r.f, macro_inverse, free_idx, z.f, scale);
+  void precondition(const KVec& r, const Eigen::MatrixXd& macro_inverse, const std::vector<int>& free_idx, KVec& z) {
+    green.apply(r.u.data(), z.u.data());
+    precondition_macro(r.f, macro_inverse, free_idx, z.f);
   }
 
   /// Indices of the stress-controlled (free) macro components.
@@ -1457,7 +1456,7 @@ struct FftRveSolver::Impl {
     const std::array<bool, 9>& free;
     const Eigen::MatrixXd& Minv;
     const std::vector<int>& free_idx;
-    double scale, shift;
+    double shift;
     const KVec* r_live = nullptr;  // CG's r, when z.u is not stored (stencil operator)
     void start(const KVec& b, KVec& x, KVec& r) {
       r_live = &r;
@@ -1467,20 +1466,20 @@ struct FftRveSolver::Impl {
       x.f.setZero();
     }
     double precondition_dot(const KVec& r, KVec& z) {
-      precondition_macro(r.f, Minv, free_idx, z.f, scale);
-      return m.global_sum(m.green.apply_dot(r.u.data(), z.u.empty() ? nullptr : z.u.data(), scale)) + r.f.dot(z.f);
+      precondition_macro(r.f, Minv, free_idx, z.f);
+      return m.global_sum(m.green.apply_dot(r.u.data(), z.u.empty() ? nullptr : z.u.data())) + r.f.dot(z.f);
     }
     double direction(const KVec& z, double beta, KVec& p, KVec& Ap) {
-      return m.apply_direction(z, beta, p, free, Ap, shift, z.u.empty() ? r_live : nullptr, scale);
+      return m.apply_direction(z, beta, p, free, Ap, shift, z.u.empty() ? r_live : nullptr);
     }
     double update(double alpha, const KVec& p, const KVec& Ap, KVec& x, KVec& r, KVec& z) {
       double rz_new = m.stencil ? m.green.cg_update(alpha, p.u.data(), m.fft3->spectrum(0), x.u.data(), r.u.data(),
-                                                    z.u.empty() ? nullptr : z.u.data(), scale, 1.0 / double(m.Ntot))
-                                : m.green.cg_update(alpha, p.u.data(), Ap.u.data(), x.u.data(), r.u.data(), z.u.data(), scale);
+                                                    z.u.empty() ? nullptr : z.u.data(), 1.0, 1.0 / double(m.Ntot))
+                                : m.green.cg_update(alpha, p.u.data(), Ap.u.data(), x.u.data(), r.u.data(), z.u.data());
       rz_new = m.global_sum(rz_new);
       x.f += alpha * p.f;
       r.f -= alpha * Ap.f;
-      precondition_macro(r.f, Minv, free_idx, z.f, scale);
+      precondition_macro(r.f, Minv, free_idx, z.f);
       return rz_new + r.f.dot(z.f);
     }
   };
@@ -1543,10 +1542,10 @@ struct FftRveSolver::Impl {
     // fields, one real-space pass ∇p → δP → per-voxel nodal values (SIMD tangent product over 8
     // points), one gather pass Bᵀ δP with ⟨p, Ap⟩, FFT of 3 fields, the same CG update pass reading Ap
     // from the FFT buffer.
-    CgSpace space{*this, free, Minv, free_idx, 1.0, shift};
+    CgSpace space{*this, free, Minv, free_idx, shift};
     auto macro = [&](const Vec9& rf) {
       Vec9 zf;
-      precondition_macro(rf, Minv, free_idx, zf, 1.0);
+      precondition_macro(rf, Minv, free_idx, zf);
       return zf;
     };
     const krylov::CgResult res = jacobi_green() && shift == 0.0
@@ -2293,7 +2292,7 @@ Mat9 FftRveSolver::homogenized_tangent(double krylov_tolerance, RveCounts* count
     m.apply(e, prescribed, b);
     for (auto& v : b.u) v = -v;
     b.f.setZero();
-    Impl::CgSpace space{m, prescribed, no_macro, no_free, 1.0, 0.0};
+    Impl::CgSpace space{m, prescribed, no_macro, no_free, 0.0};
     const krylov::CgResult res = krylov::pcg(space, b, x, m.cg_r, m.cg_z, m.cg_p, m.cg_Ap, m.krylov_controls(krylov_tolerance));
     iterations += res.iterations + 2;  // + the operator applications of the right-hand side and the average
     bool converged = res.converged;
