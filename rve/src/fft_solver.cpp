@@ -288,7 +288,7 @@ struct FftRveSolver::Impl {
       K_vol[x] = mat[x]->volumetric_modulus();
       const double G = mat[x]->initial_shear_modulus();
       mixed[x] = opt.scheme == FftScheme::newton_cg && opt.mixed_pressure && K_vol[x] > 0.0 &&
-                 K_vol[x] >= opt.mixed_pressure_ratio * G && !mean_dilatation;
+                 K_vol[x] >= opt.mixed_pressure_ratio * G;
       mixed_active = mixed_active || mixed[x];
     }
     // Refuse a grid that cannot fit before anything of its size is allocated.
@@ -679,6 +679,15 @@ struct FftRveSolver::Impl {
       return;
     }
     gradient_to_real(u);
+    if (mean_dilatation) {
+#pragma omp parallel for schedule(static)
+      for (std::size_t v = 0; v < N; ++v) {
+        if (comp_id[v] >= 0 || !mixed[pure_phase(v)]) continue;
+        detail::MeanDilatationVoxel md;
+        if (prepare_mean_dilatation(v, Fbar_grid, md)) linearize_voxel_pressure(pure_phase(v), v, md);
+      }
+      return;
+    }
 #pragma omp parallel for schedule(static)
     for (std::size_t v = 0; v < N; ++v) {
       if (comp_id[v] >= 0) continue;
@@ -724,7 +733,8 @@ struct FftRveSolver::Impl {
       s = mat[x]->evaluate(F, state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr,
                            state_size[x] ? hist_new[x].data() + p * state_size[x] : nullptr, dt, P, A);
       double q_p = 0.0;
-      if (s == MaterialStatus::ok && mixed[x]) q_p = pressure_correction(x, p, F, P, A);
+      // Mean dilatation: one pressure per voxel, voxel_pressure_correction() once its points are evaluated.
+      if (s == MaterialStatus::ok && mixed[x] && !mean_dilatation) q_p = pressure_correction(x, p, F, P, A);
       if (s == MaterialStatus::ok && A && compact) store_compact(x, p, F, q_p);
       if (s == MaterialStatus::ok && A && opt.reference == ReferenceMedium::geometric) {
         local.phase_A[x] += w * (*A);
@@ -860,6 +870,7 @@ struct FftRveSolver::Impl {
       if (with_tangent) Abar[q] = out.K[q];
     }
     detail::mean_dilatation_response(md, Pbar, with_tangent ? Abar : nullptr, out);
+    if (comp_id[v] < 0 && mixed[pure_phase(v)]) voxel_pressure_correction(pure_phase(v), v, md, out, with_tangent);
     const double invN = 1.0 / double(Ntot);
     for (int q = 0; q < nq; ++q) {
       double* base = fft->real(9 * q) + v;
@@ -871,6 +882,68 @@ struct FftRveSolver::Impl {
     if (!with_tangent) return;
     local.A += invN * out.voxel_tangent;
     md_coupling.store(v, out);
+  }
+
+  /// The mixed (u, p) iteration of a mean-dilatation voxel v of mixed phase x: its volumetric energy is
+  /// W_V(J̄) (fft_mean_dilatation.hpp), so it carries one pressure p, linearized as at a pure point of the
+  /// pointwise kinematics (pressure_correction()) but in J̄ = Σ_q w_q J_q:
+  ///   p(F) = W_V′(J̄_k) + W_V″(J̄_k) Σ_q w_q cof F_q,k : (F_q − F_q,k),
+  /// held per point as the slope c_q = W_V″(J̄_k) cof F_q,k (lin_c) and per voxel as s (lin_s at the
+  /// voxel's first point). With q = p − W_V′(J̄), the stress of point q gains q cof F_q (∂J̄/∂F_q = w_q
+  /// cof F_q) and its tangent K_q the geometric term q ∂cof F_q/∂F_q (∂²J̄ is block-diagonal in the
+  /// points): the voxel's bulk stiffness W_V″ ∂J̄ ⊗ ∂J̄ stays, the pressure W_V′(J̄) ∂²J̄ of a spike in J̄
+  /// is replaced by the linearized one. dP_ratio = −q / W_V″ at every point takes P̂ back to the true
+  /// stress in evaluate_residual().
+  void voxel_pressure_correction(int x, std::size_t v, const detail::MeanDilatationVoxel& md,
+                                 detail::MeanDilatationResponse& out, bool with_tangent) {
+    const std::size_t p0 = v * nq;
+    const double Jm = md.J_mean;
+    const double dU = 0.5 * K_vol[x] * (Jm - 1.0 / Jm), ddU = 0.5 * K_vol[x] * (1.0 + 1.0 / (Jm * Jm));
+    double pr = dU;
+    if (predictor_ratio >= 0.0) {
+      pr = double(p_committed[p0]) + predictor_ratio * double(dp_last[p0]);
+    } else if (linearized_pressure) {
+      pr = lin_s[p0];
+      for (int q = 0; q < nq; ++q) pr += md.w[q] * ddot(pressure_slope(x, p0 + std::size_t(q)), md.F[q]);
+    }
+    const double qv = pr - dU;
+    linearize_voxel_pressure(x, v, md);
+    for (int q = 0; q < nq; ++q) {
+      p_trial[p0 + std::size_t(q)] = float(pr);
+      dP_ratio[p0 + std::size_t(q)] = float(-qv / ddU);
+    }
+    if (qv == 0.0) return;
+    for (int q = 0; q < nq; ++q) {
+      const Mat3 cof = md.J[q] * md.F[q].inverse().transpose();
+      out.P[q] += qv * cof;
+      if (!with_tangent) continue;
+      // ∂cof_iJ/∂F_kL = (cof_iJ cof_kL − cof_iL cof_kJ) / J
+      const double w = qv / md.J[q];
+      Mat9 G;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          for (int k = 0; k < 3; ++k)
+            for (int l = 0; l < 3; ++l) G(3 * i + j, 3 * k + l) = w * (cof(i, j) * cof(k, l) - cof(i, l) * cof(k, j));
+      out.K[q] += G;
+      out.voxel_tangent += md.w[q] * G;
+    }
+  }
+  /// The linearization of voxel v's pressure at its current F_q (see voxel_pressure_correction()): the
+  /// slopes rounded to float, s with those slopes, so that p(F_k) = W_V′(J̄_k) to double round-off.
+  void linearize_voxel_pressure(int x, std::size_t v, const detail::MeanDilatationVoxel& md) {
+    const std::size_t p0 = v * nq;
+    const double Jm = md.J_mean;
+    const double ddU = 0.5 * K_vol[x] * (1.0 + 1.0 / (Jm * Jm));
+    double s0 = 0.5 * K_vol[x] * (Jm - 1.0 / Jm);
+    for (int q = 0; q < nq; ++q) {
+      const Mat3 cof = md.J[q] * md.F[q].inverse().transpose();
+      float* l = &lin_c[9 * (p0 + std::size_t(q))];
+      for (int k = 0; k < 9; ++k) {
+        l[k] = float(ddU * cof(k / 3, k % 3));
+        s0 -= md.w[q] * double(l[k]) * md.F[q](k / 3, k % 3);
+      }
+    }
+    lin_s[p0] = s0;
   }
 
   /// ∇ũ into the real buffer. Stencil operator: block (q, i) by block through fft3 (fft has no spectrum).
@@ -2211,6 +2284,12 @@ FftRveSolver::StateView FftRveSolver::state_view() const {
 void FftRveSolver::set_mixed_pressures(MixedPressures p) {
   Impl& m = *impl_;
   const std::size_t want = m.mixed_active ? m.p_committed.size() : 0;
+  if (p.committed.empty() && p.increment.empty()) {
+    // None saved (a state written without a mixed phase's pressures, e.g. before its kinematics had
+    // one): the next run derives them at its start, as after a warm start.
+    m.pending_pressures.reset();
+    return;
+  }
   if (p.committed.size() != want || p.increment.size() != want)
     throw InputError("state", "pressures of " + std::to_string(p.committed.size()) + " and " +
                                   std::to_string(p.increment.size()) + " points",

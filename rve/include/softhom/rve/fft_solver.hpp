@@ -161,7 +161,8 @@ struct FftSolverOptions {
   /// energy Σ w_q W(F̄_q), its exact gradient and Hessian; Q1/P0 for decoupled laws, one pressure per
   /// voxel; rve/src/fft_mean_dilatation.hpp). The hex scheme then no longer locks with a nearly
   /// incompressible matrix and converges to the FE answer under transverse load, where rotated does not
-  /// (BENCHMARKS.md, "FFT solver cost"). The mixed (u, p) iteration is not used with it.
+  /// (BENCHMARKS.md, "FFT solver cost"). With `mixed_pressure` its nearly incompressible phases carry
+  /// one pressure per voxel through the Newton iteration, linearized in the voxel's volume ratio.
   VolumetricKinematics volumetric = VolumetricKinematics::pointwise;
   /// Wall-time budget of one output step's cut-backs [s] (StepControlOptions::max_step_seconds; 0: none).
   double max_step_seconds = 0.0;
@@ -309,7 +310,8 @@ class FftRveSolver {
   };
   StateView state_view() const;
   /// Given to the next run, which takes them after its evaluation of the start state instead of the
-  /// pressures it derives there; throws InputError("state", ...) when their sizes do not fit.
+  /// pressures it derives there; throws InputError("state", ...) when their sizes do not fit. Both
+  /// empty: the next run derives them (a checkpoint saved without them).
   void set_mixed_pressures(MixedPressures p);
 
   const fft::Grid& grid() const;
