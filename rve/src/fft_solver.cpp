@@ -605,16 +605,15 @@ struct FftRveSolver::Impl {
     dP_ratio[p] = float(-q / vs.ddU);
     if (q == 0.0) return q;
     P += q * cof;
-    if (A) {
-      // ∂cof_iJ/∂F_kL = (cof_iJ cof_kL − cof_iL cof_kJ) / J
-      const double w = q / J;
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-          for (int k = 0; k < 3; ++k)
-            for (int l = 0; l < 3; ++l)
-              (*A)(3 * i + j, 3 * k + l) += w * (cof(i, j) * cof(k, l) - cof(i, l) * cof(k, j));
-    }
+    if (A) add_cofactor_derivative(q / J, cof, *A);
     return q;
+  }
+  /// A += w J ∂cof F/∂F, from ∂cof_iJ/∂F_kL = (cof_iJ cof_kL − cof_iL cof_kJ) / J.
+  static void add_cofactor_derivative(double w, const Mat3& cof, Mat9& A) {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 3; ++k)
+          for (int l = 0; l < 3; ++l) A(3 * i + j, 3 * k + l) += w * (cof(i, j) * cof(k, l) - cof(i, l) * cof(k, j));
   }
   /// J, cof F, W_V′(J) and W_V″(J) of the volumetric energy W_V = K/2 ((J² − 1)/2 − ln J) at F.
   struct VolumetricState {
@@ -625,10 +624,12 @@ struct FftRveSolver::Impl {
     VolumetricState s;
     s.J = F.determinant();
     s.cof = s.J * F.inverse().transpose();
-    s.dU = 0.5 * K * (s.J - 1.0 / s.J);
-    s.ddU = 0.5 * K * (1.0 + 1.0 / (s.J * s.J));
+    s.dU = volumetric_dU(K, s.J);
+    s.ddU = volumetric_ddU(K, s.J);
     return s;
   }
+  static double volumetric_dU(double K, double J) { return 0.5 * K * (J - 1.0 / J); }
+  static double volumetric_ddU(double K, double J) { return 0.5 * K * (1.0 + 1.0 / (J * J)); }
   /// The slope c of the linearization held at pure point p of mixed phase x (that of the last
   /// evaluation at p, see lin_s): stored (lin_c), or W_V″(J) cof F recomputed from the float F of the
   /// compact record, which is what linearize_pressure() took it from.
@@ -687,7 +688,10 @@ struct FftRveSolver::Impl {
       for (std::size_t v = 0; v < N; ++v) {
         if (comp_id[v] >= 0 || !mixed[pure_phase(v)]) continue;
         detail::MeanDilatationVoxel md;
-        if (prepare_mean_dilatation(v, Fbar_grid, md)) linearize_voxel_pressure(pure_phase(v), v, md);
+        if (!prepare_mean_dilatation(v, Fbar_grid, md)) continue;
+        Mat3 cof[detail::MeanDilatationVoxel::kMaxPoints];
+        voxel_cofactors(md, cof);
+        linearize_voxel_pressure(pure_phase(v), v, md, cof);
       }
       return;
     }
@@ -900,8 +904,7 @@ struct FftRveSolver::Impl {
   void voxel_pressure_correction(int x, std::size_t v, const detail::MeanDilatationVoxel& md,
                                  detail::MeanDilatationResponse& out, bool with_tangent) {
     const std::size_t p0 = v * nq;
-    const double Jm = md.J_mean;
-    const double dU = 0.5 * K_vol[x] * (Jm - 1.0 / Jm), ddU = 0.5 * K_vol[x] * (1.0 + 1.0 / (Jm * Jm));
+    const double dU = volumetric_dU(K_vol[x], md.J_mean), ddU = volumetric_ddU(K_vol[x], md.J_mean);
     double pr = dU;
     if (predictor_ratio >= 0.0) {
       pr = double(p_committed[p0]) + predictor_ratio * double(dp_last[p0]);
@@ -910,39 +913,35 @@ struct FftRveSolver::Impl {
       for (int q = 0; q < nq; ++q) pr += md.w[q] * ddot(pressure_slope(x, p0 + std::size_t(q)), md.F[q]);
     }
     const double qv = pr - dU;
-    linearize_voxel_pressure(x, v, md);
+    Mat3 cof[detail::MeanDilatationVoxel::kMaxPoints];
+    voxel_cofactors(md, cof);
+    linearize_voxel_pressure(x, v, md, cof);
     for (int q = 0; q < nq; ++q) {
       p_trial[p0 + std::size_t(q)] = float(pr);
       dP_ratio[p0 + std::size_t(q)] = float(-qv / ddU);
-    }
-    if (qv == 0.0) return;
-    for (int q = 0; q < nq; ++q) {
-      const Mat3 cof = md.J[q] * md.F[q].inverse().transpose();
-      out.P[q] += qv * cof;
+      if (qv == 0.0) continue;
+      out.P[q] += qv * cof[q];
       if (!with_tangent) continue;
-      // ∂cof_iJ/∂F_kL = (cof_iJ cof_kL − cof_iL cof_kJ) / J
-      const double w = qv / md.J[q];
-      Mat9 G;
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-          for (int k = 0; k < 3; ++k)
-            for (int l = 0; l < 3; ++l) G(3 * i + j, 3 * k + l) = w * (cof(i, j) * cof(k, l) - cof(i, l) * cof(k, j));
+      Mat9 G = Mat9::Zero();
+      add_cofactor_derivative(qv / md.J[q], cof[q], G);
       out.K[q] += G;
       out.voxel_tangent += md.w[q] * G;
     }
   }
+  static void voxel_cofactors(const detail::MeanDilatationVoxel& md, Mat3* cof) {
+    for (int q = 0; q < md.nq; ++q) cof[q] = md.J[q] * md.F[q].inverse().transpose();
+  }
   /// The linearization of voxel v's pressure at its current F_q (see voxel_pressure_correction()): the
   /// slopes rounded to float, s with those slopes, so that p(F_k) = W_V′(J̄_k) to double round-off.
-  void linearize_voxel_pressure(int x, std::size_t v, const detail::MeanDilatationVoxel& md) {
+  /// The slopes are always stored (lin_c): compact tangent records are off with mean dilatation.
+  void linearize_voxel_pressure(int x, std::size_t v, const detail::MeanDilatationVoxel& md, const Mat3* cof) {
     const std::size_t p0 = v * nq;
-    const double Jm = md.J_mean;
-    const double ddU = 0.5 * K_vol[x] * (1.0 + 1.0 / (Jm * Jm));
-    double s0 = 0.5 * K_vol[x] * (Jm - 1.0 / Jm);
+    const double ddU = volumetric_ddU(K_vol[x], md.J_mean);
+    double s0 = volumetric_dU(K_vol[x], md.J_mean);
     for (int q = 0; q < nq; ++q) {
-      const Mat3 cof = md.J[q] * md.F[q].inverse().transpose();
       float* l = &lin_c[9 * (p0 + std::size_t(q))];
       for (int k = 0; k < 9; ++k) {
-        l[k] = float(ddU * cof(k / 3, k % 3));
+        l[k] = float(ddU * cof[q](k / 3, k % 3));
         s0 -= md.w[q] * double(l[k]) * md.F[q](k / 3, k % 3);
       }
     }

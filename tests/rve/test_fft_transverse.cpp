@@ -121,7 +121,8 @@ TEST(FftRveTransverse, HexConvergesToTheFeReferenceAndRotatedDoesNot) {
 // The case of BENCHMARKS.md (K/G = 1.2e5) on an 8² section with the default (rotated) discretization:
 // measured 74 Newton / 9 637 Krylov on 1 thread, 77 / 10 156 on 2 (16 shifted solves, ≈ 500 Krylov
 // iterations in abandoned solves; 103 / 11 874–12 144 with the mixed iteration's line search measured
-// against the accepted iterate's linearized merit instead of its true residual), P22 0.0521527 (32²: 0.0533, 128² at K/G = 1000: 0.0522 — the rotated scheme's limit, flat in n).
+// against the accepted iterate's linearized merit instead of its true residual), P22 0.0521527 (32²:
+// 0.0533, 128² at K/G = 1000: 0.0522 — the rotated scheme's limit, flat in n).
 // Bounds: counts + 15 % (the thread count and float tangents move them by up to 10 %), P22 within 1 % of
 // the measured value (the 8²–32² spread of the rotated answer is 2 %). The FE reference (L/4, 0.09046;
 // L/24: 0.08847) is 40 % higher: asserted as a band, as above, so that a change of the discretization
