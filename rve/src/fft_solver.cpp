@@ -1871,12 +1871,18 @@ struct FftRveSolver::Impl {
           // nearly incompressible matrix can be arbitrarily far from anything the cell can reach).
           // r holds the right-hand side of the last solve: re-evaluate the restored iterate's residual,
           // with its linearization (the trials overwrote it).
+          // The composite points start their laminate solves from the committed jump vectors: the
+          // failed trials left theirs, from which a solve at the accepted F can fail too and leave the
+          // diagnosis without a residual (RveStops.FftFailedLineSearchIsDiagnosedAtTheAcceptedIterate).
           move_to_accepted(dx, applied, Fbar_prev);
+          lam_a_trial = lam_a;
           if (mixed_active) relinearize_pressures(to_grid(Fbar));
           double accepted_err = 0.0;
-          if (evaluate_iterate(dt, false, free, P_target, r, accepted_err) != MaterialStatus::ok)
-            std::fill(r.u.begin(), r.u.end(), Complex(0.0));
-          out.why += "; " + describe(hot_spots(r));
+          const MaterialStatus again = evaluate_iterate(dt, false, free, P_target, r, accepted_err);
+          // Without its residual the hot spots would name a zero force at voxel (0, 0, 0): say so instead.
+          out.why += again == MaterialStatus::ok
+                         ? "; " + describe(hot_spots(r))
+                         : std::string("; the last accepted iterate could not be evaluated again (") + to_string(again) + ")";
           return out;
         }
       }

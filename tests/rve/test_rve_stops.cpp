@@ -185,6 +185,38 @@ TEST(RveStops, FftWallTimeBudgetEndsTheCutBacks) {
   EXPECT_EQ(r.cutbacks, 1);
 }
 
+// The diagnosis of a sub-step whose every line-search trial failed describes the last accepted iterate.
+// 12³ cell (the section at 45° extruded), uniaxial compression to λ = 0.75 in one step: the first
+// attempt ends on an inverted voxel in a trial. The accepted iterate is evaluated again for the
+// diagnosis, and its composite voxels used to start their laminate solves from the failed trials' jump
+// vectors: that evaluation failed too, and the log reported a zero residual ("0× its rms" at voxel
+// (0, 0, 0)) and the J − 1 of a trial (−0.49 … 0.43). Started from the committed jump vectors it
+// names the real hot spot (measured: J − 1 in [−0.0037, 0.0006], 4.0× the rms at a composite voxel).
+TEST(RveStops, FftFailedLineSearchIsDiagnosedAtTheAcceptedIterate) {
+  const MixedControl control = uniaxial_ramp(0.75, 1);
+  FftRveSolver solver(extrude(fiber_section_image(12), 12), ecoflex(), glass(), 45.0, control.frame, fft_options());
+  const RveRunResult r = solver.run(control);
+  ASSERT_TRUE(r.completed) << r.error;
+  ASSERT_GE(r.cutbacks, 1);
+  std::string first;
+  for (const std::string& line : r.log)
+    if (line.find("material call failed") != std::string::npos) first = line;
+  ASSERT_FALSE(first.empty()) << "no attempt ended on a failed material call: the test no longer covers the path";
+  std::cout << "[ diagnosis ] " << first << "\n";
+  const std::size_t rms = first.find("× its rms");
+  ASSERT_NE(rms, std::string::npos) << first;
+  const std::size_t comma = first.rfind(", ", rms);
+  ASSERT_NE(comma, std::string::npos) << first;
+  const double factor = std::stod(first.substr(comma + 2, rms - comma - 2));
+  EXPECT_GT(factor, 1.0) << first;  // a hot spot at least as large as the rms (0 when the evaluation failed)
+  const std::size_t range = first.find("matrix J − 1 in [");
+  ASSERT_NE(range, std::string::npos) << first;
+  const std::string bounds = first.substr(range + std::string("matrix J − 1 in [").size());
+  const double lo = std::stod(bounds), hi = std::stod(bounds.substr(bounds.find(", ") + 2));
+  // An accepted iterate of the mixed iteration is nearly isochoric; the failed trial was not.
+  EXPECT_LT(std::max(std::abs(lo), std::abs(hi)), 0.05) << first;
+}
+
 // A grid whose solver arrays (≈ 1 kB per voxel) exceed any machine is refused before allocation.
 TEST(RveStops, FftRefusesAGridThatCannotFit) {
   PhaseImage im;
