@@ -284,6 +284,7 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   summary["preconditioner"] = rve::to_string(solver_options.preconditioner);
   summary["volumetric"] = rve::to_string(solver_options.volumetric);
   summary["indefinite_solver"] = solver_options.indefinite_solver == rve::IndefiniteSolver::minres ? "minres" : "shift";
+  summary["composite_tangent"] = solver_options.composite_tangent == rve::CompositeTangent::exact ? "exact" : "projected";
   summary["tolerance"] = solver_options.tolerance;
   summary["fft"] = solver.fft_description();
   summary["fft_planning_s"] = solver.planning_seconds();

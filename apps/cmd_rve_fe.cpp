@@ -287,6 +287,7 @@ int run_rve_fe(const CommandOptions& options, const LoadedScene& scene) {
   summary["solver_bytes_per_voxel"] = nullptr;
   summary["phase_image_bytes_per_rank"] = nullptr;  // FFT engine only (its voxel image)
   summary["indefinite_solver"] = nullptr;
+  summary["composite_tangent"] = nullptr;
   summary["tolerance"] = settings.solver.tolerance;
   summary["fft"] = nullptr;
   summary["fft_planning_s"] = 0.0;

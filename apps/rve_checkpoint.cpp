@@ -82,7 +82,8 @@ nlohmann::json checkpoint_fingerprint(const toml::table& scene) {
   j.erase("description");
   if (j.contains("solver") && j["solver"].is_object())
     for (const char* key : {"max_newton_iterations", "max_krylov_iterations", "max_fixed_point_iterations",
-                            "max_cutbacks", "max_step_seconds", "max_continuation_iterations", "fftw", "fftw_wisdom"})
+                            "max_cutbacks", "max_step_seconds", "max_continuation_iterations", "composite_tangent", "fftw",
+                            "fftw_wisdom"})
       j["solver"].erase(key);
   return j;
 }

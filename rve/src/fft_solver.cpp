@@ -608,6 +608,15 @@ struct FftRveSolver::Impl {
     if (A) add_cofactor_derivative(q / J, cof, *A);
     return q;
   }
+  /// The symmetric part of A with its negative eigenvalues set to 0 (FftSolverOptions::composite_tangent);
+  /// a Cholesky test first, so a definite tangent costs no eigen-decomposition.
+  static void project_semidefinite(Mat9& A) {
+    const Mat9 S = 0.5 * (A + A.transpose());
+    if (Eigen::LLT<Mat9>(S).info() == Eigen::Success) return;
+    Eigen::SelfAdjointEigenSolver<Mat9> es(S);
+    const Vec9 e = es.eigenvalues().cwiseMax(0.0);
+    A = es.eigenvectors() * e.asDiagonal() * es.eigenvectors().transpose();
+  }
   /// A += w J ∂cof F/∂F, from ∂cof_iJ/∂F_kL = (cof_iJ cof_kL − cof_iL cof_kJ) / J.
   static void add_cofactor_derivative(double w, const Mat3& cof, Mat9& A) {
     for (int i = 0; i < 3; ++i)
@@ -777,6 +786,7 @@ struct FftRveSolver::Impl {
         if (s == MaterialStatus::ok)
           for (int i = 0; i < 3; ++i) lam_a_trial[3 * c + i] = a[i];
       }
+      if (s == MaterialStatus::ok && A && opt.composite_tangent == CompositeTangent::projected) project_semidefinite(*A);
       if (s == MaterialStatus::ok)
         for (int x = 0; x < 2; ++x) {
           const double wx = w * (x == 1 ? f : 1.0 - f);

@@ -50,6 +50,10 @@ const io::KeyTable<FftSolverOptions>& fft_solver_keys() {
         .number("minres_below", &O::minres_below, io::at_least(0.0), "-", "residual below which negative curvature means an indefinite tangent")
         .flag("minres_fallback", &O::minres_fallback, "with shift: finish a stalled step with MINRES")
         .flag("mixed_pressure", &O::mixed_pressure, "mixed (u, p) Newton iteration in nearly incompressible phases")
+        .choice("composite_tangent", &O::composite_tangent,
+                {{"exact", CompositeTangent::exact}, {"projected", CompositeTangent::projected}},
+                "composite voxels' laminate tangents in the Newton operator (projected: negative eigenvalues set to 0; "
+                "for tension of fine 3D cells, not past fiber buckling)")
         .choice("krylov_operator", &O::krylov_operator, {{"stencil", KrylovOperator::stencil}, {"fourier", KrylovOperator::fourier}},
                 "operator of the Krylov iteration")
         .choice("tangent_precision", &O::tangent_precision,

@@ -58,6 +58,8 @@ enum class KrylovOperator { stencil, fourier };
 /// What the Newton–CG solver does when CG meets negative curvature near the solution (see
 /// FftSolverOptions::indefinite_solver).
 enum class IndefiniteSolver { minres, shift };
+/// Tangents of the composite points in the Newton operator (FftSolverOptions::composite_tangent).
+enum class CompositeTangent { exact, projected };
 /// Preconditioner of the Newton–CG linear solves (FftSolverOptions::preconditioner).
 enum class Preconditioner { green, jacobi_green };
 /// Storage of the tangents read by the stencil Krylov operator (FftSolverOptions::tangent_precision).
@@ -119,6 +121,16 @@ struct FftSolverOptions {
   /// O(K θ²) volumetric error of finite rotations θ. Same converged solution as the plain iteration.
   bool mixed_pressure = true;
   double mixed_pressure_ratio = 100.0;
+  /// The tangents of the composite points in the Newton operator: their laminate's own (`exact`), or
+  /// with its negative eigenvalues set to 0 (`projected`). The laminate carries its law's pressure, not
+  /// the mixed iteration's, and far from equilibrium its tangent is indefinite at thousands of points
+  /// of a fine grid: too few to turn CG's curvature negative, enough to make the direction useless
+  /// there. Projected, the 128³ inclined cell's first step to λ = 1.075 converges in one attempt (19 /
+  /// 3 105 Newton / Krylov against 53 / 4 556 with a cut-back), but where the indefiniteness is
+  /// physical (fibers buckling under compression) the step is no longer a Newton step and the cell does
+  /// not converge (BENCHMARKS.md, "FFT Newton iterations: the first step of fine grids"). The residual
+  /// is always the true one: the converged state does not depend on this choice.
+  CompositeTangent composite_tangent = CompositeTangent::exact;
   KrylovOperator krylov_operator = KrylovOperator::stencil;
   /// Tangents of the stencil Krylov operator stored in float (180 instead of 360 B per point, the
   /// default: the largest array of the solver, see BENCHMARKS.md "FFT memory per voxel"): the Krylov
