@@ -125,8 +125,8 @@ struct FftSolverOptions {
   /// with its negative eigenvalues set to 0 (`projected`). The laminate carries its law's pressure, not
   /// the mixed iteration's, and far from equilibrium its tangent is indefinite at thousands of points
   /// of a fine grid: too few to turn CG's curvature negative, enough to make the direction useless
-  /// there. Projected, the 128³ inclined cell's first step to λ = 1.075 converges in one attempt (19 /
-  /// 3 105 Newton / Krylov against 53 / 4 556 with a cut-back), but where the indefiniteness is
+  /// there. Projected, the 128³ inclined cell's first step to λ = 1.075 converges in one attempt (17 /
+  /// 2 163 Newton / Krylov against 53 / 4 556 with a cut-back), but where the indefiniteness is
   /// physical (fibers buckling under compression) the step is no longer a Newton step and the cell does
   /// not converge (BENCHMARKS.md, "FFT Newton iterations: the first step of fine grids"). The residual
   /// is always the true one: the converged state does not depend on this choice.
