@@ -608,8 +608,10 @@ struct FftRveSolver::Impl {
     if (A) add_cofactor_derivative(q / J, cof, *A);
     return q;
   }
-  /// The symmetric part of A with its negative eigenvalues set to 0 (FftSolverOptions::composite_tangent);
-  /// a Cholesky test first, so a definite tangent costs no eigen-decomposition.
+  /// A composite point's tangent for FftSolverOptions::composite_tangent = projected: left as it is when
+  /// its symmetric part is positive definite (a Cholesky test, no eigen-decomposition), else that
+  /// symmetric part with its negative eigenvalues set to 0. Applied where the point is evaluated, so the
+  /// stored tangent and the mean tangent that chooses the reference medium are the same projected one.
   static void project_semidefinite(Mat9& A) {
     const Mat9 S = 0.5 * (A + A.transpose());
     if (Eigen::LLT<Mat9>(S).info() == Eigen::Success) return;
