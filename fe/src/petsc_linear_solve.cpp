@@ -4,6 +4,7 @@
 // MUMPS's), of an earlier one, refreshed by the lagged-factor rules of the direct path.
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <iostream>
 
 #include "simulation_impl.hpp"
@@ -44,6 +45,14 @@ void Simulation::Impl::petsc_set_operator(bool new_preconditioner) {
     note_once("petsc", "linear solver: petsc (" + petsc_->description() + ", rigid-body near-nullspace) on " +
                            std::to_string(petsc_->ranks()) + " MPI rank(s)");
   first_factorization_ = false;
+  if (petsc_->anisotropic_smoother() && !anisotropic_smoother_noted_) {
+    anisotropic_smoother_noted_ = true;
+    char spread[32];
+    std::snprintf(spread, sizeof spread, "%.3g", petsc_->block_spread());
+    note_once("petsc smoother", "linear solver: from t = " + format_number(time_) +
+                                    " the P2 level's smoother works on the 3 x 3 nodal blocks, two Chebyshev sweeps (nodal block spread " +
+                                    spread + " of the tangent: anisotropic, e.g. fibers in tension)");
+  }
 }
 
 bool Simulation::Impl::petsc_linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol,

@@ -1,6 +1,9 @@
 #include "petsc_p_multigrid.hpp"
 
 #include <array>
+#include <cmath>
+
+#include <Eigen/Dense>
 
 #include "petsc_check.hpp"
 #include "softhom/fe/tet10.hpp"
@@ -83,6 +86,33 @@ PMultigridSpace p_multigrid_interpolation(MPI_Comm comm, int rank, const Mesh& m
   petsc_check(MatAssemblyBegin(P, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin (p-multigrid)");
   petsc_check(MatAssemblyEnd(P, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd (p-multigrid)");
   return space;
+}
+
+double nodal_block_spread(MPI_Comm comm, Mat A, PetscInt lo, PetscInt hi) {
+  double log_sum = 0.0, count = 0.0;
+  for (PetscInt node = lo; node + 2 < hi; node += 3) {
+    Eigen::Matrix3d block = Eigen::Matrix3d::Zero();
+    bool prescribed = false;
+    for (int i = 0; i < 3 && !prescribed; ++i) {
+      PetscInt n = 0;
+      const PetscInt* cols = nullptr;
+      const PetscScalar* vals = nullptr;
+      petsc_check(MatGetRow(A, node + i, &n, &cols, &vals), "MatGetRow");
+      prescribed = n <= 1;
+      for (PetscInt k = 0; k < n; ++k)
+        if (cols[k] >= node && cols[k] < node + 3) block(i, int(cols[k] - node)) = vals[k];
+      petsc_check(MatRestoreRow(A, node + i, &n, &cols, &vals), "MatRestoreRow");
+    }
+    if (prescribed) continue;
+    const Eigen::Vector3d e = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(0.5 * (block + block.transpose()),
+                                                                            Eigen::EigenvaluesOnly).eigenvalues();
+    if (!(e(0) > 0.0)) continue;
+    log_sum += std::log(e(2) / e(0));
+    count += 1.0;
+  }
+  double local[2] = {log_sum, count}, total[2] = {0.0, 0.0};
+  MPI_Allreduce(local, total, 2, MPI_DOUBLE, MPI_SUM, comm);
+  return total[1] > 0.0 ? std::exp(total[0] / total[1]) : 1.0;
 }
 
 }  // namespace softhom::fe

@@ -34,4 +34,12 @@ struct PMultigridSpace {
 PMultigridSpace p_multigrid_interpolation(MPI_Comm comm, int rank, const Mesh& mesh, const std::vector<int>& eq,
                                           const std::vector<int>& node_owner);
 
+/// The geometric mean over the nodes whose rows are this rank's rows [row_lo, row_hi) of `A` (three
+/// consecutive rows and columns per node, from row_lo on) of the spread
+/// λ_max / λ_min of each node's 3 × 3 diagonal block (its symmetric part). Nodes with a prescribed
+/// component (a row holding its diagonal alone) or a block that is not positive definite are left out;
+/// 1 when none is left. Isotropic solids give a few units whatever the mesh; fibers that stiffen one
+/// direction give their stiffness ratio. Collective.
+double nodal_block_spread(MPI_Comm comm, Mat A, PetscInt row_lo, PetscInt row_hi);
+
 }  // namespace softhom::fe

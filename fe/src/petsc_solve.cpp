@@ -13,6 +13,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <limits>
 #include <stdexcept>
@@ -80,6 +81,9 @@ constexpr const char* kPMultigridDefaults =
 /// Measured on the cPASMO 0.5 mesh (158 481 dofs, two load steps, GMRES iterations / CPU): α = 10:
 /// 654 / 183 s, 3: 424 / 126 s, 1: 357 / 102 s; BoomerAMG on the P2 block (α = 10): 310 / 142 s.
 constexpr double kPMultigridAlpha = 1.0;
+/// Above this geometric-mean spread of the nodal 3 × 3 blocks (nodal_block_spread) the P2 level gets
+/// two Chebyshev sweeps instead of one. (Calibrated in BENCHMARKS.md, "Fibers on the p-multigrid".)
+constexpr double kAnisotropicBlockSpread = 3.0;
 
 /// The three translations and three rotations of the nodes at `coords` (x y z per node: this rank's
 /// nodes, in the order of its rows): elasticity's near-nullspace, which smoothed aggregation needs in
@@ -278,6 +282,11 @@ struct PetscSolver::Data {
   // field split has made its sub-solvers.
   bool p_multigrid = false;
   Mat p_interpolation = nullptr;
+  // The fine level's smoother (choose_fine_smoother): the nodal 3 × 3 blocks' spread of the tangents set
+  // up (nodal_block_spread) until one exceeds kAnisotropicBlockSpread, and whether that has happened (the
+  // anisotropic smoother chosen); neither when the user's options set the smoother.
+  double block_spread = 0.0;
+  bool anisotropic_smoother = false, user_smoother = false;
   // The coarse level's solver, its vertices (mesh nodes) and their current positions for the next
   // tangent's rigid-body modes (pending until that set-up; -softhom_pmg_current_modes 0: the reference
   // positions throughout). The modes of the reference positions are not those of a body that has
@@ -368,6 +377,7 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
     check(PetscOptionsInsertString(nullptr, kPMultigridDefaults), "PetscOptionsInsertString (p-multigrid)");
     check(PetscOptionsInsertString(nullptr, options.c_str()), "PetscOptionsInsertString");
     d.al_alpha = kPMultigridAlpha;
+    d.user_smoother = options.find("-fieldsplit_u_mg_levels_") != std::string::npos;
   }
   PetscBool current_modes = PETSC_TRUE;
   PetscOptionsGetBool(nullptr, nullptr, "-softhom_pmg_current_modes", &current_modes, nullptr);
@@ -415,6 +425,13 @@ std::string PetscSolver::description() const {
       if (type.empty() || type == PCHYPRE) coarse = "BoomerAMG (3 functions)";
       else if (type == PCGAMG) coarse = d_->current_modes ? "GAMG (rigid-body modes of the current positions)" : "GAMG (rigid-body modes)";
       s += ", P2 -> P1 multigrid with " + coarse + " on the P1 Galerkin block";
+      if (!d_->user_smoother) {
+        char buf[160];
+        std::snprintf(buf, sizeof buf, ", the P2 level smoothed by %s (nodal block spread %.3g)",
+                      d_->anisotropic_smoother ? "two Chebyshev sweeps on its 3 x 3 nodal blocks" : "one Chebyshev sweep on its diagonal",
+                      d_->block_spread);
+        s += buf;
+      }
     }
   }
   return s;
@@ -598,6 +615,7 @@ bool PetscSolver::factorize(const CscMatrix& K) {
     set_coarse_modes(d.coarse_current);
     d.modes_pending = false;
   }
+  choose_fine_smoother();
   // The multigrid hierarchy or factor of this tangent now (its cost is the "factorization" of this solver).
   check(KSPSetUp(d.ksp), "KSPSetUp");
   attach_p_multigrid();
@@ -608,21 +626,30 @@ bool PetscSolver::factorize(const CscMatrix& K) {
   return true;
 }
 
-void PetscSolver::attach_p_multigrid() {
-  Data& d = *d_;
-  if (!d.p_multigrid || d.p_interpolation) return;
-  PC pc, pu;
+/// The field split's displacement solver and its preconditioner when that is a PCMG (the user's options
+/// may have chosen another), else null.
+static KSP displacement_mg(KSP ksp, PC* pu) {
+  PC pc;
   PCType type = nullptr;
-  check(KSPGetPC(d.ksp, &pc), "KSPGetPC");
-  if (PCGetType(pc, &type) != 0 || !type || std::string(type) != PCFIELDSPLIT) return;
+  check(KSPGetPC(ksp, &pc), "KSPGetPC");
+  if (PCGetType(pc, &type) != 0 || !type || std::string(type) != PCFIELDSPLIT) return nullptr;
   PetscInt n = 0;
   KSP* sub = nullptr;
   check(PCFieldSplitGetSubKSP(pc, &n, &sub), "PCFieldSplitGetSubKSP");
   KSP ku = sub[0];
   PetscFree(sub);
-  check(KSPGetPC(ku, &pu), "KSPGetPC");
-  // The user's options may have chosen another preconditioner for the block.
-  if (PCGetType(pu, &type) != 0 || !type || std::string(type) != PCMG) return;
+  check(KSPGetPC(ku, pu), "KSPGetPC");
+  if (PCGetType(*pu, &type) != 0 || !type || std::string(type) != PCMG) return nullptr;
+  return ku;
+}
+
+void PetscSolver::attach_p_multigrid() {
+  Data& d = *d_;
+  if (!d.p_multigrid) return;
+  PC pu = nullptr;
+  KSP ku = displacement_mg(d.ksp, &pu);
+  if (!ku) return;
+  if (d.p_interpolation) return;
   PetscInt levels = 0;
   check(PCMGGetLevels(pu, &levels), "PCMGGetLevels");
   if (levels != 2) throw InputError("solver.petsc_options", "-fieldsplit_u_pc_mg_levels " + std::to_string(levels),
@@ -645,6 +672,37 @@ void PetscSolver::attach_p_multigrid() {
   d.coarse_nodes = std::move(space.coarse_nodes);
   set_coarse_modes(space.coarse_coords);
   check(KSPSetUp(d.coarse_ksp), "KSPSetUp (coarse)");
+}
+
+bool PetscSolver::anisotropic_smoother() const { return d_->anisotropic_smoother; }
+double PetscSolver::block_spread() const { return d_->block_spread; }
+
+void PetscSolver::choose_fine_smoother() {
+  Data& d = *d_;
+  if (!d.p_multigrid || d.user_smoother || d.anisotropic_smoother) return;
+  // The displacement rows of this rank: the nest's (u, u) block, or the first rows of its part of the
+  // one AIJ matrix (both node by node, three rows each).
+  Mat uu = d.nest ? d.nest->block(0, 0) : d.A;
+  PetscInt lo = 0;
+  check(MatGetOwnershipRange(uu, &lo, nullptr), "MatGetOwnershipRange");
+  d.block_spread = nodal_block_spread(d.comm, uu, lo, lo + (d.hi - d.lo));
+  // Once a tangent is anisotropic the smoother stays so (and the spread is no longer measured): the
+  // fibers' stiffness comes and goes with the load (tension only), and a preconditioner that switches
+  // back and forth gains nothing.
+  if (d.block_spread <= kAnisotropicBlockSpread) return;
+  d.anisotropic_smoother = true;
+  // Into the database for a first set-up (the field split reads the smoothers' options when it makes
+  // them) and into the smoother itself once it exists.
+  check(PetscOptionsSetValue(nullptr, "-fieldsplit_u_mg_levels_pc_type", PCPBJACOBI), "PetscOptionsSetValue");
+  check(PetscOptionsSetValue(nullptr, "-fieldsplit_u_mg_levels_ksp_max_it", "2"), "PetscOptionsSetValue");
+  PC pu = nullptr;
+  if (!d.p_interpolation || !displacement_mg(d.ksp, &pu)) return;
+  KSP smoother = nullptr;
+  PC spc = nullptr;
+  check(PCMGGetSmoother(pu, 1, &smoother), "PCMGGetSmoother");
+  check(KSPGetPC(smoother, &spc), "KSPGetPC (smoother)");
+  check(PCSetType(spc, PCPBJACOBI), "PCSetType (smoother)");
+  check(KSPSetTolerances(smoother, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, 2), "KSPSetTolerances (smoother)");
 }
 
 void PetscSolver::set_coarse_modes(std::vector<double>& coords) {

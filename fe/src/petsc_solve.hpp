@@ -94,6 +94,10 @@ class PetscSolver final : public LinearSolver {
   double max_over_ranks(double value) const;
   /// The Krylov method and preconditioner in use, e.g. "gmres + gamg".
   std::string description() const;
+  /// The p-multigrid's P2 smoother works on the 3 × 3 nodal blocks (choose_fine_smoother), and the
+  /// nodal block spread of the tangent that made it so.
+  bool anisotropic_smoother() const;
+  double block_spread() const;
 
  private:
   struct Data;
@@ -103,6 +107,9 @@ class PetscSolver final : public LinearSolver {
   /// -softhom_pmg: the interpolation of the displacement block's two-level multigrid, once the field
   /// split has set up its sub-solvers (petsc_p_multigrid.hpp).
   void attach_p_multigrid();
+  /// The P2 level's smoother from the tangent's nodal block spread (unless the options set it): one
+  /// Chebyshev sweep on the diagonal, or, once a tangent is anisotropic, two on the 3 × 3 nodal blocks.
+  void choose_fine_smoother();
   /// The coarse level's near-nullspace: the rigid-body modes of its vertices at `coords` (x y z per
   /// owned vertex), with a fresh coarse preconditioner that will read them at its next set-up.
   void set_coarse_modes(std::vector<double>& coords);

@@ -264,6 +264,7 @@ struct Simulation::Impl {
   double next_dt_ = 0.0;           ///< sub-step the next interval starts with after cut-backs
   double cavity_pressure_ = 0.0, cavity_v0_ = 0.0;
   bool first_factorization_ = true; ///< the next factorization is the first one (singularity diagnosis)
+  bool anisotropic_smoother_noted_ = false;  // the PETSc path's switch of its P2 smoother, logged once
   bool singular_system_ = false;    ///< the first factorization found the system singular: a fatal stop
   StepCounts attempt_counts_;      ///< work of the current sub-step attempt
   StepCounts last_step_;           ///< work of the last converged sub-step
