@@ -64,7 +64,7 @@ constexpr const char* kSplitDefaults =
 /// so BoomerAMG stays the default. The coarse solve is ≈ 1/6 of a displacement solve's cost, and a weak
 /// one is most of what makes the counts grow with the load. The P2 level gets one Chebyshev sweep on its
 /// diagonal before and after the coarse correction (two sweeps: 3 % fewer GMRES iterations for 1.4× the
-/// CPU time on the cPASMO 0.5 mesh). With that coarse solve the upper Schur factorization (one
+/// CPU time on the cPASMO 0.5 mesh); an anisotropic tangent changes that (choose_fine_smoother). With that coarse solve the upper Schur factorization (one
 /// displacement solve per GMRES iteration instead of two) pays: 1.22× the iterations for 0.78× the wall
 /// time over the cPASMO's ten steps. Its longer solves (up to 158 iterations on the 1.2e6-dof mesh) are
 /// what set the GMRES basis's memory there (6 MB per vector and rank), so the restart is capped at 100.
