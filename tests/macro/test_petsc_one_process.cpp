@@ -11,6 +11,7 @@
 #include "softhom/fe/solver.hpp"
 #include "softhom/macro/benchmark_problems.hpp"
 #include "softhom/macro/geometry.hpp"
+#include "softhom/materials/errors.hpp"
 #include "softhom/materials/laws.hpp"
 
 using namespace softhom;
@@ -47,4 +48,34 @@ TEST(PetscOneProcess, CookMembraneEqualsCholmodWithoutACopyOfTheTangent) {
   const PetscMatrixBytes bytes = petsc_last_matrix_bytes();
   EXPECT_GT(bytes.system, 0.0);
   EXPECT_EQ(bytes.split_copy, 0.0);
+}
+
+TEST(PetscOneProcess, AnOptionPetscRejectsAtSetUpIsAnInputErrorNamingIt) {
+  // PETSc reads most options only when the object they belong to is set up (here BoomerAMG on the
+  // displacement block, at the first tangent): a value it rejects there is the user's error, reported
+  // with the field, the options and PETSc's own message, not as a failed PETSc call.
+  const FeModel m = cook6();
+  NewtonOptions o;
+  o.solver = SolverKind::petsc;
+  o.petsc_options = "-fieldsplit_u_pc_hypre_boomeramg_nodal_relaxation 10";
+  bool thrown = false;
+  try {
+    Simulation sim(m, o);
+    sim.advance_to(1.0);
+  } catch (const InputError& e) {
+    thrown = true;
+    EXPECT_EQ(e.field(), "solver.petsc_options");
+    EXPECT_EQ(e.value(), o.petsc_options);
+    EXPECT_NE(std::string(e.what()).find("Unknown logical value: 10"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(thrown);
+  // PETSc's error handling is back to its own: the next simulation in this process solves.
+  const std::vector<double> direct = solve(m, SolverKind::cholmod);
+  const std::vector<double> petsc = solve(m, SolverKind::petsc);
+  double d = 0.0, s = 1e-300;
+  for (std::size_t k = 0; k < direct.size(); ++k) {
+    d = std::max(d, std::abs(petsc[k] - direct[k]));
+    s = std::max(s, std::abs(direct[k]));
+  }
+  EXPECT_LT(d / s, 1e-6);
 }
