@@ -101,9 +101,9 @@ constexpr const char* kSplitDefaults =
 /// so BoomerAMG stays the default. The coarse solve is ≈ 1/6 of a displacement solve's cost, and a weak
 /// one is most of what makes the counts grow with the load. The P2 level gets one Chebyshev sweep on its
 /// diagonal before and after the coarse correction (two sweeps: 3 % fewer GMRES iterations for 1.4× the
-/// CPU time on the cPASMO 0.5 mesh); an anisotropic tangent changes that (choose_fine_smoother). With that coarse solve the upper Schur factorization (one
-/// displacement solve per GMRES iteration instead of two) pays: 1.22× the iterations for 0.78× the wall
-/// time over the cPASMO's ten steps. Its longer solves (up to 158 iterations on the 1.2e6-dof mesh) are
+/// CPU time on the cPASMO 0.5 mesh); an anisotropic tangent changes that (choose_fine_smoother). With
+/// that coarse solve the upper Schur factorization (one displacement solve per GMRES iteration instead
+/// of two) pays: 1.22× the iterations for 0.78× the wall time over the cPASMO's ten steps. Its longer solves (up to 158 iterations on the 1.2e6-dof mesh) are
 /// what set the GMRES basis's memory there (6 MB per vector and rank), so the restart is capped at 100.
 constexpr const char* kPMultigridDefaults =
     "-fieldsplit_u_pc_type mg -fieldsplit_u_pc_mg_levels 2 -fieldsplit_u_pc_mg_galerkin both "
@@ -686,11 +686,10 @@ static KSP displacement_mg(KSP ksp, PC* pu) {
 
 void PetscSolver::attach_p_multigrid() {
   Data& d = *d_;
-  if (!d.p_multigrid) return;
+  if (!d.p_multigrid || d.p_interpolation) return;
   PC pu = nullptr;
   KSP ku = displacement_mg(d.ksp, &pu);
   if (!ku) return;
-  if (d.p_interpolation) return;
   PetscInt levels = 0;
   check(PCMGGetLevels(pu, &levels), "PCMGGetLevels");
   if (levels != 2) throw InputError("solver.petsc_options", "-fieldsplit_u_pc_mg_levels " + std::to_string(levels),
