@@ -281,7 +281,7 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   summary["reference_medium"] = rve::to_string(solver_options.reference);
   summary["krylov_operator"] = rve::to_string(solver_options.krylov_operator);
   summary["tangent_precision"] = rve::to_string(solver_options.tangent_precision);
-  summary["preconditioner"] = rve::to_string(solver_options.preconditioner);
+  summary["preconditioner"] = rve::to_string(solver.preconditioner());
   summary["volumetric"] = rve::to_string(solver_options.volumetric);
   summary["indefinite_solver"] = solver_options.indefinite_solver == rve::IndefiniteSolver::minres ? "minres" : "shift";
   summary["composite_tangent"] = solver_options.composite_tangent == rve::CompositeTangent::exact ? "exact" : "projected";

@@ -416,7 +416,7 @@ int main(int argc, char** argv) {
     std::vector<KrylovOperator> ops;
     std::vector<TangentPrecision> precisions;
     int repeats = 1, fftw_threads = 0;
-    Preconditioner preconditioner = Preconditioner::green;  // "preconditioner=jacobi-green": the other one
+    Preconditioner preconditioner = Preconditioner::green;  // "preconditioner=jacobi-green" | "=green-local-bulk": the others
     bool compact = true;  // "compact=off": the stored 9×9 float tangents instead of compact ones
     bool stream = true;   // "stream=off": the stored 9-field evaluation instead of the streamed one
     for (int i = 2; i < argc; ++i) {
@@ -426,6 +426,8 @@ int main(int argc, char** argv) {
         stream = false;
       else if (std::strcmp(argv[i], "preconditioner=jacobi-green") == 0)
         preconditioner = Preconditioner::jacobi_green;
+      else if (std::strcmp(argv[i], "preconditioner=green-local-bulk") == 0)
+        preconditioner = Preconditioner::green_local_bulk;
       else if (std::strncmp(argv[i], "threads=", 8) == 0)
         thread_counts.push_back(std::atoi(argv[i] + 8));
       else if (std::strncmp(argv[i], "fftw_threads=", 13) == 0)

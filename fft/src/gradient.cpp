@@ -404,4 +404,95 @@ void ReferenceGreen::direction_update(const Complex* r, double beta, Complex* p,
   });
 }
 
+namespace {
+/// Real and imaginary parts of a complex number, for the per-mode arithmetic of the bulk passes
+/// (written out: std::complex products carry a NaN check per product that costs more than the product).
+struct Cplx {
+  double re, im;
+};
+inline Cplx mul(Cplx a, Cplx b) { return {a.re * b.re - a.im * b.im, a.re * b.im + a.im * b.re}; }
+inline Cplx as_cplx(const Complex& c) { return {c.real(), c.imag()}; }
+}  // namespace
+
+/// Calls body(k, eta, |eta|^2) for the local modes, eta = cof D(k) of the one point per voxel. Along a
+/// row (k2, k3 fixed) D = (d0 v1 v2, v0 d1 v2, v0 d2 v1) with d0, v0 the only factors that vary, so
+/// eta_i = d0 a_i + v0 b_i with a_i = cof_i0 v1 v2 and b_i = cof_i1 d1 v2 + cof_i2 d2 v1 set once per
+/// row (an orphaned omp for, as for_modes).
+template <class Body>
+void ReferenceGreen::for_bulk_modes(const Eigen::Matrix3d& cof, Body&& body) const {
+  const GradientOperator& op = op_;
+  if (op.points() != 1) throw std::logic_error("the bulk passes need one point per voxel");
+  const int n2 = op.grid_.n[1], m1 = op.grid_.half_n1();
+  const long rows = long(n2) * op.k3_count_;
+  const Complex* d0_table = op.deriv_[0].data();
+  const Complex* v0_table = op.value_[0].data();
+#pragma omp for schedule(static)
+  for (long row = 0; row < rows; ++row) {
+    const int k2 = int(row % n2), k3 = op.k3_begin_ + int(row / n2);
+    const Cplx d1 = as_cplx(op.deriv_[1][k2]), d2 = as_cplx(op.deriv_[2][k3]);
+    const Cplx v1 = as_cplx(op.value_[1][std::size_t(k2)]), v2 = as_cplx(op.value_[2][std::size_t(k3)]);
+    const Cplx v12 = mul(v1, v2), d1v2 = mul(d1, v2), d2v1 = mul(d2, v1);
+    Cplx a[3], b[3];
+    for (int i = 0; i < 3; ++i) {
+      a[i] = {cof(i, 0) * v12.re, cof(i, 0) * v12.im};
+      b[i] = {cof(i, 1) * d1v2.re + cof(i, 2) * d2v1.re, cof(i, 1) * d1v2.im + cof(i, 2) * d2v1.im};
+    }
+    const std::size_t first = std::size_t(row) * m1;
+    for (int k1 = 0; k1 < m1; ++k1) {
+      const Cplx d0 = as_cplx(d0_table[k1]), v0 = as_cplx(v0_table[k1]);
+      Cplx eta[3];
+      double e2 = 0.0;
+      for (int i = 0; i < 3; ++i) {
+        const Cplx x = mul(d0, a[i]), y = mul(v0, b[i]);
+        eta[i] = {x.re + y.re, x.im + y.im};
+        e2 += eta[i].re * eta[i].re + eta[i].im * eta[i].im;
+      }
+      body(first + std::size_t(k1), eta, e2);
+    }
+  }
+}
+
+void ReferenceGreen::bulk_potential(const Eigen::Matrix3d& cof, const Complex* r, Complex* psi) const {
+  const std::size_t nm = op_.local_modes();
+#pragma omp parallel
+  for_bulk_modes(cof, [&](std::size_t k, const Cplx* eta, double e2) {
+    if (!(e2 > 0.0)) {
+      psi[k] = 0.0;
+      return;
+    }
+    double re = 0.0, im = 0.0;
+    for (int i = 0; i < 3; ++i) {
+      const Cplx ri = as_cplx(r[std::size_t(i) * nm + k]), t = mul(eta[i], ri);
+      re += t.re;
+      im += t.im;
+    }
+    const double inv = 1.0 / e2;
+    psi[k] = Complex(re * inv, im * inv);
+  });
+}
+
+void ReferenceGreen::add_bulk_correction(const Eigen::Matrix3d& cof, const Complex* r, const Complex* s_hat,
+                                         double s_scale, double w0, Complex* p, Complex* copy) const {
+  const std::size_t nm = op_.local_modes();
+#pragma omp parallel
+  for_bulk_modes(cof, [&](std::size_t k, const Cplx* eta, double e2) {
+    if (!(e2 > 0.0)) return;
+    double re = 0.0, im = 0.0;  // η·r
+    for (int i = 0; i < 3; ++i) {
+      const Cplx t = mul(eta[i], as_cplx(r[std::size_t(i) * nm + k]));
+      re += t.re;
+      im += t.im;
+    }
+    // c = (s_scale ŝ − w0 ψ)/|η|², ψ = η·r/|η|²
+    const double inv = 1.0 / e2;
+    const Cplx c = {(s_scale * s_hat[k].real() - w0 * re * inv) * inv, (s_scale * s_hat[k].imag() - w0 * im * inv) * inv};
+    for (int i = 0; i < 3; ++i) {
+      const Cplx d = mul({eta[i].re, -eta[i].im}, c);
+      const std::size_t a = std::size_t(i) * nm + k;
+      p[a] += Complex(d.re, d.im);
+      if (copy) copy[a] += Complex(d.re, d.im);
+    }
+  });
+}
+
 }  // namespace softhom::fft

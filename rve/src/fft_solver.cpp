@@ -23,6 +23,7 @@
 #include "diagnostics.hpp"
 #include "fft_distribution.hpp"
 #include "fft_mean_dilatation.hpp"
+#include "fft_local_bulk.hpp"
 #include "fft_preconditioner.hpp"
 #include "fft_storage.hpp"
 #include "laminate.hpp"
@@ -39,7 +40,12 @@ const char* to_string(ReferenceMedium r) {
 }
 const char* to_string(KrylovOperator k) { return k == KrylovOperator::stencil ? "stencil" : "fourier"; }
 const char* to_string(TangentPrecision t) { return t == TangentPrecision::single_precision ? "single" : "double"; }
-const char* to_string(Preconditioner p) { return p == Preconditioner::jacobi_green ? "jacobi-green" : "green"; }
+const char* to_string(Preconditioner p) {
+  return p == Preconditioner::jacobi_green       ? "jacobi-green"
+         : p == Preconditioner::green_local_bulk ? "green-local-bulk"
+         : p == Preconditioner::automatic        ? "auto"
+                                                 : "green";
+}
 const char* to_string(VolumetricKinematics v) {
   return v == VolumetricKinematics::mean_dilatation ? "mean-dilatation" : "pointwise";
 }
@@ -197,6 +203,14 @@ struct FftRveSolver::Impl {
   double krylov_seconds = 0.0;      // time in the linear solves (operator, preconditioner, vector ops)
   KVec cg_r, cg_z, cg_p, cg_Ap;     // CG work vectors, kept between solves (no allocation per solve)
   std::vector<float> jacobi_s;      // Preconditioner::jacobi_green: the real-space scaling S (3 per node)
+  // Preconditioner::green_local_bulk (fft_local_bulk.hpp): the weight w = J̄/(k(x) + 4μ0/3) per voxel,
+  // its sum, w0 of the homogeneous medium, cof F̄ (grid frame) of the last reference, and a one-field
+  // transform for ψ → w (ψ + c), whose spectrum holds ŵψ from a CG update to the next direction.
+  bool local_bulk = false;
+  std::unique_ptr<fft::FieldTransform> bulk_fft;
+  std::vector<float> bulk_w;
+  double bulk_w_sum = 0.0, bulk_w0 = 0.0;
+  Mat3 bulk_cof = Mat3::Identity();
   // VolumetricKinematics::mean_dilatation: points evaluated at F̄_q, `tangent` holds K_q, the voxel
   // coupling of the Newton operator lives here (fft_mean_dilatation.hpp).
   bool mean_dilatation = false;
@@ -287,6 +301,8 @@ struct FftRveSolver::Impl {
     lambda_ref = 0.5 * ((K0 - 2.0 / 3.0 * G0) + (K1 - 2.0 / 3.0 * G1));
 
     mean_dilatation = check_mean_dilatation(opt, op);
+    if (opt.preconditioner == Preconditioner::automatic) opt.preconditioner = automatic_preconditioner(opt, op, G0, G1, K0, K1);
+    local_bulk = check_local_bulk(opt, op);
     for (int x = 0; x < 2; ++x) {
       K_vol[x] = mat[x]->volumetric_modulus();
       const double G = mat[x]->initial_shear_modulus();
@@ -363,10 +379,12 @@ struct FftRveSolver::Impl {
       if (dist) {
         stencil->restrict_to_slab(dist->slab().count);
         fft3 = std::make_unique<fft::SlabFFT>(*dist, 3, opt.plan, 3, 1);  // + the displacement's upper halo
+        if (local_bulk) bulk_fft = std::make_unique<fft::SlabFFT>(*dist, 1, opt.plan);
       } else {
         // In place (the real fields in the spectrum buffer, rows padded): −24 B per voxel.
         fft3 = std::make_unique<fft::BatchedFFT>(grid, 3, opt.plan, 3, fft3_in_place());
         if (fft3->padded_rows()) stencil->set_padded_fields(fft3->real_row_pitch(), fft3->real_stride());
+        if (local_bulk) bulk_fft = std::make_unique<fft::BatchedFFT>(grid, 1, opt.plan, 3, true);
       }
     }
     // Stencil operator: tangents in blocks of 8 points (structure of arrays, fft::symmetric_product_batch()),
@@ -386,6 +404,7 @@ struct FftRveSolver::Impl {
     // The pressure slopes are stored unless the compact records hold the F they follow from.
     if (mixed_active && !compact) lin_c.assign(9 * NP, 0.0f);
     if (mean_dilatation) md_coupling.resize(N, nq);
+    if (local_bulk) bulk_w.assign(N, 0.0f);
     if (streamed) ensure_stream_scratch();
     u.assign(3 * NM, 0.0);
     u_committed = u;
@@ -414,6 +433,30 @@ struct FftRveSolver::Impl {
     return true;
   }
 
+  /// Preconditioner::automatic: the local bulk where it applies and the bulk moduli spread much further
+  /// than the shear moduli (the spread it takes out against the one it leaves), else green.
+  static Preconditioner automatic_preconditioner(const FftSolverOptions& o, const fft::GradientOperator& op, double G0,
+                                                 double G1, double K0, double K1) {
+    const bool applies = o.discretization == fft::Discretization::rotated && o.scheme == FftScheme::newton_cg &&
+                         o.krylov_operator == KrylovOperator::stencil && fft::StencilGradient::supported(op);
+    if (!applies || !(std::min(G0, G1) > 0.0) || !(std::min(K0, K1) > 0.0)) return Preconditioner::green;
+    const double bulk_spread = std::max(K0, K1) / std::min(K0, K1), shear_spread = std::max(G0, G1) / std::min(G0, G1);
+    return bulk_spread >= kLocalBulkSpreadRatio * shear_spread ? Preconditioner::green_local_bulk : Preconditioner::green;
+  }
+  /// Preconditioner::green_local_bulk needs one point per voxel and the stencil operator of the
+  /// Newton–CG scheme (its fused CG passes carry the correction).
+  static bool check_local_bulk(const FftSolverOptions& o, const fft::GradientOperator& op) {
+    if (o.preconditioner != Preconditioner::green_local_bulk) return false;
+    const char* v = to_string(o.preconditioner);
+    if (o.discretization != fft::Discretization::rotated)
+      throw InputError("solver.preconditioner", v, "needs discretization = \"rotated\" (one point per voxel; got \"" +
+                                                       std::string(fft::to_string(o.discretization)) + "\")");
+    if (o.scheme != FftScheme::newton_cg) throw InputError("solver.preconditioner", v, "needs scheme = \"newton-cg\"");
+    if (o.krylov_operator != KrylovOperator::stencil || !fft::StencilGradient::supported(op))
+      throw InputError("solver.preconditioner", v, "needs krylov_operator = \"stencil\" (and a grid with n1, n2 > 1)");
+    return true;
+  }
+
   /// Fiber fraction of local voxel v (0 or 1 for pure voxels).
   double fraction(std::size_t v) const {
     const int c = comp_id[v];
@@ -435,12 +478,12 @@ struct FftRveSolver::Impl {
   }
   /// The streamed evaluation (no 9-field buffer, fft::StencilGradient::streamed_pass) applies to the
   /// default solve of elastic phases, on one process or on slabs: the stencil operator (decided by the caller) with
-  /// one point per voxel (rotated), the Green preconditioner (Jacobi–Green reads per-voxel values), no
+  /// one point per voxel (rotated), a Green preconditioner (Jacobi–Green reads per-voxel values), no
   /// history (the field output re-evaluates the laws at the converged F, which a history-dependent law
   /// cannot repeat) and slices of whole batches of 8 voxels (section rows n1, planes n1·n2).
   bool streams_evaluation() const {
     return opt.stream_evaluation && nq == 1 && !mean_dilatation &&
-           opt.preconditioner == Preconditioner::green && state_size[0] == 0 && state_size[1] == 0 &&
+           opt.preconditioner != Preconditioner::jacobi_green && state_size[0] == 0 && state_size[1] == 0 &&
            fft::StencilGradient::streams(op);
   }
   /// The streamed passes' scratch for the team of the next parallel region.
@@ -478,6 +521,8 @@ struct FftRveSolver::Impl {
     s.green_values = fft::ReferenceGreen::kValuesPerMode * NM;  // tabulated at the first solve
     s.green_value_bytes = single ? sizeof(float) : sizeof(double);
     s.jacobi_values = jacobi_green() ? 3 * N : 0;  // set with the reference medium
+    s.local_bulk_voxels = bulk_w.size();
+    s.local_bulk_in_place = bulk_fft && bulk_fft->padded_rows();
     s.history_values = hist_old[0].size() + hist_old[1].size();
     s.laminate_values = lam_a.size();
     s.composite_voxels = comp_normal.size();
@@ -523,6 +568,8 @@ struct FftRveSolver::Impl {
     s.green_values = fft::ReferenceGreen::kValuesPerMode * NM;
     s.green_value_bytes = single ? sizeof(float) : sizeof(double);
     s.jacobi_values = with_stencil && opt.preconditioner == Preconditioner::jacobi_green ? 3 * N : 0;
+    s.local_bulk_voxels = local_bulk ? N : 0;
+    s.local_bulk_in_place = local_bulk && !dist;
     s.history_values = NP * std::size_t(state_size[0] + state_size[1]);
     s.mixed_points = mixed_active ? NP : 0;
     s.mixed_slope_points = mixed_active && !(single && compact_tangents_apply()) ? NP : 0;
@@ -1409,6 +1456,8 @@ struct FftRveSolver::Impl {
       Complex* pu = p.u.data();
       if (r_for_z) {
         green.direction_update(r_for_z->u.data(), beta, pu, s3);
+        if (local_bulk_in(shift))
+          green.add_bulk_correction(bulk_cof, r_for_z->u.data(), bulk_fft->spectrum(0), 1.0 / double(Ntot), bulk_w0, pu, s3);
       } else {
 #pragma omp parallel for schedule(static)
         for (std::size_t a = 0; a < 3 * NM; ++a) {
@@ -1480,6 +1529,7 @@ struct FftRveSolver::Impl {
   /// shift_medium(C0), else of C0.
   void set_reference(bool shift_without_bulk = false) {
     choose_reference();
+    if (local_bulk) set_local_bulk_reference();
     C_shift = shift_without_bulk ? shift_medium(C0) : C0;
     green.set(C0);
     green_shift = 0.0;
@@ -1506,24 +1556,98 @@ struct FftRveSolver::Impl {
     e[8] = e[7];
     return es.eigenvectors() * e.asDiagonal() * es.eigenvectors().transpose();
   }
+  /// Preconditioner::green_local_bulk (fft_local_bulk.hpp): C0 (chosen as usual) becomes the isotropic
+  /// medium (k0, μ0) of its projection, pulled back at F̄; the weights w(x) come from the stored tangents.
+  void set_local_bulk_reference() {
+    const detail::IsotropicModuli iso = detail::isotropic_projection(C0);
+    const double k0 = std::max(iso.K, 0.0), mu0 = std::max(iso.mu, 1e-12 * std::max(k0, 1.0));
+    const Mat3 Fg = to_grid(Fbar);
+    const double J = Fg.determinant();
+    C0 = detail::isotropic_pull_back(k0, mu0, Fg);
+    bulk_cof = J * Fg.inverse().transpose();
+    bulk_w0 = J / (k0 + 4.0 / 3.0 * mu0);
+    Vec9 b;
+    for (int c = 0; c < 9; ++c) b[c] = bulk_cof(c / 3, c % 3);
+    const double b2 = b.squaredNorm();
+    constexpr int B = fft::StencilGradient::kBatch;
+    const float* Tf = tangent_f.empty() ? nullptr : tangent_f.data();
+    const double* T = tangent.data();
+    double w_sum = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : w_sum)
+    for (std::size_t p0 = 0; p0 < NP; p0 += B) {
+      const int count = int(std::min<std::size_t>(B, NP - p0));
+      alignas(64) double dF[9 * B], dP[9 * B];
+      for (int c = 0; c < 9; ++c)
+        for (int l = 0; l < B; ++l) dF[c * B + l] = b[c];
+      if (compact)
+        compact->product(p0, count, dF, dP, [&](int l) {
+          const int c = comp_id[p0 + std::size_t(l)];  // one point per voxel
+          return c < 0 ? -1L : long(c);
+        });
+      else if (Tf)
+        fft::symmetric_product_batch(Tf + 45 * p0, dF, dP);
+      else
+        fft::symmetric_product_batch(T + 45 * p0, dF, dP);
+      for (int l = 0; l < count; ++l) {
+        double bAb = 0.0;
+        for (int c = 0; c < 9; ++c) bAb += b[c] * dP[c * B + l];
+        const double w = J / (detail::local_bulk_modulus(bAb, J, b2) + 4.0 / 3.0 * mu0);
+        bulk_w[p0 + std::size_t(l)] = float(w);
+        w_sum += double(float(w));
+      }
+    }
+    bulk_w_sum = global_sum(w_sum);
+  }
+  /// The local-bulk part of z = M⁻¹ r for CG's r (spectral): ψ = η·r/|η|² to real space, θ = w (ψ + c)
+  /// with c = −Σ wψ / Σ w, and back into bulk_fft's spectrum (unnormalised, read by the next direction's
+  /// add_bulk_correction()). Returns ⟨r, z_bulk⟩ = (Σ ψθ − w0 Σ ψ²)/N (Parseval, global).
+  double local_bulk_prepare(const Complex* r) {
+    green.bulk_potential(bulk_cof, r, bulk_fft->spectrum(0));
+    bulk_fft->backward();
+    double* f = bulk_fft->real(0);
+    const float* w = bulk_w.data();
+    const std::size_t n1 = std::size_t(grid.n[0]), pitch = bulk_fft->real_row_pitch();
+    const long rows = long(N / n1);
+    double s_w_psi = 0.0, s_w_psi2 = 0.0, s_psi2 = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : s_w_psi, s_w_psi2, s_psi2)
+    for (long row = 0; row < rows; ++row) {
+      const double* fr = f + std::size_t(row) * pitch;
+      const float* wr = w + std::size_t(row) * n1;
+      for (std::size_t i = 0; i < n1; ++i) {
+        const double psi = fr[i], wv = double(wr[i]);
+        s_w_psi += wv * psi;
+        s_w_psi2 += wv * psi * psi;
+        s_psi2 += psi * psi;
+      }
+    }
+    s_w_psi = global_sum(s_w_psi);
+    s_w_psi2 = global_sum(s_w_psi2);
+    s_psi2 = global_sum(s_psi2);
+    const double c = bulk_w_sum > 0.0 ? -s_w_psi / bulk_w_sum : 0.0;
+#pragma omp parallel for schedule(static)
+    for (long row = 0; row < rows; ++row) {
+      double* fr = f + std::size_t(row) * pitch;
+      const float* wr = w + std::size_t(row) * n1;
+      for (std::size_t i = 0; i < n1; ++i) fr[i] = double(wr[i]) * (fr[i] + c);
+    }
+    bulk_fft->forward();
+    return (s_w_psi2 + c * s_w_psi - bulk_w0 * s_psi2) / double(Ntot);
+  }
+  /// The correction applies to unshifted solves only (the Green table is that of C0 itself).
+  bool local_bulk_in(double shift) const { return local_bulk && shift == 0.0; }
+
   bool jacobi_green() const {
     return opt.preconditioner == Preconditioner::jacobi_green && stencil && opt.scheme == FftScheme::newton_cg;
   }
   void choose_reference() {
     if (opt.reference == ReferenceMedium::geometric && opt.scheme == FftScheme::newton_cg &&
         sums.phase_A_w[0] > 0.0 && sums.phase_A_w[1] > 0.0) {
-      // Isotropic projections of the phase-mean tangents: with a = Σ C_iikk and b = ½ Σ (C_ijij + C_ijji),
-      // an isotropic C has K = a/9, μ = (b − a/3)/10.
+      // Isotropic projections of the phase-mean tangents.
       double K[2], mu[2];
       for (int x = 0; x < 2; ++x) {
-        const Mat9 C = sums.phase_A[x] / sums.phase_A_w[x];
-        double a = 0.0, b = 0.0;
-        for (int i = 0; i < 3; ++i)
-          for (int k = 0; k < 3; ++k) a += C(4 * i, 4 * k);
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) b += 0.5 * (C(3 * i + j, 3 * i + j) + C(3 * i + j, 3 * j + i));
-        K[x] = a / 9.0;
-        mu[x] = (b - a / 3.0) / 10.0;
+        const detail::IsotropicModuli iso = detail::isotropic_projection(sums.phase_A[x] / sums.phase_A_w[x]);
+        K[x] = iso.K;
+        mu[x] = iso.mu;
       }
       if (K[0] > 0.0 && K[1] > 0.0 && mu[0] > 0.0 && mu[1] > 0.0) {
         const double K0 = std::sqrt(K[0] * K[1]), mu0 = std::sqrt(mu[0] * mu[1]);
@@ -1556,7 +1680,8 @@ struct FftRveSolver::Impl {
     }
     double precondition_dot(const KVec& r, KVec& z) {
       precondition_macro(r.f, Minv, free_idx, z.f);
-      return m.global_sum(m.green.apply_dot(r.u.data(), z.u.empty() ? nullptr : z.u.data())) + r.f.dot(z.f);
+      const double bulk = m.local_bulk_in(shift) ? m.local_bulk_prepare(r.u.data()) : 0.0;
+      return m.global_sum(m.green.apply_dot(r.u.data(), z.u.empty() ? nullptr : z.u.data())) + bulk + r.f.dot(z.f);
     }
     double direction(const KVec& z, double beta, KVec& p, KVec& Ap) {
       return m.apply_direction(z, beta, p, free, Ap, shift, z.u.empty() ? r_live : nullptr);
@@ -1566,6 +1691,7 @@ struct FftRveSolver::Impl {
                                                     z.u.empty() ? nullptr : z.u.data(), 1.0, 1.0 / double(m.Ntot))
                                 : m.green.cg_update(alpha, p.u.data(), Ap.u.data(), x.u.data(), r.u.data(), z.u.data());
       rz_new = m.global_sum(rz_new);
+      if (m.local_bulk_in(shift)) rz_new += m.local_bulk_prepare(r.u.data());
       x.f += alpha * p.f;
       r.f -= alpha * Ap.f;
       precondition_macro(r.f, Minv, free_idx, z.f);
@@ -2232,6 +2358,8 @@ FftRveSolver::~FftRveSolver() = default;
 
 const fft::Grid& FftRveSolver::grid() const { return impl_->grid; }
 int FftRveSolver::quadrature_points() const { return impl_->nq; }
+Preconditioner FftRveSolver::preconditioner() const { return impl_->opt.preconditioner; }
+
 std::string FftRveSolver::fft_description() const {
   // With the stencil operator every transform is fft3's (3 fields); fft holds real fields only.
   return impl_->stencil ? impl_->fft3->describe() : impl_->fft->describe();

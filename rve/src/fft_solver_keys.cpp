@@ -62,8 +62,11 @@ const io::KeyTable<FftSolverOptions>& fft_solver_keys() {
         .flag("compact_tangent", &O::compact_tangent,
               "single tangents: isotropic laws store F and five scalars per point instead of the 9x9 tangent (not with jacobi-green or volumetric = mean-dilatation)")
         .choice("preconditioner", &O::preconditioner,
-                {{"green", Preconditioner::green}, {"jacobi-green", Preconditioner::jacobi_green}},
-                "Newton-CG preconditioner (jacobi-green: the Green operator scaled by the real-space node diagonal; stencil operator only)")
+                {{"auto", Preconditioner::automatic}, {"green", Preconditioner::green}, {"jacobi-green", Preconditioner::jacobi_green},
+                 {"green-local-bulk", Preconditioner::green_local_bulk}},
+                "Newton-CG preconditioner (green-local-bulk: the Green operator with each voxel's own bulk modulus, rotated and stencil "
+                "operator only; auto: green-local-bulk where the phases' bulk moduli spread at least 3x as far as their shear moduli, "
+                "e.g. PDMS/glass, else green; jacobi-green: the Green operator scaled by the real-space node diagonal, stencil operator only)")
         .choice("volumetric", &O::volumetric,
                 {{"pointwise", VolumetricKinematics::pointwise}, {"mean-dilatation", VolumetricKinematics::mean_dilatation}},
                 "volumetric kinematics of the quadrature points (mean-dilatation: one volume ratio per voxel, hex only; "

@@ -40,6 +40,8 @@ struct StorageSizes {
   std::size_t green_values = 0;        ///< reference Green operator table (6 per mode, ReferenceGreen)
   std::size_t green_value_bytes = 8;   ///< 8 double, 4 float (with float tangents)
   std::size_t jacobi_values = 0;       ///< Jacobi–Green scaling, 3 per node (floats; 0 with the Green preconditioner)
+  std::size_t local_bulk_voxels = 0;   ///< green-local-bulk: a weight per voxel (float) and a one-field transform
+  bool local_bulk_in_place = false;    ///< that transform's real field inside its spectrum (one process)
   std::size_t history_values = 0;      ///< internal variables, one copy (both phases)
   std::size_t laminate_values = 0;     ///< jump vectors of the composite points, one copy
   std::size_t composite_voxels = 0;    ///< composite voxels (interface normal and fiber fraction each)
@@ -67,6 +69,8 @@ inline StorageList storage_list(const StorageSizes& s) {
   if (s.compact_values) l.emplace_back("compact_tangents", s.compact_values * 4);
   l.emplace_back("reference_green", s.green_values * s.green_value_bytes);
   if (s.jacobi_values) l.emplace_back("jacobi_scaling", s.jacobi_values * 4);
+  if (s.local_bulk_voxels)
+    l.emplace_back("local_bulk", 4 * s.local_bulk_voxels + (s.local_bulk_in_place ? 16 * s.modes : field));
   if (s.history_values) l.emplace_back("history", 2 * 8 * s.history_values);
   l.emplace_back("phase_image", s.voxels * 4);  // phase or composite index
   if (s.composite_voxels)

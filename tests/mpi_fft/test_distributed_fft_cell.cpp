@@ -121,8 +121,9 @@ double relative_difference(const double* a, const double* b, std::size_t n) {
   return d / std::max(s, 1e-300);
 }
 
+/// `krylov_slack`: the Krylov count of a step may differ by that many iterations (0: equal).
 void expect_same_solve(const PhaseImage& im, const MaterialPtr& matrix, const MaterialPtr& fiber,
-                       const MixedControl& control, const FftSolverOptions& opt) {
+                       const MixedControl& control, const FftSolverOptions& opt, int krylov_slack = 0) {
   const Run serial = solve(im, matrix, fiber, control, opt, false);
   const Run dist = solve(im, matrix, fiber, control, opt, true);
   const bool distributed = ranks() > 1;
@@ -133,7 +134,7 @@ void expect_same_solve(const PhaseImage& im, const MaterialPtr& matrix, const Ma
   for (std::size_t k = 0; k < serial.steps.size(); ++k) {
     const RveStep &a = serial.steps[k], &b = dist.steps[k];
     EXPECT_EQ(a.newton_iterations, b.newton_iterations) << "step " << k;
-    EXPECT_EQ(a.krylov_iterations, b.krylov_iterations) << "step " << k;
+    EXPECT_LE(std::abs(a.krylov_iterations - b.krylov_iterations), krylov_slack) << "step " << k;
     const double scale = std::max(a.P.cwiseAbs().maxCoeff(), 1e-300);
     EXPECT_LE((a.P - b.P).cwiseAbs().maxCoeff() / scale, 1e-10) << "step " << k << "\n" << a.P << "\n" << b.P;
     worst = std::max(worst, (a.P - b.P).cwiseAbs().maxCoeff() / scale);
@@ -146,14 +147,17 @@ void expect_same_solve(const PhaseImage& im, const MaterialPtr& matrix, const Ma
                 dist.last_begin, dist.last_count, worst, dist.steps.back().newton_iterations,
                 dist.steps.back().krylov_iterations, serial.steps.back().newton_iterations,
                 serial.steps.back().krylov_iterations);
-  // Fields: this rank's slab of the serial fields.
+  // Fields: this rank's slab of the serial fields. Where the Krylov counts may differ the two converged
+  // states differ by the last Newton step's solve tolerance (1e-10 of the residual), which the voxel
+  // stresses of a stiff-bulk phase (K/G = 100) amplify: 1e-8 then (2e-10 measured), else round-off.
+  const double field_tolerance = krylov_slack > 0 ? 1e-8 : 1e-10;
   ASSERT_EQ(serial.fields.size(), dist.fields.size());
   const std::size_t off = distributed ? dist.slab_voxel_offset : 0, nv = distributed ? dist.slab_voxels : im.voxels();
   for (std::size_t k = 0; k < serial.fields.size(); ++k) {
     const RveFields &a = serial.fields[k], &b = dist.fields[k];
     ASSERT_EQ(b.P.size(), 9 * nv);
-    EXPECT_LE(relative_difference(b.P.data(), a.P.data() + 9 * off, 9 * nv), 1e-10);
-    EXPECT_LE(relative_difference(b.F.data(), a.F.data() + 9 * off, 9 * nv), 1e-10);
+    EXPECT_LE(relative_difference(b.P.data(), a.P.data() + 9 * off, 9 * nv), field_tolerance);
+    EXPECT_LE(relative_difference(b.F.data(), a.F.data() + 9 * off, 9 * nv), field_tolerance);
     EXPECT_LE(relative_difference(b.fiber_fraction.data(), a.fiber_fraction.data() + off, nv), 0.0);
     // Corner displacements: the slab's corner planes (the last rank's also i3 = n3).
     const std::size_t corner_plane = 3 * std::size_t(im.n[0] + 1) * (im.n[1] + 1);
@@ -162,7 +166,7 @@ void expect_same_solve(const PhaseImage& im, const MaterialPtr& matrix, const Ma
     ASSERT_LE(first * corner_plane + b.displacement.size(), a.displacement.size());
     EXPECT_LE(relative_difference(b.displacement.data(), a.displacement.data() + first * corner_plane,
                                   b.displacement.size()),
-              1e-10);
+              field_tolerance);
   }
 }
 
@@ -201,6 +205,33 @@ TEST(DistributedFftCell, StreamedMixedPressureMatchesOneProcess) {
     EXPECT_TRUE(scratch && mixed) << "distributed " << distributed;
   }
   expect_same_solve(im, neo_hookean(0.5, 100.0), neo_hookean(5.0, 40.0), uniaxial(1.1, 2), opt);
+}
+
+// The local-bulk Green preconditioner (rve/src/fft_local_bulk.hpp) on slabs: its one-field transform is
+// an FFTW-MPI slab transform, the mean of the dilatation field and the weights' sum are global sums. A
+// matrix stiff in bulk (K/G = 100, the mixed (u, p) iteration) around a soft-bulk fiber: what `auto`
+// chooses (bulk moduli 50× apart, shear moduli 4×), two cells (even and uneven slabs), tolerance 1e-10.
+// The Newton counts and P̄ are those of one process (P̄ to 1e-11 measured). The Krylov count of a step may
+// differ by one or two of ≈ 40: the scalar transform of the dilatation field adds the round-off of its
+// own FFTW plan (FFTW-MPI against serial FFTW) to each iteration, and traced iteration by iteration the
+// two runs' CG scalars part at 1e-14 relative after one iteration and at 1e-7 near the stopping test,
+// which a 1e-10 tolerance then crosses one iteration earlier or later. The Green preconditioner, whose
+// only transforms are the operator's, keeps equal counts (the same cell: 4 Newton / 67 Krylov on 1 and 2
+// ranks, P̄ to 3e-14).
+TEST(DistributedFftCell, LocalBulkPreconditionerMatchesOneProcess) {
+  const PhaseImage im = inclined_fiber({8, 8, 7}, 0.3, 0.5);
+  FftSolverOptions opt;
+  opt.tolerance = 1e-10;
+  {
+    FftSolverOptions o = opt;
+    o.distributed = ranks() > 1;
+    o.plan.rigor = fft::PlanRigor::estimate;
+    FftRveSolver s(im, neo_hookean(0.5, 50.0), neo_hookean(2.0, 1.0), 0.0, Mat3::Identity(), o);
+    EXPECT_EQ(s.preconditioner(), Preconditioner::green_local_bulk);
+  }
+  expect_same_solve(im, neo_hookean(0.5, 50.0), neo_hookean(2.0, 1.0), uniaxial(1.1, 2), opt, 2);
+  expect_same_solve(inclined_fiber({10, 8, 7}, 0.28, 0.5), neo_hookean(0.5, 50.0), neo_hookean(2.0, 1.0), uniaxial(1.1, 2),
+                    opt, 2);
 }
 
 TEST(DistributedFftCell, QlvMatrixHexFourierMatchesOneProcess) {

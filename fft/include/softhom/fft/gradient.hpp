@@ -161,7 +161,20 @@ class ReferenceGreen {
                    double scale = 1.0, double ap_scale = 1.0) const;
   std::size_t memory_bytes() const { return table_.size() * sizeof(double) + table_f_.size() * sizeof(float); }
 
+  /// The dilatation of a displacement mode under a mean deformation F̄ (one point per voxel: spectral,
+  /// rotated): η(k)·û(k) with η(k) = cof F̄ D(k), `cof` = cof F̄ in the grid frame. These two passes let
+  /// a preconditioner replace the bulk part of K0⁻¹ by the inverse of a bulk stiffness that varies in
+  /// real space (rve/src/fft_local_bulk.hpp).
+  /// psi(k) = η·r(k) / |η|², 0 where η = 0 (the mean and the kernel of the gradient).
+  void bulk_potential(const Eigen::Matrix3d& cof, const Complex* r, Complex* psi) const;
+  /// With ψ(k) recomputed from r: p(k) += conj(η) (s_scale ŝ(k) − w0 ψ(k)) / |η|², and the same to
+  /// copy(k) (null: none), where η ≠ 0.
+  void add_bulk_correction(const Eigen::Matrix3d& cof, const Complex* r, const Complex* s_hat, double s_scale, double w0,
+                           Complex* p, Complex* copy) const;
+
  private:
+  template <class Body>
+  void for_bulk_modes(const Eigen::Matrix3d& cof, Body&& body) const;
   template <class F>
   double with_table(F&& f) const {
     return single_ ? f(table_f_.data()) : f(table_.data());

@@ -11,7 +11,10 @@
 // (B: uniform field Rᵀ E R of a free load-frame component E), symmetric, solved by preconditioned CG.
 // The preconditioner is the exact inverse of the same system for a homogeneous reference medium C0
 // (the volume-averaged current tangent): block-diagonal, 3×3 per Fourier mode plus the macro block —
-// the FE-based reference preconditioner of Ladecký et al. 2023 when the discretization is "hex".
+// the FE-based reference preconditioner of Ladecký et al. 2023 when the discretization is "hex". Where
+// the phases' bulk moduli spread much further than their shear moduli (a nearly incompressible matrix
+// around compressible fibers) the rotated scheme's reference medium takes each voxel's own bulk modulus
+// instead, still inverted exactly (Preconditioner::green_local_bulk, rve/src/fft_local_bulk.hpp).
 // CG vectors live in Fourier space (the preconditioner is local there); for rotated/hex the operator
 // K p is applied with real-space stencils (KrylovOperator::stencil): p̂ → 3 fields back, ∇p, δP = A:(δF̄
 // + ∇p) and the nodal forces Bᵀ δP in real space (gather, no write races), 3 fields forward. Tangents
@@ -61,7 +64,7 @@ enum class IndefiniteSolver { minres, shift };
 /// Tangents of the composite points in the Newton operator (FftSolverOptions::composite_tangent).
 enum class CompositeTangent { exact, projected };
 /// Preconditioner of the Newton–CG linear solves (FftSolverOptions::preconditioner).
-enum class Preconditioner { green, jacobi_green };
+enum class Preconditioner { automatic, green, jacobi_green, green_local_bulk };
 /// Storage of the tangents read by the stencil Krylov operator (FftSolverOptions::tangent_precision).
 enum class TangentPrecision { double_precision, single_precision };
 /// Volumetric kinematics of the quadrature points (FftSolverOptions::volumetric).
@@ -71,8 +74,10 @@ const char* to_string(ReferenceMedium r);
 const char* to_string(KrylovOperator k);
 /// "double" | "single".
 const char* to_string(TangentPrecision t);
-/// "green" | "jacobi-green".
+/// "auto" | "green" | "jacobi-green" | "green-local-bulk".
 const char* to_string(Preconditioner p);
+/// Preconditioner::automatic takes the local bulk when max K / min K ≥ this × max G / min G.
+constexpr double kLocalBulkSpreadRatio = 3.0;
 /// "pointwise" | "mean-dilatation".
 const char* to_string(VolumetricKinematics v);
 
@@ -166,7 +171,13 @@ struct FftSolverOptions {
   /// equalises instead of the shear stiffness.
   /// Stencil operator only (otherwise green); Levenberg–Marquardt-shifted solves, MINRES and the
   /// homogenized tangent's solves use green.
-  Preconditioner preconditioner = Preconditioner::green;
+  /// green_local_bulk: the Green operator of an isotropic medium at F̄ with a homogeneous shear modulus
+  /// and each voxel's own bulk modulus (rve/src/fft_local_bulk.hpp), exact in the dilatation modes; one
+  /// scalar transform pair more per iteration and 12.5 B per voxel. Rotated, stencil operator only.
+  /// automatic (the default): green_local_bulk where it applies and the phases' bulk moduli spread at
+  /// least kLocalBulkSpreadRatio times as far as their shear moduli (PDMS/glass: 240 against 5.9), else
+  /// green (BENCHMARKS.md, "FFT solver cost").
+  Preconditioner preconditioner = Preconditioner::automatic;
   /// pointwise: every quadrature point deforms with its own F_q. mean_dilatation (discretization hex,
   /// Newton–CG with the stencil operator): every point of a voxel sees the voxel's volume ratio,
   /// F̄_q = (J̄/J_q)^{1/3} F_q with J̄ the voxel mean of J_q, in the variationally consistent form (the
@@ -329,6 +340,8 @@ class FftRveSolver {
   const fft::Grid& grid() const;
   int quadrature_points() const;
   std::string fft_description() const;
+  /// The preconditioner of the Newton–CG solves (Preconditioner::automatic resolved).
+  Preconditioner preconditioner() const;
   double achieved_volume_fraction() const;
   /// Bytes of the solver's large arrays (fields, tangents, history, FFT buffers, spectral vectors) as
   /// a run holds them: the sum of memory_breakdown().
