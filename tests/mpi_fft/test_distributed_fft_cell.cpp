@@ -212,7 +212,7 @@ TEST(DistributedFftCell, StreamedMixedPressureMatchesOneProcess) {
 // matrix stiff in bulk (K/G = 100, the mixed (u, p) iteration) around a soft-bulk fiber: what `auto`
 // chooses (bulk moduli 50× apart, shear moduli 4×), two cells (even and uneven slabs), tolerance 1e-10.
 // The Newton counts and P̄ are those of one process (P̄ to 1e-11 measured). The Krylov count of a step may
-// differ by one or two of ≈ 40: the scalar transform of the dilatation field adds the round-off of its
+// differ by a few of ≈ 40 (up to 3 measured on 3 ranks; 4 allowed, 10 %): the scalar transform of the dilatation field adds the round-off of its
 // own FFTW plan (FFTW-MPI against serial FFTW) to each iteration, and traced iteration by iteration the
 // two runs' CG scalars part at 1e-14 relative after one iteration and at 1e-7 near the stopping test,
 // which a 1e-10 tolerance then crosses one iteration earlier or later. The Green preconditioner, whose
@@ -229,9 +229,9 @@ TEST(DistributedFftCell, LocalBulkPreconditionerMatchesOneProcess) {
     FftRveSolver s(im, neo_hookean(0.5, 50.0), neo_hookean(2.0, 1.0), 0.0, Mat3::Identity(), o);
     EXPECT_EQ(s.preconditioner(), Preconditioner::green_local_bulk);
   }
-  expect_same_solve(im, neo_hookean(0.5, 50.0), neo_hookean(2.0, 1.0), uniaxial(1.1, 2), opt, 2);
+  expect_same_solve(im, neo_hookean(0.5, 50.0), neo_hookean(2.0, 1.0), uniaxial(1.1, 2), opt, 4);
   expect_same_solve(inclined_fiber({10, 8, 7}, 0.28, 0.5), neo_hookean(0.5, 50.0), neo_hookean(2.0, 1.0), uniaxial(1.1, 2),
-                    opt, 2);
+                    opt, 4);
 }
 
 TEST(DistributedFftCell, QlvMatrixHexFourierMatchesOneProcess) {
