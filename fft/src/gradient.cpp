@@ -414,40 +414,50 @@ inline Cplx mul(Cplx a, Cplx b) { return {a.re * b.re - a.im * b.im, a.re * b.im
 inline Cplx as_cplx(const Complex& c) { return {c.real(), c.imag()}; }
 }  // namespace
 
-/// Calls body(k, eta, |eta|^2) for the local modes, eta = cof D(k) of the one point per voxel. Along a
-/// row (k2, k3 fixed) D = (d0 v1 v2, v0 d1 v2, v0 d2 v1) with d0, v0 the only factors that vary, so
-/// eta_i = d0 a_i + v0 b_i with a_i = cof_i0 v1 v2 and b_i = cof_i1 d1 v2 + cof_i2 d2 v1 set once per
-/// row (an orphaned omp for, as for_modes).
+ReferenceGreen::ReferenceGreen(const GradientOperator& op) : op_(op) {
+  if (op.points() != 1) return;
+  for (int m = 0; m < 3; ++m) {
+    const int n = op.grid_.n[m];
+    half_shift_[m].resize(std::size_t(n));
+    sine_[m].resize(std::size_t(n));
+    cosine_[m].resize(std::size_t(n));
+    for (int k = 0; k < n; ++k) {
+      // rotated: d = (e^{ikh} − 1)/h and v = (1 + e^{ikh})/2 share the phase e^{ikh/2}; spectral: d = iξ, v = 1.
+      const Complex p = op.disc_ == Discretization::rotated ? std::polar(1.0, 0.5 * kTwoPi * op.grid_.frequency(m, k) / n)
+                                                            : Complex(1.0);
+      half_shift_[m][k] = p;
+      sine_[m][k] = std::imag(op.deriv_[m][k] * std::conj(p));
+      cosine_[m][k] = std::real(op.value_[m][k] * std::conj(p));  // 0 on the Nyquist index, as v
+    }
+  }
+}
+
+/// Calls body(k, phase, g, |g|^2) for the local modes with eta = cof D(k) = phase i g, g real (one point
+/// per voxel; an orphaned omp for, as for_modes). Along a row (k2, k3 fixed) only the k1 factors vary.
 template <class Body>
 void ReferenceGreen::for_bulk_modes(const Eigen::Matrix3d& cof, Body&& body) const {
   const GradientOperator& op = op_;
   if (op.points() != 1) throw std::logic_error("the bulk passes need one point per voxel");
   const int n2 = op.grid_.n[1], m1 = op.grid_.half_n1();
   const long rows = long(n2) * op.k3_count_;
-  const Complex* d0_table = op.deriv_[0].data();
-  const Complex* v0_table = op.value_[0].data();
+  const Complex* p0_table = half_shift_[0].data();
+  const double* s0_table = sine_[0].data();
+  const double* c0_table = cosine_[0].data();
 #pragma omp for schedule(static)
   for (long row = 0; row < rows; ++row) {
     const int k2 = int(row % n2), k3 = op.k3_begin_ + int(row / n2);
-    const Cplx d1 = as_cplx(op.deriv_[1][k2]), d2 = as_cplx(op.deriv_[2][k3]);
-    const Cplx v1 = as_cplx(op.value_[1][std::size_t(k2)]), v2 = as_cplx(op.value_[2][std::size_t(k3)]);
-    const Cplx v12 = mul(v1, v2), d1v2 = mul(d1, v2), d2v1 = mul(d2, v1);
-    Cplx a[3], b[3];
-    for (int i = 0; i < 3; ++i) {
-      a[i] = {cof(i, 0) * v12.re, cof(i, 0) * v12.im};
-      b[i] = {cof(i, 1) * d1v2.re + cof(i, 2) * d2v1.re, cof(i, 1) * d1v2.im + cof(i, 2) * d2v1.im};
-    }
+    const Cplx p12 = mul(as_cplx(half_shift_[1][std::size_t(k2)]), as_cplx(half_shift_[2][std::size_t(k3)]));
+    const double s1 = sine_[1][std::size_t(k2)], c1 = cosine_[1][std::size_t(k2)];
+    const double s2 = sine_[2][std::size_t(k3)], c2 = cosine_[2][std::size_t(k3)];
+    const double c12 = c1 * c2, s1c2 = s1 * c2, c1s2 = c1 * s2;
     const std::size_t first = std::size_t(row) * m1;
     for (int k1 = 0; k1 < m1; ++k1) {
-      const Cplx d0 = as_cplx(d0_table[k1]), v0 = as_cplx(v0_table[k1]);
-      Cplx eta[3];
-      double e2 = 0.0;
-      for (int i = 0; i < 3; ++i) {
-        const Cplx x = mul(d0, a[i]), y = mul(v0, b[i]);
-        eta[i] = {x.re + y.re, x.im + y.im};
-        e2 += eta[i].re * eta[i].re + eta[i].im * eta[i].im;
-      }
-      body(first + std::size_t(k1), eta, e2);
+      const Cplx phase = mul(as_cplx(p0_table[k1]), p12);
+      const double s0 = s0_table[k1], c0 = c0_table[k1];
+      const double z0 = s0 * c12, z1 = c0 * s1c2, z2 = c0 * c1s2;
+      double g[3];
+      for (int i = 0; i < 3; ++i) g[i] = cof(i, 0) * z0 + cof(i, 1) * z1 + cof(i, 2) * z2;
+      body(first + std::size_t(k1), phase, g, g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
     }
   }
 }
@@ -455,19 +465,17 @@ void ReferenceGreen::for_bulk_modes(const Eigen::Matrix3d& cof, Body&& body) con
 void ReferenceGreen::bulk_potential(const Eigen::Matrix3d& cof, const Complex* r, Complex* psi) const {
   const std::size_t nm = op_.local_modes();
 #pragma omp parallel
-  for_bulk_modes(cof, [&](std::size_t k, const Cplx* eta, double e2) {
-    if (!(e2 > 0.0)) {
+  for_bulk_modes(cof, [&](std::size_t k, Cplx phase, const double* g, double g2) {
+    if (!(g2 > 0.0)) {
       psi[k] = 0.0;
       return;
     }
-    double re = 0.0, im = 0.0;
-    for (int i = 0; i < 3; ++i) {
-      const Cplx ri = as_cplx(r[std::size_t(i) * nm + k]), t = mul(eta[i], ri);
-      re += t.re;
-      im += t.im;
-    }
-    const double inv = 1.0 / e2;
-    psi[k] = Complex(re * inv, im * inv);
+    // ψ = η·r/|η|² = phase i (g·r)/|g|²
+    const double inv = 1.0 / g2;
+    const Cplx t = {(g[0] * r[k].real() + g[1] * r[nm + k].real() + g[2] * r[2 * nm + k].real()) * inv,
+                    (g[0] * r[k].imag() + g[1] * r[nm + k].imag() + g[2] * r[2 * nm + k].imag()) * inv};
+    const Cplx v = mul(phase, {-t.im, t.re});
+    psi[k] = Complex(v.re, v.im);
   });
 }
 
@@ -475,22 +483,20 @@ void ReferenceGreen::add_bulk_correction(const Eigen::Matrix3d& cof, const Compl
                                          double s_scale, double w0, Complex* p, Complex* copy) const {
   const std::size_t nm = op_.local_modes();
 #pragma omp parallel
-  for_bulk_modes(cof, [&](std::size_t k, const Cplx* eta, double e2) {
-    if (!(e2 > 0.0)) return;
-    double re = 0.0, im = 0.0;  // η·r
+  for_bulk_modes(cof, [&](std::size_t k, Cplx phase, const double* g, double g2) {
+    if (!(g2 > 0.0)) return;
+    // With ψ = phase i t, t = (g·r)/|g|², and c = (s_scale ŝ − w0 ψ)/|g|²: conj(η) c = g (conj(phase) (−i) c).
+    const double inv = 1.0 / g2;
+    const Cplx t = {(g[0] * r[k].real() + g[1] * r[nm + k].real() + g[2] * r[2 * nm + k].real()) * inv,
+                    (g[0] * r[k].imag() + g[1] * r[nm + k].imag() + g[2] * r[2 * nm + k].imag()) * inv};
+    const Cplx psi = mul(phase, {-t.im, t.re});
+    const Cplx c = {(s_scale * s_hat[k].real() - w0 * psi.re) * inv, (s_scale * s_hat[k].imag() - w0 * psi.im) * inv};
+    const Cplx q = mul({phase.re, -phase.im}, {c.im, -c.re});
     for (int i = 0; i < 3; ++i) {
-      const Cplx t = mul(eta[i], as_cplx(r[std::size_t(i) * nm + k]));
-      re += t.re;
-      im += t.im;
-    }
-    // c = (s_scale ŝ − w0 ψ)/|η|², ψ = η·r/|η|²
-    const double inv = 1.0 / e2;
-    const Cplx c = {(s_scale * s_hat[k].real() - w0 * re * inv) * inv, (s_scale * s_hat[k].imag() - w0 * im * inv) * inv};
-    for (int i = 0; i < 3; ++i) {
-      const Cplx d = mul({eta[i].re, -eta[i].im}, c);
+      const Complex d(g[i] * q.re, g[i] * q.im);
       const std::size_t a = std::size_t(i) * nm + k;
-      p[a] += Complex(d.re, d.im);
-      if (copy) copy[a] += Complex(d.re, d.im);
+      p[a] += d;
+      if (copy) copy[a] += d;
     }
   });
 }

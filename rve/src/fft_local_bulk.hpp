@@ -36,6 +36,18 @@
 
 namespace softhom::rve::detail {
 
+/// The isotropic tangent λ 1⊗1 + 2μ I (index 3i + j, both minor symmetries written out).
+inline Mat9 isotropic_tangent(double lambda, double mu) {
+  Mat9 C = Mat9::Zero();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      C(3 * i + i, 3 * j + j) += lambda;
+      C(3 * i + j, 3 * i + j) += mu;
+      C(3 * i + j, 3 * j + i) += mu;
+    }
+  return C;
+}
+
 /// Isotropic projection of a 9×9 tangent (index 3i + j): with a = Σ C_iikk and b = ½ Σ (C_ijij + C_ijji),
 /// an isotropic C has bulk modulus K = a/9 and shear modulus μ = (b − a/3)/10.
 struct IsotropicModuli {

@@ -74,17 +74,6 @@ Mat9 rotation_operator(const Mat3& R) {
   return T;
 }
 
-Mat9 isotropic_tangent(double lambda, double mu) {
-  Mat9 C = Mat9::Zero();
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) {
-      C(3 * i + i, 3 * j + j) += lambda;
-      C(3 * i + j, 3 * i + j) += mu;
-      C(3 * i + j, 3 * j + i) += mu;
-    }
-  return C;
-}
-
 /// Packed upper triangle (45 values, row by row) of the symmetrized 9×9 tangent. The tangent of a
 /// hyperelastic law (and its laminate condensation and mixed-pressure correction) is major-symmetric,
 /// and CG needs a symmetric operator anyway; packing cuts the tangent stream of every Krylov iteration
@@ -1651,14 +1640,14 @@ struct FftRveSolver::Impl {
       }
       if (K[0] > 0.0 && K[1] > 0.0 && mu[0] > 0.0 && mu[1] > 0.0) {
         const double K0 = std::sqrt(K[0] * K[1]), mu0 = std::sqrt(mu[0] * mu[1]);
-        C0 = isotropic_tangent(K0 - 2.0 / 3.0 * mu0, mu0);
+        C0 = detail::isotropic_tangent(K0 - 2.0 / 3.0 * mu0, mu0);
         return;
       }
     }
     if (opt.reference != ReferenceMedium::isotropic && opt.scheme == FftScheme::newton_cg)
       C0 = 0.5 * (sums.A + sums.A.transpose());
     else
-      C0 = isotropic_tangent(lambda_ref, mu_ref);
+      C0 = detail::isotropic_tangent(lambda_ref, mu_ref);
   }
 
   /// The Krylov space of the Newton system for krylov::pcg: half spectra of ũ with mode weights and

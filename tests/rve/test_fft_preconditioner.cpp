@@ -7,6 +7,7 @@
 #include <cmath>
 #include <vector>
 
+#include "../rve/src/fft_local_bulk.hpp"
 #include "../rve/src/fft_preconditioner.hpp"
 #include "rve/rve_test_helpers.hpp"
 #include "softhom/materials/laws.hpp"
@@ -18,17 +19,6 @@ using softhom::rve::testing::circle_image;
 using softhom::rve::testing::uniaxial_ramp;
 
 namespace {
-
-Mat9 isotropic(double lambda, double mu) {
-  Mat9 C = Mat9::Zero();
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) {
-      C(3 * i + i, 3 * j + j) += lambda;
-      C(3 * i + j, 3 * i + j) += mu;
-      C(3 * i + j, 3 * j + i) += mu;
-    }
-  return C;
-}
 
 /// A heterogeneous tangent field: point p has c_p · C with c_p in [0.5, 20] (deterministic).
 double factor(std::size_t p) { return 0.5 + 19.5 * std::fmod(0.6180339887 * double(p * p + 3 * p + 1), 1.0); }
@@ -56,7 +46,7 @@ double probed_diagonal(const fft::StencilGradient& st, const Mat9& C, std::size_
 void expect_scaling_is_the_node_diagonal(const fft::Grid& grid, fft::Discretization disc) {
   const fft::GradientOperator op(grid, disc);
   const fft::StencilGradient st(op);
-  const Mat9 C = isotropic(2.0, 1.0);
+  const Mat9 C = detail::isotropic_tangent(2.0, 1.0);
   std::vector<double> w;
   for (const auto& q : op.quadrature()) w.push_back(q.weight);
   const Eigen::Vector3d D0 = detail::reference_diagonal(st, w, C);

@@ -136,7 +136,7 @@ class GradientOperator {
 /// the symmetric inverse per mode, and applying it is a real matrix times a complex 3-vector.
 class ReferenceGreen {
  public:
-  explicit ReferenceGreen(const GradientOperator& op) : op_(op) {}
+  explicit ReferenceGreen(const GradientOperator& op);
   /// Reals tabulated per mode: the upper triangle G00 G11 G22 G01 G02 G12 of the real symmetric K0⁻¹.
   static constexpr int kValuesPerMode = 6;
   /// Table in float from the next set() on (half the bytes per mode, and half its stream per Krylov
@@ -180,6 +180,10 @@ class ReferenceGreen {
     return single_ ? f(table_f_.data()) : f(table_.data());
   }
   const GradientOperator& op_;
+  // One point per voxel: per direction m and index k, D's factors as d_m = p_m i s_m and v_m = p_m c_m with
+  // p_m = e^{i k_m h_m / 2} and s_m, c_m real, so that D(k) = (Π_m p_m) i z(k), z real (the bulk passes).
+  std::array<std::vector<Complex>, 3> half_shift_;
+  std::array<std::vector<double>, 3> sine_, cosine_;
   bool single_ = false;
   std::vector<double> table_;  ///< per mode: G00 G11 G22 G01 G02 G12
   std::vector<float> table_f_;  ///< the same in float (use_single_precision)
