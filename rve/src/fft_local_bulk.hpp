@@ -17,8 +17,9 @@
 //     û = conj(η) θ̂/|η|² with θ = w(x) (ψ + c), w = J̄/(k + 4μ0/3), ψ̂ = η·r̂/|η|², c the constant that
 //     gives θ zero mean (a periodic displacement's dilatation has none).
 // So M⁻¹ = G0 + conj(η)/|η|² (ŵψ − w0 ψ̂), with G0 the Green operator of (k0, μ0) and w0 its w: one scalar
-// field transformed back and forth per application on top of the Green operator (the dilatation modes
-// at the kernel of D other than the mean, e.g. the rotated scheme's (π, π) checkerboard, are left out).
+// field transformed back and forth per application on top of the Green operator. (Exactly, θ would also
+// have to vanish at the other frequencies where D = 0, e.g. the rotated scheme's (π, π) checkerboard; only
+// the mean is imposed, and θ's components there are dropped.)
 // M⁻¹ is symmetric positive semidefinite with the kernel of the Krylov operator, so CG keeps its
 // guarantees.
 //
@@ -29,7 +30,7 @@
 // What it does not see: the volume change of a voxel follows cof F(x), not cof F̄. Where strains vary a
 // lot within a nearly incompressible matrix (Ecoflex near a stiff fiber at large stretch) the bulk term
 // of the true operator leaves the reference's dilatation modes, and the preconditioner gains little
-// (BENCHMARKS.md, "FFT solver cost").
+// (BENCHMARKS.md, "The local bulk modulus in the Green preconditioner").
 #include <algorithm>
 
 #include "softhom/materials/tensor.hpp"
