@@ -103,8 +103,9 @@ constexpr const char* kSplitDefaults =
 /// diagonal before and after the coarse correction (two sweeps: 3 % fewer GMRES iterations for 1.4× the
 /// CPU time on the cPASMO 0.5 mesh); an anisotropic tangent changes that (choose_fine_smoother). With
 /// that coarse solve the upper Schur factorization (one displacement solve per GMRES iteration instead
-/// of two) pays: 1.22× the iterations for 0.78× the wall time over the cPASMO's ten steps. Its longer solves (up to 158 iterations on the 1.2e6-dof mesh) are
-/// what set the GMRES basis's memory there (6 MB per vector and rank), so the restart is capped at 100.
+/// of two) pays: 1.22× the iterations for 0.78× the wall time over the cPASMO's ten steps. Its longer
+/// solves (up to 158 iterations on the 1.2e6-dof mesh) are what set the GMRES basis's memory there
+/// (6 MB per vector and rank), so the restart is capped at 100.
 constexpr const char* kPMultigridDefaults =
     "-fieldsplit_u_pc_type mg -fieldsplit_u_pc_mg_levels 2 -fieldsplit_u_pc_mg_galerkin both "
     "-fieldsplit_u_mg_levels_ksp_type chebyshev -fieldsplit_u_mg_levels_pc_type jacobi -fieldsplit_u_mg_levels_ksp_max_it 1 "

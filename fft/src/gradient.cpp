@@ -412,6 +412,12 @@ struct Cplx {
 };
 inline Cplx mul(Cplx a, Cplx b) { return {a.re * b.re - a.im * b.im, a.re * b.im + a.im * b.re}; }
 inline Cplx as_cplx(const Complex& c) { return {c.real(), c.imag()}; }
+/// ψ(k) = η·r(k)/|η|² = phase i (g·r(k)) inv for η = phase i g, inv = 1/|g|² (r: three spectra of nm modes).
+inline Cplx bulk_psi(Cplx phase, const double* g, double inv, const Complex* r, std::size_t nm, std::size_t k) {
+  const Cplx t = {(g[0] * r[k].real() + g[1] * r[nm + k].real() + g[2] * r[2 * nm + k].real()) * inv,
+                  (g[0] * r[k].imag() + g[1] * r[nm + k].imag() + g[2] * r[2 * nm + k].imag()) * inv};
+  return mul(phase, {-t.im, t.re});
+}
 }  // namespace
 
 ReferenceGreen::ReferenceGreen(const GradientOperator& op) : op_(op) {
@@ -470,11 +476,7 @@ void ReferenceGreen::bulk_potential(const Eigen::Matrix3d& cof, const Complex* r
       psi[k] = 0.0;
       return;
     }
-    // ψ = η·r/|η|² = phase i (g·r)/|g|²
-    const double inv = 1.0 / g2;
-    const Cplx t = {(g[0] * r[k].real() + g[1] * r[nm + k].real() + g[2] * r[2 * nm + k].real()) * inv,
-                    (g[0] * r[k].imag() + g[1] * r[nm + k].imag() + g[2] * r[2 * nm + k].imag()) * inv};
-    const Cplx v = mul(phase, {-t.im, t.re});
+    const Cplx v = bulk_psi(phase, g, 1.0 / g2, r, nm, k);
     psi[k] = Complex(v.re, v.im);
   });
 }
@@ -487,9 +489,7 @@ void ReferenceGreen::add_bulk_correction(const Eigen::Matrix3d& cof, const Compl
     if (!(g2 > 0.0)) return;
     // With ψ = phase i t, t = (g·r)/|g|², and c = (s_scale ŝ − w0 ψ)/|g|²: conj(η) c = g (conj(phase) (−i) c).
     const double inv = 1.0 / g2;
-    const Cplx t = {(g[0] * r[k].real() + g[1] * r[nm + k].real() + g[2] * r[2 * nm + k].real()) * inv,
-                    (g[0] * r[k].imag() + g[1] * r[nm + k].imag() + g[2] * r[2 * nm + k].imag()) * inv};
-    const Cplx psi = mul(phase, {-t.im, t.re});
+    const Cplx psi = bulk_psi(phase, g, inv, r, nm, k);
     const Cplx c = {(s_scale * s_hat[k].real() - w0 * psi.re) * inv, (s_scale * s_hat[k].imag() - w0 * psi.im) * inv};
     const Cplx q = mul({phase.re, -phase.im}, {c.im, -c.re});
     for (int i = 0; i < 3; ++i) {

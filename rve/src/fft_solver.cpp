@@ -1350,13 +1350,26 @@ struct FftRveSolver::Impl {
   /// rank's sum) goes to *dot when given. Streamed: one pass (StencilGradient::streamed_pass); else the
   /// gradient pass keeps its per-voxel values in fft's real buffer for the gather pass. Returns the
   /// volume mean of δP (grid frame).
+  /// δP = A : δF of the stored tangents of the batch of points p0 … p0 + count − 1 (dF, dP [9][8] as in
+  /// fft::StencilGradient::gradient_pass): compact records, with the composite points' full tangents, or
+  /// the packed 9×9 tangents in float or double.
+  void tangent_product_batch(std::size_t p0, int count, const double* dF, double* dP) const {
+    if (compact)
+      compact->product(p0, count, dF, dP, [&](int l) {
+        const std::size_t p = p0 + std::size_t(l);
+        const int c = comp_id[p / nq];
+        return c < 0 ? -1L : long(c) * nq + long(p % nq);
+      });
+    else if (!tangent_f.empty())
+      fft::symmetric_product_batch(tangent_f.data() + 45 * p0, dF, dP);
+    else
+      fft::symmetric_product_batch(tangent.data() + 45 * p0, dF, dP);  // block p0/8 starts at 360·p0/8
+  }
   Vec9 stencil_tangent_product(const Vec9& dFbar, double shift, double* dot = nullptr) {
     const Mat9 S = shift * C_shift;
     Vec9 mean = Vec9::Zero();
     double wq[8];
     for (int q = 0; q < nq; ++q) wq[q] = op.quadrature()[q].weight;
-    const double* T = tangent.data();
-    const float* Tf = tangent_f.empty() ? nullptr : tangent_f.data();
     if (streamed) ensure_stream_scratch();
     double dot_sum = 0.0;
 #pragma omp parallel reduction(+ : dot_sum)
@@ -1368,16 +1381,7 @@ struct FftRveSolver::Impl {
         alignas(64) double dF[9 * B];
         for (int c = 0; c < 9; ++c)
           for (int l = 0; l < B; ++l) dF[c * B + l] = dFbar[c] + grad[c * B + l];
-        if (compact)
-          compact->product(p0, count, dF, dP, [&](int l) {
-            const std::size_t p = p0 + std::size_t(l);
-            const int c = comp_id[p / nq];
-            return c < 0 ? -1L : long(c) * nq + long(p % nq);
-          });
-        else if (Tf)
-          fft::symmetric_product_batch(Tf + 45 * p0, dF, dP);
-        else
-          fft::symmetric_product_batch(T + 45 * p0, dF, dP);  // block p0/8 starts at 360·p0/8
+        tangent_product_batch(p0, count, dF, dP);
         if (mean_dilatation) md_coupling.add_to_batch<B>(p0, count, wq, dF, dP);
         for (int l = 0; l < count; ++l) {
           if (shift != 0.0)
@@ -1559,8 +1563,6 @@ struct FftRveSolver::Impl {
     for (int c = 0; c < 9; ++c) b[c] = bulk_cof(c / 3, c % 3);
     const double b2 = b.squaredNorm();
     constexpr int B = fft::StencilGradient::kBatch;
-    const float* Tf = tangent_f.empty() ? nullptr : tangent_f.data();
-    const double* T = tangent.data();
     double w_sum = 0.0;
 #pragma omp parallel for schedule(static) reduction(+ : w_sum)
     for (std::size_t p0 = 0; p0 < NP; p0 += B) {
@@ -1568,15 +1570,7 @@ struct FftRveSolver::Impl {
       alignas(64) double dF[9 * B], dP[9 * B];
       for (int c = 0; c < 9; ++c)
         for (int l = 0; l < B; ++l) dF[c * B + l] = b[c];
-      if (compact)
-        compact->product(p0, count, dF, dP, [&](int l) {
-          const int c = comp_id[p0 + std::size_t(l)];  // one point per voxel
-          return c < 0 ? -1L : long(c);
-        });
-      else if (Tf)
-        fft::symmetric_product_batch(Tf + 45 * p0, dF, dP);
-      else
-        fft::symmetric_product_batch(T + 45 * p0, dF, dP);
+      tangent_product_batch(p0, count, dF, dP);
       for (int l = 0; l < count; ++l) {
         double bAb = 0.0;
         for (int c = 0; c < 9; ++c) bAb += b[c] * dP[c * B + l];
@@ -1609,9 +1603,13 @@ struct FftRveSolver::Impl {
         s_psi2 += psi * psi;
       }
     }
-    s_w_psi = global_sum(s_w_psi);
-    s_w_psi2 = global_sum(s_w_psi2);
-    s_psi2 = global_sum(s_psi2);
+    if (dist) {  // one reduction for the three sums
+      double sums3[3] = {s_w_psi, s_w_psi2, s_psi2};
+      dist->sum(sums3, 3);
+      s_w_psi = sums3[0];
+      s_w_psi2 = sums3[1];
+      s_psi2 = sums3[2];
+    }
     const double c = bulk_w_sum > 0.0 ? -s_w_psi / bulk_w_sum : 0.0;
 #pragma omp parallel for schedule(static)
     for (long row = 0; row < rows; ++row) {
