@@ -8,7 +8,7 @@ namespace softhom::rve {
 void FftRveSolver::Impl::store_compact(int x, std::size_t p, const Mat3& F, double q) {
   CompactLinearization L;
   mat[x]->compact_linearization(F, L);
-  if (mixed[x]) add_pressure_stiffness(L, q, F.determinant());
+  if (pressures.mixed[x]) add_pressure_stiffness(L, q, F.determinant());
   compact->store(p, F, L);
 }
 
@@ -24,73 +24,12 @@ MaterialStatus FftRveSolver::Impl::laminate(const Mat3& F, double f, const Vec3&
   return detail::laminate_point(pt, F, f, n, a, dt, P, A, Px, Fx);
 }
 
-double FftRveSolver::Impl::pressure_correction(int x, std::size_t p, const Mat3& F, Mat3& P, Mat9* A) {
-  const VolumetricState vs = volumetric_state(K_vol[x], F);
-  const Mat3& cof = vs.cof;
-  const double J = vs.J;
-  double pr = vs.dU;
-  if (predictor_ratio >= 0.0) {
-    // Extrapolated predictor: the pressure is extrapolated itself. A linearly extrapolated F leaves
-    // the curved J = 1 manifold by O(ΔF²), which W_V′(J) or any linearization turns into K ΔF²
-    // (tens of MPa against a matrix G of 0.017 MPa); the pressure history is smooth instead.
-    pr = double(p_committed[p]) + predictor_ratio * double(dp_last[p]);
-  } else if (linearized_pressure) {
-    const Mat3 c = pressure_slope(x, p);  // of the last accepted iterate (read before it is overwritten)
-    pr = lin_s[p];
-    for (int k = 0; k < 9; ++k) pr += c(k / 3, k % 3) * F(k / 3, k % 3);
-  }
-  const double q = pr - vs.dU;
-  p_trial[p] = float(pr);
-  linearize_pressure(x, p, F, vs);
-  dP_ratio[p] = float(-q / vs.ddU);
-  if (q == 0.0) return q;
-  P += q * cof;
-  if (A) add_cofactor_derivative(q / J, cof, *A);
-  return q;
-}
-
 void FftRveSolver::Impl::project_semidefinite(Mat9& A) {
   const Mat9 S = 0.5 * (A + A.transpose());
   if (Eigen::LLT<Mat9>(S).info() == Eigen::Success) return;
   Eigen::SelfAdjointEigenSolver<Mat9> es(S);
   const Vec9 e = es.eigenvalues().cwiseMax(0.0);
   A = es.eigenvectors() * e.asDiagonal() * es.eigenvectors().transpose();
-}
-
-void FftRveSolver::Impl::add_cofactor_derivative(double w, const Mat3& cof, Mat9& A) {
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k)
-        for (int l = 0; l < 3; ++l) A(3 * i + j, 3 * k + l) += w * (cof(i, j) * cof(k, l) - cof(i, l) * cof(k, j));
-}
-
-Mat3 FftRveSolver::Impl::pressure_slope(int x, std::size_t p) const {
-  Mat3 c;
-  if (compact) {
-    const VolumetricState vs = volumetric_state(K_vol[x], compact->F(p));
-    c = vs.ddU * vs.cof;
-  } else {
-    const float* l = &lin_c[9 * p];
-    for (int k = 0; k < 9; ++k) c(k / 3, k % 3) = double(l[k]);
-  }
-  return c;
-}
-
-void FftRveSolver::Impl::linearize_pressure(int x, std::size_t p, const Mat3& F, const VolumetricState& vs) {
-  Mat3 c;
-  if (compact) {
-    compact->store_F(p, F);  // store_compact() writes it again with the tangent
-    c = pressure_slope(x, p);
-  } else {
-    float* l = &lin_c[9 * p];
-    for (int k = 0; k < 9; ++k) {
-      l[k] = float(vs.ddU * vs.cof(k / 3, k % 3));
-      c(k / 3, k % 3) = double(l[k]);
-    }
-  }
-  double s0 = vs.dU;
-  for (int k = 0; k < 9; ++k) s0 -= c(k / 3, k % 3) * F(k / 3, k % 3);
-  lin_s[p] = s0;
 }
 
 void FftRveSolver::Impl::relinearize_pressures(const Mat3& Fbar_grid) {
@@ -100,10 +39,10 @@ void FftRveSolver::Impl::relinearize_pressures(const Mat3& Fbar_grid) {
     stencil->gradient_pass(fft3->real(0), nullptr, [&](std::size_t p0, int count, const double* grad, double*) {
       for (int l = 0; l < count; ++l) {
         const std::size_t v = p0 + std::size_t(l);
-        if (comp_id[v] >= 0 || !mixed[pure_phase(v)]) continue;
+        if (comp_id[v] >= 0 || !pressures.mixed[pure_phase(v)]) continue;
         const int x = pure_phase(v);
         const Mat3 F = lane_F(Fbar_grid, grad, l);
-        linearize_pressure(x, v, F, volumetric_state(K_vol[x], F));
+        pressures.linearize(x, v, F, detail::volumetric_state(pressures.K[x], F), compact.get());
       }
     });
     return;
@@ -112,12 +51,12 @@ void FftRveSolver::Impl::relinearize_pressures(const Mat3& Fbar_grid) {
   if (mean_dilatation) {
 #pragma omp parallel for schedule(static)
     for (std::size_t v = 0; v < N; ++v) {
-      if (comp_id[v] >= 0 || !mixed[pure_phase(v)]) continue;
+      if (comp_id[v] >= 0 || !pressures.mixed[pure_phase(v)]) continue;
       detail::MeanDilatationVoxel md;
       if (!prepare_mean_dilatation(v, Fbar_grid, md)) continue;
       Mat3 cof[detail::MeanDilatationVoxel::kMaxPoints];
-      voxel_cofactors(md, cof);
-      linearize_voxel_pressure(pure_phase(v), v, md, cof);
+      detail::cofactors(md, cof);
+      pressures.linearize_voxel(pure_phase(v), v, md, cof);
     }
     return;
   }
@@ -125,10 +64,10 @@ void FftRveSolver::Impl::relinearize_pressures(const Mat3& Fbar_grid) {
   for (std::size_t v = 0; v < N; ++v) {
     if (comp_id[v] >= 0) continue;
     const int x = pure_phase(v);
-    if (!mixed[x]) continue;
+    if (!pressures.mixed[x]) continue;
     for (int q = 0; q < nq; ++q) {
       const Mat3 F = point_F(Fbar_grid, v, q);
-      linearize_pressure(x, v * nq + q, F, volumetric_state(K_vol[x], F));
+      pressures.linearize(x, v * nq + q, F, detail::volumetric_state(pressures.K[x], F), compact.get());
     }
   }
 }
@@ -163,8 +102,8 @@ MaterialStatus FftRveSolver::Impl::evaluate_point(std::size_t v, int q, const Ma
     s = mat[x]->evaluate(F, state_size[x] ? hist_old[x].data() + p * state_size[x] : nullptr,
                          state_size[x] ? hist_new[x].data() + p * state_size[x] : nullptr, dt, P, A);
     double q_p = 0.0;
-    // Mean dilatation: one pressure per voxel, voxel_pressure_correction() once its points are evaluated.
-    if (s == MaterialStatus::ok && mixed[x] && !mean_dilatation) q_p = pressure_correction(x, p, F, P, A);
+    // Mean dilatation: one pressure per voxel, pressures.correct_voxel() once its points are evaluated.
+    if (s == MaterialStatus::ok && pressures.mixed[x] && !mean_dilatation) q_p = pressures.correct(x, p, F, P, A, compact.get());
     if (s == MaterialStatus::ok && A && compact) store_compact(x, p, F, q_p);
     if (s == MaterialStatus::ok && A && opt.reference == ReferenceMedium::geometric) {
       local.phase_A[x] += w * (*A);
@@ -297,7 +236,7 @@ void FftRveSolver::Impl::finish_mean_dilatation(std::size_t v, const detail::Mea
     if (with_tangent) Abar[q] = out.K[q];
   }
   detail::mean_dilatation_response(md, Pbar, with_tangent ? Abar : nullptr, out);
-  if (comp_id[v] < 0 && mixed[pure_phase(v)]) voxel_pressure_correction(pure_phase(v), v, md, out, with_tangent);
+  if (comp_id[v] < 0 && pressures.mixed[pure_phase(v)]) pressures.correct_voxel(pure_phase(v), v, md, out, with_tangent);
   const double invN = 1.0 / double(Ntot);
   for (int q = 0; q < nq; ++q) {
     double* base = fft->real(9 * q) + v;
@@ -309,49 +248,6 @@ void FftRveSolver::Impl::finish_mean_dilatation(std::size_t v, const detail::Mea
   if (!with_tangent) return;
   local.A += invN * out.voxel_tangent;
   md_coupling.store(v, out);
-}
-
-void FftRveSolver::Impl::voxel_pressure_correction(int x, std::size_t v, const detail::MeanDilatationVoxel& md,
-                                                   detail::MeanDilatationResponse& out, bool with_tangent) {
-  const std::size_t p0 = v * nq;
-  const double dU = volumetric_dU(K_vol[x], md.J_mean), ddU = volumetric_ddU(K_vol[x], md.J_mean);
-  double pr = dU;
-  if (predictor_ratio >= 0.0) {
-    pr = double(p_committed[p0]) + predictor_ratio * double(dp_last[p0]);
-  } else if (linearized_pressure) {
-    pr = lin_s[p0];
-    for (int q = 0; q < nq; ++q) pr += md.w[q] * ddot(pressure_slope(x, p0 + std::size_t(q)), md.F[q]);
-  }
-  const double qv = pr - dU;
-  Mat3 cof[detail::MeanDilatationVoxel::kMaxPoints];
-  voxel_cofactors(md, cof);
-  linearize_voxel_pressure(x, v, md, cof);
-  for (int q = 0; q < nq; ++q) {
-    p_trial[p0 + std::size_t(q)] = float(pr);
-    dP_ratio[p0 + std::size_t(q)] = float(-qv / ddU);
-    if (qv == 0.0) continue;
-    out.P[q] += qv * cof[q];
-    if (!with_tangent) continue;
-    Mat9 G = Mat9::Zero();
-    add_cofactor_derivative(qv / md.J[q], cof[q], G);
-    out.K[q] += G;
-    out.voxel_tangent += md.w[q] * G;
-  }
-}
-
-void FftRveSolver::Impl::linearize_voxel_pressure(int x, std::size_t v, const detail::MeanDilatationVoxel& md,
-                                                  const Mat3* cof) {
-  const std::size_t p0 = v * nq;
-  const double ddU = volumetric_ddU(K_vol[x], md.J_mean);
-  double s0 = volumetric_dU(K_vol[x], md.J_mean);
-  for (int q = 0; q < nq; ++q) {
-    float* l = &lin_c[9 * (p0 + std::size_t(q))];
-    for (int k = 0; k < 9; ++k) {
-      l[k] = float(ddU * cof[q](k / 3, k % 3));
-      s0 -= md.w[q] * double(l[k]) * md.F[q](k / 3, k % 3);
-    }
-  }
-  lin_s[p0] = s0;
 }
 
 void FftRveSolver::Impl::gradient_to_real(const std::vector<Complex>& uh) {
@@ -414,7 +310,7 @@ void FftRveSolver::Impl::residual(const std::array<bool, 9>& free, const Vec9& P
 
 double FftRveSolver::Impl::evaluate_residual(const std::array<bool, 9>& free, const Vec9& P_target, KVec& r) {
   residual(free, P_target, r);
-  if (!mixed_active) return residual_norm(r, free, P_target);
+  if (!pressures.active) return residual_norm(r, free, P_target);
   residual_norm(r, free, P_target);
   const double merit_hat = merit;
   Vec9 mean = Vec9::Zero();
@@ -426,10 +322,10 @@ double FftRveSolver::Impl::evaluate_residual(const std::array<bool, 9>& free, co
     for (std::size_t v = 0; v < N; ++v)
       for (int q = 0; q < nq; ++q) {
         const std::size_t p = v * nq + q;
-        const double ratio = dP_ratio[p];
+        const double ratio = pressures.dP_ratio[p];
         if (ratio == 0.0) continue;  // points without the pressure iteration, or q = 0
-        // The slopes at p are those of this evaluation (pressure_correction() wrote them).
-        const Mat3 slope = pressure_slope(pure_phase(v), p);
+        // The slopes at p are those of this evaluation (PressureIteration::correct() wrote them).
+        const Mat3 slope = pressures.slope(pure_phase(v), p, compact.get());
         double* base = fft->real(9 * q) + v;
         for (int c = 0; c < 9; ++c) {
           const double d = ratio * slope(c / 3, c % 3);
@@ -504,9 +400,9 @@ MaterialStatus FftRveSolver::Impl::evaluate_streamed(const Mat3& Fbar_grid, doub
               local.A += invN * (*A);
               store_tangent(v, *A);
             }
-            const double ratio = mixed_active ? double(dP_ratio[v]) : 0.0;
+            const double ratio = pressures.active ? double(pressures.dP_ratio[v]) : 0.0;
             if (ratio != 0.0) {  // P_full = P̂ + ratio · slope (evaluate_residual())
-              const Mat3 d = ratio * pressure_slope(pure_phase(v), v);
+              const Mat3 d = ratio * pressures.slope(pure_phase(v), v, compact.get());
               P += d;
               local_correction += flatten(d);
             }
@@ -536,7 +432,7 @@ MaterialStatus FftRveSolver::Impl::evaluate_streamed(const Mat3& Fbar_grid, doub
   r.u.resize(3 * NM);
 #pragma omp parallel for schedule(static)
   for (std::size_t a = 0; a < 3 * NM; ++a) r.u[a] = invN * s3[a];
-  if (!mixed_active) {
+  if (!pressures.active) {
     macro_residual(free, P_target, r);
     err = residual_norm(r, free, P_target);
     return MaterialStatus::ok;
@@ -546,8 +442,8 @@ MaterialStatus FftRveSolver::Impl::evaluate_streamed(const Mat3& Fbar_grid, doub
   stencil->streamed_pass(fft3->real(0), stream_scratch.data(), [&](std::size_t p0, int count, const double*, double* stress) {
     for (int l = 0; l < count; ++l) {
       const std::size_t v = p0 + std::size_t(l);
-      const double ratio = dP_ratio[v];
-      const Mat3 d = ratio != 0.0 ? Mat3(ratio * pressure_slope(pure_phase(v), v)) : Mat3::Zero();
+      const double ratio = pressures.dP_ratio[v];
+      const Mat3 d = ratio != 0.0 ? Mat3(ratio * pressures.slope(pure_phase(v), v, compact.get())) : Mat3::Zero();
       for (int c = 0; c < 9; ++c) stress[c * B + l] = d(c / 3, c % 3);
     }
   }, false, false, slab_shift_up());
@@ -580,14 +476,6 @@ MaterialStatus FftRveSolver::Impl::evaluate_iterate(double dt, bool with_tangent
   const MaterialStatus s = evaluate_points(to_grid(Fbar), dt, with_tangent);
   if (s == MaterialStatus::ok) err = evaluate_residual(free, P_target, r);
   return s;
-}
-
-void FftRveSolver::Impl::commit_pressures(bool track_increment) {
-  if (!mixed_active) return;
-  for (std::size_t p = 0; p < NP; ++p) {
-    dp_last[p] = track_increment ? float(double(p_trial[p]) - double(p_committed[p])) : 0.0f;
-    p_committed[p] = p_trial[p];
-  }
 }
 
 double FftRveSolver::Impl::stress_scale(const std::array<bool, 9>& free, const Vec9& P_target) const {

@@ -20,10 +20,10 @@ Mat3 FftRveSolver::Impl::evaluated_stress(std::size_t v, const Mat3& F) const {
   if (comp_id[v] < 0) {
     const int x = pure_phase(v);
     mat[x]->evaluate(F, nullptr, nullptr, 0.0, P, nullptr);
-    const double ratio = mixed[x] ? double(dP_ratio[v]) : 0.0;
+    const double ratio = pressures.mixed[x] ? double(pressures.dP_ratio[v]) : 0.0;
     if (ratio != 0.0) {
-      const VolumetricState vs = volumetric_state(K_vol[x], F);
-      P += ratio * (pressure_slope(x, v) - vs.ddU * vs.cof);
+      const detail::VolumetricState vs = detail::volumetric_state(pressures.K[x], F);
+      P += ratio * (pressures.slope(x, v, compact.get()) - vs.ddU * vs.cof);
     }
     return P;
   }

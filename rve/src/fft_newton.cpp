@@ -20,7 +20,7 @@ detail::HotSpots FftRveSolver::Impl::hot_spots(const KVec& r) {
       F -= f * a * comp_normal[comp_id[v]].transpose();
     }
     h.see_matrix_point(v0 + v, mat[0]->limit_margin(F), F.determinant(), composite);
-    if (mixed[0] && !composite) h.see_pressure(v0 + v, double(p_trial[p]));
+    if (pressures.mixed[0] && !composite) h.see_pressure(v0 + v, double(pressures.p_trial[p]));
   };
   if (streamed) {
     displacement_to_real(u);
@@ -53,11 +53,11 @@ std::string FftRveSolver::Impl::voxel_name(std::size_t v) const {
 }
 
 std::string FftRveSolver::Impl::describe(const detail::HotSpots& h) const {
-  if (!dist) return detail::describe_hot_spots(h, grid.n, local_fraction(), mixed[0], Fbar_committed(0, 0));
+  if (!dist) return detail::describe_hot_spots(h, grid.n, local_fraction(), pressures.mixed[0], Fbar_committed(0, 0));
   const std::vector<std::size_t> named{h.v_margin, h.v_J_min, h.v_force, h.v_p};
   const std::vector<double> f = detail::fractions_of(*dist, local_fraction(), N, v0, named);
   auto fraction = [&](std::size_t v) { return f[std::find(named.begin(), named.end(), v) - named.begin()]; };
-  return detail::describe_hot_spots(h, grid.n, detail::FractionOf(fraction), mixed[0], Fbar_committed(0, 0));
+  return detail::describe_hot_spots(h, grid.n, detail::FractionOf(fraction), pressures.mixed[0], Fbar_committed(0, 0));
 }
 
 FftRveSolver::Impl::StepOutcome& FftRveSolver::Impl::fatal(StepOutcome& out, std::string why) {
@@ -111,8 +111,8 @@ FftRveSolver::Impl::StepOutcome FftRveSolver::Impl::step(const MixedControl& con
   bool had_prescribed_step = false;
   // The predictor takes the extrapolated pressure (or, at the committed state, the exact W_V′(J),
   // which is what the linearization there would give); every later iterate takes its pressure from
-  // the linearization at the last accepted state (see pressure_correction()).
-  linearized_pressure = false;
+  // the linearization at the last accepted state (see PressureIteration::correct()).
+  pressures.linearized = false;
   double lm_shift = 0.0;
   bool full_first_step = false;
   bool extrapolated = false;  // the step starts from the extrapolated predictor (else the tangent predictor)
@@ -134,25 +134,25 @@ FftRveSolver::Impl::StepOutcome FftRveSolver::Impl::step(const MixedControl& con
         Fbar = Fbar_committed + ratio * dF_last;
         for (int c = 0; c < 9; ++c)
           if (!free[c]) Fbar(c / 3, c % 3) = target(c / 3, c % 3);
-        predictor_ratio = ratio;
+        pressures.predictor_ratio = ratio;
         extrapolated = evaluate_iterate(dt, true, free, P_target, r, err) == MaterialStatus::ok;
-        predictor_ratio = -1.0;
+        pressures.predictor_ratio = -1.0;
         if (!extrapolated) restore();
         // Its merit (extrapolated pressure) is not comparable with the Newton iterates' (pressure
         // reset to the constraint's linearization), so the first Newton step is taken in full.
-        else if (mixed_active) full_first_step = true;
+        else if (pressures.active) full_first_step = true;
       }
       const MaterialStatus s = extrapolated ? MaterialStatus::ok : evaluate_iterate(dt, true, free, P_target, r, err);
       if (s != MaterialStatus::ok) {
         out.why = std::string("material call failed (") + to_string(s) + ")";
         return out;
       }
-      linearized_pressure = mixed_active;
+      pressures.linearized = pressures.active;
     } else {
       MaterialStatus last = MaterialStatus::ok;
       int trials = 0;
       auto trial = [&](double scale) -> std::optional<double> {
-        if (mixed_active && (trials++ > 0 || opt.relinearize_every_trial)) {
+        if (pressures.active && (trials++ > 0 || opt.relinearize_every_trial)) {
           // The previous trial was rejected and left its linearization (all of it, or part after a
           // material failure): back to the accepted iterate (applied = 0) and its linearization before
           // this trial reads it (FftSolverOptions::relinearize_every_trial: before every trial, a check).
@@ -178,7 +178,7 @@ FftRveSolver::Impl::StepOutcome FftRveSolver::Impl::step(const MixedControl& con
       // merit x_k was accepted with (the previous linearization's) is not comparable and, taken as
       // the reference, let the true residual grow several-fold or held the step to the last trial
       // (BENCHMARKS.md, "FFT Newton iterations: the line search's reference").
-      const double merit_accepted = mixed_active ? true_merit : merit;
+      const double merit_accepted = pressures.active ? true_merit : merit;
       const bool accepted =
           fe::backtracking_line_search(merit_accepted, continuation || had_prescribed_step, trial).accepted;
       if (!accepted) {
@@ -193,7 +193,7 @@ FftRveSolver::Impl::StepOutcome FftRveSolver::Impl::step(const MixedControl& con
         // diagnosis without a residual (RveStops.FftFailedLineSearchIsDiagnosedAtTheAcceptedIterate).
         move_to_accepted(dx, applied, Fbar_prev);
         lam_a_trial = lam_a;
-        if (mixed_active) relinearize_pressures(to_grid(Fbar));
+        if (pressures.active) relinearize_pressures(to_grid(Fbar));
         double accepted_err = 0.0;
         const MaterialStatus again = evaluate_iterate(dt, false, free, P_target, r, accepted_err);
         // Without its residual the hot spots would name a zero force at voxel (0, 0, 0): say so instead.
@@ -383,7 +383,7 @@ void FftRveSolver::Impl::commit(double dt) {
   lam_a = lam_a_trial;
   for (int x = 0; x < 2; ++x)
     if (state_size[x]) hist_old[x].swap(hist_new[x]);
-  commit_pressures(true);
+  pressures.commit(true);
 }
 
 void FftRveSolver::Impl::restore() {

@@ -73,11 +73,11 @@ FftRveSolver::Impl::Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPt
   if (opt.preconditioner == Preconditioner::automatic) opt.preconditioner = automatic_preconditioner(opt, op, G0, G1, K0, K1);
   local_bulk = check_local_bulk(opt, op);
   for (int x = 0; x < 2; ++x) {
-    K_vol[x] = mat[x]->volumetric_modulus();
+    pressures.K[x] = mat[x]->volumetric_modulus();
     const double G = mat[x]->initial_shear_modulus();
-    mixed[x] = opt.scheme == FftScheme::newton_cg && opt.mixed_pressure && K_vol[x] > 0.0 &&
-               K_vol[x] >= opt.mixed_pressure_ratio * G;
-    mixed_active = mixed_active || mixed[x];
+    pressures.mixed[x] = opt.scheme == FftScheme::newton_cg && opt.mixed_pressure && pressures.K[x] > 0.0 &&
+                         pressures.K[x] >= opt.mixed_pressure_ratio * G;
+    pressures.active = pressures.active || pressures.mixed[x];
   }
   // Refuse a grid that cannot fit before anything of its size is allocated.
   detail::refuse_if_too_big(planned_bytes(), "microstructure.grid", grid_text(grid.n));
@@ -118,13 +118,6 @@ FftRveSolver::Impl::Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPt
       for (std::size_t p = 0; p < NP; ++p) mat[x]->init_state(hist_old[x].data() + p * state_size[x]);
       hist_new[x] = hist_old[x];
     }
-  if (mixed_active) {
-    lin_s.assign(NP, 0.0);
-    p_trial.assign(NP, 0.0f);
-    p_committed.assign(NP, 0.0f);
-    dp_last.assign(NP, 0.0f);
-    dP_ratio.assign(NP, 0.0f);
-  }
   // Section grids: the i3 columns of ∇ũ vanish and Div does not read them, so 6 of 9 fields per point
   // are transformed (the voxel loops treat those columns as zero).
   const bool with_stencil = opt.scheme == FftScheme::newton_cg && opt.krylov_operator == KrylovOperator::stencil &&
@@ -171,7 +164,7 @@ FftRveSolver::Impl::Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPt
     }
   }
   // The pressure slopes are stored unless the compact records hold the F they follow from.
-  if (mixed_active && !compact) lin_c.assign(9 * NP, 0.0f);
+  pressures.allocate(NP, !compact);
   if (mean_dilatation) md_coupling.resize(N, nq);
   if (local_bulk) bulk_w.assign(N, 0.0f);
   if (streamed) ensure_stream_scratch();
@@ -250,8 +243,8 @@ detail::StorageSizes FftRveSolver::Impl::storage_sizes() const {
   s.history_values = hist_old[0].size() + hist_old[1].size();
   s.laminate_values = lam_a.size();
   s.composite_voxels = comp_normal.size();
-  s.mixed_points = p_trial.size();
-  s.mixed_slope_points = lin_c.size() / 9;
+  s.mixed_points = pressures.p_trial.size();
+  s.mixed_slope_points = pressures.lin_c.size() / 9;
   s.mean_dilatation_values = md_coupling.memory_bytes() / sizeof(double);
   s.spectral_vectors = spectral_vectors();
   return s;
@@ -283,8 +276,8 @@ detail::StorageSizes FftRveSolver::Impl::planned_sizes() const {
   s.local_bulk_voxels = local_bulk ? N : 0;
   s.local_bulk_in_place = local_bulk && !dist;
   s.history_values = NP * std::size_t(state_size[0] + state_size[1]);
-  s.mixed_points = mixed_active ? NP : 0;
-  s.mixed_slope_points = mixed_active && !(single && compact_tangents_apply()) ? NP : 0;
+  s.mixed_points = pressures.active ? NP : 0;
+  s.mixed_slope_points = pressures.active && !(single && compact_tangents_apply()) ? NP : 0;
   s.mean_dilatation_values = opt.volumetric == VolumetricKinematics::mean_dilatation ? 18 * NP + N : 0;
   s.spectral_vectors = spectral_vectors(newton, with_stencil, with_stencil && opt.preconditioner == Preconditioner::jacobi_green);
   return s;
@@ -382,27 +375,27 @@ FftRveSolver::StateView FftRveSolver::state_view() const {
   v.history_matrix = m.hist_old[0];
   v.history_fiber = m.hist_old[1];
   v.laminate = m.lam_a;
-  if (m.mixed_active) {
-    v.pressure = m.p_committed;
-    v.pressure_increment = m.dp_last;
+  if (m.pressures.active) {
+    v.pressure = m.pressures.p_committed;
+    v.pressure_increment = m.pressures.dp_last;
   }
   return v;
 }
 
 void FftRveSolver::set_mixed_pressures(MixedPressures p) {
   Impl& m = *impl_;
-  const std::size_t want = m.mixed_active ? m.p_committed.size() : 0;
+  const std::size_t want = m.pressures.active ? m.pressures.p_committed.size() : 0;
   if (p.committed.empty() && p.increment.empty()) {
     // None saved (a state written without a mixed phase's pressures, e.g. before its kinematics had
     // one): the next run derives them at its start, as after a warm start.
-    m.pending_pressures.reset();
+    m.pressures.pending.reset();
     return;
   }
   if (p.committed.size() != want || p.increment.size() != want)
     throw InputError("state", "pressures of " + std::to_string(p.committed.size()) + " and " +
                                   std::to_string(p.increment.size()) + " points",
                      "this solver's mixed iteration has " + std::to_string(want));
-  m.pending_pressures = std::move(p);
+  m.pressures.pending = std::move(p);
 }
 
 RveRunResult FftRveSolver::run(const MixedControl& control,
@@ -413,17 +406,17 @@ RveRunResult FftRveSolver::run(const MixedControl& control,
   const auto run_start = Impl::Clock::now();
   RveRunResult result;
   // The start state (t = 0: undeformed), evaluated so that phase sums and the reference are defined.
-  m.linearized_pressure = false;
+  m.pressures.linearized = false;
   if (m.evaluate_start() != MaterialStatus::ok)
     throw ConvergenceError(t_start == 0.0 ? "material call failed at F = I"
                                           : "material call failed at the start state (t = " + format_number(t_start) + ")");
-  m.commit_pressures(false);
-  if (m.pending_pressures) {
+  m.pressures.commit(false);
+  if (m.pressures.pending) {
     // A continued run: the pressures the saved run carried, and the laminate vectors as committed (the
     // evaluation above iterated them once more from the committed ones).
-    m.p_committed = std::move(m.pending_pressures->committed);
-    m.dp_last = std::move(m.pending_pressures->increment);
-    m.pending_pressures.reset();
+    m.pressures.p_committed = std::move(m.pressures.pending->committed);
+    m.pressures.dp_last = std::move(m.pressures.pending->increment);
+    m.pressures.pending.reset();
     m.restore();
   }
   const double angle0 = fiber_angle_deg(Mat3::Identity(), m.a0_load);

@@ -28,6 +28,7 @@
 #include "diagnostics.hpp"
 #include "fft_distribution.hpp"
 #include "fft_mean_dilatation.hpp"
+#include "fft_pressure_iteration.hpp"
 #include "fft_storage.hpp"
 #include "step_driver.hpp"
 
@@ -182,31 +183,8 @@ struct FftRveSolver::Impl {
   // coupling of the Newton operator lives here (fft_mean_dilatation.hpp).
   bool mean_dilatation = false;
   detail::MeanDilatationCoupling md_coupling;
-  // Mixed (pressure) Newton iteration for nearly incompressible phases (see pressure_correction()).
-  bool mixed[2] = {false, false};
-  double K_vol[2] = {0.0, 0.0};
-  bool mixed_active = false;                       // any phase mixed
-  bool linearized_pressure = false;                // evaluate with p from the last linearization
-  double predictor_ratio = -1.0;                   // ≥ 0: predictor, p = p_committed + ratio · dp_last
-  // Per point pressures of the mixed iteration: of the last evaluation, and the committed one with its
-  // last increment, which only place the extrapolated predictor (float). The evaluation's pressure is
-  // read only to commit it (in float) and to diagnose a failure; its deviation q = p − W_V′(J) in the
-  // tangent is passed on in double (store_compact()), so float loses nothing the iteration uses.
-  std::vector<float> p_trial, p_committed, dp_last;
-  std::optional<FftRveSolver::MixedPressures> pending_pressures;  // set_mixed_pressures(): for the next run's start
-  // One linearization per point, p(F) = s + c:F with c = W_V″(J_k) cof F_k (see pressure_slope()) and
-  // s (double) taken with that c, so that p(F_k) = W_V′(J_k) to double round-off and only the slope is
-  // perturbed (≈ 6e-8 relative). pressure_correction() reads it at point p and overwrites it there with
-  // the linearization at the evaluated F, so it holds that of the last evaluation: of the last accepted
-  // iterate once the line search has accepted its trial (the accepted trial is the last one evaluated),
-  // and relinearize_pressures() puts back the accepted one before a trial follows a rejected one (or a
-  // material failure that stopped a pass half way). The slopes c: from the F of the compact tangent
-  // record (float F, written at every evaluation: 36 B per point less), else stored (lin_c, 9 floats).
-  std::vector<float> lin_c;
-  std::vector<double> lin_s;
-  // Per point: P_full − P̂ = −(p − W_V′(J)) cof F, a correction of the residual, is parallel to the slope
-  // c of the same evaluation: stored as the factor (1 float instead of 9).
-  std::vector<float> dP_ratio;
+  // Mixed (u, p) Newton iteration of the nearly incompressible phases (fft_pressure_iteration.hpp).
+  detail::PressureIteration pressures;
   double achieved_vf = 0.0;
 
   // Unknowns (current and committed).
@@ -312,8 +290,8 @@ struct FftRveSolver::Impl {
   /// (with mean dilatation it is K_q of the voxel's energy, not a law's linearization). With
   /// single-precision stencil tangents.
   bool compact_tangents_apply() const;
-  /// Compact record of pure point p of phase x at F (after its evaluation and pressure_correction()): the
-  /// mixed iteration's q ∂cof/∂F, q = p − W_V′(J) (pressure_correction()'s value), is part of the tangent.
+  /// Compact record of pure point p of phase x at F (after its evaluation and PressureIteration::correct()):
+  /// the mixed iteration's q ∂cof/∂F, q = p − W_V′(J) (correct()'s value), is part of the tangent.
   void store_compact(int x, std::size_t p, const Mat3& F, double q);
 
   Mat3 to_grid(const Mat3& X_load) const { return R.transpose() * X_load * R; }
@@ -326,50 +304,15 @@ struct FftRveSolver::Impl {
   MaterialStatus laminate(const Mat3& F, double f, const Vec3& n, Vec3& a, std::size_t p, double dt, Mat3& P,
                           Mat9* A, Mat3 Px[2], Mat3 Fx[2]) const;
 
-  /// Mixed (u, p) Newton iteration at a pure point of a nearly incompressible phase x. The law's
-  /// volumetric stress W_V′(J) cof F is replaced by p cof F, with p the pressure of the last accepted
-  /// iterate F_k advanced by the linearized constraint:
-  ///   p(F) = W_V′(J_k) + W_V″(J_k) cof F_k : (F − F_k)  (stored as p = s + c:F).
-  /// Condensing δp of the mixed Newton system gives the tangent A + (p − W_V′(J)) ∂cof/∂F (symmetric)
-  /// and the right-hand side −Div P_full, P_full the unmodified stress; the merit of the line search is
-  /// Div P̂ with the stress P̂ returned here. A finite rotation θ then no longer produces a K θ² pressure
-  /// spike that stalls the line search (K/G = 1.2e5 for ecoflex). At convergence p = W_V′(J), P̂ = P_full.
-  /// Returns q = p − W_V′(J).
-  double pressure_correction(int x, std::size_t p, const Mat3& F, Mat3& P, Mat9* A);
   /// A composite point's tangent for FftSolverOptions::composite_tangent = projected: left as it is when
   /// its symmetric part is positive definite (a Cholesky test, no eigen-decomposition), else that
   /// symmetric part with its negative eigenvalues set to 0. Applied where the point is evaluated, so the
   /// stored tangent and the mean tangent that chooses the reference medium are the same projected one.
   static void project_semidefinite(Mat9& A);
-  /// A += w J ∂cof F/∂F, from ∂cof_iJ/∂F_kL = (cof_iJ cof_kL − cof_iL cof_kJ) / J.
-  static void add_cofactor_derivative(double w, const Mat3& cof, Mat9& A);
-  /// J, cof F, W_V′(J) and W_V″(J) of the volumetric energy W_V = K/2 ((J² − 1)/2 − ln J) at F.
-  struct VolumetricState {
-    double J, dU, ddU;
-    Mat3 cof;
-  };
-  static VolumetricState volumetric_state(double K, const Mat3& F) {
-    VolumetricState s;
-    s.J = F.determinant();
-    s.cof = s.J * F.inverse().transpose();
-    s.dU = volumetric_dU(K, s.J);
-    s.ddU = volumetric_ddU(K, s.J);
-    return s;
-  }
-  static double volumetric_dU(double K, double J) { return 0.5 * K * (J - 1.0 / J); }
-  static double volumetric_ddU(double K, double J) { return 0.5 * K * (1.0 + 1.0 / (J * J)); }
-  /// The slope c of the linearization held at pure point p of mixed phase x (that of the last
-  /// evaluation at p, see lin_s): stored (lin_c), or W_V″(J) cof F recomputed from the float F of the
-  /// compact record, which is what linearize_pressure() took it from.
-  Mat3 pressure_slope(int x, std::size_t p) const;
-  /// The linearization p(F') = s + c:F' at F (volumetric state vs) into point p: c rounded to float (the
-  /// stored slope, or the compact record's F it is recomputed from), s with that c, so that
-  /// p(F) = W_V′(J) to double round-off.
-  void linearize_pressure(int x, std::size_t p, const Mat3& F, const VolumetricState& vs);
   /// Puts back the linearization of the last accepted iterate (ũ, F̄ in the grid frame) after a rejected
   /// line-search trial overwrote it (all or, after a material failure, part of it): recomputed at every
-  /// pure point of a mixed phase as pressure_correction() computed it there, not stored a second time
-  /// (44 B per point).
+  /// pure point of a mixed phase as PressureIteration::correct() computed it there, not stored a second
+  /// time (44 B per point).
   void relinearize_pressures(const Mat3& Fbar_grid);
 
   /// Packed symmetric tangent of point p into `tangent` (layout: see the constructor).
@@ -390,26 +333,6 @@ struct FftRveSolver::Impl {
   /// into the real buffer, K_q into the tangent store and the voxel coupling (fft_mean_dilatation.hpp).
   void finish_mean_dilatation(std::size_t v, const detail::MeanDilatationVoxel& md, detail::MeanDilatationResponse& out,
                               bool with_tangent, PassSums& local);
-
-  /// The mixed (u, p) iteration of a mean-dilatation voxel v of mixed phase x: its volumetric energy is
-  /// W_V(J̄) (fft_mean_dilatation.hpp), so it carries one pressure p, linearized as at a pure point of the
-  /// pointwise kinematics (pressure_correction()) but in J̄ = Σ_q w_q J_q:
-  ///   p(F) = W_V′(J̄_k) + W_V″(J̄_k) Σ_q w_q cof F_q,k : (F_q − F_q,k),
-  /// held per point as the slope c_q = W_V″(J̄_k) cof F_q,k (lin_c) and per voxel as s (lin_s at the
-  /// voxel's first point). With q = p − W_V′(J̄), the stress of point q gains q cof F_q (∂J̄/∂F_q = w_q
-  /// cof F_q) and its tangent K_q the geometric term q ∂cof F_q/∂F_q (∂²J̄ is block-diagonal in the
-  /// points): the voxel's bulk stiffness W_V″ ∂J̄ ⊗ ∂J̄ stays, the pressure W_V′(J̄) ∂²J̄ of a spike in J̄
-  /// is replaced by the linearized one. dP_ratio = −q / W_V″ at every point takes P̂ back to the true
-  /// stress in evaluate_residual().
-  void voxel_pressure_correction(int x, std::size_t v, const detail::MeanDilatationVoxel& md,
-                                 detail::MeanDilatationResponse& out, bool with_tangent);
-  static void voxel_cofactors(const detail::MeanDilatationVoxel& md, Mat3* cof) {
-    for (int q = 0; q < md.nq; ++q) cof[q] = md.J[q] * md.F[q].inverse().transpose();
-  }
-  /// The linearization of voxel v's pressure at its current F_q (see voxel_pressure_correction()): the
-  /// slopes rounded to float, s with those slopes, so that p(F_k) = W_V′(J̄_k) to double round-off.
-  /// The slopes are always stored (lin_c): compact tangent records are off with mean dilatation.
-  void linearize_voxel_pressure(int x, std::size_t v, const detail::MeanDilatationVoxel& md, const Mat3* cof);
 
   /// ∇ũ into the real buffer. Stencil operator: block (q, i) by block through fft3 (fft has no spectrum).
   void gradient_to_real(const std::vector<Complex>& uh);
@@ -473,8 +396,6 @@ struct FftRveSolver::Impl {
   /// the residual r and its relative norm `err` (merit set). Streamed or through the 9-field buffer.
   MaterialStatus evaluate_iterate(double dt, bool with_tangent, const std::array<bool, 9>& free, const Vec9& P_target,
                                   KVec& r, double& err);
-
-  void commit_pressures(bool track_increment);
 
   /// Stress scale of the relative residual: the macro stress on prescribed-F components and the
   /// stress targets (not the free components, whose error is part of the residual), floored.
@@ -656,7 +577,7 @@ struct FftRveSolver::Impl {
   /// P of the last evaluation at voxel v (one point, elastic phases: the streamed evaluation), computed
   /// again at its F: the law, or the laminate from its converged jump vector; at pure points of a mixed
   /// phase plus the residual's P_full − P_law = ratio (slope − W_V″ cof F), from the evaluation's
-  /// linearization (pressure_correction(), evaluate_residual()).
+  /// linearization (PressureIteration::correct(), evaluate_residual()).
   Mat3 evaluated_stress(std::size_t v, const Mat3& F) const;
 
   /// Fields of the converged state (P still in the real buffer, ũ current). Destroys the buffer.
