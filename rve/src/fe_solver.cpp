@@ -17,6 +17,7 @@
 #include "softhom/fe/tet10.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/interrupt.hpp"
+#include "softhom/materials/volumetric.hpp"
 #include "step_driver.hpp"
 
 namespace softhom::rve {
@@ -150,48 +151,14 @@ constexpr int kMaxInternal = 9;
 using VecI = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxInternal, 1>;
 using MatI = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxInternal, kMaxInternal>;
 
-/// Sums over one evaluation pass (per thread, then reduced).
-struct PassSums {
-  Mat3 P = Mat3::Zero();  // Σ w P (grid)
-  Mat3 phase_P[2] = {Mat3::Zero(), Mat3::Zero()};
-  Mat3 phase_F[2] = {Mat3::Zero(), Mat3::Zero()};
-  Mat3 phase_PFt[2] = {Mat3::Zero(), Mat3::Zero()};
-  double phase_J[2] = {0.0, 0.0};
-  double phase_w[2] = {0.0, 0.0};
-  // Smallest Material::limit_margin of each phase over its points and the element where it is
-  // (checked on converged states: a phase at its limit is fatal).
-  double margin[2] = {1.0, 1.0};
-  int e_margin[2] = {0, 0};
-  void see_margin(int x, double m, int e) {
-    if (m < margin[x]) {
-      margin[x] = m;
-      e_margin[x] = e;
-    }
-  }
+/// Sums over one evaluation pass (per thread, then reduced): the phase sums and Σ w P (grid).
+struct PassSums : detail::PhaseSums {
+  Mat3 P = Mat3::Zero();
   void add(const PassSums& o) {
+    add_phases(o);
     P += o.P;
-    for (int x = 0; x < 2; ++x) see_margin(x, o.margin[x], o.e_margin[x]);
-    for (int x = 0; x < 2; ++x) {
-      phase_P[x] += o.phase_P[x];
-      phase_F[x] += o.phase_F[x];
-      phase_PFt[x] += o.phase_PFt[x];
-      phase_J[x] += o.phase_J[x];
-      phase_w[x] += o.phase_w[x];
-    }
   }
 };
-
-/// ∂cof(F)/∂F (9x9): ∂cof_iJ/∂F_kL = (cof_iJ cof_kL − cof_iL cof_kJ) / J.
-void add_dcof(Mat9& A, double s, const Mat3& cof, double J) {
-  const double w = s / J;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k)
-        for (int l = 0; l < 3; ++l) A(3 * i + j, 3 * k + l) += w * (cof(i, j) * cof(k, l) - cof(i, l) * cof(k, j));
-}
-
-double vol_d1(double K, double J) { return 0.5 * K * (J - 1.0 / J); }
-double vol_d2(double K, double J) { return 0.5 * K * (1.0 + 1.0 / (J * J)); }
 
 }  // namespace
 
@@ -491,11 +458,11 @@ struct Model {
         }
       if (mx) {
         // Replace the law's volumetric stress W_V′(J) cof F by the interpolated pressure p cof F.
-        const double dq = p_q - vol_d1(Kv, J);
+        const double dq = p_q - volumetric_dU(Kv, J);
         P += dq * cof;
         const Vec9 c9 = flatten(cof);
-        A.noalias() -= vol_d2(Kv, J) * c9 * c9.transpose();
-        add_dcof(A, dq, cof, J);
+        A.noalias() -= volumetric_d2U(Kv, J) * c9 * c9.transpose();
+        add_cofactor_derivative(dq / J, cof, A);
         if (!(th_q > 0.0)) return MaterialStatus::inverted;
       }
       if (!P.allFinite()) return MaterialStatus::not_finite;
@@ -546,7 +513,7 @@ struct Model {
     }
     VecD gcol = VecD::Zero();
     add_BtX(dN, c9, wq, gcol);
-    const double U1 = vol_d1(Kv, th_q), U2 = vol_d2(Kv, th_q);
+    const double U1 = volumetric_dU(Kv, th_q), U2 = volumetric_d2U(Kv, th_q);
     for (int j = 0; j < np; ++j) {
       w.Gq.col(j) += psi[j] * gcol;
       for (int i = 0; i < nbe; ++i) w.Gb(i, j) += wq * psi[j] * (gb0 * cof(i, 0) + gb1 * cof(i, 1));
@@ -681,12 +648,8 @@ struct Model {
         const VecD reff = mixed[x] ? condense_element(e, with_tangent, w, local_mismatch, local_bubble) : VecD(w.re);
         scatter_element(e, w, reff, with_tangent, any_prescribed_step, dFp);
         local.P += w.Pe_sum;
-        local.phase_P[x] += w.Pe_sum;
-        local.phase_F[x] += w.Fe_sum;
-        local.phase_PFt[x] += w.PFt_sum;
-        local.phase_J[x] += w.Je_sum;
-        local.phase_w[x] += geo[e].area;
-        local.see_margin(x, w.margin, e);
+        local.add_phase(x, geo[e].area, w.Pe_sum, w.Fe_sum, w.PFt_sum, w.Je_sum);
+        local.see_margin(x, w.margin, std::size_t(e));
       }
 #pragma omp critical
       {
@@ -788,8 +751,8 @@ struct Model {
 
   /// A converged sub-step: ok unless a phase is at its material limit there (fatal).
   StepOutcome& converged(StepOutcome& out) const {
-    const std::string where[2] = {"element " + std::to_string(sums.e_margin[0]),
-                                  "element " + std::to_string(sums.e_margin[1])};
+    const std::string where[2] = {"element " + std::to_string(sums.margin_at[0]),
+                                  "element " + std::to_string(sums.margin_at[1])};
     out.why = detail::phase_limit_reached(sums.margin, where, Fbar);
     out.fatal = !out.why.empty();
     out.ok = !out.fatal;
@@ -967,7 +930,7 @@ struct Model {
         const std::vector<double>& h = dt > 0.0 ? hist_prev : hist_old;
         mat[x]->evaluate(F, ss ? h.data() + hist_offset[e] + q * ss : nullptr, ss ? hn : nullptr, dt, P, nullptr);
         const double J = F.determinant();
-        if (mixed[x]) P += (p_q - vol_d1(K_vol[x], J)) * J * F.inverse().transpose();
+        if (mixed[x]) P += (p_q - volumetric_dU(K_vol[x], J)) * J * F.inverse().transpose();
         const double w = g.w[q] / g.area;
         Fm += w * F;
         Pm += w * P;

@@ -116,7 +116,7 @@ void reduce_pass_sums(Sums& s, const fft::SlabDecomposition& slabs) {
     else
       for (int i = 0; i < int(m.size()); ++i) m.data()[i] = b[k++];
   });
-  for (int x = 0; x < 2; ++x) slabs.min_location(s.margin[x], s.v_margin[x]);
+  for (int x = 0; x < 2; ++x) slabs.min_location(s.margin[x], s.margin_at[x]);
 }
 
 /// The hot spots of all ranks (each computed on its slab with global voxel indices; force_rms over its

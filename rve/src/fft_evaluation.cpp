@@ -110,11 +110,7 @@ MaterialStatus FftRveSolver::Impl::evaluate_point(std::size_t v, int q, const Ma
       local.phase_A_w[x] += w;
     }
     if (s == MaterialStatus::ok) {
-      local.phase_P[x] += w * P;
-      local.phase_F[x] += w * F;
-      local.phase_PFt[x] += w * P * F.transpose();
-      local.phase_J[x] += w * F.determinant();
-      local.phase_w[x] += w;
+      local.add_point(x, w, P, F);
       local.see_margin(x, mat[x]->limit_margin(F), v0 + v);
     }
   } else {
@@ -142,12 +138,7 @@ MaterialStatus FftRveSolver::Impl::evaluate_point(std::size_t v, int q, const Ma
     if (s == MaterialStatus::ok && A && opt.composite_tangent == CompositeTangent::projected) project_semidefinite(*A);
     if (s == MaterialStatus::ok)
       for (int x = 0; x < 2; ++x) {
-        const double wx = w * (x == 1 ? f : 1.0 - f);
-        local.phase_P[x] += wx * Px[x];
-        local.phase_F[x] += wx * Fx[x];
-        local.phase_PFt[x] += wx * Px[x] * Fx[x].transpose();
-        local.phase_J[x] += wx * Fx[x].determinant();
-        local.phase_w[x] += wx;
+        local.add_point(x, w * (x == 1 ? f : 1.0 - f), Px[x], Fx[x]);
         local.see_margin(x, mat[x]->limit_margin(Fx[x]), v0 + v);
       }
   }

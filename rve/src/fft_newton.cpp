@@ -67,7 +67,7 @@ FftRveSolver::Impl::StepOutcome& FftRveSolver::Impl::fatal(StepOutcome& out, std
 }
 
 FftRveSolver::Impl::StepOutcome& FftRveSolver::Impl::converged(StepOutcome& out) const {
-  const std::string where[2] = {voxel_name(sums.v_margin[0]), voxel_name(sums.v_margin[1])};
+  const std::string where[2] = {voxel_name(sums.margin_at[0]), voxel_name(sums.margin_at[1])};
   if (std::string why = detail::phase_limit_reached(sums.margin, where, Fbar); !why.empty()) return fatal(out, why);
   out.ok = true;
   return out;

@@ -8,33 +8,25 @@
 #include <vector>
 
 #include "softhom/materials/tensor.hpp"
+#include "softhom/materials/volumetric.hpp"
 #include "softhom/rve/fft_solver.hpp"
 #include "compact_tangents.hpp"
 #include "fft_mean_dilatation.hpp"
 
 namespace softhom::rve::detail {
 
-/// J, cof F, W_V′(J) and W_V″(J) of the volumetric energy W_V = K/2 ((J² − 1)/2 − ln J) at F.
+/// J, cof F, W_V′(J) and W_V″(J) of the volumetric energy (softhom/materials/volumetric.hpp) at F.
 struct VolumetricState {
   double J, dU, ddU;
   Mat3 cof;
 };
-inline double volumetric_dU(double K, double J) { return 0.5 * K * (J - 1.0 / J); }
-inline double volumetric_ddU(double K, double J) { return 0.5 * K * (1.0 + 1.0 / (J * J)); }
 inline VolumetricState volumetric_state(double K, const Mat3& F) {
   VolumetricState s;
   s.J = F.determinant();
   s.cof = s.J * F.inverse().transpose();
   s.dU = volumetric_dU(K, s.J);
-  s.ddU = volumetric_ddU(K, s.J);
+  s.ddU = volumetric_d2U(K, s.J);
   return s;
-}
-/// A += w J ∂cof F/∂F, from ∂cof_iJ/∂F_kL = (cof_iJ cof_kL − cof_iL cof_kJ) / J.
-inline void add_cofactor_derivative(double w, const Mat3& cof, Mat9& A) {
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k)
-        for (int l = 0; l < 3; ++l) A(3 * i + j, 3 * k + l) += w * (cof(i, j) * cof(k, l) - cof(i, l) * cof(k, j));
 }
 inline void cofactors(const MeanDilatationVoxel& md, Mat3* cof) {
   for (int q = 0; q < md.nq; ++q) cof[q] = md.J[q] * md.F[q].inverse().transpose();
@@ -150,7 +142,7 @@ struct PressureIteration {
   /// The slopes are always stored (lin_c): compact tangent records are off with mean dilatation.
   void linearize_voxel(int x, std::size_t v, const MeanDilatationVoxel& md, const Mat3* cof) {
     const std::size_t p0 = v * std::size_t(md.nq);
-    const double ddU = volumetric_ddU(K[x], md.J_mean);
+    const double ddU = volumetric_d2U(K[x], md.J_mean);
     double s0 = volumetric_dU(K[x], md.J_mean);
     for (int q = 0; q < md.nq; ++q) {
       float* l = &lin_c[9 * (p0 + std::size_t(q))];
@@ -174,7 +166,7 @@ struct PressureIteration {
   /// stress in the residual.
   void correct_voxel(int x, std::size_t v, const MeanDilatationVoxel& md, MeanDilatationResponse& out, bool with_tangent) {
     const std::size_t p0 = v * std::size_t(md.nq);
-    const double dU = volumetric_dU(K[x], md.J_mean), ddU = volumetric_ddU(K[x], md.J_mean);
+    const double dU = volumetric_dU(K[x], md.J_mean), ddU = volumetric_d2U(K[x], md.J_mean);
     double pr = dU;
     if (predictor_ratio >= 0.0) {
       pr = double(p_committed[p0]) + predictor_ratio * double(dp_last[p0]);

@@ -75,42 +75,20 @@ inline void symmetric_product(const double* __restrict S, const double* __restri
   for (int a = 0; a < 9; ++a) y[a] = out[a];
 }
 
-/// Running sums of one evaluation pass (per thread, then reduced).
-struct PassSums {
+/// Running sums of one evaluation pass (per thread, then reduced): the phase sums of both engines, the
+/// volume means of P and of the tangent, and the tangent's mean over each phase's pure voxels.
+struct PassSums : PhaseSums {
   Vec9 P = Vec9::Zero();
   Mat9 A = Mat9::Zero();
   Mat9 phase_A[2] = {Mat9::Zero(), Mat9::Zero()};  // Σ w A over the pure voxels of each phase
   double phase_A_w[2] = {0.0, 0.0};
-  // per phase (0 matrix, 1 fiber): Σ w P, Σ w F, Σ w P Fᵀ (= J σ), Σ w J, Σ w
-  Mat3 phase_P[2] = {Mat3::Zero(), Mat3::Zero()};
-  Mat3 phase_F[2] = {Mat3::Zero(), Mat3::Zero()};
-  Mat3 phase_PFt[2] = {Mat3::Zero(), Mat3::Zero()};
-  double phase_J[2] = {0.0, 0.0};
-  double phase_w[2] = {0.0, 0.0};
-  // Smallest Material::limit_margin of each phase over its points (composite points: its laminate
-  // side) and the voxel where it is; checked on converged states (a phase at its limit is fatal).
-  double margin[2] = {1.0, 1.0};
-  std::size_t v_margin[2] = {0, 0};
-  void see_margin(int x, double m, std::size_t v) {
-    if (m < margin[x]) {
-      margin[x] = m;
-      v_margin[x] = v;
-    }
-  }
   void add(const PassSums& o) {
+    add_phases(o);
     P += o.P;
-    for (int x = 0; x < 2; ++x) see_margin(x, o.margin[x], o.v_margin[x]);
     A += o.A;
     for (int x = 0; x < 2; ++x) {
       phase_A[x] += o.phase_A[x];
       phase_A_w[x] += o.phase_A_w[x];
-    }
-    for (int x = 0; x < 2; ++x) {
-      phase_P[x] += o.phase_P[x];
-      phase_F[x] += o.phase_F[x];
-      phase_PFt[x] += o.phase_PFt[x];
-      phase_J[x] += o.phase_J[x];
-      phase_w[x] += o.phase_w[x];
     }
   }
 };

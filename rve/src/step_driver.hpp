@@ -23,6 +23,44 @@
 
 namespace softhom::rve::detail {
 
+/// The per-phase sums of an evaluation pass that the output row and the limit check read, the same in both
+/// engines (per thread, then reduced): per phase (0 matrix, 1 fiber; grid frame) Σ w P, Σ w F, Σ w P Fᵀ
+/// (= J σ), Σ w J and Σ w, and the smallest Material::limit_margin of each phase with where it is (a
+/// voxel or an element; checked on converged states: a phase at its limit is fatal).
+struct PhaseSums {
+  Mat3 phase_P[2] = {Mat3::Zero(), Mat3::Zero()};
+  Mat3 phase_F[2] = {Mat3::Zero(), Mat3::Zero()};
+  Mat3 phase_PFt[2] = {Mat3::Zero(), Mat3::Zero()};
+  double phase_J[2] = {0.0, 0.0};
+  double phase_w[2] = {0.0, 0.0};
+  double margin[2] = {1.0, 1.0};
+  std::size_t margin_at[2] = {0, 0};
+  /// Point (or element) sums of phase x: weight w, Σ w P, Σ w F, Σ w P Fᵀ, Σ w J.
+  void add_phase(int x, double w, const Mat3& wP, const Mat3& wF, const Mat3& wPFt, double wJ) {
+    phase_P[x] += wP;
+    phase_F[x] += wF;
+    phase_PFt[x] += wPFt;
+    phase_J[x] += wJ;
+    phase_w[x] += w;
+  }
+  /// A point of phase x with weight w at F, P.
+  void add_point(int x, double w, const Mat3& P, const Mat3& F) {
+    add_phase(x, w, w * P, w * F, w * P * F.transpose(), w * F.determinant());
+  }
+  void see_margin(int x, double m, std::size_t at) {
+    if (m < margin[x]) {
+      margin[x] = m;
+      margin_at[x] = at;
+    }
+  }
+  void add_phases(const PhaseSums& o) {
+    for (int x = 0; x < 2; ++x) {
+      see_margin(x, o.margin[x], o.margin_at[x]);
+      add_phase(x, o.phase_w[x], o.phase_P[x], o.phase_F[x], o.phase_PFt[x], o.phase_J[x]);
+    }
+  }
+};
+
 /// Output row of a converged state: macro F and P (load frame) and the phase means of an engine's
 /// pass sums (phase_w, phase_P, phase_F, phase_PFt, phase_J in the grid frame, rotated by `to_load`);
 /// the fiber angle is that of the mean fiber-phase F applied to a0 (spec §7).

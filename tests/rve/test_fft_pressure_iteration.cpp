@@ -31,6 +31,15 @@ PressureIteration one_point_iteration(bool store_slopes) {
   return it;
 }
 
+// An iteration whose point was evaluated (and so linearized) at Fk, reading its linearization next.
+PressureIteration linearized_at(const Mat3& Fk) {
+  PressureIteration it = one_point_iteration(true);
+  Mat3 P = Mat3::Zero();
+  it.correct(0, 0, Fk, P, nullptr, nullptr);
+  it.linearized = true;
+  return it;
+}
+
 // Evaluated where it was linearized, the carried pressure is the law's W_V′(J): q vanishes to double
 // round-off although the slope is held in float (s is taken with the rounded slope). The bound: 1e-12
 // of W_V″ |F| (≈ 2.6e3 MPa here), far below the float slope's 6e-8.
@@ -56,12 +65,9 @@ TEST(FftPressureIteration, LinearizedPressureIsTheLawsAtItsPoint) {
 // Away from its point the pressure follows the linearized constraint p = W_V′(J_k) + W_V″(J_k) cof F_k :
 // (F − F_k) (the slope in float: 1e-6 relative), and P̂ = P + q cof F.
 TEST(FftPressureIteration, PressureFollowsTheLinearizedConstraint) {
-  PressureIteration it = one_point_iteration(true);
   const Mat3 Fk = deformation(1.0), F = deformation(1.3);
+  PressureIteration it = linearized_at(Fk);
   Mat3 P = Mat3::Zero();
-  it.correct(0, 0, Fk, P, nullptr, nullptr);
-  it.linearized = true;
-  P.setZero();
   const double q = it.correct(0, 0, F, P, nullptr, nullptr);
   const detail::VolumetricState vk = detail::volumetric_state(kBulk, Fk), v = detail::volumetric_state(kBulk, F);
   const double p_expected = vk.dU + vk.ddU * ddot(vk.cof, F - Fk);
@@ -73,13 +79,10 @@ TEST(FftPressureIteration, PressureFollowsTheLinearizedConstraint) {
 // The tangent's geometric term q ∂cof F/∂F against central differences of q cof F at fixed q
 // (step 1e-6: truncation ~1e-12 of cof's second derivative, round-off ~1e-10; bound 1e-7 of |q|).
 TEST(FftPressureIteration, GeometricTangentIsTheCofactorDerivative) {
-  PressureIteration it = one_point_iteration(true);
-  const Mat3 Fk = deformation(1.0), F = deformation(1.5);
-  Mat3 P = Mat3::Zero();
-  it.correct(0, 0, Fk, P, nullptr, nullptr);
-  it.linearized = true;
+  const Mat3 F = deformation(1.5);
+  PressureIteration it = linearized_at(deformation(1.0));
   Mat9 A = Mat9::Zero();
-  P.setZero();
+  Mat3 P = Mat3::Zero();
   const double q = it.correct(0, 0, F, P, &A, nullptr);
   ASSERT_GT(std::abs(q), 0.1);
   const auto cof = [](const Mat3& G) { return Mat3(G.determinant() * G.inverse().transpose()); };

@@ -14,6 +14,7 @@
 #include <Eigen/Geometry>
 
 #include "softhom/materials/material.hpp"
+#include "softhom/materials/volumetric.hpp"
 
 namespace softhom::fe {
 
@@ -68,8 +69,6 @@ struct MixedVolume {
   double shift_u = 0.0;  ///< out: r (returned) − r_u = shift_u · d, r_u = r_rest + V p d (u-row of the 3-field residual)
   Vec24 d;               ///< out: ∂θ_e/∂u
 };
-inline double volumetric_dU(double K, double J) { return 0.5 * K * (J - 1.0 / J); }
-inline double volumetric_d2U(double K, double J) { return 0.5 * K * (1.0 + 1.0 / (J * J)); }
 
 /// Internal force r_e (24, node-major: 3a + i) and, when K is non-null, the consistent tangent
 /// ∂r_e/∂u_e. With `mixed` (F-bar only) r and K are those of the condensed three-field iteration. History: `state_old`/`state_new` hold 8 × state_size doubles (Gauss-point major) or

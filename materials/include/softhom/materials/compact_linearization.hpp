@@ -13,6 +13,7 @@
 #include <cmath>
 
 #include "softhom/materials/tensor.hpp"
+#include "softhom/materials/volumetric.hpp"
 
 namespace softhom {
 
@@ -53,7 +54,7 @@ inline CompactLinearization compact_from_derivatives(double W1, double WJ, doubl
 ///   W_J = −(2/3) Ψ′ Ī1/J + W_V′, W_JJ = (4/9) Ψ″ Ī1²/J² + (10/9) Ψ′ Ī1/J² + W_V″.
 inline CompactLinearization isochoric_compact_linearization(double W1, double W11, double I1b, double J, double K) {
   const double j = 1.0 / std::cbrt(J * J);
-  const double dU = 0.5 * K * (J - 1.0 / J), ddU = 0.5 * K * (1.0 + 1.0 / (J * J));
+  const double dU = volumetric_dU(K, J), ddU = volumetric_d2U(K, J);
   const double WJ = -2.0 / 3.0 * W1 * I1b / J + dU;
   const double WJJ = (4.0 / 9.0 * W11 * I1b * I1b + 10.0 / 9.0 * W1 * I1b) / (J * J) + ddU;
   return compact_from_derivatives(W1 * j, WJ, W11 * j * j, -2.0 / 3.0 * j / J * (W11 * I1b + W1), WJJ, J);

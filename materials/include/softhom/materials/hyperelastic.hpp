@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "softhom/materials/material.hpp"
+#include "softhom/materials/volumetric.hpp"
 
 namespace softhom {
 
@@ -44,13 +45,6 @@ using ElasticLawPtr = std::shared_ptr<const ElasticLaw>;
 
 /// Common pre-checks of every material call: finite entries and J > 0.
 MaterialStatus check_deformation(const Mat3& F, double& J);
-
-/// Volumetric energy shared by every law (spec §2): W_V(J) = (K/4)(J² − 1 − 2 ln J), written in
-/// δ = J − 1 so that its absolute rounding error is ε K δ instead of ε K (matters for K/G ~ 10⁵).
-inline double volumetric_energy(double K, double J) {
-  const double d = J - 1.0;
-  return 0.25 * K * (d * (2.0 + d) - 2.0 * std::log1p(d));
-}
 
 /// Coefficients contributed by an isochoric invariant Ī = J^(-2/3) (X:C), with X = I (Ī1) or X = M_f
 /// (Ī4), to a law with dW/dĪ = W1 and d²W/dĪ² = W11 (Y = ∂Ī/∂C = J^(-2/3)(X − (X:C)/3 C⁻¹)):
