@@ -5,14 +5,15 @@
 //   bench_rve bulk [n ...]         matrix K/G 10 … 1.2e5 at contrast 230, λ = 1.5 in 8 steps, mixed (u,p)
 //                                  Newton iteration on and off
 //   bench_rve fftcost [disc ...] [grid ...] [threads=1|2 ...] [operator=fourier|stencil ...] [repeat=N] [compact=off]
-//                    [precision=double|single ...] [fftw_threads=N]
+//                    [precision=double|single ...] [fftw_threads=N] [fftw=estimate|measure|patient]
 //                                  cost of one Krylov iteration (time in the linear solves / iterations)
 //                                  vs a 9-field FFT round trip (ratio-9) and vs the round trip of the fields
 //                                  the operator transforms (ratio-own), memory per voxel, 1 and 2 threads and
 //                                  both Krylov operators in one run. grid: "256" (256² section) or "64x64x64";
 //                                  disc: rotated|hex|spectral (default all); repeat: best of N measurements;
 //                                  precision: tangent storage of the stencil operator (default double);
-//                                  fftw_threads: FFTW plan threads of the solver (default = OpenMP threads)
+//                                  fftw_threads: FFTW plan threads of the solver (default = OpenMP threads);
+//                                  fftw: planning rigor of the solver's and the timed transforms (default measure)
 //   bench_rve fftpasses [grid ...] [threads=1|2 ...] [calls=N]
 //                                  the passes of one stencil Krylov iteration (rotated) timed alone, min over
 //                                  N calls each (robust on a loaded box): gradient + tangent product + store
@@ -416,6 +417,8 @@ int main(int argc, char** argv) {
     std::vector<KrylovOperator> ops;
     std::vector<TangentPrecision> precisions;
     int repeats = 1, fftw_threads = 0;
+    fft::PlanRigor rigor = fft::PlanRigor::measure;  // "fftw=estimate|measure|patient"
+    const char* rigor_text = "measure";
     Preconditioner preconditioner = Preconditioner::green;  // "preconditioner=jacobi-green" | "=green-local-bulk": the others
     bool compact = true;  // "compact=off": the stored 9×9 float tangents instead of compact ones
     bool stream = true;   // "stream=off": the stored 9-field evaluation instead of the streamed one
@@ -432,6 +435,12 @@ int main(int argc, char** argv) {
         thread_counts.push_back(std::atoi(argv[i] + 8));
       else if (std::strncmp(argv[i], "fftw_threads=", 13) == 0)
         fftw_threads = std::max(1, std::atoi(argv[i] + 13));
+      else if (std::strncmp(argv[i], "fftw=", 5) == 0) {
+        rigor = std::strcmp(argv[i] + 5, "estimate") == 0  ? fft::PlanRigor::estimate
+                : std::strcmp(argv[i] + 5, "patient") == 0 ? fft::PlanRigor::patient
+                                                           : fft::PlanRigor::measure;
+        rigor_text = rigor == fft::PlanRigor::estimate ? "estimate" : rigor == fft::PlanRigor::patient ? "patient" : "measure";
+      }
       else if (std::strncmp(argv[i], "repeat=", 7) == 0)
         repeats = std::max(1, std::atoi(argv[i] + 7));
       else if (std::strcmp(argv[i], "operator=fourier") == 0)
@@ -465,7 +474,7 @@ int main(int argc, char** argv) {
           const int reps = 10;
           // FFT round trip (forward + backward) of `fields` fields, wall and CPU ms, best of 3 × reps.
           auto roundtrip = [&](int fields, int columns, double& cpu_ms) {
-            fft::BatchedFFT fftw(g, fields, {fft::PlanRigor::measure, threads, {}}, columns);
+            fft::BatchedFFT fftw(g, fields, {rigor, threads, {}}, columns);
             fftw.forward();
             fftw.backward();
             double best = 1e300;
@@ -517,6 +526,7 @@ int main(int argc, char** argv) {
                 o.krylov_tolerance = 1e-30;
                 o.max_krylov_iterations = pass == 0 ? 10 : 60;
                 o.plan.threads = fftw_threads > 0 ? std::min(fftw_threads, threads) : threads;
+                o.plan.rigor = rigor;
                 const std::size_t rss0 = resident_bytes();
                 FftRveSolver solver(cell_image(g), make_material(make_neo_hookean({1.0, 10.0})),
                                     make_material(make_neo_hookean({100.0, 1000.0})), 45.0, Mat3::Identity(), o);
@@ -543,12 +553,12 @@ int main(int argc, char** argv) {
             const double nv = double(g.voxels());
             // Transformed fields per Krylov iteration: stencil 3 back + 3 forward; Fourier 3·nq·columns each way.
             const double own_ms = stencil ? fft3_ms : fft_used_ms, own_cpu = stencil ? cpu3 : cpu_used;
-            std::printf("fftcost %4dx%4dx%4d %-9s %-8s %-6s %s compact=%s stream=%s threads %d per-krylov %8.3f ms (cpu %8.3f, in-solver %8.3f) | "
+            std::printf("fftcost %4dx%4dx%4d %-9s %-8s %-6s %s compact=%s stream=%s fftw=%s threads %d per-krylov %8.3f ms (cpu %8.3f, in-solver %8.3f) | "
                         "fft9 %7.3f ms (cpu %7.3f) ratio-9 %5.2f (cpu %5.2f) | own fft %7.3f ms (%d fields) ratio-own %5.2f "
                         "(cpu %5.2f) | whole step %.3f s (%d its) mem/voxel %5.0f B (rss %5.0f B) peak-rss %.0f MB load %s\n",
                         g.n[0], g.n[1], g.n[2], fft::to_string(d), stencil ? "stencil" : "fourier",
                         stencil ? to_string(prec) : "double", to_string(stencil ? preconditioner : Preconditioner::green), compact ? "on" : "off",
-                        stream ? "on" : "off", threads, kry_ms, kry_cpu_ms,
+                        stream ? "on" : "off", rigor_text, threads, kry_ms, kry_cpu_ms,
                         1e3 * kry_wall, fft9_ms, cpu9, kry_ms / fft9_ms, kry_cpu_ms / cpu9, own_ms,
                         stencil ? 3 : used_fields, kry_ms / own_ms, kry_cpu_ms / own_cpu, whole, its1, double(mem) / nv,
                         rss / nv, double(io::peak_memory_bytes()) / 1048576.0, load_average().c_str());
