@@ -418,7 +418,6 @@ int main(int argc, char** argv) {
     std::vector<TangentPrecision> precisions;
     int repeats = 1, fftw_threads = 0;
     fft::PlanRigor rigor = fft::PlanRigor::measure;  // "fftw=estimate|measure|patient"
-    const char* rigor_text = "measure";
     Preconditioner preconditioner = Preconditioner::green;  // "preconditioner=jacobi-green" | "=green-local-bulk": the others
     bool compact = true;  // "compact=off": the stored 9×9 float tangents instead of compact ones
     bool stream = true;   // "stream=off": the stored 9-field evaluation instead of the streamed one
@@ -439,9 +438,7 @@ int main(int argc, char** argv) {
         rigor = std::strcmp(argv[i] + 5, "estimate") == 0  ? fft::PlanRigor::estimate
                 : std::strcmp(argv[i] + 5, "patient") == 0 ? fft::PlanRigor::patient
                                                            : fft::PlanRigor::measure;
-        rigor_text = rigor == fft::PlanRigor::estimate ? "estimate" : rigor == fft::PlanRigor::patient ? "patient" : "measure";
-      }
-      else if (std::strncmp(argv[i], "repeat=", 7) == 0)
+      } else if (std::strncmp(argv[i], "repeat=", 7) == 0)
         repeats = std::max(1, std::atoi(argv[i] + 7));
       else if (std::strcmp(argv[i], "operator=fourier") == 0)
         ops.push_back(KrylovOperator::fourier);
@@ -558,7 +555,8 @@ int main(int argc, char** argv) {
                         "(cpu %5.2f) | whole step %.3f s (%d its) mem/voxel %5.0f B (rss %5.0f B) peak-rss %.0f MB load %s\n",
                         g.n[0], g.n[1], g.n[2], fft::to_string(d), stencil ? "stencil" : "fourier",
                         stencil ? to_string(prec) : "double", to_string(stencil ? preconditioner : Preconditioner::green), compact ? "on" : "off",
-                        stream ? "on" : "off", rigor_text, threads, kry_ms, kry_cpu_ms,
+                        stream ? "on" : "off",
+                        rigor == fft::PlanRigor::estimate ? "estimate" : rigor == fft::PlanRigor::patient ? "patient" : "measure", threads, kry_ms, kry_cpu_ms,
                         1e3 * kry_wall, fft9_ms, cpu9, kry_ms / fft9_ms, kry_cpu_ms / cpu9, own_ms,
                         stencil ? 3 : used_fields, kry_ms / own_ms, kry_cpu_ms / own_cpu, whole, its1, double(mem) / nv,
                         rss / nv, double(io::peak_memory_bytes()) / 1048576.0, load_average().c_str());

@@ -301,7 +301,7 @@ void FftRveSolver::Impl::residual(const std::array<bool, 9>& free, const Vec9& P
 
 double FftRveSolver::Impl::evaluate_residual(const std::array<bool, 9>& free, const Vec9& P_target, KVec& r) {
   residual(free, P_target, r);
-  if (!pressures.active) return residual_norm(r, free, P_target);
+  if (!pressures.active()) return residual_norm(r, free, P_target);
   residual_norm(r, free, P_target);
   const double merit_hat = merit;
   Vec9 mean = Vec9::Zero();
@@ -391,7 +391,7 @@ MaterialStatus FftRveSolver::Impl::evaluate_streamed(const Mat3& Fbar_grid, doub
               local.A += invN * (*A);
               store_tangent(v, *A);
             }
-            const double ratio = pressures.active ? double(pressures.dP_ratio[v]) : 0.0;
+            const double ratio = pressures.active() ? double(pressures.dP_ratio[v]) : 0.0;
             if (ratio != 0.0) {  // P_full = P̂ + ratio · slope (evaluate_residual())
               const Mat3 d = ratio * pressures.slope(pure_phase(v), v, compact.get());
               P += d;
@@ -423,7 +423,7 @@ MaterialStatus FftRveSolver::Impl::evaluate_streamed(const Mat3& Fbar_grid, doub
   r.u.resize(3 * NM);
 #pragma omp parallel for schedule(static)
   for (std::size_t a = 0; a < 3 * NM; ++a) r.u[a] = invN * s3[a];
-  if (!pressures.active) {
+  if (!pressures.active()) {
     macro_residual(free, P_target, r);
     err = residual_norm(r, free, P_target);
     return MaterialStatus::ok;

@@ -140,19 +140,19 @@ FftRveSolver::Impl::StepOutcome FftRveSolver::Impl::step(const MixedControl& con
         if (!extrapolated) restore();
         // Its merit (extrapolated pressure) is not comparable with the Newton iterates' (pressure
         // reset to the constraint's linearization), so the first Newton step is taken in full.
-        else if (pressures.active) full_first_step = true;
+        else if (pressures.active()) full_first_step = true;
       }
       const MaterialStatus s = extrapolated ? MaterialStatus::ok : evaluate_iterate(dt, true, free, P_target, r, err);
       if (s != MaterialStatus::ok) {
         out.why = std::string("material call failed (") + to_string(s) + ")";
         return out;
       }
-      pressures.linearized = pressures.active;
+      pressures.linearized = pressures.active();
     } else {
       MaterialStatus last = MaterialStatus::ok;
       int trials = 0;
       auto trial = [&](double scale) -> std::optional<double> {
-        if (pressures.active && (trials++ > 0 || opt.relinearize_every_trial)) {
+        if (pressures.active() && (trials++ > 0 || opt.relinearize_every_trial)) {
           // The previous trial was rejected and left its linearization (all of it, or part after a
           // material failure): back to the accepted iterate (applied = 0) and its linearization before
           // this trial reads it (FftSolverOptions::relinearize_every_trial: before every trial, a check).
@@ -178,7 +178,7 @@ FftRveSolver::Impl::StepOutcome FftRveSolver::Impl::step(const MixedControl& con
       // merit x_k was accepted with (the previous linearization's) is not comparable and, taken as
       // the reference, let the true residual grow several-fold or held the step to the last trial
       // (BENCHMARKS.md, "FFT Newton iterations: the line search's reference").
-      const double merit_accepted = pressures.active ? true_merit : merit;
+      const double merit_accepted = pressures.active() ? true_merit : merit;
       const bool accepted =
           fe::backtracking_line_search(merit_accepted, continuation || had_prescribed_step, trial).accepted;
       if (!accepted) {
@@ -193,7 +193,7 @@ FftRveSolver::Impl::StepOutcome FftRveSolver::Impl::step(const MixedControl& con
         // diagnosis without a residual (RveStops.FftFailedLineSearchIsDiagnosedAtTheAcceptedIterate).
         move_to_accepted(dx, applied, Fbar_prev);
         lam_a_trial = lam_a;
-        if (pressures.active) relinearize_pressures(to_grid(Fbar));
+        if (pressures.active()) relinearize_pressures(to_grid(Fbar));
         double accepted_err = 0.0;
         const MaterialStatus again = evaluate_iterate(dt, false, free, P_target, r, accepted_err);
         // Without its residual the hot spots would name a zero force at voxel (0, 0, 0): say so instead.

@@ -43,7 +43,6 @@ inline void cofactors(const MeanDilatationVoxel& md, Mat3* cof) {
 struct PressureIteration {
   bool mixed[2] = {false, false};  // per phase (0 matrix, 1 fiber)
   double K[2] = {0.0, 0.0};        // the phases' volumetric moduli (Material::volumetric_modulus())
-  bool active = false;             // any phase mixed
   bool linearized = false;         // evaluate with p from the last linearization
   double predictor_ratio = -1.0;   // ≥ 0: the extrapolated predictor, p = p_committed + ratio · dp_last
   // Per point: the pressure of the last evaluation, and the committed one with its last increment,
@@ -66,9 +65,11 @@ struct PressureIteration {
   // c of the same evaluation: stored as the factor (1 float instead of 9).
   std::vector<float> dP_ratio;
 
+  bool active() const { return mixed[0] || mixed[1]; }
+
   /// The per-point arrays for `points` points; the slopes unless compact records hold the F they follow from.
   void allocate(std::size_t points, bool store_slopes) {
-    if (!active) return;
+    if (!active()) return;
     lin_s.assign(points, 0.0);
     p_trial.assign(points, 0.0f);
     p_committed.assign(points, 0.0f);
@@ -194,7 +195,7 @@ struct PressureIteration {
   /// The evaluated pressures become the committed ones; their increment places the next step's
   /// extrapolated predictor (zero when `track_increment` is false: a start state).
   void commit(bool track_increment) {
-    if (!active) return;
+    if (!active()) return;
     for (std::size_t p = 0; p < p_trial.size(); ++p) {
       dp_last[p] = track_increment ? float(double(p_trial[p]) - double(p_committed[p])) : 0.0f;
       p_committed[p] = p_trial[p];

@@ -77,7 +77,6 @@ FftRveSolver::Impl::Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPt
     const double G = mat[x]->initial_shear_modulus();
     pressures.mixed[x] = opt.scheme == FftScheme::newton_cg && opt.mixed_pressure && pressures.K[x] > 0.0 &&
                          pressures.K[x] >= opt.mixed_pressure_ratio * G;
-    pressures.active = pressures.active || pressures.mixed[x];
   }
   // Refuse a grid that cannot fit before anything of its size is allocated.
   detail::refuse_if_too_big(planned_bytes(), "microstructure.grid", grid_text(grid.n));
@@ -276,8 +275,8 @@ detail::StorageSizes FftRveSolver::Impl::planned_sizes() const {
   s.local_bulk_voxels = local_bulk ? N : 0;
   s.local_bulk_in_place = local_bulk && !dist;
   s.history_values = NP * std::size_t(state_size[0] + state_size[1]);
-  s.mixed_points = pressures.active ? NP : 0;
-  s.mixed_slope_points = pressures.active && !(single && compact_tangents_apply()) ? NP : 0;
+  s.mixed_points = pressures.active() ? NP : 0;
+  s.mixed_slope_points = pressures.active() && !(single && compact_tangents_apply()) ? NP : 0;
   s.mean_dilatation_values = opt.volumetric == VolumetricKinematics::mean_dilatation ? 18 * NP + N : 0;
   s.spectral_vectors = spectral_vectors(newton, with_stencil, with_stencil && opt.preconditioner == Preconditioner::jacobi_green);
   return s;
@@ -375,7 +374,7 @@ FftRveSolver::StateView FftRveSolver::state_view() const {
   v.history_matrix = m.hist_old[0];
   v.history_fiber = m.hist_old[1];
   v.laminate = m.lam_a;
-  if (m.pressures.active) {
+  if (m.pressures.active()) {
     v.pressure = m.pressures.p_committed;
     v.pressure_increment = m.pressures.dp_last;
   }
@@ -384,7 +383,7 @@ FftRveSolver::StateView FftRveSolver::state_view() const {
 
 void FftRveSolver::set_mixed_pressures(MixedPressures p) {
   Impl& m = *impl_;
-  const std::size_t want = m.pressures.active ? m.pressures.p_committed.size() : 0;
+  const std::size_t want = m.pressures.active() ? m.pressures.p_committed.size() : 0;
   if (p.committed.empty() && p.increment.empty()) {
     // None saved (a state written without a mixed phase's pressures, e.g. before its kinematics had
     // one): the next run derives them at its start, as after a warm start.

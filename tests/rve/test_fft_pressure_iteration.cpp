@@ -26,7 +26,6 @@ PressureIteration one_point_iteration(bool store_slopes) {
   PressureIteration it;
   it.mixed[0] = true;
   it.K[0] = kBulk;
-  it.active = true;
   it.allocate(1, store_slopes);
   return it;
 }
