@@ -2,7 +2,8 @@
 // (Cook's membrane, plane strain), and the helix tube (bench_macro's tube, follower pressure) with
 // CHOLMOD vs PETSc: wall time, Newton and Krylov iterations, peak memory.
 //
-//   bench_macro_petsc --cook                 n = 8, 16, 32 (BENCH_COOK_N) × K/G = 1e2 … 1e5, one load step
+//   bench_macro_petsc --cook                 n = 8, 16, 32 (BENCH_COOK_N) × K/G = 1e2 … 1e5, one load step;
+//                                            BENCH_TET10=1: the hexes split into tet10
 //   bench_macro_petsc --tube-table           helix tube, 1e3 / 4e3 / 1e4 dofs (BENCH_DOFS) × K/G = 1e2 … 1e5,
 //                                            first load step; BENCH_TET10=1: the hexes split into tet10;
 //                                            BENCH_ISOTROPIC=1: the Gent matrix without the fibers
@@ -39,7 +40,10 @@ using namespace softhom::fe;
 
 namespace {
 
-FeModel cook(int n, double kg) { return macro::make_cook_membrane_problem(n, 83.3, kg, 5.0); }
+/// Cook's membrane of n × n hexes, or with BENCH_TET10 set the same hexes split into 10-node tets (P2/P0).
+FeModel cook(int n, double kg) {
+  return macro::make_cook_membrane_problem(n, 83.3, kg, 5.0, std::getenv("BENCH_TET10") != nullptr);
+}
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -71,6 +75,7 @@ int cook_table(const std::string& options) {
       NewtonOptions o;
       o.solver = SolverKind::petsc;
       o.petsc_options = options;
+      o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
       const auto t0 = std::chrono::steady_clock::now();
       Simulation sim(cook(n, kg), o);
       const bool ok = sim.advance_to(1.0).reached();

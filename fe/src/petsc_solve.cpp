@@ -321,6 +321,9 @@ struct PetscSolver::Data {
   // field split has made its sub-solvers.
   bool p_multigrid = false;
   Mat p_interpolation = nullptr;
+  // Whether the user's options chose the displacement block's solver or the augmentation (then no
+  // fall-back replaces it: fall_back_from_p_multigrid).
+  bool user_displacement_solver = false;
   // The fine level's smoother (choose_fine_smoother): the nodal 3 × 3 blocks' spread of the tangents set
   // up (nodal_block_spread) until one exceeds kAnisotropicBlockSpread, and whether that has happened (the
   // anisotropic smoother chosen); neither when the user's options set the smoother.
@@ -413,6 +416,9 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
   PetscBool pmg = mesh.tets.empty() ? PETSC_FALSE : PETSC_TRUE;
   PetscOptionsGetBool(nullptr, nullptr, "-softhom_pmg", &pmg, nullptr);
   d.p_multigrid = pmg && !mesh.tets.empty();
+  d.user_displacement_solver = options.find("-softhom_pmg") != std::string::npos ||
+                               options.find("-fieldsplit_u_") != std::string::npos ||
+                               options.find("-softhom_al_alpha") != std::string::npos;
   if (d.p_multigrid) {
     check(PetscOptionsInsertString(nullptr, kPMultigridDefaults), "PetscOptionsInsertString (p-multigrid)");
     check(PetscOptionsInsertString(nullptr, options.c_str()), "PetscOptionsInsertString");
@@ -713,6 +719,33 @@ void PetscSolver::attach_p_multigrid() {
   d.coarse_nodes = std::move(space.coarse_nodes);
   set_coarse_modes(space.coarse_coords);
   check(KSPSetUp(d.coarse_ksp), "KSPSetUp (coarse)");
+}
+
+bool PetscSolver::fall_back_from_p_multigrid() {
+  Data& d = *d_;
+  PC pu = nullptr;
+  KSP ku = d.ksp && d.p_multigrid && !d.user_displacement_solver ? displacement_mg(d.ksp, &pu) : nullptr;
+  if (!ku) return false;
+  // The database as for a mesh without quadratic tets (kSplitDefaults, then the user's options), and the
+  // displacement solver re-read from it: PCSetType replaces the multigrid (and its reference to the
+  // interpolation) by BoomerAMG, which the next set-up builds on the P2 block.
+  check(PetscOptionsClear(nullptr), "PetscOptionsClear");
+  check(PetscOptionsInsertString(nullptr, kSplitDefaults), "PetscOptionsInsertString (defaults)");
+  check(PetscOptionsInsertString(nullptr, d.user_options.c_str()), "PetscOptionsInsertString");
+  set_up_with_options(d.user_options, [&] { check(KSPSetFromOptions(ku), "KSPSetFromOptions (displacement block)"); });
+  PC pc = nullptr;
+  check(KSPGetPC(d.ksp, &pc), "KSPGetPC");
+  if (d.user_options.find("-pc_fieldsplit_schur_fact_type") == std::string::npos)
+    check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_FULL), "PCFieldSplitSetSchurFactType");
+  if (d.p_interpolation) MatDestroy(&d.p_interpolation);
+  d.p_multigrid = false;
+  d.coarse_ksp = nullptr;  // went with the multigrid
+  d.coarse_nodes.clear();
+  d.current_modes = d.modes_pending = false;
+  // The augmentation of BoomerAMG on the P2 block (the matrix filled last keeps its γ until the next
+  // fill: the condensed operator, and so the solution, does not depend on it).
+  d.al_alpha = 10.0;
+  return true;
 }
 
 bool PetscSolver::anisotropic_smoother() const { return d_->anisotropic_smoother; }

@@ -98,6 +98,11 @@ class PetscSolver final : public LinearSolver {
   /// nodal block spread of the tangent that made it so.
   bool anisotropic_smoother() const;
   double block_spread() const;
+  /// After a GMRES failure with the default p-multigrid on the displacement block: BoomerAMG on the P2
+  /// block itself (and α = 10 from the next fill) for the rest of the run, set up at the next
+  /// factorize. False when there is nothing to fall back from (no p-multigrid in use, already fallen
+  /// back, or the user's options chose the displacement block's solver). Collective.
+  bool fall_back_from_p_multigrid();
 
  private:
   struct Data;

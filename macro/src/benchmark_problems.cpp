@@ -9,10 +9,9 @@
 
 namespace softhom::macro {
 
-fe::FeModel make_cook_membrane_problem(int n, double G, double bulk_over_shear, double shear_force) {
+fe::FeModel make_cook_membrane_problem(int n, double G, double bulk_over_shear, double shear_force, bool tet10) {
   fe::FeModel m;
-  m.mesh = make_cook_membrane(n);
-  auto id = [&](int i, int j, int k) { return i + (n + 1) * (j + (n + 1) * k); };
+  m.mesh = tet10 ? fe::hex_to_tet10(make_cook_membrane(n)) : make_cook_membrane(n);
   m.element_material.assign(m.mesh.num_elements(), make_material(make_neo_hookean({G, bulk_over_shear * G})));
   fe::DirichletGroup clamp, plane;
   for (int node = 0; node < m.mesh.num_nodes(); ++node) {
@@ -21,17 +20,34 @@ fe::FeModel make_cook_membrane_problem(int n, double G, double bulk_over_shear, 
     plane.dofs.push_back(3 * node + 2);  // plane strain
   }
   m.dirichlet = {clamp, plane};
-  // The tip face (height 16, thickness 1) in n × 1 quads: each carries shear_force / n, a quarter per node.
+  // Consistent nodal forces of the uniform shear traction on the tip face (height 16, thickness 1).
+  const double traction = shear_force / 16.0;
   fe::NodalLoad load;
-  for (int j = 0; j < n; ++j)
-    for (int k = 0; k <= 1; ++k)
-      for (int jj : {j, j + 1}) {
-        load.dofs.push_back(3 * id(n, jj, k) + 1);
-        load.scale.push_back(shear_force / (4.0 * n));
-      }
+  for (const fe::Quad& f : m.mesh.surfaces.count("tip") ? m.mesh.surface("tip") : std::vector<fe::Quad>{}) {
+    // Flat bilinear quads: a quarter of the face's force on each vertex.
+    const double area = (m.mesh.nodes[f[2]] - m.mesh.nodes[f[0]]).cross(m.mesh.nodes[f[3]] - m.mesh.nodes[f[1]]).norm() / 2;
+    for (int node : f) {
+      load.dofs.push_back(3 * node + 1);
+      load.scale.push_back(traction * area / 4.0);
+    }
+  }
+  for (const fe::Tri6& f : m.mesh.tri_surface("tip")) {
+    // Flat 6-node triangles: the vertices get nothing, each mid-edge node a third of the face's force.
+    const double area = (m.mesh.nodes[f[1]] - m.mesh.nodes[f[0]]).cross(m.mesh.nodes[f[2]] - m.mesh.nodes[f[0]]).norm() / 2;
+    for (int k = 3; k < 6; ++k) {
+      load.dofs.push_back(3 * f[k] + 1);
+      load.scale.push_back(traction * area / 3.0);
+    }
+  }
   load.value = PiecewiseLinear{{0.0, 1.0}, {0.0, 1.0}};
   m.nodal_loads = {load};
   return m;
+}
+
+int cook_tip_node(const fe::Mesh& mesh) {
+  for (int node = 0; node < mesh.num_nodes(); ++node)
+    if ((mesh.nodes[node] - Vec3(48, 60, 0)).norm() < 1e-9) return node;
+  return -1;
 }
 
 int cook_tip_dof(int n) { return 3 * (n + (n + 1) * n) + 1; }

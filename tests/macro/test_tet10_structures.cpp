@@ -10,6 +10,7 @@
 #include "fe/local_law.hpp"
 #include "macro/closed_forms.hpp"
 #include "softhom/io/gmsh.hpp"
+#include "softhom/macro/benchmark_problems.hpp"
 #include "softhom/macro/geometry.hpp"
 #include "softhom/macro/structures.hpp"
 #include "softhom/materials/driver.hpp"
@@ -183,36 +184,11 @@ TEST(Tet10Structures, CookMembraneNearlyIncompressibleConverges) {
   const double kReference = 7.7;
   std::vector<double> tips;
   for (int n : {2, 4, 8}) {
-    fe::FeModel m;
-    m.mesh = fe::hex_to_tet10(macro::make_cook_membrane(n));
     const double E = 250.0, kg = 1e5, nu = (3 * kg - 2) / (2 * (3 * kg + 1));
-    const double G = E / (2 * (1 + nu));
-    m.element_material.assign(m.mesh.num_elements(), make_material(make_neo_hookean({G, kg * G})));
-    fe::DirichletGroup clamp, plane;
-    int tip = -1;
-    for (int node = 0; node < m.mesh.num_nodes(); ++node) {
-      const Vec3& x = m.mesh.nodes[node];
-      if (x[0] < 1e-9)
-        for (int c = 0; c < 2; ++c) clamp.dofs.push_back(3 * node + c);
-      plane.dofs.push_back(3 * node + 2);
-      if ((x - Vec3(48, 60, 0)).norm() < 1e-9) tip = node;
-    }
+    const double F = 100.0 * 1e-4;  // a linear load level
+    const fe::FeModel m = macro::make_cook_membrane_problem(n, E / (2 * (1 + nu)), kg, F, /*tet10=*/true);
+    const int tip = macro::cook_tip_node(m.mesh);
     ASSERT_GE(tip, 0);
-    m.dirichlet = {clamp, plane};
-    // Consistent nodal forces of a uniform shear traction on flat 6-node triangles: the vertices get
-    // nothing, each mid-edge node a third of the face's force.
-    const double F = 100.0 * 1e-4, traction = F / 16.0;  // face height 16, thickness 1
-    fe::NodalLoad load;
-    for (const fe::Tri6& f : m.mesh.tri_surface("tip")) {
-      const double area =
-          0.5 * (m.mesh.nodes[f[1]] - m.mesh.nodes[f[0]]).cross(m.mesh.nodes[f[2]] - m.mesh.nodes[f[0]]).norm();
-      for (int k = 3; k < 6; ++k) {
-        load.dofs.push_back(3 * f[k] + 1);
-        load.scale.push_back(traction * area / 3.0);
-      }
-    }
-    load.value = PiecewiseLinear{{0.0, 1.0}, {0.0, 1.0}};
-    m.nodal_loads = {load};
     const auto t0 = std::chrono::steady_clock::now();
     fe::Simulation sim(m, options());
     EXPECT_TRUE(sim.advance_to(1.0).reached());

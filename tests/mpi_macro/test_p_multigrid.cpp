@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
+#include <tuple>
 
 #include <Eigen/Dense>
 #include <iostream>
@@ -19,6 +21,7 @@
 #include "softhom/fe/solver.hpp"
 #include "softhom/io/mpi.hpp"
 #include "softhom/io/scene.hpp"
+#include "softhom/macro/benchmark_problems.hpp"
 #include "softhom/macro/scene.hpp"
 #include "softhom/macro/structures.hpp"
 
@@ -231,6 +234,42 @@ TEST(PMultigrid, FiberedTubeTakesTheNodalBlockSmootherAndTheSameAnswer) {
               << stats[1].krylov_iterations << " with the diagonal one throughout; max |du| / max |u| = " << d << "\n";
   EXPECT_LT(d, 1e-6);
   EXPECT_LT(double(stats[0].krylov_iterations), 0.8 * stats[1].krylov_iterations);
+}
+
+TEST(PMultigrid, FailedSolveFallsBackToBoomerAmgOnTheP2Block) {
+  // Cook's membrane in plane strain split into tet10, K/G = 1e5: the P1 coarse space locks where the
+  // nearly incompressible material is confined, and on the 32 × 32 mesh GMRES with the p-multigrid
+  // reaches its limit (2 000) at every solve, while BoomerAMG on the P2 block (α = 10) takes 70–90
+  // (BENCHMARKS.md). That run takes minutes; here the 16 × 16 mesh stands in with the GMRES limit at
+  // 140, below the p-multigrid's first solve (148 measured on 1 rank) and above BoomerAMG's (98–129
+  // measured, the retry's halved step included). The first solve fails, the run falls back, cuts the
+  // step and reaches the load with CHOLMOD's answer; with the block chosen by the options (here
+  // -softhom_pmg 1) there is no fall-back and the run stops at its cut-back limit.
+  const double G = 83.3, kg = 1e5, force = 5.0;
+  const FeModel m = macro::make_cook_membrane_problem(16, G, kg, force, /*tet10=*/true);
+  auto run = [&](SolverKind kind, const std::string& options) {
+    NewtonOptions o;
+    o.solver = kind;
+    o.petsc_options = options;
+    o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
+    Simulation sim(m, o);
+    const bool reached = sim.advance_to(1.0).reached();
+    bool fell_back = false;
+    for (const std::string& line : sim.stats().log)
+      fell_back = fell_back || line.find("takes BoomerAMG on the P2 field") != std::string::npos;
+    return std::make_tuple(reached, fell_back, sim.displacement());
+  };
+  const auto [direct_reached, direct_note, direct_u] = run(SolverKind::cholmod, "");
+  const auto [reached, fell_back, u] = run(SolverKind::petsc, "-ksp_max_it 140");
+  ASSERT_TRUE(direct_reached);
+  EXPECT_TRUE(reached);
+  EXPECT_TRUE(fell_back);
+  const double d = relative_difference(u, direct_u);
+  if (mpi::world_rank() == 0) std::cerr << "tet10 Cook 16 x 16 after the fall-back: max |du| / max |u| = " << d << "\n";
+  EXPECT_LT(d, 1e-6);
+  const auto [kept_reached, kept_note, kept_u] = run(SolverKind::petsc, "-softhom_pmg 1 -ksp_max_it 140");
+  EXPECT_FALSE(kept_reached);
+  EXPECT_FALSE(kept_note);
 }
 
 TEST(PMultigrid, CoarseCpasmoEqualsCholmodWithBoundedKrylovCounts) {
