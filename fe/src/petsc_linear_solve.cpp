@@ -101,7 +101,7 @@ bool Simulation::Impl::petsc_linear_solve(const std::vector<double>& b, std::vec
             " iterations (" + o.reason + ", |r|/|b| = " + format_number(o.relative_residual) + ")";
       // The p-multigrid's P1 coarse space locks where nearly incompressible material is confined (Cook's
       // membrane in plane strain at K/G 1e5 in tet10: GMRES's limit at every solve), where BoomerAMG on
-      // the P2 block converges in 70–90 iterations (BENCHMARKS.md, "Krylov iterations per Newton step:
+      // the P2 block converges in 40–80 iterations (BENCHMARKS.md, "Krylov iterations per Newton step:
       // Cook's membrane"). It takes over from the retry of this step on, whose tangent is filled with its
       // own augmentation (with this tangent's, α = 1, BoomerAMG failed as well).
       if (petsc_->fall_back_from_p_multigrid()) {

@@ -119,6 +119,9 @@ constexpr const char* kPMultigridDefaults =
 /// Measured on the cPASMO 0.5 mesh (158 481 dofs, two load steps, GMRES iterations / CPU): α = 10:
 /// 654 / 183 s, 3: 424 / 126 s, 1: 357 / 102 s; BoomerAMG on the P2 block (α = 10): 310 / 142 s.
 constexpr double kPMultigridAlpha = 1.0;
+/// The augmentation with BoomerAMG on the displacement block itself (the best measured on the hex tube,
+/// BENCHMARKS.md "Krylov iterations per Newton step: the 3D helix tube").
+constexpr double kSplitAlpha = 10.0;
 /// Above this geometric-mean spread of the nodal 3 × 3 blocks (nodal_block_spread) the P2 level gets
 /// two Chebyshev sweeps instead of one. (Calibrated in BENCHMARKS.md, "Fibers on the p-multigrid".)
 constexpr double kAnisotropicBlockSpread = 3.0;
@@ -207,7 +210,7 @@ struct PetscSolver::Data {
   Mat A = nullptr;
   // Augmented-Lagrangian split (petsc_saddle_split.hpp): α (-softhom_al_alpha), the diagonal Schur
   // preconditioning matrix it gives (null: PETSc's selfp), the volumetric stiffness left to the pressures.
-  double al_alpha = 10.0;
+  double al_alpha = kSplitAlpha;
   Mat schur_pre = nullptr;
   std::vector<double> kept;
   KSP ksp = nullptr;
@@ -744,7 +747,7 @@ bool PetscSolver::fall_back_from_p_multigrid() {
   d.current_modes = d.modes_pending = false;
   // The augmentation of BoomerAMG on the P2 block (the matrix filled last keeps its γ until the next
   // fill: the condensed operator, and so the solution, does not depend on it).
-  d.al_alpha = 10.0;
+  d.al_alpha = kSplitAlpha;
   return true;
 }
 
