@@ -103,7 +103,7 @@ bool Simulation::Impl::petsc_linear_solve(const std::vector<double>& b, std::vec
       // membrane in plane strain at K/G 1e5 in tet10: GMRES's limit at every solve), where BoomerAMG on
       // the P2 block converges in 40–80 iterations (BENCHMARKS.md, "Krylov iterations per Newton step:
       // Cook's membrane"). It takes over from the retry of this step on, whose tangent is filled with its
-      // own augmentation (with this tangent's, α = 1, BoomerAMG failed as well).
+      // own augmentation (on this tangent, filled with α = 1, BoomerAMG failed as well).
       if (petsc_->fall_back_from_p_multigrid()) {
         factor_valid_ = false;
         note_once("petsc fallback", "linear solver: at t = " + format_number(time_) + " GMRES with the p-multigrid on the displacement block did not converge in " +
