@@ -556,7 +556,7 @@ int main(int argc, char** argv) {
                         g.n[0], g.n[1], g.n[2], fft::to_string(d), stencil ? "stencil" : "fourier",
                         stencil ? to_string(prec) : "double", to_string(stencil ? preconditioner : Preconditioner::green), compact ? "on" : "off",
                         stream ? "on" : "off",
-                        rigor == fft::PlanRigor::estimate ? "estimate" : rigor == fft::PlanRigor::patient ? "patient" : "measure", threads, kry_ms, kry_cpu_ms,
+                        fft::to_string(rigor), threads, kry_ms, kry_cpu_ms,
                         1e3 * kry_wall, fft9_ms, cpu9, kry_ms / fft9_ms, kry_cpu_ms / cpu9, own_ms,
                         stencil ? 3 : used_fields, kry_ms / own_ms, kry_cpu_ms / own_cpu, whole, its1, double(mem) / nv,
                         rss / nv, double(io::peak_memory_bytes()) / 1048576.0, load_average().c_str());

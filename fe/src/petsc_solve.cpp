@@ -387,6 +387,13 @@ struct PetscSolver::Data {
   }
 };
 
+/// `defaults` into PETSc's options database, then the user's `options` over them.
+static void insert_under_user_options(const char* defaults, const std::string& options) {
+  check(PetscOptionsInsertString(nullptr, defaults), "PetscOptionsInsertString (defaults)");
+  if (!options.empty() && PetscOptionsInsertString(nullptr, options.c_str()) != 0)
+    throw InputError("solver.petsc_options", options, "PETSc cannot parse these options");
+}
+
 PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string& options) : d_(std::make_unique<Data>()) {
   petsc_initialize();
   Data& d = *d_;
@@ -406,10 +413,8 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
     for (int i = 0; i < 3; ++i) d.coords.push_back(mesh.nodes[n][i]);
   // One database per solver: the options of an earlier simulation in this process do not carry over.
   check(PetscOptionsClear(nullptr), "PetscOptionsClear");
-  check(PetscOptionsInsertString(nullptr, kSplitDefaults), "PetscOptionsInsertString (defaults)");
+  insert_under_user_options(kSplitDefaults, options);
   d.user_options = options;
-  if (!options.empty() && PetscOptionsInsertString(nullptr, options.c_str()) != 0)
-    throw InputError("solver.petsc_options", options, "PETSc cannot parse these options");
   PetscBool set = PETSC_FALSE;
   PetscReal rtol = 0.0;
   PetscOptionsGetReal(nullptr, nullptr, "-ksp_rtol", &rtol, &set);
@@ -423,8 +428,7 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
                                options.find("-fieldsplit_u_") != std::string::npos ||
                                options.find("-softhom_al_alpha") != std::string::npos;
   if (d.p_multigrid) {
-    check(PetscOptionsInsertString(nullptr, kPMultigridDefaults), "PetscOptionsInsertString (p-multigrid)");
-    check(PetscOptionsInsertString(nullptr, options.c_str()), "PetscOptionsInsertString");
+    insert_under_user_options(kPMultigridDefaults, options);
     d.al_alpha = kPMultigridAlpha;
     d.user_smoother = options.find("-fieldsplit_u_mg_levels_") != std::string::npos;
   }
@@ -733,8 +737,7 @@ bool PetscSolver::fall_back_from_p_multigrid() {
   // displacement solver re-read from it: PCSetType replaces the multigrid (and its reference to the
   // interpolation) by BoomerAMG, which the next set-up builds on the P2 block.
   check(PetscOptionsClear(nullptr), "PetscOptionsClear");
-  check(PetscOptionsInsertString(nullptr, kSplitDefaults), "PetscOptionsInsertString (defaults)");
-  check(PetscOptionsInsertString(nullptr, d.user_options.c_str()), "PetscOptionsInsertString");
+  insert_under_user_options(kSplitDefaults, d.user_options);
   set_up_with_options(d.user_options, [&] { check(KSPSetFromOptions(ku), "KSPSetFromOptions (displacement block)"); });
   PC pc = nullptr;
   check(KSPGetPC(d.ksp, &pc), "KSPGetPC");

@@ -104,7 +104,7 @@ void BatchedFFT::backward() { fftw_execute(static_cast<fftw_plan>(backward_plan_
 std::string BatchedFFT::describe() const {
   std::ostringstream os;
   os << "fftw3 r2c " << transformed_fields() << " x " << grid_.n[0] << "x" << grid_.n[1] << "x" << grid_.n[2] << ", "
-     << threads_ << " threads, " << detail::rigor_name(rigor_);
+     << threads_ << " threads, " << to_string(rigor_);
   return os.str();
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-// FFTW planner flags and names of PlanRigor, shared by the one-process and the slab (FFTW-MPI) plans.
+// FFTW planner flags of PlanRigor, shared by the one-process and the slab (FFTW-MPI) plans.
 #include <fftw3.h>
 
 #include "softhom/fft/plan.hpp"
@@ -13,15 +13,6 @@ inline unsigned fftw_flags(PlanRigor r) {
     case PlanRigor::patient: return FFTW_PATIENT;
   }
   return FFTW_MEASURE;
-}
-
-inline const char* rigor_name(PlanRigor r) {
-  switch (r) {
-    case PlanRigor::estimate: return "estimate";
-    case PlanRigor::measure: return "measure";
-    case PlanRigor::patient: return "patient";
-  }
-  return "?";
 }
 
 }  // namespace softhom::fft::detail

@@ -264,7 +264,7 @@ std::string SlabFFT::describe() const {
   std::ostringstream os;
   os << "fftw3-mpi r2c " << transformed_fields() << " x " << g.n[0] << "x" << g.n[1] << "x" << g.n[2] << ", "
      << slabs_.size() << " ranks (slabs of " << slabs_.max_planes() << " planes i3), " << threads_
-     << " threads/rank, " << detail::rigor_name(rigor_);
+     << " threads/rank, " << to_string(rigor_);
   return os.str();
 }
 

@@ -23,14 +23,16 @@ fe::FeModel make_cook_membrane_problem(int n, double G, double bulk_over_shear, 
   // Consistent nodal forces of the uniform shear traction on the tip face (height 16, thickness 1).
   const double traction = shear_force / 16.0;
   fe::NodalLoad load;
-  for (const fe::Quad& f : m.mesh.surfaces.count("tip") ? m.mesh.surface("tip") : std::vector<fe::Quad>{}) {
-    // Flat bilinear quads: a quarter of the face's force on each vertex.
-    const double area = (m.mesh.nodes[f[2]] - m.mesh.nodes[f[0]]).cross(m.mesh.nodes[f[3]] - m.mesh.nodes[f[1]]).norm() / 2;
-    for (int node : f) {
-      load.dofs.push_back(3 * node + 1);
-      load.scale.push_back(traction * area / 4.0);
+  const auto quads = m.mesh.surfaces.find("tip");  // (none once split into tets)
+  if (quads != m.mesh.surfaces.end())
+    for (const fe::Quad& f : quads->second) {
+      // Flat bilinear quads: a quarter of the face's force on each vertex.
+      const double area = (m.mesh.nodes[f[2]] - m.mesh.nodes[f[0]]).cross(m.mesh.nodes[f[3]] - m.mesh.nodes[f[1]]).norm() / 2;
+      for (int node : f) {
+        load.dofs.push_back(3 * node + 1);
+        load.scale.push_back(traction * area / 4.0);
+      }
     }
-  }
   for (const fe::Tri6& f : m.mesh.tri_surface("tip")) {
     // Flat 6-node triangles: the vertices get nothing, each mid-edge node a third of the face's force.
     const double area = (m.mesh.nodes[f[1]] - m.mesh.nodes[f[0]]).cross(m.mesh.nodes[f[2]] - m.mesh.nodes[f[0]]).norm() / 2;

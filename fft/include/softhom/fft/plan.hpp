@@ -18,6 +18,16 @@ using Complex = std::complex<double>;
 
 enum class PlanRigor { estimate, measure, patient };
 
+/// "estimate", "measure" or "patient" (the [solver] fftw value).
+inline const char* to_string(PlanRigor r) {
+  switch (r) {
+    case PlanRigor::estimate: return "estimate";
+    case PlanRigor::measure: return "measure";
+    case PlanRigor::patient: return "patient";
+  }
+  return "?";
+}
+
 /// Field buffers and their transforms, whatever computes them: BatchedFFT (one process) or SlabFFT
 /// (slab.hpp, FFTW-MPI slabs). Field f of the real buffer starts at real(f) (real_stride() values
 /// apart), its spectrum at spectrum(f) (spectrum_stride() apart); the accessors are not virtual so that
