@@ -135,6 +135,7 @@ CLI::Validator parallelism_range(const std::string& zero_means) {
 
 int main(int argc, char** argv) {
   using namespace softhom;
+  io::mark_run_started();
   // MPI only under an MPI launcher (mpirun, srun); a plain start is the one-process program.
   mpi::Environment mpi_environment(argc, argv);
   // PETSc (the macro petsc linear solver, initialised on first use) ends before MPI does.

@@ -146,6 +146,7 @@ void raise_if_interrupted() {
 
 template <class Run>
 int run_job(const std::string& out, int threads, Run&& run) {
+  io::mark_run_started();
   int code = 1;
   {
     JobScope scope(threads);

@@ -1,6 +1,7 @@
 // summary.json: run metadata shared by every subcommand.
 #include "softhom/io/summary.hpp"
 
+#include <atomic>
 #include <cmath>
 #include <ctime>
 #include <sstream>
@@ -19,10 +20,9 @@ std::string softhom_version() { return SOFTHOM_VERSION; }
 
 namespace {
 
-std::string utc_now_iso8601() {
-  const std::time_t now = std::time(nullptr);
+std::string utc_iso8601(std::time_t time) {
   std::tm tm{};
-  gmtime_r(&now, &tm);
+  gmtime_r(&time, &tm);
   char buf[32];
   std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
   return buf;
@@ -40,7 +40,15 @@ void check_finite(const nlohmann::json& j, const std::string& where) {
   }
 }
 
+// The run's start: the program's load until mark_run_started() says otherwise. A summary is written at
+// the end of a run, so "now" there would be the end (hours later on a large cell).
+std::atomic<std::time_t> run_start{std::time(nullptr)};
+
 }  // namespace
+
+void mark_run_started() { run_start.store(std::time(nullptr)); }
+
+std::string run_started_utc() { return utc_iso8601(run_start.load()); }
 
 nlohmann::json summary_base(const std::string& command, const std::filesystem::path& scene_file,
                             const toml::table& scene) {
@@ -53,7 +61,7 @@ nlohmann::json summary_base(const std::string& command, const std::filesystem::p
   j["scene_file"] = scene_file.string();
   j["scene"] = nlohmann::json::parse(scene_json.str());
   j["threads"] = omp_get_max_threads();  // what the OpenMP solvers will use (honours OMP_NUM_THREADS)
-  j["started_utc"] = utc_now_iso8601();
+  j["started_utc"] = run_started_utc();
   return j;
 }
 

@@ -1,10 +1,12 @@
 // summary.json: metadata fields, scene echo, pretty atomic write, NaN refused.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <regex>
 #include <sstream>
+#include <thread>
 
 #include <unistd.h>
 
@@ -37,6 +39,17 @@ TEST(Summary, BaseFieldsAndSceneEcho) {
   EXPECT_TRUE(std::regex_match(j["started_utc"].get<std::string>(),
                                std::regex(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ)")));
   EXPECT_EQ(io::summary_base("point", "", toml::table{})["scene_file"], "");  // embedded scene
+}
+
+// A summary is written when the run ends: its start must be the time mark_run_started() recorded, not
+// the time of writing (they were the same, so a 3.6 h run reported its end as its start).
+TEST(Summary, StartIsTheMarkedStartNotTheTimeOfWriting) {
+  io::mark_run_started();
+  const std::string start = io::run_started_utc();
+  std::this_thread::sleep_for(std::chrono::milliseconds(1100));  // the timestamps have one-second resolution
+  EXPECT_EQ(io::summary_base("point", "", toml::table{})["started_utc"], start);
+  io::mark_run_started();
+  EXPECT_GT(io::run_started_utc(), start);  // ISO 8601 strings order as the times
 }
 
 TEST(Summary, WritesPrettyJsonAtomically) {

@@ -12,6 +12,12 @@ namespace softhom::io {
 
 std::string softhom_version();
 
+/// Records now as the start of the run ("started_utc" of its summary). Until it is called, the start is
+/// the time the program (or the Python module) was loaded.
+void mark_run_started();
+/// The start of the run, as "YYYY-MM-DDTHH:MM:SSZ".
+std::string run_started_utc();
+
 /// {"softhom_version", "command", "scene_file", "scene": <scene as JSON>, "threads", "started_utc"}.
 nlohmann::json summary_base(const std::string& command, const std::filesystem::path& scene_file,
                             const toml::table& scene);
