@@ -728,10 +728,14 @@ void PetscSolver::attach_p_multigrid() {
   check(KSPSetUp(d.coarse_ksp), "KSPSetUp (coarse)");
 }
 
+bool PetscSolver::can_fall_back_from_p_multigrid() const {
+  return d_->ksp && d_->p_multigrid && !d_->user_displacement_solver;
+}
+
 bool PetscSolver::fall_back_from_p_multigrid() {
   Data& d = *d_;
   PC pu = nullptr;
-  KSP ku = d.ksp && d.p_multigrid && !d.user_displacement_solver ? displacement_mg(d.ksp, &pu) : nullptr;
+  KSP ku = can_fall_back_from_p_multigrid() ? displacement_mg(d.ksp, &pu) : nullptr;
   if (!ku) return false;
   // The database as for a mesh without quadratic tets (kSplitDefaults, then the user's options), and the
   // displacement solver re-read from it: PCSetType replaces the multigrid (and its reference to the

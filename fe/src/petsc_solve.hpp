@@ -103,6 +103,8 @@ class PetscSolver final : public LinearSolver {
   /// factorize. False when there is nothing to fall back from (no p-multigrid in use, already fallen
   /// back, or the user's options chose the displacement block's solver). Collective.
   bool fall_back_from_p_multigrid();
+  /// Whether fall_back_from_p_multigrid() would act: the default p-multigrid is in use.
+  bool can_fall_back_from_p_multigrid() const;
 
  private:
   struct Data;
