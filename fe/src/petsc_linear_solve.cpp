@@ -16,11 +16,11 @@ using namespace detail;
 namespace {
 
 // GMRES iterations a fresh solve with the default p-multigrid (not from a secant start) gets before it
-// counts as failed, and the displacement block falls back to BoomerAMG on the P2 field. Its converged solves take at most 160 on
-// the device scenes and the fibered tubes (BENCHMARKS.md, "p-multigrid on the displacement block",
-// "Fibers on the p-multigrid"); where its P1 coarse space locks it either crawls (the plane-strain tet10
-// membrane at K/G 1e4, 32x32: 670, 393, 292, 292 against 59–96 on BoomerAMG) or stalls at |r|/|b| ~ 1
-// for the whole default limit of 2 000 (64x64 at 1e4, 32x32 at 1e5).
+// counts as failed, and the displacement block falls back to BoomerAMG on the P2 field. Its converged
+// solves take at most 158 on the device scenes and 259 on the 106 395-dof fibered tube at K/G 1e5
+// (BENCHMARKS.md, "Krylov iterations per Newton step: Cook's membrane"); where its P1 coarse space
+// locks it either crawls (the plane-strain tet10 membrane at K/G 1e4, 32x32: 670, 393, 292, 292,
+// against 59–96 on BoomerAMG) or stalls at |r|/|b| ~ 1 (64x64 at 1e4, 32x32 at 1e5).
 constexpr int kPMultigridBudget = 400;
 
 }  // namespace
