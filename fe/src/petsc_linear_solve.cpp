@@ -83,13 +83,13 @@ bool Simulation::Impl::petsc_linear_solve(const std::vector<double>& b, std::vec
     // from a secant start gets five times the last fresh solve's iterations (at least 200): where the
     // extrapolation overshoots (the gripper's fingers at 200 kPa) GMRES crawls at |r|/|b| ~ 1e-3 for
     // its whole limit, and a failure there is retried from the converged state (attempt_substep).
-    int budget = lagged ? petsc_fresh_iterations_ + std::clamp(int(petsc_setup_time_ / petsc_iteration_time_), 10, 200)
-                 : secant_start ? std::max(200, 5 * petsc_fresh_iterations_)
-                                : 0;
-    // (A secant start that crawls is the extrapolation's failure, retried from the converged state: it
-    // keeps its own limit and does not judge the preconditioner.)
+    // Other fresh solves with the default p-multigrid judge it, within kPMultigridBudget (a secant start's
+    // crawl is the extrapolation's failure, not the preconditioner's).
     const bool judged = !lagged && !secant_start && petsc_->can_fall_back_from_p_multigrid();
-    if (judged) budget = kPMultigridBudget;
+    const int budget = lagged ? petsc_fresh_iterations_ + std::clamp(int(petsc_setup_time_ / petsc_iteration_time_), 10, 200)
+                       : secant_start ? std::max(200, 5 * petsc_fresh_iterations_)
+                       : judged       ? kPMultigridBudget
+                                      : 0;
     const auto t0 = std::chrono::steady_clock::now();
     const KrylovOutcome o = petsc_->solve(b, x, tol, budget);
     const double t = petsc_->max_over_ranks(seconds_since(t0));  // every rank takes the same decisions
@@ -115,7 +115,7 @@ bool Simulation::Impl::petsc_linear_solve(const std::vector<double>& b, std::vec
       why = "linear solver: PETSc " + petsc_->description() + " did not converge in " + std::to_string(o.iterations) +
             " iterations (" + o.reason + ", |r|/|b| = " + format_number(o.relative_residual) + ")";
       // The p-multigrid's P1 coarse space locks where nearly incompressible material is confined (Cook's
-      // membrane in plane strain at K/G 1e5 in tet10: GMRES's limit at every solve), where BoomerAMG on
+      // membrane in plane strain at K/G 1e5 in tet10: GMRES stalls at |r|/|b| ~ 1), where BoomerAMG on
       // the P2 block converges in 40–80 iterations (BENCHMARKS.md, "Krylov iterations per Newton step:
       // Cook's membrane"). It takes over from the retry of this step on, whose tangent is filled with its
       // own augmentation (on this tangent, filled with α = 1, BoomerAMG failed as well).

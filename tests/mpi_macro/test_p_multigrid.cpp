@@ -242,9 +242,9 @@ TEST(PMultigrid, FailedSolveFallsBackToBoomerAmgOnTheP2Block) {
   // stalls at |r|/|b| ~ 1, while BoomerAMG on the P2 block (α = 10) takes 38–148 (BENCHMARKS.md; the
   // next test). Here the 16 × 16 mesh stands in with the GMRES limit at 140, below the p-multigrid's
   // first solve (148 measured on 1 rank) and above BoomerAMG's (98–129 measured, the retry's halved
-  // step included). The first solve fails, the run falls back, cuts the
-  // step and reaches the load with CHOLMOD's answer; with the block chosen by the options (here
-  // -softhom_pmg 1) there is no fall-back and the run stops at its cut-back limit.
+  // step included). The first solve fails, the run falls back, cuts the step and reaches the load with
+  // CHOLMOD's answer; with the block chosen by the options (here -softhom_pmg 1) there is no fall-back
+  // and the run stops at its cut-back limit.
   const double G = 83.3, kg = 1e5, force = 5.0;
   const FeModel m = macro::make_cook_membrane_problem(16, G, kg, force, /*tet10=*/true);
   auto run = [&](SolverKind kind, const std::string& options) {
