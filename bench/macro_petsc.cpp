@@ -7,6 +7,9 @@
 //   bench_macro_petsc --tube-table           helix tube, 1e3 / 4e3 / 1e4 dofs (BENCH_DOFS) × K/G = 1e2 … 1e5,
 //                                            first load step; BENCH_TET10=1: the hexes split into tet10;
 //                                            BENCH_ISOTROPIC=1: the Gent matrix without the fibers
+//                                            (both tables: BENCH_FRESH=1 sets up a preconditioner for every
+//                                            tangent, [solver] reuse_preconditioner = false, so that the counts
+//                                            do not depend on the timing-based reuse of an expensive set-up)
 //   bench_macro_petsc --tube DOFS [STEPS]    helix tube, cholmod then petsc (under mpirun: petsc only)
 //   mpirun -n 2 bench_macro_petsc --tube DOFS [STEPS]
 //   [mpirun -n R] bench_macro_petsc --scene FILE [STEPS]   a macro scene with its [solver] settings:
@@ -75,6 +78,7 @@ int cook_table(const std::string& options) {
       NewtonOptions o;
       o.solver = SolverKind::petsc;
       o.petsc_options = options;
+      o.reuse_preconditioner = std::getenv("BENCH_FRESH") == nullptr;
       o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
       const auto t0 = std::chrono::steady_clock::now();
       Simulation sim(cook(n, kg), o);
@@ -181,6 +185,7 @@ int tube_table(const std::string& options) {
       NewtonOptions o;
       o.solver = SolverKind::petsc;
       o.petsc_options = options;
+      o.reuse_preconditioner = std::getenv("BENCH_FRESH") == nullptr;
       o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
       const auto t0 = std::chrono::steady_clock::now();
       Simulation sim(s.model, o);

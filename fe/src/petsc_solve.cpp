@@ -6,6 +6,7 @@
 #include "petsc_nest.hpp"
 #include "petsc_p_multigrid.hpp"
 #include "petsc_saddle_split.hpp"
+#include "petsc_subdomains.hpp"
 
 #include <petscksp.h>
 
@@ -114,6 +115,19 @@ constexpr const char* kPMultigridDefaults =
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_interp_type ext+i -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_P_max 4 "
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_agg_nl 1 -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_relax_type_all Chebyshev "
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_max_iter 2 -pc_fieldsplit_schur_fact_type upper -ksp_gmres_restart 100";
+/// BDDC (-pc_type bddc, [solver] petsc_preconditioner = "bddc") on the element partition's subdomains,
+/// inserted under the user's options. Primal constraints on the subdomains' vertices, edges and faces,
+/// each made a primal unknown by a change of basis (without it the Neumann problem of a subdomain that
+/// touches no support keeps the rotations its edge averages do not fix: Cook's membrane on 4 ranks
+/// diverged); deluxe scaling; the subdomain problems factorized by MUMPS, whose pivoting the K/G = 1e5
+/// matrices need (PETSc's own LU took 33.8 GMRES iterations per solve on the 7 785-dof tube where MUMPS
+/// takes 12.1). The primal basis is built as for a symmetric matrix (PCBDDC's default) although the
+/// follower-pressure tangent is not: its unsymmetric part is a surface term, and the unsymmetric
+/// construction (-pc_bddc_symmetric 0) took more iterations (the 7 785-dof tube: 15.4 / 15.2 per solve at
+/// K/G 1e2 / 1e5 against 9.9 / 12.1).
+constexpr const char* kBddcDefaults =
+    "-pc_bddc_use_faces -pc_bddc_use_change_of_basis -pc_bddc_use_change_on_faces -pc_bddc_use_deluxe_scaling "
+    "-pc_bddc_neumann_pc_factor_mat_solver_type mumps -pc_bddc_dirichlet_pc_factor_mat_solver_type mumps";
 /// The augmentation under the p-multigrid: its P1 coarse space locks as the block's bulk part α G grows
 /// (one element dilatation per tet), so it wants a smaller α than BoomerAMG on the P2 block itself (10).
 /// Measured on the cPASMO 0.5 mesh (158 481 dofs, two load steps, GMRES iterations / CPU): α = 10:
@@ -246,7 +260,7 @@ struct PetscSolver::Data {
   bool pattern_final = false;
   std::array<DirectFill, 4> fills;  // the nest's blocks (i, j) at 2i + j; the one AIJ matrix at 0
   void begin_direct_fill() {
-    if (!pattern_final) return;
+    if (!pattern_final || bddc) return;
     if (!nest) fills[0].begin(A);
     else
       for (int k = 0; k < 4; ++k) fills[k].begin(nest->block(k / 2, k % 2));
@@ -270,6 +284,11 @@ struct PetscSolver::Data {
     }
   }
   std::vector<int> node_owner;
+  // -pc_type bddc: the condensed displacement system as a MATIS over the element partition's subdomains
+  // (petsc_subdomains.hpp), filled through MatSetValuesLocal.
+  bool bddc = false;
+  std::unique_ptr<Subdomains> subdomains;
+  ISLocalToGlobalMapping local_to_global = nullptr;
   // Distributed augmented split: the owned three-field elements of this fill, their distinct free rows
   // and the sums s of d over each (degenerate hexes repeat a node), finished in end_fill once diag(A)
   // is assembled.
@@ -423,7 +442,12 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
   // -softhom_pmg 0; its settings go in under the user's options.
   PetscBool pmg = mesh.tets.empty() ? PETSC_FALSE : PETSC_TRUE;
   PetscOptionsGetBool(nullptr, nullptr, "-softhom_pmg", &pmg, nullptr);
-  d.p_multigrid = pmg && !mesh.tets.empty();
+  char pc_type[64] = "";
+  PetscBool pc_set = PETSC_FALSE;
+  PetscOptionsGetString(nullptr, nullptr, "-pc_type", pc_type, sizeof pc_type, &pc_set);
+  d.bddc = pc_set && std::string(pc_type) == PCBDDC;
+  d.p_multigrid = pmg && !mesh.tets.empty() && !d.bddc;
+  if (d.bddc) insert_under_user_options(kBddcDefaults, options);
   d.user_displacement_solver = options.find("-softhom_pmg") != std::string::npos ||
                                options.find("-fieldsplit_u_") != std::string::npos ||
                                options.find("-softhom_al_alpha") != std::string::npos;
@@ -456,6 +480,7 @@ PetscSolver::~PetscSolver() {
   if (d.is_p) ISDestroy(&d.is_p);
   if (d.p_interpolation) MatDestroy(&d.p_interpolation);
   if (d.gamma_diagonal) VecDestroy(&d.gamma_diagonal);
+  if (d.local_to_global) ISLocalToGlobalMappingDestroy(&d.local_to_global);
 }
 
 int PetscSolver::ranks() const { return d_->size; }
@@ -566,7 +591,18 @@ void PetscSolver::create_system() {
   // blocks at every tangent: half of the one-process fill time on the tube with MUMPS).
   const bool field_split = !pc_set || std::string(pc_type) == PCFIELDSPLIT;
   if (!field_split) use_nest = PETSC_FALSE;
-  if (!d.dnz_p.empty() && use_nest) {
+  if (d.bddc) {
+    if (!d.subdomains) throw std::logic_error("PetscSolver: -pc_type bddc needs the distributed assembly");
+    d.local_to_global = d.subdomains->local_to_global(d.comm);
+    check(MatCreateIS(d.comm, 3, nlocal, nlocal, nglobal, nglobal, d.local_to_global, d.local_to_global, &d.A), "MatCreateIS");
+    Mat local = nullptr;
+    check(MatISGetLocalMat(d.A, &local), "MatISGetLocalMat");
+    check(MatSeqAIJSetPreallocation(local, 0, d.subdomains->nonzeros().data()), "MatSeqAIJSetPreallocation (subdomain)");
+    // A follower-pressure coupling may join two nodes of the subdomain that share none of its elements
+    // (Subdomains::adds_coupling): such an entry is allocated at the first fill, and stays in the pattern.
+    check(MatSetOption(local, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE), "MatSetOption (subdomain)");
+    check(MatISRestoreLocalMat(d.A, &local), "MatISRestoreLocalMat");
+  } else if (!d.dnz_p.empty() && use_nest) {
     std::vector<PetscInt> nu_of(d.size);
     PetscInt mine = nu;
     MPI_Allgather(&mine, 1, MPIU_INT, nu_of.data(), 1, MPIU_INT, d.comm);
@@ -648,6 +684,16 @@ void PetscSolver::create_system() {
     } else {
       check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr), "PCFieldSplitSetSchurPre");
     }
+  } else if (d.bddc) {
+    check(MatSetNearNullSpace(d.A, nsp), "MatSetNearNullSpace");
+    check(PCSetType(pc, PCBDDC), "PCSetType");
+    // The prescribed dofs' rows are the identity (shared among the subdomains holding them): BDDC keeps
+    // them out of its interface.
+    std::vector<PetscInt> fixed = d.subdomains->prescribed(d.dofs->eq);
+    IS is_fixed = nullptr;
+    check(ISCreateGeneral(PETSC_COMM_SELF, PetscInt(fixed.size()), fixed.data(), PETSC_COPY_VALUES, &is_fixed), "ISCreateGeneral");
+    check(PCBDDCSetDirichletBoundariesLocal(pc, is_fixed), "PCBDDCSetDirichletBoundariesLocal");
+    ISDestroy(&is_fixed);
   } else {
     check(MatSetNearNullSpace(d.A, nsp), "MatSetNearNullSpace");
     check(PCSetType(pc, PCGAMG), "PCSetType");
@@ -855,7 +901,11 @@ void PetscSolver::account_matrices() {
   const double entry = double(sizeof(PetscScalar) + sizeof(PetscInt));
   g_matrix_bytes = {};
   if (d.nest) g_matrix_bytes.system = d.nest->bytes();
-  else if (MatGetInfo(d.A, MAT_LOCAL, &info) == 0) g_matrix_bytes.system = info.nz_allocated * entry;
+  else if (d.bddc) {
+    Mat local = nullptr;
+    if (MatISGetLocalMat(d.A, &local) == 0 && MatGetInfo(local, MAT_LOCAL, &info) == 0) g_matrix_bytes.system = info.nz_allocated * entry;
+    MatISRestoreLocalMat(d.A, &local);
+  } else if (MatGetInfo(d.A, MAT_LOCAL, &info) == 0) g_matrix_bytes.system = info.nz_allocated * entry;
   PC pc;
   PCType type;
   if (KSPGetPC(d.ksp, &pc) != 0 || PCGetType(pc, &type) != 0 || !type || std::string(type) != PCFIELDSPLIT) return;
@@ -1012,9 +1062,12 @@ KrylovOutcome PetscSolver::solve(const std::vector<double>& b, std::vector<doubl
 // three-field elements, ascending)], as in the replicated layout, so create_system's index sets and
 // near-nullspace apply unchanged.
 void PetscSolver::distribute(const std::vector<int>& element_owner, const std::vector<int>& node_owner,
-                             const std::vector<int>& mixed_elements) {
+                             const std::vector<int>& three_field_elements) {
   const auto t0 = std::chrono::steady_clock::now();
   Data& d = *d_;
+  // BDDC: every element condensed (its pressure is its own), so no pressure rows.
+  const std::vector<int> none;
+  const std::vector<int>& mixed_elements = d.bddc ? none : three_field_elements;
   const Mesh& mesh = *d.mesh;
   const std::vector<int>& eq = d.dofs->eq;
   const int ne = mesh.num_elements();
@@ -1101,6 +1154,7 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
     d.onz[d.prow[e] - row0] = out;
     d.dnz_p[d.prow[e] - row0] = 1;  // its own diagonal
   }
+  if (d.bddc) d.subdomains = std::make_unique<Subdomains>(mesh, element_owner, d.rank, d.urow);
   create_system();
   times_.analysis += seconds_since(t0);
 }
@@ -1135,6 +1189,22 @@ void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke,
   Data& d = *d_;
   const std::vector<int>& eq = d.dofs->eq;
   const int nd = 3 * nn;
+  if (d.bddc) {  // the condensed element matrix Ke into the subdomain's (local numbering)
+    std::array<int, 30> pos;
+    std::array<PetscInt, 30> rows;
+    int nf = 0;
+    for (int q = 0; q < nd; ++q) {
+      const int g = 3 * nodes[q / 3] + q % 3;
+      if (eq[g] < 0) continue;
+      pos[nf] = q;
+      rows[nf++] = 3 * d.subdomains->local(nodes[q / 3]) + q % 3;
+    }
+    std::array<PetscScalar, 30 * 30> v;
+    for (int i = 0; i < nf; ++i)
+      for (int j = 0; j < nf; ++j) v[i * nf + j] = Ke[pos[i] + nd * pos[j]];
+    check(MatSetValuesLocal(d.A, nf, rows.data(), nf, rows.data(), v.data(), ADD_VALUES), "MatSetValuesLocal");
+    return;
+  }
   std::array<int, 30> pos;
   std::array<PetscInt, 31> rows;
   int nf = 0;
@@ -1292,6 +1362,12 @@ void PetscSolver::finish_lagged_augmentation() {
 
 void PetscSolver::add_entry(int row_dof, int col_dof, double v) {
   Data& d = *d_;
+  if (d.bddc) {
+    if (!d.subdomains->adds_coupling(row_dof / 3, col_dof / 3)) return;
+    const PetscInt r = 3 * d.subdomains->local(row_dof / 3) + row_dof % 3, c = 3 * d.subdomains->local(col_dof / 3) + col_dof % 3;
+    check(MatSetValuesLocal(d.A, 1, &r, 1, &c, &v, ADD_VALUES), "MatSetValuesLocal");
+    return;
+  }
   if (d.node_owner[row_dof / 3] != d.rank) return;
   const PetscInt r = d.urow[row_dof], c = d.urow[col_dof];
   d.set_values(1, &r, 1, &c, &v, ADD_VALUES);
@@ -1302,6 +1378,20 @@ void PetscSolver::end_fill() {
   const std::vector<int>& eq = d.dofs->eq;
   d.end_direct_fill();
   auto add_dirichlet = [&](double value) {
+    if (d.bddc) {  // shared among the subdomains that hold the node: the sum is the value
+      const Mesh& mesh = *d.mesh;
+      for (int n = 0; n < mesh.num_nodes(); ++n) {
+        const int ln = d.subdomains->local(n);
+        if (ln < 0) continue;
+        const double share = value / d.subdomains->multiplicity(n);
+        for (int i = 0; i < 3; ++i)
+          if (eq[3 * std::size_t(n) + i] < 0) {
+            const PetscInt r = 3 * ln + i;
+            check(MatSetValuesLocal(d.A, 1, &r, 1, &r, &share, ADD_VALUES), "MatSetValuesLocal");
+          }
+      }
+      return;
+    }
     for (PetscInt g : d.owned_dofs)
       if (eq[g] < 0) d.set_values(1, &d.urow[g], 1, &d.urow[g], &value, ADD_VALUES);
   };

@@ -137,7 +137,8 @@ void Simulation::Impl::build_linear_solvers() {
     // preconditions GMRES by default (30 steps in 4.1 s CPU, BENCHMARKS.md); the user's options
     // come after and override it.
     const std::string cavity_defaults = model_.cavity ? "-pc_type lu -pc_factor_mat_solver_type mumps " : "";
-    petsc_ = std::make_unique<PetscSolver>(model_.mesh, dofs_, cavity_defaults + options_.petsc_options);
+    const std::string preconditioner = options_.petsc_preconditioner == PetscPreconditioner::bddc ? "-pc_type bddc " : "";
+    petsc_ = std::make_unique<PetscSolver>(model_.mesh, dofs_, cavity_defaults + preconditioner + options_.petsc_options);
     linear_ = petsc_.get();
     return;
   }

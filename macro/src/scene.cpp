@@ -246,6 +246,13 @@ const KeyTable<fe::NewtonOptions>& newton_table() {
                 "linear solver: cholmod (sparse Cholesky, LU when it fails), umfpack (LU), petsc (GMRES + "
                 "algebraic multigrid over MPI ranks); auto: petsc for meshes of quadratic tets from 1e5 free dofs on "
                 "(faster than cholmod there, a quarter of its memory), cholmod otherwise and under volume control")
+        .choice("petsc_preconditioner", &O::petsc_preconditioner,
+                Choices<fe::PetscPreconditioner>{{{"field-split", fe::PetscPreconditioner::field_split},
+                                                  {"bddc", fe::PetscPreconditioner::bddc}},
+                                                 {}},
+                "petsc: field-split (the (u, p) Schur split with algebraic multigrid; linear memory) or bddc "
+                "(balancing domain decomposition, one subdomain per MPI rank factorized by MUMPS; Krylov counts flat in "
+                "K/G and mesh size, a direct solve's memory per subdomain)")
         .text("petsc_options", &O::petsc_options,
               "PETSc options database entries for the petsc solver, e.g. \"-ksp_rtol 1e-10 -pc_type hypre\"")
         .flag("reuse_preconditioner", &O::reuse_preconditioner,

@@ -50,6 +50,11 @@ struct NewtonOptions {
   /// e.g. MUMPS's LU; a multigrid hierarchy costs less) across tangents while GMRES with it costs less
   /// than a new one, with the refresh rules of the CHOLMOD path's lagged factor.
   bool reuse_preconditioner = true;
+  /// petsc: the preconditioner of GMRES. field_split: the (u, p) Schur split with algebraic multigrid on
+  /// the displacement block (one rank's memory grows linearly). bddc: PETSc's balancing domain
+  /// decomposition by constraints on the element partition (one subdomain per rank, each factorized by
+  /// MUMPS): Krylov counts flat in K/G and in the mesh, at the memory of a direct solve per subdomain.
+  PetscPreconditioner petsc_preconditioner = PetscPreconditioner::field_split;
   /// Options for PETSc's options database (PetscOptionsInsertString), e.g. "-ksp_type fgmres -pc_type hypre".
   std::string petsc_options;
   bool mixed = true;          ///< three-field (u, θ, p) iteration for laws with a volumetric modulus
