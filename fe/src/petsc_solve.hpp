@@ -66,7 +66,8 @@ class PetscSolver final : public LinearSolver {
   /// fills only the entries of the elements it owns (`element_owner`) and owns the rows of the nodes
   /// of `node_owner` r, numbered rank by rank (then the element pressures of its elements in
   /// `mixed_elements`, the three-field ones). Creates the matrix, preallocated per rank from the mesh,
-  /// and the Krylov solver.
+  /// and the Krylov solver. Under -pc_type bddc the matrix is a MATIS of the condensed displacement
+  /// system instead (no pressure rows), rank r's subdomain the elements it owns (petsc_subdomains.hpp).
   void distribute(const std::vector<int>& element_owner, const std::vector<int>& node_owner,
                   const std::vector<int>& mixed_elements);
   bool distributed() const;
@@ -76,7 +77,8 @@ class PetscSolver final : public LinearSolver {
   /// Element e's matrix Ke (3·nn dofs of `nodes`, column-major) on its free dofs. A three-field
   /// element (d = ∂θ_e/∂u, c = V_e U″(θ_e); d null otherwise) enters uncondensed: Ke − c d dᵀ on u, its
   /// pressure column d/|d| and its row c|d| dᵀ, −1 (the layout of the comment in petsc_solve.cpp);
-  /// with the augmented split the part γ of c it keeps on u is added at end_fill.
+  /// with the augmented split the part γ of c it keeps on u is added at end_fill. Under BDDC Ke enters
+  /// whole (condensed) into the subdomain's matrix.
   void add_element(int e, int nn, const int* nodes, const double* Ke, const double* d, double c);
   /// Whether add_element may run concurrently for elements that share no node (one process, a fill of
   /// the final pattern straight into the matrix's values); otherwise one call at a time.
