@@ -1189,22 +1189,7 @@ void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke,
   Data& d = *d_;
   const std::vector<int>& eq = d.dofs->eq;
   const int nd = 3 * nn;
-  if (d.bddc) {  // the condensed element matrix Ke into the subdomain's (local numbering)
-    std::array<int, 30> pos;
-    std::array<PetscInt, 30> rows;
-    int nf = 0;
-    for (int q = 0; q < nd; ++q) {
-      const int g = 3 * nodes[q / 3] + q % 3;
-      if (eq[g] < 0) continue;
-      pos[nf] = q;
-      rows[nf++] = 3 * d.subdomains->local(nodes[q / 3]) + q % 3;
-    }
-    std::array<PetscScalar, 30 * 30> v;
-    for (int i = 0; i < nf; ++i)
-      for (int j = 0; j < nf; ++j) v[i * nf + j] = Ke[pos[i] + nd * pos[j]];
-    check(MatSetValuesLocal(d.A, nf, rows.data(), nf, rows.data(), v.data(), ADD_VALUES), "MatSetValuesLocal");
-    return;
-  }
+  // The free dofs' rows: the system's, or under BDDC the subdomain's local numbering.
   std::array<int, 30> pos;
   std::array<PetscInt, 31> rows;
   int nf = 0;
@@ -1212,9 +1197,16 @@ void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke,
     const int g = 3 * nodes[q / 3] + q % 3;
     if (eq[g] < 0) continue;
     pos[nf] = q;
-    rows[nf++] = d.urow[g];
+    rows[nf++] = d.bddc ? PetscInt(3 * d.subdomains->local(nodes[q / 3]) + q % 3) : d.urow[g];
   }
   if (nf == 0) return;
+  if (d.bddc) {  // the condensed element matrix Ke whole into the subdomain's
+    std::array<PetscScalar, 30 * 30> v;
+    for (int i = 0; i < nf; ++i)
+      for (int j = 0; j < nf; ++j) v[i * nf + j] = Ke[pos[i] + nd * pos[j]];
+    check(MatSetValuesLocal(d.A, nf, rows.data(), nf, rows.data(), v.data(), ADD_VALUES), "MatSetValuesLocal");
+    return;
+  }
   // Ascending rows and columns: PETSc's row insertion then finds each column by a forward search from
   // the previous one instead of a new bisection (the one-process fill took 2x the CSC scatter's time).
   for (int i = 1; i < nf; ++i)
