@@ -251,8 +251,8 @@ const KeyTable<fe::NewtonOptions>& newton_table() {
                                                   {"bddc", fe::PetscPreconditioner::bddc}},
                                                  {}},
                 "petsc: field-split (the (u, p) Schur split with algebraic multigrid; linear memory) or bddc "
-                "(balancing domain decomposition, one subdomain per MPI rank factorized by MUMPS; Krylov counts flat in "
-                "K/G and mesh size, a direct solve's memory per subdomain)")
+                "(balancing domain decomposition, one subdomain per MPI rank factorized by MUMPS; on a given number of ranks "
+                "Krylov counts flat in K/G and near-flat in mesh size; a direct solve's memory per subdomain)")
         .text("petsc_options", &O::petsc_options,
               "PETSc options database entries for the petsc solver, e.g. \"-ksp_rtol 1e-10 -pc_type hypre\"")
         .flag("reuse_preconditioner", &O::reuse_preconditioner,

@@ -53,7 +53,8 @@ struct NewtonOptions {
   /// petsc: the preconditioner of GMRES. field_split: the (u, p) Schur split with algebraic multigrid on
   /// the displacement block (one rank's memory grows linearly). bddc: PETSc's balancing domain
   /// decomposition by constraints on the element partition (one subdomain per rank, each factorized by
-  /// MUMPS): Krylov counts flat in K/G and in the mesh, at the memory of a direct solve per subdomain.
+  /// MUMPS): on a given number of ranks Krylov counts flat in K/G and near-flat in the mesh, at the memory
+  /// of a direct solve per subdomain (they still grow with the number of subdomains at large K/G).
   PetscPreconditioner petsc_preconditioner = PetscPreconditioner::field_split;
   /// Options for PETSc's options database (PetscOptionsInsertString), e.g. "-ksp_type fgmres -pc_type hypre".
   std::string petsc_options;
