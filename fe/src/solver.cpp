@@ -128,6 +128,11 @@ void Simulation::Impl::build_linear_solvers() {
   // Automatic below its PETSc sizes: Cholesky of the symmetric part (exact without follower pressure,
   // a GMRES preconditioner with it); refactor() switches to LU if that part is not positive definite.
   const SolverKind kind = resolved_solver();
+  // A preconditioner chosen for the petsc solver while another solves (e.g. auto's CHOLMOD below its
+  // PETSc sizes) is said once, not silently dropped.
+  if (kind != SolverKind::petsc && options_.petsc_preconditioner != PetscPreconditioner::field_split)
+    note_once("petsc preconditioner", std::string("[solver] petsc_preconditioner applies to linear_solver = \"petsc\"; this run solves with ") +
+                                          to_string(kind));
   if (kind == SolverKind::petsc) {
     // Analysed at the first solve, once the three-field elements are known (build_mixed).
     // Under cavity-volume control the tangent at fixed pressure turns singular at the pressure maximum
