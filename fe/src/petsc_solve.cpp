@@ -689,7 +689,7 @@ void PetscSolver::create_system() {
     check(PCSetType(pc, PCBDDC), "PCSetType");
     // The prescribed dofs' rows are the identity (shared among the subdomains holding them): BDDC keeps
     // them out of its interface.
-    std::vector<PetscInt> fixed = d.subdomains->prescribed(d.dofs->eq);
+    const std::vector<PetscInt>& fixed = d.subdomains->prescribed();
     IS is_fixed = nullptr;
     check(ISCreateGeneral(PETSC_COMM_SELF, PetscInt(fixed.size()), fixed.data(), PETSC_COPY_VALUES, &is_fixed), "ISCreateGeneral");
     check(PCBDDCSetDirichletBoundariesLocal(pc, is_fixed), "PCBDDCSetDirichletBoundariesLocal");
@@ -1100,6 +1100,12 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
   d.hi = 3 * nodes_of[d.rank];
   d.plo = 0;
   d.phi = pressures_of[d.rank];
+  if (d.bddc) {  // the subdomain matrices' own preallocation instead of the rows'
+    d.subdomains = std::make_unique<Subdomains>(mesh, element_owner, d.rank, d.urow, eq);
+    create_system();
+    times_.analysis += seconds_since(t0);
+    return;
+  }
   const PetscInt nu = d.hi, nlocal = nu + d.phi, row0 = d.first[d.rank];
   // Preallocation: row (n, i) couples to the free dofs of every node sharing an element with n and to
   // the pressures of the three-field elements around n; a prescribed row holds its diagonal alone.
@@ -1154,7 +1160,6 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
     d.onz[d.prow[e] - row0] = out;
     d.dnz_p[d.prow[e] - row0] = 1;  // its own diagonal
   }
-  if (d.bddc) d.subdomains = std::make_unique<Subdomains>(mesh, element_owner, d.rank, d.urow);
   create_system();
   times_.analysis += seconds_since(t0);
 }
@@ -1197,7 +1202,7 @@ void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke,
     const int g = 3 * nodes[q / 3] + q % 3;
     if (eq[g] < 0) continue;
     pos[nf] = q;
-    rows[nf++] = d.bddc ? PetscInt(3 * d.subdomains->local(nodes[q / 3]) + q % 3) : d.urow[g];
+    rows[nf++] = d.bddc ? d.subdomains->row(g) : d.urow[g];
   }
   if (nf == 0) return;
   if (d.bddc) {  // the condensed element matrix Ke whole into the subdomain's
@@ -1356,7 +1361,7 @@ void PetscSolver::add_entry(int row_dof, int col_dof, double v) {
   Data& d = *d_;
   if (d.bddc) {
     if (!d.subdomains->adds_coupling(row_dof / 3, col_dof / 3)) return;
-    const PetscInt r = 3 * d.subdomains->local(row_dof / 3) + row_dof % 3, c = 3 * d.subdomains->local(col_dof / 3) + col_dof % 3;
+    const PetscInt r = d.subdomains->row(row_dof), c = d.subdomains->row(col_dof);
     check(MatSetValuesLocal(d.A, 1, &r, 1, &c, &v, ADD_VALUES), "MatSetValuesLocal");
     return;
   }
@@ -1371,16 +1376,10 @@ void PetscSolver::end_fill() {
   d.end_direct_fill();
   auto add_dirichlet = [&](double value) {
     if (d.bddc) {  // shared among the subdomains that hold the node: the sum is the value
-      const Mesh& mesh = *d.mesh;
-      for (int n = 0; n < mesh.num_nodes(); ++n) {
-        const int ln = d.subdomains->local(n);
-        if (ln < 0) continue;
-        const double share = value / d.subdomains->multiplicity(n);
-        for (int i = 0; i < 3; ++i)
-          if (eq[3 * std::size_t(n) + i] < 0) {
-            const PetscInt r = 3 * ln + i;
-            check(MatSetValuesLocal(d.A, 1, &r, 1, &r, &share, ADD_VALUES), "MatSetValuesLocal");
-          }
+      const std::vector<PetscInt>& rows = d.subdomains->prescribed();
+      for (std::size_t k = 0; k < rows.size(); ++k) {
+        const double share = value * d.subdomains->prescribed_share()[k];
+        check(MatSetValuesLocal(d.A, 1, &rows[k], 1, &rows[k], &share, ADD_VALUES), "MatSetValuesLocal");
       }
       return;
     }

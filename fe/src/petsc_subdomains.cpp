@@ -7,7 +7,8 @@
 
 namespace softhom::fe {
 
-Subdomains::Subdomains(const Mesh& mesh, const std::vector<int>& element_owner, int rank, const std::vector<PetscInt>& urow)
+Subdomains::Subdomains(const Mesh& mesh, const std::vector<int>& element_owner, int rank, const std::vector<PetscInt>& urow,
+                       const std::vector<int>& eq)
     : rank_(rank) {
   const int nn = mesh.num_nodes(), ne = mesh.num_elements();
   std::vector<std::pair<int, int>> touch;  // (node, rank) of every element's nodes
@@ -29,7 +30,15 @@ Subdomains::Subdomains(const Mesh& mesh, const std::vector<int>& element_owner, 
     if (r == rank) nodes_.push_back(n);  // ascending: touch is sorted by node
   for (int i = 0; i < int(nodes_.size()); ++i) local_[nodes_[i]] = i;
   blocks_.resize(nodes_.size());
-  for (std::size_t i = 0; i < nodes_.size(); ++i) blocks_[i] = urow[3 * std::size_t(nodes_[i])] / 3;
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    const int n = nodes_[i];
+    blocks_[i] = urow[3 * std::size_t(n)] / 3;
+    for (int c = 0; c < 3; ++c)
+      if (eq[3 * std::size_t(n) + c] < 0) {
+        prescribed_.push_back(PetscInt(3 * i + c));
+        prescribed_share_.push_back(1.0 / (rank_off_[n + 1] - rank_off_[n]));
+      }
+  }
   // Nonzeros: per local node, the distinct nodes of its own elements, three dofs each.
   std::vector<std::vector<int>> around(nodes_.size());
   for (int e = 0; e < ne; ++e) {
@@ -62,14 +71,6 @@ ISLocalToGlobalMapping Subdomains::local_to_global(MPI_Comm comm) const {
   petsc_check(ISLocalToGlobalMappingCreate(comm, 3, PetscInt(blocks_.size()), blocks_.data(), PETSC_COPY_VALUES, &map),
         "ISLocalToGlobalMappingCreate");
   return map;
-}
-
-std::vector<PetscInt> Subdomains::prescribed(const std::vector<int>& eq) const {
-  std::vector<PetscInt> out;
-  for (std::size_t i = 0; i < nodes_.size(); ++i)
-    for (int c = 0; c < 3; ++c)
-      if (eq[3 * std::size_t(nodes_[i]) + c] < 0) out.push_back(PetscInt(3 * i + c));
-  return out;
 }
 
 }  // namespace softhom::fe

@@ -15,14 +15,12 @@ namespace softhom::fe {
 class Subdomains {
  public:
   /// The subdomain of `rank` under `element_owner`; `urow` is the PETSc row of every mesh dof (3 per
-  /// node, a node's rows consecutive from a multiple of 3).
-  Subdomains(const Mesh& mesh, const std::vector<int>& element_owner, int rank, const std::vector<PetscInt>& urow);
-  /// Nodes of the subdomain (ascending).
-  int size() const { return int(nodes_.size()); }
-  /// The node's place in the local space (−1: not in this subdomain).
-  int local(int node) const { return local_[node]; }
-  /// The ranks whose subdomains contain the node.
-  int multiplicity(int node) const { return rank_off_[node + 1] - rank_off_[node]; }
+  /// node, a node's rows consecutive from a multiple of 3), `eq` the free equation of every mesh dof
+  /// (−1: prescribed).
+  Subdomains(const Mesh& mesh, const std::vector<int>& element_owner, int rank, const std::vector<PetscInt>& urow,
+             const std::vector<int>& eq);
+  /// The local row of mesh dof `dof` (3 node + component) of a node in this subdomain.
+  PetscInt row(int dof) const { return 3 * PetscInt(local_[dof / 3]) + dof % 3; }
   /// Whether this rank adds an entry coupling nodes a and b (both must lie in the local space of the
   /// rank that adds it): the lowest rank whose subdomain holds both. Every rank passes every entry.
   bool adds_coupling(int a, int b) const;
@@ -30,14 +28,17 @@ class Subdomains {
   ISLocalToGlobalMapping local_to_global(MPI_Comm comm) const;
   /// Nonzeros per local row of the subdomain matrix: the dofs of the nodes sharing an element of it.
   const std::vector<PetscInt>& nonzeros() const { return nnz_; }
-  /// Local dof indices of the subdomain's prescribed dofs (eq < 0).
-  std::vector<PetscInt> prescribed(const std::vector<int>& eq) const;
+  /// Local rows of the subdomain's prescribed dofs (eq < 0), and the share of their identity row this
+  /// subdomain holds (1 / the number of subdomains holding the node: the shares sum to the row).
+  const std::vector<PetscInt>& prescribed() const { return prescribed_; }
+  const std::vector<double>& prescribed_share() const { return prescribed_share_; }
 
  private:
   int rank_ = 0;
   std::vector<int> nodes_, local_;
   std::vector<int> rank_off_, ranks_;  // CSR: the ranks touching each node, ascending
-  std::vector<PetscInt> blocks_, nnz_;
+  std::vector<PetscInt> blocks_, nnz_, prescribed_;
+  std::vector<double> prescribed_share_;
 };
 
 }  // namespace softhom::fe
