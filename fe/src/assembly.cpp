@@ -146,10 +146,10 @@ void Simulation::Impl::assemble_elements(double dt, bool tangent, const std::vec
         // Three-field elements enter uncondensed, c = V_e U″(θ) as in saddle_current.
         const double c = mv ? volume * volumetric_d2U(mix_bulk_[e], mix_theta_[e]) : 0.0;
         if (concurrent_fill) {
-          petsc_->add_element(e, NN, nodes.data(), Kel.data(), mv ? mv->d.data() : nullptr, c);
+          petsc_->add_element(e, NN, nodes.data(), Kel.data(), mv ? mv->d.data() : nullptr, c, volume);
         } else {
 #pragma omp critical(softhom_petsc_fill)
-          petsc_->add_element(e, NN, nodes.data(), Kel.data(), mv ? mv->d.data() : nullptr, c);
+          petsc_->add_element(e, NN, nodes.data(), Kel.data(), mv ? mv->d.data() : nullptr, c, volume);
         }
       }
     };

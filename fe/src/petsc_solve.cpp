@@ -119,14 +119,21 @@ constexpr const char* kPMultigridDefaults =
 /// inserted under the user's options. Primal constraints on the subdomains' vertices, edges and faces,
 /// each made a primal unknown by a change of basis (without it the Neumann problem of a subdomain that
 /// touches no support keeps the rotations its edge averages do not fix: Cook's membrane on 4 ranks
-/// diverged); deluxe scaling; the subdomain problems factorized by MUMPS, whose pivoting the K/G = 1e5
-/// matrices need (PETSc's own LU took 33.8 GMRES iterations per solve on the 7 785-dof tube where MUMPS
-/// takes 12.1). The primal basis is built as for a symmetric matrix (PCBDDC's default) although the
-/// follower-pressure tangent is not: its unsymmetric part is a surface term, and the unsymmetric
-/// construction (-pc_bddc_symmetric 0) took more iterations (the 7 785-dof tube: 15.4 / 15.2 per solve at
-/// K/G 1e2 / 1e5 against 9.9 / 12.1).
+/// diverged). On every edge and face the constraints are the restrictions of a near-nullspace, all three
+/// components together (monolithic): the rigid-body modes and the flux of the volume change
+/// (set_bddc_constraints). Near incompressibility wants the flux: the averages alone leave a subdomain's
+/// net volume change to the local solves, and they are only a normal flux where a face is flat (never on
+/// the staircase faces of a partition of elements). Against the per-component averages they cut the
+/// counts 1.2–1.5× on Cook's membrane and 1.6× on 64 subdomains (BENCHMARKS.md, "BDDC"). Deluxe
+/// scaling; the subdomain problems factorized by MUMPS, whose pivoting the K/G = 1e5 matrices need
+/// (PETSc's own LU took 33.8 GMRES iterations per solve on the 7 785-dof tube where MUMPS takes 12.1).
+/// The primal basis is built as for a symmetric matrix (PCBDDC's default) although the follower-pressure
+/// tangent is not: its unsymmetric part is a surface term, and the unsymmetric construction
+/// (-pc_bddc_symmetric 0) took more iterations (the 7 785-dof tube: 15.4 / 15.2 per solve at K/G 1e2 /
+/// 1e5 against 9.9 / 12.1).
 constexpr const char* kBddcDefaults =
     "-pc_bddc_use_faces -pc_bddc_use_change_of_basis -pc_bddc_use_change_on_faces -pc_bddc_use_deluxe_scaling "
+    "-pc_bddc_monolithic -pc_bddc_use_nnsp "
     "-pc_bddc_neumann_pc_factor_mat_solver_type mumps -pc_bddc_dirichlet_pc_factor_mat_solver_type mumps";
 /// The augmentation under the p-multigrid: its P1 coarse space locks as the block's bulk part α G grows
 /// (one element dilatation per tet), so it wants a smaller α than BoomerAMG on the P2 block itself (10).
@@ -286,8 +293,13 @@ struct PetscSolver::Data {
   std::vector<int> node_owner;
   // -pc_type bddc: the condensed displacement system as a MATIS over the element partition's subdomains
   // (petsc_subdomains.hpp), filled through MatSetValuesLocal.
-  bool bddc = false;
+  bool bddc = false, bddc_flux = false;
   std::unique_ptr<Subdomains> subdomains;
+  // Its primal constraints (kBddcDefaults): on every face the rigid-body modes and, unless
+  // -softhom_bddc_flux 0, the flux of the three-field elements' volume change (set_bddc_constraints);
+  // flux_weights is this subdomain's Σ_e ∂v_e/∂u = Σ_e V_e ∂θ_e/∂u of the fill.
+  std::vector<double> flux_weights;
+  MatNullSpace rigid_modes = nullptr;
   ISLocalToGlobalMapping local_to_global = nullptr;
   // Distributed augmented split: the owned three-field elements of this fill, their distinct free rows
   // and the sums s of d over each (degenerate hexes repeat a node), finished in end_fill once diag(A)
@@ -448,6 +460,11 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
   d.bddc = pc_set && std::string(pc_type) == PCBDDC;
   d.p_multigrid = pmg && !mesh.tets.empty() && !d.bddc;
   if (d.bddc) insert_under_user_options(kBddcDefaults, options);
+  if (d.bddc) {
+    PetscBool flux = PETSC_TRUE;
+    PetscOptionsGetBool(nullptr, nullptr, "-softhom_bddc_flux", &flux, nullptr);
+    d.bddc_flux = flux;
+  }
   d.user_displacement_solver = options.find("-softhom_pmg") != std::string::npos ||
                                options.find("-fieldsplit_u_") != std::string::npos ||
                                options.find("-softhom_al_alpha") != std::string::npos;
@@ -481,6 +498,7 @@ PetscSolver::~PetscSolver() {
   if (d.p_interpolation) MatDestroy(&d.p_interpolation);
   if (d.gamma_diagonal) VecDestroy(&d.gamma_diagonal);
   if (d.local_to_global) ISLocalToGlobalMappingDestroy(&d.local_to_global);
+  if (d.rigid_modes) MatNullSpaceDestroy(&d.rigid_modes);
 }
 
 int PetscSolver::ranks() const { return d_->size; }
@@ -686,6 +704,8 @@ void PetscSolver::create_system() {
     }
   } else if (d.bddc) {
     check(MatSetNearNullSpace(d.A, nsp), "MatSetNearNullSpace");
+    d.rigid_modes = nsp;  // with the faces' fluxes at every fill (set_bddc_constraints)
+    check(PetscObjectReference(reinterpret_cast<PetscObject>(nsp)), "PetscObjectReference");
     check(PCSetType(pc, PCBDDC), "PCSetType");
     // The prescribed dofs' rows are the identity (shared among the subdomains holding them): BDDC keeps
     // them out of its interface.
@@ -1172,6 +1192,7 @@ void PetscSolver::begin_fill() {
   else check(MatZeroEntries(d.A), "MatZeroEntries");
   d.pending.clear();
   d.begin_direct_fill();
+  if (d.bddc && d.bddc_flux) d.flux_weights.assign(std::size_t(d.subdomains->local_dofs()), 0.0);
   d.lagged_fill = d.schur_pre && d.fills[0].active() && !d.lagged_diagonal.empty();
   if (d.lagged_fill) {
     if (!d.gamma_diagonal) check(VecDuplicate(d.x, &d.gamma_diagonal), "VecDuplicate");
@@ -1190,7 +1211,7 @@ bool PetscSolver::concurrent_fill() const {
   return d.size == 1 && d.fills[0].active() && (!d.schur_pre || d.lagged_fill);
 }
 
-void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke, const double* dk, double c) {
+void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke, const double* dk, double c, double volume) {
   Data& d = *d_;
   const std::vector<int>& eq = d.dofs->eq;
   const int nd = 3 * nn;
@@ -1210,6 +1231,8 @@ void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke,
     for (int i = 0; i < nf; ++i)
       for (int j = 0; j < nf; ++j) v[i * nf + j] = Ke[pos[i] + nd * pos[j]];
     check(MatSetValuesLocal(d.A, nf, rows.data(), nf, rows.data(), v.data(), ADD_VALUES), "MatSetValuesLocal");
+    if (dk && !d.flux_weights.empty())
+      for (int i = 0; i < nf; ++i) d.flux_weights[std::size_t(rows[i])] += volume * dk[pos[i]];
     return;
   }
   // Ascending rows and columns: PETSc's row insertion then finds each column by a forward search from
@@ -1370,6 +1393,49 @@ void PetscSolver::add_entry(int row_dof, int col_dof, double v) {
   d.set_values(1, &r, 1, &c, &v, ADD_VALUES);
 }
 
+void PetscSolver::set_bddc_constraints() {
+  Data& d = *d_;
+  // The flux weights w of the subdomains' faces: this subdomain's Σ_e ∂v_e/∂u at its own nodes, each
+  // node's taken from the lowest rank holding it. On a face between two subdomains the two sides' sums
+  // differ only in sign (the elements around an interior node sum to zero), so either side's restriction
+  // is the face's flux ∫_F u·n da up to sign.
+  double largest = 0.0;
+  for (double w : d.flux_weights) largest = std::max(largest, std::abs(w));
+  MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, d.comm);
+  PetscInt n_rigid = 0;
+  const Vec* rigid = nullptr;
+  check(MatNullSpaceGetVecs(d.rigid_modes, nullptr, &n_rigid, &rigid), "MatNullSpaceGetVecs");
+  std::vector<Vec> modes(rigid, rigid + n_rigid);
+  Vec flux = nullptr;
+  if (largest > 0.0) {  // a three-field element somewhere (a compressible mesh has none: the modes alone)
+    check(MatCreateVecs(d.A, &flux, nullptr), "MatCreateVecs");
+    std::vector<PetscInt> rows;
+    std::vector<PetscScalar> values;
+    for (PetscInt r = 0; r < d.subdomains->local_dofs(); ++r)
+      if (d.subdomains->lowest_holder(int(r / 3))) {
+        rows.push_back(d.subdomains->global_row(r));
+        values.push_back(d.flux_weights[std::size_t(r)] / largest);
+      }
+    check(VecSetValues(flux, PetscInt(rows.size()), rows.data(), values.data(), INSERT_VALUES), "VecSetValues");
+    check(VecAssemblyBegin(flux), "VecAssemblyBegin");
+    check(VecAssemblyEnd(flux), "VecAssemblyEnd");
+    // Orthonormal to the (orthonormal) rigid-body modes, as a near-nullspace's vectors must be; the span
+    // on every face, hence the constraints, stays the same.
+    std::vector<PetscScalar> dots(modes.size());
+    check(VecMDot(flux, PetscInt(modes.size()), modes.data(), dots.data()), "VecMDot");
+    for (PetscScalar& c : dots) c = -c;
+    check(VecMAXPY(flux, PetscInt(modes.size()), dots.data(), modes.data()), "VecMAXPY");
+    PetscReal norm = 0.0;
+    check(VecNormalize(flux, &norm), "VecNormalize");
+    if (norm > 0.0) modes.push_back(flux);
+  }
+  MatNullSpace space = nullptr;
+  check(MatNullSpaceCreate(d.comm, PETSC_FALSE, PetscInt(modes.size()), modes.data(), &space), "MatNullSpaceCreate");
+  check(MatSetNearNullSpace(d.A, space), "MatSetNearNullSpace");
+  MatNullSpaceDestroy(&space);
+  if (flux) VecDestroy(&flux);
+}
+
 void PetscSolver::end_fill() {
   Data& d = *d_;
   const std::vector<int>& eq = d.dofs->eq;
@@ -1390,6 +1456,7 @@ void PetscSolver::end_fill() {
   add_dirichlet(d.diagonal_known ? d.dirichlet_diagonal : 0.0);
   check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
   check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  if (d.bddc_flux) set_bddc_constraints();
   if (d.diagonal_known) {
     if (d.schur_pre) d.lagged_fill ? finish_lagged_augmentation() : finish_augmented_split();
     return;

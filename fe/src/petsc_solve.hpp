@@ -79,7 +79,7 @@ class PetscSolver final : public LinearSolver {
   /// pressure column d/|d| and its row c|d| dᵀ, −1 (the layout of the comment in petsc_solve.cpp);
   /// with the augmented split the part γ of c it keeps on u is added at end_fill. Under BDDC Ke enters
   /// whole (condensed) into the subdomain's matrix.
-  void add_element(int e, int nn, const int* nodes, const double* Ke, const double* d, double c);
+  void add_element(int e, int nn, const int* nodes, const double* Ke, const double* d, double c, double volume);
   /// Whether add_element may run concurrently for elements that share no node (one process, a fill of
   /// the final pattern straight into the matrix's values); otherwise one call at a time.
   bool concurrent_fill() const;
@@ -128,6 +128,9 @@ class PetscSolver final : public LinearSolver {
   /// The augmented split of the owned three-field elements once diag(A) is assembled (end_fill of a
   /// fill without the previous diag(A): the first one).
   void finish_augmented_split();
+  /// BDDC's primal constraints for this fill: the near-nullspace of the rigid-body modes and the faces'
+  /// volume fluxes.
+  void set_bddc_constraints();
   /// end_fill of a fill that took γ from the previous diag(A): the Schur diagonal's assembly, and this
   /// tangent's diag(A) without its γ terms kept for the next fill.
   void finish_lagged_augmentation();
