@@ -78,7 +78,8 @@ class PetscSolver final : public LinearSolver {
   /// element (d = ∂θ_e/∂u, c = V_e U″(θ_e); d null otherwise) enters uncondensed: Ke − c d dᵀ on u, its
   /// pressure column d/|d| and its row c|d| dᵀ, −1 (the layout of the comment in petsc_solve.cpp);
   /// with the augmented split the part γ of c it keeps on u is added at end_fill. Under BDDC Ke enters
-  /// whole (condensed) into the subdomain's matrix.
+  /// whole (condensed) into the subdomain's matrix, and `volume` V_e d = ∂v_e/∂u into the flux of the
+  /// subdomain's faces (set_bddc_constraints).
   void add_element(int e, int nn, const int* nodes, const double* Ke, const double* d, double c, double volume);
   /// Whether add_element may run concurrently for elements that share no node (one process, a fill of
   /// the final pattern straight into the matrix's values); otherwise one call at a time.
