@@ -530,6 +530,8 @@ std::string PetscSolver::description() const {
       }
     }
   }
+  if (d_->bddc)
+    s += d_->bddc_flux ? " (rigid-body and volume-flux constraints on edges and faces)" : " (rigid-body constraints on edges and faces)";
   return s;
 }
 
