@@ -53,12 +53,9 @@ void Simulation::Impl::petsc_set_operator(bool new_preconditioner) {
   factor_valid_ = true;
   factor_stale_ = false;
   factor_version_ = k_version_;
-  if (first_factorization_) {
-    // BDDC's description names its constraints; the other preconditioners get the rigid-body modes.
-    const std::string what = petsc_->description();
-    note_once("petsc", "linear solver: petsc (" + what + (what.find("bddc") == std::string::npos ? ", rigid-body near-nullspace" : "") + ") on " +
+  if (first_factorization_)
+    note_once("petsc", "linear solver: petsc (" + petsc_->description() + ", " + petsc_->near_nullspace() + ") on " +
                            std::to_string(petsc_->ranks()) + " MPI rank(s)");
-  }
   first_factorization_ = false;
   if (petsc_->anisotropic_smoother() && !anisotropic_smoother_noted_) {
     anisotropic_smoother_noted_ = true;

@@ -459,8 +459,8 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
   PetscOptionsGetString(nullptr, nullptr, "-pc_type", pc_type, sizeof pc_type, &pc_set);
   d.bddc = pc_set && std::string(pc_type) == PCBDDC;
   d.p_multigrid = pmg && !mesh.tets.empty() && !d.bddc;
-  if (d.bddc) insert_under_user_options(kBddcDefaults, options);
   if (d.bddc) {
+    insert_under_user_options(kBddcDefaults, options);
     PetscBool flux = PETSC_TRUE;
     PetscOptionsGetBool(nullptr, nullptr, "-softhom_bddc_flux", &flux, nullptr);
     d.bddc_flux = flux;
@@ -530,9 +530,12 @@ std::string PetscSolver::description() const {
       }
     }
   }
-  if (d_->bddc)
-    s += d_->bddc_flux ? " (rigid-body and volume-flux constraints on edges and faces)" : " (rigid-body constraints on edges and faces)";
   return s;
+}
+
+std::string PetscSolver::near_nullspace() const {
+  if (!d_->bddc) return "rigid-body near-nullspace";
+  return d_->bddc_flux ? "rigid-body and volume-flux constraints on edges and faces" : "rigid-body constraints on edges and faces";
 }
 
 void PetscSolver::set_mixed(const std::vector<int>& off, const std::vector<int>& eq) {
@@ -1398,29 +1401,27 @@ void PetscSolver::add_entry(int row_dof, int col_dof, double v) {
 void PetscSolver::set_bddc_constraints() {
   Data& d = *d_;
   // The flux weights w of the subdomains' faces: this subdomain's Σ_e ∂v_e/∂u at its own nodes, each
-  // node's taken from the lowest rank holding it. On a face between two subdomains the two sides' sums
-  // differ only in sign (the elements around an interior node sum to zero), so either side's restriction
-  // is the face's flux ∫_F u·n da up to sign.
-  double largest = 0.0;
-  for (double w : d.flux_weights) largest = std::max(largest, std::abs(w));
-  MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, d.comm);
+  // node's taken from the rank owning its rows (node_owners: the lowest rank holding it). On a face
+  // between two subdomains the two sides' sums differ only in sign (the elements around an interior node
+  // sum to zero), so either side's restriction is the face's flux ∫_F u·n da up to sign.
+  bool any = std::any_of(d.flux_weights.begin(), d.flux_weights.end(), [](double w) { return w != 0.0; });
+  MPI_Allreduce(MPI_IN_PLACE, &any, 1, MPI_C_BOOL, MPI_LOR, d.comm);
   PetscInt n_rigid = 0;
   const Vec* rigid = nullptr;
   check(MatNullSpaceGetVecs(d.rigid_modes, nullptr, &n_rigid, &rigid), "MatNullSpaceGetVecs");
   std::vector<Vec> modes(rigid, rigid + n_rigid);
   Vec flux = nullptr;
-  if (largest > 0.0) {  // a three-field element somewhere (a compressible mesh has none: the modes alone)
+  if (any) {  // a three-field element somewhere (a compressible mesh has none: the modes alone)
     check(MatCreateVecs(d.A, &flux, nullptr), "MatCreateVecs");
-    std::vector<PetscInt> rows;
-    std::vector<PetscScalar> values;
-    for (PetscInt r = 0; r < d.subdomains->local_dofs(); ++r)
-      if (d.subdomains->lowest_holder(int(r / 3))) {
-        rows.push_back(d.subdomains->global_row(r));
-        values.push_back(d.flux_weights[std::size_t(r)] / largest);
-      }
-    check(VecSetValues(flux, PetscInt(rows.size()), rows.data(), values.data(), INSERT_VALUES), "VecSetValues");
-    check(VecAssemblyBegin(flux), "VecAssemblyBegin");
-    check(VecAssemblyEnd(flux), "VecAssemblyEnd");
+    PetscInt lo = 0, hi = 0;
+    check(VecGetOwnershipRange(flux, &lo, &hi), "VecGetOwnershipRange");
+    PetscScalar* owned = nullptr;
+    check(VecGetArray(flux, &owned), "VecGetArray");
+    for (PetscInt r = 0; r < d.subdomains->local_dofs(); ++r) {
+      const PetscInt g = d.subdomains->global_row(r);
+      if (g >= lo && g < hi) owned[g - lo] = d.flux_weights[std::size_t(r)];
+    }
+    check(VecRestoreArray(flux, &owned), "VecRestoreArray");
     // Orthonormal to the (orthonormal) rigid-body modes, as a near-nullspace's vectors must be; the span
     // on every face, hence the constraints, stays the same.
     std::vector<PetscScalar> dots(modes.size());

@@ -97,6 +97,9 @@ class PetscSolver final : public LinearSolver {
   double max_over_ranks(double value) const;
   /// The Krylov method and preconditioner in use, e.g. "gmres + gamg".
   std::string description() const;
+  /// What the preconditioner is given beyond the matrix: the rigid-body near-nullspace, or BDDC's
+  /// constraints on edges and faces.
+  std::string near_nullspace() const;
   /// The p-multigrid's P2 smoother works on the 3 × 3 nodal blocks (choose_fine_smoother), and the
   /// nodal block spread of the tangent that made it so.
   bool anisotropic_smoother() const;

@@ -36,8 +36,6 @@ class Subdomains {
   PetscInt local_dofs() const { return 3 * PetscInt(nodes_.size()); }
   /// The global row of local row `row`.
   PetscInt global_row(PetscInt row) const { return 3 * blocks_[std::size_t(row / 3)] + row % 3; }
-  /// Whether this rank is the lowest of those whose subdomain holds local node `node`.
-  bool lowest_holder(int node) const { return ranks_[std::size_t(rank_off_[std::size_t(nodes_[std::size_t(node)])])] == rank_; }
 
  private:
   int rank_ = 0;
