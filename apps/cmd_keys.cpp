@@ -14,7 +14,7 @@
 
 namespace softhom::app {
 
-std::vector<io::SceneKeys> scene_key_registry() {
+std::vector<keys::SceneKeys> scene_key_registry() {
   return {
       {"point", "material-point driver: a homogeneous deformation of one material under mixed control",
        point_scene_tables()},
@@ -27,7 +27,7 @@ std::vector<io::SceneKeys> scene_key_registry() {
 }
 
 int run_keys(const std::string& command, bool markdown) {
-  std::vector<io::SceneKeys> chosen;
+  std::vector<keys::SceneKeys> chosen;
   std::string known;
   for (auto& s : scene_key_registry()) {
     known += (known.empty() ? "" : ", ") + s.command;
@@ -35,9 +35,9 @@ int run_keys(const std::string& command, bool markdown) {
   }
   if (chosen.empty()) throw InputError("keys", command, "unknown subcommand (" + known + " or all)");
   if (markdown) {
-    std::cout << io::format_keys_markdown(chosen);
+    std::cout << keys::format_keys_markdown(chosen);
   } else {
-    for (std::size_t i = 0; i < chosen.size(); ++i) std::cout << (i ? "\n" : "") << io::format_keys_text(chosen[i]);
+    for (std::size_t i = 0; i < chosen.size(); ++i) std::cout << (i ? "\n" : "") << keys::format_keys_text(chosen[i]);
   }
   return 0;
 }

@@ -4,14 +4,14 @@
 #include <string>
 #include <vector>
 
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 
 namespace softhom::app {
 
 /// The registry: one entry per subcommand that reads a scene, in the order of `softhom keys all`.
 /// Each library returns the descriptions of its tables (point_scene_tables(),
 /// studies::rve_scene_tables(), ...); a subcommand whose tables are not declared yet has none.
-std::vector<io::SceneKeys> scene_key_registry();
+std::vector<keys::SceneKeys> scene_key_registry();
 
 /// Prints the tables of `command` ("all": every subcommand) as text or Markdown; an unknown command
 /// is an InputError.

@@ -10,7 +10,7 @@
 #include "scene_source.hpp"
 #include "softhom/io/fields.hpp"
 #include "softhom/io/files.hpp"
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/macro/devices.hpp"

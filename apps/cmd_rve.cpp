@@ -26,7 +26,7 @@
 #include "rve_checkpoint.hpp"
 #include "rve_output.hpp"
 #include "rve_slab_fields.hpp"
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 
 namespace softhom::app {
 namespace {
@@ -78,9 +78,9 @@ int run_rve_scene(const CommandOptions& options, LoadedScene scene) {
   const auto wall_start = std::chrono::steady_clock::now();
   // Engine choice ([solver] engine = "fft" | "fe"); the FE engine has its own [solver] keys.
   if (auto* solver_table = scene.table["solver"].as_table()) {
-    static const io::Choices<std::string> engines{{{"fft", "fft"}, {"fe", "fe"}, {"auto", "auto"}}, {}};
+    static const keys::Choices<std::string> engines{{{"fft", "fft"}, {"fe", "fe"}, {"auto", "auto"}}, {}};
     const toml::node* engine_node = solver_table->get("engine");
-    std::string engine = engine_node ? io::read_choice(*engine_node, "solver.engine", engines) : "fft";
+    std::string engine = engine_node ? keys::read_choice(*engine_node, "solver.engine", engines) : "fft";
     if (engine == "auto") {  // resolution and engine from solver.target_error (BENCHMARKS.md)
       std::string why;
       engine = choose_engine(scene.table, why);

@@ -66,7 +66,7 @@ std::string choose_engine(toml::table& scene, std::string& why) {
   if (!solver || !micro) throw InputError("solver.engine", "auto", "needs [microstructure] and [solver] tables");
   if (!solver->contains("target_error"))
     throw InputError("solver.target_error", "", "engine = \"auto\" needs target_error (relative error of the homogenized stress)");
-  const double target = io::read_number(*solver->get("target_error"), "solver.target_error", io::open_range(0.0, 0.5));
+  const double target = keys::read_number(*solver->get("target_error"), "solver.target_error", keys::open_range(0.0, 0.5));
   if (micro->contains("grid") || solver->contains("mesh_size"))
     throw InputError("solver.target_error", format_number(target),
                      "give either target_error (engine = \"auto\") or a resolution (grid / mesh_size), not both");

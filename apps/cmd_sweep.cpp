@@ -13,7 +13,7 @@
 
 #include "commands.hpp"
 #include "run_control.hpp"
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/materials/errors.hpp"

@@ -22,7 +22,7 @@
 #include "run_control.hpp"
 #include "softhom/io/fields.hpp"
 #include "softhom/fe/petsc.hpp"
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 #include "softhom/io/files.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"

@@ -11,7 +11,7 @@
 #include "softhom/fft/slab.hpp"
 #include "softhom/io/fields.hpp"
 #include "softhom/io/files.hpp"
-#include "softhom/io/input_error.hpp"
+#include "softhom/core/input_error.hpp"
 
 namespace softhom::app {
 

@@ -56,7 +56,7 @@ int main(int argc, char** argv) {
     const macro::MacroScene ms = macro::parse_macro_scene(scene, scene_path);
     if (ms.spec.tet10 || ms.spec.kind == macro::StructureKind::actuator || ms.spec.control == macro::LoadControl::volume)
       throw InputError("geometry", "", "the FEBio export handles hex8 plates, tubes, spheres under pressure or stretch control");
-    const MaterialSpec mspec = parse_material(io::read_table(*scene.get("material"), "material"), "material");
+    const MaterialSpec mspec = parse_material(keys::read_table(*scene.get("material"), "material"), "material");
     const macro::Structure st = macro::build_structure(ms.spec);
     const fe::Mesh& mesh = st.model.mesh;
 

@@ -21,7 +21,7 @@
 
 #include "softhom/fft/slab.hpp"
 #include "softhom/io/files.hpp"
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 #include "softhom/materials/laws.hpp"
 #include "softhom/materials/loading.hpp"
 #include "softhom/rve/fft_solver.hpp"

@@ -30,7 +30,7 @@
 #include <mpi.h>
 #include <sys/resource.h>
 
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/macro/benchmark_problems.hpp"
 #include "softhom/macro/geometry.hpp"

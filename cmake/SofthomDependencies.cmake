@@ -40,7 +40,7 @@ target_link_libraries(softhom_suitesparse INTERFACE ${CHOLMOD_LIB} ${UMFPACK_LIB
                       ${SUITESPARSECONFIG_LIB})
 
 # Open MPI: campaigns over ranks, distributed FFT cells, the PETSc macro solver. One binary: a process not
-# started by an MPI launcher never initialises MPI (softhom/io/mpi.hpp) and runs as before.
+# started by an MPI launcher never initialises MPI (softhom/core/mpi.hpp) and runs as before.
 set(MPI_CXX_SKIP_MPICXX ON)  # the C API only; the MPI-2 C++ bindings are deprecated
 find_package(MPI QUIET COMPONENTS CXX)
 softhom_require(MPI_CXX_FOUND "MPI (Open MPI)" "libopenmpi-dev openmpi-bin")

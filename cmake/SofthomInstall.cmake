@@ -1,6 +1,6 @@
 # `cmake --install` of softhom as a library: the libraries (static, position-independent), their public
 # headers, the `softhom` program and the CMake package softhomConfig.cmake with the exported targets
-# softhom::materials, ::fft, ::fe, ::rve, ::macro, ::studies, ::io, ::keys, ::mpi.
+# softhom::core, ::mpi, ::materials, ::fft, ::fe, ::io, ::rve, ::macro, ::studies.
 #
 # The libraries stay static: the program needs no run-time search path, benchmarks are unchanged, and the
 # Python module links them into one self-contained extension (one copy of the stop flag and of every
@@ -12,7 +12,7 @@ include(CMakePackageConfigHelpers)
 set(SOFTHOM_INSTALL_CMAKEDIR "${CMAKE_INSTALL_LIBDIR}/cmake/softhom" CACHE STRING
     "Where softhomConfig.cmake is installed, relative to the prefix")
 
-set(softhom_exported_libraries softhom_keys softhom_mpi softhom_materials softhom_io softhom_fft softhom_fe
+set(softhom_exported_libraries softhom_core softhom_mpi softhom_materials softhom_io softhom_fft softhom_fe
     softhom_rve softhom_macro softhom_studies softhom_suitesparse)
 foreach(lib IN LISTS softhom_exported_libraries)
   string(REGEX REPLACE "^softhom_" "" short ${lib})
@@ -34,7 +34,7 @@ install(TARGETS ${softhom_exported_libraries} EXPORT softhomTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
-foreach(dir materials io fft fe rve macro studies)
+foreach(dir core materials io fft fe rve macro studies)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${dir}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 endforeach()
 install(EXPORT softhomTargets NAMESPACE softhom:: DESTINATION ${SOFTHOM_INSTALL_CMAKEDIR})

@@ -10,7 +10,7 @@
 
 #include "partition.hpp"
 #include "simulation_impl.hpp"
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 
 namespace softhom::fe {
 

@@ -15,7 +15,7 @@
 
 #include <Eigen/Dense>
 
-#include "softhom/fe/krylov.hpp"
+#include "softhom/core/krylov.hpp"
 #include "softhom/materials/errors.hpp"
 
 namespace softhom::fe {

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "softhom/fe/krylov.hpp"
+#include "softhom/core/krylov.hpp"
 #include "softhom/fe/solver.hpp"
 #include "petsc_solve.hpp"
 

@@ -17,7 +17,7 @@ std::string join(const std::string& path, const std::string& key) { return path.
 
 namespace {
 
-std::string show(const toml::node& node) { return describe_value(node); }
+std::string show(const toml::node& node) { return keys::describe_value(node); }
 
 double as_number(const toml::node& node, const std::string& field) {
   if (auto v = node.value<double>()) {

@@ -2,12 +2,12 @@
 // The [device] table of macro scenes (declared once in device_keys.cpp).
 #include <toml++/toml.h>
 
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 #include "softhom/macro/devices.hpp"
 
 namespace softhom::macro {
 
-const io::KeyTable<DeviceSpec>& device_table();
+const keys::KeyTable<DeviceSpec>& device_table();
 /// Reads [device] (absent: kind none).
 DeviceSpec read_device(const toml::node* node);
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numeric>
 
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 #include "softhom/materials/errors.hpp"
 
 namespace softhom::macro {
@@ -79,7 +79,7 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
   } else if (spec.kind == DeviceKind::gripper) {
     const double pitch = 2.0 * M_PI / spec.fingers;
     for (std::size_t i = 0; i < spec.tips.size(); ++i) {
-      const std::string field = io::index_field("device.tips", i);
+      const std::string field = keys::index_field("device.tips", i);
       require_surface(mesh, spec.tips[i], field);
       Finger f;
       f.tip = fe::surface_nodes(mesh, spec.tips[i]);

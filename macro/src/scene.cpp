@@ -1,5 +1,5 @@
 // Macro scene files → StructureSpec + Newton options (macro/scene.hpp). Each table is declared once
-// below (io::KeyTable: name, type, default, range, unit, doc); reading, defaults and the reference
+// below (keys::KeyTable: name, type, default, range, unit, doc); reading, defaults and the reference
 // tables of `softhom keys macro` all come from these declarations.
 #include "softhom/materials/system_memory.hpp"
 #include "softhom/macro/scene.hpp"
@@ -16,14 +16,14 @@
 namespace softhom::macro {
 namespace {
 
-using io::Choices;
-using io::KeyTable;
+using keys::Choices;
+using keys::KeyTable;
 
 // Scenes are in mm. A structure larger than 1 km is a unit mistake; beyond it the generators'
 // coordinates lose all digits (outer_radius = 1e300 produced empty surfaces, not an error).
-const io::Range kLength = io::left_open(0.0, 1e6);
+const keys::Range kLength = keys::left_open(0.0, 1e6);
 // Cells along one direction; the total mesh size is bounded where the mesh is generated.
-const io::Range kCells = io::closed_range(1, 100000);
+const keys::Range kCells = keys::closed_range(1, 100000);
 
 /// The keys every generated geometry shares, plus the members of its generator's spec.
 template <class Spec>
@@ -83,9 +83,9 @@ KeyTable<TubeKeys> tube_table(bool actuator) {
       .integer("radial_cells", in<O>(&TubeSpec::radial_cells), kCells, "", "cells through the wall")
       .integer("circumferential_cells", in<O>(&TubeSpec::circumferential_cells), kCells, "", "cells around the swept angle")
       .integer("axial_cells", in<O>(&TubeSpec::axial_cells), kCells, "", "cells along the axis")
-      .number("sweep_deg", in<O>(&TubeSpec::sweep_deg), io::left_open(0, 360), "deg",
+      .number("sweep_deg", in<O>(&TubeSpec::sweep_deg), keys::left_open(0, 360), "deg",
               "360 (full tube) or 90 (quarter with symmetry planes)")
-      .number("cap_thickness", in<O>(&TubeSpec::cap_thickness), actuator ? kLength : io::closed_range(0, 1e6), "mm",
+      .number("cap_thickness", in<O>(&TubeSpec::cap_thickness), actuator ? kLength : keys::closed_range(0, 1e6), "mm",
               actuator ? "end cap at z = length" : "end cap at z = length (0: open ends)");
   if (actuator) t.required();
   t.integer("cap_axial_cells", in<O>(&TubeSpec::cap_axial_cells), kCells, "", "cells through the cap")
@@ -112,7 +112,7 @@ KeyTable<PlateKeys> plate_table() {
   t.custom(
        "size", "list of numbers", "[Lx, Ly, Lz]",
        [](const toml::node& n, const std::string& f, O& o) {
-         const std::vector<double> v = io::read_numbers(n, f, kLength, 3, 3);
+         const std::vector<double> v = keys::read_numbers(n, f, kLength, 3, 3);
          o.size = Vec3(v[0], v[1], v[2]);
        },
        "", "3 entries, each " + kLength.describe(), "mm")
@@ -120,7 +120,7 @@ KeyTable<PlateKeys> plate_table() {
       .custom(
           "cells", "list of integers", "[nx, ny, nz]",
           [](const toml::node& n, const std::string& f, O& o) {
-            const std::vector<int> v = io::read_ints<int>(n, f, kCells, 3, 3);
+            const std::vector<int> v = keys::read_ints<int>(n, f, kCells, 3, 3);
             o.cells = {v[0], v[1], v[2]};
           },
           "", "3 entries, each " + kCells.describe())
@@ -151,8 +151,8 @@ const KeyTable<BoundaryKeys>& boundary_table() {
     k.custom(
          "fix", "list of strings", "fixed displacement components",
          [](const toml::node& n, const std::string& f, BoundaryKeys& b) {
-           const toml::array& a = io::read_array(n, f);
-           for (std::size_t i = 0; i < a.size(); ++i) b.fix.push_back(io::read_text(*a.get(i), io::index_field(f, i)));
+           const toml::array& a = keys::read_array(n, f);
+           for (std::size_t i = 0; i < a.size(); ++i) b.fix.push_back(keys::read_text(*a.get(i), keys::index_field(f, i)));
          },
          "", "\"x\", \"y\", \"z\" (at least one)")
         .required();
@@ -183,10 +183,10 @@ struct LoadKeys {
 };
 
 std::vector<std::string> string_list(const toml::node& n, const std::string& f) {
-  if (!n.is_array()) return {io::read_text(n, f)};
+  if (!n.is_array()) return {keys::read_text(n, f)};
   std::vector<std::string> out;
-  const toml::array& a = io::read_array(n, f);
-  for (std::size_t i = 0; i < a.size(); ++i) out.push_back(io::read_text(*a.get(i), io::index_field(f, i)));
+  const toml::array& a = keys::read_array(n, f);
+  for (std::size_t i = 0; i < a.size(); ++i) out.push_back(keys::read_text(*a.get(i), keys::index_field(f, i)));
   return out;
 }
 
@@ -205,14 +205,14 @@ const KeyTable<LoadKeys>& load_table() {
             [](const toml::node& n, const std::string&, LoadKeys& l) { l.path = &n; }, "",
             "t from 0, increasing; values finite (stretch and volume ratio > 0)")
         .required()
-        .integer("steps", &LoadKeys::steps, io::closed_range(1, 1000000), "", "uniform output steps over the path")
+        .integer("steps", &LoadKeys::steps, keys::closed_range(1, 1000000), "", "uniform output steps over the path")
         .custom(
             "surface", "string or list of strings", "gmsh only: the loaded cavity surface(s)",
             [](const toml::node& n, const std::string& f, LoadKeys& l) { l.surfaces = string_list(n, f); })
         .custom(
             "cavity_mask", "list of numbers", "gmsh only: components of the reported cavity volume",
             [](const toml::node& n, const std::string& f, LoadKeys& l) {
-              const std::vector<double> v = io::read_numbers(n, f, io::closed_range(0, 1), 3, 3);
+              const std::vector<double> v = keys::read_numbers(n, f, keys::closed_range(0, 1), 3, 3);
               l.cavity_mask = Vec3(v[0], v[1], v[2]);
             },
             "[1, 1, 1]", "3 entries, each [0, 1]");
@@ -225,16 +225,16 @@ const KeyTable<fe::NewtonOptions>& newton_table() {
   using O = fe::NewtonOptions;
   static const KeyTable<O> t = [] {
     KeyTable<O> k("solver", "");
-    k.number("tolerance", &O::tolerance, io::open_range(0, 1), "-", "‖R_free‖ ≤ tolerance · force scale")
-        .integer("max_newton_iterations", &O::max_iterations, io::closed_range(1, 1000), "-", "Newton iterations per sub-step")
+    k.number("tolerance", &O::tolerance, keys::open_range(0, 1), "-", "‖R_free‖ ≤ tolerance · force scale")
+        .integer("max_newton_iterations", &O::max_iterations, keys::closed_range(1, 1000), "-", "Newton iterations per sub-step")
         .renamed("max_iterations")
-        .integer("max_krylov_iterations", &O::krylov_max, io::closed_range(1, 100000), "-",
+        .integer("max_krylov_iterations", &O::krylov_max, keys::closed_range(1, 100000), "-",
                  "GMRES iterations before a solve refactorizes and retries")
         .renamed("krylov_max")
-        .integer("max_cutbacks", &O::max_cutbacks, io::closed_range(0, 60), "-", "consecutive halvings of one output interval")
-        .number("max_step_seconds", &O::max_step_seconds, io::at_least(0), "s",
+        .integer("max_cutbacks", &O::max_cutbacks, keys::closed_range(0, 60), "-", "consecutive halvings of one output interval")
+        .number("max_step_seconds", &O::max_step_seconds, keys::at_least(0), "s",
                 "wall-time budget of one output interval's cut-backs (0: unlimited)")
-        .integer("substeps", &O::initial_substeps, io::closed_range(1, 1000000), "-", "sub-steps per output interval at the start")
+        .integer("substeps", &O::initial_substeps, keys::closed_range(1, 1000000), "-", "sub-steps per output interval at the start")
         .flag("mixed_pressure", &O::mixed, "three-field (u, θ, p) iteration for laws with a volumetric modulus")
         .renamed("mixed")
         .choice("linear_solver", &O::solver,
@@ -293,12 +293,12 @@ const KeyTable<OutputKeys>& output_table() {
         "true: every output step; false: none; [t1, ...]: snapshots at these times (added to the output steps)",
         [](const toml::node& n, const std::string& f, OutputKeys& o) {
           if (n.is_boolean()) {
-            o.fields = io::read_flag(n, f);
+            o.fields = keys::read_flag(n, f);
             return;
           }
           if (!n.is_array())
-            throw InputError(f, io::describe_value(n), "must be true, false or a list of times [t1, t2, ...]");
-          o.field_times = io::read_numbers(n, f, io::at_least(0), 1);  // sorted once checked against the path
+            throw InputError(f, keys::describe_value(n), "must be true, false or a list of times [t1, t2, ...]");
+          o.field_times = keys::read_numbers(n, f, keys::at_least(0), 1);  // sorted once checked against the path
         },
         "true", "times within the load path", "s");
     return k;
@@ -333,11 +333,11 @@ const KeyTable<SceneKeysTop>& scene_table() {
 // --- Readers -----------------------------------------------------------------------------------
 
 PiecewiseLinear read_path(const toml::node& node, const std::string& field, LoadControl control) {
-  const toml::array& arr = io::read_array(node, field);
+  const toml::array& arr = keys::read_array(node, field);
   PiecewiseLinear f{{}, {}};
   for (std::size_t k = 0; k < arr.size(); ++k) {
-    const std::string pf = io::index_field(field, k);
-    const std::vector<double> p = io::read_numbers(*arr.get(k), pf, io::any_value(), 2, 2);
+    const std::string pf = keys::index_field(field, k);
+    const std::vector<double> p = keys::read_numbers(*arr.get(k), pf, keys::any_value(), 2, 2);
     if (!f.t.empty() && !(p[0] > f.t.back())) throw InputError(pf + "[0]", format_number(p[0]), "times must increase");
     if (control != LoadControl::pressure && !(p[1] > 0.0))
       throw InputError(pf + "[1]", format_number(p[1]),
@@ -345,7 +345,7 @@ PiecewiseLinear read_path(const toml::node& node, const std::string& field, Load
     f.t.push_back(p[0]);
     f.v.push_back(p[1]);
   }
-  if (f.t.size() < 2) throw InputError(field, io::describe_value(node), "need at least two points [[0, v0], [t1, v1], ...]");
+  if (f.t.size() < 2) throw InputError(field, keys::describe_value(node), "need at least two points [[0, v0], [t1, v1], ...]");
   if (f.t.front() != 0.0) throw InputError(field + "[0][0]", format_number(f.t.front()), "must start at t = 0");
   return f;
 }
@@ -362,7 +362,7 @@ O read_geometry(const KeyTable<O>& t, const toml::table& g, const std::string& t
              {"sphere", sphere_table().names()}, {"plate", plate_table().names()}, {"gmsh", gmsh_table().names()}})
       if (std::find(other.begin(), other.end(), key) != other.end()) owners += (owners.empty() ? "" : ", ") + name;
     if (!owners.empty())
-      throw InputError("geometry." + key, io::describe_value(node),
+      throw InputError("geometry." + key, keys::describe_value(node),
                        "not a key of geometry.type = \"" + type + "\" (only for " + owners + ")");
   }
   O o;
@@ -394,13 +394,13 @@ void read_tube(const toml::table& g, const std::string& type, StructureSpec& s) 
 
 void read_boundaries(const toml::table& scene, ImportedSpec& im) {
   const toml::node* node = scene.get("boundary");
-  const toml::array* arr = node ? &io::read_array(*node, "boundary") : nullptr;
+  const toml::array* arr = node ? &keys::read_array(*node, "boundary") : nullptr;
   if (!arr || arr->empty())
     throw InputError("boundary", "", "the body is not constrained: give [[boundary]] tables with surface and fix = [\"x\", ...]");
   for (std::size_t k = 0; k < arr->size(); ++k) {
-    const std::string field = io::index_field("boundary", k);
+    const std::string field = keys::index_field("boundary", k);
     BoundaryKeys b;
-    boundary_table().read(io::read_table(*arr->get(k), field), field, b);
+    boundary_table().read(keys::read_table(*arr->get(k), field), field, b);
     ImportedSpec::Fix f;
     f.surface = b.surface;
     if (!im.mesh.has_surface(f.surface))
@@ -408,7 +408,7 @@ void read_boundaries(const toml::table& scene, ImportedSpec& im) {
     for (std::size_t i = 0; i < b.fix.size(); ++i) {
       const std::string& c = b.fix[i];
       if (c != "x" && c != "y" && c != "z")
-        throw InputError(io::index_field(field + ".fix", i), "\"" + c + "\"", "components are \"x\", \"y\", \"z\"");
+        throw InputError(keys::index_field(field + ".fix", i), "\"" + c + "\"", "components are \"x\", \"y\", \"z\"");
       f.components[c[0] - 'x'] = true;
     }
     if (b.fix.empty())
@@ -446,9 +446,9 @@ void read_imported(const toml::table& scene, const toml::table& g, const std::fi
     throw InputError("probe.surface", "\"" + probe.surface + "\"", "no physical surface of that name in the mesh");
   im.probe_surface = probe.surface;
   if (const toml::node* rn = scene.get("regions"))
-    for (const auto& [name, node] : io::read_table(*rn, "regions")) {
+    for (const auto& [name, node] : keys::read_table(*rn, "regions")) {
       const std::string field = "regions." + std::string(name.str());
-      const toml::table& t = io::read_table(node, field);
+      const toml::table& t = keys::read_table(node, field);
       if (std::find(im.mesh.region_names.begin(), im.mesh.region_names.end(), std::string(name.str())) ==
           im.mesh.region_names.end())
         throw InputError(field, "", "no physical volume of that name in " + path.string());
@@ -458,10 +458,10 @@ void read_imported(const toml::table& scene, const toml::table& g, const std::fi
 
 void read_geometry_table(const toml::table& scene, const std::filesystem::path& scene_file,
                          const std::filesystem::path& mesh_cache, StructureSpec& s) {
-  const toml::table& g = io::read_table(*scene.get("geometry"), "geometry");
+  const toml::table& g = keys::read_table(*scene.get("geometry"), "geometry");
   const toml::node* tn = g.get("type");
   if (!tn) throw InputError("geometry.type", "", "missing: structure kind, " + kTypes);
-  const std::string type = io::read_text(*tn, "geometry.type");
+  const std::string type = keys::read_text(*tn, "geometry.type");
   if (type == "tube" || type == "actuator") {
     read_tube(g, type, s);
   } else if (type == "sphere") {
@@ -477,17 +477,17 @@ void read_geometry_table(const toml::table& scene, const std::filesystem::path& 
   } else if (type == "gmsh") {
     read_imported(scene, g, scene_file, mesh_cache, s);
   } else {
-    throw InputError("geometry.type", io::describe_value(*tn), "must be " + kTypes + io::did_you_mean(type, {"tube", "actuator", "sphere", "plate", "gmsh"}));
+    throw InputError("geometry.type", keys::describe_value(*tn), "must be " + kTypes + keys::did_you_mean(type, {"tube", "actuator", "sphere", "plate", "gmsh"}));
   }
   for (const char* key : {"boundary", "probe", "regions", "device"})
     if (type != "gmsh" && scene.contains(key)) throw InputError(key, "", "only for geometry.type = \"gmsh\"");
 }
 
 void read_materials(const toml::table& scene, StructureSpec& s) {
-  s.material = build_material(io::parse_material(io::read_table(*scene.get("material"), "material"), "material"));
+  s.material = build_material(io::parse_material(keys::read_table(*scene.get("material"), "material"), "material"));
   if (const toml::node* lower = scene.get("material_lower")) {
     if (s.kind != StructureKind::actuator) throw InputError("material_lower", "", "only for geometry.type = \"actuator\"");
-    s.material_region1 = build_material(io::parse_material(io::read_table(*lower, "material_lower"), "material_lower"));
+    s.material_region1 = build_material(io::parse_material(keys::read_table(*lower, "material_lower"), "material_lower"));
   }
 }
 
@@ -508,7 +508,7 @@ std::vector<double> output_times(double end, int steps, const std::vector<double
 void read_load(const toml::table& scene, MacroScene& m) {
   StructureSpec& s = m.spec;
   LoadKeys l;
-  load_table().read(io::read_table(*scene.get("load"), "load"), "load", l);
+  load_table().read(keys::read_table(*scene.get("load"), "load"), "load", l);
   if (s.kind == StructureKind::imported) {
     for (const std::string& n : l.surfaces)
       if (!s.imported.mesh.has_surface(n))
@@ -528,7 +528,7 @@ void read_load(const toml::table& scene, MacroScene& m) {
   s.load = read_path(*l.path, "load.path", s.control);
   for (std::size_t k = 0; k < m.field_times.size(); ++k)
     if (m.field_times[k] > s.load.end_time())
-      throw InputError(io::index_field("output.fields", k), format_number(m.field_times[k]),
+      throw InputError(keys::index_field("output.fields", k), format_number(m.field_times[k]),
                        "outside the load path [0, " + format_number(s.load.end_time()) + "]");
   std::sort(m.field_times.begin(), m.field_times.end());
   m.times = output_times(s.load.end_time(), l.steps, m.field_times);
@@ -537,9 +537,9 @@ void read_load(const toml::table& scene, MacroScene& m) {
 void read_solver(const toml::table& scene, MacroScene& m) {
   const toml::node* node = scene.get("solver");
   if (!node) return;
-  const toml::table& sv = io::read_table(*node, "solver");
+  const toml::table& sv = keys::read_table(*node, "solver");
   if (const toml::node* kt = sv.get("krylov_tolerance"))
-    throw InputError("solver.krylov_tolerance", io::describe_value(*kt),
+    throw InputError("solver.krylov_tolerance", keys::describe_value(*kt),
                      "not a macro setting: the GMRES tolerance follows the Newton residual (forcing term); "
                      "limit max_krylov_iterations instead");
   SolverKeys k{m.newton, m.spec.formulation};
@@ -564,7 +564,7 @@ fe::SolverKind automatic_solver_of(const toml::table& scene, const MacroScene& m
   const bool quadratic_tets = s.kind == StructureKind::imported ? s.imported.mesh.hexes.empty() && !s.imported.mesh.tets.empty() : s.tet10;
   if (m.newton.solver != fe::SolverKind::automatic) return m.newton.solver;
   LoadKeys l;  // (read_load reads it again after the guard; its control is all the choice needs of it)
-  load_table().read(io::read_table(*scene.get("load"), "load"), "load", l);
+  load_table().read(keys::read_table(*scene.get("load"), "load"), "load", l);
   return fe::automatic_solver(m.newton, long(estimate_size(s).dofs), quadratic_tets, l.control == LoadControl::volume);
 }
 
@@ -595,7 +595,7 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
   return m;
 }
 
-std::vector<io::TableDoc> macro_scene_tables() {
+std::vector<keys::TableDoc> macro_scene_tables() {
   return {scene_table().describe(), tube_table(false).describe(), tube_table(true).describe(), sphere_table().describe(),
            plate_table().describe(), gmsh_table().describe(), boundary_table().describe(), probe_table().describe(),
            load_table().describe(), solver_table().describe(), output_table().describe(),

@@ -36,7 +36,7 @@ GentHGOParams gent(double G, double Jm, double K, double k1 = 0.0, double k2 = 0
 const std::vector<LawEntry>& law_table() {
   using V = const std::vector<double>&;
   static const std::vector<LawEntry> table = [] {
-    const io::Range positive = io::above(0.0);
+    const keys::Range positive = keys::above(0.0);
     const std::string bulk = "bulk modulus (volumetric energy W_V(J), spec §2)";
     std::vector<LawEntry> t;
     t.push_back({LawKind::gent_hgo, "gent", {"gent-hgo"}, "Gent-HGO",
@@ -55,7 +55,7 @@ const std::vector<LawEntry>& law_table() {
                   {"K", "MPa", positive, bulk, false, "required unless E, nu (or from the preset)",
                    [](MaterialSpec& s, V v) { s.neo_hookean.K = v[0]; }},
                   {"E", "MPa", positive, "Young's modulus (with nu, instead of mu and K)", false, "unset", nullptr},
-                  {"nu", "-", io::open_range(-1.0, 0.5), "Poisson's ratio (with E, instead of mu and K)", false, "unset",
+                  {"nu", "-", keys::open_range(-1.0, 0.5), "Poisson's ratio (with E, instead of mu and K)", false, "unset",
                    nullptr}},
                  [](MaterialSpec& s, const std::map<std::string, std::vector<double>>& given, const std::string& path) {
                    const bool young = given.count("E") || given.count("nu");
@@ -71,17 +71,17 @@ const std::vector<LawEntry>& law_table() {
     t.push_back({LawKind::yeoh, "yeoh", {}, "Yeoh", "three-term Yeoh, initial shear modulus 2 C1",
                  {{"C1", "MPa", positive, "first coefficient (initial shear modulus 2 C1)", false,
                    "required (or from the preset)", [](MaterialSpec& s, V v) { s.yeoh.C1 = v[0]; }},
-                  {"C2", "MPa", io::any_value(), "second coefficient", false, "0",
+                  {"C2", "MPa", keys::any_value(), "second coefficient", false, "0",
                    [](MaterialSpec& s, V v) { s.yeoh.C2 = v[0]; }},
-                  {"C3", "MPa", io::at_least(0.0), "third coefficient (>= 0: stable at large stretch)", false, "0",
+                  {"C3", "MPa", keys::at_least(0.0), "third coefficient (>= 0: stable at large stretch)", false, "0",
                    [](MaterialSpec& s, V v) { s.yeoh.C3 = v[0]; }},
                   {"K", "MPa", positive, bulk, false, "required (or from the preset)",
                    [](MaterialSpec& s, V v) { s.yeoh.K = v[0]; }}},
                  nullptr});
     t.push_back({LawKind::ogden, "ogden", {}, "Ogden", "N-term Ogden (Abaqus convention), initial shear modulus Σ mu_i",
-                 {{"mu", "MPa", io::any_value(), "term moduli mu_i (Σ mu_i > 0)", true, "required (or from the preset)",
+                 {{"mu", "MPa", keys::any_value(), "term moduli mu_i (Σ mu_i > 0)", true, "required (or from the preset)",
                    [](MaterialSpec& s, V v) { s.ogden.mu = v; }},
-                  {"alpha", "-", io::any_value(), "term exponents alpha_i (non-zero, as many as mu)", true,
+                  {"alpha", "-", keys::any_value(), "term exponents alpha_i (non-zero, as many as mu)", true,
                    "required (or from the preset)", [](MaterialSpec& s, V v) { s.ogden.alpha = v; }},
                   {"K", "MPa", positive, bulk, false, "required (or from the preset)",
                    [](MaterialSpec& s, V v) { s.ogden.K = v[0]; }}},

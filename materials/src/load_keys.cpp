@@ -26,8 +26,8 @@ struct LoadKeys {
   std::optional<double> dt;
 };
 
-const io::Choices<LoadType>& type_choices() {
-  static const io::Choices<LoadType> c{{{"uniaxial", LoadType::uniaxial},
+const keys::Choices<LoadType>& type_choices() {
+  static const keys::Choices<LoadType> c{{{"uniaxial", LoadType::uniaxial},
                                         {"equibiaxial", LoadType::equibiaxial},
                                         {"pure-shear", LoadType::pure_shear},
                                         {"simple-shear", LoadType::simple_shear},
@@ -36,16 +36,16 @@ const io::Choices<LoadType>& type_choices() {
   return c;
 }
 
-const io::KeyTable<LoadKeys>& load_keys() {
+const keys::KeyTable<LoadKeys>& load_keys() {
   using L = LoadKeys;
-  static const io::KeyTable<LoadKeys> t = [] {
-    io::KeyTable<LoadKeys> k("load", "the macroscopic load path (mixed deformation/stress control, load frame)");
+  static const keys::KeyTable<LoadKeys> t = [] {
+    keys::KeyTable<LoadKeys> k("load", "the macroscopic load path (mixed deformation/stress control, load frame)");
     auto node_of = [](const toml::node* L::*member) {
       return [member](const toml::node& n, const std::string&, L& l) { l.*member = &n; };
     };
     k.choice("type", &L::type, type_choices(), "control type").required()
-        .numbers("direction", &L::direction, io::any_value(), 3, 3, "-", "load axis e1' of the load frame (non-zero)")
-        .numbers("in_plane", &L::in_plane, io::any_value(), 3, 3, "-", "second axis of the load frame (orthogonalised)")
+        .numbers("direction", &L::direction, keys::any_value(), 3, 3, "-", "load axis e1' of the load frame (non-zero)")
+        .numbers("in_plane", &L::in_plane, keys::any_value(), 3, 3, "-", "second axis of the load frame (orthogonalised)")
         .custom("stretch", "number or [[t, λ], ...]", "uniaxial/equibiaxial/pure-shear: stretch path (a number: linear ramp from 1 over duration; pairs: times from 0, increasing)",
                 node_of(&L::stretch), "required for these types", "> 0")
         .custom("gamma", "number or [[t, γ], ...]", "simple-shear: shear path (a number: ramp from 0 over duration)",
@@ -55,11 +55,11 @@ const io::KeyTable<LoadKeys>& load_keys() {
         .custom("P", "3x3 of numbers", "mixed: final first Piola-Kirchhoff stress of the free entries", node_of(&L::P), "0", "", "MPa")
         .custom("path", "number or [[t, s], ...]", "mixed: load factor path from 0 to 1 (F, P scale with it)", node_of(&L::path),
                 "required for mixed")
-        .number("duration", &L::duration, io::above(0.0), "s", "ramp time of a scalar stretch or gamma")
-        .number("hold", &L::hold, io::at_least(0.0), "s", "hold time after a scalar ramp")
-        .integer("steps", &L::steps, io::closed_range(1.0, kMaxOutputSteps), "-",
+        .number("duration", &L::duration, keys::above(0.0), "s", "ramp time of a scalar stretch or gamma")
+        .number("hold", &L::hold, keys::at_least(0.0), "s", "hold time after a scalar ramp")
+        .integer("steps", &L::steps, keys::closed_range(1.0, kMaxOutputSteps), "-",
                  "uniform output steps over the path (at most 1e6: each is a converged solve and a response row; finer resolution is the solver's cut-backs)")
-        .number("dt", &L::dt, io::above(0.0), "s", "output step length instead of steps (at most 1e6 steps)");
+        .number("dt", &L::dt, keys::above(0.0), "s", "output step length instead of steps (at most 1e6 steps)");
     return k;
   }();
   return t;
@@ -73,20 +73,20 @@ PiecewiseLinear as_path(const toml::node& node, const std::string& field, const 
   f.v.clear();
   if (const auto* arr = node.as_array(); arr && arr->size() > 0 && arr->get(0)->is_array()) {
     for (std::size_t i = 0; i < arr->size(); ++i) {
-      const std::string fi = io::index_field(field, i);
-      const std::vector<double> pair = io::read_numbers(*arr->get(i), fi, io::any_value(), 2, 2);
+      const std::string fi = keys::index_field(field, i);
+      const std::vector<double> pair = keys::read_numbers(*arr->get(i), fi, keys::any_value(), 2, 2);
       const toml::node& tn = *arr->get(i)->as_array()->get(0);
-      if (f.t.empty() && pair[0] != 0.0) throw InputError(fi + "[0]", io::describe_value(tn), "a load path starts at t = 0");
+      if (f.t.empty() && pair[0] != 0.0) throw InputError(fi + "[0]", keys::describe_value(tn), "a load path starts at t = 0");
       if (!f.t.empty() && !(pair[0] > f.t.back()))
-        throw InputError(fi + "[0]", io::describe_value(tn), "times must be strictly increasing");
+        throw InputError(fi + "[0]", keys::describe_value(tn), "times must be strictly increasing");
       f.t.push_back(pair[0]);
       f.v.push_back(pair[1]);
     }
-    if (f.t.size() < 2) throw InputError(field, io::describe_value(node), "a load path needs at least two points");
+    if (f.t.size() < 2) throw InputError(field, keys::describe_value(node), "a load path needs at least two points");
     return f;
   }
-  if (node.is_array()) throw InputError(field, io::describe_value(node), "must be a number or a list of [time, value] pairs");
-  const double target = io::read_number(node, field);
+  if (node.is_array()) throw InputError(field, keys::describe_value(node), "must be a number or a list of [time, value] pairs");
+  const double target = keys::read_number(node, field);
   const double duration = ramp_keys ? k.duration : 1.0;
   f.t = {0.0, duration};
   f.v = {start, target};
@@ -105,7 +105,7 @@ std::vector<double> output_times(const LoadKeys& k, const std::string& path, con
   if (k.dt) {
     const double dt = *k.dt;
     if (end / dt > kMaxOutputSteps)
-      throw InputError(io::join_key(path, "dt"), format_number(dt), "more than 1e6 output steps over the path (t_end = " + format_number(end) + ")");
+      throw InputError(keys::join_key(path, "dt"), format_number(dt), "more than 1e6 output steps over the path (t_end = " + format_number(end) + ")");
     for (double t = dt; t < end * (1.0 - 1e-12); t += dt) times.push_back(t);
   } else {
     for (int s = 1; s < k.steps; ++s) times.push_back(end * s / k.steps);
@@ -125,45 +125,45 @@ std::vector<double> output_times(const LoadKeys& k, const std::string& path, con
 void refuse_foreign(const std::set<std::string>& present, const std::string& path, const std::string& type,
                     std::initializer_list<const char*> foreign) {
   for (const char* key : foreign)
-    if (present.count(key)) throw InputError(io::join_key(path, key), "", "not a key of load type \"" + type + "\"");
+    if (present.count(key)) throw InputError(keys::join_key(path, key), "", "not a key of load type \"" + type + "\"");
 }
 
 Vec3 vec3(const std::vector<double>& v) { return Vec3(v[0], v[1], v[2]); }
 
 MixedControl mixed_control(const toml::table& t, const LoadKeys& k, const std::string& path, const Mat3& frame,
                            std::vector<double>& breaks) {
-  if (!k.path) throw InputError(io::join_key(path, "path"), "", "missing: the load factor path of a mixed load");
-  const PiecewiseLinear factor = as_path(*k.path, io::join_key(path, "path"), k, false, 0.0);
-  if (!k.F) throw InputError(io::join_key(path, "F"), "", "missing: a 3x3 array of numbers or \"free\"");
-  const toml::array& Fa = io::read_array(*k.F, io::join_key(path, "F"));
-  if (Fa.size() != 3) throw InputError(io::join_key(path, "F"), io::describe_value(*k.F), "must be a 3x3 array of numbers or \"free\"");
-  const toml::array* Pa = k.P ? &io::read_array(*k.P, io::join_key(path, "P")) : nullptr;
-  if (Pa && Pa->size() != 3) throw InputError(io::join_key(path, "P"), io::describe_value(*k.P), "must be a 3x3 array of numbers");
+  if (!k.path) throw InputError(keys::join_key(path, "path"), "", "missing: the load factor path of a mixed load");
+  const PiecewiseLinear factor = as_path(*k.path, keys::join_key(path, "path"), k, false, 0.0);
+  if (!k.F) throw InputError(keys::join_key(path, "F"), "", "missing: a 3x3 array of numbers or \"free\"");
+  const toml::array& Fa = keys::read_array(*k.F, keys::join_key(path, "F"));
+  if (Fa.size() != 3) throw InputError(keys::join_key(path, "F"), keys::describe_value(*k.F), "must be a 3x3 array of numbers or \"free\"");
+  const toml::array* Pa = k.P ? &keys::read_array(*k.P, keys::join_key(path, "P")) : nullptr;
+  if (Pa && Pa->size() != 3) throw InputError(keys::join_key(path, "P"), keys::describe_value(*k.P), "must be a 3x3 array of numbers");
   MixedControl c;
   c.frame = frame;
   c.name = "mixed";
   for (int i = 0; i < 3; ++i) {
-    const std::string fi = io::index_field(io::join_key(path, "F"), std::size_t(i));
-    const toml::array& row = io::read_array(*Fa.get(std::size_t(i)), fi);
-    if (row.size() != 3) throw InputError(fi, io::describe_value(*Fa.get(std::size_t(i))), "must be a row of 3 entries");
+    const std::string fi = keys::index_field(keys::join_key(path, "F"), std::size_t(i));
+    const toml::array& row = keys::read_array(*Fa.get(std::size_t(i)), fi);
+    if (row.size() != 3) throw InputError(fi, keys::describe_value(*Fa.get(std::size_t(i))), "must be a row of 3 entries");
     for (int j = 0; j < 3; ++j) {
-      const std::string f = io::index_field(fi, std::size_t(j));
+      const std::string f = keys::index_field(fi, std::size_t(j));
       const toml::node& e = *row.get(std::size_t(j));
       const int kk = voigt9(i, j);
       PiecewiseLinear p = factor;
       if (e.is_string()) {
-        if (io::read_text(e, f) != "free") throw InputError(f, io::describe_value(e), "must be a number or \"free\"");
+        if (keys::read_text(e, f) != "free") throw InputError(f, keys::describe_value(e), "must be a number or \"free\"");
         c.kind[kk] = ControlKind::stress;
         double target = 0.0;
         if (Pa) {
-          const std::string pi = io::index_field(io::join_key(path, "P"), std::size_t(i));
-          const toml::array& prow = io::read_array(*Pa->get(std::size_t(i)), pi);
-          if (prow.size() != 3) throw InputError(pi, io::describe_value(*Pa->get(std::size_t(i))), "must be a row of 3 numbers");
-          target = io::read_number(*prow.get(std::size_t(j)), io::index_field(pi, std::size_t(j)));
+          const std::string pi = keys::index_field(keys::join_key(path, "P"), std::size_t(i));
+          const toml::array& prow = keys::read_array(*Pa->get(std::size_t(i)), pi);
+          if (prow.size() != 3) throw InputError(pi, keys::describe_value(*Pa->get(std::size_t(i))), "must be a row of 3 numbers");
+          target = keys::read_number(*prow.get(std::size_t(j)), keys::index_field(pi, std::size_t(j)));
         }
         for (auto& v : p.v) v *= target;
       } else {
-        const double final_value = io::read_number(e, f);
+        const double final_value = keys::read_number(e, f);
         c.kind[kk] = ControlKind::deformation;
         const double start = i == j ? 1.0 : 0.0;
         for (auto& v : p.v) v = start + v * (final_value - start);
@@ -183,11 +183,11 @@ MixedControl parse_load(const toml::table& t, const std::string& path) {
   const std::set<std::string> present = load_keys().read(t, path, k);
   const std::string type = type_choices().name_of(k.type);
   if (present.count("dt") && present.count("steps"))
-    throw InputError(io::join_key(path, "dt"), format_number(*k.dt), "give either steps or dt");
+    throw InputError(keys::join_key(path, "dt"), format_number(*k.dt), "give either steps or dt");
   Mat3 frame = Mat3::Identity();
   if (present.count("direction") || present.count("in_plane")) {
     if (!(vec3(k.direction).norm() > 1e-12))
-      throw InputError(io::join_key(path, "direction"), io::describe_value(*t.get("direction")), "must be a non-zero vector");
+      throw InputError(keys::join_key(path, "direction"), keys::describe_value(*t.get("direction")), "must be a non-zero vector");
     frame = load_frame(vec3(k.direction), vec3(k.in_plane));
   }
   MixedControl c;
@@ -197,10 +197,10 @@ MixedControl parse_load(const toml::table& t, const std::string& path) {
     case LoadType::equibiaxial:
     case LoadType::pure_shear: {
       refuse_foreign(present, path, type, {"gamma", "F", "P", "path"});
-      if (!k.stretch) throw InputError(io::join_key(path, "stretch"), "", "missing: the stretch path");
-      const PiecewiseLinear stretch = as_path(*k.stretch, io::join_key(path, "stretch"), k, true, 1.0);
+      if (!k.stretch) throw InputError(keys::join_key(path, "stretch"), "", "missing: the stretch path");
+      const PiecewiseLinear stretch = as_path(*k.stretch, keys::join_key(path, "stretch"), k, true, 1.0);
       for (double v : stretch.v)
-        if (!(v > 0.0)) throw InputError(io::join_key(path, "stretch"), format_number(v), "stretches must be > 0");
+        if (!(v > 0.0)) throw InputError(keys::join_key(path, "stretch"), format_number(v), "stretches must be > 0");
       if (k.type == LoadType::uniaxial) c = uniaxial_control(stretch, frame.col(0), frame.col(1));
       else if (k.type == LoadType::equibiaxial) c = equibiaxial_control(stretch, frame);
       else c = pure_shear_control(stretch, frame);
@@ -209,8 +209,8 @@ MixedControl parse_load(const toml::table& t, const std::string& path) {
     }
     case LoadType::simple_shear: {
       refuse_foreign(present, path, type, {"stretch", "F", "P", "path"});
-      if (!k.gamma) throw InputError(io::join_key(path, "gamma"), "", "missing: the shear path");
-      const PiecewiseLinear gamma = as_path(*k.gamma, io::join_key(path, "gamma"), k, true, 0.0);
+      if (!k.gamma) throw InputError(keys::join_key(path, "gamma"), "", "missing: the shear path");
+      const PiecewiseLinear gamma = as_path(*k.gamma, keys::join_key(path, "gamma"), k, true, 0.0);
       c = simple_shear_control(gamma, frame);
       breaks = gamma.t;
       break;
@@ -225,8 +225,8 @@ MixedControl parse_load(const toml::table& t, const std::string& path) {
   return c;
 }
 
-std::vector<io::TableDoc> load_tables(const std::string& path) {
-  io::TableDoc d = load_keys().describe();
+std::vector<keys::TableDoc> load_tables(const std::string& path) {
+  keys::TableDoc d = load_keys().describe();
   d.path = path;
   return {d};
 }

@@ -35,8 +35,8 @@ struct ViscoKeys {
   const toml::node* terms = nullptr;
 };
 
-const io::Range kFiberStiffness = io::at_least(0.0);
-const io::Range kDispersion = io::closed_range(0.0, 1.0 / 3.0);
+const keys::Range kFiberStiffness = keys::at_least(0.0);
+const keys::Range kDispersion = keys::closed_range(0.0, 1.0 / 3.0);
 
 std::vector<std::string> law_names() {
   std::vector<std::string> n;
@@ -58,27 +58,27 @@ std::map<std::string, std::vector<const LawEntry*>> parameter_owners() {
   return owners;
 }
 
-const io::Choices<NeoHookeanForm>& form_choices() {
-  static const io::Choices<NeoHookeanForm> c{{{"isochoric", NeoHookeanForm::isochoric}, {"lame-log", NeoHookeanForm::lame_log}}, {{"lame_log", "lame-log"}}};
+const keys::Choices<NeoHookeanForm>& form_choices() {
+  static const keys::Choices<NeoHookeanForm> c{{{"isochoric", NeoHookeanForm::isochoric}, {"lame-log", NeoHookeanForm::lame_log}}, {{"lame_log", "lame-log"}}};
   return c;
 }
-const io::Choices<FiberInvariant>& invariant_choices() {
-  static const io::Choices<FiberInvariant> c{{{"full", FiberInvariant::full}, {"isochoric", FiberInvariant::isochoric}}, {}};
+const keys::Choices<FiberInvariant>& invariant_choices() {
+  static const keys::Choices<FiberInvariant> c{{{"full", FiberInvariant::full}, {"isochoric", FiberInvariant::isochoric}}, {}};
   return c;
 }
 
-const io::KeyTable<MaterialKeys>& material_keys() {
+const keys::KeyTable<MaterialKeys>& material_keys() {
   using M = MaterialKeys;
-  static const io::KeyTable<MaterialKeys> t = [] {
-    io::KeyTable<MaterialKeys> k("material", "a constitutive law: a named parameter set and/or a law with its parameters");
+  static const keys::KeyTable<MaterialKeys> t = [] {
+    keys::KeyTable<MaterialKeys> k("material", "a constitutive law: a named parameter set and/or a law with its parameters");
     std::string presets;
     for (const auto& n : preset_names()) presets += (presets.empty() ? "" : ", ") + ("\"" + n + "\"");
     k.custom("preset", "choice", "named parameter set of spec §6 (its values are defaults for the keys below)",
              [](const toml::node& n, const std::string& f, M& m) {
-               m.preset = io::read_text(n, f);
+               m.preset = keys::read_text(n, f);
                const auto names = preset_names();
                if (std::find(names.begin(), names.end(), m.preset) == names.end())
-                 throw InputError(f, io::describe_value(n), "unknown parameter set" + io::did_you_mean(m.preset, names) +
+                 throw InputError(f, keys::describe_value(n), "unknown parameter set" + keys::did_you_mean(m.preset, names) +
                                                                 " (known: " + quoted_list(names) + ")");
              },
              "unset", presets);
@@ -86,13 +86,13 @@ const io::KeyTable<MaterialKeys>& material_keys() {
     for (const auto& e : law_table()) laws += (laws.empty() ? "" : ", ") + ("\"" + e.name + "\"");
     k.custom("law", "choice", "constitutive law (required unless a preset is given; must agree with it)",
              [](const toml::node& n, const std::string& f, M& m) {
-               const std::string s = io::read_text(n, f);
+               const std::string s = keys::read_text(n, f);
                for (const auto& e : law_table()) {
                  if (e.name == s) return void(m.law = s);
                  for (const auto& a : e.aliases)
                    if (a == s) return void(m.law = e.name);
                }
-               throw InputError(f, io::describe_value(n), "must be " + quoted_list(law_names()) + io::did_you_mean(s, law_names()));
+               throw InputError(f, keys::describe_value(n), "must be " + quoted_list(law_names()) + keys::did_you_mean(s, law_names()));
              },
              "from the preset", laws);
     for (const auto& [name, owners] : parameter_owners()) {
@@ -110,22 +110,22 @@ const io::KeyTable<MaterialKeys>& material_keys() {
                "per law", "per law", unit);
     }
     k.custom("k1", "number", "fiber stiffness, default of every fiber family (HGO, spec §2)",
-             [](const toml::node& n, const std::string& f, M& m) { m.k1 = io::read_number(n, f, kFiberStiffness); },
+             [](const toml::node& n, const std::string& f, M& m) { m.k1 = keys::read_number(n, f, kFiberStiffness); },
              "from the preset, else 0", kFiberStiffness.describe(), "MPa")
         .custom("k2", "number", "fiber exponential coefficient, default of every fiber family",
-                [](const toml::node& n, const std::string& f, M& m) { m.k2 = io::read_number(n, f, kFiberStiffness); },
+                [](const toml::node& n, const std::string& f, M& m) { m.k2 = keys::read_number(n, f, kFiberStiffness); },
                 "from the preset, else 0", kFiberStiffness.describe(), "-")
         .custom("kappa", "number", "fiber dispersion (GOH; 0: aligned, 1/3: isotropic), default of every family",
-                [](const toml::node& n, const std::string& f, M& m) { m.kappa = io::read_number(n, f, kDispersion); },
+                [](const toml::node& n, const std::string& f, M& m) { m.kappa = keys::read_number(n, f, kDispersion); },
                 "0", kDispersion.describe(), "-")
         .custom("form", "choice", "neo-Hookean energy form (\"lame-log\": the FANS law)",
-                [](const toml::node& n, const std::string& f, M& m) { m.form = io::read_choice(n, f, form_choices()); },
+                [](const toml::node& n, const std::string& f, M& m) { m.form = keys::read_choice(n, f, form_choices()); },
                 "\"isochoric\"", "\"isochoric\", \"lame-log\"")
         .custom("fiber_invariant", "choice", "fiber invariant I4 of C (\"full\", recommended, spec §2) or of C̄; required with fibers",
-                [](const toml::node& n, const std::string& f, M& m) { m.invariant = io::read_choice(n, f, invariant_choices()); },
+                [](const toml::node& n, const std::string& f, M& m) { m.invariant = keys::read_choice(n, f, invariant_choices()); },
                 "required with fibers", "\"full\", \"isochoric\"")
         .custom("tension_only", "true/false", "a fiber family contributes only while stretched (I4 > 1)",
-                [](const toml::node& n, const std::string& f, M& m) { m.tension_only = io::read_flag(n, f); }, "true")
+                [](const toml::node& n, const std::string& f, M& m) { m.tension_only = keys::read_flag(n, f); }, "true")
         .custom("fibers", "array of tables", "[[<path>.fibers]] fiber families (Gent-HGO only)",
                 [](const toml::node& n, const std::string&, M& m) { m.fibers = &n; }, "none")
         .custom("viscoelastic", "table", "[<path>.viscoelastic] QLV relaxation (Prony series)",
@@ -135,13 +135,13 @@ const io::KeyTable<MaterialKeys>& material_keys() {
   return t;
 }
 
-const io::KeyTable<FiberKeys>& fiber_keys() {
+const keys::KeyTable<FiberKeys>& fiber_keys() {
   using F = FiberKeys;
-  static const io::KeyTable<FiberKeys> t = [] {
-    io::KeyTable<FiberKeys> k("material.fibers[]", "one fiber family: exactly one of direction or angle_deg");
-    k.numbers("direction", &F::direction, io::any_value(), 3, 3, "-", "reference direction a0 [x, y, z] (normalised; non-zero)")
+  static const keys::KeyTable<FiberKeys> t = [] {
+    keys::KeyTable<FiberKeys> k("material.fibers[]", "one fiber family: exactly one of direction or angle_deg");
+    k.numbers("direction", &F::direction, keys::any_value(), 3, 3, "-", "reference direction a0 [x, y, z] (normalised; non-zero)")
         .default_text("unset")
-        .number("angle_deg", &F::angle_deg, io::any_value(), "deg", "in-plane angle from e2 toward e1 (spec §7)")
+        .number("angle_deg", &F::angle_deg, keys::any_value(), "deg", "in-plane angle from e2 toward e1 (spec §7)")
         .number("k1", &F::k1, kFiberStiffness, "MPa", "fiber stiffness").default_text("the table's k1")
         .number("k2", &F::k2, kFiberStiffness, "-", "exponential coefficient").default_text("the table's k2")
         .number("kappa", &F::kappa, kDispersion, "-", "dispersion").default_text("the table's kappa");
@@ -150,12 +150,12 @@ const io::KeyTable<FiberKeys>& fiber_keys() {
   return t;
 }
 
-const io::KeyTable<ViscoKeys>& visco_keys() {
+const keys::KeyTable<ViscoKeys>& visco_keys() {
   using V = ViscoKeys;
-  static const io::KeyTable<ViscoKeys> t = [] {
-    io::KeyTable<ViscoKeys> k("material.viscoelastic", "QLV relaxation D(t) = g_inf + Σ g_k exp(-t/tau_k); weights sum to 1");
-    k.number("g_inf", &V::g_inf, io::left_open(0.0, 1.0), "-", "long-time relative modulus").required()
-        .number("tau", &V::tau, io::above(0.0), "s", "relaxation time of one term g = 1 - g_inf (instead of terms)")
+  static const keys::KeyTable<ViscoKeys> t = [] {
+    keys::KeyTable<ViscoKeys> k("material.viscoelastic", "QLV relaxation D(t) = g_inf + Σ g_k exp(-t/tau_k); weights sum to 1");
+    k.number("g_inf", &V::g_inf, keys::left_open(0.0, 1.0), "-", "long-time relative modulus").required()
+        .number("tau", &V::tau, keys::above(0.0), "s", "relaxation time of one term g = 1 - g_inf (instead of terms)")
         .custom("terms", "array of tables", "Prony terms [{g = ..., tau = ...}, ...] (instead of tau)",
                 [](const toml::node& n, const std::string&, V& v) { v.terms = &n; }, "none");
     return k;
@@ -163,11 +163,11 @@ const io::KeyTable<ViscoKeys>& visco_keys() {
   return t;
 }
 
-const io::KeyTable<PronyTerm>& term_keys() {
-  static const io::KeyTable<PronyTerm> t = [] {
-    io::KeyTable<PronyTerm> k("material.viscoelastic.terms[]", "one Prony term");
-    k.number("g", &PronyTerm::g, io::above(0.0), "-", "relative weight").required()
-        .number("tau", &PronyTerm::tau, io::above(0.0), "s", "relaxation time").required();
+const keys::KeyTable<PronyTerm>& term_keys() {
+  static const keys::KeyTable<PronyTerm> t = [] {
+    keys::KeyTable<PronyTerm> k("material.viscoelastic.terms[]", "one Prony term");
+    k.number("g", &PronyTerm::g, keys::above(0.0), "-", "relative weight").required()
+        .number("tau", &PronyTerm::tau, keys::above(0.0), "s", "relaxation time").required();
     return k;
   }();
   return t;
@@ -177,17 +177,17 @@ const io::KeyTable<PronyTerm>& term_keys() {
 void read_law_parameters(const MaterialKeys& m, const LawEntry& law, const std::string& path, MaterialSpec& s) {
   std::map<std::string, std::vector<double>> given;
   for (const auto& [name, node] : m.parameters) {
-    const std::string field = io::join_key(path, name);
+    const std::string field = keys::join_key(path, name);
     const LawParameter* p = nullptr;
     for (const auto& q : law.parameters)
       if (q.name == name) p = &q;
     if (!p) {
       std::string own;
       for (const auto& q : law.parameters) own += (own.empty() ? "" : ", ") + q.name;
-      throw InputError(field, io::describe_value(*node), "not a parameter of the " + law.display + " law (its parameters: " + own + ")");
+      throw InputError(field, keys::describe_value(*node), "not a parameter of the " + law.display + " law (its parameters: " + own + ")");
     }
-    given[name] = p->list ? io::read_numbers(*node, field, p->range, 1, std::size_t(-1), true)
-                          : std::vector<double>{io::read_number(*node, field, p->range)};
+    given[name] = p->list ? keys::read_numbers(*node, field, p->range, 1, std::size_t(-1), true)
+                          : std::vector<double>{keys::read_number(*node, field, p->range)};
     if (p->set) p->set(s, given[name]);
   }
   if (law.finish) law.finish(s, given, path);
@@ -195,7 +195,7 @@ void read_law_parameters(const MaterialKeys& m, const LawEntry& law, const std::
 
 FiberFamily read_fiber(const toml::node& node, const std::string& fp, const FiberFamily& defaults) {
   FiberKeys k;
-  const auto present = fiber_keys().read(io::read_table(node, fp), fp, k);
+  const auto present = fiber_keys().read(keys::read_table(node, fp), fp, k);
   if (present.count("direction") == present.count("angle_deg"))
     throw InputError(fp, "", "give exactly one of direction = [x, y, z] or angle_deg (spec §7: from e2 toward e1)");
   FiberFamily f = defaults;
@@ -204,7 +204,7 @@ FiberFamily read_fiber(const toml::node& node, const std::string& fp, const Fibe
     f.direction = Vec3(std::sin(a), std::cos(a), 0.0);
   } else {
     f.direction = Vec3(k.direction[0], k.direction[1], k.direction[2]);
-    if (!(f.direction.norm() > 1e-12)) throw InputError(fp + ".direction", io::describe_value(*node.as_table()->get("direction")), "must be a non-zero vector");
+    if (!(f.direction.norm() > 1e-12)) throw InputError(fp + ".direction", keys::describe_value(*node.as_table()->get("direction")), "must be a non-zero vector");
   }
   if (k.k1) f.k1 = *k.k1;
   if (k.k2) f.k2 = *k.k2;
@@ -214,20 +214,20 @@ FiberFamily read_fiber(const toml::node& node, const std::string& fp, const Fibe
 
 PronySeries read_viscoelastic(const toml::node& node, const std::string& vp) {
   ViscoKeys v;
-  visco_keys().read(io::read_table(node, vp), vp, v);
+  visco_keys().read(keys::read_table(node, vp), vp, v);
   PronySeries pr;
   pr.g_inf = v.g_inf;
   if (v.terms) {
-    if (v.tau) throw InputError(io::join_key(vp, "tau"), format_number(*v.tau), "give either tau (one term) or terms");
-    const toml::array& arr = io::read_array(*v.terms, io::join_key(vp, "terms"));
+    if (v.tau) throw InputError(keys::join_key(vp, "tau"), format_number(*v.tau), "give either tau (one term) or terms");
+    const toml::array& arr = keys::read_array(*v.terms, keys::join_key(vp, "terms"));
     for (std::size_t k = 0; k < arr.size(); ++k) {
-      const std::string tp = io::index_field(io::join_key(vp, "terms"), k);
+      const std::string tp = keys::index_field(keys::join_key(vp, "terms"), k);
       PronyTerm term;
-      term_keys().read(io::read_table(*arr.get(k), tp), tp, term);
+      term_keys().read(keys::read_table(*arr.get(k), tp), tp, term);
       pr.terms.push_back(term);
     }
   } else {
-    if (!v.tau) throw InputError(io::join_key(vp, "tau"), "", "missing: give tau (one term) or terms");
+    if (!v.tau) throw InputError(keys::join_key(vp, "tau"), "", "missing: give tau (one term) or terms");
     pr.terms.push_back({1.0 - pr.g_inf, *v.tau});  // one term: g = 1 − g∞ (dissertation eq. 2.36)
   }
   return pr;
@@ -254,15 +254,15 @@ MaterialSpec parse_material(const toml::table& t, const std::string& path) {
     for (const auto& e : law_table())
       if (e.name == m.law) law = &e;
     if (!m.preset.empty() && law->kind != s.law)
-      throw InputError(io::join_key(path, "law"), "\"" + m.law + "\"", "contradicts preset '" + m.preset + "'");
+      throw InputError(keys::join_key(path, "law"), "\"" + m.law + "\"", "contradicts preset '" + m.preset + "'");
     s.law = law->kind;
   } else if (m.preset.empty()) {
-    throw InputError(io::join_key(path, "law"), "", "missing: give law = " + quoted_list(law_names()) + " or a preset");
+    throw InputError(keys::join_key(path, "law"), "", "missing: give law = " + quoted_list(law_names()) + " or a preset");
   }
   const LawEntry& law = law_entry(s.law);
   if (m.form) {
     if (s.law != LawKind::neo_hookean)
-      throw InputError(io::join_key(path, "form"), "", "not a parameter of the " + law.display + " law (neo-Hookean only)");
+      throw InputError(keys::join_key(path, "form"), "", "not a parameter of the " + law.display + " law (neo-Hookean only)");
     s.neo_hookean.form = *m.form;
   }
   read_law_parameters(m, law, path, s);
@@ -272,37 +272,37 @@ MaterialSpec parse_material(const toml::table& t, const std::string& path) {
   if (m.k2) family_defaults.k2 = *m.k2;
   if (m.kappa) family_defaults.kappa = *m.kappa;
   if (m.fibers) {
-    const std::string fp = io::join_key(path, "fibers");
+    const std::string fp = keys::join_key(path, "fibers");
     if (s.law != LawKind::gent_hgo) throw InputError(fp, "", "fiber families need law = \"gent\"");
-    const toml::array& arr = io::read_array(*m.fibers, fp);
-    for (std::size_t i = 0; i < arr.size(); ++i) s.gent.fibers.push_back(read_fiber(*arr.get(i), io::index_field(fp, i), family_defaults));
+    const toml::array& arr = keys::read_array(*m.fibers, fp);
+    for (std::size_t i = 0; i < arr.size(); ++i) s.gent.fibers.push_back(read_fiber(*arr.get(i), keys::index_field(fp, i), family_defaults));
   }
   if (s.law == LawKind::gent_hgo && s.gent.fibers.empty() && family_defaults.k1 > 0.0 && !m.preset.empty())
-    throw InputError(io::join_key(path, "fibers"), "",
+    throw InputError(keys::join_key(path, "fibers"), "",
                      "preset '" + m.preset + "' is anisotropic: give at least one [[" + path + ".fibers]] family");
   if (!s.gent.fibers.empty()) {
     if (!m.invariant)
-      throw InputError(io::join_key(path, "fiber_invariant"), "", "required with fibers: \"full\" (recommended, spec §2) or \"isochoric\"");
+      throw InputError(keys::join_key(path, "fiber_invariant"), "", "required with fibers: \"full\" (recommended, spec §2) or \"isochoric\"");
     s.gent.invariant = *m.invariant;
     if (m.tension_only) s.gent.tension_only = *m.tension_only;
   }
-  if (m.viscoelastic) s.prony = read_viscoelastic(*m.viscoelastic, io::join_key(path, "viscoelastic"));
+  if (m.viscoelastic) s.prony = read_viscoelastic(*m.viscoelastic, keys::join_key(path, "viscoelastic"));
   validate(s);
   return s;
 }
 
-std::vector<io::TableDoc> material_tables(const std::string& path) {
-  std::vector<io::TableDoc> docs;
-  io::TableDoc main = material_keys().describe();
+std::vector<keys::TableDoc> material_tables(const std::string& path) {
+  std::vector<keys::TableDoc> docs;
+  keys::TableDoc main = material_keys().describe();
   main.path = path;
   docs.push_back(main);
   for (const auto& e : law_table()) {
-    io::TableDoc d{path + " (law = \"" + e.name + "\")", e.display + ": " + e.doc, {}};
+    keys::TableDoc d{path + " (law = \"" + e.name + "\")", e.display + ": " + e.doc, {}};
     for (const auto& p : e.parameters)
       d.keys.push_back({p.name, p.list ? "number or list of numbers" : "number", p.default_text, p.range.describe(), p.unit, p.doc, {}});
     docs.push_back(d);
   }
-  for (io::TableDoc d : {fiber_keys().describe(), visco_keys().describe(), term_keys().describe()}) {
+  for (keys::TableDoc d : {fiber_keys().describe(), visco_keys().describe(), term_keys().describe()}) {
     d.path.replace(0, std::string("material").size(), path);
     docs.push_back(d);
   }

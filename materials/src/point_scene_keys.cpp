@@ -5,17 +5,17 @@
 namespace softhom {
 namespace {
 
-const io::KeyTable<PointSolverOptions>& point_solver_keys() {
+const keys::KeyTable<PointSolverOptions>& point_solver_keys() {
   using O = PointSolverOptions;
-  static const io::KeyTable<PointSolverOptions> t = [] {
-    io::KeyTable<PointSolverOptions> k("solver", "material-point Newton iteration on the free stress components");
-    k.number("tolerance", &O::tolerance, io::open_range(0.0, 1.0), "-",
+  static const keys::KeyTable<PointSolverOptions> t = [] {
+    keys::KeyTable<PointSolverOptions> k("solver", "material-point Newton iteration on the free stress components");
+    k.number("tolerance", &O::tolerance, keys::open_range(0.0, 1.0), "-",
              "max |P_free - P_target| relative to max(|P|, 1e-6 G0)")
-        .integer("max_newton_iterations", &O::max_iterations, io::closed_range(1, 10000), "-", "Newton iterations per sub-step")
+        .integer("max_newton_iterations", &O::max_iterations, keys::closed_range(1, 10000), "-", "Newton iterations per sub-step")
         .renamed("max_iterations")
-        .integer("max_cutbacks", &O::max_cutbacks, io::closed_range(0, 60), "-",
+        .integer("max_cutbacks", &O::max_cutbacks, keys::closed_range(0, 60), "-",
                  "times a step may be halved (60 halvings reach the resolution of a double)")
-        .number("max_step_seconds", &O::max_step_seconds, io::at_least(0.0), "s",
+        .number("max_step_seconds", &O::max_step_seconds, keys::at_least(0.0), "s",
                 "wall-time budget of one output step's cut-backs (0: unlimited)");
     return k;
   }();
@@ -29,11 +29,11 @@ struct PointTop {
   const toml::node* solver = nullptr;
 };
 
-const io::KeyTable<PointTop>& point_top_keys() {
-  static const io::KeyTable<PointTop> t = [] {
-    io::KeyTable<PointTop> k("", "the tables of a point scene");
+const keys::KeyTable<PointTop>& point_top_keys() {
+  static const keys::KeyTable<PointTop> t = [] {
+    keys::KeyTable<PointTop> k("", "the tables of a point scene");
     auto node_of = [](const toml::node* PointTop::*member) {
-      return [member](const toml::node& n, const std::string& f, PointTop& p) { p.*member = &io::read_table(n, f); };
+      return [member](const toml::node& n, const std::string& f, PointTop& p) { p.*member = &keys::read_table(n, f); };
     };
     k.text("description", &PointTop::description, "what the scene is for (copied to summary.json)")
         .custom("material", "table", "[material]: the constitutive law", node_of(&PointTop::material), "required")
@@ -58,8 +58,8 @@ PointScene parse_point_scene(const toml::table& scene) {
   return s;
 }
 
-std::vector<io::TableDoc> point_scene_tables() {
-  std::vector<io::TableDoc> t{point_top_keys().describe()};
+std::vector<keys::TableDoc> point_scene_tables() {
+  std::vector<keys::TableDoc> t{point_top_keys().describe()};
   t.front().path = "(top level)";
   for (auto& d : material_tables("material")) t.push_back(d);
   for (auto& d : load_tables("load")) t.push_back(d);
@@ -73,6 +73,6 @@ PointSolverOptions parse_point_solver(const toml::node* solver, const std::strin
   return o;
 }
 
-io::TableDoc point_solver_table() { return point_solver_keys().describe(); }
+keys::TableDoc point_solver_table() { return point_solver_keys().describe(); }
 
 }  // namespace softhom

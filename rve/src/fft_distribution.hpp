@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "softhom/fft/slab.hpp"
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 #include "diagnostics.hpp"
 #include "softhom/rve/fft_solver.hpp"
 #include "softhom/rve/geometry.hpp"

@@ -27,7 +27,7 @@
 
 #include <Eigen/Core>
 
-#include "softhom/fe/krylov.hpp"
+#include "softhom/core/krylov.hpp"
 #include "softhom/fft/stencil.hpp"
 #include "softhom/materials/tensor.hpp"
 

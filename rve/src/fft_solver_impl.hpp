@@ -19,7 +19,7 @@
 
 #include <Eigen/Dense>
 
-#include "softhom/fe/krylov.hpp"
+#include "softhom/core/krylov.hpp"
 #include "softhom/fft/field_buffer.hpp"
 #include "softhom/fft/stencil.hpp"
 #include "softhom/materials/interrupt.hpp"

@@ -3,51 +3,51 @@
 
 namespace softhom::rve {
 
-const io::KeyTable<FftSolverOptions>& fft_solver_keys() {
+const keys::KeyTable<FftSolverOptions>& fft_solver_keys() {
   using O = FftSolverOptions;
-  static const io::KeyTable<FftSolverOptions> t = [] {
-    io::KeyTable<FftSolverOptions> k("solver", "RVE solver settings (engine = \"fft\", the default)");
+  static const keys::KeyTable<FftSolverOptions> t = [] {
+    keys::KeyTable<FftSolverOptions> k("solver", "RVE solver settings (engine = \"fft\", the default)");
     k.custom("engine", "choice", "RVE engine: FFT (\"fft\"), finite elements (\"fe\", its own keys below) or \"auto\" (from target_error)",
              [](const toml::node& n, const std::string& f, O&) {
-               const std::string e = io::read_text(n, f);
-               if (e != "fft") throw InputError(f, io::describe_value(n), "must be \"fft\", \"fe\" or \"auto\"");
+               const std::string e = keys::read_text(n, f);
+               if (e != "fft") throw InputError(f, keys::describe_value(n), "must be \"fft\", \"fe\" or \"auto\"");
              },
              "\"fft\"", "\"fft\", \"fe\", \"auto\"")
         .custom("target_error", "number", "engine = \"auto\": relative error of the homogenized stress to reach, in (0, 0.5)",
                 [](const toml::node& n, const std::string& f, O&) {
-                  throw InputError(f, io::describe_value(n), "only with engine = \"auto\"");
+                  throw InputError(f, keys::describe_value(n), "only with engine = \"auto\"");
                 },
                 "unset", "(0, 0.5)", "-")
         .choice("discretization", &O::discretization,
                 {{"spectral", fft::Discretization::spectral}, {"rotated", fft::Discretization::rotated}, {"hex", fft::Discretization::hex}},
                 "gradient discretization (rotated: staggered finite differences; hex: trilinear elements)")
         .choice("scheme", &O::scheme,
-                io::Choices<FftScheme>{{{"newton-cg", FftScheme::newton_cg}, {"moulinec-suquet", FftScheme::moulinec_suquet}},
+                keys::Choices<FftScheme>{{{"newton-cg", FftScheme::newton_cg}, {"moulinec-suquet", FftScheme::moulinec_suquet}},
                                        {{"newton_cg", "newton-cg"}, {"moulinec_suquet", "moulinec-suquet"}}},
                 "nonlinear iteration")
         .choice("reference", &O::reference,
-                io::Choices<ReferenceMedium>{
+                keys::Choices<ReferenceMedium>{
                     {{"mean-tangent", ReferenceMedium::mean_tangent}, {"isotropic", ReferenceMedium::isotropic}, {"geometric", ReferenceMedium::geometric}},
                     {{"mean_tangent", "mean-tangent"}}},
                 "reference medium of the preconditioner / fixed point")
-        .number("tolerance", &O::tolerance, io::open_range(0.0, 1.0), "-",
+        .number("tolerance", &O::tolerance, keys::open_range(0.0, 1.0), "-",
                 "Newton: RMS incompatible stress and macro stress error relative to the stress scale")
-        .number("krylov_tolerance", &O::krylov_tolerance, io::right_open(0.0, 1.0), "-",
+        .number("krylov_tolerance", &O::krylov_tolerance, keys::right_open(0.0, 1.0), "-",
                 "relative tolerance of each linear solve (0: adaptive forcing term)")
-        .integer("max_newton_iterations", &O::max_newton_iterations, io::closed_range(1, 10000), "-", "Newton iterations per sub-step")
-        .integer("max_krylov_iterations", &O::max_krylov_iterations, io::closed_range(1, 1000000), "-", "Krylov iterations per linear solve")
-        .integer("max_fixed_point_iterations", &O::max_fixed_point_iterations, io::closed_range(1, 100000000), "-",
+        .integer("max_newton_iterations", &O::max_newton_iterations, keys::closed_range(1, 10000), "-", "Newton iterations per sub-step")
+        .integer("max_krylov_iterations", &O::max_krylov_iterations, keys::closed_range(1, 1000000), "-", "Krylov iterations per linear solve")
+        .integer("max_fixed_point_iterations", &O::max_fixed_point_iterations, keys::closed_range(1, 100000000), "-",
                  "moulinec-suquet: iterations per sub-step")
-        .integer("max_cutbacks", &O::max_cutbacks, io::closed_range(0, 60), "-",
+        .integer("max_cutbacks", &O::max_cutbacks, keys::closed_range(0, 60), "-",
                  "times a step may be halved (60 halvings reach the resolution of a double)")
-        .number("max_step_seconds", &O::max_step_seconds, io::at_least(0.0), "s",
+        .number("max_step_seconds", &O::max_step_seconds, keys::at_least(0.0), "s",
                 "wall-time budget of one output step's cut-backs (0: unlimited)")
-        .integer("max_continuation_iterations", &O::max_continuation_iterations, io::closed_range(0, 100000), "-",
+        .integer("max_continuation_iterations", &O::max_continuation_iterations, keys::closed_range(0, 100000), "-",
                  "pseudo-transient continuation iterations when Newton stagnates (0: off)")
         .choice("indefinite_solver", &O::indefinite_solver,
                 {{"minres", IndefiniteSolver::minres}, {"shift", IndefiniteSolver::shift}},
                 "Newton step at an indefinite tangent past a bifurcation")
-        .number("minres_below", &O::minres_below, io::at_least(0.0), "-", "residual below which negative curvature means an indefinite tangent")
+        .number("minres_below", &O::minres_below, keys::at_least(0.0), "-", "residual below which negative curvature means an indefinite tangent")
         .flag("minres_fallback", &O::minres_fallback, "with shift: finish a stalled step with MINRES")
         .flag("mixed_pressure", &O::mixed_pressure, "mixed (u, p) Newton iteration in nearly incompressible phases")
         .choice("composite_tangent", &O::composite_tangent,
@@ -73,14 +73,14 @@ const io::KeyTable<FftSolverOptions>& fft_solver_keys() {
                 "locking-free for nearly incompressible matrices)")
         .custom("fftw", "choice", "FFTW planning rigor",
                 [](const toml::node& n, const std::string& f, O& o) {
-                  static const io::Choices<fft::PlanRigor> c{
+                  static const keys::Choices<fft::PlanRigor> c{
                       {{"estimate", fft::PlanRigor::estimate}, {"measure", fft::PlanRigor::measure}, {"patient", fft::PlanRigor::patient}}, {}};
-                  o.plan.rigor = io::read_choice(n, f, c);
+                  o.plan.rigor = keys::read_choice(n, f, c);
                 },
                 "\"measure\"", "\"estimate\", \"measure\", \"patient\"")
         .custom("fftw_wisdom", "string",
                 "FFTW wisdom file: relative to --out (or the cache ${XDG_CACHE_HOME:-~/.cache}/softhom); absolute paths must lie in one of them",
-                [](const toml::node& n, const std::string& f, O& o) { o.plan.wisdom_file = io::read_text(n, f); }, "\"\" (none)");
+                [](const toml::node& n, const std::string& f, O& o) { o.plan.wisdom_file = keys::read_text(n, f); }, "\"\" (none)");
     return k;
   }();
   return t;

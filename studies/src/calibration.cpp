@@ -15,7 +15,7 @@
 #include <ceres/ceres.h>
 
 #include "softhom/io/files.hpp"
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/studies/campaign.hpp"
@@ -39,7 +39,7 @@ const std::vector<std::string>& tensor_columns() {
 
 /// A key whose value the calibration parser reads itself (parameters, sub-tables).
 template <class O>
-typename io::KeyTable<O>::Apply read_below() {
+typename keys::KeyTable<O>::Apply read_below() {
   return [](const toml::node&, const std::string&, O&) {};
 }
 
@@ -48,9 +48,9 @@ const std::string kParameterDoc = "a number is fixed; {value, min, max} is free 
 
 struct NoKeys {};
 
-const io::KeyTable<NoKeys>& parameter_table() {
-  static const io::KeyTable<NoKeys> t = [] {
-    io::KeyTable<NoKeys> k("model.<parameter>", "A parameter given as a table.");
+const keys::KeyTable<NoKeys>& parameter_table() {
+  static const keys::KeyTable<NoKeys> t = [] {
+    keys::KeyTable<NoKeys> k("model.<parameter>", "A parameter given as a table.");
     auto r = read_below<NoKeys>();
     k.custom("value", "number", "initial (free) or fixed value", r, "required")
         .custom("min", "number", "lower bound of a free parameter (> 0: fitted in log space)", r, "required when free")
@@ -65,7 +65,7 @@ const io::KeyTable<NoKeys>& parameter_table() {
 /// `positive`: the quantity must be > 0 (so a free range needs min > 0 and is fitted in log space).
 int add_parameter(CalibrationModel& m, const toml::table& t, const std::string& key, const std::string& path,
                   const std::string& name, bool positive, double lo_limit, double hi_limit) {
-  const std::string field = io::join_key(path, key);
+  const std::string field = keys::join_key(path, key);
   const toml::node* node = t.get(key);
   if (!node) throw InputError(field, "", "missing (a number = fixed, or {value, min, max} = free)");
   CalParameter p;
@@ -78,23 +78,23 @@ int add_parameter(CalibrationModel& m, const toml::table& t, const std::string& 
     if (p.free) {
       p.min = io::get_number(*pt, "min", field);
       p.max = io::get_number(*pt, "max", field);
-      if (!(p.min < p.max)) throw InputError(io::join_key(field, "max"), format_number(p.max), "must be > min = " + format_number(p.min));
+      if (!(p.min < p.max)) throw InputError(keys::join_key(field, "max"), format_number(p.max), "must be > min = " + format_number(p.min));
       if (p.min < lo_limit || (positive && !(p.min > 0.0)))
-        throw InputError(io::join_key(field, "min"), format_number(p.min), positive ? "must be > 0" : "must be >= " + format_number(lo_limit));
-      if (p.max > hi_limit) throw InputError(io::join_key(field, "max"), format_number(p.max), "must be <= " + format_number(hi_limit));
+        throw InputError(keys::join_key(field, "min"), format_number(p.min), positive ? "must be > 0" : "must be >= " + format_number(lo_limit));
+      if (p.max > hi_limit) throw InputError(keys::join_key(field, "max"), format_number(p.max), "must be <= " + format_number(hi_limit));
       if (!(p.value >= p.min && p.value <= p.max))
-        throw InputError(io::join_key(field, "value"), format_number(p.value), "initial value outside [min, max] = [" + format_number(p.min) + ", " + format_number(p.max) + "]");
+        throw InputError(keys::join_key(field, "value"), format_number(p.value), "initial value outside [min, max] = [" + format_number(p.min) + ", " + format_number(p.max) + "]");
       p.log_scale = p.min > 0.0;
       p.scale = std::max(std::abs(p.min), std::abs(p.max));
     } else {
       if (pt->contains("min") || pt->contains("max"))
-        throw InputError(io::join_key(field, pt->contains("min") ? "min" : "max"), "", "a fixed parameter takes no bounds");
+        throw InputError(keys::join_key(field, pt->contains("min") ? "min" : "max"), "", "a fixed parameter takes no bounds");
     }
   } else if (auto v = node->value<double>()) {
-    if (!std::isfinite(*v)) throw InputError(field, io::describe_value(*node), "must be finite");
+    if (!std::isfinite(*v)) throw InputError(field, keys::describe_value(*node), "must be finite");
     p.value = *v;
   } else {
-    throw InputError(field, io::describe_value(*node), "must be a number (fixed) or a table {value, min, max} (free)");
+    throw InputError(field, keys::describe_value(*node), "must be a number (fixed) or a table {value, min, max} (free)");
   }
   if (!p.free && (p.value < lo_limit || p.value > hi_limit || (positive && !(p.value > 0.0))))
     throw InputError(field, format_number(p.value), positive ? "must be > 0" : "outside the admissible range");
@@ -458,9 +458,9 @@ CsvData read_csv(const std::filesystem::path& path) {
 namespace {
 
 
-const io::KeyTable<NoKeys>& root_table() {
-  static const io::KeyTable<NoKeys> t = [] {
-    io::KeyTable<NoKeys> k("", "A calibration: the model with its free parameters, the curves, the optimizer.");
+const keys::KeyTable<NoKeys>& root_table() {
+  static const keys::KeyTable<NoKeys> t = [] {
+    keys::KeyTable<NoKeys> k("", "A calibration: the model with its free parameters, the curves, the optimizer.");
     auto r = read_below<NoKeys>();
     k.custom("description", "string", "free text, copied to summary.json", r)
         .custom("model", "table", "the Gent + HGO (+ QLV) model and its parameters", r).required()
@@ -472,9 +472,9 @@ const io::KeyTable<NoKeys>& root_table() {
   return t;
 }
 
-const io::KeyTable<NoKeys>& model_table() {
-  static const io::KeyTable<NoKeys> t = [] {
-    io::KeyTable<NoKeys> k("model", "The homogeneous Gent + HGO model; parameters: " + kParameterDoc + ".");
+const keys::KeyTable<NoKeys>& model_table() {
+  static const keys::KeyTable<NoKeys> t = [] {
+    keys::KeyTable<NoKeys> k("model", "The homogeneous Gent + HGO model; parameters: " + kParameterDoc + ".");
     auto r = read_below<NoKeys>();
     k.custom("law", "string", "\"gent\" only (Gent matrix + HGO fibers)", r, "\"gent\"")
         .custom("G", kParameter, "shear modulus", r, "required", "> 0", "MPa")
@@ -494,9 +494,9 @@ const io::KeyTable<NoKeys>& model_table() {
 }
 
 
-const io::KeyTable<NoKeys>& fiber_table() {
-  static const io::KeyTable<NoKeys> t = [] {
-    io::KeyTable<NoKeys> k("model.fibers[]", "A fiber family.");
+const keys::KeyTable<NoKeys>& fiber_table() {
+  static const keys::KeyTable<NoKeys> t = [] {
+    keys::KeyTable<NoKeys> k("model.fibers[]", "A fiber family.");
     auto r = read_below<NoKeys>();
     k.custom("angle_deg", kParameter, "angle in the 1-2 plane from e2 toward e1", r, "required", "[-180, 180]", "deg")
         .custom("plus_minus", "true/false", "two families at +θ and −θ sharing the angle parameter", r, "false");
@@ -505,9 +505,9 @@ const io::KeyTable<NoKeys>& fiber_table() {
   return t;
 }
 
-const io::KeyTable<NoKeys>& viscoelastic_table() {
-  static const io::KeyTable<NoKeys> t = [] {
-    io::KeyTable<NoKeys> k("model.viscoelastic", "QLV: one term (g_inf, tau) or terms = [{g, tau}, ...].");
+const keys::KeyTable<NoKeys>& viscoelastic_table() {
+  static const keys::KeyTable<NoKeys> t = [] {
+    keys::KeyTable<NoKeys> k("model.viscoelastic", "QLV: one term (g_inf, tau) or terms = [{g, tau}, ...].");
     auto r = read_below<NoKeys>();
     k.custom("g_inf", kParameter, "long-time fraction (one term, g = 1 − g_inf)", r, "", "(0, 1)", "-")
         .custom("tau", kParameter, "relaxation time (one term)", r, "", "> 0", "s")
@@ -517,9 +517,9 @@ const io::KeyTable<NoKeys>& viscoelastic_table() {
   return t;
 }
 
-const io::KeyTable<NoKeys>& term_table() {
-  static const io::KeyTable<NoKeys> t = [] {
-    io::KeyTable<NoKeys> k("model.viscoelastic.terms[]", "A Prony term.");
+const keys::KeyTable<NoKeys>& term_table() {
+  static const keys::KeyTable<NoKeys> t = [] {
+    keys::KeyTable<NoKeys> k("model.viscoelastic.terms[]", "A Prony term.");
     auto r = read_below<NoKeys>();
     k.custom("g", kParameter, "relative modulus of the term", r, "required", "(0, 1)", "-")
         .custom("tau", kParameter, "relaxation time", r, "required", "> 0", "s");
@@ -528,35 +528,35 @@ const io::KeyTable<NoKeys>& term_table() {
   return t;
 }
 
-const io::KeyTable<CalSolverOptions>& solver_table() {
+const keys::KeyTable<CalSolverOptions>& solver_table() {
   using O = CalSolverOptions;
-  static const io::KeyTable<O> t = [] {
+  static const keys::KeyTable<O> t = [] {
     const O defaults{};
-    io::KeyTable<O> k("solver", "Bounded nonlinear least squares (Ceres) and the material-point driver of each evaluation.");
+    keys::KeyTable<O> k("solver", "Bounded nonlinear least squares (Ceres) and the material-point driver of each evaluation.");
     k.choice("method", &O::dogleg,
-             io::Choices<bool>{{{"levenberg-marquardt", false}, {"dogleg", true}}, {{"levenberg_marquardt", "levenberg-marquardt"}}},
+             keys::Choices<bool>{{{"levenberg-marquardt", false}, {"dogleg", true}}, {{"levenberg_marquardt", "levenberg-marquardt"}}},
              "trust-region strategy")
-        .integer("starts", &O::starts, io::closed_range(1, 1000), "-", "the initial values + seeded random points inside the bounds")
-        .integer("seed", &O::seed, io::closed_range(0, 9007199254740992.0), "-", "random starts' seed")
-        .integer("max_iterations", &O::max_iterations, io::closed_range(1, 100000), "-", "optimizer iterations per start")
-        .number("function_tolerance", &O::function_tolerance, io::open_range(0, 1), "-", "relative cost change to stop")
-        .number("parameter_tolerance", &O::parameter_tolerance, io::open_range(0, 1), "-", "relative step to stop")
-        .number("gradient_tolerance", &O::gradient_tolerance, io::open_range(0, 1), "-", "gradient norm to stop")
-        .number("fd_step", &O::fd_step, io::open_range(0, 1), "-", "central-difference step in the scaled unknowns")
+        .integer("starts", &O::starts, keys::closed_range(1, 1000), "-", "the initial values + seeded random points inside the bounds")
+        .integer("seed", &O::seed, keys::closed_range(0, 9007199254740992.0), "-", "random starts' seed")
+        .integer("max_iterations", &O::max_iterations, keys::closed_range(1, 100000), "-", "optimizer iterations per start")
+        .number("function_tolerance", &O::function_tolerance, keys::open_range(0, 1), "-", "relative cost change to stop")
+        .number("parameter_tolerance", &O::parameter_tolerance, keys::open_range(0, 1), "-", "relative step to stop")
+        .number("gradient_tolerance", &O::gradient_tolerance, keys::open_range(0, 1), "-", "gradient norm to stop")
+        .number("fd_step", &O::fd_step, keys::open_range(0, 1), "-", "central-difference step in the scaled unknowns")
         .custom(
             "point_tolerance", "number", "driver Newton tolerance (relative to max(G, |P|))",
-            [](const toml::node& n, const std::string& f, O& o) { o.point.tolerance = io::read_number(n, f, io::open_range(0, 1)); },
+            [](const toml::node& n, const std::string& f, O& o) { o.point.tolerance = keys::read_number(n, f, keys::open_range(0, 1)); },
             format_number(defaults.point.tolerance), "(0, 1)", "-")
         .custom(
             "point_max_iterations", "integer", "driver Newton iterations per step",
             [](const toml::node& n, const std::string& f, O& o) {
-              o.point.max_iterations = io::read_int<int>(n, f, io::closed_range(1, 1000));
+              o.point.max_iterations = keys::read_int<int>(n, f, keys::closed_range(1, 1000));
             },
             std::to_string(defaults.point.max_iterations), "[1, 1000]", "-")
         .custom(
             "point_max_cutbacks", "integer", "driver step halvings",
             [](const toml::node& n, const std::string& f, O& o) {
-              o.point.max_cutbacks = io::read_int<int>(n, f, io::closed_range(0, 60));
+              o.point.max_cutbacks = keys::read_int<int>(n, f, keys::closed_range(0, 60));
             },
             std::to_string(defaults.point.max_cutbacks), "[0, 60]", "-");
     return k;
@@ -568,9 +568,9 @@ struct OutputKeys {
   bool plot = true;
 };
 
-const io::KeyTable<OutputKeys>& output_table() {
-  static const io::KeyTable<OutputKeys> t = [] {
-    io::KeyTable<OutputKeys> k("output", "Output switches.");
+const keys::KeyTable<OutputKeys>& output_table() {
+  static const keys::KeyTable<OutputKeys> t = [] {
+    keys::KeyTable<OutputKeys> k("output", "Output switches.");
     k.flag("plot", &OutputKeys::plot, "write fit.svg (data and model curves)");
     return k;
   }();
@@ -585,10 +585,10 @@ struct CurveKeys {
   bool holdout = false;
 };
 
-const io::KeyTable<CurveKeys>& curve_table() {
+const keys::KeyTable<CurveKeys>& curve_table() {
   using O = CurveKeys;
-  static const io::KeyTable<O> t = [] {
-    io::KeyTable<O> k("curves[]", "A data curve: one source (file, run or campaign case), its load and the quantities compared.");
+  static const keys::KeyTable<O> t = [] {
+    keys::KeyTable<O> k("curves[]", "A data curve: one source (file, run or campaign case), its load and the quantities compared.");
     k.text("name", &O::name, "curve name (file names, response.csv); default: from the source")
         .default_text("from the source")
         .text("file", &O::file, "CSV file (header of names), relative to the calibration file")
@@ -597,14 +597,14 @@ const io::KeyTable<CurveKeys>& curve_table() {
         .text("case", &O::case_id, "case id in the campaign store")
         .custom(
             "load", "table", "the curve's control, as a softhom point [load] (default: the run's or case's)",
-            [](const toml::node& n, const std::string& f, O& o) { o.load = &io::read_table(n, f); })
-        .number("load_rotation_deg", &O::load_rotation_deg, io::any_value(), "deg", "turns the load frame about e3")
+            [](const toml::node& n, const std::string& f, O& o) { o.load = &keys::read_table(n, f); })
+        .number("load_rotation_deg", &O::load_rotation_deg, keys::any_value(), "deg", "turns the load frame about e3")
         .text("x", &O::x, "model quantity on the x axis (t, F11..F33, P11..P33, sigma11..sigma33, fiberK_angle_deg)")
         .text("y", &O::y, "model quantity compared with the data")
         .text("x_column", &O::x_column, "CSV column of x").default_text("= x")
         .text("y_column", &O::y_column, "CSV column of y").default_text("= y")
-        .number("weight", &O::weight, io::above(0), "-", "weight of the curve's NRMSE² in the cost")
-        .choice("role", &O::holdout, io::Choices<bool>{{{"fit", false}, {"holdout", true}}, {}},
+        .number("weight", &O::weight, keys::above(0), "-", "weight of the curve's NRMSE² in the cost")
+        .choice("role", &O::holdout, keys::Choices<bool>{{{"fit", false}, {"holdout", true}}, {}},
                 "fitted, or only predicted and reported");
     return k;
   }();
@@ -616,52 +616,52 @@ const double kInf = std::numeric_limits<double>::infinity();
 void parse_fibers(const toml::table& mt, const toml::node& fibers, CalibrationModel& m) {
   const auto* arr = fibers.as_array();
   if (!arr || arr->empty())
-    throw InputError("model.fibers", io::describe_value(fibers), "must be a non-empty array of tables ([[model.fibers]])");
+    throw InputError("model.fibers", keys::describe_value(fibers), "must be a non-empty array of tables ([[model.fibers]])");
   m.k1 = add_parameter(m, mt, "k1", "model", "k1", false, 0.0, kInf);
   m.k2 = add_parameter(m, mt, "k2", "model", "k2", false, 0.0, kInf);
   // Optional GOH fiber dispersion, shared by all families; absent = aligned fibers (κ = 0, no parameter).
   if (mt.contains("kappa")) m.kappa = add_parameter(m, mt, "kappa", "model", "kappa", false, 0.0, 1.0 / 3.0);
   for (std::size_t i = 0; i < arr->size(); ++i) {
-    const std::string fp = io::index_field("model.fibers", i);
-    const toml::table& ft = io::read_table(*arr->get(i), fp);
+    const std::string fp = keys::index_field("model.fibers", i);
+    const toml::table& ft = keys::read_table(*arr->get(i), fp);
     NoKeys none;
     fiber_table().read(ft, fp, none);
     CalFiber f;
-    f.angle_parameter = add_parameter(m, ft, "angle_deg", fp, io::index_field("fibers", i) + ".angle_deg", false, -180.0, 180.0);
+    f.angle_parameter = add_parameter(m, ft, "angle_deg", fp, keys::index_field("fibers", i) + ".angle_deg", false, -180.0, 180.0);
     f.plus_minus = io::get_bool_or(ft, "plus_minus", fp, false);
     m.fibers.push_back(f);
   }
   const toml::node* inv = mt.get("fiber_invariant");
   if (!inv) throw InputError("model.fiber_invariant", "", "required with fibers: \"full\" (recommended, spec §2) or \"isochoric\"");
-  m.invariant = io::read_choice(*inv, "model.fiber_invariant",
-                                io::Choices<FiberInvariant>{{{"full", FiberInvariant::full}, {"isochoric", FiberInvariant::isochoric}}, {}});
+  m.invariant = keys::read_choice(*inv, "model.fiber_invariant",
+                                keys::Choices<FiberInvariant>{{{"full", FiberInvariant::full}, {"isochoric", FiberInvariant::isochoric}}, {}});
   m.tension_only = io::get_bool_or(mt, "tension_only", "model", true);
 }
 
 void parse_viscoelastic(const toml::node& ve, CalibrationModel& m) {
   const std::string vp = "model.viscoelastic";
-  const toml::table& vt = io::read_table(ve, vp);
+  const toml::table& vt = keys::read_table(ve, vp);
   NoKeys none;
   viscoelastic_table().read(vt, vp, none);
   m.viscoelastic = true;
   if (vt.contains("terms")) {
     if (vt.contains("g_inf") || vt.contains("tau"))
-      throw InputError(io::join_key(vp, vt.contains("g_inf") ? "g_inf" : "tau"), "",
+      throw InputError(keys::join_key(vp, vt.contains("g_inf") ? "g_inf" : "tau"), "",
                        "with terms = [...], g_inf = 1 - sum(g) is derived; give either g_inf + tau or terms");
     const auto* arr = vt.get("terms")->as_array();
-    if (!arr || arr->empty()) throw InputError(io::join_key(vp, "terms"), "", "must be a non-empty array of {g, tau} tables");
+    if (!arr || arr->empty()) throw InputError(keys::join_key(vp, "terms"), "", "must be a non-empty array of {g, tau} tables");
     for (std::size_t k = 0; k < arr->size(); ++k) {
-      const std::string tp = io::index_field(vp + ".terms", k);
-      const toml::table& tt = io::read_table(*arr->get(k), tp);
+      const std::string tp = keys::index_field(vp + ".terms", k);
+      const toml::table& tt = keys::read_table(*arr->get(k), tp);
       term_table().read(tt, tp, none);
-      const std::string np = io::index_field("viscoelastic.terms", k);
+      const std::string np = keys::index_field("viscoelastic.terms", k);
       m.prony_g.push_back(add_parameter(m, tt, "g", tp, np + ".g", true, 0.0, 1.0));
       m.prony_tau.push_back(add_parameter(m, tt, "tau", tp, np + ".tau", true, 0.0, kInf));
     }
   } else {
     m.g_inf = add_parameter(m, vt, "g_inf", vp, "viscoelastic.g_inf", true, 0.0, 1.0);
     if (m.parameters[m.g_inf].free && !(m.parameters[m.g_inf].max < 1.0))
-      throw InputError(io::join_key(vp, "g_inf.max"), format_number(m.parameters[m.g_inf].max),
+      throw InputError(keys::join_key(vp, "g_inf.max"), format_number(m.parameters[m.g_inf].max),
                        "must be < 1 (g = 1 - g_inf must stay > 0)");
     m.prony_tau.push_back(add_parameter(m, vt, "tau", vp, "viscoelastic.tau", true, 0.0, kInf));
   }
@@ -669,7 +669,7 @@ void parse_viscoelastic(const toml::node& ve, CalibrationModel& m) {
 
 CalibrationModel parse_model(const toml::table& root) {
   const toml::node* node = root.get("model");
-  const toml::table& mt = io::read_table(*node, "model");
+  const toml::table& mt = keys::read_table(*node, "model");
   NoKeys none;
   model_table().read(mt, "model", none);
   const std::string law = io::get_string_or(mt, "law", "model", "gent");
@@ -683,7 +683,7 @@ CalibrationModel parse_model(const toml::table& root) {
     parse_fibers(mt, *fibers, m);
   } else {
     for (const char* k : {"k1", "k2", "kappa", "fiber_invariant", "tension_only"})
-      if (mt.contains(k)) throw InputError(io::join_key("model", k), io::describe_value(*mt.get(k)), "only meaningful with [[model.fibers]]");
+      if (mt.contains(k)) throw InputError(keys::join_key("model", k), keys::describe_value(*mt.get(k)), "only meaningful with [[model.fibers]]");
   }
   if (const toml::node* ve = mt.get("viscoelastic")) parse_viscoelastic(*ve, m);
   m.spec(m.values());  // the initial values must make an admissible material (InputError names model.<field>)
@@ -888,14 +888,14 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
   NoKeys none;
   root_table().read(root, "", none);
   CalibrationInput in;
-  if (const toml::node* d = root.get("description")) in.description = io::read_text(*d, "description");
+  if (const toml::node* d = root.get("description")) in.description = keys::read_text(*d, "description");
   in.model = parse_model(root);
   solver_table().read_optional(root.get("solver"), "solver", in.solver);
   OutputKeys out;
   output_table().read_optional(root.get("output"), "output", out);
   in.plot = out.plot;
 
-  const toml::array& carr = io::read_array(*root.get("curves"), "curves");
+  const toml::array& carr = keys::read_array(*root.get("curves"), "curves");
   if (carr.empty()) throw InputError("curves", "", "missing: give at least one [[curves]] table");
   std::size_t families = 0;
   for (const auto& f : in.model.fibers) families += f.plus_minus ? 2 : 1;
@@ -903,8 +903,8 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
   std::size_t fit_points = 0;
   StoreCache stores;
   for (std::size_t i = 0; i < carr.size(); ++i) {
-    const std::string cp = io::index_field("curves", i);
-    CalCurve c = parse_curve(io::read_table(*carr.get(i), cp), cp, i, base_dir, families, stores);
+    const std::string cp = keys::index_field("curves", i);
+    CalCurve c = parse_curve(keys::read_table(*carr.get(i), cp), cp, i, base_dir, families, stores);
     if (!names.insert(c.name).second) throw InputError(cp + ".name", "\"" + c.name + "\"", "duplicate curve name");
     if (!c.holdout) fit_points += c.x_data.size();
     in.curves.push_back(std::move(c));
@@ -916,7 +916,7 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
   return in;
 }
 
-std::vector<io::TableDoc> calibration_tables() {
+std::vector<keys::TableDoc> calibration_tables() {
   return {root_table().describe(), model_table().describe(), parameter_table().describe(), fiber_table().describe(),
            viscoelastic_table().describe(), term_table().describe(), curve_table().describe(), solver_table().describe(),
            output_table().describe()};

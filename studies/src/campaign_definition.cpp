@@ -8,7 +8,7 @@
 #include <set>
 #include <sstream>
 
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/studies/campaign.hpp"
@@ -93,23 +93,23 @@ AxisValue parse_axis_value(const std::string& axis, const toml::node& node, cons
   AxisValue a;
   if (axis == "matrix" || axis == "section" || axis == "arrangement" || axis == "load") {
     // Names become case ids, HDF5 group names and CSV cells: no NUL or control characters.
-    const std::string s = io::read_text(node, field);
-    if (s.empty()) throw InputError(field, io::describe_value(node), "must be a name (string)");
+    const std::string s = keys::read_text(node, field);
+    if (s.empty()) throw InputError(field, keys::describe_value(node), "must be a name (string)");
     a.v = s;
     return a;
   }
   if (axis == "resolution") {
-    // The same entry range as microstructure.grid (io::read_int refuses fractions and overflow).
-    const io::Range entries = io::closed_range(1, 65536);
-    if (node.is_array()) a.grid = io::read_ints<int>(node, field, entries, 2, 3);
-    else a.grid = {io::read_int<int>(node, field, entries), 0};
+    // The same entry range as microstructure.grid (keys::read_int refuses fractions and overflow).
+    const keys::Range entries = keys::closed_range(1, 65536);
+    if (node.is_array()) a.grid = keys::read_ints<int>(node, field, entries, 2, 3);
+    else a.grid = {keys::read_int<int>(node, field, entries), 0};
     if (a.grid.size() == 2 && a.grid[1] == 0) a.grid[1] = a.grid[0];
     a.v = double(a.grid[0]);
     return a;
   }
   const auto d = node.value<double>();
-  if (!d || !std::isfinite(*d)) throw InputError(field, io::describe_value(node), "must be a number");
-  if (axis == "volume_fraction" && !(*d >= 0.0 && *d < 1.0)) throw InputError(field, io::describe_value(node), "must lie in [0, 1)");
+  if (!d || !std::isfinite(*d)) throw InputError(field, keys::describe_value(node), "must be a number");
+  if (axis == "volume_fraction" && !(*d >= 0.0 && *d < 1.0)) throw InputError(field, keys::describe_value(node), "must lie in [0, 1)");
   a.v = *d;
   return a;
 }
@@ -122,7 +122,7 @@ AxisMap parse_axes(const toml::table& t, const std::string& path, bool single) {
     const auto& axes = campaign_axes();
     if (std::find(axes.begin(), axes.end(), key) == axes.end())
       throw InputError(path + "." + key, "",
-                       "unknown axis" + io::did_you_mean(key, axes) +
+                       "unknown axis" + keys::did_you_mean(key, axes) +
                            " (matrix, section, angle, volume_fraction, arrangement, resolution, load)");
     const std::string field = path + "." + key;
     if (single) {
@@ -185,9 +185,9 @@ CampaignCase make_case(const Definitions& defs, const std::map<std::string, Axis
   if (get("resolution")) grid = get("resolution")->grid;
   else if (base_micro && (*base_micro)["grid"]) {
     const toml::node& g = *(*base_micro)["grid"].node();
-    const io::Range entries = io::closed_range(1, 65536);
-    if (g.is_array()) grid = io::read_ints<int>(g, "base.microstructure.grid", entries, 2, 3);
-    else grid.assign(2, io::read_int<int>(g, "base.microstructure.grid", entries));
+    const keys::Range entries = keys::closed_range(1, 65536);
+    if (g.is_array()) grid = keys::read_ints<int>(g, "base.microstructure.grid", entries, 2, 3);
+    else grid.assign(2, keys::read_int<int>(g, "base.microstructure.grid", entries));
   }
   const bool matrix_only = vf == 0.0;
   if (matrix_only) {
@@ -301,9 +301,9 @@ std::string definition_name(const std::string& key, const std::string& field) {
 std::map<std::string, toml::table> named_tables(const toml::node* node, const std::string& key) {
   std::map<std::string, toml::table> m;
   if (!node) return m;
-  for (const auto& [k, v] : io::read_table(*node, key)) {
+  for (const auto& [k, v] : keys::read_table(*node, key)) {
     const std::string field = key + "." + std::string(k.str());
-    m[definition_name(std::string(k.str()), field)] = io::read_table(v, field);
+    m[definition_name(std::string(k.str()), field)] = keys::read_table(v, field);
   }
   return m;
 }
@@ -323,14 +323,14 @@ struct CampaignKeys {
 };
 
 template <class O>
-typename io::KeyTable<O>::Apply keep(const toml::node* O::*member) {
+typename keys::KeyTable<O>::Apply keep(const toml::node* O::*member) {
   return [member](const toml::node& n, const std::string&, O& o) { o.*member = &n; };
 }
 
-const io::KeyTable<CampaignKeys>& campaign_table() {
+const keys::KeyTable<CampaignKeys>& campaign_table() {
   using O = CampaignKeys;
-  static const io::KeyTable<O> t = [] {
-    io::KeyTable<O> k("", "A sweep campaign: a base RVE scene and axes whose Cartesian products (and explicit cases) are run.");
+  static const keys::KeyTable<O> t = [] {
+    keys::KeyTable<O> k("", "A sweep campaign: a base RVE scene and axes whose Cartesian products (and explicit cases) are run.");
     k.text("description", &O::description, "free text, stored with the campaign")
         .custom("base", "table", "an RVE scene giving everything the axes do not set", keep(&O::base))
         .text("base_scene", &O::base_scene, "or: an RVE scene file, relative to the campaign file")
@@ -353,9 +353,9 @@ struct CampaignSwitches {
   bool warm_start = true;
 };
 
-const io::KeyTable<CampaignSwitches>& switches_table() {
-  static const io::KeyTable<CampaignSwitches> t = [] {
-    io::KeyTable<CampaignSwitches> k("campaign", "Campaign switches.");
+const keys::KeyTable<CampaignSwitches>& switches_table() {
+  static const keys::KeyTable<CampaignSwitches> t = [] {
+    keys::KeyTable<CampaignSwitches> k("campaign", "Campaign switches.");
     k.flag("warm_start", &CampaignSwitches::warm_start,
            "run cases whose load paths lie on each other's once, along the longest (--no-warm-start overrides)");
     return k;
@@ -366,10 +366,10 @@ const io::KeyTable<CampaignSwitches>& switches_table() {
 /// [sections.NAME]: the [microstructure] keys a section sets (their values are checked by the RVE
 /// scene parser when the section is expanded, used or not).
 struct SectionKeys {};
-const io::KeyTable<SectionKeys>& section_table() {
-  static const io::KeyTable<SectionKeys> t = [] {
+const keys::KeyTable<SectionKeys>& section_table() {
+  static const keys::KeyTable<SectionKeys> t = [] {
     auto checked_later = [](const toml::node&, const std::string&, SectionKeys&) {};
-    io::KeyTable<SectionKeys> k("sections.<name>", "A fiber section: [microstructure] keys of the RVE scene.");
+    keys::KeyTable<SectionKeys> k("sections.<name>", "A fiber section: [microstructure] keys of the RVE scene.");
     k.custom("shape", "choice", "fiber cross-section (as [microstructure] shape)", checked_later)
         .custom("radius", "number", "circle radius", checked_later, "", "> 0", "mm")
         .custom("width", "number", "rectangle width", checked_later, "", "> 0", "mm")
@@ -482,7 +482,7 @@ Campaign expand_campaign(const toml::table& table, const std::filesystem::path& 
   camp.description = keys.description;
   Definitions defs;
   if (keys.base && table.contains("base_scene")) throw InputError("base_scene", "", "give either [base] or base_scene, not both");
-  if (keys.base) defs.base = io::read_table(*keys.base, "base");
+  if (keys.base) defs.base = keys::read_table(*keys.base, "base");
   if (table.contains("base_scene")) {
     std::filesystem::path p = keys.base_scene;
     if (p.is_relative()) p = base_dir / p;
@@ -493,7 +493,7 @@ Campaign expand_campaign(const toml::table& table, const std::filesystem::path& 
   // would silently become an empty table.
   for (const char* t : {"microstructure", "phases", "load", "solver", "output"})
     if (const toml::node* n = defs.base.get(t); n && !n->is_table())
-      throw InputError(std::string("base.") + t, io::describe_value(*n), "must be a table");
+      throw InputError(std::string("base.") + t, keys::describe_value(*n), "must be a table");
   defs.matrices = named_tables(keys.matrices, "matrices");
   defs.sections = named_tables(keys.sections, "sections");
   for (const auto& [name, sec] : defs.sections) {
@@ -519,25 +519,25 @@ Campaign expand_campaign(const toml::table& table, const std::filesystem::path& 
   } else if (keys.sweep && keys.sweep->is_array()) {
     const toml::array& arr = *keys.sweep->as_array();
     for (std::size_t i = 0; i < arr.size(); ++i) {
-      const std::string f = io::index_field("sweep", i);
-      const AxisMap axes = parse_axes(io::read_table(*arr.get(i), f), f, false);
+      const std::string f = keys::index_field("sweep", i);
+      const AxisMap axes = parse_axes(keys::read_table(*arr.get(i), f), f, false);
       remember(axes);
       expand_product(defs, axes, f, all);
     }
   } else if (keys.sweep) {
-    throw InputError("sweep", io::describe_value(*keys.sweep), "must be a table ([sweep]) or an array of tables ([[sweep]])");
+    throw InputError("sweep", keys::describe_value(*keys.sweep), "must be a table ([sweep]) or an array of tables ([[sweep]])");
   }
   if (keys.cases) {
-    const toml::array& arr = io::read_array(*keys.cases, "cases");
+    const toml::array& arr = keys::read_array(*keys.cases, "cases");
     for (std::size_t i = 0; i < arr.size(); ++i) {
-      const std::string f = io::index_field("cases", i);
-      const toml::table& s = io::read_table(*arr.get(i), f);
+      const std::string f = keys::index_field("cases", i);
+      const toml::table& s = keys::read_table(*arr.get(i), f);
       const AxisMap axes = parse_axes(s, f, true);
       remember(axes);
       std::map<std::string, AxisValue> values;
       for (const auto& [k, v] : axes) values[k] = v.front();
-      const std::string name = s.contains("name") ? io::read_text(*s.get("name"), f + ".name") : "";
-      const toml::table* ov = s.contains("override") ? &io::read_table(*s.get("override"), f + ".override") : nullptr;
+      const std::string name = s.contains("name") ? keys::read_text(*s.get("name"), f + ".name") : "";
+      const toml::table* ov = s.contains("override") ? &keys::read_table(*s.get("override"), f + ".override") : nullptr;
       all.push_back(make_case(defs, values, name, ov, f));
     }
   }
@@ -560,7 +560,7 @@ Campaign expand_campaign(const toml::table& table, const std::filesystem::path& 
   return camp;
 }
 
-std::vector<io::TableDoc> campaign_tables() {
+std::vector<keys::TableDoc> campaign_tables() {
   return {campaign_table().describe(), switches_table().describe(), section_table().describe()};
 }
 

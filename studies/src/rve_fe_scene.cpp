@@ -20,30 +20,30 @@ struct FeKeys {
   bool umfpack = false;
 };
 
-const io::KeyTable<rve::SectionMeshOptions>& section_mesh_keys() {
+const keys::KeyTable<rve::SectionMeshOptions>& section_mesh_keys() {
   using M = rve::SectionMeshOptions;
-  static const io::KeyTable<rve::SectionMeshOptions> t = [] {
-    io::KeyTable<rve::SectionMeshOptions> k("solver", "");
-    k.number("grading", &M::grading, io::above(0.0), "-", "element size growth per unit distance from the nearest interface")
-        .number("min_angle_deg", &M::min_angle_deg, io::left_open(0.0, 20.7), "deg",
+  static const keys::KeyTable<rve::SectionMeshOptions> t = [] {
+    keys::KeyTable<rve::SectionMeshOptions> k("solver", "");
+    k.number("grading", &M::grading, keys::above(0.0), "-", "element size growth per unit distance from the nearest interface")
+        .number("min_angle_deg", &M::min_angle_deg, keys::left_open(0.0, 20.7), "deg",
                 "section mesh: smallest triangle angle (CGAL terminates up to 20.7)")
         .flag("curved_interfaces", &M::curved_interfaces, "mid-side nodes on the exact fiber boundary")
         .flag("corner_refinement", &M::corner_refinement, "section: graded refinement toward rectangular-fiber corners")
-        .number("corner_exponent", &M::corner_exponent, io::open_range(0.0, 1.0), "-", "exponent of the corner grading");
+        .number("corner_exponent", &M::corner_exponent, keys::open_range(0.0, 1.0), "-", "exponent of the corner grading");
     return k;
   }();
   return t;
 }
 
-const io::KeyTable<rve::FeSolverOptions>& fe_newton_keys() {
+const keys::KeyTable<rve::FeSolverOptions>& fe_newton_keys() {
   using S = rve::FeSolverOptions;
-  static const io::KeyTable<rve::FeSolverOptions> t = [] {
-    io::KeyTable<rve::FeSolverOptions> k("solver", "");
-    k.number("tolerance", &S::tolerance, io::open_range(0.0, 1.0), "-", "Newton: residual, macro stress and pressure errors relative to the stress scale")
-        .integer("max_newton_iterations", &S::max_newton_iterations, io::closed_range(1, 10000), "-", "Newton iterations per sub-step")
-        .integer("max_cutbacks", &S::max_cutbacks, io::closed_range(0, 60), "-",
+  static const keys::KeyTable<rve::FeSolverOptions> t = [] {
+    keys::KeyTable<rve::FeSolverOptions> k("solver", "");
+    k.number("tolerance", &S::tolerance, keys::open_range(0.0, 1.0), "-", "Newton: residual, macro stress and pressure errors relative to the stress scale")
+        .integer("max_newton_iterations", &S::max_newton_iterations, keys::closed_range(1, 10000), "-", "Newton iterations per sub-step")
+        .integer("max_cutbacks", &S::max_cutbacks, keys::closed_range(0, 60), "-",
                  "times a step may be halved (60 halvings reach the resolution of a double)")
-        .number("max_step_seconds", &S::max_step_seconds, io::at_least(0.0), "s",
+        .number("max_step_seconds", &S::max_step_seconds, keys::at_least(0.0), "s",
                 "wall-time budget of one output step's cut-backs (0: unlimited)")
         .flag("mixed_pressure", &S::mixed_pressure, "mixed (u, p) Newton iteration in nearly incompressible phases");
     return k;
@@ -51,36 +51,36 @@ const io::KeyTable<rve::FeSolverOptions>& fe_newton_keys() {
   return t;
 }
 
-const io::KeyTable<FeKeys>& fe_keys() {
-  static const io::KeyTable<FeKeys> t = [] {
-    io::KeyTable<FeKeys> k("solver (engine = \"fe\")", "FE engine: periodic conforming mesh of the generated section or cell");
+const keys::KeyTable<FeKeys>& fe_keys() {
+  static const keys::KeyTable<FeKeys> t = [] {
+    keys::KeyTable<FeKeys> k("solver (engine = \"fe\")", "FE engine: periodic conforming mesh of the generated section or cell");
     k.custom("engine", "choice", "\"fe\" selects these keys", [](const toml::node& n, const std::string& f, FeKeys&) {
-               if (io::read_text(n, f) != "fe") throw InputError(f, io::describe_value(n), "must be \"fe\" here");
+               if (keys::read_text(n, f) != "fe") throw InputError(f, keys::describe_value(n), "must be \"fe\" here");
              }, "\"fft\"", "\"fe\"")
         .custom("fe_mesh", "choice", "\"section\": T6 cross-section mesh; \"3d\": periodic Tet10 cell mesh",
                 [](const toml::node& n, const std::string& f, FeKeys& k) {
-                  static const io::Choices<bool> c{{{"section", false}, {"3d", true}}, {}};
-                  k.three_d = io::read_choice(n, f, c);
+                  static const keys::Choices<bool> c{{{"section", false}, {"3d", true}}, {}};
+                  k.three_d = keys::read_choice(n, f, c);
                 },
                 "\"section\"", "\"section\", \"3d\"")
-        .number("mesh_size", &FeKeys::mesh_size, io::above(0.0), "length", "element size away from the fibers")
+        .number("mesh_size", &FeKeys::mesh_size, keys::above(0.0), "length", "element size away from the fibers")
         .default_text("cell side / 16 (section), / 6 (3d)")
-        .number("interface_size", &FeKeys::interface_size, io::above(0.0), "length", "element size at the fiber boundaries")
+        .number("interface_size", &FeKeys::interface_size, keys::above(0.0), "length", "element size at the fiber boundaries")
         .default_text("mesh_size / 3 (section), / 2 (3d)")
         .include(section_mesh_keys(), &FeKeys::mesh)
-        .number("length", &FeKeys::length, io::above(0.0), "length", "3d: cell length along the fibers")
+        .number("length", &FeKeys::length, keys::above(0.0), "length", "3d: cell length along the fibers")
         .default_text("the cell side")
         .include(fe_newton_keys(), &FeKeys::solver)
         .custom("pressure", "choice", "pressure space: \"p1\" (P2+bubble / discontinuous P1, section) or \"p0\" (P2/P0, the only 3d option)",
                 [](const toml::node& n, const std::string& f, FeKeys& k) {
-                  static const io::Choices<rve::FePressure> c{{{"p1", rve::FePressure::p1_bubble}, {"p0", rve::FePressure::p0}}, {}};
-                  k.pressure = io::read_choice(n, f, c);
+                  static const keys::Choices<rve::FePressure> c{{{"p1", rve::FePressure::p1_bubble}, {"p0", rve::FePressure::p0}}, {}};
+                  k.pressure = keys::read_choice(n, f, c);
                 },
                 "\"p1\" (section), \"p0\" (3d)", "\"p1\", \"p0\"")
         .custom("linear_solver", "choice", "sparse direct solver (CHOLMOD falls back to UMFPACK when needed)",
                 [](const toml::node& n, const std::string& f, FeKeys& k) {
-                  static const io::Choices<bool> c{{{"cholmod", false}, {"umfpack", true}}, {}};
-                  k.umfpack = io::read_choice(n, f, c);
+                  static const keys::Choices<bool> c{{{"cholmod", false}, {"umfpack", true}}, {}};
+                  k.umfpack = keys::read_choice(n, f, c);
                 },
                 "\"cholmod\"", "\"cholmod\", \"umfpack\"");
     return k;
@@ -133,10 +133,10 @@ FeRveSettings parse_fe_rve_solver(const toml::table& scene, double L1) {
   return f;
 }
 
-io::TableDoc fe_rve_solver_table() { return fe_keys().describe(); }
+keys::TableDoc fe_rve_solver_table() { return fe_keys().describe(); }
 
-std::vector<io::TableDoc> rve_scene_tables() {
-  std::vector<io::TableDoc> t = rve_common_tables();
+std::vector<keys::TableDoc> rve_scene_tables() {
+  std::vector<keys::TableDoc> t = rve_common_tables();
   t.push_back(rve::fft_solver_keys().describe());
   t.back().path = "solver (engine = \"fft\")";
   t.push_back(fe_rve_solver_table());

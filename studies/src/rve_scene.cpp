@@ -1,4 +1,4 @@
-// RVE scene tables → FFT solver inputs, declared key by key (softhom/io/keys.hpp); see rve_scene.hpp.
+// RVE scene tables → FFT solver inputs, declared key by key (softhom/core/keys.hpp); see rve_scene.hpp.
 #include "softhom/studies/rve_scene.hpp"
 
 #include <cmath>
@@ -6,8 +6,8 @@
 #include <functional>
 
 #include "softhom/io/fields.hpp"
-#include "softhom/io/keys.hpp"
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/keys.hpp"
+#include "softhom/core/mpi.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/library.hpp"
 #include "softhom/materials/scene_keys.hpp"
@@ -34,8 +34,8 @@ std::string voxel_string(const rve::PhaseImage& im, std::size_t v) {
 
 /// A number or a list of three positive numbers (x, y, z order) → 3 values; `field` names errors.
 std::array<double, 3> triple_of(const toml::node& node, const std::string& field) {
-  const std::vector<double> v = io::read_numbers(node, field, io::above(0.0), 1, 3, true);
-  if (v.size() == 2) throw InputError(field, io::describe_value(node), "give one number or three (x, y, z)");
+  const std::vector<double> v = keys::read_numbers(node, field, keys::above(0.0), 1, 3, true);
+  if (v.size() == 2) throw InputError(field, keys::describe_value(node), "give one number or three (x, y, z)");
   return {v[0], v.size() == 3 ? v[1] : v[0], v.size() == 3 ? v[2] : v[0]};
 }
 
@@ -100,8 +100,8 @@ std::vector<Eigen::Vector3d> read_vector_field(const std::filesystem::path& file
 /// width by default).
 enum class ShapeName { circle, rectangle, square };
 
-const io::Choices<ShapeName>& shape_choices() {
-  static const io::Choices<ShapeName> c{{{"circle", ShapeName::circle}, {"rectangle", ShapeName::rectangle}, {"square", ShapeName::square}}, {}};
+const keys::Choices<ShapeName>& shape_choices() {
+  static const keys::Choices<ShapeName> c{{{"circle", ShapeName::circle}, {"rectangle", ShapeName::rectangle}, {"square", ShapeName::square}}, {}};
   return c;
 }
 
@@ -111,8 +111,8 @@ struct CellKeys {
   std::optional<double> height;
 };
 
-const io::Choices<rve::Arrangement>& arrangement_choices() {
-  static const io::Choices<rve::Arrangement> c{
+const keys::Choices<rve::Arrangement>& arrangement_choices() {
+  static const keys::Choices<rve::Arrangement> c{
       {{"square", rve::Arrangement::square}, {"hexagonal", rve::Arrangement::hexagonal}, {"random", rve::Arrangement::random}}, {}};
   return c;
 }
@@ -123,38 +123,38 @@ constexpr int kMaxFibers = 10000;
 /// A fiber must cover at least this many pixels of the section grid to be resolved at all.
 constexpr double kMinPixelsPerFiber = 4.0;
 
-const io::KeyTable<rve::FiberCellSpec>& fiber_cell_keys() {
+const keys::KeyTable<rve::FiberCellSpec>& fiber_cell_keys() {
   using S = rve::FiberCellSpec;
-  static const io::KeyTable<rve::FiberCellSpec> t = [] {
-    io::KeyTable<rve::FiberCellSpec> k("microstructure", "");
+  static const keys::KeyTable<rve::FiberCellSpec> t = [] {
+    keys::KeyTable<rve::FiberCellSpec> k("microstructure", "");
     k.choice("arrangement", &S::arrangement, arrangement_choices(), "fiber arrangement in the cell")
-        .number("volume_fraction", &S::volume_fraction, io::right_open(0.0, 1.0), "-",
+        .number("volume_fraction", &S::volume_fraction, keys::right_open(0.0, 1.0), "-",
                 "target fiber volume fraction (0: matrix only; below the arrangement's packing limit)")
-        .number("radius", &S::radius, io::at_least(0.0), "length", "circle: fiber radius (0: from cell_size and the fraction)")
-        .number("width", &S::width, io::at_least(0.0), "length", "rectangle: side along y1 (0: from cell_size)")
-        .number("cell_size", &S::cell_size, io::above(0.0), "length",
+        .number("radius", &S::radius, keys::at_least(0.0), "length", "circle: fiber radius (0: from cell_size and the fraction)")
+        .number("width", &S::width, keys::at_least(0.0), "length", "rectangle: side along y1 (0: from cell_size)")
+        .number("cell_size", &S::cell_size, keys::above(0.0), "length",
                 "cell side (square; y1 side of hexagonal; random cell) instead of the fiber size")
-        .number("section_rotation_deg", &S::section_rotation_deg, io::any_value(), "deg", "in-section rotation of each rectangle")
-        .integer("fiber_count", &S::fiber_count, io::closed_range(1, kMaxFibers), "-",
+        .number("section_rotation_deg", &S::section_rotation_deg, keys::any_value(), "deg", "in-section rotation of each rectangle")
+        .integer("fiber_count", &S::fiber_count, keys::closed_range(1, kMaxFibers), "-",
                  "random: fibers in the cell (at most 1e4, and each must cover >= 4 pixels of the grid)")
-        .number("min_gap", &S::min_gap, io::at_least(0.0), "length", "random: minimum surface-to-surface gap")
-        .integer("seed", &S::seed, io::at_least(0), "-", "random: placement seed (reproducible)");
+        .number("min_gap", &S::min_gap, keys::at_least(0.0), "length", "random: minimum surface-to-surface gap")
+        .integer("seed", &S::seed, keys::at_least(0), "-", "random: placement seed (reproducible)");
     return k;
   }();
   return t;
 }
 
-const io::KeyTable<CellKeys>& cell_keys() {
-  static const io::KeyTable<CellKeys> t = [] {
-    io::KeyTable<CellKeys> k("microstructure", "");
+const keys::KeyTable<CellKeys>& cell_keys() {
+  static const keys::KeyTable<CellKeys> t = [] {
+    keys::KeyTable<CellKeys> k("microstructure", "");
     k.custom("shape", "choice", "fiber cross-section (square: a rectangle with height = width)",
              [](const toml::node& n, const std::string& f, CellKeys& c) {
-               c.shape = io::read_choice(n, f, shape_choices());
+               c.shape = keys::read_choice(n, f, shape_choices());
                c.spec.shape = c.shape == ShapeName::circle ? rve::SectionShape::circle : rve::SectionShape::rectangle;
              },
              "\"circle\"", "\"circle\", \"rectangle\", \"square\"")
         .include(fiber_cell_keys(), &CellKeys::spec)
-        .number("height", &CellKeys::height, io::at_least(0.0), "length", "rectangle: side along y2 (0: from cell_size)")
+        .number("height", &CellKeys::height, keys::at_least(0.0), "length", "rectangle: side along y2 (0: from cell_size)")
         .default_text("width for a square, else 0");
     return k;
   }();
@@ -176,26 +176,26 @@ struct MicroKeys {
 /// Per-axis bound of grid sizes: 65536² is already 4e9 points, far beyond any memory here.
 constexpr int kMaxGridPoints = 65536;
 
-const io::KeyTable<MicroKeys>& micro_keys() {
-  static const io::KeyTable<MicroKeys> t = [] {
-    io::KeyTable<MicroKeys> k("microstructure", "the periodic cell: a generated fiber section or an imported voxel image");
+const keys::KeyTable<MicroKeys>& micro_keys() {
+  static const keys::KeyTable<MicroKeys> t = [] {
+    keys::KeyTable<MicroKeys> k("microstructure", "the periodic cell: a generated fiber section or an imported voxel image");
     k.include(cell_keys(), &MicroKeys::cell)
         .custom("grid", "integer or list of 2-3 integers",
                 "FFT grid: n (n x n section), [n1, n2] or [n1, n2, n3] (an extruded 3D cell); taken from an image",
                 [](const toml::node& n, const std::string& f, MicroKeys& m) {
-                  const io::Range r = io::closed_range(1, kMaxGridPoints);
+                  const keys::Range r = keys::closed_range(1, kMaxGridPoints);
                   if (n.is_array()) {
-                    m.grid = io::read_ints<int>(n, f, r, 2, 3);
+                    m.grid = keys::read_ints<int>(n, f, r, 2, 3);
                   } else {
-                    const int g = io::read_int<int>(n, f, r);
+                    const int g = keys::read_int<int>(n, f, r);
                     m.grid = {g, g};
                   }
                 },
                 "64", "each in [1, 65536]")
-        .number("fiber_angle_deg", &MicroKeys::fiber_angle_deg, io::any_value(), "deg",
+        .number("fiber_angle_deg", &MicroKeys::fiber_angle_deg, keys::any_value(), "deg",
                 "fiber axis in the 1-2 plane of the load frame, from e2 toward e1 (spec §7)")
         .custom("image", "table", "[microstructure.image]: an HDF5 voxel image instead of a generated section",
-                [](const toml::node& n, const std::string& f, MicroKeys& m) { m.image = &io::read_table(n, f); }, "none");
+                [](const toml::node& n, const std::string& f, MicroKeys& m) { m.image = &keys::read_table(n, f); }, "none");
     return k;
   }();
   return t;
@@ -210,12 +210,12 @@ struct ImageKeys {
   const toml::node* cell_size = nullptr;
 };
 
-const io::KeyTable<ImageKeys>& image_keys() {
+const keys::KeyTable<ImageKeys>& image_keys() {
   using I = ImageKeys;
-  static const io::KeyTable<ImageKeys> t = [] {
-    io::KeyTable<ImageKeys> k("microstructure.image", "a voxel image from HDF5 (C order [n2][n1] or [n3][n2][n1])");
+  static const keys::KeyTable<ImageKeys> t = [] {
+    keys::KeyTable<ImageKeys> k("microstructure.image", "a voxel image from HDF5 (C order [n2][n1] or [n3][n2][n1])");
     auto id = [](std::optional<long long> I::*member) {
-      return [member](const toml::node& n, const std::string& f, I& i) { i.*member = io::read_int<long long>(n, f); };
+      return [member](const toml::node& n, const std::string& f, I& i) { i.*member = keys::read_int<long long>(n, f); };
     };
     auto node_of = [](const toml::node* I::*member) { return [member](const toml::node& n, const std::string&, I& i) { i.*member = &n; }; };
     k.text("file", &I::file, "HDF5 file, relative to the scene file").required()
@@ -311,7 +311,7 @@ rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p,
   } else if (keys.cell_size) {
     if (keys.cell_size->is_array()) from_cell(triple_of(*keys.cell_size, p + ".cell_size"));
     else {
-      const double L1 = io::read_number(*keys.cell_size, p + ".cell_size", io::above(0.0));
+      const double L1 = keys::read_number(*keys.cell_size, p + ".cell_size", keys::above(0.0));
       h = {L1 / im.n[0], L1 / im.n[0], L1 / im.n[0]};  // L1; cubic voxels
     }
   } else if (auto it = d.attributes.find("voxel_size"); it != d.attributes.end()) {
@@ -371,7 +371,7 @@ rve::PhaseImage phase_image_of(const toml::table& t, const MicroKeys& m, bool gr
     if (grid_given) {
       const std::array<int, 3> g{n[0], n[1], n.size() == 3 ? n[2] : 1};
       if (g != im.n)
-        throw InputError(p + ".grid", io::describe_value(*t.get("grid")),
+        throw InputError(p + ".grid", keys::describe_value(*t.get("grid")),
                          "contradicts the image grid [" + std::to_string(im.n[0]) + ", " + std::to_string(im.n[1]) + ", " +
                              std::to_string(im.n[2]) + "] (omit grid with an image)");
     }
@@ -402,7 +402,7 @@ rve::PhaseImage phase_image_of(const toml::table& t, const MicroKeys& m, bool gr
   try {
     im = extruded(rve::voxelize_section(section, n[0], n[1]));
   } catch (const std::invalid_argument& e) {
-    throw InputError(p + ".grid", io::describe_value(*t.get("grid")), e.what());
+    throw InputError(p + ".grid", keys::describe_value(*t.get("grid")), e.what());
   }
   geometry_note = shape_choices().name_of(m.cell.shape) + " fibers, " + arrangement_choices().name_of(spec.arrangement) + " arrangement, cell " +
                   std::to_string(section.L1) + " x " + std::to_string(section.L2);
@@ -485,19 +485,19 @@ rve::FftSolverOptions parse_fft_solver_options(const toml::table& scene, std::fi
 
 namespace {
 
-const io::KeyTable<RveOutputSettings>& output_keys() {
-  static const io::KeyTable<RveOutputSettings> t = [] {
-    io::KeyTable<RveOutputSettings> k("output", "what a run writes besides response.csv and summary.json");
+const keys::KeyTable<RveOutputSettings>& output_keys() {
+  static const keys::KeyTable<RveOutputSettings> t = [] {
+    keys::KeyTable<RveOutputSettings> k("output", "what a run writes besides response.csv and summary.json");
     k.custom("fields", "choice or list of times",
              "full fields (XDMF/HDF5): \"none\", \"last\" (the final step), \"all\" or a list of output times of the load path",
              [](const toml::node& n, const std::string& f, RveOutputSettings& o) {
                if (n.is_array()) {
                  o.fields_mode = "times";
-                 o.field_times = io::read_numbers(n, f, io::at_least(0.0));
+                 o.field_times = keys::read_numbers(n, f, keys::at_least(0.0));
                  return;
                }
-               static const io::Choices<int> modes{{{"none", 0}, {"last", 1}, {"all", 2}}, {}};
-               o.fields_mode = modes.name_of(io::read_choice(n, f, modes));
+               static const keys::Choices<int> modes{{{"none", 0}, {"last", 1}, {"all", 2}}, {}};
+               o.fields_mode = modes.name_of(keys::read_choice(n, f, modes));
              },
              "\"last\"", "\"none\", \"last\", \"all\" or [t, ...]")
         .flag("microstructure_only", &RveOutputSettings::microstructure_only,
@@ -516,7 +516,7 @@ RveOutputSettings parse_rve_output(const toml::table& scene, const MixedControl*
     const double t_end = control->times.back();
     for (std::size_t i = 0; i < o.field_times.size(); ++i) {
       const double t = o.field_times[i];
-      const std::string f = io::index_field("output.fields", i);
+      const std::string f = keys::index_field("output.fields", i);
       if (t > t_end * (1.0 + 1e-12))
         throw InputError(f, format_number(t), "after the end of the load path (t_end = " + format_number(t_end) + ")");
       double nearest = 0.0;
@@ -540,13 +540,13 @@ struct RveTop {
   const toml::table* load = nullptr;
 };
 
-const io::KeyTable<RveTop>& rve_top_keys() {
-  static const io::KeyTable<RveTop> t = [] {
-    io::KeyTable<RveTop> k("", "the tables of an RVE scene");
+const keys::KeyTable<RveTop>& rve_top_keys() {
+  static const keys::KeyTable<RveTop> t = [] {
+    keys::KeyTable<RveTop> k("", "the tables of an RVE scene");
     auto table_of = [](const toml::table* RveTop::*member) {
-      return [member](const toml::node& n, const std::string& f, RveTop& r) { r.*member = &io::read_table(n, f); };
+      return [member](const toml::node& n, const std::string& f, RveTop& r) { r.*member = &keys::read_table(n, f); };
     };
-    auto any_table = [](const toml::node& n, const std::string& f, RveTop&) { io::read_table(n, f); };
+    auto any_table = [](const toml::node& n, const std::string& f, RveTop&) { keys::read_table(n, f); };
     k.text("description", &RveTop::description, "what the scene is for (copied to summary.json)")
         .custom("microstructure", "table", "[microstructure]: the cell", table_of(&RveTop::microstructure), "required")
         .custom("phases", "table", "[phases.matrix], [phases.fiber]: material tables", table_of(&RveTop::phases), "required")
@@ -563,13 +563,13 @@ struct PhaseKeys {
   const toml::table* fiber = nullptr;
 };
 
-const io::KeyTable<PhaseKeys>& phase_keys() {
-  static const io::KeyTable<PhaseKeys> t = [] {
-    io::KeyTable<PhaseKeys> k("phases", "the two phases (material tables, see [material] of softhom point)");
+const keys::KeyTable<PhaseKeys>& phase_keys() {
+  static const keys::KeyTable<PhaseKeys> t = [] {
+    keys::KeyTable<PhaseKeys> k("phases", "the two phases (material tables, see [material] of softhom point)");
     k.custom("matrix", "table", "[phases.matrix]: the matrix material",
-             [](const toml::node& n, const std::string& f, PhaseKeys& p) { p.matrix = &io::read_table(n, f); }, "required")
+             [](const toml::node& n, const std::string& f, PhaseKeys& p) { p.matrix = &keys::read_table(n, f); }, "required")
         .custom("fiber", "table", "[phases.fiber]: the fiber material (required when the cell has fibers)",
-                [](const toml::node& n, const std::string& f, PhaseKeys& p) { p.fiber = &io::read_table(n, f); }, "the matrix");
+                [](const toml::node& n, const std::string& f, PhaseKeys& p) { p.fiber = &keys::read_table(n, f); }, "the matrix");
     return k;
   }();
   return t;
@@ -628,8 +628,8 @@ RveSceneSetup parse_rve_scene(const toml::table& scene, bool with_load, const st
   return s;
 }
 
-std::vector<io::TableDoc> rve_common_tables() {
-  std::vector<io::TableDoc> t{rve_top_keys().describe()};
+std::vector<keys::TableDoc> rve_common_tables() {
+  std::vector<keys::TableDoc> t{rve_top_keys().describe()};
   t.front().path = "(top level)";
   t.push_back(micro_keys().describe());
   t.push_back(image_keys().describe());

@@ -31,7 +31,7 @@
 #include <thread>
 
 #include "softhom/io/files.hpp"
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 #include "softhom/materials/interrupt.hpp"
 #include "softhom/studies/campaign.hpp"
 #include "sweep_internal.hpp"

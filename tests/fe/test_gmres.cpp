@@ -7,7 +7,7 @@
 
 #include <Eigen/Dense>
 
-#include "softhom/fe/krylov.hpp"
+#include "softhom/core/krylov.hpp"
 
 using namespace softhom;
 using Vector = std::vector<double>;

@@ -4,7 +4,7 @@
 
 #include <cstdint>
 
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 
 using namespace softhom;
 
@@ -27,22 +27,22 @@ struct Options {
   int untouched = 7;  // not declared: a read must never change it
 };
 
-const io::KeyTable<Options>& table() {
+const keys::KeyTable<Options>& table() {
   using O = Options;
-  static const io::KeyTable<Options> t = [] {
-    io::KeyTable<Options> k("solver", "test table");
-    k.number("tolerance", &O::tolerance, io::open_range(0, 1), "-", "relative tolerance")
-        .number("ratio", &O::ratio, io::at_least(1), "-", "a ratio")
-        .integer("grid", &O::grid, io::at_least(1), "-", "points per side")
-        .integer("max_cutbacks", &O::max_cutbacks, io::at_least(0), "-", "halvings")
+  static const keys::KeyTable<Options> t = [] {
+    keys::KeyTable<Options> k("solver", "test table");
+    k.number("tolerance", &O::tolerance, keys::open_range(0, 1), "-", "relative tolerance")
+        .number("ratio", &O::ratio, keys::at_least(1), "-", "a ratio")
+        .integer("grid", &O::grid, keys::at_least(1), "-", "points per side")
+        .integer("max_cutbacks", &O::max_cutbacks, keys::at_least(0), "-", "halvings")
         .renamed("cutbacks")
-        .integer("seed", &O::seed, io::at_least(0), "-", "random seed")
+        .integer("seed", &O::seed, keys::at_least(0), "-", "random seed")
         .flag("warm_start", &O::warm_start, "start from the last step")
         .text("label", &O::label, "a name")
-        .choice("mode", &O::mode, io::Choices<Mode>{{{"fast", Mode::fast}, {"careful", Mode::careful}}, {{"quick", "fast"}}}, "how")
-        .numbers("weights", &O::weights, io::above(0), 1, 3, "-", "weights")
-        .integers("shape", &O::shape, io::at_least(1), 2, 3, "-", "grid shape")
-        .number("cell_size", &O::cell_size, io::above(0), "mm", "cell side");
+        .choice("mode", &O::mode, keys::Choices<Mode>{{{"fast", Mode::fast}, {"careful", Mode::careful}}, {{"quick", "fast"}}}, "how")
+        .numbers("weights", &O::weights, keys::above(0), 1, 3, "-", "weights")
+        .integers("shape", &O::shape, keys::at_least(1), 2, 3, "-", "grid shape")
+        .number("cell_size", &O::cell_size, keys::above(0), "mm", "cell side");
     return k;
   }();
   return t;
@@ -152,8 +152,8 @@ TEST(Keys, RequiredKeysAreMissingByName) {
   struct R {
     double g = 0.0;
   };
-  io::KeyTable<R> t("visco", "");
-  t.number("g", &R::g, io::closed_range(0, 1), "-", "relative modulus").required();
+  keys::KeyTable<R> t("visco", "");
+  t.number("g", &R::g, keys::closed_range(0, 1), "-", "relative modulus").required();
   const toml::table doc = toml::parse("[visco]\n");
   R r;
   try {
@@ -165,14 +165,14 @@ TEST(Keys, RequiredKeysAreMissingByName) {
 }
 
 TEST(Keys, DescribePrintsDefaultsFromTheStruct) {
-  const io::TableDoc d = table().describe();
+  const keys::TableDoc d = table().describe();
   EXPECT_EQ(d.path, "solver");
   ASSERT_EQ(d.keys.size(), 11u);
   auto row = [&](const std::string& name) {
     for (const auto& k : d.keys)
       if (k.name == name) return k;
     ADD_FAILURE() << name;
-    return io::KeyDoc{};
+    return keys::KeyDoc{};
   };
   EXPECT_EQ(row("tolerance").default_value, "1e-06");
   EXPECT_EQ(row("tolerance").range, "(0, 1)");
@@ -192,8 +192,8 @@ TEST(Keys, IncludedTablesReadIntoTheMember) {
     Options inner;
     double extra = 0.0;
   };
-  io::KeyTable<Outer> t("outer", "");
-  t.include(table(), &Outer::inner).number("extra", &Outer::extra, io::any_value(), "-", "");
+  keys::KeyTable<Outer> t("outer", "");
+  t.include(table(), &Outer::inner).number("extra", &Outer::extra, keys::any_value(), "-", "");
   const toml::table doc = toml::parse("[outer]\ngrid = 16\nextra = -1\n");
   Outer o;
   t.read(*doc["outer"].as_table(), "outer", o);
@@ -206,7 +206,7 @@ TEST(Keys, ChoiceWithoutOldSpellings) {
   struct C {
     Mode mode = Mode::careful;
   };
-  io::KeyTable<C> t("c", "");
+  keys::KeyTable<C> t("c", "");
   t.choice("mode", &C::mode, {{"fast", Mode::fast}, {"careful", Mode::careful}}, "how");
   const toml::table doc = toml::parse("[c]\nmode = \"fast\"\n");
   C c;
@@ -216,7 +216,7 @@ TEST(Keys, ChoiceWithoutOldSpellings) {
 }
 
 TEST(Keys, EditDistance) {
-  EXPECT_EQ(io::edit_distance("kitten", "sitting"), 3u);
-  EXPECT_EQ(io::edit_distance("", "abc"), 3u);
-  EXPECT_EQ(io::edit_distance("same", "same"), 0u);
+  EXPECT_EQ(keys::edit_distance("kitten", "sitting"), 3u);
+  EXPECT_EQ(keys::edit_distance("", "abc"), 3u);
+  EXPECT_EQ(keys::edit_distance("same", "same"), 0u);
 }

@@ -3,7 +3,7 @@
 
 #include <cstdlib>
 
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 
 using namespace softhom;
 

@@ -1,11 +1,11 @@
-// The launch rule of softhom/io/mpi.hpp under mpirun: every rank sees MPI active, its own rank and the
+// The launch rule of softhom/core/mpi.hpp under mpirun: every rank sees MPI active, its own rank and the
 // same size, and a reduction over ranks gives the closed-form sum.
 #include <gtest/gtest.h>
 #include <mpi.h>
 
 #include <cstdlib>
 
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 
 using namespace softhom;
 

@@ -11,7 +11,7 @@
 #include <toml++/toml.h>
 
 #include "softhom/io/fields.hpp"
-#include "softhom/io/input_error.hpp"
+#include "softhom/core/input_error.hpp"
 #include "softhom/rve/slab_image.hpp"
 #include "softhom/studies/rve_scene.hpp"
 

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <vector>
 
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 
 namespace softhom::test {
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "softhom/fe/solver.hpp"
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/macro/scene.hpp"
 #include "softhom/macro/structures.hpp"

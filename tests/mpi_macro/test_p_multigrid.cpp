@@ -19,7 +19,7 @@
 #include "softhom/fe/mesh.hpp"
 #include "softhom/fe/petsc.hpp"
 #include "softhom/fe/solver.hpp"
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/macro/benchmark_problems.hpp"
 #include "softhom/macro/scene.hpp"

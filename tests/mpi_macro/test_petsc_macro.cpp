@@ -16,7 +16,7 @@
 #include "relative_difference.hpp"
 #include "softhom/fe/petsc.hpp"
 #include "softhom/fe/solver.hpp"
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/macro/benchmark_problems.hpp"
 #include "softhom/macro/geometry.hpp"

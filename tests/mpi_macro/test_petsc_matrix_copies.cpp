@@ -11,7 +11,7 @@
 #include "relative_difference.hpp"
 #include "softhom/fe/petsc.hpp"
 #include "softhom/fe/solver.hpp"
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 #include "softhom/macro/benchmark_problems.hpp"
 #include "softhom/macro/geometry.hpp"
 #include "softhom/materials/laws.hpp"

@@ -109,7 +109,7 @@ TEST(CampaignDefinition, NamesWithControlCharactersAreRefused) {
 }
 
 TEST(CampaignDefinition, KeyTablesForTheSweepCommand) {
-  const std::vector<io::TableDoc> tables = campaign_tables();
+  const std::vector<keys::TableDoc> tables = campaign_tables();
   ASSERT_GE(tables.size(), 2u);
   EXPECT_EQ(tables[1].path, "campaign");
   EXPECT_EQ(tables[1].keys.at(0).name, "warm_start");

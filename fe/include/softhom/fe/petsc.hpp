@@ -1,7 +1,7 @@
 #pragma once
 // PETSc's life cycle for the petsc linear solver ([solver] linear_solver = "petsc"). PETSc is
 // initialised lazily, the first time a PETSc solver is built: with the MPI that softhom started under
-// an MPI launcher (softhom/io/mpi.hpp), or PETSc's own one-process start otherwise.
+// an MPI launcher (softhom/core/mpi.hpp), or PETSc's own one-process start otherwise.
 
 namespace softhom::fe {
 

@@ -6,7 +6,7 @@
 
 #include <toml++/toml.h>
 
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 
 #include "softhom/materials/library.hpp"
 #include "softhom/materials/loading.hpp"
@@ -24,7 +24,7 @@ toml::table parse_scene(std::string_view text, const std::string& source_name);
 using softhom::parse_material;
 using softhom::parse_load;
 
-/// Helpers of the parsers not yet declared key by key (prefer io::KeyTable, keys.hpp).
+/// Helpers of the parsers not yet declared key by key (prefer keys::KeyTable, keys.hpp).
 double get_number(const toml::table& table, const std::string& key, const std::string& path);
 double get_number_or(const toml::table& table, const std::string& key, const std::string& path, double fallback);
 std::string get_string_or(const toml::table& table, const std::string& key, const std::string& path,

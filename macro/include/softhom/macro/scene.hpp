@@ -18,7 +18,7 @@
 #include <toml++/toml.h>
 
 #include "softhom/fe/solver.hpp"
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 #include "softhom/macro/devices.hpp"
 #include "softhom/macro/structures.hpp"
 
@@ -41,6 +41,6 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
                              const std::filesystem::path& mesh_cache = {});
 
 /// The declared tables of a macro scene, for `softhom keys macro` and docs/keys.md.
-std::vector<io::TableDoc> macro_scene_tables();
+std::vector<keys::TableDoc> macro_scene_tables();
 
 }  // namespace softhom::macro

@@ -3,7 +3,7 @@
 // "field = value: reason" and exit non-zero without a crash.
 #include <stdexcept>
 
-#include "softhom/io/input_error.hpp"
+#include "softhom/core/input_error.hpp"
 
 namespace softhom {
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "softhom/io/key_range.hpp"
+#include "softhom/core/key_range.hpp"
 #include "softhom/materials/laws.hpp"
 
 namespace softhom {
@@ -31,7 +31,7 @@ struct MaterialSpec {
 struct LawParameter {
   std::string name;  ///< TOML key ("G")
   std::string unit;  ///< "MPa" or "-"
-  io::Range range;   ///< allowed values (each entry, for lists)
+  keys::Range range;   ///< allowed values (each entry, for lists)
   std::string doc;
   bool list = false;  ///< one value per term (Ogden); a bare number is a list of one
   std::string default_text = "required (or from the preset)";

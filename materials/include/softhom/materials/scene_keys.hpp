@@ -1,5 +1,5 @@
 #pragma once
-// The scene tables of the materials library, declared key by key (softhom/io/keys.hpp): material
+// The scene tables of the materials library, declared key by key (softhom/core/keys.hpp): material
 // tables ([material], [phases.<name>] and their fibers / viscoelastic sub-tables), load tables
 // ([load]) and the material-point solver ([solver] of `softhom point`). Every refusal is an
 // InputError naming the TOML path ("material.G", "load.stretch[2][1]").
@@ -8,7 +8,7 @@
 
 #include <toml++/toml.h>
 
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 #include "softhom/materials/driver.hpp"
 #include "softhom/materials/library.hpp"
 #include "softhom/materials/loading.hpp"
@@ -37,11 +37,11 @@ struct PointScene {
 PointScene parse_point_scene(const toml::table& scene);
 
 /// Key documentation: the material table at `path` with its sub-tables and one table per law.
-std::vector<io::TableDoc> material_tables(const std::string& path);
-std::vector<io::TableDoc> load_tables(const std::string& path);
-io::TableDoc point_solver_table();
+std::vector<keys::TableDoc> material_tables(const std::string& path);
+std::vector<keys::TableDoc> load_tables(const std::string& path);
+keys::TableDoc point_solver_table();
 /// Every table of a point scene (for `softhom keys point`).
-std::vector<io::TableDoc> point_scene_tables();
+std::vector<keys::TableDoc> point_scene_tables();
 
 /// The most output steps a load path may have: each is a converged solve and a row of the response
 /// table, so 1e6 is already hours of solves and a response.csv of hundreds of MB; finer resolution

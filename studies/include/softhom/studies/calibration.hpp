@@ -40,7 +40,7 @@
 #include <nlohmann/json.hpp>
 #include <toml++/toml.h>
 
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 #include "softhom/materials/driver.hpp"
 #include "softhom/materials/library.hpp"
 #include "softhom/materials/loading.hpp"
@@ -124,7 +124,7 @@ struct CalibrationInput {
 /// throws InputError naming its TOML path ("curves[1].y", "model.G.min", ...).
 CalibrationInput parse_calibration(const toml::table& table, const std::filesystem::path& base_dir);
 /// The declared tables of a calibration file, for `softhom keys calibrate` and docs/keys.md.
-std::vector<io::TableDoc> calibration_tables();
+std::vector<keys::TableDoc> calibration_tables();
 
 /// Minimal CSV reader for response.csv-like files (header row of names, numeric rows, '#' comments).
 struct CsvData {

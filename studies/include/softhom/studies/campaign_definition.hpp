@@ -2,10 +2,10 @@
 // The declared keys of a campaign file (campaign.hpp describes the layout), for `softhom keys sweep`
 // and docs/keys.md. Axis values, [base] and the named definitions are RVE scene tables, declared by
 // the RVE scene parser.
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 
 namespace softhom::studies {
 
-std::vector<io::TableDoc> campaign_tables();
+std::vector<keys::TableDoc> campaign_tables();
 
 }  // namespace softhom::studies

@@ -6,7 +6,7 @@
 
 #include <toml++/toml.h>
 
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 #include "softhom/rve/fe_mesh.hpp"
 #include "softhom/rve/fe_solver.hpp"
 #include "softhom/rve/geometry.hpp"
@@ -28,9 +28,9 @@ struct FeRveSettings {
 FeRveSettings parse_fe_rve_solver(const toml::table& scene, double L1);
 
 /// Key documentation of [solver] for engine = "fe".
-io::TableDoc fe_rve_solver_table();
+keys::TableDoc fe_rve_solver_table();
 
 /// Every table of an RVE scene: the common ones, [solver] of the FFT engine and of the FE engine.
-std::vector<io::TableDoc> rve_scene_tables();
+std::vector<keys::TableDoc> rve_scene_tables();
 
 }  // namespace softhom::studies

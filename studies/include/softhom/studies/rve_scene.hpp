@@ -13,7 +13,7 @@
 
 #include <toml++/toml.h>
 
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 
 #include "softhom/materials/loading.hpp"
 #include "softhom/materials/material.hpp"
@@ -112,7 +112,7 @@ RveSceneSetup parse_rve_scene(const toml::table& scene, bool with_load = true, c
 
 /// Key documentation of the tables both RVE engines share (top level, microstructure, image, phases,
 /// materials, load, output); the engines' [solver] tables are added by rve_scene_tables().
-std::vector<io::TableDoc> rve_common_tables();
+std::vector<keys::TableDoc> rve_common_tables();
 
 /// response.csv layout of an RVE run (load frame): t, F, P, sigma, fiber angle, phase means, iterations.
 std::vector<std::string> rve_response_columns();

@@ -4,9 +4,9 @@
 // range-checked, unknown keys refused with "did you mean"), the defaults (taken from the
 // default-constructed struct) and the documentation (`softhom keys`, docs/keys.md).
 //
-//   io::KeyTable<FftSolverOptions> t("solver", "FFT solver settings");
-//   t.number("tolerance", &O::tolerance, io::open_range(0, 1), "-", "Newton tolerance")
-//    .integer("max_cutbacks", &O::max_cutbacks, io::at_least(0), "-", "step halvings")
+//   keys::KeyTable<FftSolverOptions> t("solver", "FFT solver settings");
+//   t.number("tolerance", &O::tolerance, keys::open_range(0, 1), "-", "Newton tolerance")
+//    .integer("max_cutbacks", &O::max_cutbacks, keys::at_least(0), "-", "step halvings")
 //    .choice("scheme", &O::scheme, {{"newton-cg", S::newton_cg}, {"moulinec-suquet", S::fixed}}, "...");
 //   O options;
 //   t.read(toml_table, "solver", options);   // throws InputError naming "solver.<key>"
@@ -29,10 +29,10 @@
 
 #include <toml++/toml.h>
 
-#include "softhom/io/input_error.hpp"
-#include "softhom/io/key_range.hpp"
+#include "softhom/core/input_error.hpp"
+#include "softhom/core/key_range.hpp"
 
-namespace softhom::io {
+namespace softhom::keys {
 
 // ---------------------------------------------------------------------------------------------------
 // Messages
@@ -404,4 +404,4 @@ E read_choice(const toml::node& node, const std::string& field, const Choices<E>
   throw InputError(field, describe_value(node), "must be " + choices.names() + did_you_mean(s, labels));
 }
 
-}  // namespace softhom::io
+}  // namespace softhom::keys

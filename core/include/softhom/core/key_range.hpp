@@ -4,7 +4,7 @@
 #include <optional>
 #include <string>
 
-namespace softhom::io {
+namespace softhom::keys {
 
 /// An interval of allowed values; each end absent, open or closed.
 struct Range {
@@ -24,4 +24,4 @@ Range at_least(double lo);                 ///< [lo, ∞)
 Range above(double lo);                    ///< (lo, ∞)
 Range at_most(double hi);                  ///< (−∞, hi]
 
-}  // namespace softhom::io
+}  // namespace softhom::keys

@@ -1,9 +1,9 @@
-#include "softhom/io/keys.hpp"
+#include "softhom/core/keys.hpp"
 
 #include <algorithm>
 #include <sstream>
 
-namespace softhom::io {
+namespace softhom::keys {
 
 std::string describe_value(const toml::node& node) {
   std::ostringstream s;
@@ -235,4 +235,4 @@ std::string format_keys_markdown(const std::vector<SceneKeys>& scenes) {
   return s.str();
 }
 
-}  // namespace softhom::io
+}  // namespace softhom::keys

@@ -1,4 +1,4 @@
-#include "softhom/io/mpi.hpp"
+#include "softhom/core/mpi.hpp"
 
 #include <unistd.h>
 
