@@ -689,6 +689,70 @@ void write_attribute(hid_t loc, const char* name, const std::array<double, 3>& v
   if (H5Awrite(attr.get(), H5T_NATIVE_DOUBLE, v.data()) < 0) hdf5_write_fail(target, what);
 }
 
+/// A dataset of a voxel image checked: a new name, 1 or 3 components, one value per cell and component.
+void check_voxel_dataset(const VoxelImageDataset& ds, std::size_t n_cells, std::set<std::string>& names) {
+  check_name(ds.name);
+  if (!names.insert(ds.name).second)
+    throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' given twice");
+  if (ds.components != 1 && ds.components != 3)
+    throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' must have 1 or 3 components");
+  if (ds.values.size() != n_cells * std::size_t(ds.components))
+    throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' has " + std::to_string(ds.values.size()) +
+                                " values, expected " + std::to_string(n_cells * ds.components));
+}
+
+/// The values of a voxel dataset: bytes (integers in [0, 255]) or finite float64.
+void write_voxel_values(hid_t file, const VoxelImageDataset& ds, const std::vector<hsize_t>& dims,
+                        const fs::path& target) {
+  if (ds.as_uint8) {
+    std::vector<unsigned char> bytes(ds.values.size());
+    for (std::size_t i = 0; i < bytes.size(); ++i) {
+      const double v = ds.values[i];
+      if (!(v >= 0.0 && v <= 255.0 && v == std::floor(v)))
+        throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' value " + number(v) + " at index " +
+                                    std::to_string(i) + " is not an integer in [0, 255]");
+      bytes[i] = static_cast<unsigned char>(v);
+    }
+    write_dataset(file, ds.name, H5T_STD_U8LE, H5T_NATIVE_UCHAR, bytes.data(), dims, target);
+  } else {
+    for (std::size_t i = 0; i < ds.values.size(); ++i)
+      if (!std::isfinite(ds.values[i]))
+        throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' has a non-finite value at index " +
+                                    std::to_string(i));
+    write_dataset(file, ds.name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, ds.values.data(), dims, target);
+  }
+}
+
+/// The attributes of a written voxel dataset: voxel and cell size, and the layout tag in the
+/// convention of FANS (variable-length string; "zyx": file dims z, y, x).
+void write_voxel_attributes(hid_t file, const std::string& name, const VoxelGrid& grid, const std::array<double, 3>& cell,
+                            const fs::path& target, const std::string& what) {
+  Handle set = checked_write(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose, target, what);
+  write_attribute(set.get(), "voxel_size", grid.spacing, what, target);
+  write_attribute(set.get(), "cell_size", cell, what, target);
+  Handle str = checked_write(H5Tcopy(H5T_C_S1), H5Tclose, target, what);
+  if (H5Tset_size(str.get(), H5T_VARIABLE) < 0) hdf5_write_fail(target, what);
+  Handle scalar = checked_write(H5Screate(H5S_SCALAR), H5Sclose, target, what);
+  Handle attr = checked_write(H5Acreate2(set.get(), "permute_order", str.get(), scalar.get(), H5P_DEFAULT, H5P_DEFAULT),
+                              H5Aclose, target, what);
+  const char* zyx = "zyx";
+  if (H5Awrite(attr.get(), str.get(), &zyx) < 0) hdf5_write_fail(target, what);
+}
+
+/// The XDMF of a voxel image: a co-rectilinear grid of the cells with one attribute per dataset.
+std::string voxel_xdmf(const fs::path& xdmf_final, const VoxelGrid& grid, const std::string& attrs_xml) {
+  const std::vector<hsize_t> node_dims{hsize_t(grid.cells[2] + 1), hsize_t(grid.cells[1] + 1), hsize_t(grid.cells[0] + 1)};
+  return "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n    <Grid Name=\"" +
+         xml_escape(xdmf_final.stem().string()) + "\" GridType=\"Uniform\">\n" +
+         "      <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" + join(node_dims) + "\"/>\n" +
+         "      <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
+         "        <DataItem Name=\"Origin\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" +
+         number(grid.origin[2]) + " " + number(grid.origin[1]) + " " + number(grid.origin[0]) + "</DataItem>\n" +
+         "        <DataItem Name=\"Spacing\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" +
+         number(grid.spacing[2]) + " " + number(grid.spacing[1]) + " " + number(grid.spacing[0]) + "</DataItem>\n" +
+         "      </Geometry>\n" + attrs_xml + "    </Grid>\n  </Domain>\n</Xdmf>\n";
+}
+
 }  // namespace
 
 void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
@@ -715,45 +779,12 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
     write_string_attribute(file.get(), "softhom_version", softhom_version(), h5_final);
     std::set<std::string> names;
     for (const VoxelImageDataset& ds : datasets) {
-      check_name(ds.name);
-      if (!names.insert(ds.name).second)
-        throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' given twice");
-      if (ds.components != 1 && ds.components != 3)
-        throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' must have 1 or 3 components");
-      if (ds.values.size() != n_cells * std::size_t(ds.components))
-        throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' has " + std::to_string(ds.values.size()) +
-                                    " values, expected " + std::to_string(n_cells * ds.components));
+      check_voxel_dataset(ds, n_cells, names);
       std::vector<hsize_t> dims{hsize_t(grid.cells[2]), hsize_t(grid.cells[1]), hsize_t(grid.cells[0])};
       if (ds.components > 1) dims.push_back(hsize_t(ds.components));
       const std::string what = "write_voxel_image: cannot write '" + ds.name + "' to '" + h5_tmp.string() + "'";
-      if (ds.as_uint8) {
-        std::vector<unsigned char> bytes(ds.values.size());
-        for (std::size_t i = 0; i < bytes.size(); ++i) {
-          const double v = ds.values[i];
-          if (!(v >= 0.0 && v <= 255.0 && v == std::floor(v)))
-            throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' value " + number(v) +
-                                        " at index " + std::to_string(i) + " is not an integer in [0, 255]");
-          bytes[i] = static_cast<unsigned char>(v);
-        }
-        write_dataset(file.get(), ds.name, H5T_STD_U8LE, H5T_NATIVE_UCHAR, bytes.data(), dims, h5_final);
-      } else {
-        for (std::size_t i = 0; i < ds.values.size(); ++i)
-          if (!std::isfinite(ds.values[i]))
-            throw std::invalid_argument("write_voxel_image: dataset '" + ds.name + "' has a non-finite value at index " +
-                                        std::to_string(i));
-        write_dataset(file.get(), ds.name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, ds.values.data(), dims, h5_final);
-      }
-      Handle set = checked_write(H5Dopen2(file.get(), ds.name.c_str(), H5P_DEFAULT), H5Dclose, h5_final, what);
-      write_attribute(set.get(), "voxel_size", grid.spacing, what, h5_final);
-      write_attribute(set.get(), "cell_size", cell, what, h5_final);
-      {  // Layout tag in the convention of FANS (variable-length string; "zyx": file dims z, y, x)
-        Handle str = checked_write(H5Tcopy(H5T_C_S1), H5Tclose, h5_final, what);
-        if (H5Tset_size(str.get(), H5T_VARIABLE) < 0) hdf5_write_fail(h5_final, what);
-        Handle scalar = checked_write(H5Screate(H5S_SCALAR), H5Sclose, h5_final, what);
-        Handle attr = checked_write(H5Acreate2(set.get(), "permute_order", str.get(), scalar.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, h5_final, what);
-        const char* zyx = "zyx";
-        if (H5Awrite(attr.get(), str.get(), &zyx) < 0) hdf5_write_fail(h5_final, what);
-      }
+      write_voxel_values(file.get(), ds, dims, h5_final);
+      write_voxel_attributes(file.get(), ds.name, grid, cell, h5_final, what);
       const char* type = ds.components == 1 ? "Scalar" : "Vector";
       attrs_xml += "      <Attribute Name=\"" + ds.name + "\" AttributeType=\"" + type + "\" Center=\"Cell\">\n" +
                    "        <DataItem Dimensions=\"" + join(dims) + "\" NumberType=\"" +
@@ -762,19 +793,8 @@ void write_voxel_image(const std::filesystem::path& stem, const VoxelGrid& grid,
     }
     finish_file(file, h5_final, h5_tmp);
   }
-  const std::vector<hsize_t> node_dims{hsize_t(grid.cells[2] + 1), hsize_t(grid.cells[1] + 1), hsize_t(grid.cells[0] + 1)};
-  const std::string xdmf =
-      "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n    <Grid Name=\"" +
-      xml_escape(xdmf_final.stem().string()) + "\" GridType=\"Uniform\">\n" +
-      "      <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" + join(node_dims) + "\"/>\n" +
-      "      <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
-      "        <DataItem Name=\"Origin\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" +
-      number(grid.origin[2]) + " " + number(grid.origin[1]) + " " + number(grid.origin[0]) + "</DataItem>\n" +
-      "        <DataItem Name=\"Spacing\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" +
-      number(grid.spacing[2]) + " " + number(grid.spacing[1]) + " " + number(grid.spacing[0]) + "</DataItem>\n" +
-      "      </Geometry>\n" + attrs_xml + "    </Grid>\n  </Domain>\n</Xdmf>\n";
   move_into_place(temporary, h5_final);
-  write_file_atomic(xdmf_final, xdmf);
+  write_file_atomic(xdmf_final, voxel_xdmf(xdmf_final, grid, attrs_xml));
 }
 
 void write_array_file(const std::filesystem::path& path, const std::vector<ArrayToWrite>& arrays) {

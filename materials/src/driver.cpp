@@ -131,109 +131,151 @@ std::string describe_failure(const SubstepOutcome& o) {
   return s.str();
 }
 
+/// One material-point run in the load frame: the converged state (t, F, P, history) and the result
+/// as it grows, one output interval at a time.
+class PointRun {
+ public:
+  PointRun(const Material& global_material, const MixedControl& control, const PointSolverOptions& opt,
+           const std::function<void(const PointState&)>& on_step)
+      : control_(control),
+        opt_(opt),
+        on_step_(on_step),
+        // Work in the load frame: a0_load = Rᵀ a0_global.
+        material_ptr_(global_material.rotated(control.frame.transpose())),
+        material_(*material_ptr_),
+        fibers_(material_.fiber_directions()),
+        free_(free_components(control)),
+        stress_scale_(material_.initial_shear_modulus()),
+        bulk_scale_(material_.initial_bulk_modulus()),
+        nstate_(material_.state_size()),
+        state_(nstate_),
+        state_trial_(nstate_) {
+    if (nstate_ > 0) material_.init_state(state_.data());
+    step_control_.max_cutbacks = opt.max_cutbacks;
+    step_control_.max_step_seconds = opt.max_step_seconds;
+  }
+
+  /// t = 0: the prescribed F(0) (usually I) must be in equilibrium with the targets too.
+  bool start() {
+    const SubstepOutcome o = solve(0.0, 0.0, F_, P_);
+    if (!o.converged) {
+      result_.error = "initial state (t = 0): " + describe_failure(o);
+      return false;
+    }
+    if (nstate_ > 0) state_.swap(state_trial_);
+    record(0.0, o.iterations, 1);
+    return true;
+  }
+
+  /// The sub-steps to the output time t_out (cut back on failure); false (result's stop and error
+  /// set) when the interval cannot be completed.
+  bool advance_to(double t_out);
+
+  PointRunResult& result() { return result_; }
+
+ private:
+  SubstepOutcome solve(double t, double dt, Mat3& F, Mat3& P) {
+    return solve_substep(material_, control_, free_, t, dt, state_, state_trial_, opt_, stress_scale_, bulk_scale_, F,
+                         P);
+  }
+  void record(double t, int iterations, int substeps) {
+    PointState s;
+    s.t = t;
+    s.F = F_;
+    s.P = P_;
+    s.sigma = cauchy_from_piola(F_, P_);
+    for (const auto& a0 : fibers_) s.fiber_angle_deg.push_back(fiber_angle_deg(F_, a0));
+    s.newton_iterations = iterations;
+    s.substeps = substeps;
+    result_.steps.push_back(s);
+    if (on_step_) on_step_(result_.steps.back());
+  }
+  /// A cut-back that the halved step then passes is an expected event: each kind is logged once.
+  void log_cutback(double t_from, double dt_failed, const PointAttempt& a) {
+    const std::string kind = a.why.substr(0, a.why.find_first_of("0123456789("));
+    if (std::find(logged_kinds_.begin(), logged_kinds_.end(), kind) != logged_kinds_.end()) return;
+    logged_kinds_.push_back(kind);
+    result_.log.push_back("cut-back at t = " + format_number(t_from) + " + " + format_number(dt_failed) + " (" + a.why +
+                          "); the step was halved (further cut-backs of this kind are counted, not listed)");
+  }
+  /// The run's stop and error when an interval cannot be completed.
+  void stop_at(const IntervalOutcome& o, double t_out, bool locking_seen, bool last_locking) {
+    // A locking limit that halving could not pass is the material's limit, not a solver failure.
+    const bool at_limit = o.status == IntervalStatus::cutbacks_exhausted && last_locking;
+    result_.stop = at_limit ? IntervalStatus::fatal : o.status;
+    std::ostringstream s;
+    s << describe_interval_failure(o, t_out, opt_.max_cutbacks, opt_.max_step_seconds,
+                                   [](double v) { return format_number(v); });
+    if (o.status != IntervalStatus::interrupted && locking_seen)
+      s << ". The prescribed deformation reaches the Gent locking limit (Ī1 − 3 → Jm) beyond the last"
+        << " converged state F11 = " << format_number(F_(0, 0)) << ", F22 = " << format_number(F_(1, 1))
+        << ", F33 = " << format_number(F_(2, 2)) << " (load frame)";
+    result_.error = s.str();
+  }
+
+  const MixedControl& control_;
+  const PointSolverOptions& opt_;
+  const std::function<void(const PointState&)>& on_step_;
+  const std::unique_ptr<Material> material_ptr_;
+  const Material& material_;
+  const std::vector<Vec3> fibers_;
+  const FreeSet free_;
+  const double stress_scale_, bulk_scale_;
+  const int nstate_;
+  std::vector<double> state_, state_trial_;
+  StepControlOptions step_control_;
+  PointRunResult result_;
+  Mat3 F_ = Mat3::Identity(), P_ = Mat3::Zero();
+  double t_ = 0.0;
+  double first_dt_ = 0.0;  // whole interval, unless the last one ended on a cut-back sub-step
+  std::vector<std::string> logged_kinds_;
+};
+
+bool PointRun::advance_to(double t_out) {
+  int iterations = 0;
+  Mat3 F_trial = F_, P_trial = P_;
+  bool locking_seen = false, last_locking = false;
+  auto attempt = [&](double t_new, double dt) {
+    F_trial = F_;
+    const SubstepOutcome o = solve(t_new, dt, F_trial, P_trial);
+    iterations += o.iterations;
+    last_locking = o.status == MaterialStatus::locking || o.hit_locking;
+    locking_seen |= last_locking;
+    return PointAttempt{o.converged, o.converged ? std::string() : describe_failure(o), o.beyond_limit};
+  };
+  auto accept = [&](double t_new, double, const PointAttempt&) {
+    t_ = t_new;
+    F_ = F_trial;
+    P_ = P_trial;
+    if (nstate_ > 0) state_.swap(state_trial_);
+  };
+  auto reject = [&](double t_from, double, double dt_failed, double dt_next, const PointAttempt& a) {
+    ++result_.cutbacks;
+    if (dt_next > 0.0) log_cutback(t_from, dt_failed, a);  // else the interval gives up: the error says why
+  };
+  const IntervalOutcome o = advance_interval(t_, t_out, first_dt_, step_control_, attempt, accept, reject);
+  result_.total_newton_iterations += iterations;
+  if (!o.reached()) {
+    stop_at(o, t_out, locking_seen, last_locking);
+    return false;
+  }
+  first_dt_ = o.cutbacks > 0 || first_dt_ > 0.0 ? o.next_dt : 0.0;
+  record(t_out, iterations, o.substeps);
+  return true;
+}
+
 }  // namespace
 
 PointRunResult run_material_point(const Material& global_material, const MixedControl& control,
                                   const PointSolverOptions& opt,
                                   const std::function<void(const PointState&)>& on_step) {
   control.validate();
-  // Work in the load frame: a0_load = Rᵀ a0_global.
-  const Mat3 Rt = control.frame.transpose();
-  const auto material_ptr = global_material.rotated(Rt);
-  const Material& material = *material_ptr;
-  const auto fibers = material.fiber_directions();
-  const FreeSet free = free_components(control);
-  const double stress_scale = material.initial_shear_modulus();
-  const double bulk_scale = material.initial_bulk_modulus();
-
-  PointRunResult result;
-  const int nstate = material.state_size();
-  std::vector<double> state(nstate), state_trial(nstate);
-  if (nstate > 0) material.init_state(state.data());
-
-  auto make_state = [&](double t, const Mat3& F, const Mat3& P, int iterations, int substeps) {
-    PointState s;
-    s.t = t;
-    s.F = F;
-    s.P = P;
-    s.sigma = cauchy_from_piola(F, P);
-    for (const auto& a0 : fibers) s.fiber_angle_deg.push_back(fiber_angle_deg(F, a0));
-    s.newton_iterations = iterations;
-    s.substeps = substeps;
-    return s;
-  };
-
-  // t = 0: the prescribed F(0) (usually I) must be in equilibrium with the targets too.
-  Mat3 F = Mat3::Identity(), P = Mat3::Zero();
-  {
-    const SubstepOutcome o = solve_substep(material, control, free, 0.0, 0.0, state, state_trial, opt,
-                                           stress_scale, bulk_scale, F, P);
-    if (!o.converged) {
-      result.error = "initial state (t = 0): " + describe_failure(o);
-      return result;
-    }
-    if (nstate > 0) state.swap(state_trial);
-    result.steps.push_back(make_state(0.0, F, P, o.iterations, 1));
-    if (on_step) on_step(result.steps.back());
-  }
-
-  StepControlOptions step_control;
-  step_control.max_cutbacks = opt.max_cutbacks;
-  step_control.max_step_seconds = opt.max_step_seconds;
-  double t = 0.0;
-  double first_dt = 0.0;  // whole interval, unless the last one ended on a cut-back sub-step
-  std::vector<std::string> logged_kinds;
-  for (const double t_out : control.times) {
-    int iterations = 0;
-    Mat3 F_trial = F, P_trial = P;
-    bool locking_seen = false, last_locking = false;
-    auto attempt = [&](double t_new, double dt) {
-      F_trial = F;
-      const SubstepOutcome o = solve_substep(material, control, free, t_new, dt, state, state_trial, opt,
-                                             stress_scale, bulk_scale, F_trial, P_trial);
-      iterations += o.iterations;
-      last_locking = o.status == MaterialStatus::locking || o.hit_locking;
-      locking_seen |= last_locking;
-      return PointAttempt{o.converged, o.converged ? std::string() : describe_failure(o), o.beyond_limit};
-    };
-    auto accept = [&](double t_new, double, const PointAttempt&) {
-      t = t_new;
-      F = F_trial;
-      P = P_trial;
-      if (nstate > 0) state.swap(state_trial);
-    };
-    auto reject = [&](double t_from, double, double dt_failed, double dt_next, const PointAttempt& a) {
-      ++result.cutbacks;
-      if (dt_next <= 0.0) return;  // the interval gives up: the error says why
-      // A cut-back that the halved step then passes is an expected event: each kind is logged once.
-      const std::string kind = a.why.substr(0, a.why.find_first_of("0123456789("));
-      if (std::find(logged_kinds.begin(), logged_kinds.end(), kind) != logged_kinds.end()) return;
-      logged_kinds.push_back(kind);
-      result.log.push_back("cut-back at t = " + format_number(t_from) + " + " + format_number(dt_failed) + " (" +
-                           a.why + "); the step was halved (further cut-backs of this kind are counted, not listed)");
-    };
-    const IntervalOutcome o = advance_interval(t, t_out, first_dt, step_control, attempt, accept, reject);
-    result.total_newton_iterations += iterations;
-    if (!o.reached()) {
-      // A locking limit that halving could not pass is the material's limit, not a solver failure.
-      const bool at_limit = o.status == IntervalStatus::cutbacks_exhausted && last_locking;
-      result.stop = at_limit ? IntervalStatus::fatal : o.status;
-      std::ostringstream s;
-      s << describe_interval_failure(o, t_out, opt.max_cutbacks, opt.max_step_seconds,
-                                     [](double v) { return format_number(v); });
-      if (o.status != IntervalStatus::interrupted && locking_seen)
-        s << ". The prescribed deformation reaches the Gent locking limit (Ī1 − 3 → Jm) beyond the last"
-          << " converged state F11 = " << format_number(F(0, 0)) << ", F22 = " << format_number(F(1, 1))
-          << ", F33 = " << format_number(F(2, 2)) << " (load frame)";
-      result.error = s.str();
-      return result;
-    }
-    first_dt = o.cutbacks > 0 || first_dt > 0.0 ? o.next_dt : 0.0;
-    result.steps.push_back(make_state(t_out, F, P, iterations, o.substeps));
-    if (on_step) on_step(result.steps.back());
-  }
-  result.completed = true;
-  return result;
+  PointRun run(global_material, control, opt, on_step);
+  if (!run.start()) return std::move(run.result());
+  for (const double t_out : control.times)
+    if (!run.advance_to(t_out)) return std::move(run.result());
+  run.result().completed = true;
+  return std::move(run.result());
 }
 
 }  // namespace softhom

@@ -389,54 +389,35 @@ Chains periodic_interface_chains(const std::vector<PlacedFiber>& fibers, double 
   return chains;
 }
 
-}  // namespace
+using SizeFunction = std::function<double(double, double)>;
+using EdgeNodes = std::map<std::pair<int, int>, int>;  // vertex pair (sorted) → mid-side node
 
-SectionMesh mesh_section(const Section& section, const SectionMeshOptions& options) {
-  const double L1 = section.L1, L2 = section.L2;
-  const SectionMeshOptions o = normalized_options(section, options);
-  const double tol = 1e-10 * std::max(L1, L2);
+/// Parameters along one cell edge (0 … L, the interface crossings `reps` included) at the local size;
+/// the same on opposite edges.
+std::vector<double> edge_parameters(const std::map<double, double>& reps, double L, bool vertical,
+                                    const SizeFunction& size) {
+  std::vector<double> br{0.0, L};
+  for (const auto& kv : reps)
+    if (kv.second > 0.0 && kv.second < L) br.push_back(kv.second);
+  std::sort(br.begin(), br.end());
+  br.erase(std::unique(br.begin(), br.end()), br.end());
+  std::vector<double> t;
+  for (std::size_t k = 0; k + 1 < br.size(); ++k) {
+    const double a = br[k], b = br[k + 1], mid = 0.5 * (a + b);
+    const double h = vertical ? size(0.0, mid) : size(mid, 0.0);
+    const int n = std::max(1, int(std::ceil((b - a) / h)));
+    for (int i = 0; i < n; ++i) t.push_back(a + (b - a) * i / n);
+  }
+  t.push_back(L);
+  return t;
+}
 
-  const std::vector<PlacedFiber> fibers = placed_fibers(section);
-  auto distance = [&](double x, double y) {
-    double d = std::numeric_limits<double>::infinity();
-    for (const auto& p : fibers) d = std::min(d, std::abs(signed_distance(p, Vec2(x, y))));
-    return d;
-  };
-  const std::vector<CornerRefinement> corners = corner_refinements(fibers, o, L1, L2);
-  const std::function<double(double, double)> size = [&](double x, double y) {
-    if (fibers.empty()) return o.mesh_size;
-    double h = std::min(o.mesh_size, o.interface_size + o.grading * distance(x, y));
-    for (const auto& c : corners) {
-      const double r = (Vec2(x, y) - c.x).norm();
-      if (r >= c.R) continue;
-      // Power grading, and at most 0.5 growth per unit distance so neighbours stay comparable.
-      h = std::min(h, corner_size(r, c.R, o.interface_size, c.h_min, o.corner_exponent));
-    }
-    return h;
-  };
-
-  std::map<double, double> rep_x, rep_y;
-  Chains chains = periodic_interface_chains(fibers, L1, L2, o.interface_size, tol, rep_x, rep_y);
-
-  CDT cdt;
-  // Cell boundary: the same parameters on opposite edges.
-  auto edge_params = [&](const std::map<double, double>& reps, double L, bool vertical) {
-    std::vector<double> br{0.0, L};
-    for (const auto& kv : reps)
-      if (kv.second > 0.0 && kv.second < L) br.push_back(kv.second);
-    std::sort(br.begin(), br.end());
-    br.erase(std::unique(br.begin(), br.end()), br.end());
-    std::vector<double> t;
-    for (std::size_t k = 0; k + 1 < br.size(); ++k) {
-      const double a = br[k], b = br[k + 1], mid = 0.5 * (a + b);
-      const double h = vertical ? size(0.0, mid) : size(mid, 0.0);
-      const int n = std::max(1, int(std::ceil((b - a) / h)));
-      for (int i = 0; i < n; ++i) t.push_back(a + (b - a) * i / n);
-    }
-    t.push_back(L);
-    return t;
-  };
-  const std::vector<double> ty = edge_params(rep_x, L2, true), tx = edge_params(rep_y, L1, false);
+/// The constraints of the section: the cell boundary (the same parameters on opposite edges) and the
+/// interface chains.
+void insert_constraints(CDT& cdt, const Chains& chains, const std::map<double, double>& rep_x,
+                        const std::map<double, double>& rep_y, double L1, double L2, double tol,
+                        const SizeFunction& size) {
+  const std::vector<double> ty = edge_parameters(rep_x, L2, true, size), tx = edge_parameters(rep_y, L1, false, size);
   for (std::size_t k = 0; k + 1 < ty.size(); ++k) {
     cdt.insert_constraint(Point(0.0, ty[k]), Point(0.0, ty[k + 1]));
     cdt.insert_constraint(Point(L1, ty[k]), Point(L1, ty[k + 1]));
@@ -449,59 +430,54 @@ SectionMesh mesh_section(const Section& section, const SectionMeshOptions& optio
     for (std::size_t k = 0; k + 1 < line.size(); ++k)
       if ((line[k] - line[k + 1]).norm() > tol)
         cdt.insert_constraint(Point(line[k].x(), line[k].y()), Point(line[k + 1].x(), line[k + 1].y()));
+}
 
-  const double s = std::sin(o.min_angle_deg * kPi / 180.0);
-  SizedCriteria<CDT> criteria(s * s, size);
-  SectionMeshQuality quality;
+/// Boundary vertices without a partner on the opposite edge, mirrored there (exact coordinates: the
+/// edges are the lines y1 = 0, L1 and y2 = 0, L2, which every Steiner point on them satisfies exactly).
+std::vector<Point> unpaired_boundary_mirrors(const CDT& cdt, double L1, double L2) {
+  std::vector<double> x0, x1, y0, y1;
+  for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
+    const double x = v->point().x(), y = v->point().y();
+    if (x == 0.0) x0.push_back(y);
+    if (x == L1) x1.push_back(y);
+    if (y == 0.0) y0.push_back(x);
+    if (y == L2) y1.push_back(x);
+  }
+  for (auto* a : {&x0, &x1, &y0, &y1}) std::sort(a->begin(), a->end());
+  std::vector<Point> add;
+  auto mirror = [&](const std::vector<double>& from, const std::vector<double>& to, bool vertical, double c) {
+    for (double v : from)
+      if (!std::binary_search(to.begin(), to.end(), v)) add.push_back(vertical ? Point(c, v) : Point(v, c));
+  };
+  mirror(x0, x1, true, L1);
+  mirror(x1, x0, true, 0.0);
+  mirror(y0, y1, false, L2);
+  mirror(y1, y0, false, 0.0);
+  return add;
+}
+
+/// Refines until every boundary vertex has its periodic partner (the refinement passes and mirrored
+/// points counted in `quality`).
+void refine_periodic(CDT& cdt, const SizedCriteria<CDT>& criteria, double L1, double L2, SectionMeshQuality& quality) {
   for (int pass = 0;; ++pass) {
     if (pass > 20) throw std::runtime_error("periodic mesh: boundary vertices did not pair up after 20 passes");
     CGAL::Delaunay_mesher_2<CDT, SizedCriteria<CDT>> mesher(cdt, criteria);
     mesher.refine_mesh();
     quality.refinement_passes = pass + 1;
-    // Mirror unmatched boundary vertices onto the opposite edge (exact coordinates: the edges are
-    // the lines y1 = 0, L1 and y2 = 0, L2, which every Steiner point on them satisfies exactly).
-    std::vector<double> x0, x1, y0, y1;
-    for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
-      const double x = v->point().x(), y = v->point().y();
-      if (x == 0.0) x0.push_back(y);
-      if (x == L1) x1.push_back(y);
-      if (y == 0.0) y0.push_back(x);
-      if (y == L2) y1.push_back(x);
-    }
-    for (auto* a : {&x0, &x1, &y0, &y1}) std::sort(a->begin(), a->end());
-    std::vector<Point> add;
-    auto mirror = [&](const std::vector<double>& from, const std::vector<double>& to, bool vertical, double c) {
-      for (double v : from)
-        if (!std::binary_search(to.begin(), to.end(), v)) add.push_back(vertical ? Point(c, v) : Point(v, c));
-    };
-    mirror(x0, x1, true, L1);
-    mirror(x1, x0, true, 0.0);
-    mirror(y0, y1, false, L2);
-    mirror(y1, y0, false, 0.0);
+    const std::vector<Point> add = unpaired_boundary_mirrors(cdt, L1, L2);
     if (add.empty()) break;
     quality.mirrored_points += int(add.size());
     for (const Point& p : add) cdt.insert(p);
   }
+}
 
-  // Number the vertices and collect the triangles (all finite faces: the domain is the whole cell).
-  SectionMesh m;
-  m.L1 = L1;
-  m.L2 = L2;
-  std::unordered_map<CDT::Vertex_handle, int> vid;
-  for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
-    vid[v] = int(m.nodes.size());
-    m.nodes.emplace_back(v->point().x(), v->point().y());
-  }
-  m.vertices = int(m.nodes.size());
-  std::unordered_map<CDT::Face_handle, int> fid;
-  std::vector<CDT::Face_handle> faces;
-  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
-    fid[f] = int(faces.size());
-    faces.push_back(f);
-  }
+/// Phase of every face: components of faces connected across unconstrained edges, classified by an
+/// area-weighted vote of their centroids (robust to the polygonal approximation of the circles).
+std::vector<int> face_phases(const CDT& cdt, const std::vector<CDT::Face_handle>& faces,
+                             const std::vector<PlacedFiber>& fibers) {
   const int ne = int(faces.size());
-  // Phases: components of faces connected across unconstrained edges, classified by an area-weighted
-  // vote of their centroids (robust to the polygonal approximation of the circles).
+  std::unordered_map<CDT::Face_handle, int> fid;
+  for (int e = 0; e < ne; ++e) fid[faces[e]] = e;
   std::vector<int> comp(ne, -1);
   int ncomp = 0;
   std::vector<double> comp_in, comp_all;
@@ -538,10 +514,27 @@ SectionMesh mesh_section(const Section& section, const SectionMeshOptions& optio
     }
     ++ncomp;
   }
+  std::vector<int> phase(ne);
+  for (int e = 0; e < ne; ++e) phase[e] = comp_in[comp[e]] > 0.5 * comp_all[comp[e]] ? 1 : 0;
+  return phase;
+}
+
+/// The T6 elements of the triangulation (all finite faces: the domain is the whole cell): vertices
+/// numbered in CGAL's order, then one mid-side node per edge (`mid`); `constrained` gets the edges on
+/// constraints (interfaces and cell boundary).
+void add_t6_elements(const CDT& cdt, const std::vector<PlacedFiber>& fibers, SectionMesh& m, EdgeNodes& mid,
+                     std::set<std::pair<int, int>>& constrained) {
+  std::unordered_map<CDT::Vertex_handle, int> vid;
+  for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
+    vid[v] = int(m.nodes.size());
+    m.nodes.emplace_back(v->point().x(), v->point().y());
+  }
+  m.vertices = int(m.nodes.size());
+  std::vector<CDT::Face_handle> faces;
+  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) faces.push_back(f);
+  const int ne = int(faces.size());
+  m.phase = face_phases(cdt, faces, fibers);
   m.elements.resize(ne);
-  m.phase.resize(ne);
-  std::map<std::pair<int, int>, int> mid;
-  std::set<std::pair<int, int>> constrained;
   auto midnode = [&](int a, int b) {
     const auto key = std::minmax(a, b);
     auto it = mid.find(key);
@@ -561,46 +554,48 @@ SectionMesh mesh_section(const Section& section, const SectionMeshOptions& optio
     t[4] = midnode(t[1], t[2]);
     t[5] = midnode(t[2], t[0]);
     m.elements[e] = t;
-    m.phase[e] = comp_in[comp[e]] > 0.5 * comp_all[comp[e]] ? 1 : 0;
   }
-  // Curved interfaces. The mesher splits interface constraints at chord midpoints (inside the
-  // circle by the sagitta h²/8r), so first every vertex of an interface edge goes back onto its
-  // circle (except the chain ends on the cell edges, which are exact intersections), then the
-  // mid-side node of the edge follows.
-  if (o.curved_interfaces) {
-    std::vector<int> on_circle(m.vertices, -1);
-    std::vector<std::pair<std::pair<int, int>, int>> curved_edges;
-    for (const auto& key : constrained) {
-      const Vec2 a = m.nodes[key.first], b = m.nodes[key.second];
-      int best = -1;
-      double best_d = 0.25 * (a - b).norm();
-      for (std::size_t k = 0; k < fibers.size(); ++k) {
-        if (fibers[k].f.shape != SectionShape::circle) continue;
-        const double d = std::max(std::abs(signed_distance(fibers[k], a)), std::abs(signed_distance(fibers[k], b)));
-        if (d < best_d) {
-          best_d = d;
-          best = int(k);
-        }
-      }
-      if (best < 0) continue;
-      on_circle[key.first] = on_circle[key.second] = best;
-      curved_edges.push_back({key, best});
-    }
-    auto project = [&](Vec2& x, int k) {
-      const Vec2 c = fibers[k].f.center, d = x - c;
-      if (d.norm() > 0.0) x = c + fibers[k].f.radius * d.normalized();
-    };
-    for (int v = 0; v < m.vertices; ++v) {
-      Vec2& x = m.nodes[v];
-      if (on_circle[v] < 0 || x.x() == 0.0 || x.x() == L1 || x.y() == 0.0 || x.y() == L2) continue;
-      project(x, on_circle[v]);
-    }
-    for (const auto& kv : mid) m.nodes[kv.second] = 0.5 * (m.nodes[kv.first.first] + m.nodes[kv.first.second]);
-    for (const auto& ce : curved_edges) project(m.nodes[mid.at(ce.first)], ce.second);
-  }
-  const double worst = assign_masters(m, 1e-9 * std::max(L1, L2));
+}
 
-  // Quality of the straight-sided (vertex) triangles.
+/// Curved interfaces. The mesher splits interface constraints at chord midpoints (inside the
+/// circle by the sagitta h²/8r), so first every vertex of an interface edge goes back onto its
+/// circle (except the chain ends on the cell edges, which are exact intersections), then the
+/// mid-side node of the edge follows.
+void curve_interfaces(SectionMesh& m, const EdgeNodes& mid, const std::set<std::pair<int, int>>& constrained,
+                      const std::vector<PlacedFiber>& fibers) {
+  std::vector<int> on_circle(m.vertices, -1);
+  std::vector<std::pair<std::pair<int, int>, int>> curved_edges;
+  for (const auto& key : constrained) {
+    const Vec2 a = m.nodes[key.first], b = m.nodes[key.second];
+    int best = -1;
+    double best_d = 0.25 * (a - b).norm();
+    for (std::size_t k = 0; k < fibers.size(); ++k) {
+      if (fibers[k].f.shape != SectionShape::circle) continue;
+      const double d = std::max(std::abs(signed_distance(fibers[k], a)), std::abs(signed_distance(fibers[k], b)));
+      if (d < best_d) {
+        best_d = d;
+        best = int(k);
+      }
+    }
+    if (best < 0) continue;
+    on_circle[key.first] = on_circle[key.second] = best;
+    curved_edges.push_back({key, best});
+  }
+  auto project = [&](Vec2& x, int k) {
+    const Vec2 c = fibers[k].f.center, d = x - c;
+    if (d.norm() > 0.0) x = c + fibers[k].f.radius * d.normalized();
+  };
+  for (int v = 0; v < m.vertices; ++v) {
+    Vec2& x = m.nodes[v];
+    if (on_circle[v] < 0 || x.x() == 0.0 || x.x() == m.L1 || x.y() == 0.0 || x.y() == m.L2) continue;
+    project(x, on_circle[v]);
+  }
+  for (const auto& kv : mid) m.nodes[kv.second] = 0.5 * (m.nodes[kv.first.first] + m.nodes[kv.first.second]);
+  for (const auto& ce : curved_edges) project(m.nodes[mid.at(ce.first)], ce.second);
+}
+
+/// Angles, edge lengths and radius ratios (2 r_in / r_circ) of the straight-sided (vertex) triangles.
+void measure_triangle_quality(const SectionMesh& m, SectionMeshQuality& quality) {
   quality.min_angle_deg = 180.0;
   quality.max_angle_deg = 0.0;
   quality.min_radius_ratio = 1.0;
@@ -626,10 +621,53 @@ SectionMesh mesh_section(const Section& section, const SectionMeshOptions& optio
     sum_rr += rr;
   }
   quality.mean_radius_ratio = m.elements.empty() ? 0.0 : sum_rr / double(m.elements.size());
-  quality.max_pairing_error = worst;
-  double exact = 0.0;
-  for (const auto& f : section.fibers)
-    exact += f.shape == SectionShape::circle ? kPi * f.radius * f.radius : f.width * f.height;
+}
+
+}  // namespace
+
+SectionMesh mesh_section(const Section& section, const SectionMeshOptions& options) {
+  const double L1 = section.L1, L2 = section.L2;
+  const SectionMeshOptions o = normalized_options(section, options);
+  const double tol = 1e-10 * std::max(L1, L2);
+
+  const std::vector<PlacedFiber> fibers = placed_fibers(section);
+  auto distance = [&](double x, double y) {
+    double d = std::numeric_limits<double>::infinity();
+    for (const auto& p : fibers) d = std::min(d, std::abs(signed_distance(p, Vec2(x, y))));
+    return d;
+  };
+  const std::vector<CornerRefinement> corners = corner_refinements(fibers, o, L1, L2);
+  const SizeFunction size = [&](double x, double y) {
+    if (fibers.empty()) return o.mesh_size;
+    double h = std::min(o.mesh_size, o.interface_size + o.grading * distance(x, y));
+    for (const auto& c : corners) {
+      const double r = (Vec2(x, y) - c.x).norm();
+      if (r >= c.R) continue;
+      // Power grading, and at most 0.5 growth per unit distance so neighbours stay comparable.
+      h = std::min(h, corner_size(r, c.R, o.interface_size, c.h_min, o.corner_exponent));
+    }
+    return h;
+  };
+
+  std::map<double, double> rep_x, rep_y;
+  const Chains chains = periodic_interface_chains(fibers, L1, L2, o.interface_size, tol, rep_x, rep_y);
+  CDT cdt;
+  insert_constraints(cdt, chains, rep_x, rep_y, L1, L2, tol, size);
+  const double s = std::sin(o.min_angle_deg * kPi / 180.0);
+  const SizedCriteria<CDT> criteria(s * s, size);
+  SectionMeshQuality quality;
+  refine_periodic(cdt, criteria, L1, L2, quality);
+
+  SectionMesh m;
+  m.L1 = L1;
+  m.L2 = L2;
+  EdgeNodes mid;
+  std::set<std::pair<int, int>> constrained;
+  add_t6_elements(cdt, fibers, m, mid, constrained);
+  if (o.curved_interfaces) curve_interfaces(m, mid, constrained, fibers);
+  quality.max_pairing_error = assign_masters(m, 1e-9 * std::max(L1, L2));
+  measure_triangle_quality(m, quality);
+  const double exact = detail::fiber_area(section);
   quality.fiber_area_error = exact > 0.0 ? std::abs(m.area(1) - exact) / exact : 0.0;
   quality.refined_corners = int(corners.size());
   for (const auto& c : corners)

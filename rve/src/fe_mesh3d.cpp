@@ -260,14 +260,6 @@ void measure_tet_quality(const CellMesh& m, CellMeshQuality& q) {
   q.mean_radius_ratio = m.elements.empty() ? 0.0 : sum_rr / double(m.elements.size());
 }
 
-/// Exact fiber area of the section (circles and rectangles).
-double fiber_area(const Section& section) {
-  double exact = 0.0;
-  for (const auto& f : section.fibers)
-    exact += f.shape == SectionShape::circle ? kPi * f.radius * f.radius : f.width * f.height;
-  return exact;
-}
-
 /// The options with their defaults filled in, checked (InputError naming the key), and the cell
 /// refused before meshing when its FE solve cannot fit (refuse_unsolvable_cell).
 CellMeshOptions normalized_cell_options(const Section& section, const CellMeshOptions& options) {
@@ -288,14 +280,21 @@ CellMeshOptions normalized_cell_options(const Section& section, const CellMeshOp
   return o;
 }
 
-CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& options) {
-  const CellMeshOptions o = normalized_cell_options(section, options);
-  const double L1 = section.L1, L2 = section.L2, L3 = o.length;
-  const Vec3d L(L1, L2, L3);
-  const double Lmax = L.maxCoeff();
+/// The cell as the 3D mesher sees it: the options (defaults filled in), the cell's lengths and the
+/// placed fibers of the section (circles and rectangles in the plane, extruded along e3).
+struct CellGeometry {
+  CellMeshOptions o;
+  double L1, L2, L3;
+  Vec3d L;
+  double Lmax;
+  std::vector<PlacedFiber> fibers;
 
-  const std::vector<PlacedFiber> fibers = detail::placed_fibers(section, o.mesh_size + 0.5 * Lmax);
-  auto nearest = [&](const Vec2& x, double& dist) {
+  CellGeometry(const Section& section, const CellMeshOptions& options)
+      : o(normalized_cell_options(section, options)), L1(section.L1), L2(section.L2), L3(o.length), L(L1, L2, L3),
+        Lmax(L.maxCoeff()), fibers(detail::placed_fibers(section, o.mesh_size + 0.5 * Lmax)) {}
+
+  /// The fiber whose boundary is nearest to x (-1 without fibers), its distance in `dist`.
+  int nearest(const Vec2& x, double& dist) const {
     int best = -1;
     dist = std::numeric_limits<double>::infinity();
     for (std::size_t k = 0; k < fibers.size(); ++k) {
@@ -306,15 +305,18 @@ CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& opti
       }
     }
     return best;
-  };
-  auto inside = [&](const Vec2& x) {
+  }
+  bool inside(const Vec2& x) const {
     for (const auto& p : fibers)
       if (signed_distance(p, x) < 0.0) return true;
     return false;
-  };
-  // Physical point of CGAL's unit cube, wrapped into the cell.
-  auto physical = [&](const Vec3d& X) { return Vec3d(wrap(X[0], 1.0) * L1, wrap(X[1], 1.0) * L2, wrap(X[2], 1.0) * L3); };
-  const std::function<double(const Vec3d&)> size = [&](const Vec3d& X) {
+  }
+  /// Physical point of CGAL's unit cube, wrapped into the cell.
+  Vec3d physical(const Vec3d& X) const {
+    return Vec3d(wrap(X[0], 1.0) * L1, wrap(X[1], 1.0) * L2, wrap(X[2], 1.0) * L3);
+  }
+  /// The element size CGAL bounds at a point of its unit cube.
+  double cgal_size(const Vec3d& X) const {
     double h = o.mesh_size;
     if (!fibers.empty()) {
       const Vec3d x = physical(X);
@@ -326,135 +328,26 @@ CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& opti
     // edge lengths as in the section mesher: a regular tetrahedron of edge h has circumradius
     // h √(3/8) = 0.61 h. The affine map stretches cube lengths by at most Lmax.
     return 0.61 * h / Lmax;
-  };
-  std::function<int(const Kernel::Point_3&)> label = [&](const Kernel::Point_3& p) {
+  }
+  /// CGAL's subdomain label of a point of its unit cube: 2 in a fiber, 1 in the matrix.
+  int label(const Kernel::Point_3& p) const {
     const Vec3d x = physical(Vec3d(p.x(), p.y(), p.z()));
     return inside(Vec2(x[0], x[1])) ? 2 : 1;
-  };
-
-  CGAL::Random rng(o.seed);
-  Domain domain(label, Kernel::Iso_cuboid_3(0, 0, 0, 1, 1, 1), 1e-10, CGAL::Null_subdomain_index(), &rng);
-  const SizeField sf{&size};
-  // Facet distance: a fraction of the interface size (the curved mid-edge nodes then make the
-  // geometry error O(h³)); facet angle and radius-edge ratio: CGAL's usual quality bounds.
-  const FacetCriteria facet(o.facet_angle_deg, sf, 0.1 * o.interface_size / Lmax);
-  const CellCriteria cell(o.radius_edge_ratio, sf);
-  const Criteria criteria(facet, cell);
-  CGAL::get_default_random() = CGAL::Random(o.seed);
-  namespace P = CGAL::parameters;
-  if (o.smoothing_iterations < 0)
-    throw InputError("solver.smoothing_iterations", std::to_string(o.smoothing_iterations), "must be ≥ 0");
-  const auto t_mesh = std::chrono::steady_clock::now();
-  // Smoothers with an iteration cap and no time limit (reproducible); perturber and exuder as CGAL's
-  // defaults (no sliver bound: improve the smallest dihedral angles as long as they can).
-  C3t3 c3t3 = CGAL::make_periodic_3_mesh_3<C3t3>(
-      domain, criteria,
-      o.odt ? P::odt(P::max_iteration_number = o.smoothing_iterations) : P::no_odt(),
-      o.lloyd ? P::lloyd(P::max_iteration_number = o.smoothing_iterations) : P::no_lloyd(),
-      o.perturb ? P::perturb() : P::no_perturb(), o.exude ? P::exude() : P::no_exude());
-  const double mesher_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_mesh).count();
-  const Tr& tr = c3t3.triangulation();
-  if (!tr.is_1_cover()) throw std::runtime_error("periodic cell mesh: CGAL's triangulation is not a 1-cover");
-
-  // Canonical vertices, their physical positions, and surface vertices projected onto circles.
-  std::unordered_map<Tr::Vertex_handle, int> vid;
-  std::vector<Vec3d> canon;
-  for (auto v = tr.finite_vertices_begin(); v != tr.finite_vertices_end(); ++v) {
-    vid[v] = int(canon.size());
-    const auto& p = tr.point(v);
-    canon.emplace_back(p.x() * L1, p.y() * L2, p.z() * L3);
   }
-  using Key3 = std::tuple<int, int, int>;
-  auto edge_key = [](int va, std::array<int, 3> oa, int vb, std::array<int, 3> ob) {
-    if (va > vb) {
-      std::swap(va, vb);
-      std::swap(oa, ob);
-    }
-    const int code = (ob[0] - oa[0] + 1) + 3 * (ob[1] - oa[1] + 1) + 9 * (ob[2] - oa[2] + 1);
-    return Key3(va, vb, code);
-  };
-  auto offset_of = [&](Tr::Cell_handle c, int i) {
-    const auto off = tr.int_to_off(c->offset(i));
-    return std::array<int, 3>{off.x(), off.y(), off.z()};
-  };
-  // Phase of every cell: CGAL's subdomain; cells CGAL left out of its complex (dummy-point cells of
-  // the periodic triangulation) get the label at their centroid.
-  std::unordered_map<Tr::Cell_handle, int> cell_phase;
-  int unlabeled = 0;
-  for (auto c = tr.finite_cells_begin(); c != tr.finite_cells_end(); ++c) {
-    int sd = int(c3t3.subdomain_index(c));
-    if (sd == 0) {
-      ++unlabeled;
-      Vec3d g = Vec3d::Zero();
-      for (int i = 0; i < 4; ++i) {
-        const auto off = offset_of(c, i);
-        g += 0.25 * (canon[vid.at(c->vertex(i))] + Vec3d(off[0] * L1, off[1] * L2, off[2] * L3));
-      }
-      g = Vec3d(wrap(g[0], L1), wrap(g[1], L2), g[2]);
-      sd = inside(Vec2(g[0], g[1])) ? 2 : 1;
-    }
-    cell_phase[c] = sd == 2 ? 1 : 0;
+  /// A vertex copy's position: the canonical one shifted by whole cells.
+  Vec3d shifted(const Vec3d& x, const std::array<int, 3>& off) const {
+    return x + Vec3d(off[0] * L1, off[1] * L2, off[2] * L3);
   }
-  // Phase labels and interface (curved) facets. repair = true: the geometric repairs below; false:
-  // CGAL's labels and surface facets as they are (the fallback when a repaired mesh folds).
-  const auto cgal_phase = cell_phase;
-  int relabeled = 0, facets_not_in_complex = 0;
-  std::vector<char> on_surface(canon.size(), 0);
-  std::map<Key3, char> interface_edges;
-  auto classify = [&](bool repair) {
-    cell_phase = cgal_phase;
-    relabeled = facets_not_in_complex = 0;
-    on_surface.assign(canon.size(), 0);
-    interface_edges.clear();
-    // A matrix cell whose four vertices all lie on one circular fiber surface is inside that fiber (the
-    // convex hull of points on a convex surface): CGAL labels cells by their circumcentre, which for
-    // such flat surface cells can lie outside. Relabelled as fiber, so the phase volumes follow the
-    // geometry (measured: up to 4e-4 of the fiber volume in 1–4 such cells at L/3–L/5).
-    if (repair) {
-      auto surface_fiber = [&](const Vec3d& x) {
-        const Vec2 w(wrap(x[0], L1), wrap(x[1], L2));
-        double d;
-        const int k = nearest(w, d);
-        return k >= 0 && fibers[k].f.shape == SectionShape::circle && d <= 1e-6 * fibers[k].f.radius ? k : -1;
-      };
-      for (auto c = tr.finite_cells_begin(); c != tr.finite_cells_end(); ++c) {
-        if (cell_phase.at(c) != 0) continue;
-        int k0 = surface_fiber(canon[vid.at(c->vertex(0))]);
-        bool all = k0 >= 0;
-        for (int i = 1; i < 4 && all; ++i) all = surface_fiber(canon[vid.at(c->vertex(i))]) == k0;
-        if (all) {
-          cell_phase[c] = 1;
-          ++relabeled;
-        }
-      }
-    }
-    // Interface facets: every facet between a fiber and a matrix cell (not only CGAL's complex facets:
-    // the centroid-labelled cells and the sliver exuder's relabelled cells also bound the phases, and
-    // the curved geometry must follow the phase boundary the solver sees).
-    for (auto c = tr.finite_cells_begin(); c != tr.finite_cells_end(); ++c) {
-      if (cell_phase.at(c) != 1) continue;
-      for (int fi = 0; fi < 4; ++fi) {
-        if (cell_phase.at(c->neighbor(fi)) != 0) continue;
-        if (!c3t3.is_in_complex(c, fi)) {
-          ++facets_not_in_complex;
-          if (!repair) continue;  // the mesher's own surface facets only
-        }
-        std::array<int, 3> idx;
-        int n = 0;
-        for (int i = 0; i < 4; ++i)
-          if (i != fi) idx[n++] = i;
-        for (int a = 0; a < 3; ++a) {
-          on_surface[vid.at(c->vertex(idx[a]))] = 1;
-          const int b = (a + 1) % 3;
-          interface_edges[edge_key(vid.at(c->vertex(idx[a])), offset_of(c, idx[a]), vid.at(c->vertex(idx[b])),
-                                   offset_of(c, idx[b]))] = 1;
-        }
-      }
-    }
-  };
-  // In-plane projection onto the nearest circular fiber (points given unwrapped: wrapped first, the
-  // same shift added back, so every periodic copy moves identically).
-  auto project = [&](Vec3d& x, double max_distance) {
+  /// The circular fiber on whose surface x lies (to 1e-6 of its radius), else -1.
+  int surface_circle(const Vec3d& x) const {
+    const Vec2 w(wrap(x[0], L1), wrap(x[1], L2));
+    double d;
+    const int k = nearest(w, d);
+    return k >= 0 && fibers[k].f.shape == SectionShape::circle && d <= 1e-6 * fibers[k].f.radius ? k : -1;
+  }
+  /// In-plane projection onto the nearest circular fiber when within max_distance · r (points given
+  /// unwrapped: wrapped first, the same shift added back, so every periodic copy moves identically).
+  bool project(Vec3d& x, double max_distance) const {
     Vec3d w(wrap(x[0], L1), wrap(x[1], L2), x[2]);
     const Vec3d shift = x - w;
     double d;
@@ -466,137 +359,322 @@ CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& opti
     const Vec2 q = c + fibers[k].f.radius * r.normalized();
     x = Vec3d(q[0], q[1], w[2]) + shift;
     return true;
-  };
-  // Interface vertices: CGAL's surface vertices lie on the surface to its error bound, but a phase
-  // boundary facet can keep a vertex CGAL did not insert on the surface (measured: a vertex 0.27 r
-  // outside the cylinder shared by four fiber cells at mesh_size L/4, every seed, +1.3e-3 fiber
-  // volume, P11 6e-4 too stiff). Those are moved onto the surface as well (up to 0.5 r); if that
-  // folds an element the mesh is rebuilt with the 0.25 r limit of the mid-edge nodes. Mid-edge nodes of an interface chord are
-  // inside by the sagitta ≤ h²/(8r); anything farther than 0.25 r is not an interface node.
-  // Builds the Tet10 mesh with interface vertices projected from up to vertex_limit · r; false if an
-  // element folds (then the caller retries with the safe limit).
-  const std::vector<Vec3d> canon_raw = canon;
-  double max_offset = 0.0;
-  auto build = [&](double vertex_limit, bool repair, CellMesh& m) -> bool {
-    canon = canon_raw;
-    classify(repair);
-    if (o.curved_interfaces)
-      for (std::size_t v = 0; v < canon.size(); ++v)
-        if (on_surface[v]) project(canon[v], vertex_limit);
-    // Largest distance of an interface vertex from the fiber surface (relative to the radius; circles):
-    // CGAL puts surface vertices on the surface, so anything above round-off is a vertex of a phase
-    // boundary facet that is not a surface facet (a geometry error of the phase volumes).
-    max_offset = 0.0;
-    for (std::size_t v = 0; v < canon.size(); ++v) {
-      if (!on_surface[v]) continue;
-      const Vec2 w(wrap(canon[v][0], L1), wrap(canon[v][1], L2));
-      double d;
-      const int k = nearest(w, d);
-      if (k >= 0 && fibers[k].f.shape == SectionShape::circle) max_offset = std::max(max_offset, d / fibers[k].f.radius);
-    }
+  }
+};
 
-    m = CellMesh{};
-    m.L1 = L1;
-    m.L2 = L2;
-    m.L3 = L3;
-    m.vertices = int(canon.size());
-    std::unordered_map<long, int> copy_node;  // vertex * 27 + offset code → node
-    std::vector<int> first_copy(canon.size(), -1);
-    auto vertex_node = [&](int v, const std::array<int, 3>& off) {
-      const long key = long(v) * 27 + (off[0] + 1) + 3 * (off[1] + 1) + 9 * (off[2] + 1);
-      auto it = copy_node.find(key);
-      if (it != copy_node.end()) return it->second;
-      const int id = int(m.nodes.size());
-      m.nodes.push_back(canon[v] + Vec3d(off[0] * L1, off[1] * L2, off[2] * L3));
-      if (first_copy[v] < 0) first_copy[v] = id;
-      m.master.push_back(first_copy[v]);
-      copy_node.emplace(key, id);
-      return id;
-    };
-    struct Corner {
-      int v;
-      std::array<int, 3> off;
-    };
-    std::vector<std::array<Corner, 4>> cells;
-    for (auto c = tr.finite_cells_begin(); c != tr.finite_cells_end(); ++c) {
-      std::array<Corner, 4> cs;
-      for (int i = 0; i < 4; ++i) cs[i] = {vid.at(c->vertex(i)), offset_of(c, i)};
-      const int sd = cell_phase.at(c) == 1 ? 2 : 1;
-      std::array<int, 10> el;
-      for (int i = 0; i < 4; ++i) el[i] = vertex_node(cs[i].v, cs[i].off);
-      // CGAL's cells are positively oriented (exact predicates); a floating-point determinant of a
-      // flat cell may have either sign, so the order is kept as CGAL gives it.
-      m.elements.push_back(el);
-      m.phase.push_back(sd == 2 ? 1 : 0);
-      cells.push_back(cs);
+/// CGAL's periodic mesh of the cell (in its unit cube).
+C3t3 run_cgal_mesher(const CellGeometry& g) {
+  const CellMeshOptions& o = g.o;
+  const std::function<double(const Vec3d&)> size = [&g](const Vec3d& X) { return g.cgal_size(X); };
+  std::function<int(const Kernel::Point_3&)> label = [&g](const Kernel::Point_3& p) { return g.label(p); };
+  CGAL::Random rng(o.seed);
+  Domain domain(label, Kernel::Iso_cuboid_3(0, 0, 0, 1, 1, 1), 1e-10, CGAL::Null_subdomain_index(), &rng);
+  const SizeField sf{&size};
+  // Facet distance: a fraction of the interface size (the curved mid-edge nodes then make the
+  // geometry error O(h³)); facet angle and radius-edge ratio: CGAL's usual quality bounds.
+  const FacetCriteria facet(o.facet_angle_deg, sf, 0.1 * o.interface_size / g.Lmax);
+  const CellCriteria cell(o.radius_edge_ratio, sf);
+  const Criteria criteria(facet, cell);
+  CGAL::get_default_random() = CGAL::Random(o.seed);
+  namespace P = CGAL::parameters;
+  if (o.smoothing_iterations < 0)
+    throw InputError("solver.smoothing_iterations", std::to_string(o.smoothing_iterations), "must be ≥ 0");
+  // Smoothers with an iteration cap and no time limit (reproducible); perturber and exuder as CGAL's
+  // defaults (no sliver bound: improve the smallest dihedral angles as long as they can).
+  return CGAL::make_periodic_3_mesh_3<C3t3>(
+      domain, criteria, o.odt ? P::odt(P::max_iteration_number = o.smoothing_iterations) : P::no_odt(),
+      o.lloyd ? P::lloyd(P::max_iteration_number = o.smoothing_iterations) : P::no_lloyd(),
+      o.perturb ? P::perturb() : P::no_perturb(), o.exude ? P::exude() : P::no_exude());
+}
+
+/// CGAL's periodic triangulation turned into the Tet10 mesh of the cell: canonical vertices, phase
+/// labels (with geometric repairs), interface vertices and mid-edge nodes moved onto the fiber surfaces.
+class Tet10Builder {
+ public:
+  Tet10Builder(const CellGeometry& g, const C3t3& c3t3);
+
+  /// The Tet10 mesh into m. repair = true: the geometric repairs of classify(); interface vertices
+  /// projected from up to vertex_limit · r. False if an element folds (the caller then retries with
+  /// a safer choice).
+  bool build(double vertex_limit, bool repair, CellMesh& m);
+
+  int unlabeled = 0;  // cells outside CGAL's complex (phase from the centroid)
+  int relabeled = 0, facets_not_in_complex = 0;  // of the last build
+  double max_offset = 0.0;  // largest interface vertex distance from its circle / r, of the last build
+
+ private:
+  using Key3 = std::tuple<int, int, int>;
+  using EdgeNodes = std::map<std::pair<int, int>, int>;  // vertex copies (sorted) → mid-edge node
+  struct Corner {
+    int v;
+    std::array<int, 3> off;
+  };
+
+  static Key3 edge_key(int va, std::array<int, 3> oa, int vb, std::array<int, 3> ob) {
+    if (va > vb) {
+      std::swap(va, vb);
+      std::swap(oa, ob);
     }
-    // Mid-edge nodes: one per unwrapped edge (pair of vertex copies), master = the first mid-edge node
-    // of the same periodic edge.
-    std::map<std::pair<int, int>, int> mid;
-    std::map<Key3, int> periodic_mid;
-    std::vector<char> curved;  // per node: mid-edge node on a circle
-    for (std::size_t e = 0; e < m.elements.size(); ++e) {
-      auto& el = m.elements[e];
-      for (int k = 0; k < 6; ++k) {
-        const int a = fe::kTet10Edges[k][0], b = fe::kTet10Edges[k][1];
-        const auto key = std::minmax(el[a], el[b]);
-        auto it = mid.find(key);
-        if (it != mid.end()) {
-          el[4 + k] = it->second;
-          continue;
-        }
-        const int id = int(m.nodes.size());
-        m.nodes.push_back(0.5 * (m.nodes[el[a]] + m.nodes[el[b]]));
-        const Key3 pk = edge_key(cells[e][a].v, cells[e][a].off, cells[e][b].v, cells[e][b].off);
-        auto pm = periodic_mid.find(pk);
-        if (pm == periodic_mid.end()) pm = periodic_mid.emplace(pk, id).first;
-        m.master.push_back(pm->second);
-        curved.resize(m.nodes.size(), 0);
-        if (o.curved_interfaces && interface_edges.count(pk)) curved[id] = project(m.nodes[id], 0.25);
-        mid.emplace(key, id);
-        el[4 + k] = id;
+    const int code = (ob[0] - oa[0] + 1) + 3 * (ob[1] - oa[1] + 1) + 9 * (ob[2] - oa[2] + 1);
+    return Key3(va, vb, code);
+  }
+  std::array<int, 3> offset_of(Tr::Cell_handle c, int i) const {
+    const auto off = tr_.int_to_off(c->offset(i));
+    return std::array<int, 3>{off.x(), off.y(), off.z()};
+  }
+  int vertex_id(Tr::Cell_handle c, int i) const { return vid_.at(c->vertex(i)); }
+
+  void label_cells();
+  void classify(bool repair);
+  void relabel_surface_cells();
+  void collect_interface(bool repair);
+  double interface_offset() const;
+  std::vector<std::array<Corner, 4>> add_vertex_nodes(CellMesh& m) const;
+  void add_mid_edge_nodes(CellMesh& m, const std::vector<std::array<Corner, 4>>& cells, EdgeNodes& mid,
+                          std::vector<char>& curved) const;
+  void straighten_folded(CellMesh& m, const EdgeNodes& mid, std::vector<char>& curved) const;
+
+  const CellGeometry& g_;
+  const C3t3& c3t3_;
+  const Tr& tr_;
+  std::unordered_map<Tr::Vertex_handle, int> vid_;
+  std::vector<Vec3d> canon_raw_, canon_;  // canonical vertex positions: as CGAL gives them, as built
+  std::unordered_map<Tr::Cell_handle, int> cgal_phase_, cell_phase_;  // 1 fiber, 0 matrix
+  std::vector<char> on_surface_;
+  std::map<Key3, char> interface_edges_;
+};
+
+Tet10Builder::Tet10Builder(const CellGeometry& g, const C3t3& c3t3) : g_(g), c3t3_(c3t3), tr_(c3t3.triangulation()) {
+  for (auto v = tr_.finite_vertices_begin(); v != tr_.finite_vertices_end(); ++v) {
+    vid_[v] = int(canon_raw_.size());
+    const auto& p = tr_.point(v);
+    canon_raw_.emplace_back(p.x() * g.L1, p.y() * g.L2, p.z() * g.L3);
+  }
+  canon_ = canon_raw_;
+  label_cells();
+}
+
+/// Phase of every cell: CGAL's subdomain; cells CGAL left out of its complex (dummy-point cells of
+/// the periodic triangulation) get the label at their centroid.
+void Tet10Builder::label_cells() {
+  for (auto c = tr_.finite_cells_begin(); c != tr_.finite_cells_end(); ++c) {
+    int sd = int(c3t3_.subdomain_index(c));
+    if (sd == 0) {
+      ++unlabeled;
+      Vec3d x = Vec3d::Zero();
+      for (int i = 0; i < 4; ++i) x += 0.25 * g_.shifted(canon_raw_[vertex_id(c, i)], offset_of(c, i));
+      x = Vec3d(wrap(x[0], g_.L1), wrap(x[1], g_.L2), x[2]);
+      sd = g_.inside(Vec2(x[0], x[1])) ? 2 : 1;
+    }
+    cgal_phase_[c] = sd == 2 ? 1 : 0;
+  }
+  cell_phase_ = cgal_phase_;
+}
+
+/// Phase labels and interface (curved) facets. repair = true: the geometric repairs; false: CGAL's
+/// labels and surface facets as they are (the fallback when a repaired mesh folds).
+void Tet10Builder::classify(bool repair) {
+  cell_phase_ = cgal_phase_;
+  relabeled = facets_not_in_complex = 0;
+  on_surface_.assign(canon_.size(), 0);
+  interface_edges_.clear();
+  if (repair) relabel_surface_cells();
+  collect_interface(repair);
+}
+
+/// A matrix cell whose four vertices all lie on one circular fiber surface is inside that fiber (the
+/// convex hull of points on a convex surface): CGAL labels cells by their circumcentre, which for
+/// such flat surface cells can lie outside. Relabelled as fiber, so the phase volumes follow the
+/// geometry (measured: up to 4e-4 of the fiber volume in 1–4 such cells at L/3–L/5).
+void Tet10Builder::relabel_surface_cells() {
+  for (auto c = tr_.finite_cells_begin(); c != tr_.finite_cells_end(); ++c) {
+    if (cell_phase_.at(c) != 0) continue;
+    const int k0 = g_.surface_circle(canon_[vertex_id(c, 0)]);
+    bool all = k0 >= 0;
+    for (int i = 1; i < 4 && all; ++i) all = g_.surface_circle(canon_[vertex_id(c, i)]) == k0;
+    if (all) {
+      cell_phase_[c] = 1;
+      ++relabeled;
+    }
+  }
+}
+
+/// Interface facets: every facet between a fiber and a matrix cell (not only CGAL's complex facets:
+/// the centroid-labelled cells and the sliver exuder's relabelled cells also bound the phases, and
+/// the curved geometry must follow the phase boundary the solver sees); without repair only the
+/// mesher's own surface facets.
+void Tet10Builder::collect_interface(bool repair) {
+  for (auto c = tr_.finite_cells_begin(); c != tr_.finite_cells_end(); ++c) {
+    if (cell_phase_.at(c) != 1) continue;
+    for (int fi = 0; fi < 4; ++fi) {
+      if (cell_phase_.at(c->neighbor(fi)) != 0) continue;
+      if (!c3t3_.is_in_complex(c, fi)) {
+        ++facets_not_in_complex;
+        if (!repair) continue;
+      }
+      std::array<int, 3> idx;
+      int n = 0;
+      for (int i = 0; i < 4; ++i)
+        if (i != fi) idx[n++] = i;
+      for (int a = 0; a < 3; ++a) {
+        on_surface_[vertex_id(c, idx[a])] = 1;
+        const int b = (a + 1) % 3;
+        interface_edges_[edge_key(vertex_id(c, idx[a]), offset_of(c, idx[a]), vertex_id(c, idx[b]),
+                                  offset_of(c, idx[b]))] = 1;
       }
     }
-    // An element folded by the curved mid-edge nodes (possible where CGAL leaves a flat element on a
-    // strongly curved surface patch) gets those mid-edge nodes back on the chords, for every periodic
-    // copy of the edge.
-    for (int pass = 0; pass < 3; ++pass) {
-      std::set<int> straighten;  // masters of mid-edge nodes
-      for (int e = 0; e < m.num_elements(); ++e)
-        if (min_jacobian(m, e) <= 0.0)
-          for (int k = 0; k < 6; ++k)
-            if (curved[m.elements[e][4 + k]]) straighten.insert(m.master[m.elements[e][4 + k]]);
-      if (straighten.empty()) break;
-      for (const auto& kv : mid)
-        if (curved[kv.second] && straighten.count(m.master[kv.second])) {
-          m.nodes[kv.second] = 0.5 * (m.nodes[kv.first.first] + m.nodes[kv.first.second]);
-          curved[kv.second] = 0;
-        }
-    }
-    for (int e = 0; e < m.num_elements(); ++e)
-      if (!(min_jacobian(m, e) > 0.0)) return false;
-    return true;
+  }
+}
+
+/// Largest distance of an interface vertex from the fiber surface (relative to the radius; circles):
+/// CGAL puts surface vertices on the surface, so anything above round-off is a vertex of a phase
+/// boundary facet that is not a surface facet (a geometry error of the phase volumes).
+double Tet10Builder::interface_offset() const {
+  double worst = 0.0;
+  for (std::size_t v = 0; v < canon_.size(); ++v) {
+    if (!on_surface_[v]) continue;
+    const Vec2 w(wrap(canon_[v][0], g_.L1), wrap(canon_[v][1], g_.L2));
+    double d;
+    const int k = g_.nearest(w, d);
+    if (k >= 0 && g_.fibers[k].f.shape == SectionShape::circle) worst = std::max(worst, d / g_.fibers[k].f.radius);
+  }
+  return worst;
+}
+
+/// The vertex nodes: one per vertex copy an element uses (master = the vertex's first copy), and the
+/// elements' corners (CGAL's cells are positively oriented by exact predicates; a floating-point
+/// determinant of a flat cell may have either sign, so the order is kept as CGAL gives it).
+std::vector<std::array<Tet10Builder::Corner, 4>> Tet10Builder::add_vertex_nodes(CellMesh& m) const {
+  std::unordered_map<long, int> copy_node;  // vertex * 27 + offset code → node
+  std::vector<int> first_copy(canon_.size(), -1);
+  auto vertex_node = [&](int v, const std::array<int, 3>& off) {
+    const long key = long(v) * 27 + (off[0] + 1) + 3 * (off[1] + 1) + 9 * (off[2] + 1);
+    auto it = copy_node.find(key);
+    if (it != copy_node.end()) return it->second;
+    const int id = int(m.nodes.size());
+    m.nodes.push_back(g_.shifted(canon_[v], off));
+    if (first_copy[v] < 0) first_copy[v] = id;
+    m.master.push_back(first_copy[v]);
+    copy_node.emplace(key, id);
+    return id;
   };
+  std::vector<std::array<Corner, 4>> cells;
+  for (auto c = tr_.finite_cells_begin(); c != tr_.finite_cells_end(); ++c) {
+    std::array<Corner, 4> cs;
+    for (int i = 0; i < 4; ++i) cs[i] = {vertex_id(c, i), offset_of(c, i)};
+    std::array<int, 10> el;
+    for (int i = 0; i < 4; ++i) el[i] = vertex_node(cs[i].v, cs[i].off);
+    m.elements.push_back(el);
+    m.phase.push_back(cell_phase_.at(c) == 1 ? 1 : 0);
+    cells.push_back(cs);
+  }
+  return cells;
+}
+
+/// Mid-edge nodes: one per unwrapped edge (pair of vertex copies), master = the first mid-edge node of
+/// the same periodic edge; on an interface edge projected onto the circle (`curved`: per node). Mid-edge
+/// nodes of an interface chord are inside by the sagitta ≤ h²/(8r); anything farther than 0.25 r is not
+/// an interface node.
+void Tet10Builder::add_mid_edge_nodes(CellMesh& m, const std::vector<std::array<Corner, 4>>& cells, EdgeNodes& mid,
+                                      std::vector<char>& curved) const {
+  std::map<Key3, int> periodic_mid;
+  for (std::size_t e = 0; e < m.elements.size(); ++e) {
+    auto& el = m.elements[e];
+    for (int k = 0; k < 6; ++k) {
+      const int a = fe::kTet10Edges[k][0], b = fe::kTet10Edges[k][1];
+      const auto key = std::minmax(el[a], el[b]);
+      auto it = mid.find(key);
+      if (it != mid.end()) {
+        el[4 + k] = it->second;
+        continue;
+      }
+      const int id = int(m.nodes.size());
+      m.nodes.push_back(0.5 * (m.nodes[el[a]] + m.nodes[el[b]]));
+      const Key3 pk = edge_key(cells[e][a].v, cells[e][a].off, cells[e][b].v, cells[e][b].off);
+      auto pm = periodic_mid.find(pk);
+      if (pm == periodic_mid.end()) pm = periodic_mid.emplace(pk, id).first;
+      m.master.push_back(pm->second);
+      curved.resize(m.nodes.size(), 0);
+      if (g_.o.curved_interfaces && interface_edges_.count(pk)) curved[id] = g_.project(m.nodes[id], 0.25);
+      mid.emplace(key, id);
+      el[4 + k] = id;
+    }
+  }
+}
+
+/// An element folded by the curved mid-edge nodes (possible where CGAL leaves a flat element on a
+/// strongly curved surface patch) gets those mid-edge nodes back on the chords, for every periodic
+/// copy of the edge.
+void Tet10Builder::straighten_folded(CellMesh& m, const EdgeNodes& mid, std::vector<char>& curved) const {
+  for (int pass = 0; pass < 3; ++pass) {
+    std::set<int> straighten;  // masters of mid-edge nodes
+    for (int e = 0; e < m.num_elements(); ++e)
+      if (min_jacobian(m, e) <= 0.0)
+        for (int k = 0; k < 6; ++k)
+          if (curved[m.elements[e][4 + k]]) straighten.insert(m.master[m.elements[e][4 + k]]);
+    if (straighten.empty()) break;
+    for (const auto& kv : mid)
+      if (curved[kv.second] && straighten.count(m.master[kv.second])) {
+        m.nodes[kv.second] = 0.5 * (m.nodes[kv.first.first] + m.nodes[kv.first.second]);
+        curved[kv.second] = 0;
+      }
+  }
+}
+
+// Interface vertices: CGAL's surface vertices lie on the surface to its error bound, but a phase
+// boundary facet can keep a vertex CGAL did not insert on the surface (measured: a vertex 0.27 r
+// outside the cylinder shared by four fiber cells at mesh_size L/4, every seed, +1.3e-3 fiber
+// volume, P11 6e-4 too stiff). Those are moved onto the surface as well (up to vertex_limit · r).
+bool Tet10Builder::build(double vertex_limit, bool repair, CellMesh& m) {
+  canon_ = canon_raw_;
+  classify(repair);
+  if (g_.o.curved_interfaces)
+    for (std::size_t v = 0; v < canon_.size(); ++v)
+      if (on_surface_[v]) g_.project(canon_[v], vertex_limit);
+  max_offset = interface_offset();
+  m = CellMesh{};
+  m.L1 = g_.L1;
+  m.L2 = g_.L2;
+  m.L3 = g_.L3;
+  m.vertices = int(canon_.size());
+  const std::vector<std::array<Corner, 4>> cells = add_vertex_nodes(m);
+  EdgeNodes mid;
+  std::vector<char> curved;  // per node: mid-edge node on a circle
+  add_mid_edge_nodes(m, cells, mid, curved);
+  straighten_folded(m, mid, curved);
+  for (int e = 0; e < m.num_elements(); ++e)
+    if (!(min_jacobian(m, e) > 0.0)) return false;
+  return true;
+}
+
+CellMesh mesh_cell_with_seed(const Section& section, const CellMeshOptions& options) {
+  const CellGeometry g(section, options);
+  const auto t_mesh = std::chrono::steady_clock::now();
+  const C3t3 c3t3 = run_cgal_mesher(g);
+  const double mesher_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_mesh).count();
+  if (!c3t3.triangulation().is_1_cover())
+    throw std::runtime_error("periodic cell mesh: CGAL's triangulation is not a 1-cover");
+  Tet10Builder builder(g, c3t3);
   CellMesh m;
-  // Repaired geometry first (far interface vertices projected, surface cells relabelled); if that
-  // folds an element, the 0.25 r limit; then CGAL's labels and surface facets unchanged (measured on
-  // the VF 0.23 cell, seeds 1–3, L/3–L/6: 4 of 12 meshes need a fallback).
-  if (!build(0.5, true, m) && !build(0.25, true, m) && !build(0.25, false, m))
+  // Repaired geometry first (far interface vertices projected up to 0.5 r, surface cells relabelled);
+  // if that folds an element, the 0.25 r limit of the mid-edge nodes; then CGAL's labels and surface
+  // facets unchanged (measured on the VF 0.23 cell, seeds 1–3, L/3–L/6: 4 of 12 meshes need a fallback).
+  if (!builder.build(0.5, true, m) && !builder.build(0.25, true, m) && !builder.build(0.25, false, m))
     throw std::runtime_error(kFoldedElement);
 
   CellMeshQuality& q = m.quality;
   measure_tet_quality(m, q);
-  q.aspect_stretch = Lmax / L.minCoeff();
-  q.unlabeled_cells = unlabeled;
-  q.relabeled_cells = relabeled;
-  q.interface_facets_not_in_complex = facets_not_in_complex;
-  q.max_interface_offset = max_offset;
+  q.aspect_stretch = g.Lmax / g.L.minCoeff();
+  q.unlabeled_cells = builder.unlabeled;
+  q.relabeled_cells = builder.relabeled;
+  q.interface_facets_not_in_complex = builder.facets_not_in_complex;
+  q.max_interface_offset = builder.max_offset;
   q.mesh_seconds = mesher_seconds;
   if (std::getenv("SOFTHOM_MESH3D_DEBUG"))
-    std::fprintf(stderr, "mesh_cell: %d cells outside CGAL's complex (phase from the centroid)\n", unlabeled);
+    std::fprintf(stderr, "mesh_cell: %d cells outside CGAL's complex (phase from the centroid)\n", builder.unlabeled);
   for (int i = 0; i < m.num_nodes(); ++i) q.periodic_copies += m.master[i] != i;
   q.max_pairing_error = verify_periodic_cell_mesh(m);
-  const double exact = fiber_area(section) * L3;
+  const double exact = detail::fiber_area(section) * g.L3;
   q.fiber_volume_error = exact > 0.0 ? std::abs(m.volume(1) - exact) / exact : 0.0;
   return m;
 }

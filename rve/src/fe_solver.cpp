@@ -759,21 +759,83 @@ struct Model {
     return out;
   }
 
-  StepOutcome step(const MixedControl& control, double t_new, double dt) {
-    StepOutcome out;
+  /// What a sub-step prescribes: the mixed control at t_new.
+  struct StepTargets {
     std::array<bool, 9> free{};
     Vec9 P_target = Vec9::Zero();
-    Mat3 target = Fbar;
-    for (int c = 0; c < 9; ++c) {
-      free[c] = control.kind[c] == ControlKind::stress;
-      if (free[c]) P_target[c] = control.value[c](t_new);
-      else target(c / 3, c % 3) = control.value[c](t_new);
-    }
-    // State of the last accepted iterate and the Newton direction.
+    Mat3 target;  // prescribed components of F̄ (the others as F̄ at the start)
+  };
+  /// The last accepted iterate (ũ, internal unknowns, F̄) and the Newton direction from it.
+  struct NewtonDirection {
     std::vector<double> ut0, in0, dx, di;
-    Mat3 F0 = Fbar;
+    Mat3 F0;
     Vec9 dF = Vec9::Zero();
     bool had_prescribed_step = false;
+  };
+
+  /// F̄_target − F̄ on the prescribed components (zero on the free ones).
+  Vec9 prescribed_gap(const StepTargets& s) const {
+    Vec9 dFp = Vec9::Zero();
+    for (int c = 0; c < 9; ++c)
+      if (!s.free[c]) dFp[c] = s.target(c / 3, c % 3) - Fbar(c / 3, c % 3);
+    return dFp;
+  }
+
+  /// Backtracking line search along the Newton direction; false (out.why set) when it fails.
+  bool search_line(const StepTargets& s, const NewtonDirection& n, double dt, StepOutcome& out) {
+    MaterialStatus last = MaterialStatus::ok;
+    auto trial = [&](double scale) -> std::optional<double> {
+      for (int i = 0; i < nn; ++i)
+        for (int c = 0; c < 3; ++c) {
+          const int g = node_eq[3 * i + c];
+          ut[3 * i + c] = n.ut0[3 * i + c] + (g >= 0 ? scale * n.dx[g] : 0.0);
+        }
+      Fbar = n.F0 + scale * unflatten(n.dF);
+      for (std::size_t k = 0; k < internal.size(); ++k) internal[k] = n.in0[k] + scale * n.di[k];
+      // Prescribed components reached exactly (no round-off drift).
+      if (n.had_prescribed_step && scale == 1.0)
+        for (int c = 0; c < 9; ++c)
+          if (!s.free[c]) Fbar(c / 3, c % 3) = s.target(c / 3, c % 3);
+      last = evaluate(dt, true, prescribed_gap(s));
+      if (last != MaterialStatus::ok) return std::nullopt;
+      apply_targets(s.P_target);
+      return merit();
+    };
+    if (fe::backtracking_line_search(merit(), n.had_prescribed_step, trial).accepted) return true;
+    out.why = last != MaterialStatus::ok ? std::string("material call failed (") + to_string(last) + ")"
+                                         : std::string("line search failed");
+    return false;
+  }
+
+  /// Newton direction: K dx = −r_eff − K_{:,p} ΔF_p, from the current iterate (which becomes the
+  /// accepted one); false when the tangent is singular.
+  bool newton_direction(const StepTargets& s, bool reached, NewtonDirection& n) {
+    const Vec9 dFp_now = prescribed_gap(s);
+    std::vector<double> b(n_eq);
+    for (int i = 0; i < n_eq; ++i) b[i] = -r_eff[i] - (reached ? 0.0 : r_pred[i]);
+    if (!solve(b, n.dx)) return false;
+    n.dF = dFp_now;
+    for (int c = 0; c < 9; ++c)
+      if (macro_eq[c] >= 0) n.dF[c] = n.dx[macro_eq[c]];
+    element_increments(n.dx, n.dF, n.di);
+    n.ut0 = ut;
+    n.in0 = internal;
+    n.F0 = Fbar;
+    n.had_prescribed_step = !reached;
+    return true;
+  }
+
+  StepOutcome step(const MixedControl& control, double t_new, double dt) {
+    StepOutcome out;
+    StepTargets s;
+    s.target = Fbar;
+    for (int c = 0; c < 9; ++c) {
+      s.free[c] = control.kind[c] == ControlKind::stress;
+      if (s.free[c]) s.P_target[c] = control.value[c](t_new);
+      else s.target(c / 3, c % 3) = control.value[c](t_new);
+    }
+    NewtonDirection n;
+    n.F0 = Fbar;
     double err = 0.0, first_err = -1.0;
     if (std::string why = detail::target_inverts(control, t_new, Fbar_c); !why.empty()) {
       out.fatal = true;
@@ -785,49 +847,20 @@ struct Model {
         out.why = "stopped by a signal";
         return out;
       }
-      Vec9 dFp = Vec9::Zero();
-      for (int c = 0; c < 9; ++c)
-        if (!free[c]) dFp[c] = target(c / 3, c % 3) - Fbar(c / 3, c % 3);
       if (it == 0) {
-        const MaterialStatus s = evaluate(dt, true, dFp);
-        if (s != MaterialStatus::ok) {
-          out.why = std::string("material call failed (") + to_string(s) + ")";
+        const MaterialStatus status = evaluate(dt, true, prescribed_gap(s));
+        if (status != MaterialStatus::ok) {
+          out.why = std::string("material call failed (") + to_string(status) + ")";
           return out;
         }
-        apply_targets(P_target);
-      } else {
-        MaterialStatus last = MaterialStatus::ok;
-        auto trial = [&](double scale) -> std::optional<double> {
-          for (int i = 0; i < nn; ++i)
-            for (int c = 0; c < 3; ++c) {
-              const int g = node_eq[3 * i + c];
-              ut[3 * i + c] = ut0[3 * i + c] + (g >= 0 ? scale * dx[g] : 0.0);
-            }
-          Fbar = F0 + scale * unflatten(dF);
-          for (std::size_t k = 0; k < internal.size(); ++k) internal[k] = in0[k] + scale * di[k];
-          // Prescribed components reached exactly (no round-off drift).
-          if (had_prescribed_step && scale == 1.0)
-            for (int c = 0; c < 9; ++c)
-              if (!free[c]) Fbar(c / 3, c % 3) = target(c / 3, c % 3);
-          Vec9 dFp_now = Vec9::Zero();
-          for (int c = 0; c < 9; ++c)
-            if (!free[c]) dFp_now[c] = target(c / 3, c % 3) - Fbar(c / 3, c % 3);
-          last = evaluate(dt, true, dFp_now);
-          if (last != MaterialStatus::ok) return std::nullopt;
-          apply_targets(P_target);
-          return merit();
-        };
-        const bool accepted = fe::backtracking_line_search(merit(), had_prescribed_step, trial).accepted;
-        if (!accepted) {
-          out.why = last != MaterialStatus::ok ? std::string("material call failed (") + to_string(last) + ")"
-                                               : std::string("line search failed");
-          return out;
-        }
+        apply_targets(s.P_target);
+      } else if (!search_line(s, n, dt, out)) {
+        return out;
       }
       bool reached = true;
       for (int c = 0; c < 9; ++c)
-        if (!free[c] && Fbar(c / 3, c % 3) != target(c / 3, c % 3)) reached = false;
-      err = error(free, P_target);
+        if (!s.free[c] && Fbar(c / 3, c % 3) != s.target(c / 3, c % 3)) reached = false;
+      err = error(s.free, s.P_target);
       out.residuals.push_back(err);
       if (!std::isfinite(err)) {
         out.why = "non-finite residual";
@@ -836,7 +869,7 @@ struct Model {
       // Convergence, or stagnation at the round-off floor of stresses ~ K (J − 1) (K/G up to 1.2e5):
       // the residual of a nearly incompressible phase cannot drop below ~eps K.
       const double noise = 64.0 * std::numeric_limits<double>::epsilon() * K_max *
-                           (1.0 + Fbar.cwiseAbs().maxCoeff()) / stress_scale(free, P_target);
+                           (1.0 + Fbar.cwiseAbs().maxCoeff()) / stress_scale(s.free, s.P_target);
       if (reached && (err <= opt.tolerance || (it >= 2 && err <= noise))) return converged(out);
       if (it == opt.max_newton_iterations) break;
       if (reached) {
@@ -846,24 +879,10 @@ struct Model {
           return out;
         }
       }
-      // Newton direction: K dx = −r_eff − K_{:,p} ΔF_p.
-      Vec9 dFp_now = Vec9::Zero();
-      for (int c = 0; c < 9; ++c)
-        if (!free[c]) dFp_now[c] = target(c / 3, c % 3) - Fbar(c / 3, c % 3);
-      std::vector<double> b(n_eq);
-      for (int i = 0; i < n_eq; ++i) b[i] = -r_eff[i] - (reached ? 0.0 : r_pred[i]);
-      if (!solve(b, dx)) {
+      if (!newton_direction(s, reached, n)) {
         out.why = "singular tangent";
         return out;
       }
-      dF = dFp_now;
-      for (int c = 0; c < 9; ++c)
-        if (macro_eq[c] >= 0) dF[c] = dx[macro_eq[c]];
-      element_increments(dx, dF, di);
-      ut0 = ut;
-      in0 = internal;
-      F0 = Fbar;
-      had_prescribed_step = !reached;
       ++out.newton_iterations;
     }
     out.why = "no convergence in " + std::to_string(opt.max_newton_iterations) + " Newton iterations (residual " +

@@ -418,6 +418,14 @@ MaterialStatus FftRveSolver::Impl::evaluate_streamed(const Mat3& Fbar_grid, doub
     }
   }
   if (failure) return MaterialStatus(failure);
+  streamed_residual(free, P_target, correction, r, err);
+  return MaterialStatus::ok;
+}
+
+void FftRveSolver::Impl::streamed_residual(const std::array<bool, 9>& free, const Vec9& P_target,
+                                           const Vec9& correction, KVec& r, double& err) {
+  constexpr int B = fft::StencilGradient::kBatch;
+  const double invN = 1.0 / double(Ntot);
   fft3->forward();
   const Complex* s3 = fft3->spectrum(0);
   r.u.resize(3 * NM);
@@ -426,7 +434,7 @@ MaterialStatus FftRveSolver::Impl::evaluate_streamed(const Mat3& Fbar_grid, doub
   if (!pressures.active()) {
     macro_residual(free, P_target, r);
     err = residual_norm(r, free, P_target);
-    return MaterialStatus::ok;
+    return;
   }
   // Merit of P̂: Dᴴ P̂ = r_u − Dᴴ (P_full − P̂), the correction's divergence in fft3.
 #pragma omp parallel
@@ -446,7 +454,6 @@ MaterialStatus FftRveSolver::Impl::evaluate_streamed(const Mat3& Fbar_grid, doub
   err = residual_norm(r, free, P_target);
   true_merit = merit;
   merit = merit_hat;
-  return MaterialStatus::ok;
 }
 
 MaterialStatus FftRveSolver::Impl::evaluate_start() {

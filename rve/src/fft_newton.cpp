@@ -82,132 +82,40 @@ void FftRveSolver::Impl::move_to_accepted(const KVec& dx, double& applied, const
 
 FftRveSolver::Impl::StepOutcome FftRveSolver::Impl::step(const MixedControl& control, double t_new, double dt) {
   StepOutcome out;
-  std::array<bool, 9> free{};
-  Vec9 P_target = Vec9::Zero();
-  Mat3 target = Fbar;  // prescribed components at t_new
+  NewtonState s;
+  s.t_new = t_new;
+  s.dt = dt;
+  s.target = Fbar;
   for (int c = 0; c < 9; ++c) {
-    free[c] = control.kind[c] == ControlKind::stress;
-    if (free[c])
-      P_target[c] = control.value[c](t_new);
+    s.free[c] = control.kind[c] == ControlKind::stress;
+    if (s.free[c])
+      s.P_target[c] = control.value[c](t_new);
     else
-      target(c / 3, c % 3) = control.value[c](t_new);
+      s.target(c / 3, c % 3) = control.value[c](t_new);
   }
-  KVec r{std::vector<Complex>(3 * NM), Vec9::Zero()}, dx;
+  s.r = KVec{std::vector<Complex>(3 * NM), Vec9::Zero()};
   if (std::string why = detail::target_inverts(control, t_new, Fbar_committed); !why.empty()) return fatal(out, why);
-  if (opt.scheme == FftScheme::moulinec_suquet) return fixed_point(free, P_target, target, dt, r);
+  if (opt.scheme == FftScheme::moulinec_suquet) return fixed_point(s.free, s.P_target, s.target, dt, s.r);
 
-  int max_it = opt.max_newton_iterations;
-  double err = 0.0, first_err = -1.0;
-  // Pseudo-transient continuation (FftSolverOptions::max_continuation_iterations), entered when
-  // Newton stagnates: shift δ of the reference medium, residual of the previous iterate.
-  bool continuation = false;
-  // MINRES for negative curvature near the solution: always (indefinite_solver = minres), or once the
-  // shifted iteration has stalled (minres_fallback).
-  bool minres_mode = opt.indefinite_solver == IndefiniteSolver::minres;
-  double ptc_shift = 0.0, ptc_err = 0.0;
-  // The last accepted iterate is u − applied · dx (no copy of ũ kept): the line search moves u along dx.
-  double applied = 0.0;
-  Mat3 Fbar_prev = Fbar, step_macro = Mat3::Zero();
-  bool had_prescribed_step = false;
+  s.max_it = opt.max_newton_iterations;
+  s.minres_mode = opt.indefinite_solver == IndefiniteSolver::minres;
+  s.Fbar_prev = Fbar;
   // The predictor takes the extrapolated pressure (or, at the committed state, the exact W_V′(J),
   // which is what the linearization there would give); every later iterate takes its pressure from
   // the linearization at the last accepted state (see PressureIteration::correct()).
   pressures.linearized = false;
-  double lm_shift = 0.0;
-  bool full_first_step = false;
-  bool extrapolated = false;  // the step starts from the extrapolated predictor (else the tangent predictor)
-  for (int it = 0; it <= max_it; ++it) {
+  for (int it = 0; it <= s.max_it; ++it) {
     if (stop_now()) {
       out.why = "stopped by a signal";
       return out;
     }
     // Evaluate the new iterate. After a Newton update, a backtracking line search on the residual
     // norm: nearly incompressible matrices (K/G ~ 1e5) make full Newton steps overshoot in J.
-    if (it == 0) {
-      // Predictor: linear extrapolation of the last converged increment (prescribed components set
-      // exactly); the path is smooth, so this lands much closer to the solution than the tangent
-      // predictor when the matrix is nearly incompressible. Falls back to the tangent predictor.
-      extrapolated = false;
-      if (extrapolate && dt_last > 0.0 && !du_last.empty()) {
-        const double ratio = dt / dt_last;
-        for (std::size_t i = 0; i < u.size(); ++i) u[i] = u_committed[i] + ratio * Complex(du_last[i]);
-        Fbar = Fbar_committed + ratio * dF_last;
-        for (int c = 0; c < 9; ++c)
-          if (!free[c]) Fbar(c / 3, c % 3) = target(c / 3, c % 3);
-        pressures.predictor_ratio = ratio;
-        extrapolated = evaluate_iterate(dt, true, free, P_target, r, err) == MaterialStatus::ok;
-        pressures.predictor_ratio = -1.0;
-        if (!extrapolated) restore();
-        // Its merit (extrapolated pressure) is not comparable with the Newton iterates' (pressure
-        // reset to the constraint's linearization), so the first Newton step is taken in full.
-        else if (pressures.active()) full_first_step = true;
-      }
-      const MaterialStatus s = extrapolated ? MaterialStatus::ok : evaluate_iterate(dt, true, free, P_target, r, err);
-      if (s != MaterialStatus::ok) {
-        out.why = std::string("material call failed (") + to_string(s) + ")";
-        return out;
-      }
-      pressures.linearized = pressures.active();
-    } else {
-      MaterialStatus last = MaterialStatus::ok;
-      int trials = 0;
-      auto trial = [&](double scale) -> std::optional<double> {
-        if (pressures.active() && (trials++ > 0 || opt.relinearize_every_trial)) {
-          // The previous trial was rejected and left its linearization (all of it, or part after a
-          // material failure): back to the accepted iterate (applied = 0) and its linearization before
-          // this trial reads it (FftSolverOptions::relinearize_every_trial: before every trial, a check).
-          // A trial evaluated with the rejected one's linearization would still converge to the same
-          // stress, by another path.
-          move_to_accepted(dx, applied, Fbar_prev);
-          relinearize_pressures(to_grid(Fbar));
-        }
-        const double move = scale - applied;
-#pragma omp parallel for schedule(static)
-        for (std::size_t i = 0; i < u.size(); ++i) u[i] += move * dx.u[i];
-        applied = scale;
-        Fbar = Fbar_prev + scale * step_macro;
-        last = evaluate_iterate(dt, true, free, P_target, r, err);
-        if (last != MaterialStatus::ok) return std::nullopt;
-        if (!std::isfinite(err)) return std::nullopt;
-        return merit;
-      };
-      // Continuation accepts any admissible iterate: on the way from the end of one equilibrium
-      // branch to the next the residual has to grow before it falls.
-      // Mixed iteration: the trials are measured with the pressure linearized at the accepted
-      // iterate x_k, which reproduces W_V′ there, so the reference is x_k's true residual; the
-      // merit x_k was accepted with (the previous linearization's) is not comparable and, taken as
-      // the reference, let the true residual grow several-fold or held the step to the last trial
-      // (BENCHMARKS.md, "FFT Newton iterations: the line search's reference").
-      const double merit_accepted = pressures.active() ? true_merit : merit;
-      const bool accepted =
-          fe::backtracking_line_search(merit_accepted, continuation || had_prescribed_step, trial).accepted;
-      if (!accepted) {
-        out.why = last != MaterialStatus::ok ? std::string("material call failed (") + to_string(last) + ")"
-                                             : std::string("line search failed");
-        // Diagnose the last accepted iterate, not the rejected trial (an overshooting full step of a
-        // nearly incompressible matrix can be arbitrarily far from anything the cell can reach).
-        // r holds the right-hand side of the last solve: re-evaluate the restored iterate's residual,
-        // with its linearization (the trials overwrote it).
-        // The composite points start their laminate solves from the committed jump vectors: the
-        // failed trials left theirs, from which a solve at the accepted F can fail too and leave the
-        // diagnosis without a residual (RveStops.FftFailedLineSearchIsDiagnosedAtTheAcceptedIterate).
-        move_to_accepted(dx, applied, Fbar_prev);
-        lam_a_trial = lam_a;
-        if (pressures.active()) relinearize_pressures(to_grid(Fbar));
-        double accepted_err = 0.0;
-        const MaterialStatus again = evaluate_iterate(dt, false, free, P_target, r, accepted_err);
-        // Without its residual the hot spots would name a zero force at voxel (0, 0, 0): say so instead.
-        out.why += again == MaterialStatus::ok
-                       ? "; " + describe(hot_spots(r))
-                       : std::string("; the last accepted iterate could not be evaluated again (") + to_string(again) + ")";
-        return out;
-      }
-    }
+    if (!(it == 0 ? evaluate_predictor(s, out) : search_line(s, out))) return out;
+    const double err = s.err;
     out.residuals.push_back(err);
     if (opt.on_newton_iteration) opt.on_newton_iteration(t_new, it, err, out.krylov_iterations);
-    Mat3 dFp = Mat3::Zero();
-    for (int c = 0; c < 9; ++c)
-      if (!free[c]) dFp(c / 3, c % 3) = target(c / 3, c % 3) - Fbar(c / 3, c % 3);
+    const Mat3 dFp = prescribed_gap(s);
     const bool prescribed_reached = dFp.cwiseAbs().maxCoeff() == 0.0;
     if (!std::isfinite(err)) {
       out.why = "non-finite residual";
@@ -215,120 +123,227 @@ FftRveSolver::Impl::StepOutcome FftRveSolver::Impl::step(const MixedControl& con
     }
     // Round-off floor: stresses ~ K (J − 1) carry absolute errors ~ ε K (K/G = 1.2e5 for ecoflex), so
     // a relative tolerance below ε K / |P̄| cannot be reached; there the floor counts as convergence.
-    const double floor = 64.0 * std::numeric_limits<double>::epsilon() * K_max / stress_scale(free, P_target);
+    const double floor = 64.0 * std::numeric_limits<double>::epsilon() * K_max / stress_scale(s.free, s.P_target);
     if (prescribed_reached && err <= std::max(opt.tolerance, floor)) {
       return converged(out);
     }
-    if (continuation) {
-      // Switched evolution relaxation, one-sided: the shift follows a falling residual, so it
-      // vanishes (Newton) as the iteration closes in on an equilibrium, but is not raised while the
-      // residual grows on the way between branches (that would stall the descent); only an
-      // indefinite linear solve raises it (the Levenberg–Marquardt retry below).
-      ptc_shift *= std::clamp(err / ptc_err, 0.2, 1.0);
-      if (ptc_shift < 1e-9) ptc_shift = 0.0;
-      ptc_err = err;
-      ++out.continuation_iterations;
-    } else if (prescribed_reached && opt.max_continuation_iterations > 0 && it >= 10 &&
-               (it == max_it || err > 0.3 * out.residuals[out.residuals.size() - 4])) {
-      // Stagnation (less than a factor 3 in three iterations after ten): the branch has ended.
-      continuation = true;
-      ptc_shift = std::max(10.0 * lm_shift, 1e-2);
-      ptc_err = err;
-      max_it = it + opt.max_continuation_iterations;
-    }
-    if (it == max_it) {
-      if (!minres_mode && !continuation && opt.minres_fallback && prescribed_reached && err < opt.minres_below) {
-        // The shifted iteration stalls just above the tolerance next to a bifurcation point of the
-        // cell (singular tangent): take the exact Newton steps there (MINRES on negative curvature).
-        minres_mode = true;
-        lm_shift = 0.0;
-        max_it = it + opt.max_newton_iterations;
-        ++out.minres_fallbacks;
-      } else {
-        break;
-      }
-    }
+    follow_continuation(s, it, prescribed_reached, out);
+    if (it == s.max_it && !extend_with_minres(s, it, prescribed_reached, out)) break;
     if (prescribed_reached) {
-      if (first_err < 0.0) first_err = err;
-      if (err > 1e6 * std::max(first_err, opt.tolerance)) {
+      if (s.first_err < 0.0) s.first_err = err;
+      if (err > 1e6 * std::max(s.first_err, opt.tolerance)) {
         out.why = "Newton diverged";
         return out;
       }
     }
-    // The solve after the step's full linear increment (the extrapolated predictor's, else that after
-    // the tangent predictor's step, which is taken in full) starts where J − 1 = O(Δ∇u²) near the
-    // fibers, a pressure spike K (J − 1) that makes the tangent indefinite (composite voxels, whose
-    // laminate carries the law's own pressure): its shift must leave the dilatation free
-    // (shift_medium()). Later solves shift by C0 itself, which damps every mode alike and measured
-    // better once the spike is gone (BENCHMARKS.md, "FFT Newton iterations").
-    set_reference(it == 0 || (it == 1 && !extrapolated));
-    // Right-hand side −r − K [0; ΔF_p] (tangent predictor for the prescribed increment), formed in
-    // r's storage: r is not read again before the next evaluation overwrites it. The CG work vectors
-    // serve as e and K e (pcg overwrites them).
-    KVec& b = r;
-    for (auto& c : b.u) c = -c;
-    b.f = -b.f;
-    if (!prescribed_reached) {
-      KVec& e = dx;  // pcg() starts from zero
-      KVec& Ke = cg_p;
-      e.u.assign(3 * NM, 0.0);
-      e.f = flatten(dFp);
-      Ke.u.resize(3 * NM);
-      apply(e, free, Ke);
-      ++out.krylov_iterations;
-      axpy(-1.0, Ke, b);
-    }
-    // Forcing term (Eisenstat–Walker-like): loose while far from the solution, tight near it.
-    double eta = std::clamp(std::max(std::min(1e-2, err), 0.1 * opt.tolerance / std::max(err, 1e-300)), 1e-12, 0.1);
-    if (opt.krylov_tolerance > 0.0) eta = opt.krylov_tolerance;
-    // Indefinite tangent (large pressure or compression away from the solution): retry the linear
-    // solve as a Levenberg–Marquardt step with a shift of the reference medium, which grows by 10
-    // on each breakdown and starts the next Newton iteration ten times smaller.
-    bool breakdown = false;
-    double shift = continuation ? ptc_shift : lm_shift;
-    const double lin_tol = prescribed_reached ? eta : std::min(eta, 1e-3);
-    // The solve's residual lives in b's storage (one spectral vector less): after a breakdown b is
-    // recovered for the retry.
-    const bool rhs_in_place = !jacobi_green();
-    for (int attempt = 0; attempt < 8; ++attempt) {
-      const int cg_iterations = pcg(b, free, lin_tol, dx, shift, breakdown, rhs_in_place ? &b : nullptr);
-      out.krylov_iterations += cg_iterations;
-      if (!breakdown) break;
-      out.discarded_krylov_iterations += cg_iterations;
-      if (rhs_in_place) {
-        recover_rhs(b, dx, free, shift);
-        ++out.krylov_iterations;
-        ++out.discarded_krylov_iterations;
-      }
-      // Negative curvature near the solution (the residual is already small): an indefinite
-      // equilibrium tangent, not a transient of the iteration — solve it as it is (MINRES).
-      if (minres_mode && shift == 0.0 && prescribed_reached &&
-          err < opt.minres_below) {
-        bool converged = false;
-        const int minres_iterations = pminres(b, free, lin_tol, dx, converged);
-        out.krylov_iterations += minres_iterations;
-        if (!converged) out.discarded_krylov_iterations += minres_iterations;
-        ++out.minres_solves;
-        if (converged) {
-          breakdown = false;
-          break;
-        }
-      }
-      shift = shift == 0.0 ? 1e-3 : 10.0 * shift;
-      ++out.shifted_solves;
-    }
-    lm_shift = shift >= 1e-2 ? 0.1 * shift : 0.0;
-    if (continuation) ptc_shift = shift;
-    ++out.newton_iterations;
-    applied = 0.0;
-    Fbar_prev = Fbar;
-    step_macro = dFp + unflatten(dx.f);
-    had_prescribed_step = !prescribed_reached || (it == 0 && full_first_step);
+    solve_newton_step(s, it, dFp, prescribed_reached, out);
   }
   out.why = "no convergence in " + std::to_string(opt.max_newton_iterations) + " Newton iterations" +
-            (continuation ? " + " + std::to_string(out.continuation_iterations) + " continuation iterations" : std::string()) +
-            " (residual " + std::to_string(err) + "); " + describe(hot_spots(r));
+            (s.continuation ? " + " + std::to_string(out.continuation_iterations) + " continuation iterations"
+                            : std::string()) +
+            " (residual " + std::to_string(s.err) + "); " + describe(hot_spots(s.r));
   return out;
+}
+
+bool FftRveSolver::Impl::evaluate_predictor(NewtonState& s, StepOutcome& out) {
+  // Predictor: linear extrapolation of the last converged increment (prescribed components set
+  // exactly); the path is smooth, so this lands much closer to the solution than the tangent
+  // predictor when the matrix is nearly incompressible. Falls back to the tangent predictor.
+  s.extrapolated = false;
+  if (extrapolate && dt_last > 0.0 && !du_last.empty()) {
+    const double ratio = s.dt / dt_last;
+    for (std::size_t i = 0; i < u.size(); ++i) u[i] = u_committed[i] + ratio * Complex(du_last[i]);
+    Fbar = Fbar_committed + ratio * dF_last;
+    for (int c = 0; c < 9; ++c)
+      if (!s.free[c]) Fbar(c / 3, c % 3) = s.target(c / 3, c % 3);
+    pressures.predictor_ratio = ratio;
+    s.extrapolated = evaluate_iterate(s.dt, true, s.free, s.P_target, s.r, s.err) == MaterialStatus::ok;
+    pressures.predictor_ratio = -1.0;
+    if (!s.extrapolated) restore();
+    // Its merit (extrapolated pressure) is not comparable with the Newton iterates' (pressure
+    // reset to the constraint's linearization), so the first Newton step is taken in full.
+    else if (pressures.active()) s.full_first_step = true;
+  }
+  const MaterialStatus status =
+      s.extrapolated ? MaterialStatus::ok : evaluate_iterate(s.dt, true, s.free, s.P_target, s.r, s.err);
+  if (status != MaterialStatus::ok) {
+    out.why = std::string("material call failed (") + to_string(status) + ")";
+    return false;
+  }
+  pressures.linearized = pressures.active();
+  return true;
+}
+
+bool FftRveSolver::Impl::search_line(NewtonState& s, StepOutcome& out) {
+  MaterialStatus last = MaterialStatus::ok;
+  int trials = 0;
+  auto trial = [&](double scale) -> std::optional<double> {
+    if (pressures.active() && (trials++ > 0 || opt.relinearize_every_trial)) {
+      // The previous trial was rejected and left its linearization (all of it, or part after a
+      // material failure): back to the accepted iterate (applied = 0) and its linearization before
+      // this trial reads it (FftSolverOptions::relinearize_every_trial: before every trial, a check).
+      // A trial evaluated with the rejected one's linearization would still converge to the same
+      // stress, by another path.
+      move_to_accepted(s.dx, s.applied, s.Fbar_prev);
+      relinearize_pressures(to_grid(Fbar));
+    }
+    const double move = scale - s.applied;
+#pragma omp parallel for schedule(static)
+    for (std::size_t i = 0; i < u.size(); ++i) u[i] += move * s.dx.u[i];
+    s.applied = scale;
+    Fbar = s.Fbar_prev + scale * s.step_macro;
+    last = evaluate_iterate(s.dt, true, s.free, s.P_target, s.r, s.err);
+    if (last != MaterialStatus::ok) return std::nullopt;
+    if (!std::isfinite(s.err)) return std::nullopt;
+    return merit;
+  };
+  // Continuation accepts any admissible iterate: on the way from the end of one equilibrium
+  // branch to the next the residual has to grow before it falls.
+  // Mixed iteration: the trials are measured with the pressure linearized at the accepted
+  // iterate x_k, which reproduces W_V′ there, so the reference is x_k's true residual; the
+  // merit x_k was accepted with (the previous linearization's) is not comparable and, taken as
+  // the reference, let the true residual grow several-fold or held the step to the last trial
+  // (BENCHMARKS.md, "FFT Newton iterations: the line search's reference").
+  const double merit_accepted = pressures.active() ? true_merit : merit;
+  const bool accepted =
+      fe::backtracking_line_search(merit_accepted, s.continuation || s.had_prescribed_step, trial).accepted;
+  if (accepted) return true;
+  out.why = last != MaterialStatus::ok ? std::string("material call failed (") + to_string(last) + ")"
+                                       : std::string("line search failed");
+  // Diagnose the last accepted iterate, not the rejected trial (an overshooting full step of a
+  // nearly incompressible matrix can be arbitrarily far from anything the cell can reach).
+  // r holds the right-hand side of the last solve: re-evaluate the restored iterate's residual,
+  // with its linearization (the trials overwrote it).
+  // The composite points start their laminate solves from the committed jump vectors: the
+  // failed trials left theirs, from which a solve at the accepted F can fail too and leave the
+  // diagnosis without a residual (RveStops.FftFailedLineSearchIsDiagnosedAtTheAcceptedIterate).
+  move_to_accepted(s.dx, s.applied, s.Fbar_prev);
+  lam_a_trial = lam_a;
+  if (pressures.active()) relinearize_pressures(to_grid(Fbar));
+  double accepted_err = 0.0;
+  const MaterialStatus again = evaluate_iterate(s.dt, false, s.free, s.P_target, s.r, accepted_err);
+  // Without its residual the hot spots would name a zero force at voxel (0, 0, 0): say so instead.
+  out.why += again == MaterialStatus::ok
+                 ? "; " + describe(hot_spots(s.r))
+                 : std::string("; the last accepted iterate could not be evaluated again (") + to_string(again) + ")";
+  return false;
+}
+
+Mat3 FftRveSolver::Impl::prescribed_gap(const NewtonState& s) const {
+  Mat3 dFp = Mat3::Zero();
+  for (int c = 0; c < 9; ++c)
+    if (!s.free[c]) dFp(c / 3, c % 3) = s.target(c / 3, c % 3) - Fbar(c / 3, c % 3);
+  return dFp;
+}
+
+void FftRveSolver::Impl::follow_continuation(NewtonState& s, int it, bool prescribed_reached, StepOutcome& out) const {
+  if (s.continuation) {
+    // Switched evolution relaxation, one-sided: the shift follows a falling residual, so it
+    // vanishes (Newton) as the iteration closes in on an equilibrium, but is not raised while the
+    // residual grows on the way between branches (that would stall the descent); only an
+    // indefinite linear solve raises it (the Levenberg–Marquardt retry in solve_newton_step()).
+    s.ptc_shift *= std::clamp(s.err / s.ptc_err, 0.2, 1.0);
+    if (s.ptc_shift < 1e-9) s.ptc_shift = 0.0;
+    s.ptc_err = s.err;
+    ++out.continuation_iterations;
+  } else if (prescribed_reached && opt.max_continuation_iterations > 0 && it >= 10 &&
+             (it == s.max_it || s.err > 0.3 * out.residuals[out.residuals.size() - 4])) {
+    // Stagnation (less than a factor 3 in three iterations after ten): the branch has ended.
+    s.continuation = true;
+    s.ptc_shift = std::max(10.0 * s.lm_shift, 1e-2);
+    s.ptc_err = s.err;
+    s.max_it = it + opt.max_continuation_iterations;
+  }
+}
+
+bool FftRveSolver::Impl::extend_with_minres(NewtonState& s, int it, bool prescribed_reached, StepOutcome& out) const {
+  if (s.minres_mode || s.continuation || !opt.minres_fallback || !prescribed_reached || !(s.err < opt.minres_below))
+    return false;
+  // The shifted iteration stalls just above the tolerance next to a bifurcation point of the
+  // cell (singular tangent): take the exact Newton steps there (MINRES on negative curvature).
+  s.minres_mode = true;
+  s.lm_shift = 0.0;
+  s.max_it = it + opt.max_newton_iterations;
+  ++out.minres_fallbacks;
+  return true;
+}
+
+void FftRveSolver::Impl::form_newton_rhs(NewtonState& s, const Mat3& dFp, bool prescribed_reached, StepOutcome& out) {
+  // Right-hand side −r − K [0; ΔF_p] (tangent predictor for the prescribed increment), formed in
+  // r's storage: r is not read again before the next evaluation overwrites it. The CG work vectors
+  // serve as e and K e (pcg overwrites them).
+  KVec& b = s.r;
+  for (auto& c : b.u) c = -c;
+  b.f = -b.f;
+  if (!prescribed_reached) {
+    KVec& e = s.dx;  // pcg() starts from zero
+    KVec& Ke = cg_p;
+    e.u.assign(3 * NM, 0.0);
+    e.f = flatten(dFp);
+    Ke.u.resize(3 * NM);
+    apply(e, s.free, Ke);
+    ++out.krylov_iterations;
+    axpy(-1.0, Ke, b);
+  }
+}
+
+void FftRveSolver::Impl::solve_newton_step(NewtonState& s, int it, const Mat3& dFp, bool prescribed_reached,
+                                           StepOutcome& out) {
+  // The solve after the step's full linear increment (the extrapolated predictor's, else that after
+  // the tangent predictor's step, which is taken in full) starts where J − 1 = O(Δ∇u²) near the
+  // fibers, a pressure spike K (J − 1) that makes the tangent indefinite (composite voxels, whose
+  // laminate carries the law's own pressure): its shift must leave the dilatation free
+  // (shift_medium()). Later solves shift by C0 itself, which damps every mode alike and measured
+  // better once the spike is gone (BENCHMARKS.md, "FFT Newton iterations").
+  set_reference(it == 0 || (it == 1 && !s.extrapolated));
+  form_newton_rhs(s, dFp, prescribed_reached, out);
+  KVec& b = s.r;
+  const double err = s.err;
+  // Forcing term (Eisenstat–Walker-like): loose while far from the solution, tight near it.
+  double eta = std::clamp(std::max(std::min(1e-2, err), 0.1 * opt.tolerance / std::max(err, 1e-300)), 1e-12, 0.1);
+  if (opt.krylov_tolerance > 0.0) eta = opt.krylov_tolerance;
+  // Indefinite tangent (large pressure or compression away from the solution): retry the linear
+  // solve as a Levenberg–Marquardt step with a shift of the reference medium, which grows by 10
+  // on each breakdown and starts the next Newton iteration ten times smaller.
+  bool breakdown = false;
+  double shift = s.continuation ? s.ptc_shift : s.lm_shift;
+  const double lin_tol = prescribed_reached ? eta : std::min(eta, 1e-3);
+  // The solve's residual lives in b's storage (one spectral vector less): after a breakdown b is
+  // recovered for the retry.
+  const bool rhs_in_place = !jacobi_green();
+  for (int attempt = 0; attempt < 8; ++attempt) {
+    const int cg_iterations = pcg(b, s.free, lin_tol, s.dx, shift, breakdown, rhs_in_place ? &b : nullptr);
+    out.krylov_iterations += cg_iterations;
+    if (!breakdown) break;
+    out.discarded_krylov_iterations += cg_iterations;
+    if (rhs_in_place) {
+      recover_rhs(b, s.dx, s.free, shift);
+      ++out.krylov_iterations;
+      ++out.discarded_krylov_iterations;
+    }
+    // Negative curvature near the solution (the residual is already small): an indefinite
+    // equilibrium tangent, not a transient of the iteration — solve it as it is (MINRES).
+    if (s.minres_mode && shift == 0.0 && prescribed_reached && err < opt.minres_below) {
+      bool converged = false;
+      const int minres_iterations = pminres(b, s.free, lin_tol, s.dx, converged);
+      out.krylov_iterations += minres_iterations;
+      if (!converged) out.discarded_krylov_iterations += minres_iterations;
+      ++out.minres_solves;
+      if (converged) {
+        breakdown = false;
+        break;
+      }
+    }
+    shift = shift == 0.0 ? 1e-3 : 10.0 * shift;
+    ++out.shifted_solves;
+  }
+  s.lm_shift = shift >= 1e-2 ? 0.1 * shift : 0.0;
+  if (s.continuation) s.ptc_shift = shift;
+  ++out.newton_iterations;
+  s.applied = 0.0;
+  s.Fbar_prev = Fbar;
+  s.step_macro = dFp + unflatten(s.dx.f);
+  s.had_prescribed_step = !prescribed_reached || (it == 0 && s.full_first_step);
 }
 
 FftRveSolver::Impl::StepOutcome FftRveSolver::Impl::fixed_point(const std::array<bool, 9>& free, const Vec9& P_target,

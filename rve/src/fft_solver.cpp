@@ -48,6 +48,18 @@ FftRveSolver::Impl::Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPt
     op.restrict_to_planes(dist->slab().begin, dist->slab().count);
     v0 = dist->voxel_offset();
   }
+  set_up_phases(image, matrix, fiber, angle, frame);
+  choose_formulation();
+  // Refuse a grid that cannot fit before anything of its size is allocated.
+  detail::refuse_if_too_big(planned_bytes(), "microstructure.grid", grid_text(grid.n));
+  read_fractions(image);
+  allocate_history();
+  create_transforms();
+  allocate_solver_storage();
+}
+
+void FftRveSolver::Impl::set_up_phases(const PhaseImage& image, const MaterialPtr& matrix, const MaterialPtr& fiber,
+                                       double angle, const Mat3& frame) {
   R = grid_rotation(angle);
   T_load = detail::rotation_operator(R);
   detail::check_slab_image(image, dist.get());
@@ -68,7 +80,11 @@ FftRveSolver::Impl::Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPt
   // Moulinec–Suquet reference: arithmetic mean of the extreme Lamé moduli (the classic choice).
   mu_ref = 0.5 * (G0 + G1);
   lambda_ref = 0.5 * ((K0 - 2.0 / 3.0 * G0) + (K1 - 2.0 / 3.0 * G1));
+}
 
+void FftRveSolver::Impl::choose_formulation() {
+  const double G0 = mat[0]->initial_shear_modulus(), G1 = mat[1]->initial_shear_modulus();
+  const double K0 = mat[0]->initial_bulk_modulus(), K1 = mat[1]->initial_bulk_modulus();
   mean_dilatation = check_mean_dilatation(opt, op);
   if (opt.preconditioner == Preconditioner::automatic) opt.preconditioner = automatic_preconditioner(opt, op, G0, G1, K0, K1);
   local_bulk = check_local_bulk(opt, op);
@@ -78,8 +94,9 @@ FftRveSolver::Impl::Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPt
     pressures.mixed[x] = opt.scheme == FftScheme::newton_cg && opt.mixed_pressure && pressures.K[x] > 0.0 &&
                          pressures.K[x] >= opt.mixed_pressure_ratio * G;
   }
-  // Refuse a grid that cannot fit before anything of its size is allocated.
-  detail::refuse_if_too_big(planned_bytes(), "microstructure.grid", grid_text(grid.n));
+}
+
+void FftRveSolver::Impl::read_fractions(const PhaseImage& image) {
   if (image.fiber_fraction.size() != image.held_voxels())
     throw InputError("microstructure", "", "phase image has " + std::to_string(image.fiber_fraction.size()) +
                                                " values for " + std::to_string(image.held_voxels()) + " voxels");
@@ -109,6 +126,9 @@ FftRveSolver::Impl::Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPt
   }
   if (dist) vf = dist->sum(vf);
   achieved_vf = vf / double(Ntot);
+}
+
+void FftRveSolver::Impl::allocate_history() {
   lam_a.assign(comp_normal.size() * nq * 3, 0.0);
   lam_a_trial = lam_a;
   for (int x = 0; x < 2; ++x)
@@ -117,6 +137,9 @@ FftRveSolver::Impl::Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPt
       for (std::size_t p = 0; p < NP; ++p) mat[x]->init_state(hist_old[x].data() + p * state_size[x]);
       hist_new[x] = hist_old[x];
     }
+}
+
+void FftRveSolver::Impl::create_transforms() {
   // Section grids: the i3 columns of ∇ũ vanish and Div does not read them, so 6 of 9 fields per point
   // are transformed (the voxel loops treat those columns as zero).
   const bool with_stencil = opt.scheme == FftScheme::newton_cg && opt.krylov_operator == KrylovOperator::stencil &&
@@ -148,6 +171,9 @@ FftRveSolver::Impl::Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPt
       if (local_bulk) bulk_fft = std::make_unique<fft::BatchedFFT>(grid, 1, opt.plan, 3, true);
     }
   }
+}
+
+void FftRveSolver::Impl::allocate_solver_storage() {
   // Stencil operator: tangents in blocks of 8 points (structure of arrays, fft::symmetric_product_batch()),
   // zero-padded to whole blocks; Fourier operator: per point.
   // Single precision (stencil only): tangent_f instead of tangent.

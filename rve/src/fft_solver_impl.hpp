@@ -189,6 +189,19 @@ struct FftRveSolver::Impl {
 
   Impl(const PhaseImage& image, MaterialPtr matrix, MaterialPtr fiber, double angle, const Mat3& frame,
        const FftSolverOptions& o);
+  // The constructor's steps, in its order.
+  /// The grid frame, the fiber axis, both materials in the grid frame and the moduli they give.
+  void set_up_phases(const PhaseImage& image, const MaterialPtr& matrix, const MaterialPtr& fiber, double angle,
+                     const Mat3& frame);
+  /// Mean dilatation, the automatic preconditioner's choice, the local bulk and the mixed phases.
+  void choose_formulation();
+  /// The checked fiber fractions of this rank's voxels: pure and composite voxels, their normals.
+  void read_fractions(const PhaseImage& image);
+  void allocate_history();
+  /// The FFT plans and buffers of the chosen operator (9-field buffer or streamed stencil passes).
+  void create_transforms();
+  /// Tangents, pressures, ũ and the CG work vectors (so that memory_bytes() is what a run holds).
+  void allocate_solver_storage();
 
   /// VolumetricKinematics::mean_dilatation needs several points per voxel (hex) and the stencil
   /// operator of the Newton–CG scheme (its batches hold whole voxels, where the voxel coupling is added).
@@ -365,6 +378,10 @@ struct FftRveSolver::Impl {
   /// correction (which the stored path gets from its second divergence of the 9 fields).
   MaterialStatus evaluate_streamed(const Mat3& Fbar_grid, double dt, bool with_tangent, const std::array<bool, 9>& free,
                                    const Vec9& P_target, KVec& r, double& err);
+  /// The residual after evaluate_streamed()'s pass (fft3 holds P_full): r = Dᴴ P_full and its relative
+  /// norm; with the mixed correction (volume mean `correction` of P_full − P̂) also the merit of P̂.
+  void streamed_residual(const std::array<bool, 9>& free, const Vec9& P_target, const Vec9& correction, KVec& r,
+                         double& err);
 
   /// The undeformed state's points (phase sums, reference medium; tangents for Newton). Streamed: with
   /// its residual in a CG work vector, which the first solve overwrites.
@@ -532,7 +549,49 @@ struct FftRveSolver::Impl {
   /// applied = 0.
   void move_to_accepted(const KVec& dx, double& applied, const Mat3& Fbar_prev);
 
+  /// The working state of one Newton sub-step (step()): what is prescribed, the iteration's mode, and
+  /// the line search's last accepted iterate ũ − applied · Δũ, F̄_prev (no copy of ũ is kept).
+  struct NewtonState {
+    std::array<bool, 9> free{};
+    Vec9 P_target = Vec9::Zero();
+    Mat3 target;  // prescribed components at t_new
+    double t_new = 0.0, dt = 0.0;
+    KVec r, dx;   // residual (then right-hand side) and Newton step
+    int max_it = 0;
+    double err = 0.0, first_err = -1.0;
+    // Pseudo-transient continuation (FftSolverOptions::max_continuation_iterations), entered when
+    // Newton stagnates: shift δ of the reference medium, residual of the previous iterate.
+    bool continuation = false;
+    // MINRES for negative curvature near the solution: always (indefinite_solver = minres), or once the
+    // shifted iteration has stalled (minres_fallback).
+    bool minres_mode = false;
+    double ptc_shift = 0.0, ptc_err = 0.0;
+    double applied = 0.0;
+    Mat3 Fbar_prev, step_macro = Mat3::Zero();
+    bool had_prescribed_step = false;
+    double lm_shift = 0.0;
+    bool full_first_step = false;
+    bool extrapolated = false;  // the step starts from the extrapolated predictor (else the tangent predictor)
+  };
+
   StepOutcome step(const MixedControl& control, double t_new, double dt);
+  /// Iteration 0: the extrapolated predictor, else the tangent predictor's state, evaluated; false
+  /// (out.why set) when the material fails there.
+  bool evaluate_predictor(NewtonState& s, StepOutcome& out);
+  /// Iterations after the first: the backtracking line search along the last Newton step; false (out.why
+  /// set, with the diagnosis at the last accepted iterate) when it fails.
+  bool search_line(NewtonState& s, StepOutcome& out);
+  /// F̄_target − F̄ on the prescribed components (zero on the free ones).
+  Mat3 prescribed_gap(const NewtonState& s) const;
+  /// The continuation's shift after an iterate, or its start when Newton stagnates.
+  void follow_continuation(NewtonState& s, int it, bool prescribed_reached, StepOutcome& out) const;
+  /// At the last allowed iteration: false when the loop ends, true when the MINRES fallback extends it.
+  bool extend_with_minres(NewtonState& s, int it, bool prescribed_reached, StepOutcome& out) const;
+  /// The Newton system's right-hand side −r − K [0; ΔF_p] in r's storage.
+  void form_newton_rhs(NewtonState& s, const Mat3& dFp, bool prescribed_reached, StepOutcome& out);
+  /// Solves for the Newton step dx (CG, shifted on breakdowns, MINRES on negative curvature) and
+  /// records it as the line search's next direction.
+  void solve_newton_step(NewtonState& s, int it, const Mat3& dFp, bool prescribed_reached, StepOutcome& out);
 
   /// Basic Moulinec–Suquet scheme: ũ ← ũ − K0⁻¹ Dᴴ P, F̄_free ← F̄_free − C0_ff⁻¹ (⟨P⟩ − P*).
   StepOutcome fixed_point(const std::array<bool, 9>& free, const Vec9& P_target, const Mat3& target, double dt,

@@ -34,6 +34,14 @@ inline double bounding_radius(const FiberSection& f) {
   return f.shape == SectionShape::circle ? f.radius : 0.5 * std::hypot(f.width, f.height);
 }
 
+/// Exact fiber area of the section (circles and rectangles).
+inline double fiber_area(const Section& section) {
+  double exact = 0.0;
+  for (const auto& f : section.fibers)
+    exact += f.shape == SectionShape::circle ? kPiPlacement * f.radius * f.radius : f.width * f.height;
+  return exact;
+}
+
 /// The four corners of a rectangular fiber (counter-clockwise).
 inline std::array<Eigen::Vector2d, 4> rectangle_corners(const PlacedFiber& p) {
   const double a = 0.5 * p.f.width, b = 0.5 * p.f.height;

@@ -201,13 +201,10 @@ std::string shape_text(const FiberCellSpec& spec, const FiberSection& f) {
 /// (std::uniform_real_distribution is implementation-defined).
 double unit_uniform(std::mt19937_64& rng) { return double(rng() >> 11) * 0x1.0p-53; }
 
-}  // namespace
-
-Section generate_section(const FiberCellSpec& spec, const std::string& field_prefix) {
-  const std::string p = field_prefix.empty() ? std::string() : field_prefix + ".";
+/// The checks of a cell description that need no geometry (InputError naming the key).
+void check_cell_spec(const FiberCellSpec& spec, const std::string& p) {
   const bool circle = spec.shape == SectionShape::circle;
   const double vf = spec.volume_fraction;
-
   if (!std::isfinite(vf) || vf <= 0.0 || vf >= 1.0)
     throw InputError(p + "volume_fraction", num(vf), "must be in (0, 1)");
   if (!std::isfinite(spec.section_rotation_deg))
@@ -238,57 +235,62 @@ Section generate_section(const FiberCellSpec& spec, const std::string& field_pre
     if (!std::isfinite(spec.height) || spec.height <= 0.0)
       throw InputError(p + "height", num(spec.height), "must be positive (or give cell_size instead)");
   }
+}
 
-  const int nf = spec.arrangement == Arrangement::square      ? 1
-                 : spec.arrangement == Arrangement::hexagonal ? 2
-                                                              : spec.fiber_count;
-  // Cell area per unit L1² (square, random: 1; hexagonal: √3).
+/// The fiber's size and the cell's L1, one given and the other from the volume fraction:
+/// nf · A = vf · cell_shape · L1² (cell area per unit L1²: square, random 1; hexagonal √3).
+struct CellSizes {
+  double L1 = 0.0, radius = 0.0, width = 0.0, height = 0.0;
+};
+CellSizes cell_sizes(const FiberCellSpec& spec, int nf) {
+  const bool circle = spec.shape == SectionShape::circle;
+  const double vf = spec.volume_fraction;
   const double cell_shape = spec.arrangement == Arrangement::hexagonal ? kSqrt3 : 1.0;
-
-  // Fiber size and cell size from the volume fraction: nf · A = vf · cell_shape · L1².
-  double L1, radius = 0.0, width = 0.0, height = 0.0;
+  CellSizes c;
   if (spec.cell_size) {
-    L1 = *spec.cell_size;
-    const double A = vf * cell_shape * L1 * L1 / nf;
-    if (circle) radius = std::sqrt(A / kPi);
-    else width = height = std::sqrt(A);  // cell size given: square fibers (no aspect ratio to keep)
+    c.L1 = *spec.cell_size;
+    const double A = vf * cell_shape * c.L1 * c.L1 / nf;
+    if (circle) c.radius = std::sqrt(A / kPi);
+    else c.width = c.height = std::sqrt(A);  // cell size given: square fibers (no aspect ratio to keep)
   } else {
-    radius = spec.radius;
-    width = spec.width;
-    height = spec.height;
-    const double A = circle ? kPi * radius * radius : width * height;
-    L1 = std::sqrt(nf * A / (vf * cell_shape));
+    c.radius = spec.radius;
+    c.width = spec.width;
+    c.height = spec.height;
+    const double A = circle ? kPi * c.radius * c.radius : c.width * c.height;
+    c.L1 = std::sqrt(nf * A / (vf * cell_shape));
   }
-  const FiberSection proto = prototype(spec, radius, width, height);
+  return c;
+}
 
-  if (spec.arrangement != Arrangement::random) {
-    const char* arr_name = spec.arrangement == Arrangement::square ? "square" : "hexagonal";
-    if (circle) {
-      const double limit = spec.arrangement == Arrangement::square ? kSquareCircleLimit : kHexCircleLimit;
-      if (vf >= limit)
-        throw InputError(p + "volume_fraction", num(vf),
-                         "at or above the packing limit " + num(limit) + " of a " + arr_name +
-                             " array of circles");
-      return lattice_section(proto, spec.arrangement, L1);
-    }
-    Section s = lattice_section(proto, spec.arrangement, L1);
-    if (section_conflicts(s, 0.0)) {
-      const double limit = lattice_packing_limit(proto, spec.arrangement, L1);
+/// A square or hexagonal lattice cell, refused above its packing limit.
+Section lattice_cell(const FiberCellSpec& spec, const FiberSection& proto, double L1, const std::string& p) {
+  const double vf = spec.volume_fraction;
+  const char* arr_name = spec.arrangement == Arrangement::square ? "square" : "hexagonal";
+  if (spec.shape == SectionShape::circle) {
+    const double limit = spec.arrangement == Arrangement::square ? kSquareCircleLimit : kHexCircleLimit;
+    if (vf >= limit)
       throw InputError(p + "volume_fraction", num(vf),
-                       "the fibers overlap their periodic images: above the packing limit " + num(limit) +
-                           " of a " + arr_name + " array of " + shape_text(spec, proto) +
-                           " (change section_rotation_deg or lower the volume fraction)");
-    }
-    return s;
+                       "at or above the packing limit " + num(limit) + " of a " + arr_name + " array of circles");
+    return lattice_section(proto, spec.arrangement, L1);
   }
+  Section s = lattice_section(proto, spec.arrangement, L1);
+  if (section_conflicts(s, 0.0)) {
+    const double limit = lattice_packing_limit(proto, spec.arrangement, L1);
+    throw InputError(p + "volume_fraction", num(vf),
+                     "the fibers overlap their periodic images: above the packing limit " + num(limit) + " of a " +
+                         arr_name + " array of " + shape_text(spec, proto) +
+                         " (change section_rotation_deg or lower the volume fraction)");
+  }
+  return s;
+}
 
-  // Random sequential addition in a square L1 × L1 cell.
-  const double L = L1, gap = spec.min_gap;
-  Section s;
-  s.L1 = s.L2 = L;
-  if (circle) {
-    // Necessary conditions (no placement can beat them): a fiber clears its own images, and the
-    // gap-inflated circles stay below the densest (hexagonal) packing.
+/// Refuses a random cell of side L that no placement can achieve: a fiber that does not clear its own
+/// images, or (circles) gap-inflated circles above the densest (hexagonal) packing.
+void refuse_impossible_random_cell(const FiberCellSpec& spec, const FiberSection& proto, double L,
+                                   const std::string& p) {
+  const double vf = spec.volume_fraction, gap = spec.min_gap;
+  if (spec.shape == SectionShape::circle) {
+    const double radius = proto.radius;
     if (2.0 * radius + gap >= L)
       throw InputError(p + "volume_fraction", num(vf),
                        "a fiber of radius " + num(radius) + " with min_gap " + num(gap) +
@@ -307,7 +309,14 @@ Section generate_section(const FiberCellSpec& spec, const std::string& field_pre
                        "a " + shape_text(spec, proto) + " fiber with min_gap " + num(gap) +
                            " overlaps its own periodic images in the random cell of side " + num(L));
   }
+}
 
+/// Random sequential addition of nf fibers in a square L × L cell (restarted from scratch when a fiber
+/// finds no place).
+Section random_cell(const FiberCellSpec& spec, const FiberSection& proto, int nf, double L, const std::string& p) {
+  const double gap = spec.min_gap;
+  Section s;
+  s.L1 = s.L2 = L;
   constexpr int kAttemptsPerFiber = 20000, kRestarts = 10;
   std::mt19937_64 rng(spec.seed);
   int worst_fiber = 0;
@@ -334,12 +343,27 @@ Section generate_section(const FiberCellSpec& spec, const std::string& field_pre
       return s;
     }
   }
-  throw InputError(p + "volume_fraction", num(vf),
+  throw InputError(p + "volume_fraction", num(spec.volume_fraction),
                    "random placement failed: could not place fiber " + std::to_string(worst_fiber) + " of " +
                        std::to_string(nf) + " with min_gap " + num(gap) + " after " +
                        std::to_string(kAttemptsPerFiber) + " attempts (" + std::to_string(kRestarts) +
                        " restarts); the volume fraction / gap is too high for random sequential addition "
                        "(equal circles jam near 0.547); lower volume_fraction or min_gap");
+}
+
+}  // namespace
+
+Section generate_section(const FiberCellSpec& spec, const std::string& field_prefix) {
+  const std::string p = field_prefix.empty() ? std::string() : field_prefix + ".";
+  check_cell_spec(spec, p);
+  const int nf = spec.arrangement == Arrangement::square      ? 1
+                 : spec.arrangement == Arrangement::hexagonal ? 2
+                                                              : spec.fiber_count;
+  const CellSizes c = cell_sizes(spec, nf);
+  const FiberSection proto = prototype(spec, c.radius, c.width, c.height);
+  if (spec.arrangement != Arrangement::random) return lattice_cell(spec, proto, c.L1, p);
+  refuse_impossible_random_cell(spec, proto, c.L1, p);
+  return random_cell(spec, proto, nf, c.L1, p);
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -152,9 +152,16 @@ std::string id_number(double v) {
   return s;
 }
 
-/// Builds one case from one value per axis.
-CampaignCase make_case(const Definitions& defs, const std::map<std::string, AxisValue>& values, const std::string& name,
-                       const toml::table* override_table, const std::string& field, const std::string& context = "") {
+/// One value per axis of a case, the base scene's where the case gives none.
+struct CaseAxes {
+  std::string matrix, load, section, arrangement;
+  double vf = 0.0, angle = 0.0;
+  std::vector<int> grid{32, 32};
+  bool base_section = false;  // no section axis: the base scene's section is kept
+  bool matrix_only = false;   // volume fraction 0: the homogeneous cell
+};
+
+CaseAxes case_axes(const Definitions& defs, const std::map<std::string, AxisValue>& values, const std::string& field) {
   auto get = [&](const std::string& axis) -> const AxisValue* {
     const auto it = values.find(axis);
     return it == values.end() ? nullptr : &it->second;
@@ -173,88 +180,111 @@ CampaignCase make_case(const Definitions& defs, const std::map<std::string, Axis
 
   if (!get("matrix")) throw InputError(field + ".matrix", "", "missing (every case needs a matrix)");
   if (!get("load")) throw InputError(field + ".load", "", "missing (every case needs a load case)");
-  const std::string matrix = std::get<std::string>(get("matrix")->v);
-  const std::string load = std::get<std::string>(get("load")->v);
-  double vf = get("volume_fraction") ? std::get<double>(get("volume_fraction")->v) : base_number("volume_fraction", 0.23);
-  double angle = get("angle") ? std::get<double>(get("angle")->v) : base_number("fiber_angle_deg", 45.0);
+  CaseAxes a;
+  a.matrix = std::get<std::string>(get("matrix")->v);
+  a.load = std::get<std::string>(get("load")->v);
+  a.vf = get("volume_fraction") ? std::get<double>(get("volume_fraction")->v) : base_number("volume_fraction", 0.23);
+  a.angle = get("angle") ? std::get<double>(get("angle")->v) : base_number("fiber_angle_deg", 45.0);
   // Without a section axis the base scene's section is kept (named after its shape), else "circle".
-  const bool base_section = !get("section") && base_micro && base_micro->contains("shape");
-  std::string section = get("section") ? std::get<std::string>(get("section")->v) : base_string("shape", "circle");
-  std::string arrangement = get("arrangement") ? std::get<std::string>(get("arrangement")->v) : base_string("arrangement", "square");
-  std::vector<int> grid{32, 32};
-  if (get("resolution")) grid = get("resolution")->grid;
+  a.base_section = !get("section") && base_micro && base_micro->contains("shape");
+  a.section = get("section") ? std::get<std::string>(get("section")->v) : base_string("shape", "circle");
+  a.arrangement = get("arrangement") ? std::get<std::string>(get("arrangement")->v) : base_string("arrangement", "square");
+  if (get("resolution")) a.grid = get("resolution")->grid;
   else if (base_micro && (*base_micro)["grid"]) {
     const toml::node& g = *(*base_micro)["grid"].node();
     const keys::Range entries = keys::closed_range(1, 65536);
-    if (g.is_array()) grid = keys::read_ints<int>(g, "base.microstructure.grid", entries, 2, 3);
-    else grid.assign(2, keys::read_int<int>(g, "base.microstructure.grid", entries));
+    if (g.is_array()) a.grid = keys::read_ints<int>(g, "base.microstructure.grid", entries, 2, 3);
+    else a.grid.assign(2, keys::read_int<int>(g, "base.microstructure.grid", entries));
   }
-  const bool matrix_only = vf == 0.0;
-  if (matrix_only) {
+  a.matrix_only = a.vf == 0.0;
+  if (a.matrix_only) {
     // The homogeneous cell does not depend on these: one case per matrix, resolution and load.
-    section = "none";
-    arrangement = "none";
-    angle = 0.0;
+    a.section = "none";
+    a.arrangement = "none";
+    a.angle = 0.0;
   }
+  return a;
+}
 
-  CampaignCase c;
-  c.parameters = {{"matrix", matrix},     {"section", section},
-                  {"angle", angle},       {"volume_fraction", vf},
-                  {"arrangement", arrangement}, {"resolution", double(grid[0])},
-                  {"load", load}};
-
-  toml::table scene = defs.base;
-  scene.erase("output");
+/// The case's [microstructure]: its section (unless the base scene's is kept), arrangement, angle,
+/// volume fraction and grid.
+void set_microstructure(toml::table& scene, const Definitions& defs, const CaseAxes& a, const std::string& field) {
   toml::table& micro = subtable(scene, "microstructure");
-  if (!matrix_only) {
-    if (!base_section) {
+  if (!a.matrix_only) {
+    if (!a.base_section) {
       toml::table sec;
-      if (const auto it = defs.sections.find(section); it != defs.sections.end()) sec = it->second;
-      else sec = builtin_section(section);
+      if (const auto it = defs.sections.find(a.section); it != defs.sections.end()) sec = it->second;
+      else sec = builtin_section(a.section);
       if (sec.empty())
-        throw InputError(field + ".section", section, "not defined: add [sections." + section + "] or use circle, square");
+        throw InputError(field + ".section", a.section,
+                         "not defined: add [sections." + a.section + "] or use circle, square");
       for (const char* k : {"shape", "radius", "width", "height", "section_rotation_deg", "fiber_count", "min_gap", "seed"})
         micro.erase(k);
       merge_into(micro, sec);
     }
-    micro.insert_or_assign("arrangement", arrangement);
-    micro.insert_or_assign("fiber_angle_deg", angle);
+    micro.insert_or_assign("arrangement", a.arrangement);
+    micro.insert_or_assign("fiber_angle_deg", a.angle);
   } else {
     for (const char* k : {"shape", "radius", "width", "height", "section_rotation_deg", "fiber_count", "min_gap", "seed",
                           "arrangement", "cell_size"})
       micro.erase(k);
     micro.insert_or_assign("fiber_angle_deg", 0.0);
   }
-  micro.insert_or_assign("volume_fraction", vf);
+  micro.insert_or_assign("volume_fraction", a.vf);
   toml::array g;
-  for (int n : grid) g.push_back(n);
+  for (int n : a.grid) g.push_back(n);
   micro.insert_or_assign("grid", g);
+}
 
+/// The case's [phases] (the matrix by definition or preset, glass fibers unless the base gives some)
+/// and [load] (by definition or built in).
+void set_phases_and_load(toml::table& scene, const Definitions& defs, const CaseAxes& a, const std::string& field) {
   toml::table& phases = subtable(scene, "phases");
-  if (const auto it = defs.matrices.find(matrix); it != defs.matrices.end()) phases.insert_or_assign("matrix", it->second);
-  else phases.insert_or_assign("matrix", toml::table{{"preset", matrix}});
+  if (const auto it = defs.matrices.find(a.matrix); it != defs.matrices.end()) phases.insert_or_assign("matrix", it->second);
+  else phases.insert_or_assign("matrix", toml::table{{"preset", a.matrix}});
   if (!phases.contains("fiber")) phases.insert_or_assign("fiber", toml::table{{"preset", "glass"}});
-  if (const auto it = defs.loads.find(load); it != defs.loads.end()) scene.insert_or_assign("load", it->second);
-  else if (toml::table l = builtin_load(load); !l.empty()) scene.insert_or_assign("load", l);
+  if (const auto it = defs.loads.find(a.load); it != defs.loads.end()) scene.insert_or_assign("load", it->second);
+  else if (toml::table l = builtin_load(a.load); !l.empty()) scene.insert_or_assign("load", l);
   else
-    throw InputError(field + ".load", load,
-                     "not defined: add [loads." + load + "] or use tension, compression, equibiaxial, shear, relaxation");
-  if (override_table) merge_into(scene, *override_table);
+    throw InputError(field + ".load", a.load,
+                     "not defined: add [loads." + a.load + "] or use tension, compression, equibiaxial, shear, relaxation");
+}
 
+/// The case id: its name, else made of its axis values (characters unsafe in paths and CSV replaced).
+std::string case_id(const CaseAxes& a, const std::string& name) {
+  std::string id_text;
   if (!name.empty()) {
-    c.id = name;
+    id_text = name;
   } else {
     std::ostringstream id;
-    id << matrix << "-";
-    if (matrix_only) id << "matrix";
-    else id << section << "-a" << id_number(angle) << "-vf" << id_number(vf) << "-" << arrangement;
-    id << "-n" << grid[0];
-    for (std::size_t k = 1; k < grid.size(); ++k) id << "x" << grid[k];
-    id << "-" << load;
-    c.id = id.str();
+    id << a.matrix << "-";
+    if (a.matrix_only) id << "matrix";
+    else id << a.section << "-a" << id_number(a.angle) << "-vf" << id_number(a.vf) << "-" << a.arrangement;
+    id << "-n" << a.grid[0];
+    for (std::size_t k = 1; k < a.grid.size(); ++k) id << "x" << a.grid[k];
+    id << "-" << a.load;
+    id_text = id.str();
   }
-  for (char& ch : c.id)
+  for (char& ch : id_text)
     if (ch == '/' || ch == ' ' || ch == ',' || ch == '"') ch = '_';
+  return id_text;
+}
+
+/// Builds one case from one value per axis.
+CampaignCase make_case(const Definitions& defs, const std::map<std::string, AxisValue>& values, const std::string& name,
+                       const toml::table* override_table, const std::string& field, const std::string& context = "") {
+  const CaseAxes a = case_axes(defs, values, field);
+  CampaignCase c;
+  c.parameters = {{"matrix", a.matrix},           {"section", a.section},
+                  {"angle", a.angle},             {"volume_fraction", a.vf},
+                  {"arrangement", a.arrangement}, {"resolution", double(a.grid[0])},
+                  {"load", a.load}};
+  toml::table scene = defs.base;
+  scene.erase("output");
+  set_microstructure(scene, defs, a, field);
+  set_phases_and_load(scene, defs, a, field);
+  if (override_table) merge_into(scene, *override_table);
+  c.id = case_id(a, name);
 
   // Validate the scene exactly as `softhom rve` would (errors name the case).
   try {
@@ -473,13 +503,8 @@ void check_first_case_scene(const Campaign& camp) {
   }
 }
 
-}  // namespace
-
-Campaign expand_campaign(const toml::table& table, const std::filesystem::path& base_dir) {
-  CampaignKeys keys;
-  campaign_table().read(table, "", keys);
-  Campaign camp;
-  camp.description = keys.description;
+/// The base scene ([base] or base_scene) and the named [matrices.*], [sections.*], [loads.*].
+Definitions read_definitions(const toml::table& table, const CampaignKeys& keys, const std::filesystem::path& base_dir) {
   Definitions defs;
   if (keys.base && table.contains("base_scene")) throw InputError("base_scene", "", "give either [base] or base_scene, not both");
   if (keys.base) defs.base = keys::read_table(*keys.base, "base");
@@ -501,13 +526,14 @@ Campaign expand_campaign(const toml::table& table, const std::filesystem::path& 
     section_table().read(sec, "sections." + name, unused);
   }
   defs.loads = named_tables(keys.loads, "loads");
-  CampaignSwitches sw;
-  switches_table().read_optional(keys.campaign, "campaign", sw);
-  camp.warm_start = sw.warm_start;
-  check_campaign_size(keys);
+  return defs;
+}
 
+/// Every case of the [sweep] products and the [[cases]], in order (duplicates kept); `first` gets the
+/// first case's axis values (validation of unused definitions).
+std::vector<CampaignCase> expand_cases(const Definitions& defs, const CampaignKeys& keys,
+                                       std::map<std::string, AxisValue>& first) {
   std::vector<CampaignCase> all;
-  std::map<std::string, AxisValue> first;  // the first case's axis values (validation of unused definitions)
   auto remember = [&](const AxisMap& axes) {
     if (!first.empty()) return;
     for (const auto& [k, v] : axes) first[k] = v.front();
@@ -541,6 +567,24 @@ Campaign expand_campaign(const toml::table& table, const std::filesystem::path& 
       all.push_back(make_case(defs, values, name, ov, f));
     }
   }
+  return all;
+}
+
+}  // namespace
+
+Campaign expand_campaign(const toml::table& table, const std::filesystem::path& base_dir) {
+  CampaignKeys keys;
+  campaign_table().read(table, "", keys);
+  Campaign camp;
+  camp.description = keys.description;
+  const Definitions defs = read_definitions(table, keys, base_dir);
+  CampaignSwitches sw;
+  switches_table().read_optional(keys.campaign, "campaign", sw);
+  camp.warm_start = sw.warm_start;
+  check_campaign_size(keys);
+
+  std::map<std::string, AxisValue> first;
+  std::vector<CampaignCase> all = expand_cases(defs, keys, first);
   if (all.empty()) throw InputError("sweep", "", "the campaign has no cases (give [sweep] axes or [[cases]])");
   validate_unused(defs, all, first);
 

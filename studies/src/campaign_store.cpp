@@ -232,10 +232,18 @@ void write_case(hid_t cases, const CaseRecord& r) {
   attr_strings(d, "columns", r.columns, false);
 }
 
-/// The index table: one row per case (sorted by id), columns case, status, every parameter (union in
-/// first-seen order; strings or float64, missing: "" / NaN), rows, steps, newton_iterations (int64),
-/// error, scene_hash. A compound dataset: `pandas.DataFrame(h5py.File(p)["index"][()])`.
-void write_index(hid_t file, const std::map<std::string, CaseRecord>& records) {
+/// A column of the index table. Row layout: fixed slots of 8 bytes (char* or double or int64), so
+/// offsets are simple.
+enum class IndexKind { text, number, count };
+struct IndexField {
+  std::string name;
+  IndexKind kind;
+};
+
+/// The columns of the index table: case, status, every parameter (union in first-seen order; text
+/// when any case gives a string, int64 for whole-number count parameters), rows, steps,
+/// newton_iterations, error, scene_hash.
+std::vector<IndexField> index_fields(const std::map<std::string, CaseRecord>& records) {
   struct Param {
     std::string name;
     bool is_string = false;
@@ -247,36 +255,70 @@ void write_index(hid_t file, const std::map<std::string, CaseRecord>& records) {
       if (it == params.end()) params.push_back({p.name, p.is_string()});
       else it->is_string = it->is_string || p.is_string();
     }
-  // Row layout: fixed slots of 8 bytes (char* or double or int64), so offsets are simple.
-  enum class Kind { text, number, count };
-  struct Field {
-    std::string name;
-    Kind kind;
-  };
-  std::vector<Field> fields{{"case", Kind::text}, {"status", Kind::text}};
+  std::vector<IndexField> fields{{"case", IndexKind::text}, {"status", IndexKind::text}};
   for (const auto& p : params) {
     bool all_whole = true;
     for (const auto& [id, r] : records)
       for (const auto& q : r.parameters)
         if (q.name == p.name && (q.is_string() || !whole(std::get<double>(q.value)))) all_whole = false;
-    fields.push_back({p.name, p.is_string ? Kind::text : is_count_parameter(p.name) && all_whole ? Kind::count : Kind::number});
+    fields.push_back({p.name, p.is_string                                ? IndexKind::text
+                              : is_count_parameter(p.name) && all_whole ? IndexKind::count
+                                                                        : IndexKind::number});
   }
-  for (const char* c : {"rows", "steps", "newton_iterations"}) fields.push_back({c, Kind::count});
-  fields.push_back({"error", Kind::text});
-  fields.push_back({"scene_hash", Kind::text});
+  for (const char* c : {"rows", "steps", "newton_iterations"}) fields.push_back({c, IndexKind::count});
+  fields.push_back({"error", IndexKind::text});
+  fields.push_back({"scene_hash", IndexKind::text});
   for (std::size_t i = 0; i < fields.size(); ++i)
     for (std::size_t j = 0; j < i; ++j)
       if (fields[i].name == fields[j].name) throw std::runtime_error("index column named twice: " + fields[i].name);
+  return fields;
+}
 
+/// One case's row of the index table at `base`; its strings are kept alive in `keep` (reserved, so
+/// the row pointers stay valid).
+void fill_index_row(unsigned char* base, const CaseRecord& r, const std::vector<IndexField>& fields,
+                    std::vector<std::string>& keep) {
+  auto put_text = [&](std::size_t k, std::string s) {
+    keep.push_back(std::move(s));
+    const char* p = keep.back().c_str();
+    std::memcpy(base + 8 * k, &p, 8);
+  };
+  auto put_number = [&](std::size_t k, double v) { std::memcpy(base + 8 * k, &v, 8); };
+  auto put_count = [&](std::size_t k, std::int64_t v) { std::memcpy(base + 8 * k, &v, 8); };
+  auto stat = [&](const char* n) {
+    const auto it = r.stats.find(n);
+    return it == r.stats.end() || !std::isfinite(it->second) ? std::int64_t(0) : std::int64_t(it->second);
+  };
+  for (std::size_t k = 0; k < fields.size(); ++k) {
+    const IndexField& f = fields[k];
+    if (f.name == "case") put_text(k, r.id);
+    else if (f.name == "status") put_text(k, r.status);
+    else if (f.name == "error") put_text(k, r.error);
+    else if (f.name == "scene_hash") put_text(k, r.scene_hash);
+    else if (f.name == "rows") put_count(k, std::int64_t(r.rows()));
+    else if (f.kind == IndexKind::count && !is_count_parameter(f.name)) put_count(k, stat(f.name.c_str()));
+    else {
+      const auto it = std::find_if(r.parameters.begin(), r.parameters.end(), [&](const CaseParameter& p) { return p.name == f.name; });
+      if (f.kind == IndexKind::text) put_text(k, it == r.parameters.end() ? std::string() : it->text());
+      else if (f.kind == IndexKind::count) put_count(k, it == r.parameters.end() ? 0 : std::int64_t(std::get<double>(it->value)));
+      else put_number(k, it == r.parameters.end() ? std::nan("") : std::get<double>(it->value));
+    }
+  }
+}
+
+/// The index table: one row per case (sorted by id), columns as index_fields() (missing parameters:
+/// "" / NaN). A compound dataset: `pandas.DataFrame(h5py.File(p)["index"][()])`.
+void write_index(hid_t file, const std::map<std::string, CaseRecord>& records) {
+  const std::vector<IndexField> fields = index_fields(records);
   static_assert(sizeof(char*) == 8 && sizeof(double) == 8 && sizeof(std::int64_t) == 8);
   const std::size_t row_size = 8 * fields.size();
   H str(vlen_string_type(), H5Tclose);
   H mem(check(H5Tcreate(H5T_COMPOUND, row_size), "index type"), H5Tclose);
   H disk(check(H5Tcreate(H5T_COMPOUND, row_size), "index type"), H5Tclose);
   for (std::size_t k = 0; k < fields.size(); ++k) {
-    const Field& f = fields[k];
-    const hid_t mt = f.kind == Kind::text ? hid_t(str) : f.kind == Kind::number ? H5T_NATIVE_DOUBLE : H5T_NATIVE_INT64;
-    const hid_t dt = f.kind == Kind::text ? hid_t(str) : f.kind == Kind::number ? H5T_IEEE_F64LE : H5T_STD_I64LE;
+    const IndexField& f = fields[k];
+    const hid_t mt = f.kind == IndexKind::text ? hid_t(str) : f.kind == IndexKind::number ? H5T_NATIVE_DOUBLE : H5T_NATIVE_INT64;
+    const hid_t dt = f.kind == IndexKind::text ? hid_t(str) : f.kind == IndexKind::number ? H5T_IEEE_F64LE : H5T_STD_I64LE;
     check_status(H5Tinsert(mem, f.name.c_str(), 8 * k, mt), "index column " + f.name);
     check_status(H5Tinsert(disk, f.name.c_str(), 8 * k, dt), "index column " + f.name);
   }
@@ -284,35 +326,7 @@ void write_index(hid_t file, const std::map<std::string, CaseRecord>& records) {
   std::vector<std::string> keep;  // owns the strings the row pointers point to
   keep.reserve(records.size() * fields.size());
   std::size_t row = 0;
-  for (const auto& [id, r] : records) {
-    unsigned char* base = buf.data() + row++ * row_size;
-    auto put_text = [&](std::size_t k, std::string s) {
-      keep.push_back(std::move(s));
-      const char* p = keep.back().c_str();
-      std::memcpy(base + 8 * k, &p, 8);
-    };
-    auto put_number = [&](std::size_t k, double v) { std::memcpy(base + 8 * k, &v, 8); };
-    auto put_count = [&](std::size_t k, std::int64_t v) { std::memcpy(base + 8 * k, &v, 8); };
-    auto stat = [&](const char* n) {
-      const auto it = r.stats.find(n);
-      return it == r.stats.end() || !std::isfinite(it->second) ? std::int64_t(0) : std::int64_t(it->second);
-    };
-    for (std::size_t k = 0; k < fields.size(); ++k) {
-      const Field& f = fields[k];
-      if (f.name == "case") put_text(k, r.id);
-      else if (f.name == "status") put_text(k, r.status);
-      else if (f.name == "error") put_text(k, r.error);
-      else if (f.name == "scene_hash") put_text(k, r.scene_hash);
-      else if (f.name == "rows") put_count(k, std::int64_t(r.rows()));
-      else if (f.kind == Kind::count && !is_count_parameter(f.name)) put_count(k, stat(f.name.c_str()));
-      else {
-        const auto it = std::find_if(r.parameters.begin(), r.parameters.end(), [&](const CaseParameter& p) { return p.name == f.name; });
-        if (f.kind == Kind::text) put_text(k, it == r.parameters.end() ? std::string() : it->text());
-        else if (f.kind == Kind::count) put_count(k, it == r.parameters.end() ? 0 : std::int64_t(std::get<double>(it->value)));
-        else put_number(k, it == r.parameters.end() ? std::nan("") : std::get<double>(it->value));
-      }
-    }
-  }
+  for (const auto& [id, r] : records) fill_index_row(buf.data() + row++ * row_size, r, fields, keep);
   const hsize_t n = records.size();
   H space(check(H5Screate_simple(1, &n, nullptr), "dataspace"), H5Sclose);
   H d(check(H5Dcreate2(file, "index", disk, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "creating /index"), H5Dclose);

@@ -235,29 +235,21 @@ const keys::KeyTable<ImageKeys>& image_keys() {
   return t;
 }
 
-}  // namespace
-
-rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p, std::string& geometry_note, bool distributed) {
-  ImageKeys keys;
-  image_keys().read(img, p, keys);
+/// The image's HDF5 file: relative paths are relative to the scene file (when the scene came from a file).
+std::filesystem::path image_file(const ImageKeys& keys, const toml::table& img, const std::string& p) {
   std::filesystem::path file = keys.file;
   if (file.empty()) throw InputError(p + ".file", "\"\"", "missing: the HDF5 file of the phase image");
-  // Relative paths are relative to the scene file (when the scene came from a file).
   if (file.is_relative() && img.source().path && !img.source().path->empty())
     file = std::filesystem::path(*img.source().path).parent_path() / file;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(file, ec)) throw InputError(p + ".file", file.string(), "no such file");
-  const std::string& dataset = keys.dataset;
-  // Dims, type and attributes first: a distributed 3D cell then reads only its slab's planes.
-  io::Dataset d;
-  try {
-    d = io::read_dataset_planes(file, dataset, 0, 0);
-  } catch (const std::runtime_error& e) {
-    throw InputError(p + ".dataset", dataset, e.what());
-  }
+  return file;
+}
 
-  rve::PhaseImage im;
-  // C order: [n3][n2][n1] or [n2][n1] → i1 fastest, as in PhaseImage.
+/// The grid of the image from the dataset's dims (C order: [n3][n2][n1] or [n2][n1] → i1 fastest, as
+/// in PhaseImage), and the planes this rank holds when a 3D cell is distributed.
+void set_image_grid(rve::PhaseImage& im, const io::Dataset& d, const std::string& dataset, const std::string& p,
+                    bool distributed) {
   for (std::size_t k : d.dims)
     if (k == 0 || k > std::size_t(kMaxGridPoints))
       throw InputError(p + ".dataset", dataset + " " + dims_string(d.dims), "dimensions must lie in [1, 65536]");
@@ -270,9 +262,11 @@ rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p,
     im.plane_count = planes->count;
     im.halo = planes->count > 0 ? rve::kSlabImageHalo : 0;  // a rank without planes holds none
   }
-  d.values = read_held_planes(file, dataset, p + ".dataset", im).values;
+}
 
-  // Integer datasets hold phase ids; floating-point datasets hold fiber volume fractions in [0, 1].
+/// Fiber fractions from the held values: integer datasets hold phase ids, floating-point datasets
+/// fiber volume fractions in [0, 1].
+void set_fiber_fractions(rve::PhaseImage& im, const io::Dataset& d, const ImageKeys& keys, const std::string& p) {
   im.fiber_fraction.resize(d.values.size());
   if (d.integer) {
     const long long matrix_id = keys.matrix_id.value_or(0), fiber_id = keys.fiber_id.value_or(1);
@@ -286,21 +280,23 @@ rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p,
                          "unknown phase id (matrix_id = " + std::to_string(matrix_id) + ", fiber_id = " +
                              std::to_string(fiber_id) + ")");
     }
-  } else {
-    if (keys.matrix_id || keys.fiber_id)
-      throw InputError(p + (keys.matrix_id ? ".matrix_id" : ".fiber_id"), dataset,
-                       "phase ids need an integer dataset (this one holds floating-point fiber fractions)");
-    for (std::size_t v = 0; v < d.values.size(); ++v) {
-      const double f = d.values[v];
-      if (!(f >= 0.0 && f <= 1.0))
-        throw InputError(p + ".dataset", format_number(f) + " at " + voxel_string(im, v),
-                         "fiber fractions must lie in [0, 1] (store phase ids as an integer dataset)");
-      im.fiber_fraction[v] = f;
-    }
+    return;
   }
+  if (keys.matrix_id || keys.fiber_id)
+    throw InputError(p + (keys.matrix_id ? ".matrix_id" : ".fiber_id"), keys.dataset,
+                     "phase ids need an integer dataset (this one holds floating-point fiber fractions)");
+  for (std::size_t v = 0; v < d.values.size(); ++v) {
+    const double f = d.values[v];
+    if (!(f >= 0.0 && f <= 1.0))
+      throw InputError(p + ".dataset", format_number(f) + " at " + voxel_string(im, v),
+                       "fiber fractions must lie in [0, 1] (store phase ids as an integer dataset)");
+    im.fiber_fraction[v] = f;
+  }
+}
 
-  // Voxel size: scene key voxel_size or cell_size, else the dataset's attribute of the same names (as
-  // written by `softhom rve` with microstructure_only), else cubic voxels with L1 = 1.
+/// Voxel size: scene key voxel_size or cell_size, else the dataset's attribute of the same names (as
+/// written by `softhom rve` with microstructure_only), else cubic voxels with L1 = 1.
+void set_image_size(rve::PhaseImage& im, const io::Dataset& d, const ImageKeys& keys, const std::string& p) {
   if (keys.voxel_size && keys.cell_size) throw InputError(p + ".cell_size", "", "give either voxel_size or cell_size, not both");
   std::array<double, 3> h{1.0 / im.n[0], 1.0 / im.n[0], 1.0 / im.n[0]};
   auto from_cell = [&](const std::array<double, 3>& L) {
@@ -320,6 +316,27 @@ rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p,
     from_cell(triple_of(it2->second, p + ".dataset attribute cell_size"));
   }
   for (int k = 0; k < 3; ++k) im.size[k] = h[k] * im.n[k];
+}
+
+}  // namespace
+
+rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p, std::string& geometry_note, bool distributed) {
+  ImageKeys keys;
+  image_keys().read(img, p, keys);
+  const std::filesystem::path file = image_file(keys, img, p);
+  const std::string& dataset = keys.dataset;
+  // Dims, type and attributes first: a distributed 3D cell then reads only its slab's planes.
+  io::Dataset d;
+  try {
+    d = io::read_dataset_planes(file, dataset, 0, 0);
+  } catch (const std::runtime_error& e) {
+    throw InputError(p + ".dataset", dataset, e.what());
+  }
+  rve::PhaseImage im;
+  set_image_grid(im, d, dataset, p, distributed);
+  d.values = read_held_planes(file, dataset, p + ".dataset", im).values;
+  set_fiber_fractions(im, d, keys, p);
+  set_image_size(im, d, keys, p);
 
   // Interface normals of composite voxels (optional; without them the solver estimates −∇φ). The
   // laminate rule needs a normal in every composite voxel (0 < fraction < 1).

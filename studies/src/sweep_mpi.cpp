@@ -221,150 +221,207 @@ void send_ints(const std::vector<int>& m, int to, int tag) {
 // ---------------------------------------------------------------------------------------------
 // Rank 0: scheduler and writer.
 
-SweepReport run_writer(const Campaign& campaign, const fs::path& dir, const SweepOptions& options, CampaignStore& store,
-                       Clock::time_point start) {
-  const int ranks = mpi::world_size();
+/// Rank 0 during a run: the chains in the order they are handed out, what each worker holds, the
+/// finished cases not yet stored, and the report.
+class Writer {
+ public:
+  Writer(const Campaign& campaign, const SweepOptions& options, CampaignStore& store, Clock::time_point start);
+  SweepReport run(const fs::path& dir);
+
+ private:
+  /// The next chain to hand out, -1 when there is none or the run stops.
+  int take() {
+    if (stop_requested() || write_error_ || next_ >= order_.size()) return -1;
+    return order_[next_++];
+  }
+  void plan();
+  /// Every message waiting from the workers; true if there was one.
+  bool receive_messages();
+  void receive(const MPI_Status& st);
+  /// The cases received and finished here, added to the store and written (a failure ends the run).
+  void store_incoming(LocalJobs& local);
+  SweepReport finish();
+
+  const Campaign& campaign_;
+  const SweepOptions& options_;
+  CampaignStore& store_;
+  const Clock::time_point start_;
+  const int ranks_;
+  SweepReport report_;
+  bool warm_ = false;
+  std::vector<Chain> chains_;
+  std::vector<int> order_;  // longest first
+  int to_run_ = 0;
+  std::atomic<long> newton_{0};
+  bool stop_was_requested_ = false;  // before this run's own stop requests
+  std::exception_ptr write_error_;
+  std::size_t next_ = 0;                // into order_
+  std::vector<int> in_flight_;          // chains handed to each worker and not ended
+  std::vector<bool> worker_done_;
+  int workers_done_ = 0;
+  std::vector<CaseRecord> incoming_;
+};
+
+Writer::Writer(const Campaign& campaign, const SweepOptions& options, CampaignStore& store, Clock::time_point start)
+    : campaign_(campaign),
+      options_(options),
+      store_(store),
+      start_(start),
+      ranks_(mpi::world_size()),
+      in_flight_(ranks_, 0),
+      worker_done_(ranks_, false) {}
+
+void Writer::plan() {
   std::vector<bool> todo;
-  SweepReport report = start_report(campaign, store, options.retry_failed, options.quiet, todo);
-  report.ranks = ranks;
-  report.cases_per_rank.assign(ranks, 0);
-  const bool warm = options.warm_start && campaign.warm_start;
-  const std::vector<Chain> chains = plan_chains(campaign, todo, warm);
-  int to_run = 0;
-  for (const auto& ch : chains)
-    for (bool s : ch.store) to_run += s ? 1 : 0;
+  report_ = start_report(campaign_, store_, options_.retry_failed, options_.quiet, todo);
+  report_.ranks = ranks_;
+  report_.cases_per_rank.assign(ranks_, 0);
+  warm_ = options_.warm_start && campaign_.warm_start;
+  chains_ = plan_chains(campaign_, todo, warm_);
+  for (const auto& ch : chains_)
+    for (bool s : ch.store) to_run_ += s ? 1 : 0;
   // Longest first: the last chains handed out are the short ones, so the ranks end together.
-  std::vector<double> cost(chains.size());
-  for (std::size_t i = 0; i < chains.size(); ++i) cost[i] = chain_cost(campaign, chains[i]);
-  std::vector<int> order(chains.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return cost[a] > cost[b]; });
+  std::vector<double> cost(chains_.size());
+  for (std::size_t i = 0; i < chains_.size(); ++i) cost[i] = chain_cost(campaign_, chains_[i]);
+  order_.resize(chains_.size());
+  std::iota(order_.begin(), order_.end(), 0);
+  std::stable_sort(order_.begin(), order_.end(), [&](int a, int b) { return cost[a] > cost[b]; });
+}
 
-  const Threads threads = rank_threads(options);
-  report.threads_per_job = threads.per_job;
-  if (!options.quiet)
-    std::cerr << "[sweep] " << report.total << " cases: " << report.skipped << " already in the store, " << to_run
-              << " to run in " << chains.size() << " chains on " << ranks << " MPI ranks, " << threads.jobs
-              << " job(s) x " << threads.per_job << " thread(s) each" << (warm ? ", warm starts on" : ", warm starts off")
+void Writer::receive(const MPI_Status& st) {
+  const int from = st.MPI_SOURCE;
+  if (st.MPI_TAG == kRequest) {
+    MPI_Recv(nullptr, 0, MPI_BYTE, from, kRequest, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    const int c = take();
+    send_ints(c < 0 ? std::vector<int>{-1} : encode_assignment(c, chains_[c]), from, kAssign);
+    if (c >= 0) ++in_flight_[from];
+  } else if (st.MPI_TAG == kRecord) {
+    int bytes = 0;
+    MPI_Get_count(&st, MPI_BYTE, &bytes);
+    std::vector<char> buffer(std::size_t(std::max(bytes, 0)));
+    MPI_Recv(buffer.data(), bytes, MPI_BYTE, from, kRecord, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    if (!write_error_) {
+      incoming_.push_back(decode_case_record(buffer.data(), buffer.size()));
+      ++report_.cases_per_rank[from];
+    }
+  } else if (st.MPI_TAG == kChainDone) {
+    int c = -1;
+    MPI_Recv(&c, 1, MPI_INT, from, kChainDone, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    in_flight_[from] = std::max(0, in_flight_[from] - 1);
+  } else if (st.MPI_TAG == kFinished) {
+    long n = 0;
+    MPI_Recv(&n, 1, MPI_LONG, from, kFinished, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    newton_ += n;
+    in_flight_[from] = 0;
+    if (!worker_done_[from]) worker_done_[from] = true, ++workers_done_;
+  } else {
+    throw std::runtime_error("sweep over MPI: unexpected message tag " + std::to_string(st.MPI_TAG) + " from rank " +
+                             std::to_string(from));
+  }
+}
+
+bool Writer::receive_messages() {
+  bool received = false;
+  for (int flag = 1; flag;) {
+    MPI_Status st;
+    MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
+    if (!flag) break;
+    received = true;
+    receive(st);
+  }
+  return received;
+}
+
+void Writer::store_incoming(LocalJobs& local) {
+  try {
+    const auto t0 = Clock::now();
+    for (auto& r : incoming_) {
+      count_and_log(report_, r, options_.quiet);
+      store_.add(std::move(r));
+    }
+    store_.write(campaign_);
+    report_.store_time_s += std::chrono::duration<double>(Clock::now() - t0).count();
+    if (!options_.quiet) {
+      int running = local.running();
+      for (int n : in_flight_) running += n;
+      // A worker's end of chain arrives after its last case: do not count that chain as running.
+      log_progress(report_, to_run_, std::min(running, to_run_ - report_.finished), start_);
+    }
+  } catch (...) {
+    // A file that cannot be written ends the run on every rank (the workers get kStop).
+    write_error_ = std::current_exception();
+    if (!stop_was_requested_) request_stop();
+  }
+}
+
+SweepReport Writer::run(const fs::path& dir) {
+  plan();
+  const Threads threads = rank_threads(options_);
+  report_.threads_per_job = threads.per_job;
+  if (!options_.quiet)
+    std::cerr << "[sweep] " << report_.total << " cases: " << report_.skipped << " already in the store, " << to_run_
+              << " to run in " << chains_.size() << " chains on " << ranks_ << " MPI ranks, " << threads.jobs
+              << " job(s) x " << threads.per_job << " thread(s) each" << (warm_ ? ", warm starts on" : ", warm starts off")
               << "\n";
-  if (chains.empty()) store.write(campaign);  // a finished campaign: refresh cases.csv
-
-  std::atomic<long> newton{0};
-  const bool stop_was_requested = stop_requested();
-  std::exception_ptr write_error;
-  std::size_t next = 0;  // into order
-  std::vector<int> in_flight(ranks, 0);  // chains handed to each worker and not ended
-  std::vector<bool> worker_done(ranks, false);
-  int workers_done = 0;
+  if (chains_.empty()) store_.write(campaign_);  // a finished campaign: refresh cases.csv
+  stop_was_requested_ = stop_requested();
   bool stop_sent = false, local_closed = false;
-  const auto take = [&]() -> int {
-    if (stop_requested() || write_error || next >= order.size()) return -1;
-    return order[next++];
-  };
-  std::vector<CaseRecord> incoming;
   std::vector<LocalJobs::Event> events;
   {
-    LocalJobs local(campaign, dir, {}, threads.jobs, threads.per_job, newton);
+    LocalJobs local(campaign_, dir, {}, threads.jobs, threads.per_job, newton_);
     while (true) {
-      const bool stopping = stop_requested() || write_error;
+      const bool stopping = stop_requested() || write_error_;
       // Own job slots first: they need no message.
       while (!stopping && local.free_slots() > 0) {
         const int c = take();
         if (c < 0) break;
-        local.push(c, chains[c]);
+        local.push(c, chains_[c]);
       }
-      if (!local_closed && (stopping || next >= order.size())) {
+      if (!local_closed && (stopping || next_ >= order_.size())) {
         local.close(stopping);
         local_closed = true;
       }
-      // Messages of the workers.
-      bool received = false;
-      for (int flag = 1; flag;) {
-        MPI_Status st;
-        MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
-        if (!flag) break;
-        received = true;
-        const int from = st.MPI_SOURCE;
-        if (st.MPI_TAG == kRequest) {
-          MPI_Recv(nullptr, 0, MPI_BYTE, from, kRequest, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-          const int c = take();
-          send_ints(c < 0 ? std::vector<int>{-1} : encode_assignment(c, chains[c]), from, kAssign);
-          if (c >= 0) ++in_flight[from];
-        } else if (st.MPI_TAG == kRecord) {
-          int bytes = 0;
-          MPI_Get_count(&st, MPI_BYTE, &bytes);
-          std::vector<char> buffer(std::size_t(std::max(bytes, 0)));
-          MPI_Recv(buffer.data(), bytes, MPI_BYTE, from, kRecord, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-          if (!write_error) {
-            incoming.push_back(decode_case_record(buffer.data(), buffer.size()));
-            ++report.cases_per_rank[from];
-          }
-        } else if (st.MPI_TAG == kChainDone) {
-          int c = -1;
-          MPI_Recv(&c, 1, MPI_INT, from, kChainDone, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-          in_flight[from] = std::max(0, in_flight[from] - 1);
-        } else if (st.MPI_TAG == kFinished) {
-          long n = 0;
-          MPI_Recv(&n, 1, MPI_LONG, from, kFinished, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-          newton += n;
-          in_flight[from] = 0;
-          if (!worker_done[from]) worker_done[from] = true, ++workers_done;
-        } else {
-          throw std::runtime_error("sweep over MPI: unexpected message tag " + std::to_string(st.MPI_TAG) +
-                                   " from rank " + std::to_string(from));
-        }
-      }
+      const bool received = receive_messages();
       if (stopping && !stop_sent) {
-        for (int w = 1; w < ranks; ++w)
-          if (!worker_done[w]) MPI_Send(nullptr, 0, MPI_BYTE, w, kStop, MPI_COMM_WORLD);
+        for (int w = 1; w < ranks_; ++w)
+          if (!worker_done_[w]) MPI_Send(nullptr, 0, MPI_BYTE, w, kStop, MPI_COMM_WORLD);
         stop_sent = true;
       }
       // Own finished cases; the last look only after every thread ended, so nothing is missed.
-      const bool all_ended = workers_done == ranks - 1 && local_closed;
+      const bool all_ended = workers_done_ == ranks_ - 1 && local_closed;
       bool exited = false;
-      local.collect(events, exited, received || !incoming.empty() ? std::chrono::milliseconds(0) : kPoll);
+      local.collect(events, exited, received || !incoming_.empty() ? std::chrono::milliseconds(0) : kPoll);
       for (auto& e : events)
-        if (e.is_record && !write_error) {
-          incoming.push_back(std::move(e.record));
-          ++report.cases_per_rank[0];
+        if (e.is_record && !write_error_) {
+          incoming_.push_back(std::move(e.record));
+          ++report_.cases_per_rank[0];
         }
-      if (!incoming.empty() && !write_error) {
-        try {
-          const auto t0 = Clock::now();
-          for (auto& r : incoming) {
-            count_and_log(report, r, options.quiet);
-            store.add(std::move(r));
-          }
-          store.write(campaign);
-          report.store_time_s += std::chrono::duration<double>(Clock::now() - t0).count();
-          if (!options.quiet) {
-            int running = local.running();
-            for (int n : in_flight) running += n;
-            // A worker's end of chain arrives after its last case: do not count that chain as running.
-            log_progress(report, to_run, std::min(running, to_run - report.finished), start);
-          }
-        } catch (...) {
-          // A file that cannot be written ends the run on every rank (the workers get kStop).
-          write_error = std::current_exception();
-          if (!stop_was_requested) request_stop();
-        }
-      }
-      incoming.clear();
+      if (!incoming_.empty() && !write_error_) store_incoming(local);
+      incoming_.clear();
       if (all_ended && exited && events.empty()) break;
     }
     local.join();
   }
-  if (write_error) {
-    if (!stop_was_requested && stop_signal() == 0) clear_stop_request();
-    throw WriteFailed{write_error};
+  return finish();
+}
+
+SweepReport Writer::finish() {
+  if (write_error_) {
+    if (!stop_was_requested_ && stop_signal() == 0) clear_stop_request();
+    throw WriteFailed{write_error_};
   }
-  report.interrupted = stop_requested() && report.finished < to_run;
-  if (report.interrupted && !options.quiet)
-    std::cerr << "[sweep] interrupted: " << report.finished << " of " << to_run
+  report_.interrupted = stop_requested() && report_.finished < to_run_;
+  if (report_.interrupted && !options_.quiet)
+    std::cerr << "[sweep] interrupted: " << report_.finished << " of " << to_run_
               << " cases finished and stored; rerun the same command to complete the campaign\n";
-  report.wall_time_s = std::chrono::duration<double>(Clock::now() - start).count();
-  report.newton_iterations = newton;
-  return report;
+  report_.wall_time_s = std::chrono::duration<double>(Clock::now() - start_).count();
+  report_.newton_iterations = newton_;
+  return report_;
+}
+
+SweepReport run_writer(const Campaign& campaign, const fs::path& dir, const SweepOptions& options, CampaignStore& store,
+                       Clock::time_point start) {
+  return Writer(campaign, options, store, start).run(dir);
 }
 
 // ---------------------------------------------------------------------------------------------
