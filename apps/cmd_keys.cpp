@@ -4,7 +4,7 @@
 
 #include <iostream>
 
-#include "embedded_scenes.hpp"
+#include "softhom/jobs/scene.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/macro/scene.hpp"
 #include "softhom/materials/scene_keys.hpp"
@@ -42,16 +42,9 @@ int run_keys(const std::string& command, bool markdown) {
   return 0;
 }
 
-std::string default_scene_name(const std::string& command) {
-  if (command == "point") return "point_uniaxial_ecoflex";
-  if (command == "rve") return "rve_homogeneous";
-  if (command == "macro") return "macro_tube_plane_strain";
-  return "";
-}
-
 int print_default_scene(const std::string& command) {
-  const std::string name = default_scene_name(command);
-  const auto& scenes = embedded_scenes();
+  const std::string name = jobs::default_scene_name(command);
+  const auto& scenes = jobs::embedded_scenes();
   const auto it = scenes.find(name);
   if (name.empty() || it == scenes.end())
     throw InputError("--print-default", command, "this subcommand has no embedded default scene (give a file)");

@@ -17,9 +17,7 @@ std::vector<keys::SceneKeys> scene_key_registry();
 /// is an InputError.
 int run_keys(const std::string& command, bool markdown);
 
-/// The embedded scene a subcommand runs without a scene file ("" when it needs one).
-std::string default_scene_name(const std::string& command);
-/// Writes that embedded scene to stdout (InputError when the subcommand has none).
+/// Writes the embedded scene of `command` (jobs::default_scene_name) to stdout (InputError when the subcommand has none).
 int print_default_scene(const std::string& command);
 
 }  // namespace softhom::app

@@ -1,6 +1,15 @@
-// softhom: multiscale mechanics of soft fiber composites. One program, one subcommand per job.
-// Exit codes: see run_control.hpp (0 completed, 1 stopped early or write failure, 2 bad input,
-// 128 + signal when interrupted).
+// softhom: multiscale mechanics of soft fiber composites. One program, one subcommand per job: the
+// command line, signals and exit codes are here; the jobs themselves are in jobs/ (softhom/jobs/jobs.hpp).
+//
+// Exit codes (also in `softhom --help`):
+//   0    the run completed;
+//   1    the run stopped early (locking, cut-backs exhausted, wall-time budget) or an output file could
+//        not be written (full disk, permissions, read-only file system); converged rows are kept;
+//   2    bad input: command line or scene (the option or the TOML path is named);
+//   128 + N  interrupted by signal N (130: SIGINT / Ctrl-C, 143: SIGTERM from `timeout`, Slurm,
+//        `kill`), as shells report a process killed by N; converged rows and a summary.json with
+//        "status": "interrupted" are kept. A second signal ends the process at once (temporaries of
+//        that process are then removed at the next start in the same --out).
 #include <omp.h>
 #include <sys/stat.h>
 
@@ -16,22 +25,118 @@
 #include <thread>
 
 #include "cmd_keys.hpp"
-#include "commands.hpp"
-#include "embedded_scenes.hpp"
-#include "scene_source.hpp"
-#include "run_control.hpp"
-#include "softhom/io/fields.hpp"
-#include "softhom/fe/petsc.hpp"
 #include "softhom/core/mpi.hpp"
+#include "softhom/fe/petsc.hpp"
+#include "softhom/io/fields.hpp"
 #include "softhom/io/files.hpp"
-#include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
+#include "softhom/jobs/jobs.hpp"
+#include "softhom/jobs/run_control.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/interrupt.hpp"
 
 namespace softhom::app {
 
 namespace fs = std::filesystem;
+
+/// The command line of a subcommand.
+struct CommandOptions {
+  fs::path scene;  ///< empty: the command's embedded default scene
+  fs::path out = "softhom-out";
+  int threads = 0;              ///< 0: OpenMP default
+  bool quiet = false;           ///< no progress on stderr
+  bool resume = false;          ///< rve: continue the unfinished run whose checkpoint is in `out`
+  int jobs = 0;                 ///< sweep / demo: cases in parallel, threads split between them
+  bool retry_failed = false;    ///< sweep: rerun cases stored as failed
+  bool no_warm_start = false;   ///< sweep / demo: every case from F = I
+  bool dry_run = false;         ///< sweep: list the cases and their state, run nothing
+
+  jobs::RunOptions run() const { return {quiet, threads, jobs, retry_failed, no_warm_start, dry_run}; }
+};
+
+/// The documented exit code of a run that ended with `completed`.
+int run_exit_code(bool completed) {
+  if (completed) return 0;
+  if (stop_requested() && stop_signal() > 0) return 128 + stop_signal();
+  return 1;
+}
+
+// Each subcommand: the scene parsed into its job, the job run into the files of --out. Returns the
+// exit code.
+
+int run_point(const CommandOptions& o) {
+  const jobs::PointJob job = jobs::parse_point(jobs::load_scene_or_default(o.scene, jobs::default_scene_name("point")));
+  jobs::FileSink sink(o.out);
+  const PointRunResult result = jobs::run_point(job, sink, o.run());
+  if (!result.completed) {
+    std::cerr << "softhom point: stopped early: " << result.error << "\n"
+              << "softhom point: " << result.steps.size() << " converged rows kept in "
+              << (o.out / "response.csv").string() << "\n";
+    return run_exit_code(false);
+  }
+  if (!o.quiet)
+    std::cerr << "softhom point: " << result.steps.size() - 1 << " steps, " << result.total_newton_iterations
+              << " Newton iterations → " << o.out.string() << "\n";
+  return 0;
+}
+
+int run_rve(const CommandOptions& o) {
+  jobs::RveJob job = jobs::parse_rve(jobs::load_scene_or_default(o.scene, jobs::default_scene_name("rve")),
+                                     {o.out, o.resume});
+  jobs::FileSink sink(o.out);
+  return run_exit_code(jobs::run_rve(job, sink, o.run()));
+}
+
+int run_macro(const CommandOptions& o) {
+  jobs::MacroJob job =
+      jobs::parse_macro(jobs::load_scene_or_default(o.scene, jobs::default_scene_name("macro")), o.out);
+  jobs::FileSink sink(o.out);
+  return run_exit_code(jobs::run_macro(job, sink, o.run()));
+}
+
+int run_sweep(const CommandOptions& o) {
+  jobs::SweepJob job;
+  try {
+    job = jobs::parse_sweep(o.scene);
+  } catch (const InputError&) {
+    // Over MPI the message about bad input (the same on every rank) is rank 0's to give.
+    if (mpi::world_rank() == 0) throw;
+    return 2;
+  }
+  jobs::FileSink sink(o.out);
+  return run_exit_code(jobs::run_sweep(job, sink, o.run()));
+}
+
+int run_calibrate(const CommandOptions& o) {
+  const jobs::CalibrationJob job =
+      jobs::parse_calibration(o.scene.empty() ? jobs::LoadedScene{} : jobs::load_scene_file(o.scene));
+  jobs::FileSink sink(o.out);
+  return jobs::run_calibration(job, sink, o.run(), true).result.success ? 0 : 1;
+}
+
+int run_demo(const CommandOptions& o) { return jobs::run_demo(o.scene, o.out, o.run()) ? 0 : 1; }
+
+/// The message and exit code of an exception that ended a subcommand.
+int exit_code_of_exception(const char* name) {
+  try {
+    throw;
+  } catch (const InputError& e) {
+    std::cerr << "softhom " << name << ": input error: " << e.what() << "\n";
+    return 2;
+  } catch (const io::WriteError& e) {
+    std::cerr << "softhom " << name << ": error: " << e.what() << "\n";
+    return stop_requested() ? run_exit_code(false) : 1;
+  } catch (const jobs::RunInterrupted&) {
+    std::cerr << "softhom " << name << ": " << jobs::interruption_message() << "\n";
+    return run_exit_code(false);
+  } catch (const std::exception& e) {
+    std::cerr << "softhom " << name << ": error: " << e.what() << "\n";
+    return 1;
+  } catch (...) {
+    std::cerr << "softhom " << name << ": error: unknown exception\n";
+    return 1;
+  }
+}
 
 /// Runs one subcommand: clears stale temporaries in --out first, maps every exception to its documented
 /// exit code with one clear message, and removes this process's temporaries on every way out.
@@ -58,21 +163,8 @@ int run_command(const char* name, int (*run)(const CommandOptions&), const Comma
   int code = 1;
   try {
     code = run(options);
-  } catch (const InputError& e) {
-    std::cerr << "softhom " << name << ": input error: " << e.what() << "\n";
-    code = 2;
-  } catch (const io::WriteError& e) {
-    std::cerr << "softhom " << name << ": error: " << e.what() << "\n";
-    code = stop_requested() ? run_exit_code(false) : 1;
-  } catch (const RunInterrupted&) {
-    std::cerr << "softhom " << name << ": " << interruption_message() << "\n";
-    code = run_exit_code(false);
-  } catch (const std::exception& e) {
-    std::cerr << "softhom " << name << ": error: " << e.what() << "\n";
-    code = 1;
   } catch (...) {
-    std::cerr << "softhom " << name << ": error: unknown exception\n";
-    code = 1;
+    code = exit_code_of_exception(name);
   }
   io::remove_own_temporaries(options.out);
   return code;
@@ -131,6 +223,32 @@ CLI::Validator parallelism_range(const std::string& zero_means) {
 
 }  // namespace
 
+/// The options of the subcommand `name` (every subcommand: scene, --out, --threads, --quiet,
+/// --print-default; the others where they apply).
+void declare_options(CLI::App& sub, const std::string& name, CommandOptions& options, bool& print_default) {
+  sub.add_option("scene", options.scene, "scene file (TOML); omitted: the embedded default scene")
+      ->check(CLI::Validator(check_scene_path, "FILE"));
+  sub.add_option("-o,--out", options.out, "output directory (created if needed)")->capture_default_str();
+  sub.add_option("-j,--threads", options.threads, "threads (0: all cores)")->check(parallelism_range("all cores"));
+  sub.add_flag("-q,--quiet", options.quiet, "no progress on stderr");
+  sub.add_flag("--print-default", print_default, "write the embedded default scene to stdout and exit");
+  if (name == "sweep" || name == "demo") {
+    sub.add_option("--jobs", options.jobs,
+                   "cases run in parallel, the threads split between them (0: one single-threaded job per thread)")
+        ->check(parallelism_range("one single-threaded job per thread"))
+        ->capture_default_str();
+    sub.add_flag("--no-warm-start", options.no_warm_start, "run every case from the undeformed state");
+  }
+  if (name == "rve")
+    sub.add_flag("--resume", options.resume,
+                 "continue the unfinished run whose checkpoint is in --out (FFT engine), from its last "
+                 "converged output step");
+  if (name == "sweep") {
+    sub.add_flag("--retry-failed", options.retry_failed, "rerun the cases stored as failed");
+    sub.add_flag("--dry-run", options.dry_run, "list the cases (and which are already stored), run nothing");
+  }
+}
+
 }  // namespace softhom::app
 
 int main(int argc, char** argv) {
@@ -172,29 +290,7 @@ int main(int argc, char** argv) {
   bool print_default = false;
   for (const Sub& s : subs) {
     CLI::App* sub = cli.add_subcommand(s.name, s.help);
-    sub->add_option("scene", options.scene, "scene file (TOML); omitted: the embedded default scene")
-        ->check(CLI::Validator(app::check_scene_path, "FILE"));
-    sub->add_option("-o,--out", options.out, "output directory (created if needed)")->capture_default_str();
-    sub->add_option("-j,--threads", options.threads, "threads (0: all cores)")
-        ->check(app::parallelism_range("all cores"));
-    sub->add_flag("-q,--quiet", options.quiet, "no progress on stderr");
-    sub->add_flag("--print-default", print_default, "write the embedded default scene to stdout and exit");
-    if (std::string(s.name) == "sweep" || std::string(s.name) == "demo") {
-      sub->add_option("--jobs", options.jobs,
-                      "cases run in parallel, the threads split between them (0: one single-threaded job per thread)")
-          ->check(app::parallelism_range("one single-threaded job per thread"))
-          ->capture_default_str();
-      sub->add_flag("--no-warm-start", options.no_warm_start, "run every case from the undeformed state");
-    }
-    if (std::string(s.name) == "rve")
-      sub->add_flag("--resume", options.resume,
-                    "continue the unfinished run whose checkpoint is in --out (FFT engine), from its last "
-                    "converged output step");
-    if (std::string(s.name) == "sweep")
-    {
-      sub->add_flag("--retry-failed", options.retry_failed, "rerun the cases stored as failed");
-      sub->add_flag("--dry-run", options.dry_run, "list the cases (and which are already stored), run nothing");
-    }
+    app::declare_options(*sub, s.name, options, print_default);
     sub->callback([&chosen, &s] { chosen = &s; });
   }
   std::string keys_command = "all";

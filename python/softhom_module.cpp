@@ -1,16 +1,18 @@
 // The compiled part of the Python package `softhom` (python/softhom/__init__.py is the public API).
 //
 // Scenes come in as Python dicts (converted key by key into the TOML table the scene parsers read, so
-// every refusal names the same TOML path as on the command line), TOML text or a file. Jobs run through
-// the same entry points as the `softhom` program (apps/: run_point_scene, run_rve_scene,
-// run_macro_scene; studies: calibrate, read_store, Cell). While a job runs, the GIL is released and SIGINT
-// asks softhom's loops to stop (materials/interrupt.hpp), which becomes KeyboardInterrupt here.
+// every refusal names the same TOML path as on the command line), TOML text or a file. Jobs are the
+// `softhom` program's (softhom/jobs/jobs.hpp: parse, then run into a sink): their rows and summary come
+// back from a memory sink as arrays and JSON, with no file written unless `out` is given (then a file
+// sink writes the program's files there too). While a job runs, the GIL is released and SIGINT asks
+// softhom's loops to stop (materials/interrupt.hpp), which becomes KeyboardInterrupt here.
 #include <omp.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <csignal>
 #include <iostream>
@@ -20,14 +22,11 @@
 #include <string>
 #include <vector>
 
-#include "embedded_scenes.hpp"
-#include "cmd_keys.hpp"
-#include "point_output.hpp"
-#include "scene_source.hpp"
 #include "softhom/io/fields.hpp"
 #include "softhom/io/files.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
+#include "softhom/jobs/jobs.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/interrupt.hpp"
 #include "softhom/materials/library.hpp"
@@ -89,8 +88,8 @@ void put_value(py::handle v, const std::string& path, Sink&& sink) {
 
 /// A scene given as ("dict", mapping), ("toml", text) or ("file", path); `base` (may be empty) is the
 /// directory relative paths in a dict or text scene are resolved against.
-app::LoadedScene load_scene(const std::string& kind, py::handle scene, const std::string& base) {
-  app::LoadedScene s;
+jobs::LoadedScene load_scene(const std::string& kind, py::handle scene, const std::string& base) {
+  jobs::LoadedScene s;
   if (kind == "file") {
     s.file = scene.cast<std::string>();
     s.name = s.file.stem().string();
@@ -163,33 +162,83 @@ int run_job(const std::string& out, int threads, Run&& run) {
   return code;
 }
 
-app::CommandOptions command_options(const std::string& out, int threads, bool quiet) {
-  app::CommandOptions o;
-  o.out = out;
+/// Whether every value of column `c` is written as a plain integer in response.csv (std::to_chars'
+/// shortest form without '.', 'e'): pandas reads such a column of the program's file as int64.
+bool written_as_integers(const io::CsvTable& t, std::size_t c) {
+  const std::size_t width = t.columns().size();
+  char buf[32];
+  for (std::size_t i = c; i < t.values().size(); i += width) {
+    const auto r = std::to_chars(buf, buf + sizeof buf, t.values()[i]);
+    if (std::find_if(buf, r.ptr, [](char ch) { return ch != '-' && (ch < '0' || ch > '9'); }) != r.ptr) return false;
+  }
+  return t.rows() > 0;
+}
+
+/// {"columns", "data" [rows, columns], "integer_columns", "summary" (summary.json's text)} of a run.
+py::dict run_result(const jobs::MemorySink& sink) {
+  py::dict r;
+  std::vector<std::string> columns, integers;
+  py::array_t<double> data(std::vector<py::ssize_t>{0, 0});
+  if (const io::CsvTable* t = sink.table("response")) {
+    columns = t->columns();
+    data = py::array_t<double>(std::vector<py::ssize_t>{py::ssize_t(t->rows()), py::ssize_t(columns.size())});
+    std::copy(t->values().begin(), t->values().end(), data.mutable_data());
+    for (std::size_t c = 0; c < columns.size(); ++c)
+      if (written_as_integers(*t, c)) integers.push_back(columns[c]);
+  }
+  r["columns"] = columns;
+  r["data"] = data;
+  r["integer_columns"] = integers;
+  r["summary"] = sink.summary_text();
+  return r;
+}
+
+/// Runs `job(sink)` into memory, and with `out` into the program's files there too; returns run_result.
+template <class Job>
+py::dict run_into_sinks(const std::string& out, int threads, Job&& job) {
+  jobs::MemorySink memory;
+  std::optional<jobs::FileSink> files;
+  std::optional<jobs::TeeSink> both;
+  if (!out.empty()) both.emplace(files.emplace(out), memory);
+  jobs::Sink& sink = both ? static_cast<jobs::Sink&>(*both) : memory;
+  run_job(out, threads, [&] {
+    job(sink);
+    return 0;
+  });
+  return run_result(memory);
+}
+
+jobs::RunOptions run_options(int threads, bool quiet) {
+  jobs::RunOptions o;
   o.threads = threads;
   o.quiet = quiet;
   return o;
 }
 
-int run_point(const std::string& kind, py::handle scene, const std::string& base, const std::string& out,
-              int threads, bool quiet) {
-  const app::LoadedScene s = load_scene(kind, scene, base);
-  return run_job(out, threads, [&] { return app::run_point_scene(s, out, quiet).result.completed ? 0 : 1; });
+py::dict run_point(const std::string& kind, py::handle scene, const std::string& base, const std::string& out,
+                   int threads, bool quiet) {
+  jobs::LoadedScene s = load_scene(kind, scene, base);
+  return run_into_sinks(out, threads, [&](jobs::Sink& sink) {
+    jobs::run_point(jobs::parse_point(std::move(s)), sink, run_options(threads, quiet));
+  });
 }
 
-int run_rve(const std::string& kind, py::handle scene, const std::string& base, const std::string& out, int threads,
-            bool quiet, bool resume) {
-  app::LoadedScene s = load_scene(kind, scene, base);
-  app::CommandOptions o = command_options(out, threads, quiet);
-  o.resume = resume;
-  return run_job(out, threads, [&] { return app::run_rve_scene(o, std::move(s)); });
+py::dict run_rve(const std::string& kind, py::handle scene, const std::string& base, const std::string& out,
+                 int threads, bool quiet, bool resume) {
+  jobs::LoadedScene s = load_scene(kind, scene, base);
+  return run_into_sinks(out, threads, [&](jobs::Sink& sink) {
+    jobs::RveJob job = jobs::parse_rve(std::move(s), {out, resume});
+    jobs::run_rve(job, sink, run_options(threads, quiet));
+  });
 }
 
-int run_macro(const std::string& kind, py::handle scene, const std::string& base, const std::string& out,
-              int threads, bool quiet) {
-  const app::LoadedScene s = load_scene(kind, scene, base);
-  const app::CommandOptions o = command_options(out, threads, quiet);
-  return run_job(out, threads, [&] { return app::run_macro_scene(o, s); });
+py::dict run_macro(const std::string& kind, py::handle scene, const std::string& base, const std::string& out,
+                   int threads, bool quiet) {
+  jobs::LoadedScene s = load_scene(kind, scene, base);
+  return run_into_sinks(out, threads, [&](jobs::Sink& sink) {
+    jobs::MacroJob job = jobs::parse_macro(std::move(s), out);
+    jobs::run_macro(job, sink, run_options(threads, quiet));
+  });
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -346,35 +395,23 @@ py::dict read_campaign(const std::string& store_path) {
 /// (no fit.png: plot from Python).
 py::dict calibrate(const std::string& kind, py::handle calibration, const std::string& base, const std::string& out,
                    int threads, bool quiet) {
-  const app::LoadedScene s = load_scene(kind, calibration, base);
-  const fs::path base_dir = kind == "file" ? fs::absolute(s.file).parent_path() : fs::path(base.empty() ? "." : base);
-  const studies::CalibrationInput input = studies::parse_calibration(s.table, base_dir);
-  std::string summary_json, material, comparison;
-  bool success = false;
+  jobs::LoadedScene s = load_scene(kind, calibration, base);
+  const fs::path base_dir = kind == "file" ? fs::path() : fs::path(base.empty() ? "." : base);
+  const jobs::CalibrationJob job = jobs::parse_calibration(std::move(s), base_dir);
+  jobs::CalibrationOutcome outcome;
+  jobs::MemorySink memory;
+  std::optional<jobs::FileSink> files;
+  if (!out.empty()) files.emplace(out);
   run_job(out, threads, [&] {
-    auto progress = [&](const std::string& line) {
-      if (!quiet) std::cerr << "[calibrate] " << line << "\n";
-    };
-    const studies::CalibrationResult result = studies::calibrate(input, progress);
-    nlohmann::json summary = io::summary_base("calibrate", s.file, s.table);
-    const nlohmann::json fields = studies::result_json(input, result);
-    for (const auto& [k, v] : fields.items()) summary[k] = v;
-    if (!out.empty()) {
-      fs::create_directories(out);
-      studies::write_calibration_files(out, input, result);
-      io::write_summary(out, summary);
-    }
-    summary_json = summary.dump();
-    material = studies::material_toml(input.model, result.values);
-    comparison = studies::comparison_csv(result);
-    success = result.success;
+    outcome = jobs::run_calibration(job, files ? static_cast<jobs::Sink&>(*files) : memory, run_options(threads, quiet),
+                                    false);
     return 0;
   });
   py::dict r;
-  r["summary"] = summary_json;
-  r["material_toml"] = material;
-  r["comparison_csv"] = comparison;
-  r["success"] = success;
+  r["summary"] = outcome.summary.dump();
+  r["material_toml"] = outcome.material_toml;
+  r["comparison_csv"] = outcome.comparison_csv;
+  r["success"] = outcome.result.success;
   return r;
 }
 
@@ -448,8 +485,8 @@ py::dict solve_cell(studies::Cell& cell, const Array33& F, double dt, bool tange
 }
 
 std::string default_scene(const std::string& command) {
-  const std::string name = app::default_scene_name(command);
-  const auto& scenes = app::embedded_scenes();
+  const std::string name = jobs::default_scene_name(command);
+  const auto& scenes = jobs::embedded_scenes();
   const auto it = scenes.find(name);
   if (name.empty() || it == scenes.end()) throw InputError("command", command, "has no embedded default scene");
   return it->second;

@@ -3,8 +3,8 @@
 Scenes are what the `softhom` program reads, given as a dict (the TOML tables as nested dicts and
 lists), as TOML text, or as a path (pathlib.Path or os.PathLike) to a scene file. A job runs through
 the same code as the program, so its response is the program's response.csv, returned as a pandas
-DataFrame (units in ``df.attrs["units"]``), and its summary is summary.json as a dict. Nothing is left
-on disk unless ``out=DIR`` is given (then DIR holds the program's output files).
+DataFrame (units in ``df.attrs["units"]``), and its summary is summary.json as a dict. Both come back
+in memory: no file is written unless ``out=DIR`` is given (then DIR holds the program's output files).
 
 Errors in input raise :class:`InputError` (a ValueError) with the program's message
 ``"field = value: reason"`` and the attributes ``field`` and ``value``. Ctrl-C during a run stops it
@@ -16,7 +16,6 @@ import functools
 import io as _io
 import json
 import os
-import shutil
 import tempfile
 from typing import Any, Mapping, NamedTuple
 
@@ -153,6 +152,7 @@ def _units(columns) -> dict:
 
 
 def _read_run(directory: str) -> RunResult:
+    """The result of a run from the files it left in ``directory`` (e.g. after an interruption)."""
     with open(os.path.join(directory, "summary.json"), encoding="utf-8") as f:
         summary = json.load(f)
     path = os.path.join(directory, "response.csv")
@@ -161,20 +161,25 @@ def _read_run(directory: str) -> RunResult:
     return RunResult(response, summary)
 
 
+def _result(r: dict) -> RunResult:
+    """A RunResult from the compiled module's arrays: the columns pandas would read from response.csv
+    as integers (every value written without a decimal point or exponent) are int64, as there."""
+    columns = list(r["columns"])
+    response = pd.DataFrame(np.asarray(r["data"]), columns=columns) if columns else pd.DataFrame()
+    for c in r["integer_columns"]:
+        response[c] = response[c].astype("int64")
+    response.attrs["units"] = _units(response.columns)
+    return RunResult(response, json.loads(r["summary"]))
+
+
 def _run(job, scene: Any, out: Any, threads: int | None, quiet: bool, base_dir: Any) -> RunResult:
     kind, payload = _scene(scene)
     if threads is not None and (not isinstance(threads, int) or threads < 0):
         raise _input_error("threads", threads, "must be a whole number >= 0 (0: all cores)")
-    keep = out is not None
-    directory = os.fspath(out) if keep else tempfile.mkdtemp(prefix="softhom-")
-    try:
-        if keep:
-            os.makedirs(directory, exist_ok=True)
-        job(kind, payload, _base(scene, base_dir), directory, threads or 0, quiet)
-        return _read_run(directory)
-    finally:
-        if not keep:
-            shutil.rmtree(directory, ignore_errors=True)
+    directory = "" if out is None else os.fspath(out)
+    if directory:
+        os.makedirs(directory, exist_ok=True)
+    return _result(job(kind, payload, _base(scene, base_dir), directory, threads or 0, quiet))
 
 
 def run_point(scene: Any, out: Any = None, threads: int | None = None, quiet: bool = True,

@@ -1,14 +1,14 @@
-// The pure pieces of the `softhom demo` report (apps/demo_report.hpp): parameters at their bounds are
+// The pure pieces of the `softhom demo` report (softhom/jobs/demo_report.hpp): parameters at their bounds are
 // named with the bound they sit on, and the tube's last row is shown by name, not as a raw CSV line.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
 
-#include "../../apps/demo_report.hpp"
+#include "softhom/jobs/demo_report.hpp"
 
-using softhom::app::bound_notes;
-using softhom::app::join_state;
-using softhom::app::tube_final_state;
+using softhom::jobs::bound_notes;
+using softhom::jobs::join_state;
+using softhom::jobs::tube_final_state;
 
 namespace {
 // The shape of calibration/summary.json "parameters" (studies/src/calibration.cpp).

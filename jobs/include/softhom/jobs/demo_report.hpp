@@ -13,7 +13,7 @@
 
 #include "softhom/materials/errors.hpp"
 
-namespace softhom::app {
+namespace softhom::jobs {
 
 /// One note per free parameter of a calibration summary.json that ended at a bound of its
 /// [min, max] ("at_bound"), e.g. "k2 at its lower bound 0.001: the curves do not determine it".
@@ -76,4 +76,4 @@ inline std::string join_state(const std::vector<std::pair<std::string, std::stri
   return s;
 }
 
-}  // namespace softhom::app
+}  // namespace softhom::jobs

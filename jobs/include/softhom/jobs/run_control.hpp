@@ -1,15 +1,5 @@
 #pragma once
-// How a command ends a run early and reports progress.
-//
-// Exit codes of `softhom` (also in `softhom --help`):
-//   0    the run completed;
-//   1    the run stopped early (locking, cut-backs exhausted, wall-time budget) or an output file could
-//        not be written (full disk, permissions, read-only file system); converged rows are kept;
-//   2    bad input: command line or scene (the option or the TOML path is named);
-//   128 + N  interrupted by signal N (130: SIGINT / Ctrl-C, 143: SIGTERM from `timeout`, Slurm,
-//        `kill`), as shells report a process killed by N; converged rows and a summary.json with
-//        "status": "interrupted" are kept. A second signal ends the process at once (temporaries of
-//        that process are then removed at the next start in the same --out).
+// How a job ends a run early (a stop request: a signal, or Ctrl-C in Python) and reports progress.
 #include <unistd.h>
 
 #include <csignal>
@@ -22,7 +12,7 @@
 #include "softhom/io/summary.hpp"
 #include "softhom/materials/interrupt.hpp"
 
-namespace softhom::app {
+namespace softhom::jobs {
 
 /// Thrown from a step callback when a stop was requested: the solver unwinds at once and the command
 /// writes what converged (the solver loops also poll stop_requested() inside a step).
@@ -49,13 +39,6 @@ inline void stop_point(std::size_t steps_done) {
 /// "interrupted by SIGTERM" (or "interrupted" without a signal).
 inline std::string interruption_message() {
   return stop_signal() > 0 ? "interrupted by " + io::signal_name(stop_signal()) : std::string("interrupted");
-}
-
-/// The documented exit code of a run that ended with `completed`.
-inline int run_exit_code(bool completed) {
-  if (completed) return 0;
-  if (stop_requested() && stop_signal() > 0) return 128 + stop_signal();
-  return 1;
 }
 
 /// A computed value in a progress line: 6 significant digits (the row in response.csv has them all).
@@ -96,4 +79,4 @@ class Progress {
   bool open_ = false;
 };
 
-}  // namespace softhom::app
+}  // namespace softhom::jobs

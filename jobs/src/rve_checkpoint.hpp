@@ -28,7 +28,7 @@ namespace softhom::fft {
 class SlabDecomposition;
 }
 
-namespace softhom::app {
+namespace softhom::jobs {
 
 struct RveRecorder;
 
@@ -94,4 +94,4 @@ class RveCheckpoint {
 /// FFTW planning), which a continued run may change.
 nlohmann::json checkpoint_fingerprint(const toml::table& scene);
 
-}  // namespace softhom::app
+}  // namespace softhom::jobs

@@ -19,7 +19,7 @@
 #include "softhom/io/fields.hpp"
 #include "softhom/rve/fft_solver.hpp"
 
-namespace softhom::app {
+namespace softhom::jobs {
 
 /// One field of fields.h5 of an FFT cell: its dataset name, values, components, centering and unit.
 struct RveFieldView {
@@ -80,4 +80,4 @@ inline void write_slab_fields(io::FieldWriter* writer, const fft::SlabDecomposit
   }
 }
 
-}  // namespace softhom::app
+}  // namespace softhom::jobs

@@ -30,10 +30,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "commands.hpp"
-#include "demo_report.hpp"
-#include "embedded_scenes.hpp"
-#include "point_output.hpp"
+#include "softhom/jobs/demo_report.hpp"
+#include "softhom/jobs/jobs.hpp"
 #include "softhom/io/files.hpp"
 #include "softhom/io/plot.hpp"
 #include "softhom/io/scene.hpp"
@@ -41,8 +39,16 @@
 #include "softhom/materials/library.hpp"
 #include "softhom/studies/campaign.hpp"
 
-namespace softhom::app {
+namespace softhom::jobs {
 namespace {
+
+/// What the demo is run with: the campaign file (empty: the embedded one), the output directory and
+/// the options of the program.
+struct DemoOptions {
+  std::filesystem::path scene, out;
+  int threads = 0, jobs = 0;
+  bool quiet = false, no_warm_start = false;
+};
 
 // ---- Demo choice -------------------------------------------------------------------------------
 // "ecoflex" (default: the chapter-IV soft matrix; the mixed (u, p) Newton iteration makes it converge,
@@ -151,7 +157,7 @@ int run_self(const std::vector<std::string>& args) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
 }
 
-int run_point_checks(const CommandOptions& options, std::ostream& report) {
+int run_point_checks(const DemoOptions& options, std::ostream& report) {
   struct Case {
     const char* scene;
     bool expect_completion;  // point_locking must stop at the Gent limit
@@ -161,15 +167,15 @@ int run_point_checks(const CommandOptions& options, std::ostream& report) {
                         {"point_locking", false}};
   int failures = 0;
   for (const Case& c : cases) {
-    LoadedScene scene;
-    scene.name = c.scene;
-    scene.table = io::parse_scene(embedded_scenes().at(c.scene), std::string("<embedded ") + c.scene + ".toml>");
-    const auto dir = options.out / "point" / c.scene;
-    const PointRun run = run_point_scene(scene, dir, true);
-    const auto& last = run.result.steps.back();
-    const bool as_expected = run.result.completed == c.expect_completion;
+    const PointJob job = parse_point(load_scene_or_default({}, c.scene));
+    FileSink sink(options.out / "point" / c.scene);
+    RunOptions quiet;
+    quiet.quiet = true;
+    const PointRunResult result = run_point(job, sink, quiet);
+    const auto& last = result.steps.back();
+    const bool as_expected = result.completed == c.expect_completion;
     if (!as_expected) ++failures;
-    report << "  " << c.scene << ": " << (run.result.completed ? "completed" : "stopped at the Gent limit (expected)")
+    report << "  " << c.scene << ": " << (result.completed ? "completed" : "stopped at the Gent limit (expected)")
            << ", F11 = " << fmt(last.F(0, 0)) << ", sigma11 = " << fmt(last.sigma(0, 0)) << " MPa"
            << (as_expected ? "" : "   <-- UNEXPECTED") << "\n";
   }
@@ -181,8 +187,8 @@ int run_point_checks(const CommandOptions& options, std::ostream& report) {
 /// State shared by the steps: the options, the growing report, problems (failed steps: exit 1) and
 /// notes (facts a reader should know that are not failures, e.g. a parameter at its bound).
 struct DemoRun {
-  explicit DemoRun(const CommandOptions& o) : options(o) {}
-  const CommandOptions& options;
+  explicit DemoRun(const DemoOptions& o) : options(o) {}
+  const DemoOptions& options;
   std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
   std::ostringstream report;
   int problems = 0;
@@ -213,7 +219,7 @@ void run_point_step(DemoRun& run) {
 
 /// The campaign file given on the command line, or the embedded demo campaign (written to
 /// DIR/campaign.toml so that the run can be repeated from it).
-studies::Campaign load_demo_campaign(const CommandOptions& options, std::string& source) {
+studies::Campaign load_demo_campaign(const DemoOptions& options, std::string& source) {
   namespace fs = std::filesystem;
   toml::table table;
   if (!options.scene.empty()) {
@@ -346,18 +352,19 @@ void run_calibration_step(DemoRun& run, const CampaignOutcome& campaign) {
   const std::filesystem::path cal_dir = run.options.out / "calibration";
   write_calibration_input(campaign, cal_dir);
   std::cout << "softhom demo: 2. calibration of Gent + HGO to " << campaign.fitted_curves << " tension curves\n";
-  CommandOptions cal = run.options;
-  cal.scene = cal_dir / "calibration.toml";
-  cal.out = cal_dir;
-  cal.quiet = true;
-  const int rc = run_calibrate(cal);
+  RunOptions quiet;
+  quiet.quiet = true;
+  quiet.threads = run.options.threads;
+  FileSink sink(cal_dir);
+  const bool success =
+      run_calibration(parse_calibration(load_scene_file(cal_dir / "calibration.toml")), sink, quiet, true).result.success;
   nlohmann::json summary;
   {
     std::ifstream in(cal_dir / "summary.json");
     summary = nlohmann::json::parse(in);
   }
   report_calibration(run, summary, run.seconds() - t0);
-  if (rc != 0) {
+  if (!success) {
     ++run.problems;
     std::cout << "  calibration did not converge; the tube runs with the initial values\n";
   }
@@ -365,7 +372,7 @@ void run_calibration_step(DemoRun& run, const CampaignOutcome& campaign) {
 
 /// DIR/tube/scene.toml: the embedded helix-tube scene with [material] = the calibrated material and
 /// two fiber families at ±45° from the tube axis. Returns the name of the embedded scene used.
-std::string write_tube_scene(const CommandOptions& options, const std::string& matrix_name) {
+std::string write_tube_scene(const DemoOptions& options, const std::string& matrix_name) {
   const std::string name =
       std::string("macro_tube_helix45_") + (matrix_name.find("ecoflex") != std::string::npos ? "ecoflex" : "pdms");
   toml::table tube = io::parse_scene(embedded_scenes().at(name), "<embedded " + name + ".toml>");
@@ -418,7 +425,7 @@ void run_tube_step(DemoRun& run, const std::string& matrix_name) {
 }
 
 /// The two PNG plots made here (the fit plot comes from the calibration); returns the files made.
-std::vector<std::string> write_plots(const CommandOptions& options, const io::PlotSpec& campaign_plot) {
+std::vector<std::string> write_plots(const DemoOptions& options, const io::PlotSpec& campaign_plot) {
   std::string why;
   std::vector<std::string> pngs;
   if (io::plot_curves(options.out / "campaign_curves.png", campaign_plot, &why)) pngs.push_back("campaign_curves.png");
@@ -464,7 +471,8 @@ void finish_report(DemoRun& run, const std::vector<std::string>& pngs, double t_
 
 }  // namespace
 
-int run_demo(const CommandOptions& options) {
+bool run_demo(const std::filesystem::path& campaign_file, const std::filesystem::path& out, const RunOptions& given) {
+  const DemoOptions options{campaign_file, out, given.threads, given.jobs, given.quiet, given.no_warm_start};
   std::filesystem::create_directories(options.out);
   DemoRun run(options);
   run_point_step(run);
@@ -474,12 +482,12 @@ int run_demo(const CommandOptions& options) {
     write_report(run);
     std::cerr << "softhom demo: no converged tension case to calibrate to; see "
               << (options.out / "report.md").string() << "\n";
-    return 1;
+    return false;
   }
   run_calibration_step(run, campaign);
   run_tube_step(run, campaign.matrix_name);
   finish_report(run, write_plots(options, campaign.plot), campaign.seconds);
-  return run.problems == 0 ? 0 : 1;
+  return run.problems == 0;
 }
 
-}  // namespace softhom::app
+}  // namespace softhom::jobs

@@ -1,6 +1,6 @@
 #pragma once
-// Output pieces shared by the two RVE engines' commands (cmd_rve.cpp: FFT, cmd_rve_fe.cpp: FE), so that
-// both write the same [output] semantics and the same summary.json step log.
+// Output pieces shared by the two RVE engines' jobs (rve_fft.cpp, rve_fe.cpp), so that both write the
+// same [output] semantics and the same summary.json step log.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -14,16 +14,17 @@
 #include <nlohmann/json.hpp>
 #include <toml++/toml.h>
 
-#include "run_control.hpp"
 #include "softhom/io/fields.hpp"
 #include "softhom/io/files.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
+#include "softhom/jobs/run_control.hpp"
+#include "softhom/jobs/sink.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/rve/fft_solver.hpp"
 #include "softhom/studies/rve_scene.hpp"
 
-namespace softhom::app {
+namespace softhom::jobs {
 
 /// The [output] table of an RVE scene, declared with the scene's other keys (studies/rve_scene.hpp).
 using studies::RveOutputSettings;
@@ -82,24 +83,33 @@ inline rve::RveRunResult interrupted_rve_result(std::vector<rve::RveStep> steps,
   return r;
 }
 
-/// The step callback's own record of a run: rows on disk as they converge, the summary step log, and
-/// the converged steps (kept for an interrupted run, whose solver result is lost in the unwinding).
+/// The step callback's own record of a run: the rows (to the sink as they converge, and kept for the
+/// checkpoints), the summary step log, and the converged steps (kept for an interrupted run, whose
+/// solver result is lost in the unwinding).
 struct RveRecorder {
-  io::ProgressiveCsv csv;
+  Sink& sink;
+  io::CsvTable rows;
   nlohmann::json step_log = nlohmann::json::array();
   std::vector<rve::RveStep> steps;
 
-  RveRecorder(const std::filesystem::path& out, std::vector<std::string> columns)
-      : csv(out / "response.csv", std::move(columns)) {}
+  RveRecorder(Sink& s, const std::vector<std::string>& columns) : sink(s), rows(columns) {
+    sink.open_table("response", columns);
+  }
   void record(const rve::RveStep& s, const std::vector<double>& row) {
-    csv.add_row(row);
+    add_row(row);
     step_log.push_back(rve_step_log_entry(s));
     steps.push_back(s);
   }
   /// The rows and step log of the run a continued run takes over (`steps` holds this run's only).
-  void take_over(const std::vector<std::vector<double>>& rows, const nlohmann::json& log) {
-    for (const auto& row : rows) csv.add_row(row);
+  void take_over(const std::vector<std::vector<double>>& earlier_rows, const nlohmann::json& log) {
+    for (const auto& row : earlier_rows) add_row(row);
     step_log = log;
+  }
+
+ private:
+  void add_row(const std::vector<double>& row) {
+    rows.add_row(row);
+    sink.add_row("response", row);
   }
 };
 
@@ -144,10 +154,10 @@ inline void set_rve_field_attributes(io::FieldWriter& w, double fiber_angle_deg,
   w.set_attribute("fiber_angle_deg", a);
 }
 
-/// The run-result keys of summary.json common to both engines; writes summary.json (atomically) and,
+/// The run-result keys of summary.json common to both engines; hands the summary to the sink and,
 /// when the run stopped early, says so on stderr. Returns whether the run completed.
 inline bool finish_rve_summary(nlohmann::json& summary, const rve::RveRunResult& result, const nlohmann::json& step_log,
-                               std::size_t solver_memory_bytes, const std::filesystem::path& out,
+                               std::size_t solver_memory_bytes, Sink& sink,
                                std::chrono::steady_clock::time_point wall_start, double earlier_wall_seconds = 0.0) {
   io::set_run_status(summary, result.completed, result.error);
   summary["steps"] = step_log;
@@ -163,11 +173,11 @@ inline bool finish_rve_summary(nlohmann::json& summary, const rve::RveRunResult&
   summary["solve_time_s"] = result.wall_seconds;
   summary["wall_time_s"] =
       earlier_wall_seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  io::write_summary(out, summary);
+  sink.write_summary(summary);
   if (!result.completed)
     std::cerr << "softhom rve: stopped early: " << result.error << "\nsofthom rve: " << step_log.size()
-              << " converged rows kept in " << (out / "response.csv").string() << "\n";
+              << " converged rows kept in " << sink.where("response.csv") << "\n";
   return result.completed;
 }
 
-}  // namespace softhom::app
+}  // namespace softhom::jobs

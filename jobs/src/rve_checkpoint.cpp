@@ -13,7 +13,7 @@
 #include "softhom/io/files.hpp"
 #include "softhom/core/input_error.hpp"
 
-namespace softhom::app {
+namespace softhom::jobs {
 
 namespace fs = std::filesystem;
 
@@ -220,7 +220,7 @@ std::string RveCheckpoint::save(const rve::FftRveSolver& solver, const fft::Slab
         {"pressure", {}, v.pressure},
         {"pressure_increment", {}, v.pressure_increment},
     };
-    if (rank_ == 0) arrays.push_back({"response_rows", record.csv.table().values(), {}});
+    if (rank_ == 0) arrays.push_back({"response_rows", record.rows.values(), {}});
     io::write_array_file(dir / state_file(step, rank_), arrays);
   } catch (const std::exception& e) {
     failure = e.what();
@@ -232,7 +232,7 @@ std::string RveCheckpoint::save(const rve::FftRveSolver& solver, const fft::Slab
     r["t"] = t;
     r["output_steps"] = step;
     r["ranks"] = ranks_;
-    r["row_width"] = record.csv.table().columns().size();
+    r["row_width"] = record.rows.columns().size();
     r["scene"] = fingerprint_;
     r["step_log"] = record.step_log;
     r["counts"] = rve_counts_json(totals);
@@ -277,4 +277,4 @@ void RveCheckpoint::remove() const {
   fs::remove_all(state_dir(out_), ec);
 }
 
-}  // namespace softhom::app
+}  // namespace softhom::jobs

@@ -1,0 +1,114 @@
+// softhom rve: the scene parsed once into the job of its engine (FFT or FE), the engine choice of
+// engine = "auto" applied to the parsed values, and the run dispatched to the engine's job.
+#include <atomic>
+#include <iostream>
+
+#include "rve_jobs.hpp"
+#include "softhom/io/scene.hpp"
+#include "softhom/materials/errors.hpp"
+
+namespace softhom::jobs {
+namespace {
+
+std::atomic<std::size_t> parses{0};
+
+/// [solver] engine: "fft" (also without a [solver] table), "fe" or "auto".
+std::string requested_engine(const toml::table& scene) {
+  static const keys::Choices<std::string> engines{{{"fft", "fft"}, {"fe", "fe"}, {"auto", "auto"}}, {}};
+  const toml::table* solver = scene["solver"].as_table();
+  const toml::node* node = solver ? solver->get("engine") : nullptr;
+  return node ? keys::read_choice(*node, "solver.engine", engines) : "fft";
+}
+
+FeRveJob parse_fe_job(const toml::table& scene, bool microstructure_only) {
+  FeRveJob job;
+  const toml::table& micro = studies::rve_microstructure(scene);
+  job.phases = studies::parse_rve_phases(scene);
+  job.section = studies::parse_fe_section(micro, job.target_vf, job.geometry_note);
+  if (job.target_vf > 0.0 && !job.phases.has_fiber)
+    throw InputError("phases.fiber", "", "missing (the cell has fibers)");
+  job.fiber_angle_deg = studies::microstructure_fiber_angle(micro);
+  job.settings = studies::parse_fe_rve_solver(scene, job.section.L1);
+  if (!microstructure_only) job.control = studies::parse_rve_load(scene);
+  job.output = studies::parse_rve_output(scene, microstructure_only ? nullptr : &job.control);
+  return job;
+}
+
+}  // namespace
+
+EngineRequest engine_request(const toml::table& scene) {
+  const toml::table* solver = scene["solver"].as_table();
+  const toml::table* micro = scene["microstructure"].as_table();
+  if (!solver || !micro) throw InputError("solver.engine", "auto", "needs [microstructure] and [solver] tables");
+  if (!solver->contains("target_error"))
+    throw InputError("solver.target_error", "", "engine = \"auto\" needs target_error (relative error of the homogenized stress)");
+  EngineRequest r;
+  r.target_error = keys::read_number(*solver->get("target_error"), "solver.target_error", keys::open_range(0.0, 0.5));
+  if (micro->contains("grid") || solver->contains("mesh_size"))
+    throw InputError("solver.target_error", format_number(r.target_error),
+                     "give either target_error (engine = \"auto\") or a resolution (grid / mesh_size), not both");
+  const studies::RvePhases phases = studies::parse_rve_phases(scene);
+  if (!phases.has_fiber) throw InputError("phases.fiber", "", "missing");
+  r.matrix_bulk_to_shear = phases.matrix->initial_bulk_modulus() / phases.matrix->initial_shear_modulus();
+  r.shear_contrast = phases.fiber->initial_shear_modulus() / phases.matrix->initial_shear_modulus();
+  double target_vf = 0.0;
+  std::string note;
+  const rve::Section section = studies::parse_fe_section(*micro, target_vf, note);
+  r.L1 = section.L1;
+  r.L2 = section.L2;
+  return r;
+}
+
+toml::table resolved_scene(const toml::table& scene, const EngineResolution& resolution) {
+  toml::table resolved = scene;
+  toml::table& solver = *resolved["solver"].as_table();
+  solver.erase("target_error");
+  if (resolution.engine == RveEngine::fft) {
+    solver.erase("engine");
+    resolved["microstructure"].as_table()->insert_or_assign("grid", toml::array{resolution.grid[0], resolution.grid[1]});
+  } else {
+    solver.insert_or_assign("engine", "fe");
+    solver.insert_or_assign("mesh_size", resolution.mesh_size);
+    solver.insert_or_assign("interface_size", resolution.interface_size);
+  }
+  return resolved;
+}
+
+RveJob parse_rve(LoadedScene scene, const RveParseOptions& options) {
+  ++parses;
+  RveJob job;
+  job.resume = options.resume;
+  RveEngine engine = RveEngine::fft;
+  if (const std::string e = requested_engine(scene.table); e == "auto") {
+    job.resolution = choose_engine(engine_request(scene.table));
+    scene.table = resolved_scene(scene.table, *job.resolution);
+    engine = job.resolution->engine;
+  } else if (e == "fe") {
+    engine = RveEngine::fe;
+  }
+  if (engine == RveEngine::fe && options.resume)
+    throw InputError("--resume", "", "continues runs of the FFT engine only (solver.engine = \"fe\" writes no checkpoint)");
+  // [load] is parsed only when the run needs it (unknown tables are refused by the scene parser).
+  job.microstructure_only = studies::parse_rve_output(scene.table, nullptr).microstructure_only;
+  if (engine == RveEngine::fe) {
+    job.engine = parse_fe_job(scene.table, job.microstructure_only);
+  } else {
+    if (job.microstructure_only && options.resume)
+      throw InputError("--resume", "", "output.microstructure_only runs no load path, there is nothing to continue");
+    // A 3D cell under an MPI launcher: each rank builds and holds only its slab of the phase image.
+    const bool with_load = !job.microstructure_only;
+    job.engine = FftRveJob{studies::parse_rve_scene(scene.table, with_load, options.out, with_load)};
+  }
+  job.scene = std::move(scene);
+  return job;
+}
+
+std::size_t rve_scene_parses() { return parses.load(); }
+
+bool run_rve(RveJob& job, Sink& sink, const RunOptions& options) {
+  if (job.resolution && !options.quiet) std::cerr << "softhom rve: " << job.resolution->why << "\n";
+  if (auto* fe = std::get_if<FeRveJob>(&job.engine)) return run_fe_rve(job, *fe, sink, options);
+  return run_fft_rve(job, std::get<FftRveJob>(job.engine), sink, options);
+}
+
+}  // namespace softhom::jobs
