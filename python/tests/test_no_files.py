@@ -1,11 +1,14 @@
 """softhom.run_rve and run_point without out=: the results come back in memory and no file is written.
-The jobs run in a child Python whose working directory has been removed and whose TMPDIR, HOME and
-XDG_CACHE_HOME name a directory that does not exist, so any file a run tried to create (a temporary
-directory, a CSV to read back, a cache) would fail; and the results equal the program's files for the
-same scenes."""
+The jobs run in a child Python whose working directory has been removed, whose temporary directory
+(TMPDIR and tempfile.tempdir), HOME and XDG_CACHE_HOME name a directory that does not exist, so a
+temporary directory, a CSV to read back or a cache file would fail the run; where strace is installed,
+the child's system calls are traced too and none may create, open for writing, rename or remove a file.
+The results equal the program's files for the same scenes."""
 import json
 import os
 import pathlib
+import re
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -18,7 +21,8 @@ from conftest import run_cli
 from test_runs import RVE
 
 CHILD = textwrap.dedent("""
-    import json, os, sys
+    import json, os, sys, tempfile
+    tempfile.tempdir = os.environ["TMPDIR"]
     import softhom
     rve = softhom.run_rve(json.loads(sys.argv[1]), threads=1)
     point = softhom.run_point(softhom.default_scene("point"), threads=1)
@@ -35,13 +39,24 @@ def test_cell_and_point_touch_no_file_system(tmp_path):
     gone.mkdir()
     missing = str(tmp_path / "does-not-exist")
     env = dict(os.environ, TMPDIR=missing, HOME=missing, XDG_CACHE_HOME=missing, OMP_NUM_THREADS="1",
-               PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+               PYTHONDONTWRITEBYTECODE="1", PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
     # The child starts in `gone`, which is removed before it runs a job: relative paths lead nowhere.
     script = "import os; os.rmdir(os.getcwd()); " + "exec(" + repr(CHILD) + ")"
-    r = subprocess.run([sys.executable, "-c", script, json.dumps(RVE)], cwd=gone, env=env,
+    trace = tmp_path / "trace.txt"
+    strace = shutil.which("strace")
+    tracer = [strace, "-f", "-qq", "-o", str(trace), "-e", "trace=openat,open,creat,mkdir,mkdirat,rename,renameat,"
+              "renameat2,unlink,unlinkat"] if strace else []
+    r = subprocess.run([*tracer, sys.executable, "-c", script, json.dumps(RVE)], cwd=gone, env=env,
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert not gone.exists() and not pathlib.Path(missing).exists()
+    if strace and trace.exists():
+        calls = [line for line in trace.read_text().splitlines() if "= -1" not in line]
+        writes = [c for c in calls if re.search(r"O_WRONLY|O_RDWR|O_CREAT", c) or
+                  re.search(r"\b(creat|mkdir|mkdirat|rename|renameat2?|unlink|unlinkat)\(", c)]
+        # The child's own removal of its start directory is the one expected.
+        writes = [c for c in writes if '"/dev/' not in c and str(gone) not in c]
+        assert writes == [], writes[:5]
     got = json.loads(r.stdout)
     assert got["rve_status"] == "completed" and got["point_steps"] > 0 and got["cell_converged"]
 
