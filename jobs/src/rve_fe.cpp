@@ -47,48 +47,42 @@ io::UnstructuredMesh field_mesh(const rve::CellMesh& m) {
   return u;
 }
 
+/// The statistics both FE meshes report (summary.json "mesh").
+template <class Mesh, class Sizes>
+nlohmann::json mesh_json(const Mesh& mesh, const char* element_type, const Sizes& sizes) {
+  const auto& q = mesh.quality;
+  return {{"elements", mesh.num_elements()},        {"nodes", mesh.num_nodes()},
+          {"vertices", mesh.vertices},              {"element_type", element_type},
+          {"mesh_size", sizes.mesh_size},           {"interface_size", sizes.interface_size},
+          {"min_radius_ratio", q.min_radius_ratio}, {"mean_radius_ratio", q.mean_radius_ratio},
+          {"min_edge", q.min_edge},                 {"max_edge", q.max_edge},
+          {"max_pairing_error", q.max_pairing_error}};
+}
+
 nlohmann::json section_mesh_json(const rve::SectionMesh& mesh, const studies::FeRveSettings& settings) {
   const rve::SectionMeshQuality& q = mesh.quality;
-  return {{"elements", mesh.num_elements()},
-          {"nodes", mesh.num_nodes()},
-          {"vertices", mesh.vertices},
-          {"element_type", "T6 (6-node triangle, curved interfaces)"},
-          {"mesh_size", settings.mesh.mesh_size},
-          {"interface_size", settings.mesh.interface_size},
-          {"min_angle_deg", q.min_angle_deg},
-          {"max_angle_deg", q.max_angle_deg},
-          {"min_radius_ratio", q.min_radius_ratio},
-          {"mean_radius_ratio", q.mean_radius_ratio},
-          {"min_edge", q.min_edge},
-          {"max_edge", q.max_edge},
-          {"refinement_passes", q.refinement_passes},
-          {"mirrored_boundary_points", q.mirrored_points},
-          {"max_pairing_error", q.max_pairing_error},
-          {"fiber_area_error", q.fiber_area_error},
-          {"refined_corners", q.refined_corners},
-          {"min_corner_size", q.min_corner_size}};
+  nlohmann::json j = mesh_json(mesh, "T6 (6-node triangle, curved interfaces)", settings.mesh);
+  j["min_angle_deg"] = q.min_angle_deg;
+  j["max_angle_deg"] = q.max_angle_deg;
+  j["refinement_passes"] = q.refinement_passes;
+  j["mirrored_boundary_points"] = q.mirrored_points;
+  j["fiber_area_error"] = q.fiber_area_error;
+  j["refined_corners"] = q.refined_corners;
+  j["min_corner_size"] = q.min_corner_size;
+  return j;
 }
 
 nlohmann::json cell_mesh_json(const rve::CellMesh& mesh, const studies::FeRveSettings& settings) {
   const rve::CellMeshQuality& q = mesh.quality;
-  return {{"elements", mesh.num_elements()},
-          {"nodes", mesh.num_nodes()},
-          {"vertices", mesh.vertices},
-          {"element_type", "Tet10 (10-node tetrahedron, curved interfaces)"},
-          {"cell_length", mesh.L3},
-          {"mesh_size", settings.mesh3d.mesh_size},
-          {"interface_size", settings.mesh3d.interface_size},
-          {"min_dihedral_deg", q.min_dihedral_deg},
-          {"max_dihedral_deg", q.max_dihedral_deg},
-          {"min_radius_ratio", q.min_radius_ratio},
-          {"mean_radius_ratio", q.mean_radius_ratio},
-          {"min_edge", q.min_edge},
-          {"max_edge", q.max_edge},
-          {"periodic_copies", q.periodic_copies},
-          {"max_pairing_error", q.max_pairing_error},
-          {"fiber_volume_error", q.fiber_volume_error},
-          {"aspect_stretch", q.aspect_stretch},
-          {"mesh_seed", q.seed_used}};
+  nlohmann::json j = mesh_json(mesh, "Tet10 (10-node tetrahedron, curved interfaces)", settings.mesh3d);
+  j["cell_length"] = mesh.L3;
+  j["min_dihedral_deg"] = q.min_dihedral_deg;
+  j["max_dihedral_deg"] = q.max_dihedral_deg;
+  j["periodic_copies"] = q.periodic_copies;
+  j["fiber_volume_error"] = q.fiber_volume_error;
+  j["aspect_stretch"] = q.aspect_stretch;
+  j["mesh_seed"] = q.seed_used;
+  return j;
 }
 
 /// The FE cell's mesh (a section or a 3D cell), what field files and the summary say of it.

@@ -47,26 +47,6 @@ const io::CsvTable* MemorySink::table(const std::string& name) const {
   return it == tables_.end() ? nullptr : &it->second;
 }
 
-void TeeSink::open_table(const std::string& name, const std::vector<std::string>& columns) {
-  a_.open_table(name, columns);
-  b_.open_table(name, columns);
-}
-
-void TeeSink::add_row(const std::string& name, const std::vector<double>& row) {
-  a_.add_row(name, row);
-  b_.add_row(name, row);
-}
-
-void TeeSink::flush() {
-  a_.flush();
-  b_.flush();
-}
-
-void TeeSink::write_summary(const nlohmann::json& summary) {
-  a_.write_summary(summary);
-  b_.write_summary(summary);
-}
-
 std::unique_ptr<io::FieldWriter> TeeSink::open_fields(const std::string& stem, const io::VoxelGrid& grid) {
   auto w = a_.open_fields(stem, grid);
   return w ? std::move(w) : b_.open_fields(stem, grid);

@@ -17,13 +17,7 @@ using softhom::jobs::RveEngine;
 namespace {
 
 EngineRequest request(double target, double kg, double contrast, double L1 = 1.0, double L2 = 1.0) {
-  EngineRequest r;
-  r.target_error = target;
-  r.matrix_bulk_to_shear = kg;
-  r.shear_contrast = contrast;
-  r.L1 = L1;
-  r.L2 = L2;
-  return r;
+  return {.target_error = target, .matrix_bulk_to_shear = kg, .shear_contrast = contrast, .L1 = L1, .L2 = L2};
 }
 
 }  // namespace

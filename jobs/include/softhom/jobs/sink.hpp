@@ -91,16 +91,19 @@ class MemorySink final : public Sink {
 class TeeSink final : public Sink {
  public:
   TeeSink(Sink& first, Sink& second) : a_(first), b_(second) {}
-  void prepare() override {
-    a_.prepare();
-    b_.prepare();
+  void prepare() override { a_.prepare(); b_.prepare(); }
+  void open_table(const std::string& name, const std::vector<std::string>& columns) override {
+    a_.open_table(name, columns); b_.open_table(name, columns);
   }
-  void open_table(const std::string& name, const std::vector<std::string>& columns) override;
-  void add_row(const std::string& name, const std::vector<double>& row) override;
-  void flush() override;
-  void write_summary(const nlohmann::json& summary) override;
+  void add_row(const std::string& name, const std::vector<double>& row) override {
+    a_.add_row(name, row); b_.add_row(name, row);
+  }
+  void flush() override { a_.flush(); b_.flush(); }
+  void write_summary(const nlohmann::json& summary) override { a_.write_summary(summary); b_.write_summary(summary); }
+  /// The first sink's field file, else the second's.
   std::unique_ptr<io::FieldWriter> open_fields(const std::string& stem, const io::VoxelGrid& grid) override;
   std::unique_ptr<io::FieldWriter> open_fields(const std::string& stem, const io::UnstructuredMesh& mesh) override;
+  /// The first sink's directory, else the second's.
   std::filesystem::path directory() const override;
   std::string where(const std::string& file) const override;
 
