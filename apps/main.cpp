@@ -108,8 +108,10 @@ int run_sweep(const CommandOptions& o) {
 }
 
 int run_calibrate(const CommandOptions& o) {
-  const jobs::CalibrationJob job =
-      jobs::parse_calibration(o.scene.empty() ? jobs::LoadedScene{} : jobs::load_scene_file(o.scene));
+  if (o.scene.empty())
+    throw InputError("scene", "", "calibrate needs a calibration file: softhom calibrate CALIBRATION.toml --out DIR "
+                                  "(example: studies/calibrations/example_point.toml)");
+  const jobs::CalibrationJob job = jobs::parse_calibration(jobs::load_scene_file(o.scene));
   jobs::FileSink sink(o.out);
   return jobs::run_calibration(job, sink, o.run(), true).result.success ? 0 : 1;
 }

@@ -106,9 +106,6 @@ void plot_fit(const std::filesystem::path& out, bool quiet) {
 }  // namespace
 
 CalibrationJob parse_calibration(LoadedScene scene, const std::filesystem::path& base) {
-  if (scene.table.empty() && scene.file.empty())
-    throw InputError("scene", "", "calibrate needs a calibration file: softhom calibrate CALIBRATION.toml --out DIR "
-                                  "(example: studies/calibrations/example_point.toml)");
   const std::filesystem::path dir =
       !base.empty() ? base : !scene.file.empty() ? std::filesystem::absolute(scene.file).parent_path() : ".";
   CalibrationJob job;
