@@ -116,7 +116,11 @@ int run_calibrate(const CommandOptions& o) {
   return jobs::run_calibration(job, sink, o.run(), true).result.success ? 0 : 1;
 }
 
-int run_demo(const CommandOptions& o) { return jobs::run_demo(o.scene, o.out, o.run()) ? 0 : 1; }
+int run_demo(const CommandOptions& o) {
+  const jobs::DemoJob job = jobs::parse_demo(o.scene);
+  jobs::FileSink sink(o.out);
+  return jobs::run_demo(job, sink, o.run()) ? 0 : 1;
+}
 
 /// The message and exit code of an exception that ended a subcommand.
 int exit_code_of_exception(const char* name) {

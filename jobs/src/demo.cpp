@@ -42,10 +42,10 @@
 namespace softhom::jobs {
 namespace {
 
-/// What the demo is run with: the campaign file (empty: the embedded one), the output directory and
-/// the options of the program.
+/// What the demo is run with: its job, the output directory and the options of the program.
 struct DemoOptions {
-  std::filesystem::path scene, out;
+  const DemoJob& job;
+  std::filesystem::path out;
   int threads = 0, jobs = 0;
   bool quiet = false, no_warm_start = false;
 };
@@ -217,24 +217,6 @@ void run_point_step(DemoRun& run) {
   run.report << "## 0. Material-point checks (`DIR/point/`)\n\n```\n" << r0.str() << "```\n\n";
 }
 
-/// The campaign file given on the command line, or the embedded demo campaign (written to
-/// DIR/campaign.toml so that the run can be repeated from it).
-studies::Campaign load_demo_campaign(const DemoOptions& options, std::string& source) {
-  namespace fs = std::filesystem;
-  toml::table table;
-  if (!options.scene.empty()) {
-    table = io::load_scene(options.scene);
-    source = options.scene.string();
-  } else {
-    const std::string text = demo_campaign(kDemoMatrix, kDemoGrid);
-    io::write_file_atomic(options.out / "campaign.toml", text);
-    table = io::parse_scene(text, "<demo campaign>");
-    source = (options.out / "campaign.toml").string() + " (embedded demo campaign)";
-  }
-  return studies::expand_campaign(table,
-                                  options.scene.empty() ? fs::current_path() : fs::absolute(options.scene).parent_path());
-}
-
 void report_case_row(std::ostream& report, const studies::CaseRecord& r) {
   const std::size_t last = r.rows() ? r.rows() - 1 : 0;
   report << "| " << r.id << " | " << r.status << " | " << (r.rows() ? fmt(column_value(r, last, "F11")) : "-") << " | "
@@ -254,8 +236,13 @@ void write_case_curve(const studies::CaseRecord& r, const std::filesystem::path&
 
 CampaignOutcome run_campaign_step(DemoRun& run) {
   const double t0 = run.seconds();
-  std::string source;
-  const studies::Campaign campaign = load_demo_campaign(run.options, source);
+  const DemoJob& job = run.options.job;
+  std::string source = job.file.string();
+  if (job.file.empty()) {  // written so that the run can be repeated from it
+    io::write_file_atomic(run.options.out / "campaign.toml", job.embedded_text);
+    source = (run.options.out / "campaign.toml").string() + " (embedded demo campaign)";
+  }
+  const studies::Campaign& campaign = job.campaign;
   std::cout << "softhom demo: 1. RVE campaign, " << campaign.cases.size() << " cases from " << source << "\n";
   studies::SweepOptions so;
   so.jobs = run.options.jobs;
@@ -471,9 +458,26 @@ void finish_report(DemoRun& run, const std::vector<std::string>& pngs, double t_
 
 }  // namespace
 
-bool run_demo(const std::filesystem::path& campaign_file, const std::filesystem::path& out, const RunOptions& given) {
-  const DemoOptions options{campaign_file, out, given.threads, given.jobs, given.quiet, given.no_warm_start};
-  std::filesystem::create_directories(options.out);
+DemoJob parse_demo(const std::filesystem::path& campaign_file) {
+  DemoJob job;
+  job.file = campaign_file;
+  toml::table table;
+  if (!campaign_file.empty()) {
+    table = io::load_scene(campaign_file);
+  } else {
+    job.embedded_text = demo_campaign(kDemoMatrix, kDemoGrid);
+    table = io::parse_scene(job.embedded_text, "<demo campaign>");
+  }
+  const std::filesystem::path base =
+      campaign_file.empty() ? std::filesystem::current_path() : std::filesystem::absolute(campaign_file).parent_path();
+  job.campaign = studies::expand_campaign(table, base);
+  return job;
+}
+
+bool run_demo(const DemoJob& job, Sink& sink, const RunOptions& given) {
+  if (sink.directory().empty()) throw InputError("out", "", "the demo writes its files into an output directory: give one");
+  const DemoOptions options{job, sink.directory(), given.threads, given.jobs, given.quiet, given.no_warm_start};
+  sink.prepare();
   DemoRun run(options);
   run_point_step(run);
   const CampaignOutcome campaign = run_campaign_step(run);

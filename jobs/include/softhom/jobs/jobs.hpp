@@ -145,8 +145,14 @@ CalibrationOutcome run_calibration(const CalibrationJob& job, Sink& sink, const 
 
 // ---- softhom demo ----------------------------------------------------------------------------------
 
-/// The whole chain (point checks, an RVE campaign, calibration, a tube) into `out`; `campaign`: a
-/// campaign file or empty for the embedded one. Returns whether every step went as expected.
-bool run_demo(const std::filesystem::path& campaign, const std::filesystem::path& out, const RunOptions& options);
+struct DemoJob {
+  std::filesystem::path file;  ///< the campaign file; empty: the embedded demo campaign
+  std::string embedded_text;   ///< the embedded campaign (written to OUT/campaign.toml by the run)
+  studies::Campaign campaign;
+};
+DemoJob parse_demo(const std::filesystem::path& campaign_file);
+/// The whole chain (point checks, the RVE campaign, calibration, a tube, plots, report.md) into the
+/// sink's directory. Returns whether every step went as expected.
+bool run_demo(const DemoJob& job, Sink& sink, const RunOptions& options);
 
 }  // namespace softhom::jobs
