@@ -30,6 +30,7 @@ EngineResolution choose_engine(const EngineRequest& request) {
   if (r.predicted_fft_seconds <= r.predicted_fe_seconds) {
     r.engine = RveEngine::fft;
     r.grid = {n, int(std::lround(n * request.L2 / request.L1))};
+    r.predicted_error = r.fft_error_coefficient / n;
     os << "engine auto: FFT " << n << "² for target error " << target << " (matrix K/G " << kg << ", shear contrast "
        << contrast << ")";
   } else {
@@ -37,6 +38,7 @@ EngineResolution choose_engine(const EngineRequest& request) {
     r.mesh_divisions = d;
     r.mesh_size = request.L1 / d;
     r.interface_size = request.L1 / (3.0 * d);
+    r.predicted_error = 1e-5 * std::pow(4.0 / d, 3.3);
     os << "engine auto: FE, mesh_size L/" << d << " for target error " << target << " (matrix K/G " << kg
        << ", shear contrast " << contrast << ")";
   }

@@ -30,6 +30,7 @@ TEST(EngineChoice, StiffMatrixAtModerateTargetIsFft16) {
   EXPECT_EQ(r.grid[0], 16);
   EXPECT_EQ(r.grid[1], 16);
   EXPECT_NEAR(r.fft_error_coefficient, 6.2e-3, 1e-15);
+  EXPECT_NEAR(r.predicted_error, 6.2e-3 / 16, 1e-15);
   EXPECT_DOUBLE_EQ(r.predicted_fft_seconds, 0.25);
   EXPECT_DOUBLE_EQ(r.predicted_fe_seconds, 1.0);
   EXPECT_NE(r.why.find("FFT 16"), std::string::npos) << r.why;
@@ -53,6 +54,8 @@ TEST(EngineChoice, TightTargetRefinesTheMesh) {
   const auto r = choose_engine(request(1e-5, 100.0, 5.9));
   EXPECT_EQ(r.engine, RveEngine::fe);
   EXPECT_DOUBLE_EQ(r.mesh_divisions, 9.0);
+  // 1e-5 (4/9)^3.3 = 6.9e-7: under the target by the rule's factor 10 of safety and the rounding up of d.
+  EXPECT_NEAR(r.predicted_error, 1e-5 * std::pow(4.0 / 9.0, 3.3), 1e-18);
   EXPECT_DOUBLE_EQ(r.predicted_fft_seconds, 0.25 * std::pow(5.0, 6.0));
   EXPECT_NEAR(r.predicted_fe_seconds, std::pow(3.0, std::log2(9.0 / 4.0)), 1e-12);
 }

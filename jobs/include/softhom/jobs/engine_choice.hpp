@@ -26,6 +26,7 @@ struct EngineResolution {
   double mesh_size = 0.0;           ///< FE: L1/d
   double interface_size = 0.0;      ///< FE: L1/(3d)
   double fft_error_coefficient = 0.0;  ///< c of the FFT error model e ≈ c/n
+  double predicted_error = 0.0;        ///< the chosen engine's model error at the chosen resolution
   double predicted_fft_seconds = 0.0;  ///< one thread, 5 load steps, at the grid the FFT would need
   double predicted_fe_seconds = 0.0;   ///< same, at the mesh the FE engine would need
   std::string why;                     ///< one line: the choice and the numbers it rests on

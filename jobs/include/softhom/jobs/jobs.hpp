@@ -130,7 +130,8 @@ struct CalibrationJob {
   LoadedScene scene;
   studies::CalibrationInput input;
 };
-/// `base`: the directory relative curve files are resolved against (a file's own directory by default).
+/// `base`: the directory relative curve files are resolved against (default: the scene file's directory,
+/// or the working directory for a scene without a file).
 CalibrationJob parse_calibration(LoadedScene scene, const std::filesystem::path& base = {});
 struct CalibrationOutcome {
   studies::CalibrationResult result;
