@@ -30,7 +30,7 @@ namespace softhom::jobs {
 /// How a job runs (not what it computes: that is the scene).
 struct RunOptions {
   bool quiet = false;          ///< no progress on stderr
-  int threads = 0;             ///< OpenMP threads (0: as set); sweep and demo split them between cases
+  int threads = 0;             ///< OpenMP threads the front end set (0: all); sweep and demo split them between cases
   int jobs = 0;                ///< sweep / demo: cases in parallel (0: one single-threaded job per thread)
   bool retry_failed = false;   ///< sweep: rerun cases stored as failed
   bool no_warm_start = false;  ///< sweep / demo: every case from F = I
