@@ -31,7 +31,7 @@ FLOORS = {
     "apps": 7, "python": 7,
 }
 # CMake targets that are not softhom_<folder>, by the folder that defines them.
-OTHER_TARGETS = {"softhom_commands": "apps", "softhom": "apps", "softhom_python": "python",
+OTHER_TARGETS = {"softhom": "apps", "softhom_python": "python",
                  "softhom_mpi": "core"}
 SOURCE_SUFFIXES = {".hpp", ".cpp", ".h", ".cc"}
 INCLUDE = re.compile(r'^\s*#\s*include\s*[<"]softhom/([a-z_]+)/', re.M)

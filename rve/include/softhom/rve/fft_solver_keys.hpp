@@ -5,8 +5,8 @@
 
 namespace softhom::rve {
 
-/// Every key of [solver] for engine = "fft" (also engine and target_error, which cmd_rve consumes
-/// before the FFT options are read). fftw_wisdom is stored as written in plan.wisdom_file; the caller
+/// Every key of [solver] for engine = "fft" (also engine and target_error, which the rve job's engine choice
+/// consumes before the FFT options are read). fftw_wisdom is stored as written in plan.wisdom_file; the caller
 /// resolves it against the output directory (studies::resolve_run_file).
 const keys::KeyTable<FftSolverOptions>& fft_solver_keys();
 

@@ -1,6 +1,6 @@
 #pragma once
-// RVE scene tables → FFT solver inputs, shared by `softhom rve` and the sweep campaigns (moved here from
-// apps/cmd_rve.cpp so that a campaign case is exactly an `softhom rve` scene).
+// RVE scene tables → FFT solver inputs, shared by the rve job (jobs/) and the sweep campaigns, so that a
+// campaign case is exactly an `softhom rve` scene.
 //
 // Scene tables: [microstructure] (generated section or imported HDF5 phase image, grid, fiber angle),
 // [phases.matrix] / [phases.fiber] (material tables as in `softhom point`), [load] (same syntax as
