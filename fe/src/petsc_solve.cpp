@@ -1126,7 +1126,7 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
   d.plo = 0;
   d.phi = pressures_of[d.rank];
   if (d.bddc) {  // the subdomain matrices' own preallocation instead of the rows'
-    d.subdomains = std::make_unique<Subdomains>(mesh, element_owner, d.rank, d.urow, eq);
+    d.subdomains = std::make_unique<Subdomains>(mesh, element_owner, couplings, d.rank, d.urow, eq);
     create_system();
     times_.analysis += seconds_since(t0);
     return;
