@@ -1,7 +1,8 @@
 #pragma once
 // The state and the steps of fe::Simulation (solver.hpp), shared by its translation units:
-// solver.cpp (set-up, Newton iteration, sub-step loop, outputs), assembly.cpp (element loop and loads),
-// linear_solve.cpp (factorizations and the Krylov solves).
+// solver.cpp (set-up, Newton iteration, sub-step loop, outputs), assembly.cpp (the loop over the
+// contributions, the solids' element loop and the AssemblySink), contributions.cpp (the model's loads
+// and constraints), linear_solve.cpp (factorizations and the Krylov solves).
 #include <algorithm>
 #include <array>
 #include <chrono>
