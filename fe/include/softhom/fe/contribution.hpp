@@ -9,7 +9,7 @@
 // Contributions are const during assembly (their state is the iterate they are given), so a model may
 // be copied and solved twice. A new element family or interface is a new subclass added to
 // FeModel::contributions; a tie maps its own dofs through an interpolation onto host nodes by declaring
-// the host nodes as its couplings and scattering N ᵀ r and N ᵀ K N onto them.
+// the host nodes as its couplings and scattering Nᵀ r and Nᵀ K N onto them.
 #include <functional>
 #include <memory>
 #include <string>
