@@ -41,7 +41,7 @@ void Simulation::Impl::build_distributed_system() {
   if (!distributed_) return;
   const Mesh& mesh = model_.mesh;
   const std::vector<int> node_owner = node_owners(mesh, element_owner_);
-  petsc_->distribute(element_owner_, node_owner, sad_elem_);
+  petsc_->distribute(element_owner_, node_owner, sad_elem_, couplings_);
   // The partition's quality: nodes whose elements lie on more than one rank (their rows receive
   // off-rank contributions through PETSc's stash).
   std::vector<int> lowest(mesh.num_nodes(), 1 << 30), highest(mesh.num_nodes(), -1);

@@ -10,47 +10,75 @@
 
 namespace softhom::fe {
 
+namespace {
+
+void check_node(const Mesh& mesh, int n, const char* field) {
+  if (n < 0 || n >= mesh.num_nodes()) throw InputError(field, std::to_string(n), "node id out of range");
+}
+
+void check_dofs(const Mesh& mesh, const std::vector<int>& dofs, const char* field) {
+  for (int d : dofs)
+    if (d < 0 || d >= mesh.num_dofs()) throw InputError(field, std::to_string(d), "dof out of range");
+}
+
+template <class Faces>
+void check_faces(const Mesh& mesh, const Faces& faces, const char* field) {
+  for (const auto& q : faces)
+    for (int n : q) check_node(mesh, n, field);
+}
+
+}  // namespace
+
+void DirichletGroup::validate(const Mesh& mesh) const {
+  if (!scale.empty() && scale.size() != dofs.size())
+    throw InputError("dirichlet.scale", std::to_string(scale.size()), "must match the number of dofs");
+  check_dofs(mesh, dofs, "dirichlet.dofs");
+}
+
+void PressureLoad::validate(const Mesh& mesh) const {
+  check_faces(mesh, faces, "pressure.faces");
+  check_faces(mesh, tris, "pressure.tris");
+}
+
+void NodalLoad::validate(const Mesh& mesh) const {
+  if (scale.size() != dofs.size())
+    throw InputError("nodal_loads.scale", std::to_string(scale.size()), "must match the number of dofs");
+  check_dofs(mesh, dofs, "nodal_loads.dofs");
+}
+
+void CavityControl::validate(const Mesh& mesh) const {
+  check_faces(mesh, faces, "cavity.faces");
+  check_faces(mesh, tris, "cavity.tris");
+  if (faces.empty() && tris.empty()) throw InputError("cavity.faces", "", "a cavity needs faces");
+  if (!(mask.sum() > 0)) throw InputError("cavity.mask", "", "mask must have a positive entry");
+}
+
+std::vector<const Contribution*> FeModel::assembly_order() const {
+  std::vector<const Contribution*> order;
+  auto internal = [](const Contribution& c) { return c.kind() == Contribution::Kind::domain || c.kind() == Contribution::Kind::interface; };
+  for (const ContributionPtr& c : contributions)
+    if (internal(*c)) order.push_back(c.get());
+  for (const auto& g : dirichlet) order.push_back(&g);
+  for (const auto& p : pressures) order.push_back(&p);
+  for (const auto& l : nodal_loads) order.push_back(&l);
+  if (cavity) order.push_back(&*cavity);
+  for (const ContributionPtr& c : contributions)
+    if (!internal(*c)) order.push_back(c.get());
+  return order;
+}
+
 void FeModel::validate() const {
-  const int nn = mesh.num_nodes();
   if (mesh.num_elements() == 0) throw InputError("mesh", "", "no elements");
   if (int(element_material.size()) != mesh.num_elements())
     throw InputError("materials", std::to_string(element_material.size()),
                      "need one material per element (" + std::to_string(mesh.num_elements()) + ")");
   for (const auto& m : element_material)
     if (!m) throw InputError("materials", "null", "every element needs a material");
-  for (const Hex& h : mesh.hexes)
-    for (int n : h)
-      if (n < 0 || n >= nn) throw InputError("mesh.hexes", std::to_string(n), "node id out of range");
-  for (const Tet10& t : mesh.tets)
-    for (int n : t)
-      if (n < 0 || n >= nn) throw InputError("mesh.tets", std::to_string(n), "node id out of range");
-  for (const auto& g : dirichlet) {
-    if (!g.scale.empty() && g.scale.size() != g.dofs.size())
-      throw InputError("dirichlet.scale", std::to_string(g.scale.size()), "must match the number of dofs");
-    for (int d : g.dofs)
-      if (d < 0 || d >= 3 * nn) throw InputError("dirichlet.dofs", std::to_string(d), "dof out of range");
-  }
-  for (const auto& l : nodal_loads) {
-    if (l.scale.size() != l.dofs.size())
-      throw InputError("nodal_loads.scale", std::to_string(l.scale.size()), "must match the number of dofs");
-    for (int d : l.dofs)
-      if (d < 0 || d >= 3 * nn) throw InputError("nodal_loads.dofs", std::to_string(d), "dof out of range");
-  }
-  auto check_faces = [&](const auto& faces, const char* what) {
-    for (const auto& q : faces)
-      for (int n : q)
-        if (n < 0 || n >= nn) throw InputError(what, std::to_string(n), "node id out of range");
-  };
-  for (const auto& p : pressures) {
-    check_faces(p.faces, "pressure.faces");
-    check_faces(p.tris, "pressure.tris");
-  }
-  if (cavity) {
-    check_faces(cavity->faces, "cavity.faces");
-    check_faces(cavity->tris, "cavity.tris");
-    if (cavity->faces.empty() && cavity->tris.empty()) throw InputError("cavity.faces", "", "a cavity needs faces");
-    if (!(cavity->mask.sum() > 0)) throw InputError("cavity.mask", "", "mask must have a positive entry");
-  }
+  check_faces(mesh, mesh.hexes, "mesh.hexes");
+  check_faces(mesh, mesh.tets, "mesh.tets");
+  for (const ContributionPtr& c : contributions)
+    if (!c) throw InputError("contributions", "null", "every contribution must be an object");
+  for (const Contribution* c : assembly_order()) c->validate(mesh);
 }
 
 double cavity_volume(const std::vector<Vec3>& x, const std::vector<Quad>& faces, const Vec3& mask,

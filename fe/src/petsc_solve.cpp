@@ -1087,7 +1087,7 @@ KrylovOutcome PetscSolver::solve(const std::vector<double>& b, std::vector<doubl
 // three-field elements, ascending)], as in the replicated layout, so create_system's index sets and
 // near-nullspace apply unchanged.
 void PetscSolver::distribute(const std::vector<int>& element_owner, const std::vector<int>& node_owner,
-                             const std::vector<int>& three_field_elements) {
+                             const std::vector<int>& three_field_elements, const Couplings& couplings) {
   const auto t0 = std::chrono::steady_clock::now();
   Data& d = *d_;
   // BDDC: every element condensed (its pressure is its own), so no pressure rows.
@@ -1126,7 +1126,7 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
   d.plo = 0;
   d.phi = pressures_of[d.rank];
   if (d.bddc) {  // the subdomain matrices' own preallocation instead of the rows'
-    d.subdomains = std::make_unique<Subdomains>(mesh, element_owner, d.rank, d.urow, eq);
+    d.subdomains = std::make_unique<Subdomains>(mesh, element_owner, couplings, d.rank, d.urow, eq);
     create_system();
     times_.analysis += seconds_since(t0);
     return;
@@ -1143,6 +1143,10 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
     for (int a = 0; a < mesh.element_size(e); ++a)
       if (local[en[a]] >= 0) elems[local[en[a]]].push_back(e);
   }
+  std::vector<std::vector<int>> groups(nu / 3);  // the couplings' groups around each owned node
+  for (int g = 0; g < couplings.size(); ++g)
+    for (int k = couplings.offsets[g]; k < couplings.offsets[g + 1]; ++k)
+      if (local[couplings.nodes[k]] >= 0) groups[local[couplings.nodes[k]]].push_back(g);
   d.dnz.assign(nlocal, 1);
   d.onz.assign(nlocal, 0);
   if (d.mixed_rows) {
@@ -1159,6 +1163,9 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
       neighbours.insert(neighbours.end(), en, en + mesh.element_size(e));
       if (d.prow[e] >= 0) element_owner[e] == d.rank ? ++in_p : ++out_p;
     }
+    for (int g : groups[local[n]])
+      neighbours.insert(neighbours.end(), couplings.nodes.begin() + couplings.offsets[g],
+                        couplings.nodes.begin() + couplings.offsets[g + 1]);
     std::sort(neighbours.begin(), neighbours.end());
     neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
     for (int m : neighbours)

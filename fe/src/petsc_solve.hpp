@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "softhom/fe/contribution.hpp"
 #include "softhom/fe/mesh.hpp"
 #include "softhom/fe/petsc.hpp"
 #include "softhom/fe/sparse.hpp"
@@ -68,8 +69,9 @@ class PetscSolver final : public LinearSolver {
   /// `mixed_elements`, the three-field ones). Creates the matrix, preallocated per rank from the mesh,
   /// and the Krylov solver. Under -pc_type bddc the matrix is a MATIS of the condensed displacement
   /// system instead (no pressure rows), rank r's subdomain the elements it owns (petsc_subdomains.hpp).
+  /// `couplings`: node groups beyond the elements (the model's contributions) in the preallocation.
   void distribute(const std::vector<int>& element_owner, const std::vector<int>& node_owner,
-                  const std::vector<int>& mixed_elements);
+                  const std::vector<int>& mixed_elements, const Couplings& couplings);
   bool distributed() const;
   /// One tangent into the distributed matrix (every rank, collective at end_fill): begin_fill, then
   /// add_element for the owned elements and add_entry for the loads, then end_fill.

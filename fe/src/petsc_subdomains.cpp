@@ -7,15 +7,56 @@
 
 namespace softhom::fe {
 
-Subdomains::Subdomains(const Mesh& mesh, const std::vector<int>& element_owner, int rank, const std::vector<PetscInt>& urow,
-                       const std::vector<int>& eq)
+namespace {
+
+/// The rank of every coupling group: the lowest rank whose elements hold all its nodes (a face's: its
+/// element's, so the subdomains stay those of the elements), else the lowest holding one of them (0:
+/// none does).
+std::vector<int> group_owners(const Mesh& mesh, const std::vector<int>& element_owner, const Couplings& couplings) {
+  if (couplings.empty()) return {};
+  std::vector<std::vector<int>> ranks(mesh.num_nodes());  // the ranks holding each node, ascending
+  for (int e = 0; e < mesh.num_elements(); ++e) {
+    const int* en = mesh.element_nodes(e);
+    for (int a = 0; a < mesh.element_size(e); ++a) ranks[en[a]].push_back(element_owner[e]);
+  }
+  for (auto& r : ranks) {
+    std::sort(r.begin(), r.end());
+    r.erase(std::unique(r.begin(), r.end()), r.end());
+  }
+  std::vector<int> owner(couplings.size(), 0);
+  for (int g = 0; g < couplings.size(); ++g) {
+    const int* gn = couplings.nodes.data() + couplings.offsets[g];
+    const int size = couplings.offsets[g + 1] - couplings.offsets[g];
+    int any = -1, all = -1;
+    for (int a = 0; a < size; ++a)
+      if (!ranks[gn[a]].empty() && (any < 0 || ranks[gn[a]][0] < any)) any = ranks[gn[a]][0];
+    for (int r : size > 0 ? ranks[gn[0]] : std::vector<int>{}) {
+      bool everywhere = true;
+      for (int a = 1; a < size && everywhere; ++a) everywhere = std::binary_search(ranks[gn[a]].begin(), ranks[gn[a]].end(), r);
+      if (everywhere) {
+        all = r;
+        break;
+      }
+    }
+    owner[g] = all >= 0 ? all : std::max(any, 0);
+  }
+  return owner;
+}
+
+}  // namespace
+
+Subdomains::Subdomains(const Mesh& mesh, const std::vector<int>& element_owner, const Couplings& couplings, int rank,
+                       const std::vector<PetscInt>& urow, const std::vector<int>& eq)
     : rank_(rank) {
   const int nn = mesh.num_nodes(), ne = mesh.num_elements();
-  std::vector<std::pair<int, int>> touch;  // (node, rank) of every element's nodes
+  const std::vector<int> group_owner = group_owners(mesh, element_owner, couplings);
+  std::vector<std::pair<int, int>> touch;  // (node, rank) of every element's and group's nodes
   for (int e = 0; e < ne; ++e) {
     const int* en = mesh.element_nodes(e);
     for (int a = 0; a < mesh.element_size(e); ++a) touch.emplace_back(en[a], element_owner[e]);
   }
+  for (int g = 0; g < couplings.size(); ++g)
+    for (int k = couplings.offsets[g]; k < couplings.offsets[g + 1]; ++k) touch.emplace_back(couplings.nodes[k], group_owner[g]);
   std::sort(touch.begin(), touch.end());
   touch.erase(std::unique(touch.begin(), touch.end()), touch.end());
   rank_off_.assign(nn + 1, 0);
@@ -45,6 +86,12 @@ Subdomains::Subdomains(const Mesh& mesh, const std::vector<int>& element_owner, 
     if (element_owner[e] != rank) continue;
     const int* en = mesh.element_nodes(e);
     for (int a = 0; a < mesh.element_size(e); ++a) around[local_[en[a]]].insert(around[local_[en[a]]].end(), en, en + mesh.element_size(e));
+  }
+  for (int g = 0; g < couplings.size(); ++g) {
+    if (group_owner[g] != rank) continue;
+    const int* gn = couplings.nodes.data() + couplings.offsets[g];
+    const int size = couplings.offsets[g + 1] - couplings.offsets[g];
+    for (int a = 0; a < size; ++a) around[local_[gn[a]]].insert(around[local_[gn[a]]].end(), gn, gn + size);
   }
   nnz_.assign(3 * nodes_.size(), 0);
   for (std::size_t i = 0; i < nodes_.size(); ++i) {

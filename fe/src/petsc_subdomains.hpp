@@ -8,6 +8,7 @@
 
 #include <vector>
 
+#include "softhom/fe/contribution.hpp"
 #include "softhom/fe/mesh.hpp"
 
 namespace softhom::fe {
@@ -16,9 +17,10 @@ class Subdomains {
  public:
   /// The subdomain of `rank` under `element_owner`; `urow` is the PETSc row of every mesh dof (3 per
   /// node, a node's rows consecutive from a multiple of 3), `eq` the free equation of every mesh dof
-  /// (−1: prescribed).
-  Subdomains(const Mesh& mesh, const std::vector<int>& element_owner, int rank, const std::vector<PetscInt>& urow,
-             const std::vector<int>& eq);
+  /// (−1: prescribed). A group of `couplings` (the model's contributions) belongs to the lowest rank
+  /// holding one of its nodes (rank 0 when none does), like an element of that rank.
+  Subdomains(const Mesh& mesh, const std::vector<int>& element_owner, const Couplings& couplings, int rank,
+             const std::vector<PetscInt>& urow, const std::vector<int>& eq);
   /// The local row of mesh dof `dof` (3 node + component) of a node in this subdomain.
   PetscInt row(int dof) const { return 3 * PetscInt(local_[dof / 3]) + dof % 3; }
   /// Whether this rank adds an entry coupling nodes a and b (both must lie in the local space of the

@@ -1,7 +1,8 @@
 #pragma once
 // The state and the steps of fe::Simulation (solver.hpp), shared by its translation units:
-// solver.cpp (set-up, Newton iteration, sub-step loop, outputs), assembly.cpp (element loop and loads),
-// linear_solve.cpp (factorizations and the Krylov solves).
+// solver.cpp (set-up, Newton iteration, sub-step loop, outputs), assembly.cpp (the loop over the
+// contributions, the solids' element loop and the AssemblySink), contributions.cpp (the model's loads
+// and constraints), linear_solve.cpp (factorizations and the Krylov solves).
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -79,6 +80,42 @@ struct Assembly {
   int failed_element = -1;
 };
 
+/// The mesh's solids (hex8 and tet10) as the first contribution of every assembly: the coloured
+/// element loop of assembly.cpp, each rank its own elements, their sums over the ranks. Their couplings
+/// are the mesh's elements, which the pattern builders walk directly. The element data it evaluates
+/// (geometry, history, the three-field unknowns) lives in Simulation::Impl, where the linear solvers
+/// read it too.
+class SolidDomain final : public Contribution {
+ public:
+  explicit SolidDomain(Simulation::Impl& s) : s_(s) {}
+  Kind kind() const override { return Kind::domain; }
+  std::string name() const override { return "solids"; }
+  MaterialStatus assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const override;
+
+ private:
+  Simulation::Impl& s_;
+};
+
+/// The driver's AssemblySink: residuals into an Assembly (R, and the three-field R_true and R_u alike;
+/// f_ext for external forces), the tangent into the CSC matrix K_ or, on the petsc path, into PETSc
+/// (each rank keeping its own rows), a prescribed column's increment into the predictor's right-hand
+/// side, and the cavity's border.
+class AssemblyTarget final : public AssemblySink {
+ public:
+  AssemblyTarget(Simulation::Impl& s, Assembly& out, const std::vector<double>& du_c, bool tangent);
+  void add_residual(int n, const int* dofs, const double* r) override;
+  void add_tangent(int nr, const int* rows, int nc, const int* cols, const double* k) override;
+  void add_border(int n, const int* dofs, const double* dR_dlambda, const double* dc_du) override;
+  void add_constraint_value(double value) override;
+  Assembly& out;
+  const std::vector<double>& du_c;  ///< prescribed increments (empty: no predictor)
+  std::vector<double> fext;         ///< the external forces (force scale)
+  bool external = false;            ///< the contribution being added is an external force
+
+ private:
+  Simulation::Impl& s_;
+};
+
 /// Outcome of one sub-step attempt (the shape advance_interval expects).
 struct StepAttempt {
   bool ok = false;
@@ -145,15 +182,15 @@ struct Simulation::Impl {
   StepAttempt attempt_substep(double t_new, double dt);
   void note_once(const std::string& key, const std::string& message);
 
-  // Assembly (assembly.cpp).
+  // Assembly (assembly.cpp): every contribution in one loop.
   MaterialStatus assemble(double t, double dt, bool tangent, const std::vector<double>& u, double cavity_p,
                           Assembly& out);
+  /// Clears the residuals and starts the tangent (K_ zeroed, or PETSc's fill begun); returns the
+  /// predictor's prescribed increments (taken from out.dirichlet_rhs, empty without a predictor).
+  std::vector<double> begin_assembly(bool tangent, const std::vector<double>& u, Assembly& out);
   /// Element loop: internal forces, three-field residuals, tangent, predictor rhs K_fc Δu_c.
   void assemble_elements(double dt, bool tangent, const std::vector<double>& u, const std::vector<double>& du_c,
                          Assembly& out);
-  /// Follower pressures (with their load stiffness), nodal forces and the cavity's pressure and volume.
-  void assemble_loads(double t, bool tangent, const std::vector<double>& u, double cavity_p,
-                      const std::vector<double>& du_c, Assembly& out);
 
   // Linear algebra (linear_solve.cpp).
   /// x = K⁻¹ b (free dofs) to relative residual `tol`; false when no factorization works. `secant_start`:
@@ -190,6 +227,10 @@ struct Simulation::Impl {
   MaterialStatus element_force(int e, const Tet10Coords& u, Vec30& r, Mat30* K) const;
 
   FeModel model_;
+  SolidDomain solids_{*this};
+  /// Assembly order: the solids, then model_.assembly_order() (internal forces first).
+  std::vector<const Contribution*> contributions_;
+  Couplings couplings_;  ///< of every contribution beyond the solids (whose couplings are the mesh's elements)
   NewtonOptions options_;
   DofMap dofs_;
   CscMatrix K_;

@@ -20,6 +20,11 @@ using namespace detail;
 
 Simulation::Impl::Impl(FeModel model, NewtonOptions options) : model_(std::move(model)), options_(options) {
   model_.validate();
+  contributions_ = {&solids_};
+  for (const Contribution* c : model_.assembly_order()) {
+    contributions_.push_back(c);
+    c->declare_couplings(couplings_);
+  }
   build_dofs();
   build_partition();
   build_geometry();
@@ -44,8 +49,7 @@ void Simulation::Impl::build_dofs() {
   const Mesh& mesh = model_.mesh;
   const int ndof = mesh.num_dofs();
   std::vector<char> constrained(ndof, 0);
-  for (const auto& g : model_.dirichlet)
-    for (int d : g.dofs) constrained[d] = 1;
+  for (const Contribution* c : contributions_) c->prescribe(0.0, [&](int dof, double) { constrained[dof] = 1; });
   dofs_ = DofMap::from_constrained(ndof, constrained);
   if (dofs_.num_free == 0) throw InputError("boundary", "", "every degree of freedom is prescribed");
   // A free rigid-body motion makes every tangent singular (the first factorization would fail, or a
@@ -57,8 +61,7 @@ void Simulation::Impl::build_dofs() {
     throw InputError("boundary", "", "the body is not constrained against " + list +
                                          " (its stiffness is singular); prescribe displacements that hold it, e.g. a [[boundary]] with fix");
   }
-  if (!petsc_distributed()) K_ = build_pattern(mesh, dofs_);  // else the matrix is PETSc's alone
-
+  if (!petsc_distributed()) K_ = build_pattern(mesh, dofs_, couplings_);  // else the matrix is PETSc's alone
 }
 
 void Simulation::Impl::build_geometry() {
@@ -303,12 +306,11 @@ std::vector<double> Simulation::Impl::prescribed_increment(double t_new) const {
   // K_ff Δu_f = −R_f − K_fc Δu_c, which keeps boundary layers from being crushed by a jump.
   std::vector<double> du_c(model_.mesh.num_dofs(), 0.0);
   bool any_jump = false;
-  for (const auto& g : model_.dirichlet)
-    for (std::size_t k = 0; k < g.dofs.size(); ++k) {
-      const double target = (g.scale.empty() ? 1.0 : g.scale[k]) * g.value(t_new);
-      du_c[g.dofs[k]] = target - u_[g.dofs[k]];
-      any_jump |= target != u_[g.dofs[k]];
-    }
+  for (const Contribution* c : contributions_)
+    c->prescribe(t_new, [&](int dof, double target) {
+      du_c[dof] = target - u_[dof];
+      any_jump |= target != u_[dof];
+    });
   if (!any_jump) du_c.clear();
   return du_c;
 }
@@ -326,8 +328,7 @@ void Simulation::Impl::extrapolate(double t_new, std::vector<double>& u) {
   std::vector<double> l_new, l_now, l_old;
   auto loads = [&](double t, std::vector<double>& out) {
     out.clear();
-    for (const auto& load : model_.pressures) out.push_back(load.pressure(t));
-    for (const auto& load : model_.nodal_loads) out.push_back(load.value(t));
+    for (const Contribution* c : contributions_) c->load_levels(t, out);
   };
   loads(t_new, l_new);
   loads(time_, l_now);

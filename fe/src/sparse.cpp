@@ -1,5 +1,7 @@
 #include "softhom/fe/sparse.hpp"
 
+#include "softhom/fe/contribution.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cstring>
@@ -72,16 +74,19 @@ DofMap DofMap::from_constrained(int num_dofs, const std::vector<char>& constrain
   return m;
 }
 
-CscMatrix build_pattern(const Mesh& mesh, const DofMap& dofs) {
+CscMatrix build_pattern(const Mesh& mesh, const DofMap& dofs) { return build_pattern(mesh, dofs, Couplings{}); }
+
+CscMatrix build_pattern(const Mesh& mesh, const DofMap& dofs, const Couplings& couplings) {
   const int nn = mesh.num_nodes();
-  // Node adjacency through elements (a face shares its element's nodes, so pressure terms fit too).
+  // Node adjacency through elements and the contributions' coupled groups.
   std::vector<std::vector<int>> adj(nn);
-  for (int e = 0; e < mesh.num_elements(); ++e) {
-    const int* en = mesh.element_nodes(e);
-    const int sz = mesh.element_size(e);
-    for (int a = 0; a < sz; ++a)
-      for (int b = 0; b < sz; ++b) adj[en[a]].push_back(en[b]);
-  }
+  auto couple = [&](const int* nodes, int size) {
+    for (int a = 0; a < size; ++a)
+      for (int b = 0; b < size; ++b) adj[nodes[a]].push_back(nodes[b]);
+  };
+  for (int e = 0; e < mesh.num_elements(); ++e) couple(mesh.element_nodes(e), mesh.element_size(e));
+  for (int g = 0; g < couplings.size(); ++g)
+    couple(couplings.nodes.data() + couplings.offsets[g], couplings.offsets[g + 1] - couplings.offsets[g]);
   for (auto& v : adj) {
     std::sort(v.begin(), v.end());
     v.erase(std::unique(v.begin(), v.end()), v.end());

@@ -112,6 +112,133 @@ double mean_radius(const std::vector<Vec3>& x, const std::vector<int>& nodes, bo
   return nodes.empty() ? 0.0 : sum / nodes.size();
 }
 
+/// The cavity's load on `faces` and `tris`: a follower pressure, or the cavity-volume control with
+/// `mask` (see fe::CavityControl); `refusal` says what drives the structure otherwise.
+void load_cavity(fe::FeModel& m, const StructureSpec& spec, std::vector<fe::Quad> faces, std::vector<fe::Tri6> tris,
+                 const Vec3& mask, const char* refusal) {
+  if (spec.control == LoadControl::pressure)
+    m.pressures.emplace_back(std::move(faces), spec.load, std::move(tris));
+  else if (spec.control == LoadControl::volume)
+    m.cavity = fe::CavityControl(std::move(faces), mask, spec.load, std::move(tris));
+  else
+    throw InputError("load.control", "stretch", refusal);
+}
+
+/// Uniaxial tension along x: xmin held in x, xmax moved by (λ(t) − 1) L_x, the rigid modes pinned.
+void build_plate(Structure& s) {
+  const StructureSpec& spec = s.spec;
+  fe::FeModel& m = s.model;
+  m.mesh = maybe_tets(make_plate(spec.plate), spec);
+  if (spec.control != LoadControl::stretch) throw InputError("load.control", "", "a plate is driven by load.stretch");
+  const double L = spec.plate.size[0];
+  fix(m, fe::surface_nodes(m.mesh, "xmin"), 0);
+  // λ(t) − 1 as u_x / L on the loaded face.
+  PiecewiseLinear strain = spec.load;
+  for (double& v : strain.v) v -= 1.0;
+  s.end_nodes = fe::surface_nodes(m.mesh, "xmax");
+  fix(m, s.end_nodes, 0, L, strain);
+  for (int n : s.end_nodes) s.load_dofs.push_back(3 * n);
+  const auto origin = fe::select_nodes(m.mesh, [](const Vec3& x) { return x.norm() < 1e-9; });
+  const auto corner_y = fe::select_nodes(m.mesh, [&](const Vec3& x) {
+    return std::abs(x[0]) < 1e-9 && std::abs(x[2]) < 1e-9 && std::abs(x[1] - spec.plate.size[1]) < 1e-9;
+  });
+  fix(m, origin, 1);
+  fix(m, origin, 2);
+  fix(m, corner_y, 2);
+}
+
+/// The tube's ends: plane strain (u_z = 0 at both, a full ring pinned in plane), or clamped at z = 0.
+void hold_tube_ends(fe::FeModel& m, const TubeSpec& t, bool plane_strain, bool quarter) {
+  const auto zmin = fe::surface_nodes(m.mesh, "zmin");
+  if (plane_strain) {
+    if (t.cap_thickness > 0.0) throw InputError("geometry.plane_strain", "true", "incompatible with an end cap");
+    fix(m, zmin, 2);
+    fix(m, fe::surface_nodes(m.mesh, "zmax"), 2);
+    if (!quarter) {
+      // Full ring in plane strain: pin the rigid in-plane translation and rotation.
+      const auto a = fe::select_nodes(m.mesh, [&](const Vec3& x) { return std::abs(x[1]) < 1e-9 && x[0] > 0 && std::abs(x[2]) < 1e-12; });
+      const auto b = fe::select_nodes(m.mesh, [&](const Vec3& x) { return std::abs(x[0]) < 1e-9 && x[1] > 0 && std::abs(x[2]) < 1e-12; });
+      fix(m, a, 1);
+      fix(m, b, 0);
+    }
+    return;
+  }
+  // Clamped at z = 0 (the dissertation's "right side totally fixed"); the other end is free
+  // (capped) so axial extension, twist and bending can develop.
+  for (int c = 0; c < 3; ++c) fix(m, zmin, c);
+}
+
+/// An inflated tube, or the capped two-material actuator.
+void build_tube(Structure& s) {
+  const StructureSpec& spec = s.spec;
+  fe::FeModel& m = s.model;
+  TubeSpec t = spec.tube;
+  t.split_y = spec.kind == StructureKind::actuator;
+  if (spec.kind == StructureKind::actuator && !(t.cap_thickness > 0.0))
+    throw InputError("geometry.cap_thickness", format_number(t.cap_thickness), "an actuator needs an end cap");
+  m.mesh = maybe_tets(make_tube(t), spec);
+  const bool quarter = t.sweep_deg < 360.0 - 1e-9;
+  if (quarter) {
+    if (std::abs(t.sweep_deg - 90.0) > 1e-9)
+      throw InputError("geometry.sweep_deg", format_number(t.sweep_deg), "only 90 (quarter) or 360 are supported");
+    fix(m, fe::surface_nodes(m.mesh, "ysym"), 1);
+    fix(m, fe::surface_nodes(m.mesh, "xsym"), 0);
+  }
+  hold_tube_ends(m, t, spec.plane_strain, quarter);
+  s.inner_nodes = fe::surface_nodes(m.mesh, "inner");
+  s.end_nodes = fe::surface_nodes(m.mesh, "zmax");
+  // Under volume control the cavity is closed by z = 0 (x·n = 0 there) and, when not capped, by the
+  // plane z = L: the in-plane mask makes that plane contribute nothing.
+  const Vec3 mask = t.cap_thickness > 0.0 ? Vec3(1, 1, 1) : Vec3(1, 1, 0);
+  load_cavity(m, spec, concat(m.mesh, {"inner", "cap_inner"}), concat_tris(m.mesh, {"inner", "cap_inner"}), mask,
+              "a tube is driven by pressure or volume");
+}
+
+/// An eighth of a sphere on its three symmetry planes, inflated.
+void build_sphere(Structure& s) {
+  fe::FeModel& m = s.model;
+  m.mesh = maybe_tets(make_sphere_octant(s.spec.sphere), s.spec);
+  fix(m, fe::surface_nodes(m.mesh, "x0"), 0);
+  fix(m, fe::surface_nodes(m.mesh, "y0"), 1);
+  fix(m, fe::surface_nodes(m.mesh, "z0"), 2);
+  s.inner_nodes = fe::surface_nodes(m.mesh, "inner");
+  load_cavity(m, s.spec, m.mesh.surface("inner"), m.mesh.tri_surface("inner"), Vec3(1, 1, 1),
+              "a sphere is driven by pressure or volume");
+}
+
+/// An imported mesh with its fixed surfaces, loaded surfaces and probe surface (named in the mesh).
+void build_imported(Structure& s, const ImportedSpec& im) {
+  const StructureSpec& spec = s.spec;
+  fe::FeModel& m = s.model;
+  m.mesh = im.mesh;
+  if (m.mesh.num_elements() == 0) throw InputError("geometry.file", "", "the mesh has no volume elements");
+  for (const auto& f : im.fixed) {
+    if (!m.mesh.has_surface(f.surface))
+      throw InputError("boundary.surface", f.surface, "no physical surface of that name in the mesh");
+    const auto nodes = fe::surface_nodes(m.mesh, f.surface);
+    for (int c = 0; c < 3; ++c)
+      if (f.components[c]) fix(m, nodes, c);
+  }
+  for (const auto& n : im.load_surfaces)
+    if (!m.mesh.has_surface(n)) throw InputError("load.surface", n, "no physical surface of that name in the mesh");
+  if (!im.probe_surface.empty()) {
+    if (!m.mesh.has_surface(im.probe_surface))
+      throw InputError("probe.surface", im.probe_surface, "no physical surface of that name in the mesh");
+    s.end_nodes = fe::surface_nodes(m.mesh, im.probe_surface);
+  }
+  for (const auto& n : im.load_surfaces) {
+    const auto nodes = fe::surface_nodes(m.mesh, n);
+    s.inner_nodes.insert(s.inner_nodes.end(), nodes.begin(), nodes.end());
+  }
+  std::sort(s.inner_nodes.begin(), s.inner_nodes.end());
+  s.inner_nodes.erase(std::unique(s.inner_nodes.begin(), s.inner_nodes.end()), s.inner_nodes.end());
+  if (spec.control == LoadControl::pressure && im.load_surfaces.empty()) return;  // unloaded
+  if (spec.control == LoadControl::volume && im.load_surfaces.empty())
+    throw InputError("load.surface", "", "volume control needs the cavity surface");
+  load_cavity(m, spec, concat(m.mesh, im.load_surfaces), concat_tris(m.mesh, im.load_surfaces), im.cavity_mask,
+              "an imported mesh is driven by pressure or volume");
+}
+
 }  // namespace
 
 Structure build_structure(const StructureSpec& spec) {
@@ -123,130 +250,13 @@ Structure build_structure(const StructureSpec& spec) {
   // model.mesh is the structure's mesh; the spec's copy of an imported one is read from `spec` below
   // and not kept (on a device mesh every copy is ~25 B per dof on every rank).
   s.spec.imported.mesh = fe::Mesh{};
-  fe::FeModel& m = s.model;
-  m.formulation = spec.formulation;
+  s.model.formulation = spec.formulation;
   switch (spec.kind) {
-    case StructureKind::plate: {
-      m.mesh = maybe_tets(make_plate(spec.plate), spec);
-      if (spec.control != LoadControl::stretch)
-        throw InputError("load.control", "", "a plate is driven by load.stretch");
-      const double L = spec.plate.size[0];
-      fix(m, fe::surface_nodes(m.mesh, "xmin"), 0);
-      // λ(t) − 1 as u_x / L on the loaded face.
-      PiecewiseLinear strain = spec.load;
-      for (double& v : strain.v) v -= 1.0;
-      s.end_nodes = fe::surface_nodes(m.mesh, "xmax");
-      fix(m, s.end_nodes, 0, L, strain);
-      for (int n : s.end_nodes) s.load_dofs.push_back(3 * n);
-      const auto origin = fe::select_nodes(m.mesh, [](const Vec3& x) { return x.norm() < 1e-9; });
-      const auto corner_y = fe::select_nodes(
-          m.mesh, [&](const Vec3& x) { return std::abs(x[0]) < 1e-9 && std::abs(x[2]) < 1e-9 && std::abs(x[1] - spec.plate.size[1]) < 1e-9; });
-      fix(m, origin, 1);
-      fix(m, origin, 2);
-      fix(m, corner_y, 2);
-      break;
-    }
+    case StructureKind::plate: build_plate(s); break;
     case StructureKind::tube:
-    case StructureKind::actuator: {
-      TubeSpec t = spec.tube;
-      t.split_y = spec.kind == StructureKind::actuator;
-      if (spec.kind == StructureKind::actuator && !(t.cap_thickness > 0.0))
-        throw InputError("geometry.cap_thickness", format_number(t.cap_thickness), "an actuator needs an end cap");
-      m.mesh = maybe_tets(make_tube(t), spec);
-      const bool quarter = t.sweep_deg < 360.0 - 1e-9;
-      if (quarter) {
-        if (std::abs(t.sweep_deg - 90.0) > 1e-9)
-          throw InputError("geometry.sweep_deg", format_number(t.sweep_deg), "only 90 (quarter) or 360 are supported");
-        fix(m, fe::surface_nodes(m.mesh, "ysym"), 1);
-        fix(m, fe::surface_nodes(m.mesh, "xsym"), 0);
-      }
-      const auto zmin = fe::surface_nodes(m.mesh, "zmin");
-      if (spec.plane_strain) {
-        if (t.cap_thickness > 0.0) throw InputError("geometry.plane_strain", "true", "incompatible with an end cap");
-        fix(m, zmin, 2);
-        fix(m, fe::surface_nodes(m.mesh, "zmax"), 2);
-        if (!quarter) {
-          // Full ring in plane strain: pin the rigid in-plane translation and rotation.
-          const auto a = fe::select_nodes(m.mesh, [&](const Vec3& x) { return std::abs(x[1]) < 1e-9 && x[0] > 0 && std::abs(x[2]) < 1e-12; });
-          const auto b = fe::select_nodes(m.mesh, [&](const Vec3& x) { return std::abs(x[0]) < 1e-9 && x[1] > 0 && std::abs(x[2]) < 1e-12; });
-          fix(m, a, 1);
-          fix(m, b, 0);
-        }
-      } else {
-        // Clamped at z = 0 (the dissertation's "right side totally fixed"); the other end is free
-        // (capped) so axial extension, twist and bending can develop.
-        fix(m, zmin, 0);
-        fix(m, zmin, 1);
-        fix(m, zmin, 2);
-      }
-      s.inner_nodes = fe::surface_nodes(m.mesh, "inner");
-      s.end_nodes = fe::surface_nodes(m.mesh, "zmax");
-      const auto faces = concat(m.mesh, {"inner", "cap_inner"});
-      const auto tris = concat_tris(m.mesh, {"inner", "cap_inner"});
-      if (spec.control == LoadControl::pressure) {
-        m.pressures.push_back({faces, spec.load, tris});
-      } else if (spec.control == LoadControl::volume) {
-        // Cavity closed by z = 0 (x·n = 0 there) and, when not capped, by the plane z = L: use the
-        // in-plane mask so that that plane contributes nothing.
-        const Vec3 mask = t.cap_thickness > 0.0 ? Vec3(1, 1, 1) : Vec3(1, 1, 0);
-        m.cavity = fe::CavityControl{faces, mask, spec.load, tris};
-      } else {
-        throw InputError("load.control", "stretch", "a tube is driven by pressure or volume");
-      }
-      break;
-    }
-    case StructureKind::sphere: {
-      m.mesh = maybe_tets(make_sphere_octant(spec.sphere), spec);
-      fix(m, fe::surface_nodes(m.mesh, "x0"), 0);
-      fix(m, fe::surface_nodes(m.mesh, "y0"), 1);
-      fix(m, fe::surface_nodes(m.mesh, "z0"), 2);
-      s.inner_nodes = fe::surface_nodes(m.mesh, "inner");
-      const auto faces = m.mesh.surface("inner");
-      const auto tris = m.mesh.tri_surface("inner");
-      if (spec.control == LoadControl::pressure)
-        m.pressures.push_back({faces, spec.load, tris});
-      else if (spec.control == LoadControl::volume)
-        m.cavity = fe::CavityControl{faces, Vec3(1, 1, 1), spec.load, tris};
-      else
-        throw InputError("load.control", "stretch", "a sphere is driven by pressure or volume");
-      break;
-    }
-    case StructureKind::imported: {
-      const ImportedSpec& im = spec.imported;
-      m.mesh = im.mesh;
-      if (m.mesh.num_elements() == 0) throw InputError("geometry.file", "", "the mesh has no volume elements");
-      for (const auto& f : im.fixed) {
-        if (!m.mesh.has_surface(f.surface))
-          throw InputError("boundary.surface", f.surface, "no physical surface of that name in the mesh");
-        const auto nodes = fe::surface_nodes(m.mesh, f.surface);
-        for (int c = 0; c < 3; ++c)
-          if (f.components[c]) fix(m, nodes, c);
-      }
-      for (const auto& n : im.load_surfaces)
-        if (!m.mesh.has_surface(n)) throw InputError("load.surface", n, "no physical surface of that name in the mesh");
-      if (!im.probe_surface.empty()) {
-        if (!m.mesh.has_surface(im.probe_surface))
-          throw InputError("probe.surface", im.probe_surface, "no physical surface of that name in the mesh");
-        s.end_nodes = fe::surface_nodes(m.mesh, im.probe_surface);
-      }
-      for (const auto& n : im.load_surfaces) {
-        const auto nodes = fe::surface_nodes(m.mesh, n);
-        s.inner_nodes.insert(s.inner_nodes.end(), nodes.begin(), nodes.end());
-      }
-      std::sort(s.inner_nodes.begin(), s.inner_nodes.end());
-      s.inner_nodes.erase(std::unique(s.inner_nodes.begin(), s.inner_nodes.end()), s.inner_nodes.end());
-      const auto faces = concat(m.mesh, im.load_surfaces);
-      const auto tris = concat_tris(m.mesh, im.load_surfaces);
-      if (spec.control == LoadControl::pressure) {
-        if (!im.load_surfaces.empty()) m.pressures.push_back({faces, spec.load, tris});
-      } else if (spec.control == LoadControl::volume) {
-        if (im.load_surfaces.empty()) throw InputError("load.surface", "", "volume control needs the cavity surface");
-        m.cavity = fe::CavityControl{faces, im.cavity_mask, spec.load, tris};
-      } else {
-        throw InputError("load.control", "stretch", "an imported mesh is driven by pressure or volume");
-      }
-      break;
-    }
+    case StructureKind::actuator: build_tube(s); break;
+    case StructureKind::sphere: build_sphere(s); break;
+    case StructureKind::imported: build_imported(s, spec.imported); break;
   }
   assign_materials(s);
   return s;

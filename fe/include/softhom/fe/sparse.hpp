@@ -41,8 +41,12 @@ struct DofMap {
   static DofMap from_constrained(int num_dofs, const std::vector<char>& constrained);
 };
 
-/// Pattern of the stiffness restricted to free dofs: every pair of dofs sharing an element.
+struct Couplings;  // contribution.hpp
+
+/// Pattern of the stiffness restricted to free dofs: every pair of dofs sharing an element, or (the
+/// second form) a group of `couplings` as well.
 CscMatrix build_pattern(const Mesh& mesh, const DofMap& dofs);
+CscMatrix build_pattern(const Mesh& mesh, const DofMap& dofs, const Couplings& couplings);
 
 /// automatic: CHOLMOD (LU when it fails) below NewtonOptions::petsc_min_dofs free dofs, PETSc above;
 /// petsc: Krylov + AMG over MPI (fe/src/petsc_solve.hpp).
