@@ -171,7 +171,9 @@ int run_macro_scene(const CommandOptions& given, const LoadedScene& scene) {
   summary["line_search_backtracks"] = st.line_search_backtracks;
   summary["elements"] = structure.model.mesh.num_elements();
   summary["dofs"] = sim.num_free_dofs();
-  summary["linear_solver"] = fe::to_string(sim.solver_kind());
+  summary["linear_solver"] = {{"route", st.linear_solver.route}, {"preconditioner", st.linear_solver.preconditioner},
+                              {"description", st.linear_solver.description}, {"krylov_iterations", st.linear_solver.krylov_iterations},
+                              {"factorizations", st.linear_solver.factorizations}, {"solves", st.linear_solver.solves}};
   summary["mpi_ranks"] = mpi::world_size();
   summary["assembly_time_s"] = st.assembly_time;
   summary["analysis_time_s"] = st.linear.analysis;
