@@ -900,8 +900,7 @@ KrylovOutcome PetscSolver::solve(const std::vector<double>& b, std::vector<doubl
 }
 
 // Distributed assembly: rows rank by rank, [u_r (3 per owned node, ascending node), π_r (the owned
-// three-field elements, ascending)], as in the replicated layout, so create_system's index sets and
-// near-nullspace apply unchanged.
+// three-field elements, ascending)]: create_system's index sets of the split are contiguous ranges.
 void PetscSolver::distribute(const std::vector<int>& element_owner, const std::vector<int>& node_owner,
                              const std::vector<int>& three_field_elements) {
   const auto t0 = std::chrono::steady_clock::now();

@@ -56,7 +56,7 @@ class PetscSolver final : public LinearSolver {
   KrylovOutcome solve(const std::vector<double>& b, std::vector<double>& x, double rtol, int max_iterations = 0);
   SolverKind kind() const override { return SolverKind::petsc; }
   double reciprocal_condition() const override { return 1.0; }
-  /// Distributed assembly (the petsc path under MPI, replacing analyze / factorize's copy of A): rank r
+  /// The layout of the distributed assembly (on one process too; before the first fill): rank r
   /// fills only the entries of the elements it owns (`element_owner`) and owns the rows of the nodes
   /// of `node_owner` r, numbered rank by rank (then the element pressures of its elements in
   /// `mixed_elements`, the three-field ones). Creates the matrix, preallocated per rank from the mesh,
