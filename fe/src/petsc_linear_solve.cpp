@@ -36,15 +36,10 @@ bool Simulation::Impl::petsc_reuse_pays() const {
 }
 
 void Simulation::Impl::petsc_set_operator(bool new_preconditioner) {
-  // Three-field elements: the uncondensed (u, p_e) system with its field split (petsc_solve.cpp).
-  if (!sad_elem_.empty() && !distributed_) {  // (distributed: the element loop fills the pressures)
-    if (first_factorization_) petsc_->set_mixed(sad_off_, sad_eq_);
-    saddle_current();
-    petsc_->set_mixed_tangent(sad_db_, sad_cb_);
-  }
+  // (The element loop has filled the matrix, three-field elements uncondensed with their pressures.)
   petsc_operator_version_ = k_version_;
   if (!new_preconditioner) {
-    petsc_->update_operator(K_);
+    petsc_->update_operator();
     return;
   }
   const double before = petsc_->times().factorization;

@@ -5,7 +5,6 @@
 #include "petsc_direct_fill.hpp"
 #include "petsc_nest.hpp"
 #include "petsc_p_multigrid.hpp"
-#include "petsc_saddle_split.hpp"
 #include "petsc_subdomains.hpp"
 
 #include <petscksp.h>
@@ -73,7 +72,7 @@ void set_up_with_options(const std::string& options, Setup setup) {
 /// Settings of the field split's blocks, inserted before the user's options (which override them):
 /// the displacement block by one V-cycle of BoomerAMG (on the tube and Cook's membrane 1.2–1.7× fewer
 /// iterations than GAMG with the rigid-body modes and flatter over the mesh, BENCHMARKS.md), the Schur
-/// complement by the inverse of its diagonal approximation (petsc_saddle_split.hpp). BoomerAMG's own
+/// complement by the inverse of its diagonal approximation (Data::augmentation). BoomerAMG's own
 /// defaults (Falgout coarsening, strong threshold 0.25) suit 2D scalar problems: on 3D hex8 elasticity
 /// their hierarchy has operator complexity ~4.8, and HMIS coarsening with threshold 0.7, ext+i
 /// interpolation truncated to 4 entries and one level of aggressive coarsening costs 2.4–3× less CPU
@@ -89,7 +88,7 @@ constexpr const char* kSplitDefaults =
     // 5.3e4-dof tube 25 % less factorization time than MUMPS's automatic choice (BENCHMARKS.md).
     "-mat_mumps_icntl_7 5";
 
-/// The displacement block's two-level p-multigrid (-softhom_pmg, petsc_p_multigrid.hpp), inserted after
+/// The displacement block's two-level p-multigrid ([solver] petsc_p_multigrid, petsc_p_multigrid.hpp), inserted after
 /// kSplitDefaults and before the user's options again. The P1 Galerkin block keeps three components per
 /// vertex (block size 3, which PETSc hands to hypre as three functions: strength and interpolation per
 /// displacement component) and carries the vertices' rigid-body modes; it gets the BoomerAMG settings of
@@ -115,7 +114,7 @@ constexpr const char* kPMultigridDefaults =
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_interp_type ext+i -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_P_max 4 "
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_agg_nl 1 -fieldsplit_u_mg_coarse_pc_hypre_boomeramg_relax_type_all Chebyshev "
     "-fieldsplit_u_mg_coarse_pc_hypre_boomeramg_max_iter 2 -pc_fieldsplit_schur_fact_type upper -ksp_gmres_restart 100";
-/// BDDC (-pc_type bddc, [solver] petsc_preconditioner = "bddc") on the element partition's subdomains,
+/// BDDC ([solver] petsc_preconditioner = "bddc", set by PCSetType) on the element partition's subdomains,
 /// inserted under the user's options. Primal constraints on the subdomains' vertices, edges and faces,
 /// each made a primal unknown by a change of basis (without it the Neumann problem of a subdomain that
 /// touches no support keeps the rotations its edge averages do not fix: Cook's membrane on 4 ranks
@@ -135,14 +134,6 @@ constexpr const char* kBddcDefaults =
     "-pc_bddc_use_faces -pc_bddc_use_change_of_basis -pc_bddc_use_change_on_faces -pc_bddc_use_deluxe_scaling "
     "-pc_bddc_monolithic -pc_bddc_use_nnsp "
     "-pc_bddc_neumann_pc_factor_mat_solver_type mumps -pc_bddc_dirichlet_pc_factor_mat_solver_type mumps";
-/// The augmentation under the p-multigrid: its P1 coarse space locks as the block's bulk part α G grows
-/// (one element dilatation per tet), so it wants a smaller α than BoomerAMG on the P2 block itself (10).
-/// Measured on the cPASMO 0.5 mesh (158 481 dofs, two load steps, GMRES iterations / CPU): α = 10:
-/// 654 / 183 s, 3: 424 / 126 s, 1: 357 / 102 s; BoomerAMG on the P2 block (α = 10): 310 / 142 s.
-constexpr double kPMultigridAlpha = 1.0;
-/// The augmentation with BoomerAMG on the displacement block itself (the best measured on the hex tube,
-/// BENCHMARKS.md "Krylov iterations per Newton step: the 3D helix tube").
-constexpr double kSplitAlpha = 10.0;
 /// Above this geometric-mean spread of the nodal 3 × 3 blocks (nodal_block_spread) the P2 level gets
 /// two Chebyshev sweeps instead of one. (Calibrated in BENCHMARKS.md, "Fibers on the p-multigrid".)
 constexpr double kAnisotropicBlockSpread = 3.0;
@@ -158,21 +149,6 @@ MatNullSpace rigid_body_modes(MPI_Comm comm, std::vector<double>& coords, PetscI
   petsc_check(MatNullSpaceCreateRigidBody(xyz, &modes), "MatNullSpaceCreateRigidBody");
   VecDestroy(&xyz);
   return modes;
-}
-
-/// Sums the entries of repeated columns of one row (INSERT_VALUES keeps only the last of them): a
-/// degenerate hex (a wedge, two corners on one node, as in the tube's cap core) has its coupling to the
-/// element pressure at two positions of d_k that share one dof.
-void merge_repeated_columns(std::vector<PetscInt>& cols, std::vector<PetscScalar>& vals, std::size_t from = 0) {
-  for (std::size_t i = from; i < cols.size(); ++i)
-    for (std::size_t j = i + 1; j < cols.size();)
-      if (cols[j] == cols[i]) {
-        vals[i] += vals[j];
-        cols.erase(cols.begin() + long(j));
-        vals.erase(vals.begin() + long(j));
-      } else {
-        ++j;
-      }
 }
 
 }  // namespace
@@ -206,10 +182,10 @@ void petsc_finalize() {
 // keeps its meaning). Field split (Schur complement, full factorization): BoomerAMG on the displacement
 // block (or GAMG with the rigid-body near-nullspace composed on the split, -fieldsplit_u_pc_type gamg),
 // Jacobi on a diagonal Schur approximation. With A alone in the displacement block (no volumetric
-// stiffness, -softhom_al_alpha 0) that diagonal, −(1 + c_k d_kᵀ diag(A)⁻¹ d_k) (selfp's diagonal, the
+// stiffness, petsc_augmentation = 0) that diagonal, −(1 + c_k d_kᵀ diag(A)⁻¹ d_k) (selfp's diagonal, the
 // scaled pressure mass 1/G + 1/κ), misses the small eigenvalues of the Q1/P0 pair (no uniform inf-sup
 // constant) and the counts grow ~1.4× per mesh refinement. The default keeps a part γ_k of the element's
-// volumetric stiffness in the displacement block (augmented Lagrangian, petsc_saddle_split.hpp): its
+// volumetric stiffness in the displacement block (augmented Lagrangian, Data::augmentation): its
 // Schur complement is diagonal up to O(1/γ) whatever the inf-sup constant (with an exact displacement
 // solve 6–10 GMRES iterations on the tube), and α = 10 (a bulk modulus ~ 10 G in the displacement
 // block) is where one AMG V-cycle on that block does best (α = 1, 3, 30, 100 need 1.2–3× more
@@ -217,23 +193,18 @@ void petsc_finalize() {
 struct PetscSolver::Data {
   MPI_Comm comm = MPI_COMM_NULL;  // PETSC_COMM_WORLD once PETSc is up
   int rank = 0, size = 1;
-  PetscInt ndof = 0, lo = 0, hi = 0;  // owned dof range [lo, hi)
+  PetscInt ndof = 0, lo = 0, hi = 0;  // this rank's displacement rows: hi − lo of them (lo = 0)
   std::vector<int> dof_of_eq;         // free equation → dof
   const DofMap* dofs = nullptr;
   PetscInt nnodes = 0;
   std::vector<double> coords;         // owned nodes' coordinates (near-nullspace)
-  // Three-field elements (empty: the condensed system alone).
-  std::vector<int> sad_off, sad_eq;
-  std::vector<double> sad_d, sad_c;
-  PetscInt np = 0, plo = 0, phi = 0;         // owned mixed elements [plo, phi)
-  std::vector<PetscInt> first;               // per rank: its first global index (u then π block)
-  std::vector<std::vector<std::pair<int, int>>> row_elems;  // owned dof → (element k, position q)
+  PetscInt plo = 0, phi = 0;          // this rank's element pressures: phi − plo of them (plo = 0)
+  std::vector<PetscInt> first;        // per rank: its first global index (u then π block)
   Mat A = nullptr;
-  // Augmented-Lagrangian split (petsc_saddle_split.hpp): α (-softhom_al_alpha), the diagonal Schur
-  // preconditioning matrix it gives (null: PETSc's selfp), the volumetric stiffness left to the pressures.
-  double al_alpha = kSplitAlpha;
+  // Augmented-Lagrangian split (augmentation): α ([solver] petsc_augmentation), the diagonal Schur
+  // preconditioning matrix it gives (null without the split).
+  double al_alpha = kSplitAugmentation;
   Mat schur_pre = nullptr;
-  std::vector<double> kept;
   KSP ksp = nullptr;
   Vec b = nullptr, x = nullptr, all = nullptr;
   VecScatter to_all = nullptr;
@@ -241,13 +212,11 @@ struct PetscSolver::Data {
   double dirichlet_diagonal = 1.0;
   double option_rtol = 0.0;  // -ksp_rtol of the options (0: none)
   std::string user_options;  // [solver] petsc_options
-  std::vector<PetscInt> cols;
-  std::vector<PetscScalar> vals;
-  std::vector<double> a_values;  // A = K − Σ c d dᵀ (three-field), K's pattern
+  LinearSolverChoice choice;  // the route's settings (apply_choice)
   std::vector<PetscInt> dnz, onz;  // preallocation of the owned rows (create_system)
   // Distributed three-field system: dnz, onz count the displacement columns alone and these the
   // pressure columns; the matrix is then a nest of its four blocks (petsc_nest.hpp) unless
-  // -softhom_nest 0 asks for one AIJ matrix.
+  // [solver] petsc_nested_matrix = false asks for one AIJ matrix.
   std::vector<PetscInt> dnz_p, onz_p;
   std::unique_ptr<NestedSaddleMatrix> nest;
   /// MatSetValues on the system in its own numbering (routed to the nest's blocks).
@@ -291,12 +260,12 @@ struct PetscSolver::Data {
     }
   }
   std::vector<int> node_owner;
-  // -pc_type bddc: the condensed displacement system as a MATIS over the element partition's subdomains
+  // BDDC: the condensed displacement system as a MATIS over the element partition's subdomains
   // (petsc_subdomains.hpp), filled through MatSetValuesLocal.
   bool bddc = false, bddc_flux = false;
   std::unique_ptr<Subdomains> subdomains;
   // Its primal constraints (kBddcDefaults): on every face the rigid-body modes and, unless
-  // -softhom_bddc_flux 0, the flux of the three-field elements' volume change (set_bddc_constraints);
+  // [solver] bddc_flux = false, the flux of the three-field elements' volume change (set_bddc_constraints);
   // flux_weights is this subdomain's Σ_e ∂v_e/∂u = Σ_e V_e ∂θ_e/∂u of the fill.
   std::vector<double> flux_weights;
   MatNullSpace rigid_modes = nullptr;
@@ -342,6 +311,19 @@ struct PetscSolver::Data {
     check(MatGetOwnershipRange(schur_pre, &lo, nullptr), "MatGetOwnershipRange");
     check(MatSetValue(schur_pre, lo + k, lo + k, value, INSERT_VALUES), "MatSetValue");
   }
+  // The augmented-Lagrangian split of the three-field elements' volumetric stiffness.
+  // The condensed tangent is K = A + Σ_k c_k d_k d_kᵀ (c_k = V_k U″(θ_k) ~ V_k κ, d_k = ∂θ_k/∂u). Its
+  // part γ_k ≤ c_k stays in the displacement block, A_γ = A + Σ_k γ_k d_k d_kᵀ, and the rest c̃_k = c_k − γ_k
+  // is carried by the element pressure. By the Sherman–Morrison–Woodbury identity the Schur complement
+  // of the pressure block (in the scaling above) is
+  //     S = −I − C̃ Dᵀ A_γ⁻¹ D,   Dᵀ A_γ⁻¹ D = ((Dᵀ A⁻¹ D)⁻¹ + Γ)⁻¹,
+  // which tends to the diagonal −(1 + c̃_k/γ_k) as γ grows, whatever the inf-sup constant of the
+  // element pair (Q1/P0 has none uniform in h; its small eigenvalues of Dᵀ A⁻¹ D are what make the
+  // counts of a mass-matrix-like Schur approximation grow with the mesh). With x_k = d_kᵀ diag(A)⁻¹ d_k
+  // (the element's diagonal estimate of Dᵀ A⁻¹ D) and γ_k = α / x_k the displacement block is that of a
+  // compressible solid with a bulk modulus ~ α G: AMG on it stays cheap for α = O(10), and the Schur
+  // diagonal used is −1 − c̃_k x_k / (1 + γ_k x_k). α = 0 is the plain split (γ = 0, the diagonal of
+  // selfp).
   /// γ = min(α / x, c/2), x = Σ s² / max(|diag(A)|, 1e-3 mean) over the element's rows (the bulk part
   /// α / x kept on u is ~α times its shear stiffness), and the part c − γ left to the pressure.
   Augmentation augmentation(const PendingElement& pe, const double* diagonal, double mean) const {
@@ -351,7 +333,7 @@ struct PetscSolver::Data {
     a.kept = pe.c - a.gamma;
     return a;
   }
-  // The displacement block's p-multigrid (-softhom_pmg): its interpolation, given to PCMG once the
+  // The displacement block's p-multigrid: its interpolation, given to PCMG once the
   // field split has made its sub-solvers.
   bool p_multigrid = false;
   Mat p_interpolation = nullptr;
@@ -364,7 +346,7 @@ struct PetscSolver::Data {
   double block_spread = 0.0;
   bool anisotropic_smoother = false, user_smoother = false;
   // The coarse level's solver, its vertices (mesh nodes) and their current positions for the next
-  // tangent's rigid-body modes (pending until that set-up; -softhom_pmg_current_modes 0: the reference
+  // tangent's rigid-body modes (pending until that set-up; [solver] petsc_current_modes = false: the reference
   // positions throughout). The modes of the reference positions are not those of a body that has
   // turned or stretched: a rotation δu = W x of the current configuration changes no strain (δF = W F),
   // δu = W X does (δF = W, strain sym(Fᵀ W) of the order of the displacement gradient), and GAMG's
@@ -383,39 +365,33 @@ struct PetscSolver::Data {
   bool current_modes = false, modes_pending = false;
   std::vector<double> coarse_current;
 
-  bool saddle() const { return mixed_rows || !sad_c.empty() || !sad_off.empty(); }
-  PetscInt dof_lo(int r) const { return 3 * (nnodes * r / size); }
-  PetscInt elem_lo(int r) const { return np * r / size; }
-  int owner_of_dof(PetscInt g) const {
-    int r = int(std::min<PetscInt>(size - 1, (g / 3) * size / std::max<PetscInt>(nnodes, 1)));
-    while (r > 0 && g < dof_lo(r)) --r;
-    while (r + 1 < size && g >= dof_lo(r + 1)) ++r;
-    return r;
-  }
-  int owner_of_elem(PetscInt k) const {
-    int r = int(std::min<PetscInt>(size - 1, k * size / std::max<PetscInt>(np, 1)));
-    while (r > 0 && k < elem_lo(r)) --r;
-    while (r + 1 < size && k >= elem_lo(r + 1)) ++r;
-    return r;
-  }
-  /// Global PETSc index of dof g and of element pressure k (rank blocks [u_r, π_r]).
-  PetscInt gu(PetscInt g) const {
-    if (distributed) return urow[g];
-    if (!saddle()) return g;
-    const int r = owner_of_dof(g);
-    return first[r] + g - dof_lo(r);
-  }
-  PetscInt gp(PetscInt k) const {
-    const int r = owner_of_elem(k);
-    return first[r] + (dof_lo(r + 1) - dof_lo(r)) + k - elem_lo(r);
-  }
-  bool local(PetscInt col) const { return col >= first[rank] && col < first[rank + 1]; }
-  double d_norm(int k) const {
-    double s = 0.0;
-    for (int q = sad_off[k]; q < sad_off[k + 1]; ++q)
-      if (sad_eq[q] >= 0) s += sad_d[q] * sad_d[q];
-    return s > 0.0 ? std::sqrt(s) : 1.0;
-  }
+  bool saddle() const { return mixed_rows; }
+  // The parts of create_system: the matrix of the layout (a MATIS of the subdomains under BDDC, the
+  // nest of the (u, p) blocks, or one AIJ matrix), and the preconditioner of the choice with the
+  // rigid-body modes `nsp`.
+  void create_matrix();
+  void set_field_split(PC pc, MatNullSpace nsp);
+  void set_bddc(PC pc, MatNullSpace nsp);
+  void set_whole_system_preconditioner(PC pc, MatNullSpace nsp);
+  /// An element's free dofs: their positions in the element (pos) and rows (the system's, or under BDDC
+  /// the subdomain's).
+  struct ElementRows {
+    std::array<int, 30> pos;
+    std::array<PetscInt, 31> rows;
+    int nf = 0;
+    void sort_ascending();
+  };
+  ElementRows element_rows(int nn, const int* nodes) const;
+  void add_subdomain_element(const ElementRows& er, int nd, const double* Ke, const double* dk, double volume);
+  // The parts of distribute: the rows of every mesh dof and element pressure, rank by rank, and the
+  // preallocation of this rank's rows (dnz, onz, dnz_p, onz_p).
+  void number_rows(const std::vector<int>& element_owner, const std::vector<int>& node_owner,
+                   const std::vector<int>& mixed_elements);
+  /// Preallocation of the owned rows: the nodes sharing an element or a coupling group with each owned node.
+  void count_row_entries(const std::vector<int>& element_owner, const std::vector<int>& mixed_elements,
+                         const Couplings& couplings);
+  /// Global PETSc index of mesh dof g.
+  PetscInt gu(PetscInt g) const { return urow[g]; }
 };
 
 /// `defaults` into PETSc's options database, then the user's `options` over them.
@@ -425,7 +401,7 @@ static void insert_under_user_options(const char* defaults, const std::string& o
     throw InputError("solver.petsc_options", options, "PETSc cannot parse these options");
 }
 
-PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string& options) : d_(std::make_unique<Data>()) {
+PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const LinearSolverChoice& choice) : d_(std::make_unique<Data>()) {
   petsc_initialize();
   Data& d = *d_;
   d.comm = PETSC_COMM_WORLD;
@@ -434,14 +410,17 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
   d.mesh = &mesh;
   d.nnodes = mesh.num_nodes();
   d.ndof = 3 * d.nnodes;
-  d.lo = d.dof_lo(d.rank);
-  d.hi = d.dof_lo(d.rank + 1);
   d.dofs = &dofs;
   d.dof_of_eq.assign(dofs.num_free, -1);
   for (int k = 0; k < int(dofs.eq.size()); ++k)
     if (dofs.eq[k] >= 0) d.dof_of_eq[dofs.eq[k]] = k;
-  for (PetscInt n = d.lo / 3; n < d.hi / 3; ++n)
-    for (int i = 0; i < 3; ++i) d.coords.push_back(mesh.nodes[n][i]);
+  apply_choice(choice);
+}
+
+void PetscSolver::apply_choice(const LinearSolverChoice& choice) {
+  Data& d = *d_;
+  const std::string& options = choice.petsc_options;
+  d.choice = choice;
   // One database per solver: the options of an earlier simulation in this process do not carry over.
   check(PetscOptionsClear(nullptr), "PetscOptionsClear");
   insert_under_user_options(kSplitDefaults, options);
@@ -450,37 +429,19 @@ PetscSolver::PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string
   PetscReal rtol = 0.0;
   PetscOptionsGetReal(nullptr, nullptr, "-ksp_rtol", &rtol, &set);
   if (set && options.find("-ksp_rtol") != std::string::npos) d.option_rtol = rtol;
-  // Quadratic tets: the displacement block gets the two-level p-multigrid (petsc_p_multigrid.hpp) unless
-  // -softhom_pmg 0; its settings go in under the user's options.
-  PetscBool pmg = mesh.tets.empty() ? PETSC_FALSE : PETSC_TRUE;
-  PetscOptionsGetBool(nullptr, nullptr, "-softhom_pmg", &pmg, nullptr);
-  char pc_type[64] = "";
-  PetscBool pc_set = PETSC_FALSE;
-  PetscOptionsGetString(nullptr, nullptr, "-pc_type", pc_type, sizeof pc_type, &pc_set);
-  d.bddc = pc_set && std::string(pc_type) == PCBDDC;
-  d.p_multigrid = pmg && !mesh.tets.empty() && !d.bddc;
-  if (d.bddc) {
-    insert_under_user_options(kBddcDefaults, options);
-    PetscBool flux = PETSC_TRUE;
-    PetscOptionsGetBool(nullptr, nullptr, "-softhom_bddc_flux", &flux, nullptr);
-    d.bddc_flux = flux;
-  }
-  d.user_displacement_solver = options.find("-softhom_pmg") != std::string::npos ||
-                               options.find("-fieldsplit_u_") != std::string::npos ||
-                               options.find("-softhom_al_alpha") != std::string::npos;
+  d.bddc = choice.preconditioner == Preconditioner::bddc;
+  d.bddc_flux = choice.bddc_flux;
+  // Quadratic tets: the displacement block gets the two-level p-multigrid (petsc_p_multigrid.hpp); its
+  // settings go in under the user's options.
+  d.p_multigrid = choice.p_multigrid;
+  if (d.bddc) insert_under_user_options(kBddcDefaults, options);
+  d.user_displacement_solver = !choice.p_multigrid_fallback;
+  d.al_alpha = choice.augmentation;
   if (d.p_multigrid) {
     insert_under_user_options(kPMultigridDefaults, options);
-    d.al_alpha = kPMultigridAlpha;
     d.user_smoother = options.find("-fieldsplit_u_mg_levels_") != std::string::npos;
   }
-  PetscBool current_modes = PETSC_TRUE;
-  PetscOptionsGetBool(nullptr, nullptr, "-softhom_pmg_current_modes", &current_modes, nullptr);
-  d.current_modes = d.p_multigrid && current_modes;
-  PetscReal alpha = 0.0;
-  set = PETSC_FALSE;
-  PetscOptionsGetReal(nullptr, nullptr, "-softhom_al_alpha", &alpha, &set);
-  if (set && alpha < 0.0) throw InputError("solver.petsc_options", options, "-softhom_al_alpha must be >= 0");
-  if (set) d.al_alpha = alpha;
+  d.current_modes = choice.current_modes;
 }
 
 PetscSolver::~PetscSolver() {
@@ -538,115 +499,15 @@ std::string PetscSolver::near_nullspace() const {
   return d_->bddc_flux ? "rigid-body and volume-flux constraints on edges and faces" : "rigid-body constraints on edges and faces";
 }
 
-void PetscSolver::set_mixed(const std::vector<int>& off, const std::vector<int>& eq) {
-  Data& d = *d_;
-  d.sad_off = off;
-  d.sad_eq = eq;
-  d.np = off.empty() ? 0 : PetscInt(off.size()) - 1;
-  if (d.np == 0) d.sad_off.clear();
-}
-
-void PetscSolver::set_mixed_tangent(const std::vector<double>& dk, const std::vector<double>& ck) {
-  d_->sad_d = dk;
-  d_->sad_c = ck;
-}
-
-void PetscSolver::analyze(const CscMatrix& K) {
-  const auto t0 = std::chrono::steady_clock::now();
-  Data& d = *d_;
-  const std::vector<int>& eq = d.dofs->eq;
-  const bool saddle = d.saddle();
-  const PetscInt nu = d.hi - d.lo;
-  d.plo = saddle ? d.elem_lo(d.rank) : 0;
-  d.phi = saddle ? d.elem_lo(d.rank + 1) : 0;
-  const PetscInt nlocal = nu + (d.phi - d.plo);
-  d.first.assign(d.size + 1, 0);
-  for (int r = 0; r < d.size; ++r)
-    d.first[r + 1] = d.first[r] + (d.dof_lo(r + 1) - d.dof_lo(r)) + (saddle ? d.elem_lo(r + 1) - d.elem_lo(r) : 0);
-  if (saddle) {
-    d.row_elems.assign(nu, {});
-    for (PetscInt k = 0; k < d.np; ++k)
-      for (int q = d.sad_off[k]; q < d.sad_off[k + 1]; ++q)
-        if (d.sad_eq[q] >= 0) {
-          const PetscInt g = d.dof_of_eq[d.sad_eq[q]];
-          if (g >= d.lo && g < d.hi) d.row_elems[g - d.lo].push_back({int(k), q});
-        }
-  }
-  // Preallocation per owned row: row r of K is column r's pattern (structurally symmetric).
-  std::vector<PetscInt> dnz(nlocal, 1), onz(nlocal, 0);
-  for (PetscInt g = d.lo; g < d.hi; ++g) {
-    const int r = eq[g];
-    if (r < 0) continue;
-    PetscInt in = 0, out = 0;
-    for (int k = K.colptr[r]; k < K.colptr[r + 1]; ++k) d.local(d.gu(d.dof_of_eq[K.rowind[k]])) ? ++in : ++out;
-    if (saddle)
-      for (const auto& [k, q] : d.row_elems[g - d.lo]) d.local(d.gp(k)) ? ++in : ++out;
-    dnz[g - d.lo] = in;
-    onz[g - d.lo] = out;
-  }
-  for (PetscInt k = d.plo; k < d.phi; ++k) {
-    PetscInt in = 1, out = 0;
-    for (int q = d.sad_off[k]; q < d.sad_off[k + 1]; ++q)
-      if (d.sad_eq[q] >= 0) d.local(d.gu(d.dof_of_eq[d.sad_eq[q]])) ? ++in : ++out;
-    dnz[nu + k - d.plo] = in;
-    onz[nu + k - d.plo] = out;
-  }
-  d.dnz = std::move(dnz);
-  d.onz = std::move(onz);
-  create_system();
-  times_.analysis += seconds_since(t0);
+void PetscSolver::analyze(const CscMatrix&) {
+  throw std::logic_error("PetscSolver: the system is laid out by distribute (the element loop fills it)");
 }
 
 void PetscSolver::create_system() {
   Data& d = *d_;
-  const bool saddle = d.saddle();
-  const PetscInt nu = d.hi - d.lo;
-  const PetscInt nlocal = nu + (d.phi - d.plo);
+  const PetscInt nlocal = (d.hi - d.lo) + (d.phi - d.plo);
   const PetscInt nglobal = d.first[d.size];
-  PetscBool use_nest = PETSC_TRUE;
-  PetscOptionsGetBool(nullptr, nullptr, "-softhom_nest", &use_nest, nullptr);
-  // The nest serves the field split alone: another preconditioner (-pc_type lu with MUMPS, ilu, ...)
-  // needs one AIJ matrix.
-  char pc_type[64] = "";
-  PetscBool pc_set = PETSC_FALSE;
-  PetscOptionsGetString(nullptr, nullptr, "-pc_type", pc_type, sizeof pc_type, &pc_set);
-  // Another preconditioner also has no use for the split's augmentation (a second fill of the element
-  // blocks at every tangent: half of the one-process fill time on the tube with MUMPS).
-  const bool field_split = !pc_set || std::string(pc_type) == PCFIELDSPLIT;
-  if (!field_split) use_nest = PETSC_FALSE;
-  if (d.bddc) {
-    if (!d.subdomains) throw std::logic_error("PetscSolver: -pc_type bddc needs the distributed assembly");
-    d.local_to_global = d.subdomains->local_to_global(d.comm);
-    check(MatCreateIS(d.comm, 3, nlocal, nlocal, nglobal, nglobal, d.local_to_global, d.local_to_global, &d.A), "MatCreateIS");
-    Mat local = nullptr;
-    check(MatISGetLocalMat(d.A, &local), "MatISGetLocalMat");
-    check(MatSeqAIJSetPreallocation(local, 0, d.subdomains->nonzeros().data()), "MatSeqAIJSetPreallocation (subdomain)");
-    // A follower-pressure coupling may join two nodes of the subdomain that share none of its elements
-    // (Subdomains::adds_coupling): such an entry is allocated at the first fill, and stays in the pattern.
-    check(MatSetOption(local, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE), "MatSetOption (subdomain)");
-    check(MatISRestoreLocalMat(d.A, &local), "MatISRestoreLocalMat");
-  } else if (!d.dnz_p.empty() && use_nest) {
-    std::vector<PetscInt> nu_of(d.size);
-    PetscInt mine = nu;
-    MPI_Allgather(&mine, 1, MPIU_INT, nu_of.data(), 1, MPIU_INT, d.comm);
-    d.nest = std::make_unique<NestedSaddleMatrix>();
-    d.nest->create(d.comm, d.rank, d.first, nu_of, d.dnz, d.onz, d.dnz_p, d.onz_p);
-    d.A = d.nest->whole();
-    check(PetscObjectReference(reinterpret_cast<PetscObject>(d.A)), "PetscObjectReference");
-  } else {
-    std::vector<PetscInt> dnz = d.dnz, onz = d.onz;
-    for (std::size_t i = 0; i < d.dnz_p.size(); ++i) {
-      dnz[i] += d.dnz_p[i];
-      onz[i] += d.onz_p[i];
-    }
-    check(MatCreate(d.comm, &d.A), "MatCreate");
-    check(MatSetSizes(d.A, nlocal, nlocal, nglobal, nglobal), "MatSetSizes");
-    check(MatSetType(d.A, MATAIJ), "MatSetType");
-    if (!saddle) check(MatSetBlockSize(d.A, 3), "MatSetBlockSize");
-    check(MatSeqAIJSetPreallocation(d.A, 0, dnz.data()), "MatSeqAIJSetPreallocation");
-    check(MatMPIAIJSetPreallocation(d.A, 0, dnz.data(), 0, onz.data()), "MatMPIAIJSetPreallocation");
-    check(MatSetOption(d.A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE), "MatSetOption");
-  }
+  d.create_matrix();
   // Rigid-body modes from the owned nodes' coordinates: GAMG's near-nullspace (its counts grow with the
   // mesh without them).
   MatNullSpace nsp = rigid_body_modes(d.comm, d.coords, d.ndof);
@@ -668,71 +529,127 @@ void PetscSolver::create_system() {
   check(KSPSetTolerances(d.ksp, 1e-8, 1e-300, PETSC_DEFAULT, 2000), "KSPSetTolerances");
   PC pc;
   check(KSPGetPC(d.ksp, &pc), "KSPGetPC");
-  if (saddle && field_split) {
-    std::vector<PetscInt> iu(nu), ip(d.phi - d.plo);
-    for (PetscInt i = 0; i < nu; ++i) iu[i] = d.first[d.rank] + i;
-    for (PetscInt i = 0; i < d.phi - d.plo; ++i) ip[i] = d.first[d.rank] + nu + i;
-    if (d.nest) {
-      // The nest's own index sets: the field split then takes its blocks themselves, no copies.
-      IS rows[2];
-      check(MatNestGetISs(d.A, rows, nullptr), "MatNestGetISs");
-      d.is_u = rows[0];
-      d.is_p = rows[1];
-      check(PetscObjectReference(reinterpret_cast<PetscObject>(d.is_u)), "PetscObjectReference");
-      check(PetscObjectReference(reinterpret_cast<PetscObject>(d.is_p)), "PetscObjectReference");
-    } else {
-      check(ISCreateGeneral(d.comm, nu, iu.data(), PETSC_COPY_VALUES, &d.is_u), "ISCreateGeneral");
-      check(ISCreateGeneral(d.comm, PetscInt(ip.size()), ip.data(), PETSC_COPY_VALUES, &d.is_p), "ISCreateGeneral");
-    }
-    check(ISSetBlockSize(d.is_u, 3), "ISSetBlockSize");
-    // The field split hands the near-nullspace composed on the IS to its displacement block.
-    check(PetscObjectCompose(reinterpret_cast<PetscObject>(d.is_u), "nearnullspace", reinterpret_cast<PetscObject>(nsp)),
-          "PetscObjectCompose");
-    check(PCSetType(pc, PCFIELDSPLIT), "PCSetType");
-    check(PCFieldSplitSetIS(pc, "u", d.is_u), "PCFieldSplitSetIS");
-    check(PCFieldSplitSetIS(pc, "p", d.is_p), "PCFieldSplitSetIS");
-    check(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "PCFieldSplitSetType");
-    // Full factorization: one more displacement solve per iteration than the upper one, 1.1–1.7× fewer
-    // iterations on Cook's membrane and the tube (BENCHMARKS.md). (The p-multigrid of quadratic tets
-    // takes the upper one: kPMultigridDefaults.)
-    check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_FULL), "PCFieldSplitSetSchurFactType");
-    // -softhom_schur_selfp: PETSc's sparse selfp operator instead (for -fieldsplit_p_pc_type gamg etc.).
-    PetscBool selfp = PETSC_FALSE;
-    PetscOptionsGetBool(nullptr, nullptr, "-softhom_schur_selfp", &selfp, nullptr);
-    if (d.al_alpha >= 0.0 && !selfp) {
-      const PetscInt npl = d.phi - d.plo;
-      check(MatCreateAIJ(d.comm, npl, npl, PETSC_DETERMINE, PETSC_DETERMINE, 1, nullptr, 0, nullptr, &d.schur_pre),
-            "MatCreateAIJ");
-      check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_USER, d.schur_pre), "PCFieldSplitSetSchurPre");
-    } else {
-      check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_SELFP, nullptr), "PCFieldSplitSetSchurPre");
-    }
-  } else if (d.bddc) {
-    check(MatSetNearNullSpace(d.A, nsp), "MatSetNearNullSpace");
-    d.rigid_modes = nsp;  // with the faces' fluxes at every fill (set_bddc_constraints)
-    check(PetscObjectReference(reinterpret_cast<PetscObject>(nsp)), "PetscObjectReference");
-    check(PCSetType(pc, PCBDDC), "PCSetType");
-    // The prescribed dofs' rows are the identity (shared among the subdomains holding them): BDDC keeps
-    // them out of its interface.
-    const std::vector<PetscInt>& fixed = d.subdomains->prescribed();
-    IS is_fixed = nullptr;
-    check(ISCreateGeneral(PETSC_COMM_SELF, PetscInt(fixed.size()), fixed.data(), PETSC_COPY_VALUES, &is_fixed), "ISCreateGeneral");
-    check(PCBDDCSetDirichletBoundariesLocal(pc, is_fixed), "PCBDDCSetDirichletBoundariesLocal");
-    ISDestroy(&is_fixed);
-  } else {
-    check(MatSetNearNullSpace(d.A, nsp), "MatSetNearNullSpace");
-    check(PCSetType(pc, PCGAMG), "PCSetType");
-  }
+  if (d.saddle() && d.choice.field_split) d.set_field_split(pc, nsp);
+  else if (d.bddc) d.set_bddc(pc, nsp);
+  else d.set_whole_system_preconditioner(pc, nsp);
   MatNullSpaceDestroy(&nsp);
   set_up_with_options(d.user_options, [&] { check(KSPSetFromOptions(d.ksp), "KSPSetFromOptions"); });
 }
 
-bool PetscSolver::factorize(const CscMatrix& K) {
-  if (!d_->A) analyze(K);
+void PetscSolver::Data::create_matrix() {
+  Data& d = *this;
+  const PetscInt nu = d.hi - d.lo;
+  const PetscInt nlocal = nu + (d.phi - d.plo);
+  const PetscInt nglobal = d.first[d.size];
+  // The nest serves the field split alone: another preconditioner (MUMPS's LU, ilu, ...) needs one AIJ
+  // matrix, and has no use for the split's augmentation either (a second fill of the element blocks at
+  // every tangent: half of the one-process fill time on the tube with MUMPS).
+  if (d.bddc) {
+    if (!d.subdomains) throw std::logic_error("PetscSolver: BDDC needs the distributed assembly");
+    d.local_to_global = d.subdomains->local_to_global(d.comm);
+    check(MatCreateIS(d.comm, 3, nlocal, nlocal, nglobal, nglobal, d.local_to_global, d.local_to_global, &d.A), "MatCreateIS");
+    Mat local = nullptr;
+    check(MatISGetLocalMat(d.A, &local), "MatISGetLocalMat");
+    check(MatSeqAIJSetPreallocation(local, 0, d.subdomains->nonzeros().data()), "MatSeqAIJSetPreallocation (subdomain)");
+    // A follower-pressure coupling may join two nodes of the subdomain that share none of its elements
+    // (Subdomains::adds_coupling): such an entry is allocated at the first fill, and stays in the pattern.
+    check(MatSetOption(local, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE), "MatSetOption (subdomain)");
+    check(MatISRestoreLocalMat(d.A, &local), "MatISRestoreLocalMat");
+    return;
+  }
+  if (!d.dnz_p.empty() && d.choice.field_split && d.choice.nested_matrix) {
+    std::vector<PetscInt> nu_of(d.size);
+    PetscInt mine = nu;
+    MPI_Allgather(&mine, 1, MPIU_INT, nu_of.data(), 1, MPIU_INT, d.comm);
+    d.nest = std::make_unique<NestedSaddleMatrix>();
+    d.nest->create(d.comm, d.rank, d.first, nu_of, d.dnz, d.onz, d.dnz_p, d.onz_p);
+    d.A = d.nest->whole();
+    check(PetscObjectReference(reinterpret_cast<PetscObject>(d.A)), "PetscObjectReference");
+    return;
+  }
+  std::vector<PetscInt> dnz = d.dnz, onz = d.onz;
+  for (std::size_t i = 0; i < d.dnz_p.size(); ++i) {
+    dnz[i] += d.dnz_p[i];
+    onz[i] += d.onz_p[i];
+  }
+  check(MatCreate(d.comm, &d.A), "MatCreate");
+  check(MatSetSizes(d.A, nlocal, nlocal, nglobal, nglobal), "MatSetSizes");
+  check(MatSetType(d.A, MATAIJ), "MatSetType");
+  if (!d.saddle()) check(MatSetBlockSize(d.A, 3), "MatSetBlockSize");
+  check(MatSeqAIJSetPreallocation(d.A, 0, dnz.data()), "MatSeqAIJSetPreallocation");
+  check(MatMPIAIJSetPreallocation(d.A, 0, dnz.data(), 0, onz.data()), "MatMPIAIJSetPreallocation");
+  check(MatSetOption(d.A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE), "MatSetOption");
+}
+
+void PetscSolver::Data::set_field_split(PC pc, MatNullSpace nsp) {
+  Data& d = *this;
+  const PetscInt nu = d.hi - d.lo;
+  std::vector<PetscInt> iu(nu), ip(d.phi - d.plo);
+  for (PetscInt i = 0; i < nu; ++i) iu[i] = d.first[d.rank] + i;
+  for (PetscInt i = 0; i < d.phi - d.plo; ++i) ip[i] = d.first[d.rank] + nu + i;
+  if (d.nest) {
+    // The nest's own index sets: the field split then takes its blocks themselves, no copies.
+    IS rows[2];
+    check(MatNestGetISs(d.A, rows, nullptr), "MatNestGetISs");
+    d.is_u = rows[0];
+    d.is_p = rows[1];
+    check(PetscObjectReference(reinterpret_cast<PetscObject>(d.is_u)), "PetscObjectReference");
+    check(PetscObjectReference(reinterpret_cast<PetscObject>(d.is_p)), "PetscObjectReference");
+  } else {
+    check(ISCreateGeneral(d.comm, nu, iu.data(), PETSC_COPY_VALUES, &d.is_u), "ISCreateGeneral");
+    check(ISCreateGeneral(d.comm, PetscInt(ip.size()), ip.data(), PETSC_COPY_VALUES, &d.is_p), "ISCreateGeneral");
+  }
+  check(ISSetBlockSize(d.is_u, 3), "ISSetBlockSize");
+  // The field split hands the near-nullspace composed on the IS to its displacement block.
+  check(PetscObjectCompose(reinterpret_cast<PetscObject>(d.is_u), "nearnullspace", reinterpret_cast<PetscObject>(nsp)),
+        "PetscObjectCompose");
+  check(PCSetType(pc, PCFIELDSPLIT), "PCSetType");
+  check(PCFieldSplitSetIS(pc, "u", d.is_u), "PCFieldSplitSetIS");
+  check(PCFieldSplitSetIS(pc, "p", d.is_p), "PCFieldSplitSetIS");
+  check(PCFieldSplitSetType(pc, PC_COMPOSITE_SCHUR), "PCFieldSplitSetType");
+  // Full factorization: one more displacement solve per iteration than the upper one, 1.1–1.7× fewer
+  // iterations on Cook's membrane and the tube (BENCHMARKS.md). (The p-multigrid of quadratic tets
+  // takes the upper one: kPMultigridDefaults.)
+  check(PCFieldSplitSetSchurFactType(pc, PC_FIELDSPLIT_SCHUR_FACT_FULL), "PCFieldSplitSetSchurFactType");
+  // The diagonal Schur approximation of the augmented split (PETSc's sparse selfp operator, with Jacobi
+  // or with its own AMG, took 1.4–1.6x the iterations or failed: BENCHMARKS.md).
+  const PetscInt npl = d.phi - d.plo;
+  check(MatCreateAIJ(d.comm, npl, npl, PETSC_DETERMINE, PETSC_DETERMINE, 1, nullptr, 0, nullptr, &d.schur_pre),
+        "MatCreateAIJ");
+  check(PCFieldSplitSetSchurPre(pc, PC_FIELDSPLIT_SCHUR_PRE_USER, d.schur_pre), "PCFieldSplitSetSchurPre");
+}
+
+void PetscSolver::Data::set_bddc(PC pc, MatNullSpace nsp) {
+  Data& d = *this;
+  check(MatSetNearNullSpace(d.A, nsp), "MatSetNearNullSpace");
+  d.rigid_modes = nsp;  // with the faces' fluxes at every fill (set_bddc_constraints)
+  check(PetscObjectReference(reinterpret_cast<PetscObject>(nsp)), "PetscObjectReference");
+  check(PCSetType(pc, PCBDDC), "PCSetType");
+  // The prescribed dofs' rows are the identity (shared among the subdomains holding them): BDDC keeps
+  // them out of its interface.
+  const std::vector<PetscInt>& fixed = d.subdomains->prescribed();
+  IS is_fixed = nullptr;
+  check(ISCreateGeneral(PETSC_COMM_SELF, PetscInt(fixed.size()), fixed.data(), PETSC_COPY_VALUES, &is_fixed), "ISCreateGeneral");
+  check(PCBDDCSetDirichletBoundariesLocal(pc, is_fixed), "PCBDDCSetDirichletBoundariesLocal");
+  ISDestroy(&is_fixed);
+}
+
+void PetscSolver::Data::set_whole_system_preconditioner(PC pc, MatNullSpace nsp) {
+  Data& d = *this;
+  check(MatSetNearNullSpace(d.A, nsp), "MatSetNearNullSpace");
+  if (d.choice.preconditioner == Preconditioner::lu) {
+    check(PCSetType(pc, PCLU), "PCSetType");
+    check(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
+  } else {
+    check(PCSetType(pc, PCGAMG), "PCSetType");  // (an expert -pc_type replaces it below)
+  }
+}
+
+bool PetscSolver::factorize(const CscMatrix&) {
   const auto t0 = std::chrono::steady_clock::now();
   Data& d = *d_;
-  // Distributed: the element loop has filled the matrix (begin_fill .. end_fill).
-  if (!d.distributed) copy_tangent(K);
+  // The element loop has filled the matrix (begin_fill .. end_fill).
+  if (!d.distributed) throw std::logic_error("PetscSolver: factorize before distribute");
   check(KSPSetReusePreconditioner(d.ksp, PETSC_FALSE), "KSPSetReusePreconditioner");
   check(KSPSetOperators(d.ksp, d.A, d.A), "KSPSetOperators");
   if (d.modes_pending) {
@@ -778,15 +695,9 @@ void PetscSolver::attach_p_multigrid() {
   PetscInt levels = 0;
   check(PCMGGetLevels(pu, &levels), "PCMGGetLevels");
   if (levels != 2) throw InputError("solver.petsc_options", "-fieldsplit_u_pc_mg_levels " + std::to_string(levels),
-                                    "the p-multigrid (-softhom_pmg) has two levels");
-  // The displacement block numbers the nodes rank by rank in both layouts: by node_owner when
-  // distributed, by the contiguous node ranges of dof_lo otherwise.
-  std::vector<int> owner = d.node_owner;
-  if (!d.distributed) {
-    owner.resize(std::size_t(d.nnodes));
-    for (PetscInt node = 0; node < d.nnodes; ++node) owner[std::size_t(node)] = d.owner_of_dof(3 * node);
-  }
-  PMultigridSpace space = p_multigrid_interpolation(d.comm, d.rank, *d.mesh, d.dofs->eq, owner);
+                                    "the p-multigrid ([solver] petsc_p_multigrid) has two levels");
+  // The displacement block numbers the nodes rank by rank, by node_owner.
+  PMultigridSpace space = p_multigrid_interpolation(d.comm, d.rank, *d.mesh, d.dofs->eq, d.node_owner);
   d.p_interpolation = space.interpolation;
   check(PCMGSetInterpolation(pu, 1, d.p_interpolation), "PCMGSetInterpolation");
   check(KSPSetUp(ku), "KSPSetUp (p-multigrid)");
@@ -825,7 +736,7 @@ bool PetscSolver::fall_back_from_p_multigrid() {
   d.current_modes = d.modes_pending = false;
   // The augmentation of BoomerAMG on the P2 block (the matrix filled last keeps its γ until the next
   // fill: the condensed operator, and so the solution, does not depend on it).
-  d.al_alpha = kSplitAlpha;
+  d.al_alpha = kSplitAugmentation;
   return true;
 }
 
@@ -901,10 +812,9 @@ void PetscSolver::set_displacement(const std::vector<double>& u) {
   d.modes_pending = true;
 }
 
-void PetscSolver::update_operator(const CscMatrix& K) {
+void PetscSolver::update_operator() {
   Data& d = *d_;
   const auto t0 = std::chrono::steady_clock::now();
-  if (!d.distributed) copy_tangent(K);
   // The operator changes, the preconditioner's own data (hypre's copy and hierarchy, MUMPS's factor,
   // the field split's blocks) stay those of the tangent last set up.
   check(KSPSetReusePreconditioner(d.ksp, PETSC_TRUE), "KSPSetReusePreconditioner");
@@ -944,95 +854,6 @@ void PetscSolver::account_matrices() {
   PetscFree(sub);
 }
 
-void PetscSolver::copy_tangent(const CscMatrix& K) {
-  Data& d = *d_;
-  const std::vector<int>& eq = d.dofs->eq;
-  const bool saddle = d.saddle();
-  // The Dirichlet rows' diagonal: the mean free diagonal of the first tangent, so the identity rows
-  // neither dominate nor vanish in the smoothers.
-  if (times_.factorizations == 0) {
-    double sum = 0.0;
-    for (int c = 0; c < K.n; ++c) {
-      const long k = K.find(c, c);
-      if (k >= 0) sum += std::abs(K.values[k]);
-    }
-    d.dirichlet_diagonal = K.n > 0 && sum > 0.0 ? sum / K.n : 1.0;
-  }
-  const double* kv = K.values.data();
-  std::vector<double> dn;
-  if (saddle) {
-    // A = K_c − Σ_k c_k d_k d_kᵀ on the owned rows (the cancellation costs κ/G · ε ~ 1e-11 of A).
-    if (d.sad_c.size() != std::size_t(d.np)) throw std::logic_error("PetscSolver: mixed tangent not set");
-    d.a_values = K.values;
-    dn.resize(d.np);
-    for (PetscInt k = 0; k < d.np; ++k) dn[k] = d.d_norm(int(k));
-    AugmentedSplit split;
-    if (d.al_alpha >= 0.0) {
-      split = augmented_split(K, d.sad_off, d.sad_eq, d.sad_d, d.sad_c, d.al_alpha);
-      d.kept = split.kept;
-    } else {
-      d.kept = d.sad_c;
-    }
-    if (d.schur_pre) {
-      for (PetscInt k = d.plo; k < d.phi; ++k)
-        check(MatSetValue(d.schur_pre, k, k, split.schur_diag[k], INSERT_VALUES), "MatSetValue");
-      check(MatAssemblyBegin(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
-      check(MatAssemblyEnd(d.schur_pre, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
-    }
-    for (PetscInt g = d.lo; g < d.hi; ++g) {
-      const int r = eq[g];
-      if (r < 0) continue;
-      for (const auto& [k, q] : d.row_elems[g - d.lo])
-        for (int q2 = d.sad_off[k]; q2 < d.sad_off[k + 1]; ++q2) {
-          const int c = d.sad_eq[q2];
-          if (c < 0) continue;
-          d.a_values[K.find(r, c)] -= d.kept[k] * d.sad_d[q] * d.sad_d[q2];
-        }
-    }
-    kv = d.a_values.data();
-  }
-  for (PetscInt g = d.lo; g < d.hi; ++g) {
-    const int r = eq[g];
-    const PetscInt row = d.gu(g);
-    if (r < 0) {
-      check(MatSetValue(d.A, row, row, d.dirichlet_diagonal, INSERT_VALUES), "MatSetValue");
-      continue;
-    }
-    d.cols.clear();
-    d.vals.clear();
-    for (int k = K.colptr[r]; k < K.colptr[r + 1]; ++k) {
-      d.cols.push_back(d.gu(d.dof_of_eq[K.rowind[k]]));
-      d.vals.push_back(kv[K.mirror.empty() ? K.find(r, K.rowind[k]) : K.mirror[k]]);
-    }
-    if (saddle) {
-      const std::size_t first_p = d.cols.size();
-      for (const auto& [k, q] : d.row_elems[g - d.lo]) {
-        d.cols.push_back(d.gp(k));
-        d.vals.push_back(d.sad_d[q] / dn[k]);
-      }
-      merge_repeated_columns(d.cols, d.vals, first_p);
-    }
-    check(MatSetValues(d.A, 1, &row, PetscInt(d.cols.size()), d.cols.data(), d.vals.data(), INSERT_VALUES), "MatSetValues");
-  }
-  for (PetscInt k = d.plo; k < d.phi; ++k) {
-    d.cols.clear();
-    d.vals.clear();
-    const double w = d.kept[k] * dn[k];
-    for (int q = d.sad_off[k]; q < d.sad_off[k + 1]; ++q)
-      if (d.sad_eq[q] >= 0) {
-        d.cols.push_back(d.gu(d.dof_of_eq[d.sad_eq[q]]));
-        d.vals.push_back(w * d.sad_d[q]);
-      }
-    merge_repeated_columns(d.cols, d.vals);
-    d.cols.push_back(d.gp(k));
-    d.vals.push_back(-1.0);
-    const PetscInt row = d.gp(k);
-    check(MatSetValues(d.A, 1, &row, PetscInt(d.cols.size()), d.cols.data(), d.vals.data(), INSERT_VALUES), "MatSetValues");
-  }
-  check(MatAssemblyBegin(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
-  check(MatAssemblyEnd(d.A, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
-}
-
 void PetscSolver::solve(const std::vector<double>& b, std::vector<double>& x) {
   const KrylovOutcome o = solve(b, x, 1e-12);
   if (!o.converged) throw std::runtime_error("PETSc: the linear solve did not converge (" + o.reason + ")");
@@ -1045,10 +866,7 @@ KrylovOutcome PetscSolver::solve(const std::vector<double>& b, std::vector<doubl
   PetscScalar* bv;
   check(VecSet(d.b, 0.0), "VecSet");
   check(VecGetArray(d.b, &bv), "VecGetArray");
-  if (d.distributed)
-    for (std::size_t i = 0; i < d.owned_dofs.size(); ++i) bv[i] = eq[d.owned_dofs[i]] >= 0 ? b[eq[d.owned_dofs[i]]] : 0.0;
-  else
-    for (PetscInt g = d.lo; g < d.hi; ++g) bv[g - d.lo] = eq[g] >= 0 ? b[eq[g]] : 0.0;  // u block first on every rank
+  for (std::size_t i = 0; i < d.owned_dofs.size(); ++i) bv[i] = eq[d.owned_dofs[i]] >= 0 ? b[eq[d.owned_dofs[i]]] : 0.0;
   check(VecRestoreArray(d.b, &bv), "VecRestoreArray");
   if (d.option_rtol > 0.0) rtol = std::min(rtol, d.option_rtol);
   PetscInt maxit;
@@ -1084,8 +902,7 @@ KrylovOutcome PetscSolver::solve(const std::vector<double>& b, std::vector<doubl
 }
 
 // Distributed assembly: rows rank by rank, [u_r (3 per owned node, ascending node), π_r (the owned
-// three-field elements, ascending)], as in the replicated layout, so create_system's index sets and
-// near-nullspace apply unchanged.
+// three-field elements, ascending)]: create_system's index sets of the split are contiguous ranges.
 void PetscSolver::distribute(const std::vector<int>& element_owner, const std::vector<int>& node_owner,
                              const std::vector<int>& three_field_elements, const Couplings& couplings) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -1093,9 +910,18 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
   // BDDC: every element condensed (its pressure is its own), so no pressure rows.
   const std::vector<int> none;
   const std::vector<int>& mixed_elements = d.bddc ? none : three_field_elements;
-  const Mesh& mesh = *d.mesh;
-  const std::vector<int>& eq = d.dofs->eq;
-  const int ne = mesh.num_elements();
+  d.number_rows(element_owner, node_owner, mixed_elements);
+  if (d.bddc)  // the subdomain matrices' own preallocation instead of the rows'
+    d.subdomains = std::make_unique<Subdomains>(*d.mesh, element_owner, couplings, d.rank, d.urow, d.dofs->eq);
+  else
+    d.count_row_entries(element_owner, mixed_elements, couplings);
+  create_system();
+  times_.analysis += seconds_since(t0);
+}
+
+void PetscSolver::Data::number_rows(const std::vector<int>& element_owner, const std::vector<int>& node_owner,
+                                    const std::vector<int>& mixed_elements) {
+  Data& d = *this;
   d.distributed = true;
   d.mixed_rows = !mixed_elements.empty();
   d.node_owner = node_owner;
@@ -1115,22 +941,23 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
     if (r != d.rank) continue;
     for (int i = 0; i < 3; ++i) {
       d.owned_dofs.push_back(3 * n + i);
-      d.coords.push_back(mesh.nodes[n][i]);
+      d.coords.push_back(mesh->nodes[n][i]);
     }
   }
-  d.prow.assign(ne, -1);
+  d.prow.assign(mesh->num_elements(), -1);
   for (int e : mixed_elements) d.prow[e] = next_p[element_owner[e]]++;
-  // The replicated layout's ranges, by size: create_system needs nu = hi − lo and phi − plo.
+  // This rank's row counts: create_system needs nu = hi − lo and phi − plo.
   d.lo = 0;
   d.hi = 3 * nodes_of[d.rank];
   d.plo = 0;
   d.phi = pressures_of[d.rank];
-  if (d.bddc) {  // the subdomain matrices' own preallocation instead of the rows'
-    d.subdomains = std::make_unique<Subdomains>(mesh, element_owner, couplings, d.rank, d.urow, eq);
-    create_system();
-    times_.analysis += seconds_since(t0);
-    return;
-  }
+}
+
+void PetscSolver::Data::count_row_entries(const std::vector<int>& element_owner, const std::vector<int>& mixed_elements,
+                                          const Couplings& couplings) {
+  Data& d = *this;
+  const Mesh& mesh = *d.mesh;
+  const std::vector<int>& eq = d.dofs->eq;
   const PetscInt nu = d.hi, nlocal = nu + d.phi, row0 = d.first[d.rank];
   // Preallocation: row (n, i) couples to the free dofs of every node sharing an element with n and to
   // the pressures of the three-field elements around n; a prescribed row holds its diagonal alone.
@@ -1138,7 +965,7 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
   for (int n = 0, k = 0; n < d.nnodes; ++n)
     if (node_owner[n] == d.rank) local[n] = k++;
   std::vector<std::vector<int>> elems(nu / 3);
-  for (int e = 0; e < ne; ++e) {
+  for (int e = 0; e < mesh.num_elements(); ++e) {
     const int* en = mesh.element_nodes(e);
     for (int a = 0; a < mesh.element_size(e); ++a)
       if (local[en[a]] >= 0) elems[local[en[a]]].push_back(e);
@@ -1192,11 +1019,7 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
     d.onz[d.prow[e] - row0] = out;
     d.dnz_p[d.prow[e] - row0] = 1;  // its own diagonal
   }
-  create_system();
-  times_.analysis += seconds_since(t0);
 }
-
-bool PetscSolver::distributed() const { return d_->distributed; }
 
 void PetscSolver::begin_fill() {
   Data& d = *d_;
@@ -1223,37 +1046,53 @@ bool PetscSolver::concurrent_fill() const {
   return d.size == 1 && d.fills[0].active() && (!d.schur_pre || d.lagged_fill);
 }
 
-void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke, const double* dk, double c, double volume) {
-  Data& d = *d_;
-  const std::vector<int>& eq = d.dofs->eq;
-  const int nd = 3 * nn;
-  // The free dofs' rows: the system's, or under BDDC the subdomain's local numbering.
-  std::array<int, 30> pos;
-  std::array<PetscInt, 31> rows;
-  int nf = 0;
-  for (int q = 0; q < nd; ++q) {
-    const int g = 3 * nodes[q / 3] + q % 3;
-    if (eq[g] < 0) continue;
-    pos[nf] = q;
-    rows[nf++] = d.bddc ? d.subdomains->row(g) : d.urow[g];
-  }
-  if (nf == 0) return;
-  if (d.bddc) {  // the condensed element matrix Ke whole into the subdomain's
-    std::array<PetscScalar, 30 * 30> v;
-    for (int i = 0; i < nf; ++i)
-      for (int j = 0; j < nf; ++j) v[i * nf + j] = Ke[pos[i] + nd * pos[j]];
-    check(MatSetValuesLocal(d.A, nf, rows.data(), nf, rows.data(), v.data(), ADD_VALUES), "MatSetValuesLocal");
-    if (dk && !d.flux_weights.empty())
-      for (int i = 0; i < nf; ++i) d.flux_weights[std::size_t(rows[i])] += volume * dk[pos[i]];
-    return;
-  }
-  // Ascending rows and columns: PETSc's row insertion then finds each column by a forward search from
-  // the previous one instead of a new bisection (the one-process fill took 2x the CSC scatter's time).
+void PetscSolver::Data::ElementRows::sort_ascending() {
   for (int i = 1; i < nf; ++i)
     for (int j = i; j > 0 && rows[j - 1] > rows[j]; --j) {
       std::swap(rows[j - 1], rows[j]);
       std::swap(pos[j - 1], pos[j]);
     }
+}
+
+PetscSolver::Data::ElementRows PetscSolver::Data::element_rows(int nn, const int* nodes) const {
+  // The free dofs' rows: the system's, or under BDDC the subdomain's local numbering.
+  const std::vector<int>& eq = dofs->eq;
+  ElementRows er;
+  for (int q = 0; q < 3 * nn; ++q) {
+    const int g = 3 * nodes[q / 3] + q % 3;
+    if (eq[g] < 0) continue;
+    er.pos[er.nf] = q;
+    er.rows[er.nf++] = bddc ? subdomains->row(g) : urow[g];
+  }
+  return er;
+}
+
+void PetscSolver::Data::add_subdomain_element(const ElementRows& er, int nd, const double* Ke, const double* dk, double volume) {
+  // The condensed element matrix Ke whole into the subdomain's, and V_e d into its flux weights.
+  const int nf = er.nf;
+  std::array<PetscScalar, 30 * 30> v;
+  for (int i = 0; i < nf; ++i)
+    for (int j = 0; j < nf; ++j) v[i * nf + j] = Ke[er.pos[i] + nd * er.pos[j]];
+  check(MatSetValuesLocal(A, nf, er.rows.data(), nf, er.rows.data(), v.data(), ADD_VALUES), "MatSetValuesLocal");
+  if (dk && !flux_weights.empty())
+    for (int i = 0; i < nf; ++i) flux_weights[std::size_t(er.rows[i])] += volume * dk[er.pos[i]];
+}
+
+void PetscSolver::add_element(int e, int nn, const int* nodes, const double* Ke, const double* dk, double c, double volume) {
+  Data& d = *d_;
+  const int nd = 3 * nn;
+  Data::ElementRows er = d.element_rows(nn, nodes);
+  if (er.nf == 0) return;
+  if (d.bddc) {
+    d.add_subdomain_element(er, nd, Ke, dk, volume);
+    return;
+  }
+  // Ascending rows and columns: PETSc's row insertion then finds each column by a forward search from
+  // the previous one instead of a new bisection (the one-process fill took 2x the CSC scatter's time).
+  er.sort_ascending();
+  const int nf = er.nf;
+  std::array<int, 30>& pos = er.pos;
+  std::array<PetscInt, 31>& rows = er.rows;
   // A three-field element's distinct free rows and the sums s of d over each (degenerate hexes repeat
   // a node), for its augmentation.
   const bool augmented = dk && d.schur_pre != nullptr;
@@ -1347,7 +1186,7 @@ void PetscSolver::finish_augmented_split() {
   Data& d = *d_;
   // diag(A) of the displacement block without volumetric stiffness, on every rank (the elements' rows
   // may belong to a neighbour), and its mean magnitude over the free rows for the floor, as in
-  // augmented_split (petsc_saddle_split.cpp); kept for the fills to come.
+  // Data::augmentation; kept for the fills to come.
   keep_diagonal(false);
   // In the element order (the threads of the one-process fill append in any order): the sums of the
   // γ terms are then the same in every run.

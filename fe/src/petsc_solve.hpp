@@ -1,21 +1,20 @@
 #pragma once
-// The PETSc linear solver of fe::Simulation: right-preconditioned GMRES with smoothed-aggregation
-// algebraic multigrid (GAMG) and the rigid-body modes of the mesh as its near-nullspace, on a
-// distributed (MPIAIJ) copy of the tangent. No PETSc type appears here, so the rest of fe/ compiles
-// without PETSc's headers.
+// The PETSc linear solver of fe::Simulation (the petsc route of linear_solver.hpp): right-preconditioned
+// GMRES on a distributed copy of the tangent, with the preconditioner of the route's choice (the (u, p)
+// field split, GAMG with the rigid-body modes, MUMPS's LU, BDDC, or the expert options' own). No PETSc
+// type appears here, so the rest of fe/ compiles without PETSc's headers.
 //
-// Layout: the PETSc system has every dof of the mesh (3 per node, node-major, block size 3), the
-// prescribed ones as identity rows scaled to the mean free diagonal, so the rigid-body modes stay
-// whole blocks for the aggregation. Rank r owns a contiguous range of nodes (the generated meshes are
-// numbered along the structure, so a range is a compact slab). The mesh, the Newton iteration and the
-// assembly are replicated on every rank; each rank copies its owned rows into the distributed matrix,
-// and the solution is gathered to every rank. Distributed assembly (distribute) instead: each rank
-// adds its own elements' matrices, rows numbered rank by rank along an element partition.
+// Layout (distribute): each rank adds its own elements' matrices, rows numbered rank by rank along an
+// element partition; every dof of the mesh has a row (3 per node, node-major, block size 3), the
+// prescribed ones as identity rows scaled to the mean free diagonal, so the rigid-body modes stay whole
+// blocks for the aggregation. The Newton iteration is replicated on every rank, and the solution is
+// gathered to every rank.
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "softhom/fe/contribution.hpp"
+#include "softhom/fe/linear_solver.hpp"
 #include "softhom/fe/mesh.hpp"
 #include "softhom/fe/petsc.hpp"
 #include "softhom/fe/sparse.hpp"
@@ -32,29 +31,24 @@ struct KrylovOutcome {
 
 class PetscSolver final : public LinearSolver {
  public:
-  /// `options`: entries for PETSc's options database (they override the defaults above).
-  PetscSolver(const Mesh& mesh, const DofMap& dofs, const std::string& options);
+  /// The petsc route of `choice` (its preconditioner and settings; choice.petsc_options go into PETSc's
+  /// options database over the defaults).
+  PetscSolver(const Mesh& mesh, const DofMap& dofs, const LinearSolverChoice& choice);
   ~PetscSolver() override;
   PetscSolver(const PetscSolver&) = delete;
   PetscSolver& operator=(const PetscSolver&) = delete;
 
-  /// Three-field elements: the system is solved uncondensed in (u, p_e) (see petsc_solve.cpp), one
-  /// pressure unknown per mixed element k with free equations eq[off[k] .. off[k+1]) (−1: prescribed).
-  /// Before analyze.
-  void set_mixed(const std::vector<int>& off, const std::vector<int>& eq);
-  /// The element data of the next factorize: d_k = ∂θ_k/∂u (at off[k] ..) and c_k = V_k U″(θ_k).
-  void set_mixed_tangent(const std::vector<double>& d, const std::vector<double>& c);
-  /// Distributed matrix with the pattern of A (free dofs) plus the identity rows; near-nullspace.
+  /// Not used: the system is laid out by distribute and filled by the element loop (throws).
   void analyze(const CscMatrix& A) override;
-  /// Copies the values of A into the distributed matrix and builds the preconditioner of this tangent
-  /// (its seconds: times().factorization).
+  /// Builds the preconditioner of the tangent the element loop filled (its seconds:
+  /// times().factorization); A is not read.
   bool factorize(const CscMatrix& A) override;
-  /// Copies the values of A into the distributed matrix (distributed: the element loop has) and keeps
-  /// the preconditioner of an earlier tangent: GMRES then solves this tangent with the lagged one.
-  void update_operator(const CscMatrix& A);
+  /// Keeps the preconditioner of an earlier tangent for the one the element loop filled: GMRES then
+  /// solves this tangent with the lagged one.
+  void update_operator();
   /// The displacement of the next tangent to be factorized (the whole mesh vector, replicated): a coarse
   /// solver of the p-multigrid that reads rigid-body modes (GAMG) gets those of the current vertex
-  /// positions at that set-up (-softhom_pmg_current_modes 0: the reference ones throughout).
+  /// positions at that set-up (unless LinearSolverChoice::current_modes is off: the reference ones throughout).
   void set_displacement(const std::vector<double>& u);
   /// Solve to relative residual 1e-12.
   void solve(const std::vector<double>& b, std::vector<double>& x) override;
@@ -63,16 +57,15 @@ class PetscSolver final : public LinearSolver {
   KrylovOutcome solve(const std::vector<double>& b, std::vector<double>& x, double rtol, int max_iterations = 0);
   SolverKind kind() const override { return SolverKind::petsc; }
   double reciprocal_condition() const override { return 1.0; }
-  /// Distributed assembly (the petsc path under MPI, replacing analyze / factorize's copy of A): rank r
+  /// The layout of the distributed assembly (on one process too; before the first fill): rank r
   /// fills only the entries of the elements it owns (`element_owner`) and owns the rows of the nodes
   /// of `node_owner` r, numbered rank by rank (then the element pressures of its elements in
   /// `mixed_elements`, the three-field ones). Creates the matrix, preallocated per rank from the mesh,
-  /// and the Krylov solver. Under -pc_type bddc the matrix is a MATIS of the condensed displacement
+  /// and the Krylov solver. Under BDDC the matrix is a MATIS of the condensed displacement
   /// system instead (no pressure rows), rank r's subdomain the elements it owns (petsc_subdomains.hpp).
   /// `couplings`: node groups beyond the elements (the model's contributions) in the preallocation.
   void distribute(const std::vector<int>& element_owner, const std::vector<int>& node_owner,
                   const std::vector<int>& mixed_elements, const Couplings& couplings);
-  bool distributed() const;
   /// One tangent into the distributed matrix (every rank, collective at end_fill): begin_fill, then
   /// add_element for the owned elements and add_entry for the loads, then end_fill.
   void begin_fill();
@@ -117,9 +110,11 @@ class PetscSolver final : public LinearSolver {
  private:
   struct Data;
   std::unique_ptr<Data> d_;
+  /// The choice's settings and PETSc's options database (its defaults under the expert options).
+  void apply_choice(const LinearSolverChoice& choice);
   /// Matrix (with Data::dnz, onz), vectors, near-nullspace and Krylov solver of the layout in Data.
   void create_system();
-  /// -softhom_pmg: the interpolation of the displacement block's two-level multigrid, once the field
+  /// The p-multigrid: the interpolation of the displacement block's two-level multigrid, once the field
   /// split has set up its sub-solvers (petsc_p_multigrid.hpp).
   void attach_p_multigrid();
   /// The P2 level's smoother from the tangent's nodal block spread (unless the options set it): one
@@ -128,9 +123,6 @@ class PetscSolver final : public LinearSolver {
   /// The coarse level's near-nullspace: the rigid-body modes of its vertices at `coords` (x y z per
   /// owned vertex), with a fresh coarse preconditioner that will read them at its next set-up.
   void set_coarse_modes(std::vector<double>& coords);
-  /// The one-process path: the owned rows of the replicated tangent K (uncondensed for three-field
-  /// elements) into the PETSc matrix.
-  void copy_tangent(const CscMatrix& K);
   /// The augmented split of the owned three-field elements once diag(A) is assembled (end_fill of a
   /// fill without the previous diag(A): the first one).
   void finish_augmented_split();

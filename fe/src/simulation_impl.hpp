@@ -14,6 +14,7 @@
 
 #include "softhom/core/krylov.hpp"
 #include "softhom/fe/solver.hpp"
+#include "linear_solver_factory.hpp"
 #include "petsc_solve.hpp"
 
 namespace softhom::fe {
@@ -140,7 +141,7 @@ struct Simulation::Impl {
   void build_dofs();            ///< equation numbers, stiffness pattern; refuses unconstrained bodies
   void build_geometry();        ///< Gauss-point geometry per element; refuses inverted elements
   void build_history();         ///< history blocks of the inelastic elements
-  void build_linear_solvers();  ///< Cholesky first (LU on demand), or LU when asked
+  void build_linear_solvers();  ///< the route and preconditioner (choose_linear_solver) and the solver
   void build_colouring();       ///< element colours: no shared node within one colour
   void build_scatter();         ///< CSC positions of every element's node-pair blocks
   void build_mixed();           ///< three-field element unknowns and the uncondensed Krylov space
@@ -200,7 +201,16 @@ struct Simulation::Impl {
   /// GMRES with the current factor as preconditioner (uncondensed (u, p_e) space for three-field
   /// elements with a lagged factor); refactorizes and retries once.
   bool krylov_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why);
+  /// GMRES's options for the current factor: a lagged one gets the iterations that cost less than a
+  /// fresh factorization.
+  krylov::GmresOptions gmres_budget(double tol) const;
+  /// After a converged solve of `its` iterations with a lagged factor: stale once they cost too much.
+  void judge_lagged_factor(int its);
   bool refactor(std::string& why);
+  /// The saddle data (d_e, c_e) of the factorized tangent, for the uncondensed preconditioner.
+  void keep_saddle_of_factor(bool ok);
+  /// A singular first factorization is a fatal stop (singular_system_); otherwise `ok`.
+  bool check_first_factorization(bool ok, std::string& why);
   /// The petsc solver's solve (petsc_linear_solve.cpp): GMRES to `tol` with the preconditioner of this
   /// tangent or, where reuse pays, a lagged one (rebuilt and solved again when it fails).
   bool petsc_linear_solve(const std::vector<double>& b, std::vector<double>& x, double tol, std::string& why,
@@ -215,8 +225,10 @@ struct Simulation::Impl {
   bool saddle_lagged() const {
     return options_.saddle_krylov && !sad_elem_.empty() && last_factor_flops_ >= options_.lag_flops;
   }
-  /// Linear-solver work so far (both factorizations).
-  SolverTimes linear_times() const;
+  /// Linear-solver work so far.
+  SolverTimes linear_times() const { return solver_->times(); }
+  /// The route, its preconditioner and their counts so far.
+  LinearSolverReport linear_report() const;
 
   // Outputs (solver.cpp).
   std::vector<Vec3> current_positions() const;
@@ -234,8 +246,13 @@ struct Simulation::Impl {
   NewtonOptions options_;
   DofMap dofs_;
   CscMatrix K_;
-  std::unique_ptr<LinearSolver> chol_, lu_;  ///< Cholesky of the symmetric part; LU (created on demand)
-  std::unique_ptr<PetscSolver> petsc_;       ///< the petsc solver (then neither chol_ nor lu_)
+  // The linear solver (linear_solver_factory.hpp): its route and preconditioner, the one object that
+  // solves, and that object as what it is: the factor of the direct routes or, on the petsc route, the
+  // PETSc solver whose matrix the element loop fills.
+  LinearSolverChoice linear_choice_;
+  std::unique_ptr<LinearSolver> solver_;
+  SparseDirectSolver* direct_ = nullptr;
+  PetscSolver* petsc_ = nullptr;
   // Distributed assembly: this rank evaluates owned_elements_ only (their history alone is stored);
   // K_ and the scatter positions stay empty (the matrix is PETSc's). Mesh, geometry and the Newton
   // vectors (u, R, ...) stay replicated; the residuals are summed over the ranks after the element loop.
@@ -244,10 +261,8 @@ struct Simulation::Impl {
   int mpi_rank_ = 0, mpi_ranks_ = 1;
   /// This rank evaluates element e (always without distributed assembly).
   bool owns(int e) const { return !distributed_ || element_owner_[e] == mpi_rank_; }
-  LinearSolver* linear_ = nullptr;            ///< the one holding the current factor
-  bool lu_this_step_ = false;                 ///< the symmetric part was indefinite in this step: LU
   bool refactor_first_ = false;               ///< the lagged factor failed at the last step's first iteration
-  bool chol_analyzed_ = false, lu_analyzed_ = false, factor_valid_ = false, factor_stale_ = false, factor_exact_ = false;
+  bool factor_valid_ = false, factor_stale_ = false, factor_exact_ = false;
   long k_version_ = 0, factor_version_ = -1;  ///< tangent assemblies; the one last factorized
   double last_factor_time_ = 0.0, last_factor_flops_ = 0.0;
   double iteration_time_ = 0.0;                  ///< running mean cost of one GMRES iteration [s]

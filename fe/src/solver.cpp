@@ -128,32 +128,28 @@ void Simulation::Impl::build_history() {
 }
 
 void Simulation::Impl::build_linear_solvers() {
-  // Automatic below its PETSc sizes: Cholesky of the symmetric part (exact without follower pressure,
-  // a GMRES preconditioner with it); refactor() switches to LU if that part is not positive definite.
-  const SolverKind kind = resolved_solver();
+  const Mesh& mesh = model_.mesh;
+  LinearSystemFacts facts;
+  facts.free_dofs = dofs_.num_free;
+  facts.quadratic_tets_only = mesh.hexes.empty() && !mesh.tets.empty();
+  facts.any_tets = !mesh.tets.empty();
+  facts.cavity_control = model_.cavity.has_value();
+  // Three-field elements (build_mixed): the F-bar formulation's laws with a volumetric modulus.
+  facts.three_field = model_.formulation == Formulation::fbar && options_.mixed &&
+                      std::any_of(model_.element_material.begin(), model_.element_material.end(),
+                                  [](const auto& m) { return m->volumetric_modulus() > 0.0; });
+  linear_choice_ = choose_linear_solver(options_, facts);
   // A preconditioner chosen for the petsc solver while another solves (e.g. auto's CHOLMOD below its
   // PETSc sizes) is said once, not silently dropped.
-  if (kind != SolverKind::petsc && options_.petsc_preconditioner != PetscPreconditioner::field_split)
+  const PetscPreconditioner asked = options_.petsc_preconditioner;
+  if (linear_choice_.route != LinearRoute::petsc && asked != PetscPreconditioner::automatic &&
+      asked != PetscPreconditioner::field_split)
     note_once("petsc preconditioner", std::string("[solver] petsc_preconditioner applies to linear_solver = \"petsc\"; this run solves with ") +
-                                          to_string(kind));
-  if (kind == SolverKind::petsc) {
-    // Analysed at the first solve, once the three-field elements are known (build_mixed).
-    // Under cavity-volume control the tangent at fixed pressure turns singular at the pressure maximum
-    // the control passes and indefinite beyond it; the bordered cavity row needs its solves to 1e-10.
-    // The field split's AMG stagnates there (the 1 800-dof balloon: GMRES at |r|/|b| = 0.99 after 2 000
-    // iterations in its first step, 142 per solve with BoomerAMG's own settings), so MUMPS's LU
-    // preconditions GMRES by default (30 steps in 4.1 s CPU, BENCHMARKS.md); the user's options
-    // come after and override it.
-    const std::string cavity_defaults = model_.cavity ? "-pc_type lu -pc_factor_mat_solver_type mumps " : "";
-    const std::string preconditioner = options_.petsc_preconditioner == PetscPreconditioner::bddc ? "-pc_type bddc " : "";
-    petsc_ = std::make_unique<PetscSolver>(model_.mesh, dofs_, cavity_defaults + preconditioner + options_.petsc_options);
-    linear_ = petsc_.get();
-    return;
-  }
-  if (kind == SolverKind::umfpack) lu_ = make_linear_solver(SolverKind::umfpack);
-  else chol_ = make_linear_solver(SolverKind::cholmod);
-  linear_ = chol_ ? chol_.get() : lu_.get();
-
+                                          to_string(linear_choice_.route));
+  // The petsc solver's system is laid out by the distributed assembly (build_distributed_system).
+  solver_ = make_macro_linear_solver(linear_choice_, mesh, dofs_);
+  direct_ = dynamic_cast<SparseDirectSolver*>(solver_.get());
+  petsc_ = dynamic_cast<PetscSolver*>(solver_.get());
 }
 
 void Simulation::Impl::build_colouring() {
@@ -509,11 +505,14 @@ bool Simulation::Impl::newton_correction(int it, bool predictor, double rc, doub
   // moves a lot, e.g. the first load step of the tube, whose lagged GMRES ran 15 iterations per solve
   // before refactorizing anyway).
   if (it > 0 && rc > 0.5 * rc_last && factor_valid_ && factor_version_ != k_version_) factor_stale_ = true;
-  const int factorizations_before = linear_->times().factorizations;
+  // (Counted on the factorization holding the factor, Cholesky's or LU's, as the lagged-factor rules
+  // have always counted them.)
+  auto factorizations = [&] { return direct_ ? direct_->current_factorizations() : solver_->times().factorizations; };
+  const int factorizations_before = factorizations();
   const bool lagged_before = factor_valid_ && !factor_stale_ && factor_version_ != k_version_;
   if (!linear_solve(n.rhs, n.x1, eta, why, it == 0 && extrapolated_)) return false;
   if (it == 0 && last_factor_flops_ >= options_.lag_flops) {
-    if (lagged_before && linear_->times().factorizations > factorizations_before) refactor_first_ = true;
+    if (lagged_before && factorizations() > factorizations_before) refactor_first_ = true;
     else if (lagged_before) refactor_first_ = false;
   }
   n.dp = 0.0;
@@ -593,7 +592,7 @@ StepAttempt Simulation::Impl::try_step(double t_new, double dt) {
   const int nf = dofs_.num_free;
   const bool mixed = !mix_bulk_.empty();
   const double v_target = model_.cavity ? model_.cavity->volume_ratio(t_new) * cavity_v0_ : 0.0;
-  lu_this_step_ = false;
+  if (direct_) direct_->begin_step();  // Cholesky again after a step that needed LU
   reset_mixed_iterate();
   NewtonIterate n;
   n.u = u_;
@@ -833,25 +832,23 @@ ElementFields Simulation::Impl::element_fields() const {
   return f;
 }
 
-SolverTimes Simulation::Impl::linear_times() const {
-  SolverTimes s;
-  for (const LinearSolver* ls : {chol_.get(), lu_.get(), static_cast<LinearSolver*>(petsc_.get())}) {  // both factorizations' work
-    if (!ls) continue;
-    const SolverTimes& t = ls->times();
-    s.analysis += t.analysis;
-    s.factorization += t.factorization;
-    s.solve += t.solve;
-    s.factorizations += t.factorizations;
-    s.solves += t.solves;
-    s.flops += t.flops;
-    s.factor_nnz = std::max(s.factor_nnz, t.factor_nnz);
-  }
-  return s;
+LinearSolverReport Simulation::Impl::linear_report() const {
+  LinearSolverReport r;
+  r.route = to_string(linear_choice_.route);
+  r.preconditioner = to_string(linear_choice_.preconditioner);
+  if (linear_choice_.preconditioner == Preconditioner::petsc_options) r.preconditioner += ": " + linear_choice_.user_pc_type;
+  r.description = petsc_ ? petsc_->description() : to_string(solver_->kind());
+  const SolverTimes t = linear_times();
+  r.krylov_iterations = stats_.krylov_iterations;
+  r.factorizations = t.factorizations;
+  r.solves = t.solves;
+  return r;
 }
 
 RunStats Simulation::Impl::stats() const {
   RunStats s = stats_;
   s.linear = linear_times();
+  s.linear_solver = linear_report();
   s.assembled_elements = distributed_ ? int(owned_elements_.size()) : model_.mesh.num_elements();
   return s;
 }
@@ -882,7 +879,7 @@ SolverKind Simulation::Impl::resolved_solver() const {
   return automatic_solver(options_, dofs_.num_free, mesh.hexes.empty() && !mesh.tets.empty(), model_.cavity.has_value());
 }
 
-SolverKind Simulation::solver_kind() const { return impl_->linear_->kind(); }
+SolverKind Simulation::solver_kind() const { return impl_->solver_->kind(); }
 int Simulation::num_free_dofs() const { return impl_->dofs_.num_free; }
 const FeModel& Simulation::model() const { return impl_->model_; }
 MaterialStatus Simulation::element_force(int e, const Mat83& u, Vec24& r, Mat24* K) const {

@@ -174,7 +174,10 @@ nlohmann::json macro_summary(const MacroJob& job, const macro::Structure& struct
   summary["line_search_backtracks"] = st.line_search_backtracks;
   summary["elements"] = structure.model.mesh.num_elements();
   summary["dofs"] = sim.num_free_dofs();
-  summary["linear_solver"] = fe::to_string(sim.solver_kind());
+  const fe::LinearSolverReport& ls = st.linear_solver;
+  summary["linear_solver"] = {{"route", ls.route}, {"preconditioner", ls.preconditioner},
+                              {"description", ls.description}, {"krylov_iterations", ls.krylov_iterations},
+                              {"factorizations", ls.factorizations}, {"solves", ls.solves}};
   summary["mpi_ranks"] = mpi::world_size();
   summary["assembly_time_s"] = st.assembly_time;
   summary["analysis_time_s"] = st.linear.analysis;

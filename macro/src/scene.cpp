@@ -247,16 +247,37 @@ const KeyTable<fe::NewtonOptions>& newton_table() {
                 "algebraic multigrid over MPI ranks); auto: petsc for meshes of quadratic tets from 1e5 free dofs on "
                 "(faster than cholmod there, a quarter of its memory), cholmod otherwise and under volume control")
         .choice("petsc_preconditioner", &O::petsc_preconditioner,
-                Choices<fe::PetscPreconditioner>{{{"field-split", fe::PetscPreconditioner::field_split},
+                Choices<fe::PetscPreconditioner>{{{"auto", fe::PetscPreconditioner::automatic},
+                                                  {"field-split", fe::PetscPreconditioner::field_split},
+                                                  {"lu", fe::PetscPreconditioner::lu},
                                                   {"bddc", fe::PetscPreconditioner::bddc}},
                                                  {}},
-                "petsc: field-split (the (u, p) Schur split with algebraic multigrid; linear memory) or bddc "
+                "petsc: field-split (the (u, p) Schur split with algebraic multigrid; linear memory), lu (MUMPS), or bddc "
                 "(balancing domain decomposition, one subdomain per MPI rank factorized by MUMPS; on a given number of ranks "
-                "Krylov counts flat in K/G and near-flat in mesh size; a direct solve's memory per subdomain)")
+                "Krylov counts flat in K/G and near-flat in mesh size; a direct solve's memory per subdomain); auto: lu under "
+                "volume control, field-split otherwise")
+        .choice("petsc_p_multigrid", &O::petsc_p_multigrid,
+                Choices<fe::PMultigrid>{{{"auto", fe::PMultigrid::automatic}, {"on", fe::PMultigrid::on}, {"off", fe::PMultigrid::off}},
+                                        {}},
+                "petsc field-split on meshes with quadratic tets: the displacement block by the P2 -> P1 multigrid (on), "
+                "BoomerAMG on the P2 block (off), or the multigrid replaced by BoomerAMG after a solve it fails (auto)")
+        .number("petsc_augmentation", &O::petsc_augmentation, keys::at_least(0), "-",
+                "petsc field-split: alpha of the augmented displacement block (a bulk modulus ~ alpha G kept there; 0: the "
+                "plain split)")
+        .default_text("10; 1 under the p-multigrid")
+        .flag("petsc_nested_matrix", &O::petsc_nested_matrix,
+              "petsc field-split under three-field elements: the system as a nest of its (u, p) blocks, the displacement "
+              "block used in place (false: one matrix, of which the split extracts a copy)")
+        .flag("petsc_current_modes", &O::petsc_current_modes,
+              "petsc p-multigrid with a coarse solver that reads rigid-body modes (GAMG): those of the current positions "
+              "(false: of the reference ones)")
+        .flag("bddc_flux", &O::bddc_flux,
+              "petsc bddc: the volume flux of the three-field elements on every face among the primal constraints")
         .text("petsc_options", &O::petsc_options,
-              "PETSc options database entries for the petsc solver, e.g. \"-ksp_rtol 1e-10 -pc_type hypre\"")
+              "PETSc options database entries for the petsc solver, e.g. \"-ksp_rtol 1e-10 -pc_type hypre\" (they override "
+              "the keys above; a -pc_type replaces the preconditioner)")
         .flag("reuse_preconditioner", &O::reuse_preconditioner,
-              "petsc: keep the preconditioner of an earlier tangent where its set-up outweighs its solve (a factorization, e.g. \"-pc_type lu -pc_factor_mat_solver_type mumps\"), while GMRES with it costs less than a new one")
+              "petsc: keep the preconditioner of an earlier tangent where its set-up outweighs its solve (a factorization, e.g. petsc_preconditioner = \"lu\"), while GMRES with it costs less than a new one")
         .flag("verbose", &O::verbose, "Newton iteration log on stderr");
     return k;
   }();

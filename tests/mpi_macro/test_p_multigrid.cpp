@@ -65,10 +65,12 @@ struct DeviceRun {
 };
 
 /// The device's first `steps` load steps on `kind` with `petsc_options` (SOFTHOM_VERBOSE: the log).
-DeviceRun run_device(const Device& d, SolverKind kind, const std::string& petsc_options, int steps) {
+DeviceRun run_device(const Device& d, SolverKind kind, const std::string& petsc_options, int steps,
+                     bool current_modes = true) {
   NewtonOptions o = d.scene.newton;
   o.solver = kind;
   o.petsc_options = petsc_options;
+  o.petsc_current_modes = current_modes;
   o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
   Simulation sim(d.structure.model, o);
   for (int step = 0; step < steps; ++step) {
@@ -243,14 +245,15 @@ TEST(PMultigrid, FailedSolveFallsBackToBoomerAmgOnTheP2Block) {
   // next test). Here the 16 × 16 mesh stands in with the GMRES limit at 140, below the p-multigrid's
   // first solve (148 measured on 1 rank) and above BoomerAMG's (98–129 measured, the retry's halved
   // step included). The first solve fails, the run falls back, cuts the step and reaches the load with
-  // CHOLMOD's answer; with the block chosen by the options (here -softhom_pmg 1) there is no fall-back
-  // and the run stops at its cut-back limit.
+  // CHOLMOD's answer; with the block chosen by the keys (here petsc_p_multigrid = on) there is no
+  // fall-back and the run stops at its cut-back limit.
   const double G = 83.3, kg = 1e5, force = 5.0;
   const FeModel m = macro::make_cook_membrane_problem(16, G, kg, force, /*tet10=*/true);
-  auto run = [&](SolverKind kind, const std::string& options) {
+  auto run = [&](SolverKind kind, const std::string& options, PMultigrid p_multigrid = PMultigrid::automatic) {
     NewtonOptions o;
     o.solver = kind;
     o.petsc_options = options;
+    o.petsc_p_multigrid = p_multigrid;
     o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
     Simulation sim(m, o);
     const bool reached = sim.advance_to(1.0).reached();
@@ -267,7 +270,7 @@ TEST(PMultigrid, FailedSolveFallsBackToBoomerAmgOnTheP2Block) {
   const double d = relative_difference(u, direct_u);
   if (mpi::world_rank() == 0) std::cerr << "tet10 Cook 16 x 16 after the fall-back: max |du| / max |u| = " << d << "\n";
   EXPECT_LT(d, 1e-6);
-  const auto [kept_reached, kept_note, kept_u] = run(SolverKind::petsc, "-softhom_pmg 1 -ksp_max_it 140");
+  const auto [kept_reached, kept_note, kept_u] = run(SolverKind::petsc, "-ksp_max_it 140", PMultigrid::on);
   EXPECT_FALSE(kept_reached);
   EXPECT_FALSE(kept_note);
 }
@@ -356,7 +359,7 @@ TEST(PMultigrid, CoarseGripperGamgTakesTheRigidBodyModesOfTheCurrentPositions) {
   ASSERT_GE(gripper.scene.times.size(), 4u);
   const std::string gamg = "-fieldsplit_u_mg_coarse_pc_type gamg -fieldsplit_u_mg_coarse_ksp_type richardson "
                            "-fieldsplit_u_mg_coarse_ksp_max_it 2 -fieldsplit_u_mg_coarse_ksp_norm_type none";
-  const DeviceRun reference = run_device(gripper, SolverKind::petsc, gamg + " -softhom_pmg_current_modes 0", 4);
+  const DeviceRun reference = run_device(gripper, SolverKind::petsc, gamg, 4, /*current_modes=*/false);
   const DeviceRun current = run_device(gripper, SolverKind::petsc, gamg, 4);
   const RunStats stats[2] = {reference.stats, current.stats};
   const double d = relative_difference(current.u, reference.u);

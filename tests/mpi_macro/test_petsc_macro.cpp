@@ -327,10 +327,12 @@ struct Outcome {
 
 /// `model` to each of `times` with the direct path (kind cholmod) or BDDC at GMRES rtol 1e-10 (and
 /// `options`).
-Outcome run_bddc(const FeModel& model, SolverKind kind, const std::vector<double>& times, const std::string& options = "") {
+Outcome run_bddc(const FeModel& model, SolverKind kind, const std::vector<double>& times, const std::string& options = "",
+                 bool flux = true) {
   NewtonOptions o;
   o.solver = kind;
   o.petsc_preconditioner = PetscPreconditioner::bddc;
+  o.bddc_flux = flux;
   o.petsc_options = "-ksp_rtol 1e-10 " + options;
   o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
   Simulation sim(model, o);
@@ -348,7 +350,7 @@ TEST(Bddc, CookMembraneEqualsCholmodAndKrylovCountsStayFlat) {
   // Cook's membrane in hex8 (Q1 with one pressure per element, plane strain), 8 × 8 and 32 × 32 (16×
   // the dofs) at K/G 1e2 and 1e5, one load step, GMRES rtol 1e-10, with the default constraints (the
   // rigid-body modes and the volume flux on each face, all components together) and with PETSc's
-  // per-component ones (-pc_bddc_monolithic 0 -softhom_bddc_flux 0).
+  // per-component ones (-pc_bddc_monolithic 0, [solver] bddc_flux = false).
   // - Default: two subdomains share one face, and the deluxe average over a whole face of two
   //   subdomains is the exact interface solve, up to round-off: measured 1.7 / 2.7 (8², K/G 1e2 / 1e5),
   //   2.0 / 3.0 (32²) GMRES iterations per solve on 2 ranks to rtol 1e-10. Bound: at most 4 (more
@@ -360,7 +362,7 @@ TEST(Bddc, CookMembraneEqualsCholmodAndKrylovCountsStayFlat) {
   //   ratio < 1.4 (1.18 per halving), at most 20 per solve.
   const int meshes[2] = {8, 32};
   const double ratios[2] = {1e2, 1e5};
-  const std::string per_component = "-pc_bddc_monolithic 0 -softhom_bddc_flux 0";
+  const std::string per_component = "-pc_bddc_monolithic 0";  // and bddc_flux = false
   double mean[2][2][2];  // [constraints: default, per component][mesh][K/G]
   for (int a = 0; a < 2; ++a)
     for (int c = 0; c < 2; ++c) {
@@ -368,7 +370,7 @@ TEST(Bddc, CookMembraneEqualsCholmodAndKrylovCountsStayFlat) {
       const FeModel m = macro::make_cook_membrane_problem(n, 83.3, ratios[c], 5.0);
       const Outcome direct = run_bddc(m, SolverKind::cholmod, {1.0});
       for (int k = 0; k < 2; ++k) {
-        const Outcome bddc = run_bddc(m, SolverKind::petsc, {1.0}, k == 0 ? "" : per_component);
+        const Outcome bddc = run_bddc(m, SolverKind::petsc, {1.0}, k == 0 ? "" : per_component, /*flux=*/k == 0);
         ASSERT_TRUE(direct.reached && bddc.reached) << n << " " << ratios[c] << " " << k;
         const double tip_d = direct.u[macro::cook_tip_dof(n)], tip_b = bddc.u[macro::cook_tip_dof(n)];
         EXPECT_NEAR(tip_b / tip_d, 1.0, 1e-6) << "n = " << n << ", K/G = " << ratios[c];

@@ -2,7 +2,7 @@
 // nest of its blocks, and the field split's displacement solve works on the (u, u) block itself, not
 // on an extracted copy of it. Checked through the solver's own accounting of its matrices (entries
 // allocated × bytes per entry, fe::petsc_last_matrix_bytes), not through the RSS, and
-// against the one-matrix layout (-softhom_nest 0) on the same problem.
+// against the one-matrix layout ([solver] petsc_nested_matrix = false) on the same problem.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -32,10 +32,11 @@ struct CookRun {
   PetscMatrixBytes bytes;
 };
 
-CookRun run_cook(const FeModel& m, SolverKind kind, const std::string& petsc) {
+CookRun run_cook(const FeModel& m, SolverKind kind, const std::string& petsc, bool nested = true) {
   NewtonOptions o;
   o.solver = kind;
   o.petsc_options = petsc;
+  o.petsc_nested_matrix = nested;
   Simulation sim(m, o);
   EXPECT_TRUE(sim.advance_to(1.0).reached());
   return {sim.displacement(), sim.stats(), kind == SolverKind::petsc ? petsc_last_matrix_bytes() : PetscMatrixBytes{}};
@@ -47,7 +48,7 @@ TEST(PetscMatrixCopies, TheFieldSplitUsesTheNestedDisplacementBlockItself) {
   const FeModel m = cook8();
   const CookRun direct = run_cook(m, SolverKind::cholmod, "");
   const CookRun nest = run_cook(m, SolverKind::petsc, "-ksp_rtol 1e-10");
-  const CookRun flat = run_cook(m, SolverKind::petsc, "-ksp_rtol 1e-10 -softhom_nest 0");
+  const CookRun flat = run_cook(m, SolverKind::petsc, "-ksp_rtol 1e-10", /*nested=*/false);
   // Both layouts solve the same system with the same preconditioner: the CHOLMOD answer to the Newton
   // tolerance (1e-6, as test_petsc_macro.cpp), and each other's to far below it (only the order of the
   // sums in the matrix products differs; 1e-8 leaves room for a Krylov iteration more or less at 1e-10).

@@ -22,9 +22,11 @@
 #include <array>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "softhom/fe/linear_solver.hpp"
 #include "softhom/fe/model.hpp"
 #include "softhom/fe/sparse.hpp"
 #include "softhom/fe/tet10_element.hpp"
@@ -50,13 +52,30 @@ struct NewtonOptions {
   /// e.g. MUMPS's LU; a multigrid hierarchy costs less) across tangents while GMRES with it costs less
   /// than a new one, with the refresh rules of the CHOLMOD path's lagged factor.
   bool reuse_preconditioner = true;
-  /// petsc: the preconditioner of GMRES. field_split: the (u, p) Schur split with algebraic multigrid on
-  /// the displacement block (one rank's memory grows linearly). bddc: PETSc's balancing domain
-  /// decomposition by constraints on the element partition (one subdomain per rank, each factorized by
-  /// MUMPS): on a given number of ranks Krylov counts flat in K/G and near-flat in the mesh, at the memory
-  /// of a direct solve per subdomain (they still grow with the number of subdomains at large K/G).
-  PetscPreconditioner petsc_preconditioner = PetscPreconditioner::field_split;
-  /// Options for PETSc's options database (PetscOptionsInsertString), e.g. "-ksp_type fgmres -pc_type hypre".
+  /// petsc: the preconditioner of GMRES (linear_solver.hpp). field_split: the (u, p) Schur split with
+  /// algebraic multigrid on the displacement block (one rank's memory grows linearly; GAMG on the whole
+  /// system without three-field elements). lu: MUMPS's LU. bddc: PETSc's balancing domain decomposition
+  /// by constraints on the element partition (one subdomain per rank, each factorized by MUMPS): on a
+  /// given number of ranks Krylov counts flat in K/G and near-flat in the mesh, at the memory of a direct
+  /// solve per subdomain (they still grow with the number of subdomains at large K/G). automatic: lu
+  /// under cavity-volume control (where the split's AMG stagnates past the pressure maximum), field_split
+  /// otherwise.
+  PetscPreconditioner petsc_preconditioner = PetscPreconditioner::automatic;
+  /// petsc, meshes with quadratic tets: the field split's displacement block (PMultigrid).
+  PMultigrid petsc_p_multigrid = PMultigrid::automatic;
+  /// petsc field split: α of the augmented displacement block (a bulk modulus ~ α G kept there; 0: the
+  /// plain split). Unset: 10 with BoomerAMG on the block, 1 under the p-multigrid (BENCHMARKS.md).
+  std::optional<double> petsc_augmentation;
+  /// petsc, distributed three-field system: a nest of its four blocks, whose displacement block the field
+  /// split uses in place (false: one AIJ matrix, of which the split extracts a copy).
+  bool petsc_nested_matrix = true;
+  /// petsc p-multigrid with a coarse solver that reads rigid-body modes (GAMG): those of the current
+  /// vertex positions at every set-up (false: of the reference ones throughout).
+  bool petsc_current_modes = true;
+  /// petsc bddc: the volume flux of the three-field elements on every face among the primal constraints.
+  bool bddc_flux = true;
+  /// Options for PETSc's options database (PetscOptionsInsertString), e.g. "-ksp_type fgmres -pc_type hypre";
+  /// they override the settings above (a -pc_type replaces the preconditioner).
   std::string petsc_options;
   bool mixed = true;          ///< three-field (u, θ, p) iteration for laws with a volumetric modulus
   int refactor_after = 8;     ///< refresh the factorization after a solve needing 3× more GMRES iterations
@@ -104,6 +123,7 @@ struct RunStats {
   double element_loop_time = 0.0, element_loop_cpu = 0.0;
   double krylov_time = 0.0;   ///< GMRES without its preconditioner solves (matrix products, orthogonalization)
   SolverTimes linear;         ///< analysis / factorization / solve times
+  LinearSolverReport linear_solver;  ///< the route, its preconditioner and their counts
   std::vector<std::string> log;  ///< cut-backs and notes, human readable (expected events once)
 };
 

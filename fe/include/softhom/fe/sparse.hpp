@@ -51,8 +51,8 @@ CscMatrix build_pattern(const Mesh& mesh, const DofMap& dofs, const Couplings& c
 /// automatic: CHOLMOD (LU when it fails) below NewtonOptions::petsc_min_dofs free dofs, PETSc above;
 /// petsc: Krylov + AMG over MPI (fe/src/petsc_solve.hpp).
 enum class SolverKind { automatic, cholmod, umfpack, petsc };
-/// The petsc solver's preconditioner ([solver] petsc_preconditioner).
-enum class PetscPreconditioner { field_split, bddc };
+/// The petsc solver's preconditioner ([solver] petsc_preconditioner; NewtonOptions).
+enum class PetscPreconditioner { automatic, field_split, lu, bddc };
 const char* to_string(SolverKind kind);
 
 /// Times of the last run of each phase, accumulated over calls [s].
