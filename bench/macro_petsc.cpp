@@ -15,7 +15,8 @@
 //   [mpirun -n R] bench_macro_petsc --scene FILE [STEPS]   a macro scene with its [solver] settings:
 //                                            assembly and linear-solver time per Newton iteration,
 //                                            peak memory of every rank
-// PETSC_OPTIONS in the environment is not read; pass options with --options "…".
+// PETSC_OPTIONS in the environment is not read; pass options with --options "…". BENCH_P_MULTIGRID=on|off sets
+// [solver] petsc_p_multigrid of the tables and the tube (automatic otherwise).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -66,6 +67,13 @@ std::vector<double> list_from_env(const char* name, std::vector<double> fallback
   return out;
 }
 
+/// [solver] petsc_p_multigrid of the runs: BENCH_P_MULTIGRID=on|off, automatic otherwise.
+PMultigrid p_multigrid_from_env() {
+  const char* env = std::getenv("BENCH_P_MULTIGRID");
+  if (!env) return PMultigrid::automatic;
+  return std::strcmp(env, "off") == 0 ? PMultigrid::off : PMultigrid::on;
+}
+
 /// K/G of the tables: 1e2 … 1e5, or those listed in BENCH_KG (e.g. "1e2,1e5") for a quick look.
 std::vector<double> ratios() { return list_from_env("BENCH_KG", {1e2, 1e3, 1e4, 1e5}); }
 
@@ -78,6 +86,7 @@ int cook_table(const std::string& options) {
       NewtonOptions o;
       o.solver = SolverKind::petsc;
       o.petsc_options = options;
+      o.petsc_p_multigrid = p_multigrid_from_env();
       o.reuse_preconditioner = std::getenv("BENCH_FRESH") == nullptr;
       o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
       const auto t0 = std::chrono::steady_clock::now();
@@ -114,6 +123,7 @@ int tube_run(double dofs, int steps, const std::string& options) {
     NewtonOptions o;
     o.solver = kind;
     o.petsc_options = options;
+    o.petsc_p_multigrid = p_multigrid_from_env();
     o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
     const auto t0 = std::chrono::steady_clock::now();
     Simulation sim(s.model, o);
@@ -185,6 +195,7 @@ int tube_table(const std::string& options) {
       NewtonOptions o;
       o.solver = SolverKind::petsc;
       o.petsc_options = options;
+      o.petsc_p_multigrid = p_multigrid_from_env();
       o.reuse_preconditioner = std::getenv("BENCH_FRESH") == nullptr;
       o.verbose = std::getenv("SOFTHOM_VERBOSE") != nullptr;
       const auto t0 = std::chrono::steady_clock::now();
