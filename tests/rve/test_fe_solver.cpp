@@ -129,11 +129,12 @@ TEST(FeRve, RankOneLaminateMatchesExactSolution) {
 //    Richardson-extrapolated error of the finest mesh below 1e-5.
 //  - P2/P0: O(h) in the energy norm, stress O(h²) asymptotically; measured 1.2–1.7 on these meshes.
 //    Required: p > 1.0 (a locking pressure or straight-sided interfaces would fail it).
-// Both must extrapolate to the same limit within 2e-5 (relative).
+// Both must extrapolate to the same limit within 2e-5 (relative). One load step: the P11 of all six
+// runs, and so the observed orders (3.29, 1.69), are those of two steps to 8 digits.
 TEST(FeRve, MeshRefinementConvergesAtTheExpectedOrder) {
   const Section s = circle_cell();
   const MaterialPtr matrix = preset("pdms"), glass = preset("glass");
-  const MixedControl control = uniaxial_ramp(1.5, 2);
+  const MixedControl control = uniaxial_ramp(1.5, 1);
   double limit[2];
   for (FePressure pressure : {FePressure::p1_bubble, FePressure::p0}) {
     std::vector<double> h, p;
