@@ -129,11 +129,12 @@ TEST(FeRve, RankOneLaminateMatchesExactSolution) {
 //    Richardson-extrapolated error of the finest mesh below 1e-5.
 //  - P2/P0: O(h) in the energy norm, stress O(h²) asymptotically; measured 1.2–1.7 on these meshes.
 //    Required: p > 1.0 (a locking pressure or straight-sided interfaces would fail it).
-// Both must extrapolate to the same limit within 2e-5 (relative).
+// Both must extrapolate to the same limit within 2e-5 (relative). One load step: the P11 of all six
+// runs, and so the observed orders (3.29, 1.69), are those of two steps to 8 digits.
 TEST(FeRve, MeshRefinementConvergesAtTheExpectedOrder) {
   const Section s = circle_cell();
   const MaterialPtr matrix = preset("pdms"), glass = preset("glass");
-  const MixedControl control = uniaxial_ramp(1.5, 2);
+  const MixedControl control = uniaxial_ramp(1.5, 1);
   double limit[2];
   for (FePressure pressure : {FePressure::p1_bubble, FePressure::p0}) {
     std::vector<double> h, p;
@@ -242,14 +243,15 @@ TEST(FeRve, NoLockingForNearlyIncompressibleMatrix) {
 // 1.24e-3 and 1.25e-3; required within 10 %), and at K/G = 100, where fine grids are cheap, it
 // falls at first order with the grid (48² 1.40e-3, 96² 6.8e-4, 192² 3.5e-4, 384² 1.9e-4, 512² 1.5e-4;
 // the 256²/512² Richardson limit is 1e-6 from the FE value). FE: P2+bubble/P1 at L/4, 6e-6 from its
-// own limit. Required: the 96² gap below 0.6 × the 48² gap, both gaps positive (FFT stiffer).
+// own limit. Required: the 96² gap below 0.6 × the 48² gap, both gaps positive (FFT stiffer). Two load
+// steps: hyperelastic phases, so the end state is the eight-step runs' to the solver tolerances.
 TEST(FeRve, EcoflexFftGapIsTheVoxelErrorNotIncompressibility) {
   const Section s = circle_cell();
   const MaterialPtr glass = preset("glass");
   MaterialSpec soft = preset_spec("ecoflex");
   soft.gent.K = 100.0 * soft.gent.G;
   const MaterialPtr ecoflex = preset("ecoflex"), ecoflex_kg100 = build_material(soft);
-  const MixedControl control = uniaxial_ramp(1.5, 8);
+  const MixedControl control = uniaxial_ramp(1.5, 2);
   auto fe_p11 = [&](const MaterialPtr& m) {
     FeRveSolver fe(mesh_of(s, s.L1 / 4, s.L1 / 12), m, glass, 45.0, control.frame);
     const RveRunResult r = fe.run(control);

@@ -63,17 +63,19 @@ TEST(FftRveKrylovCost, ShiftedSolveAfterTheLinearIncrementRemovesThePressureSpik
 
 // Far from equilibrium the composite voxels' laminate tangents (which carry their law's pressure, not
 // the mixed iteration's) are indefinite at a few points: too few for CG to meet negative curvature,
-// enough to spoil the direction there. 16³ cell (the section extruded), λ = 1.3 in one step: with the
-// exact tangents the first attempt fails and is cut back (measured 70 Newton / 5 182–5 204 Krylov on 1
-// and 2 threads); projected to semidefinite, the step converges in one attempt (21–23 / 2 613–2 947) to
-// the same state (the residual is the true one either way; P equal to 1e-6 at a tolerance of 1e-6).
+// enough to spoil the direction there. 12³ cell (the 12² section extruded), λ = 1.3 in one step: with
+// the exact tangents the first attempt fails and is cut back (measured 77 Newton / 6 153 Krylov on 1
+// thread; the 16³ cell: 70 / 5 182–5 204 on 1 and 2 threads, at twice the cost); projected to
+// semidefinite, the step converges in one attempt (23 / 2 275; 16³: 21–23 / 2 613–2 947) to the same
+// state (the residual is the true one either way; P equal to 1e-6 at a tolerance of 1e-6, measured
+// 6e-8). At 10³ the exact tangents no longer fail: 12³ is the smallest cell that shows it.
 TEST(FftRveKrylovCost, ProjectedCompositeTangentsSolveALargeStepInOneAttempt) {
   auto run = [](CompositeTangent t) {
     FftSolverOptions o;
     o.tolerance = 1e-6;
     o.plan.rigor = fft::PlanRigor::estimate;
     o.composite_tangent = t;
-    FftRveSolver s(extrude(circle_image(16, 0.27), 16),
+    FftRveSolver s(extrude(circle_image(12, 0.27), 12),
                    make_material(make_gent_hgo({0.017, 14.0, 2000.0, {}, FiberInvariant::full, true})),
                    make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))), 45.0, Mat3::Identity(), o);
     return s.run(uniaxial_ramp(1.3, 1));

@@ -62,10 +62,13 @@ Section fiber_section() {
   return generate_section(spec);
 }
 
+/// L/3 with L/6 at the interface (130 T6): the stops are decided by the matrix law's limit and by
+/// det F̄, not by the resolution (the fiber cell at L/5, 288 T6, stopped at the same λ = 4.04688 after
+/// 298 Newton iterations, here 296, at three times the cost).
 SectionMesh coarse_mesh(const Section& s) {
   SectionMeshOptions o;
-  o.mesh_size = s.L1 / 5;
-  o.interface_size = s.L1 / 10;
+  o.mesh_size = s.L1 / 3;
+  o.interface_size = s.L1 / 6;
   return mesh_section(s, o);
 }
 
@@ -265,7 +268,7 @@ TEST(RveStops, FeGentLockingWithFiberStopsWithoutGrinding) {
   FeRveSolver solver(coarse_mesh(fiber_section()), ecoflex(), glass(), 45.0, control.frame);
   const RveRunResult r = solver.run(control);
   expect_locking_stop(r, 3.25 / 16, 2.0, "fe fiber");
-  EXPECT_LT(r.newton_iterations, 1000);  // measured 379
+  EXPECT_LT(r.newton_iterations, 1000);  // measured 296 (379 before the limit check's margin)
 }
 
 TEST(RveStops, FeInvertingPathIsFatal) {
