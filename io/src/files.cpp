@@ -13,11 +13,11 @@
 #include <stdexcept>
 #include <system_error>
 
-#include "softhom/core/input_error.hpp"
-
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+#include "softhom/core/input_error.hpp"
 
 namespace softhom::io {
 

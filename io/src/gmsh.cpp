@@ -567,8 +567,8 @@ Mesh parse_gmsh(std::istream& in, const std::string& source) {
   return mesh;
 }
 
-Mesh read_gmsh(const std::filesystem::path& file) {
-  std::istringstream in(read_input_file(file, "mesh file", kMeshFile));
+Mesh read_gmsh(const std::filesystem::path& file, const std::string& field) {
+  std::istringstream in(read_input_file(file, field, kMeshFile));
   return parse_gmsh(in, file.string());
 }
 
