@@ -141,11 +141,12 @@ CalibrationOutcome run_calibration(const CalibrationJob& job, Sink& sink, const 
     studies::write_calibration_files(out, input, result);
     // FEBio and Abaqus cards of the same material (docs/material-cards.md); their stress differences on
     // the calibration load paths go into the cards' comments.
-    if (cli_files) cards = studies::write_material_cards(out, input, result);
+    // (Not after a stop request: their comparison runs would stop at once, and their comments mislead.)
+    if (cli_files && !stop_requested()) cards = studies::write_material_cards(out, input, result);
   }
   sink.write_summary(outcome.summary);
   if (!options.quiet) report_fit(result, cards ? &*cards : nullptr);
-  if (cli_files && input.plot && !out.empty()) plot_fit(out, options.quiet);
+  if (cli_files && input.plot && !out.empty() && !stop_requested()) plot_fit(out, options.quiet);
   if (stop_requested())
     std::cerr << "softhom calibrate: " << interruption_message() << "; material.toml holds "
               << (result.best_start >= 0 ? "the best parameters so far, not a converged fit\n" : "the initial values\n");

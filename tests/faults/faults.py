@@ -493,6 +493,7 @@ def sigterm_calibrate(softhom, work):
     check(summary.get("status") == "interrupted" and summary.get("success") is False,
           "summary.json: status %r, success %r" % (summary.get("status"), summary.get("success")))
     check("interrupted" in (out / "material.toml").read_text(), "material.toml does not say it was interrupted")
+    check("Traceback" not in r.stderr(), "the plot of an unfinished fit was attempted: %s" % tail(r.stderr()))
     check_outputs(out)
 
 
