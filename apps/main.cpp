@@ -11,18 +11,13 @@
 //        "status": "interrupted" are kept. A second signal ends the process at once (temporaries of
 //        that process are then removed at the next start in the same --out).
 #include <omp.h>
-#include <sys/stat.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
-#include <cerrno>
 #include <charconv>
 #include <cstdlib>
-#include <cstring>
 #include <exception>
-#include <fstream>
 #include <iostream>
-#include <thread>
 
 #include "cmd_keys.hpp"
 #include "softhom/core/mpi.hpp"
@@ -113,7 +108,7 @@ int run_calibrate(const CommandOptions& o) {
                                   "(example: studies/calibrations/example_point.toml)");
   const jobs::CalibrationJob job = jobs::parse_calibration(jobs::load_scene_file(o.scene));
   jobs::FileSink sink(o.out);
-  return jobs::run_calibration(job, sink, o.run(), true).result.success ? 0 : 1;
+  return run_exit_code(jobs::run_calibration(job, sink, o.run(), true).result.success);
 }
 
 int run_demo(const CommandOptions& o) {
@@ -178,51 +173,24 @@ int run_command(const char* name, int (*run)(const CommandOptions&), const Comma
 
 namespace {
 
-// A scene is a small hand-written TOML file. Larger files are not scenes (a mesh, an image or a log
-// given by mistake), and reading them whole would only waste time and memory before the parse fails.
-constexpr std::uintmax_t kMaxSceneBytes = 4u << 20;
+// A scene is read by the checked opener every named file goes through (io::read_input_file): a
+// regular TOML text file of at most 4 MiB; anything else is refused here, without opening it.
+std::string check_scene_path(const std::string& path) { return io::input_file_problem(path, io::kSceneFile); }
 
-// Refuses anything but a regular, text-sized file, without opening it: opening a FIFO blocks until a
-// writer appears, and reading a device may never end.
-std::string check_scene_path(const std::string& path) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) return "'" + path + "': " + std::strerror(errno);
-  if (S_ISDIR(st.st_mode)) return "'" + path + "' is a directory; a scene is a TOML file";
-  if (S_ISFIFO(st.st_mode)) return "'" + path + "' is a FIFO (named pipe); a scene is a regular TOML file";
-  if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)) return "'" + path + "' is a device; a scene is a regular TOML file";
-  if (S_ISSOCK(st.st_mode)) return "'" + path + "' is a socket; a scene is a regular TOML file";
-  if (!S_ISREG(st.st_mode)) return "'" + path + "' is not a regular file";
-  if (static_cast<std::uintmax_t>(st.st_size) > kMaxSceneBytes)
-    return "'" + path + "' has " + std::to_string(st.st_size) + " bytes; a scene has at most " +
-           std::to_string(kMaxSceneBytes) + " (4 MiB)";
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return "'" + path + "': cannot be opened for reading";
-  char head[4096];
-  in.read(head, sizeof head);
-  if (std::find(head, head + in.gcount(), '\0') != head + in.gcount())
-    return "'" + path + "' is a binary file (NUL bytes); a scene is a TOML text file";
-  return {};
-}
-
-// More threads (or jobs) than a few per hardware thread only oversubscribe the cores (OpenMP barriers
-// spin) and each OpenMP thread reserves a stack: a huge count exhausts memory before any work is done.
-int max_parallelism() {
-  const unsigned hw = std::thread::hardware_concurrency();
-  return 4 * static_cast<int>(std::max(1u, hw));
+// "" would be the current directory, which is no output directory the user named.
+std::string check_out_path(const std::string& path) {
+  return path.empty() ? "is empty: name the output directory (e.g. --out results)" : std::string();
 }
 
 CLI::Validator parallelism_range(const std::string& zero_means) {
-  const int max = max_parallelism();
+  const int max = jobs::max_parallelism();
   return CLI::Validator(
-      [max](std::string& text) -> std::string {
+      [](std::string& text) -> std::string {
         long v = 0;
         const auto r = std::from_chars(text.data(), text.data() + text.size(), v);
         if (r.ec != std::errc{} || r.ptr != text.data() + text.size())
           return "'" + text + "' is not a whole number";
-        if (v < 0 || v > max)
-          return text + " is out of range: 0 to " + std::to_string(max) + " (4 x the " +
-                 std::to_string(max / 4) + " hardware threads of this machine)";
-        return {};
+        return jobs::parallelism_problem(v);
       },
       "INT in [0, " + std::to_string(max) + "] (0: " + zero_means + ")");
 }
@@ -234,7 +202,9 @@ CLI::Validator parallelism_range(const std::string& zero_means) {
 void declare_options(CLI::App& sub, const std::string& name, CommandOptions& options, bool& print_default) {
   sub.add_option("scene", options.scene, "scene file (TOML); omitted: the embedded default scene")
       ->check(CLI::Validator(check_scene_path, "FILE"));
-  sub.add_option("-o,--out", options.out, "output directory (created if needed)")->capture_default_str();
+  sub.add_option("-o,--out", options.out, "output directory (created if needed)")
+      ->capture_default_str()
+      ->check(CLI::Validator(check_out_path, "DIR"));
   sub.add_option("-j,--threads", options.threads, "threads (0: all cores)")->check(parallelism_range("all cores"));
   sub.add_flag("-q,--quiet", options.quiet, "no progress on stderr");
   sub.add_flag("--print-default", print_default, "write the embedded default scene to stdout and exit");
@@ -312,13 +282,14 @@ int main(int argc, char** argv) {
     std::cerr << "softhom: command line: " << e.what() << "\nRun 'softhom --help' for the options.\n";
     return 2;
   }
-  if (options.threads > 0) omp_set_num_threads(options.threads);
   try {
     if (keys->parsed()) return app::run_keys(keys_command, keys_markdown);
     if (print_default) return app::print_default_scene(chosen->name);
+    jobs::check_thread_count(options.threads, "--threads");
   } catch (const InputError& e) {
     std::cerr << "softhom " << (chosen ? chosen->name : "keys") << ": input error: " << e.what() << "\n";
     return 2;
   }
+  if (options.threads > 0) omp_set_num_threads(options.threads);
   return app::run_command(chosen->name, chosen->run, options);
 }

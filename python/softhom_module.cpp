@@ -27,6 +27,7 @@
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/jobs/jobs.hpp"
+#include "softhom/jobs/run_control.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/interrupt.hpp"
 #include "softhom/materials/library.hpp"
@@ -49,7 +50,37 @@ std::string repr_text(py::handle v) { return py::str(py::repr(v)).cast<std::stri
 template <class Sink>
 void put_value(py::handle v, const std::string& path, Sink&& sink);
 
+// A scene is a tree of tables: deeper than this it is no hand-written scene, and the conversion (a
+// recursion) must end before the C++ stack does.
+constexpr std::size_t kMaxNesting = 64;
+
+/// For its lifetime, marks a dict or list as being converted: one met again inside itself is a cycle
+/// (d['self'] = d), refused like any bad value, as is nesting deeper than kMaxNesting. (The GIL is held
+/// during the conversion, so one stack serves.)
+class Nesting {
+ public:
+  Nesting(py::handle container, const std::string& path) {
+    std::vector<PyObject*>& s = open();
+    const std::string field = path.empty() ? "scene" : path;
+    if (std::find(s.begin(), s.end(), container.ptr()) != s.end())
+      throw InputError(field, repr_text(container), "contains itself (a cycle); a scene is a tree of tables and lists");
+    if (s.size() >= kMaxNesting)
+      throw InputError(field, "", "nested deeper than " + std::to_string(kMaxNesting) + " tables and lists");
+    s.push_back(container.ptr());
+  }
+  ~Nesting() { open().pop_back(); }
+  Nesting(const Nesting&) = delete;
+  Nesting& operator=(const Nesting&) = delete;
+
+ private:
+  static std::vector<PyObject*>& open() {
+    static std::vector<PyObject*> containers;
+    return containers;
+  }
+};
+
 toml::table to_table(py::handle mapping, const std::string& path) {
+  const Nesting nesting(mapping, path);
   toml::table t;
   for (auto item : py::reinterpret_borrow<py::object>(mapping).attr("items")()) {
     const py::tuple kv = py::reinterpret_borrow<py::tuple>(item);
@@ -63,6 +94,7 @@ toml::table to_table(py::handle mapping, const std::string& path) {
 }
 
 toml::array to_array(py::handle sequence, const std::string& path) {
+  const Nesting nesting(sequence, path);
   toml::array a;
   std::size_t i = 0;
   for (py::handle item : py::reinterpret_borrow<py::iterable>(sequence)) {
@@ -145,6 +177,7 @@ void raise_if_interrupted() {
 
 template <class Run>
 int run_job(const std::string& out, int threads, Run&& run) {
+  jobs::check_thread_count(threads, "threads");  // the bound of --threads, and of OMP_NUM_THREADS with 0
   io::mark_run_started();
   int code = 1;
   {

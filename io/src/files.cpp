@@ -3,6 +3,7 @@
 
 #include <cerrno>
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdlib>
@@ -13,7 +14,10 @@
 #include <system_error>
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
+
+#include "softhom/core/input_error.hpp"
 
 namespace softhom::io {
 
@@ -33,6 +37,97 @@ WriteError::WriteError(const std::filesystem::path& path, const std::string& wha
                          (os_error ? std::string(" (") + std::strerror(os_error) + ")" : std::string())),
       path_(path),
       os_error_(os_error) {}
+
+namespace {
+
+// A regular input file is read in well under a second; a file system that stalls longer than this
+// (a hung network mount) is reported instead of waited for.
+constexpr double kInputReadSeconds = 30.0;
+
+/// Why a file of this type and size is not an input of `kind` ("" when it is).
+std::string file_type_problem(const struct stat& st, const InputFileKind& kind) {
+  const std::string tail = std::string("; ") + kind.what;
+  if (S_ISDIR(st.st_mode)) return "is a directory" + tail;
+  if (S_ISFIFO(st.st_mode)) return "is a FIFO (named pipe)" + tail;
+  if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)) return "is a device" + tail;
+  if (S_ISSOCK(st.st_mode)) return "is a socket" + tail;
+  if (!S_ISREG(st.st_mode)) return "is not a regular file" + tail;
+  if (static_cast<std::uintmax_t>(st.st_size) > kind.max_bytes)
+    return "has " + std::to_string(st.st_size) + " bytes, more than the " + std::to_string(kind.max_bytes) +
+           " an input of this kind may have" + tail;
+  return {};
+}
+
+std::string open_problem(int err) {
+  return err == ENOENT ? std::string("file not found") : std::string("cannot be read (") + std::strerror(err) + ")";
+}
+
+/// Reads the open regular file `fd` (at most kind.max_bytes) into `text`; returns the problem or "".
+std::string read_bounded(int fd, const InputFileKind& kind, std::string& text) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(kInputReadSeconds);
+  char buffer[1 << 16];
+  for (;;) {
+    const ssize_t n = ::read(fd, buffer, sizeof buffer);
+    if (n == 0) break;
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return open_problem(errno);
+    }
+    if (text.size() + std::size_t(n) > kind.max_bytes)
+      return "has more than the " + std::to_string(kind.max_bytes) + " bytes an input of this kind may have; " + kind.what;
+    text.append(buffer, std::size_t(n));
+    if (std::chrono::steady_clock::now() > deadline) return "could not be read within " + format_number(kInputReadSeconds) + " s";
+  }
+  if (kind.text && text.find('\0') != std::string::npos)
+    return std::string("is a binary file (NUL bytes); ") + kind.what;
+  return {};
+}
+
+/// The checked read: "" and the text, or the problem (a reason without the path).
+std::string read_checked(const fs::path& path, const InputFileKind& kind, std::string& text) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return open_problem(errno);
+  if (std::string p = file_type_problem(st, kind); !p.empty()) return p;
+  // Not blocking: the path may have been swapped for a FIFO since the look; the descriptor is checked again.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return open_problem(errno);
+  std::string problem = ::fstat(fd, &st) != 0 ? open_problem(errno) : file_type_problem(st, kind);
+  if (problem.empty()) problem = read_bounded(fd, kind, text);
+  ::close(fd);
+  return problem;
+}
+
+}  // namespace
+
+std::string input_file_problem(const fs::path& path, const InputFileKind& kind) {
+  std::string problem;
+  if (kind.text) {
+    std::string text;
+    problem = read_checked(path, kind, text);
+  } else if (struct stat st {}; ::stat(path.c_str(), &st) != 0) {
+    problem = open_problem(errno);
+  } else {
+    problem = file_type_problem(st, kind);
+  }
+  if (problem.empty()) return problem;
+  const bool sentence = problem.rfind("is ", 0) == 0 || problem.rfind("has ", 0) == 0;  // "'p' is a FIFO"
+  std::string message = "'";  // (built by appending: GCC 12 warns falsely on "'" + std::string)
+  message += path.string();
+  message += sentence ? "' " : "': ";
+  return message + problem;
+}
+
+void check_input_file(const fs::path& path, const std::string& field, const InputFileKind& kind) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) throw InputError(field, path.string(), open_problem(errno));
+  if (std::string p = file_type_problem(st, kind); !p.empty()) throw InputError(field, path.string(), p);
+}
+
+std::string read_input_file(const fs::path& path, const std::string& field, const InputFileKind& kind) {
+  std::string text;
+  if (std::string p = read_checked(path, kind, text); !p.empty()) throw InputError(field, path.string(), p);
+  return text;
+}
 
 long temporary_owner(const std::filesystem::path& file) {
   const std::string name = file.filename().string();

@@ -13,6 +13,7 @@
 
 #include "softhom/fe/hex8.hpp"
 #include "softhom/fe/tet10_element.hpp"
+#include "softhom/io/files.hpp"
 #include "softhom/materials/errors.hpp"
 
 namespace softhom::io {
@@ -566,9 +567,8 @@ Mesh parse_gmsh(std::istream& in, const std::string& source) {
   return mesh;
 }
 
-Mesh read_gmsh(const std::filesystem::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw InputError("mesh file", file.string(), "cannot open");
+Mesh read_gmsh(const std::filesystem::path& file, const std::string& field) {
+  std::istringstream in(read_input_file(file, field, kMeshFile));
   return parse_gmsh(in, file.string());
 }
 

@@ -6,6 +6,7 @@
 #include <set>
 #include <sstream>
 
+#include "softhom/io/files.hpp"
 #include "softhom/materials/errors.hpp"
 
 namespace softhom::io {
@@ -39,13 +40,13 @@ toml::table parse_scene(std::string_view text, const std::string& source_name) {
   }
 }
 
-toml::table load_scene(const std::filesystem::path& path) {
+toml::table load_scene(const std::filesystem::path& path, const std::string& field) {
+  const std::string text = read_input_file(path, field, kSceneFile);
   try {
-    return toml::parse_file(path.string());
+    return toml::parse(text, path.string());
   } catch (const toml::parse_error& e) {
     std::ostringstream s;
     s << "line " << e.source().begin.line << ", column " << e.source().begin.column;
-    if (!std::filesystem::exists(path)) throw InputError("scene", path.string(), "file not found");
     throw InputError(path.string(), s.str(), std::string("TOML syntax error: ") + std::string(e.description()));
   }
 }

@@ -13,6 +13,7 @@
 
 #include "softhom/io/scene.hpp"
 #include "softhom/jobs/jobs.hpp"
+#include "softhom/jobs/run_control.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/studies/calibration.hpp"
@@ -130,6 +131,7 @@ CalibrationOutcome run_calibration(const CalibrationJob& job, Sink& sink, const 
   outcome.summary = io::summary_base("calibrate", job.scene.file, job.scene.table);
   const nlohmann::json fields = studies::result_json(input, result);  // named: items() must not outlive it
   for (const auto& [k, v] : fields.items()) outcome.summary[k] = v;
+  if (stop_requested()) io::set_run_status(outcome.summary, false, interruption_message());
   outcome.material_toml = studies::material_toml(input.model, result.values);
   outcome.comparison_csv = studies::comparison_csv(result);
   const std::filesystem::path out = sink.directory();
@@ -139,12 +141,17 @@ CalibrationOutcome run_calibration(const CalibrationJob& job, Sink& sink, const 
     studies::write_calibration_files(out, input, result);
     // FEBio and Abaqus cards of the same material (docs/material-cards.md); their stress differences on
     // the calibration load paths go into the cards' comments.
-    if (cli_files) cards = studies::write_material_cards(out, input, result);
+    // (Not after a stop request: their comparison runs would stop at once, and their comments mislead.)
+    if (cli_files && !stop_requested()) cards = studies::write_material_cards(out, input, result);
   }
   sink.write_summary(outcome.summary);
   if (!options.quiet) report_fit(result, cards ? &*cards : nullptr);
-  if (cli_files && input.plot && !out.empty()) plot_fit(out, options.quiet);
-  if (!result.success) std::cerr << "softhom calibrate: no start converged; material.toml holds the initial values\n";
+  if (cli_files && input.plot && !out.empty() && !stop_requested()) plot_fit(out, options.quiet);
+  if (stop_requested())
+    std::cerr << "softhom calibrate: " << interruption_message() << "; material.toml holds "
+              << (result.best_start >= 0 ? "the best parameters so far, not a converged fit\n" : "the initial values\n");
+  else if (!result.success)
+    std::cerr << "softhom calibrate: no start converged; material.toml holds the initial values\n";
   else if (!options.quiet && !out.empty()) std::cerr << "softhom calibrate: " << (out / "material.toml").string() << "\n";
   return outcome;
 }

@@ -2,7 +2,6 @@
 
 #include <chrono>
 #include <cstring>
-#include <fstream>
 #include <set>
 #include <sstream>
 #include <system_error>
@@ -36,10 +35,12 @@ std::string state_file(long step, int rank) {
 }
 
 nlohmann::json read_record(const fs::path& out) {
-  std::ifstream in(record_path(out));
-  if (!in) throw InputError("--resume", out.string(), "no checkpoint of an unfinished run in this directory");
+  std::error_code ec;
+  if (!fs::exists(record_path(out), ec))
+    throw InputError("--resume", out.string(), "no checkpoint of an unfinished run in this directory");
+  const std::string text = io::read_input_file(record_path(out), "--resume", io::kJsonFile);
   try {
-    return nlohmann::json::parse(in);
+    return nlohmann::json::parse(text);
   } catch (const nlohmann::json::exception& e) {
     throw InputError("--resume", record_path(out).string(), std::string("not a checkpoint record (") + e.what() + ")");
   }
@@ -65,6 +66,7 @@ std::span<const T> interleaved(std::span<const std::complex<T>> z) {
 }
 
 std::vector<double> read_array(const fs::path& file, const std::string& name) {
+  io::check_input_file(file, "--resume", io::kDataFile);
   try {
     return io::read_dataset(file, name).values;
   } catch (const std::exception& e) {

@@ -13,6 +13,7 @@
 #include <ceres/ceres.h>
 
 #include "softhom/materials/errors.hpp"
+#include "softhom/materials/interrupt.hpp"
 
 namespace softhom::studies {
 namespace {
@@ -112,6 +113,7 @@ class FitCost final : public ceres::CostFunction {
     mutable_parameter_block_sizes()->push_back(p.unknown_count());
   }
   bool Evaluate(double const* const* x, double* residuals, double** jacobians) const override {
+    if (stop_requested()) return false;  // the point runs stop at once anyway; StopOnRequest ends the solve
     if (!p_.residuals(x[0], residuals)) return false;
     if (jacobians && jacobians[0]) return p_.jacobian(x[0], residuals, jacobians[0]);
     return true;
@@ -186,6 +188,16 @@ std::vector<double> start_point(const FitProblem& fp, const CalibrationModel& mo
   return u;
 }
 
+/// Ends a solve at the end of the iteration in which a stop was requested (SIGINT, SIGTERM), keeping
+/// the best point so far: a failed evaluation alone only shrinks the trust region, and the solve would
+/// go on as if the stopped model runs were locking.
+class StopOnRequest final : public ceres::IterationCallback {
+ public:
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return stop_requested() ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+  }
+};
+
 ceres::Solver::Options ceres_options(const CalSolverOptions& o) {
   ceres::Solver::Options opt;
   opt.minimizer_type = ceres::TRUST_REGION;
@@ -214,8 +226,11 @@ ceres::Solver::Summary solve_from(const FitProblem& fp, FitCost& cost, const Cal
     problem.SetParameterLowerBound(u.data(), k, fp.u_lower(k));
     problem.SetParameterUpperBound(u.data(), k, fp.u_upper(k));
   }
+  StopOnRequest stop;
+  ceres::Solver::Options options = ceres_options(in.solver);
+  options.callbacks.push_back(&stop);
   ceres::Solver::Summary summary;
-  ceres::Solve(ceres_options(in.solver), &problem, &summary);
+  ceres::Solve(options, &problem, &summary);
   sr.initial_cost = summary.initial_cost;
   sr.final_cost = summary.final_cost;
   sr.iterations = int(summary.iterations.size()) - 1;
@@ -237,7 +252,7 @@ void run_starts(const FitProblem& fp, const CalibrationInput& in, const Calibrat
   FitCost cost(fp);
   std::mt19937_64 rng(in.solver.seed);
   std::vector<double> r(static_cast<std::size_t>(fp.residual_count()));
-  for (int s = 0; s < in.solver.starts; ++s) {
+  for (int s = 0; s < in.solver.starts && !stop_requested(); ++s) {
     std::vector<double> u = start_point(fp, in.model, s, rng);
     StartReport sr;
     for (int k = 0; k < fp.unknown_count(); ++k) sr.initial.push_back(fp.from_u(k, u[k]));
@@ -354,17 +369,25 @@ CalibrationResult calibrate(const CalibrationInput& in, const CalibrationProgres
   if (n == 0) evaluate_fixed_model(fp, res, best);
   else run_starts(fp, in, progress, res, best);
 
+  // A stop request (SIGINT, SIGTERM) leaves the best point so far: reported as such, never as a fit;
+  // the statistics and the curves at the optimum would need model runs that the stop ends at once.
+  const bool interrupted = stop_requested();
+  const bool found = res.best_start >= 0;
   res.values = in.model.values();
-  res.success = res.best_start >= 0;
-  if (res.success && n > 0) res.values = fp.values_from_u(best.u.data());
-  res.final_cost = res.success ? best.cost : std::numeric_limits<double>::quiet_NaN();
+  res.success = found && !interrupted;
+  if (found && n > 0) res.values = fp.values_from_u(best.u.data());
+  res.final_cost = found ? best.cost : std::numeric_limits<double>::quiet_NaN();
   res.residuals = m;
   res.dof = m - n;
   report_parameters(in.model, res);
   res.correlation = Eigen::MatrixXd::Constant(n, n, std::numeric_limits<double>::quiet_NaN());
   if (res.success && n > 0) parameter_statistics(fp, in.model, best, res);
-  if (!res.success) res.warnings.push_back("no start converged to a usable solution");
-  evaluate_curves_at_optimum(in, res);
+  if (interrupted)
+    res.warnings.push_back(std::string("interrupted: ") + (found ? "the parameters are the best found so far, not a converged fit"
+                                                               : "no start finished; the parameters are the initial values"));
+  else if (!found)
+    res.warnings.push_back("no start converged to a usable solution");
+  if (!interrupted) evaluate_curves_at_optimum(in, res);
   res.model_evaluations = fp.evaluations();
   res.curve_evaluations += fp.curve_evaluations();
   res.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <limits>
 #include <set>
 #include <sstream>
@@ -128,9 +127,11 @@ int CsvData::column(const std::string& name) const {
   return -1;
 }
 
-CsvData read_csv(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path.string(), "", "cannot open the CSV file");
+namespace {
+
+/// The table of CSV text read from `file` (errors name the file and the line).
+CsvData parse_csv(const std::string& text, const std::string& file) {
+  std::istringstream in(text);
   auto trim = [](std::string s) {
     const auto b = s.find_first_not_of(" \t\r\"");
     const auto e = s.find_last_not_of(" \t\r\"");
@@ -144,7 +145,6 @@ CsvData read_csv(const std::filesystem::path& path) {
     if (!line.empty() && line.back() == ',') out.push_back("");
     return out;
   };
-  const std::string file = path.string();
   CsvData d;
   std::string line;
   int lineno = 0;
@@ -173,6 +173,12 @@ CsvData read_csv(const std::filesystem::path& path) {
   }
   if (d.columns.empty()) throw InputError(file, "", "empty CSV file (no header)");
   return d;
+}
+
+}  // namespace
+
+CsvData read_csv(const std::filesystem::path& path) {
+  return parse_csv(io::read_input_file(path, path.string(), io::kCsvFile), path.string());
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -434,6 +440,7 @@ void campaign_source(const CurveKeys& k, const std::string& cp, const std::files
   std::filesystem::path store = resolve(base_dir, k.campaign);
   if (std::filesystem::is_directory(store)) store /= "campaign.h5";
   if (!std::filesystem::exists(store)) throw InputError(cp + ".campaign", store.string(), "no campaign store there (run softhom sweep first)");
+  io::check_input_file(store, cp + ".campaign", io::kDataFile);
   if (!stores.count(store)) {
     try {
       stores[store] = read_store(store);
@@ -462,11 +469,12 @@ void run_source(const CurveKeys& k, const std::string& cp, const std::filesystem
   src.file = dir / "response.csv";
   src.default_name = std::filesystem::path(k.run).filename().string();
   if (k.load) return;
-  std::ifstream js(dir / "summary.json");
-  if (!js) throw InputError(cp + ".run", k.run, "no summary.json in that directory (give [curves.load] explicitly)");
+  if (!std::filesystem::exists(dir / "summary.json"))
+    throw InputError(cp + ".run", k.run, "no summary.json in that directory (give [curves.load] explicitly)");
+  const std::string text = io::read_input_file(dir / "summary.json", cp + ".run", io::kJsonFile);
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(js);
+    j = nlohmann::json::parse(text);
   } catch (const std::exception& e) {
     throw InputError(cp + ".run", k.run, std::string("summary.json is not valid JSON: ") + e.what());
   }
@@ -508,11 +516,13 @@ CsvData curve_table(const CurveSource& src, const std::string& cp) {
                             src.record->data.begin() + std::ptrdiff_t((r + 1) * src.record->columns.size()));
     return csv;
   }
+  const std::string text = io::read_input_file(src.file, cp + src.key, io::kCsvFile);
   try {
-    return read_csv(src.file);
+    return parse_csv(text, src.file.string());
   } catch (const InputError& e) {
-    throw InputError(cp + src.key, e.field(), (e.value().empty() ? "" : e.value() + ": ") +
-                                                  std::string(e.what()).substr(e.field().size() + (e.value().empty() ? 0 : 3 + e.value().size()) + 2));
+    const std::string what = e.what();
+    const std::size_t head = e.field().size() + (e.value().empty() ? 0 : 3 + e.value().size()) + 2;  // "field = value: "
+    throw InputError(cp + src.key, e.field(), (e.value().empty() ? "" : e.value() + ": ") + what.substr(std::min(head, what.size())));
   }
 }
 

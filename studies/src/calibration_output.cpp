@@ -7,6 +7,7 @@
 
 #include "softhom/io/files.hpp"
 #include "softhom/materials/errors.hpp"
+#include "softhom/materials/interrupt.hpp"
 
 namespace softhom::studies {
 namespace {
@@ -147,7 +148,8 @@ std::string comparison_csv(const CalibrationResult& res) {
 void write_calibration_files(const std::filesystem::path& dir, const CalibrationInput& in, const CalibrationResult& res) {
   std::ostringstream header;
   header << "softhom calibrate: fitted Gent + HGO" << (in.model.viscoelastic ? " + QLV" : "") << " material ("
-         << (res.success ? "converged" : "NOT converged") << ", cost " << res.final_cost << ").\n"
+         << (res.success ? "converged" : stop_requested() ? "interrupted: the best parameters so far, NOT a converged fit" : "NOT converged")
+         << ", cost " << res.final_cost << ").\n"
          << "A `softhom point` [material] table: cat material.toml load.toml > scene.toml";
   io::write_file_atomic(dir / "material.toml", material_toml(in.model, res.values, header.str()));
 

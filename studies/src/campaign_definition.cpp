@@ -511,8 +511,7 @@ Definitions read_definitions(const toml::table& table, const CampaignKeys& keys,
   if (table.contains("base_scene")) {
     std::filesystem::path p = keys.base_scene;
     if (p.is_relative()) p = base_dir / p;
-    if (!std::filesystem::exists(p)) throw InputError("base_scene", keys.base_scene, "file not found");
-    defs.base = io::load_scene(p);
+    defs.base = io::load_scene(p, "base_scene");
   }
   // The scene tables of the base must be tables: the expansion writes into them, so a number there
   // would silently become an empty table.

@@ -22,6 +22,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "softhom/core/input_error.hpp"
 #include "softhom/io/files.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/studies/campaign.hpp"
@@ -664,8 +665,17 @@ StoreLock::StoreLock(const std::filesystem::path& dir) : path_(dir / "campaign.l
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) throw std::runtime_error("cannot create campaign directory '" + dir.string() + "' (" + ec.message() + ")");
-  fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  // Not following a symbolic link planted as the lock: the sweep would then write outside --out.
+  fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0644);
+  if (fd_ < 0 && errno == ELOOP)
+    throw InputError("--out", dir.string(), path_.string() + " is a symbolic link; the lock is a regular file the sweep creates (remove the link)");
   if (fd_ < 0) sys_fail("cannot lock campaign directory '" + dir.string() + "': cannot open " + path_.string(), errno);
+  struct stat st {};
+  if (::fstat(fd_, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd_);
+    fd_ = -1;
+    throw InputError("--out", dir.string(), path_.string() + " is not a regular file; the lock is a regular file the sweep creates (remove it)");
+  }
   while (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     if (errno == EINTR) continue;
     const int err = errno;

@@ -6,6 +6,7 @@
 #include <functional>
 
 #include "softhom/io/fields.hpp"
+#include "softhom/io/files.hpp"
 #include "softhom/core/keys.hpp"
 #include "softhom/core/mpi.hpp"
 #include "softhom/materials/errors.hpp"
@@ -241,8 +242,7 @@ std::filesystem::path image_file(const ImageKeys& keys, const toml::table& img, 
   if (file.empty()) throw InputError(p + ".file", "\"\"", "missing: the HDF5 file of the phase image");
   if (file.is_relative() && img.source().path && !img.source().path->empty())
     file = std::filesystem::path(*img.source().path).parent_path() / file;
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) throw InputError(p + ".file", file.string(), "no such file");
+  io::check_input_file(file, p + ".file", io::kDataFile);
   return file;
 }
 

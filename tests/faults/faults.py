@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Fault tests: softhom under a full disk, a read-only output directory, SIGTERM, kill -9 and resume,
-and two sweeps on one output directory.
+two sweeps on one output directory, and named files that are no regular files (FIFOs, devices,
+directories, a symbolic link as the lock), out-of-range thread counts and an empty --out.
 
     faults.py --softhom BIN --work DIR TEST
 
@@ -15,6 +16,7 @@ import contextlib
 import json
 import os
 import re
+import resource
 import shutil
 import signal
 import subprocess
@@ -378,6 +380,123 @@ def concurrent_sweeps(softhom, work):
     check_outputs(out)
 
 
+# --- files a scene names, thread counts, --out --------------------------------------------------------------
+def limit_memory():
+    """3 GiB of address space, as the corpus gives each case: reading /dev/zero whole (12 GB before) ends
+    in an allocation failure instead of taking the machine's memory."""
+    resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))
+
+
+def refused(softhom, args, names, env=None, seconds=STOP_SECONDS):
+    """softhom refuses at once: exit 2 (no signal, no hang), stderr naming one of `names` and no
+    internal message (a C++ library's text reaching the user)."""
+    p = subprocess.Popen([str(softhom)] + [str(a) for a in args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         env=dict(ENV, **(env or {})), start_new_session=True, preexec_fn=limit_memory)
+    try:
+        _, err = p.communicate(timeout=seconds)
+    except subprocess.TimeoutExpired:
+        os.killpg(p.pid, signal.SIGKILL)
+        p.communicate()
+        raise Failed("%s: no exit within %g s (blocked on a FIFO or reading a device?)" % (args, seconds))
+    err = err.decode(errors="replace")
+    check_exit(p.returncode, err, allowed=(2,))
+    # The largest peak of the children so far: every earlier one here is a small run, so a larger peak
+    # is this one's (a refusal needs a few MB; reading the file whole took GB).
+    peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    check(peak_mb < 1024, "%s: %.0f MB resident before the refusal: the file was read" % (args, peak_mb))
+    check(any(n in err for n in names), "%s: the message names none of %s: %s" % (args, names, tail(err)))
+    check(not re.search(r"basic_|filesystem error|std::", err), "%s: an internal message: %s" % (args, tail(err)))
+
+
+def special_files(work):
+    """A FIFO, a directory, a device and a text file with a NUL byte, as named files."""
+    fifo, directory, nul = work / "fifo", work / "a-directory", work / "nul.csv"
+    os.mkfifo(fifo)
+    directory.mkdir()
+    nul.write_text("x,y\n1,\x002\n2,3\n")
+    return {"FIFO": fifo, "directory": directory, "device": Path("/dev/zero"), "NUL byte": nul}
+
+
+def named_files(softhom, work):
+    special = special_files(work)
+    # [[curves]] file: a FIFO blocked, /dev/zero took 12 GB, a NUL gave "basic_string::substr".
+    cal = tomllib.loads((HERE.parents[1] / "studies/calibrations/example_point.toml").read_text())
+    for what, f in special.items():
+        cal["curves"][0]["file"] = str(f)
+        scene = work / ("calibration-%s.toml" % what.replace(" ", "-"))
+        scene.write_text(tomlwrite.dumps(cal))
+        refused(softhom, ["calibrate", scene, "--out", work / "out-cal"], ["curves[0].file"])
+    # base_scene: /dev/zero or a directory was silently ignored.
+    camp = tomllib.loads((HERE / "campaign_small.toml").read_text())
+    del camp["base"]
+    for what, f in special.items():
+        camp["base_scene"] = str(f)
+        scene = work / ("campaign-%s.toml" % what.replace(" ", "-"))
+        scene.write_text(tomlwrite.dumps(camp))
+        refused(softhom, ["sweep", scene, "--out", work / "out-sweep", "--dry-run"], ["base_scene"])
+    # [geometry] file of a macro scene: /dev/zero took 12.5 GB.
+    macro = (HERE.parents[1] / "studies/scenes/macro_gmsh_tube.toml").read_text()
+    for what, f in special.items():
+        scene = work / "geometry.toml"
+        scene.write_text(re.sub(r'(?m)^file *=.*$', 'file = "%s"' % f, macro))
+        # A .msh may be binary: a NUL byte reaches the mesh reader, whose message names the file and line.
+        refused(softhom, ["macro", scene, "--out", work / "out-macro"], ["geometry.file", "%s:1" % f])
+    # [microstructure.image] file
+    for what, f in special.items():
+        scene = scene_variant("rve_small.toml", work / "image.toml", microstructure__image={"file": str(f), "dataset": "phase"})
+        refused(softhom, ["rve", scene, "--out", work / "out-image"], ["microstructure.image.file", "image"])
+    # checkpoint.json on --resume: a FIFO blocked, a directory gave "basic_filebuf::underflow".
+    for what in ("FIFO", "directory"):
+        out = work / ("out-resume-" + what)
+        out.mkdir()
+        os.mkfifo(out / "checkpoint.json") if what == "FIFO" else (out / "checkpoint.json").mkdir()
+        refused(softhom, ["rve", HERE / "rve_small.toml", "--out", out, "--resume"], ["--resume"])
+
+
+def lock_symlink(softhom, work):
+    """A symbolic link planted as campaign.lock is not followed: the sweep writes nothing outside --out."""
+    outside = work / "outside.txt"
+    outside.write_text("untouched\n")
+    out = work / "out"
+    out.mkdir()
+    (out / "campaign.lock").symlink_to(outside)
+    refused(softhom, ["sweep", HERE / "campaign_small.toml", "--out", out, "--threads", 1, "--jobs", 1], ["campaign.lock"])
+    check(outside.read_text() == "untouched\n", "the file the link points to was written: %r" % outside.read_text())
+
+
+def thread_bounds(softhom, work):
+    """OMP_NUM_THREADS is bounded like --threads (100000 crashed the thread start), and --out "" is refused
+    (it wrote into the current directory or printed "filesystem error ... []")."""
+    refused(softhom, ["rve", HERE / "rve_small.toml", "--out", work / "out"], ["OMP_NUM_THREADS"],
+            env={"OMP_NUM_THREADS": "100000"})
+    with contextlib.chdir(work):  # where an accepted --out "" would write
+        for sub in ("point", "rve", "macro", "demo"):
+            refused(softhom, [sub, "--out", ""], ["--out"])
+        refused(softhom, ["sweep", HERE / "campaign_small.toml", "--out", ""], ["--out"])
+        check(sorted(p.name for p in work.iterdir()) == [], "files written into the current directory: %s"
+              % sorted(p.name for p in work.iterdir()))
+
+
+def sigterm_calibrate(softhom, work):
+    """SIGTERM during calibrate: exit 143, summary.json "status": "interrupted" and "success": false, and
+    material.toml says its parameters are the best so far, not a fit (it exited 0 with success true)."""
+    for f in ("example_point.toml", "data"):
+        src = HERE.parents[1] / "studies/calibrations" / f
+        (shutil.copytree if src.is_dir() else shutil.copy)(src, work / f)
+    out = work / "out"
+    r = Run(softhom, ["calibrate", work / "example_point.toml", "--out", out, "--threads", 1])
+    check(r.wait_for(r"start 0: cost", 120), "no start finished: %s" % tail(r.stderr()))
+    r.p.send_signal(signal.SIGTERM)
+    rc = r.wait(STOP_SECONDS)
+    check_exit(rc, r.stderr(), allowed=(128 + signal.SIGTERM,))
+    summary = json.loads((out / "summary.json").read_text())
+    check(summary.get("status") == "interrupted" and summary.get("success") is False,
+          "summary.json: status %r, success %r" % (summary.get("status"), summary.get("success")))
+    check("interrupted" in (out / "material.toml").read_text(), "material.toml does not say it was interrupted")
+    check("Traceback" not in r.stderr(), "the plot of an unfinished fit was attempted: %s" % tail(r.stderr()))
+    check_outputs(out)
+
+
 TESTS = {
     "full-disk-rve": lambda s, w: full_disk(s, w, "rve"),
     "full-disk-sweep": lambda s, w: full_disk(s, w, "sweep"),
@@ -389,6 +508,10 @@ TESTS = {
     "kill9-resume-rve": kill9_resume_rve,
     "sbatch-rve-resume": sbatch_rve_resume,
     "concurrent-sweeps": concurrent_sweeps,
+    "named-files": named_files,
+    "lock-symlink": lock_symlink,
+    "thread-bounds": thread_bounds,
+    "sigterm-calibrate": sigterm_calibrate,
 }
 
 

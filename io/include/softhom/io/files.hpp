@@ -13,6 +13,7 @@
 // Write failures (full disk, permissions, read-only file systems) throw io::WriteError, whose message
 // names the file and the OS reason; no temporary is left behind and the previous complete file stays.
 #include <chrono>
+#include <cstdint>
 #include <filesystem>
 #include <span>
 #include <stdexcept>
@@ -59,6 +60,34 @@ std::vector<std::filesystem::path> remove_own_temporaries(const std::filesystem:
 /// after part of the data went to the temporary, so that the clean-up paths run. Returns whether
 /// `target` is such a file.
 bool write_failure_injected(const std::filesystem::path& target);
+
+/// Input files a scene names (the scene itself, a base scene, curve CSVs, a checkpoint record, an image,
+/// a mesh) are read through one checked opener: only a regular file is opened (a FIFO would block until a
+/// writer appears, a device such as /dev/zero never ends, a directory is not a file), at most
+/// `max_bytes` of it, and, when it is text, without NUL bytes.
+struct InputFileKind {
+  const char* what;            ///< what the file should be, for messages: "a scene is a TOML file"
+  std::uintmax_t max_bytes;    ///< larger files are refused before they are read
+  bool text;                   ///< NUL bytes refused
+};
+inline constexpr InputFileKind kSceneFile{"a scene is a regular TOML file", 4u << 20, true};
+inline constexpr InputFileKind kCsvFile{"a curve is a regular CSV text file", 64u << 20, true};
+inline constexpr InputFileKind kJsonFile{"a checkpoint or summary record is a regular JSON file", 64u << 20, true};
+/// Binary inputs read by HDF5 (images, checkpoint states): their size is the data's own.
+inline constexpr InputFileKind kDataFile{"a data file is a regular file", ~std::uintmax_t(0), false};
+inline constexpr InputFileKind kMeshFile{"a mesh is a regular Gmsh file", 1u << 30, false};
+
+/// Why `path` cannot be read as an input of `kind` ("'PATH' is a FIFO (named pipe); a scene is ..."),
+/// or "" when it can. Looks at the file without opening anything but a regular file.
+std::string input_file_problem(const std::filesystem::path& path, const InputFileKind& kind);
+
+/// input_file_problem() as an InputError(field, path, problem).
+void check_input_file(const std::filesystem::path& path, const std::string& field, const InputFileKind& kind);
+
+/// The whole text of a checked input file. The file is opened without blocking and checked again on
+/// the open descriptor (it may have been replaced since the look), and no more than kind.max_bytes are
+/// ever read, within a few seconds. Throws InputError(field, path, reason).
+std::string read_input_file(const std::filesystem::path& path, const std::string& field, const InputFileKind& kind);
 
 /// A CSV table: header once, rows of doubles. Non-finite values are refused (throws), so no NaN ever
 /// reaches an output file.

@@ -32,7 +32,8 @@ namespace softhom::io {
 
 /// Parses MSH 4.1 text; `source` names the file in error messages.
 fe::Mesh parse_gmsh(std::istream& in, const std::string& source);
-/// Reads a .msh file (InputError when it cannot be opened).
-fe::Mesh read_gmsh(const std::filesystem::path& file);
+/// Reads a .msh file through the checked opener (files.hpp, kMeshFile): a file that is no regular
+/// file of at most 1 GiB is an InputError naming `field`, the scene key that names the file.
+fe::Mesh read_gmsh(const std::filesystem::path& file, const std::string& field = "geometry.file");
 
 }  // namespace softhom::io

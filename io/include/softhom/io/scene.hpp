@@ -14,8 +14,10 @@
 
 namespace softhom::io {
 
-/// Parses a file; a syntax error becomes an InputError with line and column.
-toml::table load_scene(const std::filesystem::path& path);
+/// Parses a file read through the checked opener (read_input_file, kSceneFile: a regular text file of at
+/// most 4 MiB); a file that is none names `field` ("scene", "base_scene"), a syntax error becomes an
+/// InputError with line and column.
+toml::table load_scene(const std::filesystem::path& path, const std::string& field = "scene");
 /// Parses TOML text (for embedded default scenes).
 toml::table parse_scene(std::string_view text, const std::string& source_name);
 

@@ -8,7 +8,9 @@
 #include <exception>
 #include <iostream>
 #include <string>
+#include <thread>
 
+#include "softhom/core/input_error.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/materials/interrupt.hpp"
 
@@ -34,6 +36,35 @@ inline void raise_test_signal_after(std::size_t steps_done) {
 inline void stop_point(std::size_t steps_done) {
   raise_test_signal_after(steps_done);
   if (stop_requested()) throw RunInterrupted{};
+}
+
+/// Most threads (or parallel jobs) a run may ask for: 4 per hardware thread. More only oversubscribe
+/// the cores (OpenMP barriers spin) and each OpenMP thread reserves a stack: a huge count exhausts
+/// memory, or crashes the thread start, before any work is done.
+inline int max_parallelism() {
+  const unsigned hw = std::thread::hardware_concurrency();
+  return 4 * static_cast<int>(hw > 0 ? hw : 1u);
+}
+
+/// Why `count` threads are too many or negative ("" when allowed; 0 means a default).
+inline std::string parallelism_problem(long count) {
+  const int max = max_parallelism();
+  if (count >= 0 && count <= max) return {};
+  return std::to_string(count) + " is out of range: 0 to " + std::to_string(max) + " (4 x the " +
+         std::to_string(max / 4) + " hardware threads of this machine)";
+}
+
+/// The thread count a run asks for, `count` given as `field` ("--threads", "threads"): InputError beyond
+/// the bound. With 0 (OpenMP's default) the default comes from OMP_NUM_THREADS, which is bounded the same.
+inline void check_thread_count(long count, const std::string& field) {
+  if (std::string p = parallelism_problem(count); !p.empty()) throw InputError(field, std::to_string(count), p);
+  if (count != 0) return;
+  // OpenMP reads the first entry of a list ("8,2"); text it cannot read it ignores, and so does this.
+  const char* env = std::getenv("OMP_NUM_THREADS");
+  char* end = nullptr;
+  const long n = env ? std::strtol(env, &end, 10) : 0;
+  if (env && end != env && !parallelism_problem(n).empty())
+    throw InputError("OMP_NUM_THREADS", env, parallelism_problem(n) + "; set it lower or give " + field);
 }
 
 /// "interrupted by SIGTERM" (or "interrupted" without a signal).
