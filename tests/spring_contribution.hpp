@@ -51,6 +51,9 @@ struct SpringChain {
   double k1 = 2.0, k2 = 0.5, force = 0.3;
   int n1 = 12, n2 = 13;
   fe::FeModel model;
+  /// The closed-form x-displacements of n1 and n2 (springs in series from a held node).
+  double u1() const { return force / k1; }
+  double u2() const { return u1() + force / k2; }
 };
 
 inline SpringChain spring_chain(bool declare = true) {
