@@ -4,6 +4,8 @@
 #include "softhom/materials/system_memory.hpp"
 #include "softhom/macro/scene.hpp"
 
+#include "softhom/fe/petsc_options.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -565,6 +567,7 @@ void read_solver(const toml::table& scene, MacroScene& m) {
                      "limit max_krylov_iterations instead");
   SolverKeys k{m.newton, m.spec.formulation};
   solver_table().read(sv, "solver", k);
+  fe::check_petsc_options(k.newton.petsc_options);  // nothing of a shared scene writes outside --out
   m.newton = k.newton;
   m.spec.formulation = k.formulation;
 }
