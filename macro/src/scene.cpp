@@ -536,6 +536,9 @@ void read_load(const toml::table& scene, MacroScene& m) {
     for (const std::string& n : l.surfaces)
       if (!s.imported.mesh.has_surface(n))
         throw InputError("load.surface", "\"" + n + "\"", "no physical surface of that name in the mesh");
+    if (l.surfaces.empty() && l.control != LoadControl::stretch)
+      throw InputError("load.surface", "(missing)",
+                       "pressure and volume control on a Gmsh mesh load a physical surface: name it (e.g. surface = \"inner\")");
     s.imported.load_surfaces = l.surfaces;
     if (l.cavity_mask) s.imported.cavity_mask = *l.cavity_mask;
   } else if (!l.surfaces.empty() || l.cavity_mask) {
