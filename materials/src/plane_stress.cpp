@@ -17,6 +17,11 @@ constexpr double kTolerance = 1e-10;
 /// Below this the iteration stops without a further step (quadratic convergence gets there in one).
 constexpr double kTight = 1e-13;
 constexpr int kMaxEvaluations = 60;
+/// Compressible mode: an equilibrium within this Material::limit_margin of the law's limit is refused
+/// as locking, like the material-point driver's default (PointSolverOptions::limit_margin). Beyond the
+/// incompressible limit the compressible Gent law still balances S33 = 0, but only by dilating (J − 1
+/// of order 1 at a margin of order G/K): a state where only the bulk modulus resists.
+constexpr double kLimitMargin = 1e-3;
 
 /// Symmetric basis matrix of the Voigt coordinate b: 0 = E11, 1 = E22, 2 = 2E12 (engineering), 3 = E33.
 Mat3 voigt_basis(int b) {
@@ -103,14 +108,17 @@ MaterialStatus solve_thickness(const Material& law, const InPlane& k, const doub
                            incompressible_guess, std::sqrt(0.5 * k.C.trace()), 1.0};
   int start = 0;
   double lambda = starts[0], lo = 0.0, hi = std::numeric_limits<double>::infinity(), good = 0.0;
-  MaterialStatus failure = MaterialStatus::not_finite;
+  double good_margin = 1.0;
+  bool locked = false;  // some iterate hit the law's limit
   out.iterations = 0;
   while (out.iterations < kMaxEvaluations) {
     ++out.iterations;
     F = block_F(k.U, lambda);
     const MaterialStatus st = law.evaluate(F, state_old, state_new, dt, P, &A);
     if (st != MaterialStatus::ok) {
-      failure = st;
+      locked = locked || st == MaterialStatus::locking;
+      // The root lies between an iterate at the limit and one within kLimitMargin of it: refused anyway.
+      if (locked && good > 0.0 && good_margin < kLimitMargin) return MaterialStatus::locking;
       if (good > 0.0) {
         lambda = std::sqrt(lambda * good);  // back towards the last admissible iterate
       } else if (++start < int(std::size(starts))) {
@@ -121,20 +129,22 @@ MaterialStatus solve_thickness(const Material& law, const InPlane& k, const doub
       continue;
     }
     good = lambda;
+    good_margin = law.limit_margin(F);
     const double S33 = P(2, 2) / lambda, scale = stress_scale(law, F.inverse() * P);
     out.lambda3 = lambda;
     out.residual = std::abs(S33) / scale;
-    if (out.residual <= kTight) return MaterialStatus::ok;
     const double step = -P(2, 2) / A(8, 8);
-    // Round-off level: Newton cannot improve λ3 by more than its last bits.
-    if (out.residual <= kTolerance && !(std::abs(step) > 8.0 * std::numeric_limits<double>::epsilon() * lambda))
-      return MaterialStatus::ok;
+    // Converged: tight, or at round-off level (Newton cannot improve λ3 by more than its last bits; the
+    // floor of S33 is then ~ε K, above kTolerance · G only beyond K/G ≈ 1e5).
+    const double eps = std::numeric_limits<double>::epsilon();
+    if (out.residual <= kTight || (out.residual <= kTolerance + 32.0 * eps * law.initial_bulk_modulus() / scale &&
+                                   !(std::abs(step) > 8.0 * eps * lambda)))
+      return good_margin < kLimitMargin ? MaterialStatus::locking : MaterialStatus::ok;
     (S33 > 0.0 ? hi : lo) = lambda;
     const double next = lambda + step;
     lambda = (A(8, 8) > 0.0 && next > lo && next < hi) ? next : safeguarded(lo, hi, lambda);
-    failure = MaterialStatus::not_finite;
   }
-  return failure;
+  return locked ? MaterialStatus::locking : MaterialStatus::not_finite;
 }
 
 /// Condensed tangent of the compressible mode: D_ab − D_a3 D_3b / D_33.
