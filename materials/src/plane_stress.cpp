@@ -102,10 +102,13 @@ double safeguarded(double lo, double hi, double lambda) {
 MaterialStatus solve_thickness(const Material& law, const InPlane& k, const double* state_old, double* state_new,
                                double dt, PlaneStressPoint& out, Mat3& F, Mat3& P, Mat9& A) {
   const double incompressible_guess = 1.0 / std::sqrt(k.detC);
+  const auto given = [](double v) { return v > 0.0 && std::isfinite(v); };
+  const double guess = given(out.J)         ? out.J * incompressible_guess
+                       : given(out.lambda3) ? out.lambda3
+                                            : incompressible_guess;
   // Starting points tried in turn while none is admissible: the caller's guess, J = 1, the λ3 of least
   // Ī1 (λ3² = tr C2 / 2, the point farthest from a Gent limit), the reference.
-  const double starts[] = {out.lambda3 > 0.0 && std::isfinite(out.lambda3) ? out.lambda3 : incompressible_guess,
-                           incompressible_guess, std::sqrt(0.5 * k.C.trace()), 1.0};
+  const double starts[] = {guess, incompressible_guess, std::sqrt(0.5 * k.C.trace()), 1.0};
   int start = 0;
   double lambda = starts[0], lo = 0.0, hi = std::numeric_limits<double>::infinity(), good = 0.0;
   double good_margin = 1.0;
@@ -162,6 +165,7 @@ MaterialStatus compressible(const Material& law, const InPlane& k, const double*
   if (st != MaterialStatus::ok) return st;
   const Mat3 S = F.inverse() * P;
   out.S = in_plane_voigt(S);
+  out.J = F.determinant();
   out.pressure = 0.0;
   out.converged = true;
   if (!condense_compressible(voigt_tangent(material_tangent(F, S, A)), out.D)) return MaterialStatus::not_finite;
@@ -207,6 +211,7 @@ MaterialStatus incompressible(const Material& law, const InPlane& k, const doubl
     for (int a = 0; a < 3; ++a) out.D(a, b) = R(a, b) + R(a, 3) * g[b] + c[a] * dq + q * dc[a];
   }
   out.lambda3 = l3;
+  out.J = 1.0;
   out.residual = 0.0;  // S33 = S_rest,33 + q / λ3² = 0 by construction
   out.converged = true;
   return out.S.allFinite() && out.D.allFinite() ? MaterialStatus::ok : MaterialStatus::not_finite;
@@ -228,6 +233,7 @@ MaterialStatus plane_stress(const Material& law, const Vec3v& E, const double* s
     out.pressure = 0.0;
     out.converged = false;
     if (!std::isfinite(out.lambda3)) out.lambda3 = 0.0;
+    if (!std::isfinite(out.J)) out.J = 0.0;
     if (!std::isfinite(out.residual)) out.residual = 0.0;
   }
   return st;

@@ -40,8 +40,12 @@ struct PlaneStressPoint {
   Vec3v S = Vec3v::Zero();  ///< [S11, S22, S12]
   Mat3v D = Mat3v::Zero();  ///< condensed consistent tangent dS/dE (E in Voigt [E11, E22, 2E12])
   /// Thickness stretch. On input: the starting guess of the compressible Newton iteration when > 0
-  /// (e.g. the value of the previous step at this point); ignored otherwise and in incompressible mode.
+  /// and J is not given; ignored in incompressible mode.
   double lambda3 = 0.0;
+  /// Volume ratio det F = λ3 sqrt(det C2). On input, when > 0: the compressible mode starts from
+  /// λ3 = J / sqrt(det C2), preferred to lambda3 as a warm start (the previous step's J at this point):
+  /// near incompressibility J moves by O(G/K) between steps where λ3 moves with the strain.
+  double J = 0.0;
   /// Incompressible mode: the pressure p of S = S_rest(C) − p C⁻¹ (0 in compressible mode).
   double pressure = 0.0;
   /// |S33| / max(|S|, G0) at the returned λ3 (G0 the law's initial shear modulus); ≤ 1e-10 when ok.
@@ -88,6 +92,7 @@ struct SectionPoint {
   double z = 0.0;                ///< reference distance from the mid-surface of the whole stack
   Vec3v S = Vec3v::Zero();       ///< [S11, S22, S12] at this point
   double lambda3 = 1.0;          ///< thickness stretch at this point
+  double J = 0.0;                ///< volume ratio at this point (the warm start; 0 = none)
 };
 
 /// Result of one section evaluation; reuse one object so that `points` is not reallocated.
@@ -95,8 +100,8 @@ struct SectionResponse {
   Vec3v N = Vec3v::Zero();        ///< membrane forces ∫ S dz per unit reference length [N/mm]
   Vec3v M = Vec3v::Zero();        ///< moments ∫ z S dz per unit reference length [N]
   Mat6v tangent = Mat6v::Zero();  ///< d[N; M]/d[ε; κ] (when asked for)
-  /// Per point, bottom to top. On input, when it already holds num_points() entries, their lambda3
-  /// are the starting guesses of the compressible thickness iteration (warm start).
+  /// Per point, bottom to top. On input, when it already holds num_points() entries, their J are the
+  /// starting guesses of the compressible thickness iteration (warm start; see PlaneStressPoint::J).
   std::vector<SectionPoint> points;
   double thickness_stretch = 1.0;  ///< current / reference thickness, ∫ λ3 dz / h
   int failed_point = -1;           ///< index of the first point whose law failed (status non-ok)
