@@ -48,7 +48,9 @@ struct PlaneStressPoint {
   double J = 0.0;
   /// Incompressible mode: the pressure p of S = S_rest(C) − p C⁻¹ (0 in compressible mode).
   double pressure = 0.0;
-  /// |S33| / max(|S|, G0) at the returned λ3 (G0 the law's initial shear modulus); ≤ 1e-10 when ok.
+  /// |S33| / max(|S|, G0) at the returned λ3 (G0 the law's initial shear modulus). When ok: ≤ 1e-10,
+  /// or at the round-off floor of the law's pressure (≈ 32 ε K / max(|S|, G0), larger only for K/G
+  /// beyond ≈ 1e5) where Newton can no longer move λ3.
   double residual = 0.0;
   int iterations = 0;      ///< law evaluations spent on λ3 (incompressible: 1)
   bool converged = false;  ///< false when the Newton iteration for λ3 did not converge (status not_finite)
@@ -56,10 +58,11 @@ struct PlaneStressPoint {
 
 /// Condenses `law` to plane stress at the in-plane Green–Lagrange strain E (local frame; see the file
 /// comment): F = U ⊕ λ3 with U = sqrt(I + 2E) the in-plane right stretch (laws are objective).
-/// `state_old` / `state_new` as in Material::evaluate (state_new written on success only... of the
-/// final evaluation). Returns the law's status (locking, inverted, not_finite) or not_finite when λ3
-/// did not converge; on any non-ok status out.S and out.D are zero (never NaN) and out.lambda3 is the
-/// last admissible iterate or the starting guess.
+/// `state_old` / `state_new` as in Material::evaluate (state_new is meaningful on success only: it is
+/// that of the law's evaluation at the returned λ3). Returns the law's status (locking, inverted,
+/// not_finite), locking for a compressible equilibrium within 1e-3 of the law's limit (limit_margin),
+/// or not_finite when λ3 did not converge; on any non-ok status out.S and out.D are zero (never NaN)
+/// and out.lambda3 is the last admissible iterate or the starting guess. Thread-safe like the law.
 MaterialStatus plane_stress(const Material& law, const Vec3v& E, const double* state_old, double* state_new,
                             double dt, PlaneStressMode mode, PlaneStressPoint& out);
 
