@@ -9,6 +9,7 @@
 // A law's fiber directions are read in that same local frame (helpers at the end build a layer's law
 // from fiber angles).
 #include <span>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -134,7 +135,8 @@ class ShellSection {
 
   /// N, M and (want_tangent) their tangent at membrane strain ε and curvature change κ (Voigt, κ12
   /// engineering: E(z) = ε + z κ). Returns ok or the first failing point's status (out.failed_point);
-  /// then N, M, tangent are zero, never NaN. state_new is written only on success.
+  /// then N, M, tangent are zero, never NaN. state_new is meaningful only on success (points before the
+  /// failing one have written theirs). Const and allocation-free once out.points has its size.
   MaterialStatus evaluate(const Vec3v& eps, const Vec3v& kappa, const double* state_old, double* state_new,
                           double dt, bool want_tangent, SectionResponse& out) const;
 
