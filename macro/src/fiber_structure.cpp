@@ -49,12 +49,26 @@ fe::FiberLines lines_of(const StructureSpec& spec, FiberSpec& f) {
   return fiber_lines(f, radius, z_to, default_element_length(spec, radius > 0.0 ? radius : 1.0));
 }
 
+/// The keys that place a fiber, for a message about a fiber that does not fit the mesh.
+std::string placing_keys(const FiberSpec& f) {
+  const std::string& k = f.options.field;
+  if (f.geometry == FiberGeometry::straight) return k + ".from, " + k + ".to, " + k + ".spacing";
+  return k + ".radius, " + k + ".z_from, " + k + ".z_to";
+}
+
 }  // namespace
 
 void add_fibers(Structure& s) {
   for (FiberSpec f : s.spec.fibers) {
     const fe::FiberLines lines = lines_of(s.spec, f);
-    auto fibers = std::make_shared<const fe::TiedFibers>(s.model.mesh, lines, f.options, s.model.element_material);
+    std::shared_ptr<const fe::TiedFibers> fibers;
+    try {
+      fibers = std::make_shared<const fe::TiedFibers>(s.model.mesh, lines, f.options, s.model.element_material);
+    } catch (const InputError& e) {
+      if (e.field() != f.options.field) throw;  // a key of its own (area, surface, ...)
+      throw InputError(e.field(), e.value(), std::string(e.what()).substr(e.field().size() + e.value().size() + 5) +
+                                                 " (placed by " + placing_keys(f) + ")");
+    }
     s.fibers.push_back(fibers);
     s.model.add(fibers);
   }

@@ -24,6 +24,7 @@ struct FiberTubeCase {
   bool fibers = true;
   bool tet10 = false;
   fe::SolverKind solver = fe::SolverKind::cholmod;
+  std::string petsc_options;
 };
 
 struct FiberTubeResult {
@@ -94,6 +95,7 @@ inline FiberTubeResult inflate_fiber_tube(const FiberTubeCase& c) {
   fe::NewtonOptions o;
   o.initial_substeps = c.substeps;
   o.solver = c.solver;
+  o.petsc_options = c.petsc_options;
   fe::Simulation sim(s.model, o);
   FiberTubeResult r;
   r.free_dofs = sim.num_free_dofs();
