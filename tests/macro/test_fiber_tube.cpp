@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "fiber_tube.hpp"
+#include "softhom/core/input_error.hpp"
 #include "softhom/macro/fiber_tube_model.hpp"
 
 using namespace softhom;
@@ -86,4 +87,28 @@ TEST(FiberTube, ThinWallMiddleFollowsTheKinematicModel) {
   ASSERT_TRUE(r.reached);
   EXPECT_NEAR(r.axial_stretch_mid - 1.0, m.axial_stretch - 1.0, 0.05 * std::abs(m.axial_stretch - 1.0));
   EXPECT_NEAR(r.hoop_stretch_mid - 1.0, m.hoop_stretch - 1.0, 0.05 * std::abs(m.hoop_stretch - 1.0));
+}
+
+TEST(FiberTube, FibersThatDoNotFitTheTubeAreRefusedNamingTheirKeys) {
+  auto message = [](const macro::StructureSpec& spec) -> std::string {
+    try {
+      (void)macro::build_structure(spec);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  test::FiberTubeCase c;
+  c.axial_cells = 4;
+  macro::StructureSpec spec = test::fiber_tube_spec(c);
+  spec.fibers[0].options.field = "fibers[0]";
+  spec.fibers[0].radius = 20.0;  // outside the wall
+  EXPECT_NE(message(spec).find("fibers[0].radius"), std::string::npos) << message(spec);
+  spec.fibers[0].radius = 0.0;
+  spec.fibers[0].options.tie = fe::FiberTie::surface;
+  spec.fibers[0].options.surface = "lid";
+  EXPECT_NE(message(spec).find("fibers[0].surface = \"lid\""), std::string::npos) << message(spec);
+  spec.fibers[0].options.surface = "";
+  spec.tube.sweep_deg = 90.0;
+  EXPECT_NE(message(spec).find("fibers[0].geometry"), std::string::npos) << message(spec);
 }
