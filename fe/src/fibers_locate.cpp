@@ -11,20 +11,6 @@
 namespace softhom::fe {
 namespace {
 
-/// ∂N_a/∂ξ of the trilinear hex (row a).
-Eigen::Matrix<double, 8, 3> hex8_shape_derivatives(const Vec3& xi) {
-  static constexpr int s[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
-                                  {-1, -1, 1},  {1, -1, 1},  {1, 1, 1},  {-1, 1, 1}};
-  Eigen::Matrix<double, 8, 3> d;
-  for (int a = 0; a < 8; ++a) {
-    const double f0 = 1 + s[a][0] * xi[0], f1 = 1 + s[a][1] * xi[1], f2 = 1 + s[a][2] * xi[2];
-    d(a, 0) = 0.125 * s[a][0] * f1 * f2;
-    d(a, 1) = 0.125 * f0 * s[a][1] * f2;
-    d(a, 2) = 0.125 * f0 * f1 * s[a][2];
-  }
-  return d;
-}
-
 /// Shape functions of a face at (ξ, η) and their derivatives: bilinear quad on [-1, 1]², or the
 /// 6-node triangle (vertices, then the mid-edge nodes of v0v1, v1v2, v2v0) on ξ, η ≥ 0, ξ + η ≤ 1.
 void face_shape(int n, const Eigen::Vector2d& s, Eigen::VectorXd& N, Eigen::MatrixXd& dN) {

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <random>
 
+#include "dense_sink.hpp"
 #include "softhom/core/input_error.hpp"
 #include "softhom/fe/fibers.hpp"
 #include "softhom/fe/solver.hpp"
@@ -19,22 +20,7 @@ using namespace softhom::fe;
 
 namespace {
 
-class DenseSink final : public AssemblySink {
- public:
-  DenseSink(int ndof, bool tangent)
-      : AssemblySink(tangent), R(Eigen::VectorXd::Zero(ndof)), K(Eigen::MatrixXd::Zero(tangent ? ndof : 0, tangent ? ndof : 0)) {}
-  void add_residual(int n, const int* dofs, const double* r) override {
-    for (int i = 0; i < n; ++i) R[dofs[i]] += r[i];
-  }
-  void add_tangent(int nr, const int* rows, int nc, const int* cols, const double* k) override {
-    for (int j = 0; j < nc; ++j)
-      for (int i = 0; i < nr; ++i) K(rows[i], cols[j]) += k[i + nr * j];
-  }
-  void add_border(int, const int*, const double*, const double*) override {}
-  void add_constraint_value(double) override {}
-  Eigen::VectorXd R;
-  Eigen::MatrixXd K;
-};
+using test::DenseSink;
 
 DenseSink evaluate(const Contribution& c, const Mesh& mesh, const std::vector<double>& u, bool tangent) {
   DenseSink sink(mesh.num_dofs(), tangent);
