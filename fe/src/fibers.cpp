@@ -241,4 +241,42 @@ std::vector<FiberElementState> TiedFibers::states(const Mesh& mesh, const Iterat
   return out;
 }
 
+namespace {
+
+/// The output stem of a [[fibers]] table: "fibers" for fibers[0] (or a field without index), "fibers_k".
+std::string fiber_stem(const std::string& field) {
+  const auto open = field.find('[');
+  if (open == std::string::npos) return field;
+  const std::string index = field.substr(open + 1, field.find(']') - open - 1);
+  return field.substr(0, open) + (index == "0" ? "" : "_" + index);
+}
+
+}  // namespace
+
+void TiedFibers::report(const Mesh& mesh, const Iterate& it, ContributionReport& out) const {
+  const std::vector<FiberElementState> st = states(mesh, it);
+  const std::vector<Vec3> x = current_points(mesh, it);
+  const std::string stem = fiber_stem(options_.field);
+  ReportField f;
+  f.cells = {stem, options_.order == 2 ? ReportCells::Type::line3 : ReportCells::Type::line2, reference_, connectivity_};
+  ReportArray stretch{"stretch", "1", 1, true, {}}, force{"force", "N", 1, true, {}}, angle{"angle", "deg", 1, true, {}};
+  ReportArray displacement{"displacement", "mm", 3, false, {}};
+  double max_stretch = 0.0, max_force = 0.0, mean_angle = 0.0;
+  for (const FiberElementState& s : st) {
+    stretch.values.push_back(s.stretch);
+    force.values.push_back(s.force);
+    angle.values.push_back(s.angle_deg);
+    max_stretch = std::max(max_stretch, s.stretch);
+    max_force = std::max(max_force, s.force);
+    mean_angle += std::abs(s.angle_deg) / double(st.size());
+  }
+  for (std::size_t p = 0; p < x.size(); ++p)
+    for (int c = 0; c < 3; ++c) displacement.values.push_back(x[p][c] - reference_[p][c]);
+  f.arrays = {stretch, force, angle, displacement};
+  out.fields.push_back(std::move(f));
+  out.probes.emplace_back(stem + "_max_stretch", max_stretch);
+  out.probes.emplace_back(stem + "_max_force [N]", max_force);
+  out.probes.emplace_back(stem + "_mean_abs_angle [deg]", mean_angle);
+}
+
 }  // namespace softhom::fe

@@ -301,3 +301,38 @@ TEST(Fibers, BadInputIsRefusedNamingItsKey) {
   o.surface = "zmax";
   EXPECT_NE(field_of(straight({0.1, 0.5, 0.5}, {1.5, 0.5, 0.5}, 4), o).find("not on surface"), std::string::npos);
 }
+
+TEST(Fibers, ReportGivesPolylinesWithStretchForceAndAngle) {
+  // The field's cells are the fiber elements (line3 for 3-node ones, in XDMF order: ends, then middle),
+  // on the reference points; its arrays are the states of the elements (the same numbers).
+  const Mesh mesh = block({2, 1, 1}, {4, 2, 2});
+  FiberOptions o = glass();
+  o.order = 2;
+  o.field = "fibers[1]";
+  const TiedFibers fibers(mesh, straight({0.1, 0.2, 0.3}, {1.9, 0.7, 0.8}, 6), o);
+  const std::vector<double> u = affine(mesh, Vec3(1.2, 1.0, 1.0).asDiagonal());
+  Iterate it;
+  it.u = &u;
+  ContributionReport r;
+  fibers.report(mesh, it, r);
+  ASSERT_EQ(r.fields.size(), 1u);
+  const ReportField& f = r.fields[0];
+  EXPECT_EQ(f.cells.stem, "fibers_1");
+  EXPECT_EQ(f.cells.type, ReportCells::Type::line3);
+  ASSERT_EQ(f.cells.connectivity.size(), 3u * fibers.num_elements());
+  EXPECT_EQ(f.cells.connectivity[2], 1);  // the first element's middle node is the polyline's second point
+  const auto states = fibers.states(mesh, it);
+  ASSERT_EQ(f.arrays.size(), 4u);
+  for (int e = 0; e < fibers.num_elements(); ++e) {
+    EXPECT_EQ(f.arrays[0].values[e], states[e].stretch);
+    EXPECT_EQ(f.arrays[1].values[e], states[e].force);
+    EXPECT_EQ(f.arrays[2].values[e], states[e].angle_deg);
+  }
+  ASSERT_EQ(r.probes.size(), 3u);
+  EXPECT_EQ(r.probes[1].first, "fibers_1_max_force [N]");
+  // The first element's current angle from the z axis: its chord (1.2 · 0.6, 1/6, 1/6) between the
+  // current points 0 and 2, split into the hoop direction at its midpoint and z (to round-off).
+  const Vec3 d(1.2 * 0.6, 1.0 / 6, 1.0 / 6), mid(1.2 * 0.4, 0.2 + 1.0 / 12, 0.3 + 1.0 / 12);
+  const Vec3 e_theta = Vec3(-mid[1], mid[0], 0.0).normalized();
+  EXPECT_NEAR(f.arrays[2].values[0], std::atan2(d.dot(e_theta), d[2]) * 180 / M_PI, 1e-9);
+}

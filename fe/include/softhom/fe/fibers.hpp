@@ -140,6 +140,10 @@ class TiedFibers final : public Contribution {
   void validate(const Mesh& mesh) const override;
   void declare_couplings(Couplings& couplings) const override;
   MaterialStatus assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const override;
+  /// Probes <stem>_max_stretch, <stem>_max_force [N], <stem>_mean_abs_angle [deg]; the field <stem>
+  /// (line2/line3 cells) with per-element stretch, force [N], current angle [deg] and the nodes'
+  /// displacement [mm]. The stem is "fibers" for the first [[fibers]] table, "fibers_k" for table k.
+  void report(const Mesh& mesh, const Iterate& it, ContributionReport& out) const override;
 
   int num_elements() const { return int(elements_.size()); }
   int nodes_per_element() const { return options_.order + 1; }
