@@ -19,7 +19,8 @@ struct FiberTubeCase {
   int count = 12;                           ///< fibers per family
   double fiber_modulus = 1e4, fiber_area = 0.05;  ///< near inextensible: E A / (G H spacing) ~ 4e3
   fe::FiberTie tie = fe::FiberTie::embedded;
-  double pressure = 0.01;
+  double pressure = 0.01;      ///< the end of the pressure ramp, or with volume_ratio > 0 the
+  double volume_ratio = 0.0;   ///< end of the cavity-volume ramp V/V0 (cavity control) instead
   int substeps = 4;
   bool fibers = true;
   bool tet10 = false;
@@ -33,6 +34,7 @@ struct FiberTubeResult {
   double hoop_stretch_mid = 1.0;   ///< mid-wall radius at L/2 over its reference
   double twist_mid_deg = 0.0;      ///< rotation of the 3L/4 ring relative to the L/4 ring
   double axial_stretch_end = 1.0, twist_end_deg = 0.0;  ///< the structure's probes at the free end
+  double pressure = 0.0, volume_ratio = 1.0;            ///< the cavity's at the end
   int fiber_elements = 0, newton_iterations = 0, free_dofs = 0;
   double seconds = 0.0;
 };
@@ -50,8 +52,8 @@ inline macro::StructureSpec fiber_tube_spec(const FiberTubeCase& c) {
   spec.tube.cap_thickness = c.cap;
   spec.tet10 = c.tet10;
   spec.material = make_material(make_neo_hookean({c.G, c.K}));
-  spec.control = macro::LoadControl::pressure;
-  spec.load = {{0.0, 1.0}, {0.0, c.pressure}};
+  spec.control = c.volume_ratio > 0.0 ? macro::LoadControl::volume : macro::LoadControl::pressure;
+  spec.load = c.volume_ratio > 0.0 ? PiecewiseLinear{{0.0, 1.0}, {1.0, c.volume_ratio}} : PiecewiseLinear{{0.0, 1.0}, {0.0, c.pressure}};
   if (c.fibers) {
     macro::FiberSpec f;
     f.geometry = c.geometry;
@@ -110,6 +112,11 @@ inline FiberTubeResult inflate_fiber_tube(const FiberTubeCase& c) {
   r.hoop_stretch_mid = m.r / m.R;
   r.twist_mid_deg = (b.turn - a.turn) * 180.0 / M_PI;
   const auto probes = macro::probe_values(s, sim);  // time, pressure, volume, inner_radius, stretch, axial_stretch, twist_deg
+  r.pressure = probes[1];
+  const fe::FeModel& model = s.model;  // the capped tube's cavity: mask (1, 1, 1)
+  const double V0 = model.cavity ? fe::cavity_volume(model.mesh.nodes, model.cavity->faces, model.cavity->mask, model.cavity->tris)
+                                 : fe::cavity_volume(model.mesh.nodes, model.pressures[0].faces, Vec3(1, 1, 1), model.pressures[0].tris);
+  r.volume_ratio = probes[2] / V0;
   r.axial_stretch_end = probes[5];
   r.twist_end_deg = probes[6];
   return r;

@@ -86,6 +86,19 @@ TEST(FiberTube, SingleHelixTwists) {
   EXPECT_LT(r.twist_mid_deg, -1.0);
 }
 
+TEST(FiberTube, CavityControlReachesThePressureRunsStateWithFibers) {
+  // The 70° tube driven to the volume its pressure run ended at: the cavity's pressure is the pressure
+  // run's (both converge to 1e-8 of the force scale; 1e-5 relative leaves room for the volume's and
+  // the pressure's own Newton error and still catches a fiber force left out under cavity control).
+  test::FiberTubeCase c = tube(70.0);
+  const test::FiberTubeResult by_pressure = test::inflate_fiber_tube(c);
+  c.volume_ratio = by_pressure.volume_ratio;
+  const test::FiberTubeResult by_volume = test::inflate_fiber_tube(c);
+  ASSERT_TRUE(by_pressure.reached && by_volume.reached);
+  EXPECT_NEAR(by_volume.pressure, c.pressure, 1e-5 * c.pressure);
+  EXPECT_NEAR(by_volume.axial_stretch_end, by_pressure.axial_stretch_end, 1e-5 * (by_pressure.axial_stretch_end - 1.0));
+}
+
 TEST(FiberTube, FibersThatDoNotFitTheTubeAreRefusedNamingTheirKeys) {
   auto message = [](const macro::StructureSpec& spec) -> std::string {
     try {
