@@ -30,7 +30,7 @@ void kinematic_table() {
     bool twin;
   };
   for (const Row& row : {Row{5.5, 40, 0.01, true}, Row{5.5, 70, 0.01, true}, Row{5.5, 40, 0.004, false},
-                         Row{6.5, 40, 0.03, true}, Row{6.5, 70, 0.03, true}, Row{7.5, 40, 0.06, true}}) {
+                         Row{6.5, 40, 0.03, true}, Row{6.5, 70, 0.03, true}, Row{7.5, 40, 0.04, true}}) {
     test::FiberTubeCase c;
     c.outer_radius = row.ro;
     c.radial_cells = row.ro > 6.0 ? 3 : 1;
