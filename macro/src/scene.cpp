@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "device_keys.hpp"
+#include "fiber_keys.hpp"
 #include "softhom/io/gmsh.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/macro/mesh_generation.hpp"
@@ -347,7 +348,8 @@ const KeyTable<SceneKeysTop>& scene_table() {
         .custom("boundary", "list of tables", "gmsh only: constraints on physical surfaces", skip)
         .custom("probe", "table", "gmsh only: reported surface", skip)
         .custom("regions", "table", "gmsh only: a material table per physical volume", skip)
-        .custom("device", "table", "gmsh only: device outputs (device.csv)", skip);
+        .custom("device", "table", "gmsh only: device outputs (device.csv)", skip)
+        .custom("fibers", "list of tables", "fibers tied to the structure ([[fibers]] below)", skip);
     return k;
   }();
   return t;
@@ -611,6 +613,7 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
   MacroScene m;
   read_geometry_table(scene, scene_file, mesh_cache, m.spec);
   m.device = read_device(scene.get("device"));
+  m.spec.fibers = read_fibers(scene.get("fibers"));  // tied to the mesh (and checked against it) when it is built
   // The linear solver first: the memory estimate holds a factorization only on the direct path.
   read_solver(scene, m);
   m.spec.factorized_solver = automatic_solver_of(scene, m) != fe::SolverKind::petsc;
@@ -626,7 +629,7 @@ std::vector<keys::TableDoc> macro_scene_tables() {
   return {scene_table().describe(), tube_table(false).describe(), tube_table(true).describe(), sphere_table().describe(),
            plate_table().describe(), gmsh_table().describe(), boundary_table().describe(), probe_table().describe(),
            load_table().describe(), solver_table().describe(), output_table().describe(),
-          device_table().describe()};
+          device_table().describe(), fibers_table_doc()};
 }
 
 }  // namespace softhom::macro
