@@ -9,7 +9,8 @@ stretch, radial stretch and twist at the three output pressures, and the cost of
 dofs). Finished runs are kept in OUT/<scene>-h<size>/ and not run again.
 
     OMP_NUM_THREADS=1 nice python3 studies/structures/helix_tube_study.py --softhom build/apps/softhom \\
-        --out out/helix --cases ecoflex_a45 pdms_a45 --resolved 0.4 0.3 0.22 --homogenized 0.3
+        --out out/helix --cases ecoflex_a45 pdms_a45 --resolved 0.4 0.3 0.22 --homogenized 0.3 0.7 \\
+        [--models calibrated dissertation calibrated_biaxial_shear]
     python3 studies/structures/helix_tube_study.py --out out/helix --table      # the table only
 """
 import argparse
@@ -23,7 +24,7 @@ import subprocess
 import sys
 
 HERE = pathlib.Path(__file__).resolve().parent
-QUANTITIES = [("axial_stretch", "λz", "rel"), ("radial_stretch_outer", "λr", "rel"), ("twist_end_deg", "twist°", "abs")]
+QUANTITIES = [("axial_stretch", "λz", "strain"), ("radial_stretch_outer", "λr", "strain"), ("twist_end_deg", "twist°", "angle")]
 
 
 def run(softhom, out, scene, size):
@@ -63,14 +64,13 @@ def value(rows, k, q):
     return float(rows[k][q]) if k < len(rows) else float("nan")
 
 
-def error(model, ref, q, kind):
-    """Relative error of the deformation (λ − 1), or the absolute error of the twist in degrees."""
-    if kind == "abs":
-        return model - ref
-    return (model - ref) / (ref - 1.0) if ref != 1.0 else float("nan")
+def error(model, ref, kind):
+    """Relative error of the strain λ − 1, or of the twist angle."""
+    zero = 0.0 if kind == "angle" else 1.0
+    return (model - ref) / (ref - zero) if ref != zero else float("nan")
 
 
-def table(out, cases, resolved, homogenized):
+def table(out, cases, resolved, homogenized, models):
     for case in cases:
         runs = {h: load(out, f"resolved_{case}", h) for h in resolved}
         runs = {h: r for h, r in runs.items() if r and r["rows"]}
@@ -100,7 +100,7 @@ def table(out, cases, resolved, homogenized):
               " | ".join(f"err {n}" for _, n, _ in QUANTITIES) + " | wall [s] | free dofs | cost ratio |")
         print("|---|---|" + "---|" * (2 * len(QUANTITIES) + 3))
         wf, df = cost(fine["summary"])
-        for model in ("calibrated", "dissertation"):
+        for model in models:
             for h in homogenized:
                 r = load(out, f"{model}_{case}", h)
                 if not r:
@@ -111,10 +111,9 @@ def table(out, cases, resolved, homogenized):
                     refs = [value(fine["rows"], k, q) for q, _, _ in QUANTITIES]
                     errs = []
                     for (q, _, kind), ref in zip(QUANTITIES, refs):
-                        e = error(value(r["rows"], k, q), ref, q, kind)
-                        errs.append(f"{100 * e:+.1f} %" if kind == "rel" else f"{e:+.2f}°")
+                        errs.append(f"{100 * error(value(r['rows'], k, q), ref, kind):+.1f} %")
                     print(f"| {model} h={h} | {p:g} | " + " | ".join(f"{v:.4f}" for v in refs) + " | " +
-                          " | ".join(errs) + f" | {w:.1f} | {d} | {wf / w:.0f}× |")
+                          " | ".join(errs) + f" | {w:.1f} | {d} | {wf / w:.2g}× |")
 
 
 def main():
@@ -124,16 +123,18 @@ def main():
     ap.add_argument("--cases", nargs="+", default=["ecoflex_a45", "pdms_a45"])
     ap.add_argument("--resolved", nargs="+", type=float, default=[0.4, 0.3, 0.22])
     ap.add_argument("--homogenized", nargs="+", type=float, default=[0.3])
+    ap.add_argument("--models", nargs="+", default=["calibrated", "dissertation"],
+                    help="homogenized models: the scenes <model>_<case>.toml")
     ap.add_argument("--table", action="store_true", help="print the table from finished runs only")
     a = ap.parse_args()
     if not a.table:
         for case in a.cases:
-            for model in ("calibrated", "dissertation"):
+            for model in a.models:
                 for h in a.homogenized:
                     run(a.softhom, a.out, f"{model}_{case}", h)
             for h in sorted(a.resolved, reverse=True):
                 run(a.softhom, a.out, f"resolved_{case}", h)
-    table(a.out, a.cases, a.resolved, a.homogenized)
+    table(a.out, a.cases, a.resolved, a.homogenized, a.models)
 
 
 if __name__ == "__main__":
