@@ -116,6 +116,31 @@ def table(out, cases, resolved, homogenized, models):
                           " | ".join(errs) + f" | {w:.1f} | {d} | {wf / w:.2g}× |")
 
 
+def plot(out, case, resolved, homogenized, models, png):
+    """Mesh convergence of the resolved tube (last pressure) with the homogenized models as lines."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    runs = {h: load(out, f"resolved_{case}", h) for h in resolved}
+    runs = {h: r for h, r in runs.items() if r and r["rows"]}
+    fig, axes = plt.subplots(1, len(QUANTITIES), figsize=(4 * len(QUANTITIES), 3.4))
+    for ax, (q, name, kind) in zip(axes, QUANTITIES):
+        zero = 0.0 if kind == "angle" else 1.0
+        hs = sorted(runs)
+        ax.plot(hs, [value(runs[h]["rows"], len(runs[h]["rows"]) - 1, q) - zero for h in hs], "ko-", label="resolved")
+        for model, style in zip(models, ("C0--", "C1:", "C2-.")):
+            r = load(out, f"{model}_{case}", homogenized[0])
+            if r:
+                ax.axhline(value(r["rows"], len(r["rows"]) - 1, q) - zero, color=style[:2], ls=style[2:], label=model)
+        ax.set_xlabel("mesh size h [mm]")
+        ax.set_ylabel(name if kind == "angle" else f"{name} − 1")
+        ax.invert_xaxis()
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"{case}: resolved tube against homogenized models (last pressure)")
+    fig.tight_layout()
+    fig.savefig(png, dpi=110)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--softhom", default="softhom")
@@ -125,6 +150,7 @@ def main():
     ap.add_argument("--homogenized", nargs="+", type=float, default=[0.3])
     ap.add_argument("--models", nargs="+", default=["calibrated", "dissertation"],
                     help="homogenized models: the scenes <model>_<case>.toml")
+    ap.add_argument("--plot", type=pathlib.Path, help="PNG of the first case's mesh convergence")
     ap.add_argument("--table", action="store_true", help="print the table from finished runs only")
     a = ap.parse_args()
     if not a.table:
@@ -135,6 +161,8 @@ def main():
             for h in sorted(a.resolved, reverse=True):
                 run(a.softhom, a.out, f"resolved_{case}", h)
     table(a.out, a.cases, a.resolved, a.homogenized, a.models)
+    if a.plot:
+        plot(a.out, a.cases[0], a.resolved, a.homogenized, a.models, a.plot)
 
 
 if __name__ == "__main__":
