@@ -1,5 +1,7 @@
 #include "softhom/macro/mesh_generation.hpp"
 
+#include "geo_policy.hpp"
+
 #include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -100,6 +102,7 @@ std::filesystem::path mesh_from_geo(const std::filesystem::path& geo, double mes
   namespace fs = std::filesystem;
   if (!fs::is_regular_file(geo)) throw InputError(field, geo.string(), "no such .geo file");
   const std::string text = read_text(geo);
+  check_geo_text(text, geo, field);
   const std::string h = size_text(mesh_size);
   std::string keyed = text + "\n#mesh_size=" + h;
   for (const auto& [name, value] : parameters) keyed += "\n#" + name + "=" + size_text(value);

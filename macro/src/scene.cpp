@@ -4,6 +4,8 @@
 #include "softhom/materials/system_memory.hpp"
 #include "softhom/macro/scene.hpp"
 
+#include "softhom/fe/petsc_options.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -540,6 +542,9 @@ void read_load(const toml::table& scene, MacroScene& m) {
     for (const std::string& n : l.surfaces)
       if (!s.imported.mesh.has_surface(n))
         throw InputError("load.surface", "\"" + n + "\"", "no physical surface of that name in the mesh");
+    if (l.surfaces.empty() && l.control != LoadControl::stretch)
+      throw InputError("load.surface", "(missing)",
+                       "pressure and volume control on a Gmsh mesh load a physical surface: name it (e.g. surface = \"inner\")");
     s.imported.load_surfaces = l.surfaces;
     if (l.cavity_mask) s.imported.cavity_mask = *l.cavity_mask;
   } else if (!l.surfaces.empty() || l.cavity_mask) {
@@ -571,6 +576,7 @@ void read_solver(const toml::table& scene, MacroScene& m) {
                      "limit max_krylov_iterations instead");
   SolverKeys k{m.newton, m.spec.formulation};
   solver_table().read(sv, "solver", k);
+  fe::check_petsc_options(k.newton.petsc_options);  // nothing of a shared scene writes outside --out
   m.newton = k.newton;
   m.spec.formulation = k.formulation;
 }
