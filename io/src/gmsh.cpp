@@ -395,8 +395,29 @@ void GmshReader::read_elements() {
   have_elements = true;
 }
 
+bool valid_tet(const Mesh& mesh, const Tet10& t) {
+  Tet10Coords X;
+  for (int a = 0; a < 10; ++a) X.row(a) = mesh.nodes[t[a]].transpose();
+  return tet10_geometry(X).valid;
+}
+
+/// Straight edges for the tets that curved ones invert (parse_gmsh); a few passes, as a straightened
+/// edge changes its neighbours too.
+void straighten_inverted_tets(Mesh& mesh) {
+  for (int pass = 0; pass < 3; ++pass) {
+    bool found = false;
+    for (const Tet10& t : mesh.tets) {
+      if (valid_tet(mesh, t)) continue;
+      for (int k = 0; k < 6; ++k)
+        mesh.nodes[t[4 + k]] = 0.5 * (mesh.nodes[t[kTet10Edges[k][0]]] + mesh.nodes[t[kTet10Edges[k][1]]]);
+      found = true;
+    }
+    if (!found) return;
+  }
+}
+
 /// The volume elements as a Mesh: regions, tets promoted to tet10, orientation, Jacobian check.
-Mesh volume_mesh(GmshReader& r) {
+Mesh volume_mesh(GmshReader& r, bool straighten_inverted) {
   Tokens& tk = r.tk;
   const std::vector<VolumeElement>& volumes = r.volumes;
   Mesh mesh;
@@ -454,6 +475,7 @@ Mesh volume_mesh(GmshReader& r) {
   mesh.region.insert(mesh.region.end(), tet_region.begin(), tet_region.end());
   orient_hexes(mesh);
   orient_tets(mesh);
+  if (straighten_inverted) straighten_inverted_tets(mesh);
   for (std::size_t k = 0; k < mesh.hexes.size(); ++k) {
     Mat83 X;
     for (int a = 0; a < 8; ++a) X.row(a) = mesh.nodes[mesh.hexes[k][a]].transpose();
@@ -461,9 +483,7 @@ Mesh volume_mesh(GmshReader& r) {
       tk.fail_at(hex_line[k], "", "hexahedron with a non-positive Jacobian (distorted or wrongly numbered)");
   }
   for (std::size_t k = 0; k < mesh.tets.size(); ++k) {
-    Tet10Coords X;
-    for (int a = 0; a < 10; ++a) X.row(a) = mesh.nodes[mesh.tets[k][a]].transpose();
-    if (!tet10_geometry(X).valid)
+    if (!valid_tet(mesh, mesh.tets[k]))
       tk.fail_at(tet_line[k], "",
                  "tetrahedron with a non-positive Jacobian (degenerate, or mid-edge nodes far off their edges)");
   }
@@ -556,20 +576,20 @@ void drop_unused_nodes(Mesh& mesh) {
 
 }  // namespace
 
-Mesh parse_gmsh(std::istream& in, const std::string& source) {
+Mesh parse_gmsh(std::istream& in, const std::string& source, bool straighten_inverted) {
   std::ostringstream buffer;
   buffer << in.rdbuf();
   GmshReader reader(buffer.str(), source);
   reader.read_sections();
-  Mesh mesh = volume_mesh(reader);
+  Mesh mesh = volume_mesh(reader, straighten_inverted);
   attach_surfaces(reader, mesh);
   drop_unused_nodes(mesh);
   return mesh;
 }
 
-Mesh read_gmsh(const std::filesystem::path& file, const std::string& field) {
+Mesh read_gmsh(const std::filesystem::path& file, const std::string& field, bool straighten_inverted) {
   std::istringstream in(read_input_file(file, field, kMeshFile));
-  return parse_gmsh(in, file.string());
+  return parse_gmsh(in, file.string(), straighten_inverted);
 }
 
 }  // namespace softhom::io

@@ -232,7 +232,7 @@ nlohmann::json macro_summary(const MacroJob& job, const macro::Structure& struct
   summary["columns"] = io::columns_json(record.columns());
   if (const DeviceRecord& device = record.device(); device.probe) {
     nlohmann::json d;
-    d["kind"] = ms.device.kind == macro::DeviceKind::cpasmo ? "cpasmo" : "gripper";
+    d["kind"] = ms.device.kind == macro::DeviceKind::cpasmo ? "cpasmo" : ms.device.kind == macro::DeviceKind::gripper ? "gripper" : "tube";
     d["file"] = "device.csv";
     d["columns"] = device.columns;
     d["stopped_before_contact"] = !device.stop.empty();

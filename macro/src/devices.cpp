@@ -107,6 +107,8 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
       f.angle0 = std::atan2(-d.dot(f.radial), d[2]);
       fingers_.push_back(std::move(f));
     }
+  } else if (spec.kind == DeviceKind::tube) {
+    tube_ = std::make_shared<const TubeGauge>(mesh, "device.kind");
   }
   volume0_ = channel_volume(X);
 }
@@ -127,6 +129,8 @@ std::vector<std::string> DeviceProbe::columns() const {
     c.push_back("finger_angle_deg");
     for (const auto& t : spec_.tips) c.push_back("finger_angle_" + t + "_deg");
     c.push_back("tip_axis_distance_mm");
+  } else if (spec_.kind == DeviceKind::tube) {
+    for (const std::string& n : TubeGauge::columns()) c.push_back(n);
   }
   return c;
 }
@@ -168,6 +172,8 @@ std::vector<double> DeviceProbe::values(const fe::Simulation& sim) const {
     row.push_back(std::accumulate(angles.begin(), angles.end(), 0.0) / double(std::max<std::size_t>(1, angles.size())));
     row.insert(row.end(), angles.begin(), angles.end());
     row.push_back(distance);
+  } else if (tube_) {
+    for (double q : tube_->values(X, x)) row.push_back(q);
   }
   return row;
 }

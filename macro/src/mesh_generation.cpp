@@ -97,14 +97,17 @@ std::filesystem::path mesh_cache_dir(const std::filesystem::path& out) {
 }
 
 std::filesystem::path mesh_from_geo(const std::filesystem::path& geo, double mesh_size,
-                                    const std::filesystem::path& cache_dir, const std::string& field) {
+                                    const std::filesystem::path& cache_dir, const std::string& field,
+                                    const std::vector<std::pair<std::string, double>>& parameters) {
   namespace fs = std::filesystem;
   if (!fs::is_regular_file(geo)) throw InputError(field, geo.string(), "no such .geo file");
   const std::string text = read_text(geo);
   check_geo_text(text, geo, field);
   const std::string h = size_text(mesh_size);
+  std::string keyed = text + "\n#mesh_size=" + h;
+  for (const auto& [name, value] : parameters) keyed += "\n#" + name + "=" + size_text(value);
   char hash[17];
-  std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(fnv1a(text + "\n#mesh_size=" + h)));
+  std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(fnv1a(keyed)));
   std::error_code ec;
   fs::create_directories(cache_dir, ec);
   if (ec) throw InputError(field, cache_dir.string(), "cannot create the mesh cache directory: " + ec.message());
@@ -117,9 +120,10 @@ std::filesystem::path mesh_from_geo(const std::filesystem::path& geo, double mes
   const char* env = std::getenv("SOFTHOM_GMSH");
   const std::string program = env && *env ? env : "gmsh";
   // An argument vector, not a command line: paths with spaces or shell characters are passed as they are.
-  const int rc = run_program({program, fs::absolute(geo).string(), "-3", "-order", "2", "-setnumber", "mesh_size", h,
-                              "-format", "msh41", "-o", tmp.string()},
-                             log);
+  std::vector<std::string> args{program, fs::absolute(geo).string(), "-3", "-order", "2", "-setnumber", "mesh_size", h};
+  for (const auto& [name, value] : parameters) args.insert(args.end(), {"-setnumber", name, size_text(value)});
+  args.insert(args.end(), {"-format", "msh41", "-o", tmp.string()});
+  const int rc = run_program(args, log);
   if (rc == 127)
     throw InputError(field, geo.string(),
                      "cannot run the mesher '" + program + "' (install Debian's gmsh, or set SOFTHOM_GMSH): " +

@@ -11,6 +11,7 @@
 
 #include "device_keys.hpp"
 #include "fiber_keys.hpp"
+#include "helix_tube_keys.hpp"
 #include "softhom/io/gmsh.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/macro/mesh_generation.hpp"
@@ -349,7 +350,8 @@ const KeyTable<SceneKeysTop>& scene_table() {
         .custom("probe", "table", "gmsh only: reported surface", skip)
         .custom("regions", "table", "gmsh only: a material table per physical volume", skip)
         .custom("device", "table", "gmsh only: device outputs (device.csv)", skip)
-        .custom("fibers", "list of tables", "fibers tied to the structure ([[fibers]] below)", skip);
+        .custom("fibers", "list of tables", "fibers tied to the structure ([[fibers]] below)", skip)
+        .custom("helix_tube", "table", "gmsh only: parameters of a tube with helical solid fibers, passed to its .geo", skip);
     return k;
   }();
   return t;
@@ -459,11 +461,15 @@ void read_imported(const toml::table& scene, const toml::table& g, const std::fi
     return p;
   };
   std::filesystem::path path = resolve(o.file);
+  const toml::node* helix = scene.get("helix_tube");
+  if (helix && o.geo.empty()) throw InputError("helix_tube", "", "only with geometry.geo (the .geo reads the tube's parameters)");
+  const auto geo_parameters = helix ? helix_tube_geo_parameters(read_helix_tube(*helix)) : std::vector<std::pair<std::string, double>>{};
   if (!o.geo.empty())
-    path = mesh_from_geo(resolve(o.geo), o.mesh_size, mesh_cache.empty() ? mesh_cache_dir() : mesh_cache, "geometry.geo");
+    path = mesh_from_geo(resolve(o.geo), o.mesh_size, mesh_cache.empty() ? mesh_cache_dir() : mesh_cache, "geometry.geo",
+                         geo_parameters);
   if (!std::filesystem::exists(path)) throw InputError("geometry.file", path.string(), "no such file");
   auto& im = s.imported;
-  im.mesh = io::read_gmsh(path);
+  im.mesh = io::read_gmsh(path, "geometry.file", helix != nullptr);  // curved edges on thin fibers may invert tets
   read_boundaries(scene, im);
   ProbeKeys probe;
   probe_table().read_optional(scene.get("probe"), "probe", probe);
@@ -504,7 +510,7 @@ void read_geometry_table(const toml::table& scene, const std::filesystem::path& 
   } else {
     throw InputError("geometry.type", keys::describe_value(*tn), "must be " + kTypes + keys::did_you_mean(type, {"tube", "actuator", "sphere", "plate", "gmsh"}));
   }
-  for (const char* key : {"boundary", "probe", "regions", "device"})
+  for (const char* key : {"boundary", "probe", "regions", "device", "helix_tube"})
     if (type != "gmsh" && scene.contains(key)) throw InputError(key, "", "only for geometry.type = \"gmsh\"");
 }
 
@@ -629,7 +635,7 @@ std::vector<keys::TableDoc> macro_scene_tables() {
   return {scene_table().describe(), tube_table(false).describe(), tube_table(true).describe(), sphere_table().describe(),
            plate_table().describe(), gmsh_table().describe(), boundary_table().describe(), probe_table().describe(),
            load_table().describe(), solver_table().describe(), output_table().describe(),
-          device_table().describe(), fibers_table_doc()};
+          device_table().describe(), fibers_table_doc(), helix_tube_table().describe()};
 }
 
 }  // namespace softhom::macro

@@ -30,10 +30,15 @@
 
 namespace softhom::io {
 
-/// Parses MSH 4.1 text; `source` names the file in error messages.
-fe::Mesh parse_gmsh(std::istream& in, const std::string& source);
+/// Parses MSH 4.1 text; `source` names the file in error messages. With `straighten_inverted`, a
+/// quadratic tet whose curved edges give a non-positive Jacobian at a Gauss point (gmsh curving its
+/// mid-edge nodes onto a surface of small radius, e.g. a thin fiber) gets straight edges instead of
+/// being refused: its mid-edge nodes move to the edge midpoints, which its neighbours share (the
+/// surface moves by O(h²/R) there); a tet whose corners are inverted is still refused.
+fe::Mesh parse_gmsh(std::istream& in, const std::string& source, bool straighten_inverted = false);
 /// Reads a .msh file through the checked opener (files.hpp, kMeshFile): a file that is no regular
 /// file of at most 1 GiB is an InputError naming `field`, the scene key that names the file.
-fe::Mesh read_gmsh(const std::filesystem::path& file, const std::string& field = "geometry.file");
+fe::Mesh read_gmsh(const std::filesystem::path& file, const std::string& field = "geometry.file",
+                   bool straighten_inverted = false);
 
 }  // namespace softhom::io

@@ -14,16 +14,20 @@
 //           the channel volume and its change, and the smallest distance
 //           of a fingertip node to the axis; the run stops before the fingers touch, when that
 //           distance falls below stop_distance (fingers are not in contact in the model).
+//   tube    a tube along z clamped at its lower end: axial and radial stretch of the gauge section,
+//           twist of the free end (helix_tube.hpp, TubeGauge).
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "softhom/fe/solver.hpp"
+#include "softhom/macro/helix_tube.hpp"
 #include "softhom/macro/structures.hpp"
 
 namespace softhom::macro {
 
-enum class DeviceKind { none, cpasmo, gripper };
+enum class DeviceKind { none, cpasmo, gripper, tube };
 
 struct DeviceSpec {
   DeviceKind kind = DeviceKind::none;
@@ -70,6 +74,7 @@ class DeviceProbe {
   double top_z0_ = 0.0;
   std::vector<std::vector<Well>> regions_;
   std::vector<Finger> fingers_;
+  std::shared_ptr<const TubeGauge> tube_;
   double volume0_ = 0.0;
   double channel_volume(const std::vector<Vec3>& x) const;
 };

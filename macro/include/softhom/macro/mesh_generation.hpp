@@ -12,6 +12,8 @@
 // read a half-written file.
 #include <filesystem>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace softhom::macro {
 
@@ -21,8 +23,9 @@ std::filesystem::path mesh_cache_dir(const std::filesystem::path& out = {});
 
 /// Path of the cached mesh of `geo` at `mesh_size` (mm), generating it when absent. `field` names the
 /// scene key in errors: InputError when the .geo is missing, gmsh is not installed, or gmsh fails (its
-/// error lines in the message).
+/// error lines in the message). `parameters` are passed as further -setnumber NAME VALUE (and hashed).
 std::filesystem::path mesh_from_geo(const std::filesystem::path& geo, double mesh_size,
-                                    const std::filesystem::path& cache_dir, const std::string& field);
+                                    const std::filesystem::path& cache_dir, const std::string& field,
+                                    const std::vector<std::pair<std::string, double>>& parameters = {});
 
 }  // namespace softhom::macro
