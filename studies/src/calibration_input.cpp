@@ -660,7 +660,7 @@ void refuse_unbounded_fit(const CalibrationInput& in) {
                    "the fit may need up to " + g(work) + " material-point steps (" + std::to_string(in.solver.starts) +
                        " starts x " + std::to_string(in.solver.max_iterations) + " iterations x " + g(per_iteration) +
                        " evaluations per iteration x " + g(fit_steps) + " load steps of the fit curves), about " +
-                       g(work / kStepsPerSecond / 3600.0) + " hours at 4e4 steps/s; at most " + g(kMaxPointSteps) +
+                       format_number(std::ceil(work / kStepsPerSecond / 3600.0)) + " hours at 4e4 steps/s; at most " + g(kMaxPointSteps) +
                        " are accepted: lower starts, max_iterations or the curves' steps");
 }
 

@@ -489,7 +489,7 @@ def estimate_and_contradiction_cases(corpus, src):
         corpus.add("contradiction.point-P-%s-at-prescribed" % tag, "contradiction", "point", tomlwrite.dumps(m), [2],
                    ["load.P[0][0]"])
     m = copy.deepcopy(point)
-    m["material"] = {"law": "neo-hookean", "E": 1e308, "nu": 0.3}
+    m["material"] = {"law": "neo-hookean", "E": 1e308, "nu": 0.49}  # K = E / (3 (1 - 2 nu)) = inf
     corpus.add("message.point-E-1e308", "out-of-range", "point", tomlwrite.dumps(m), [2], ["material.E"])
     m = copy.deepcopy(point)
     m["load"]["duration"] = 5e-324
