@@ -123,13 +123,13 @@ std::vector<double> output_times(const LoadKeys& k, const std::string& path, con
 
 /// Output times that underflow to 0 or overflow to inf come from keys the scene gave: the message names
 /// the key (duration, hold, dt, else steps) with its value as written, not a derived load.times[i].
-void check_time_scale(const std::vector<double>& times, const std::set<std::string>& present, const LoadKeys& k,
-                      const std::string& path) {
-  bool ok = !times.empty() && times.front() > 0.0;
+void check_time_scale(const std::vector<double>& times, double end, const std::set<std::string>& present,
+                      const LoadKeys& k, const std::string& path) {
+  bool ok = !times.empty() && times.front() > 0.0 && std::isfinite(end);
   for (std::size_t i = 0; ok && i < times.size(); ++i) ok = std::isfinite(times[i]) && (i == 0 || times[i] > times[i - 1]);
   if (ok) return;
   const std::string why = "gives output times from " + format_number(times.front()) + " to " + format_number(times.back()) +
-                          ": a step must be a positive, finite time";
+                          " over a path ending at t = " + format_number(end) + ": a step must be a positive, finite time";
   if (present.count("duration")) throw InputError(keys::join_key(path, "duration"), format_number(k.duration), why);
   if (present.count("hold")) throw InputError(keys::join_key(path, "hold"), format_number(k.hold), why);
   if (k.dt) throw InputError(keys::join_key(path, "dt"), format_number(*k.dt), why);
@@ -261,7 +261,7 @@ MixedControl parse_load(const toml::table& t, const std::string& path) {
       break;
   }
   c.times = output_times(k, path, breaks);
-  check_time_scale(c.times, present, k, path);
+  check_time_scale(c.times, breaks.back(), present, k, path);
   c.validate();
   return c;
 }

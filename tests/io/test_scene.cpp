@@ -177,14 +177,14 @@ TEST(ContradictoryKeys, InPlaneAlongTheDirectionIsRefused) {
 }
 
 TEST(ContradictoryKeys, OverflowingModulusNamesTheKeyGiven) {
-  const std::string e = load_error("[material]\nlaw = \"neo-hookean\"\nE = 1e308\nnu = 0.3\n");
-  EXPECT_NE(e.find("material.E = 1e+308: with nu = 0.3 gives mu = "), std::string::npos) << e;
+  const std::string e = load_error("[material]\nlaw = \"neo-hookean\"\nE = 1e308\nnu = 0.49\n");
+  EXPECT_NE(e.find("material.E = 1e+308: with nu = 0.49 gives mu = "), std::string::npos) << e;
   EXPECT_EQ(e.find("material.K"), std::string::npos) << e;
 }
 
 TEST(ContradictoryKeys, HugeFiberAngleIsReducedNotNaN) {
   // 1e308 deg overflowed to inf in radians (direction [-nan, -nan, 0]); modulo one turn it is exact.
-  const auto t = io::parse_scene("[material]\npreset = \"ecoflex-anisotropic\"\n[[material.fibers]]\nangle_deg = 1e308\n", "t");
+  const auto t = io::parse_scene("[material]\npreset = \"ecoflex-anisotropic\"\nfiber_invariant = \"full\"\n[[material.fibers]]\nangle_deg = 1e308\n", "t");
   const auto spec = io::parse_material(*t["material"].as_table(), "material");
   ASSERT_FALSE(spec.gent.fibers.empty());
   const auto& d = spec.gent.fibers[0].direction;
@@ -195,7 +195,8 @@ TEST(ContradictoryKeys, HugeFiberAngleIsReducedNotNaN) {
 
 // duration = 5e-324 over 5 steps underflowed to a first output time of 0 and was reported as
 // 'load.times[0] = 0.000000'; 1e308 overflowed (end · s) to 'load.times[2] = inf'. The key given is
-// named with its value as written; 1e308 itself is a valid duration now (end · (s / steps)).
+// named with its value as written; 1e308 itself is a valid duration now (end · (s / steps)). A hold of
+// 1e308 after it made the path end at inf, and the hold was dropped from the output times with exit 0.
 TEST(ContradictoryKeys, TimeScaleErrorsNameTheDuration) {
   const std::string load = "[load]\ntype = \"uniaxial\"\nstretch = 1.2\nsteps = 5\n";
   const std::string tiny = load_error(load + "duration = 5e-324\n");
