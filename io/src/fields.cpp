@@ -594,6 +594,16 @@ struct PlaneRange {
   long first = 0, count = 0;
 };
 
+/// Room for `count` values read by `what`: a dataset too large for memory is an error naming it and its
+/// size, not std::bad_alloc (callers check the shape first; this is the last guard).
+void allocate_values(std::vector<double>& values, std::size_t count, const std::string& what) {
+  try {
+    values.resize(count);
+  } catch (const std::exception&) {  // std::bad_alloc, std::length_error
+    throw std::runtime_error(what + ": " + std::to_string(count) + " values do not fit in memory");
+  }
+}
+
 Dataset read_dataset_impl(const std::filesystem::path& file, const std::string& dataset, const PlaneRange* planes) {
   silence_hdf5();
   std::error_code ec;
@@ -641,7 +651,7 @@ Dataset read_dataset_impl(const std::filesystem::path& file, const std::string& 
   hsize_t attr_index = 0;
   H5Aiterate2(d.get(), H5_INDEX_NAME, H5_ITER_NATIVE, &attr_index, read_attr, &out.attributes);
   if (!planes) {
-    out.values.resize(static_cast<std::size_t>(n));
+    allocate_values(out.values, static_cast<std::size_t>(n), what);
     // HDF5 converts any integer or float type to native double on read.
     if (n > 0 && H5Dread(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.values.data()) < 0)
       hdf5_fail(what);
@@ -651,7 +661,7 @@ Dataset read_dataset_impl(const std::filesystem::path& file, const std::string& 
   if (rank < 1 || planes->count < 0) throw std::runtime_error(what + ": planes need a dataset of rank >= 1");
   const long n0 = long(dims[0]);
   const std::size_t per_plane = n0 > 0 ? std::size_t(n) / std::size_t(n0) : 0;
-  out.values.resize(per_plane * std::size_t(planes->count));
+  allocate_values(out.values, per_plane * std::size_t(planes->count), what);
   if (per_plane == 0) return out;
   // One hyperslab per run of consecutive planes (a periodic range wraps at most a few times).
   std::vector<hsize_t> start(dims.size(), 0), count(dims);

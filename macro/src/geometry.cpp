@@ -81,6 +81,10 @@ fe::Mesh make_tube(const TubeSpec& s) {
   check_positive(s.inner_radius, "geometry.inner_radius");
   if (!(s.outer_radius > s.inner_radius))
     throw InputError("geometry.outer_radius", format_number(s.outer_radius), "must exceed inner_radius");
+  // Below the faces' position tolerance the cavity's faces collapse onto the axis: no "inner" surface.
+  if (s.inner_radius < 1e-6 * s.outer_radius)
+    throw InputError("geometry.inner_radius", format_number(s.inner_radius),
+                     "must be at least 1e-06 of outer_radius (" + format_number(s.outer_radius) + "): a cavity that thin has no surface");
   check_positive(s.length, "geometry.length");
   check_cells(s.radial_cells, "geometry.radial_cells");
   check_cells(s.circumferential_cells, "geometry.circumferential_cells");

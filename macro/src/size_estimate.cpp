@@ -51,20 +51,26 @@ std::string gib(double bytes) {
 
 }  // namespace
 
-SizeEstimate estimate_size(const StructureSpec& spec) {
+SizeEstimate estimate_size_of_nodes(double nodes, bool factorized_solver) {
   SizeEstimate e;
-  switch (spec.kind) {
-    case StructureKind::plate: e.nodes = plate_nodes(spec.plate, spec.tet10); break;
-    case StructureKind::tube:
-    case StructureKind::actuator: e.nodes = tube_nodes(spec.tube, spec.tet10); break;
-    case StructureKind::sphere: e.nodes = sphere_nodes(spec.sphere, spec.tet10); break;
-    case StructureKind::imported: e.nodes = double(spec.imported.mesh.num_nodes()); break;
-  }
+  e.nodes = nodes;
   e.dofs = 3.0 * e.nodes;
   e.mesh_bytes = kMeshBytesPerDof * e.dofs;
-  if (spec.factorized_solver) e.factor_bytes = kFactorBytesPerDof * e.dofs;
+  if (factorized_solver) e.factor_bytes = kFactorBytesPerDof * e.dofs;
   else e.krylov_bytes = kKrylovBytesPerDof * e.dofs;
   return e;
+}
+
+SizeEstimate estimate_size(const StructureSpec& spec) {
+  double nodes = 0.0;
+  switch (spec.kind) {
+    case StructureKind::plate: nodes = plate_nodes(spec.plate, spec.tet10); break;
+    case StructureKind::tube:
+    case StructureKind::actuator: nodes = tube_nodes(spec.tube, spec.tet10); break;
+    case StructureKind::sphere: nodes = sphere_nodes(spec.sphere, spec.tet10); break;
+    case StructureKind::imported: nodes = double(spec.imported.mesh.num_nodes()); break;
+  }
+  return estimate_size_of_nodes(nodes, spec.factorized_solver);
 }
 
 std::string size_field(const StructureSpec& spec) {

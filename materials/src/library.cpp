@@ -65,8 +65,14 @@ const std::vector<LawEntry>& law_table() {
                    if (!given.count("E")) throw InputError(path + ".E", "", "missing: nu needs E");
                    if (!given.count("nu")) throw InputError(path + ".nu", "", "missing: E needs nu");
                    const NeoHookeanForm form = s.neo_hookean.form;
-                   s.neo_hookean = NeoHookeanParams::from_young(given.at("E")[0], given.at("nu")[0]);
+                   const double E = given.at("E")[0], nu = given.at("nu")[0];
+                   s.neo_hookean = NeoHookeanParams::from_young(E, nu);
                    s.neo_hookean.form = form;
+                   // The moduli derived from (E, nu) must be finite: name the key given, not mu or K.
+                   if (!std::isfinite(s.neo_hookean.mu) || !std::isfinite(s.neo_hookean.K))
+                     throw InputError(path + ".E", format_number(E),
+                                      "with nu = " + format_number(nu) + " gives mu = " + format_number(s.neo_hookean.mu) +
+                                          ", K = " + format_number(s.neo_hookean.K) + ": too large for a finite modulus");
                  }});
     t.push_back({LawKind::yeoh, "yeoh", {}, "Yeoh", "three-term Yeoh, initial shear modulus 2 C1",
                  {{"C1", "MPa", positive, "first coefficient (initial shear modulus 2 C1)", false,

@@ -108,7 +108,7 @@ std::vector<double> output_times(const LoadKeys& k, const std::string& path, con
       throw InputError(keys::join_key(path, "dt"), format_number(dt), "more than 1e6 output steps over the path (t_end = " + format_number(end) + ")");
     for (double t = dt; t < end * (1.0 - 1e-12); t += dt) times.push_back(t);
   } else {
-    for (int s = 1; s < k.steps; ++s) times.push_back(end * s / k.steps);
+    for (int s = 1; s < k.steps; ++s) times.push_back(end * (double(s) / k.steps));  // end * s overflowed near 1e308
   }
   times.push_back(end);
   for (double b : breaks)
@@ -121,6 +121,21 @@ std::vector<double> output_times(const LoadKeys& k, const std::string& path, con
   return merged;
 }
 
+/// Output times that underflow to 0 or overflow to inf come from keys the scene gave: the message names
+/// the key (duration, hold, dt, else steps) with its value as written, not a derived load.times[i].
+void check_time_scale(const std::vector<double>& times, double end, const std::set<std::string>& present,
+                      const LoadKeys& k, const std::string& path) {
+  bool ok = !times.empty() && times.front() > 0.0 && std::isfinite(end);
+  for (std::size_t i = 0; ok && i < times.size(); ++i) ok = std::isfinite(times[i]) && (i == 0 || times[i] > times[i - 1]);
+  if (ok) return;
+  const std::string why = "gives output times from " + format_number(times.front()) + " to " + format_number(times.back()) +
+                          " over a path ending at t = " + format_number(end) + ": a step must be a positive, finite time";
+  if (present.count("duration")) throw InputError(keys::join_key(path, "duration"), format_number(k.duration), why);
+  if (present.count("hold")) throw InputError(keys::join_key(path, "hold"), format_number(k.hold), why);
+  if (k.dt) throw InputError(keys::join_key(path, "dt"), format_number(*k.dt), why);
+  throw InputError(keys::join_key(path, "steps"), std::to_string(k.steps), why);
+}
+
 /// Keys that belong to other load types are refused (a typo'd type must not ignore its path).
 void refuse_foreign(const std::set<std::string>& present, const std::string& path, const std::string& type,
                     std::initializer_list<const char*> foreign) {
@@ -129,6 +144,23 @@ void refuse_foreign(const std::set<std::string>& present, const std::string& pat
 }
 
 Vec3 vec3(const std::vector<double>& v) { return Vec3(v[0], v[1], v[2]); }
+
+/// A stress target P[i][j] where F[i][j] is prescribed (a number) cannot act: it was ignored. Zero, the
+/// filler of a full P matrix, is accepted; anything else is refused naming the P entry.
+void refuse_stress_at_prescribed(const toml::array* Pa, const std::string& p_key, int i, int j, const std::string& f_field) {
+  if (!Pa) return;
+  const std::string pi = keys::index_field(p_key, std::size_t(i));
+  const toml::array* row = Pa->get(std::size_t(i)) ? Pa->get(std::size_t(i))->as_array() : nullptr;
+  if (!row || !row->get(std::size_t(j))) return;  // the row's own shape is checked where it is read
+  const toml::node& e = *row->get(std::size_t(j));
+  const std::string field = keys::index_field(pi, std::size_t(j));
+  const auto* integer = e.as_integer();
+  const auto* floating = e.as_floating_point();
+  if ((integer && integer->get() == 0) || (floating && floating->get() == 0.0)) return;
+  throw InputError(field, keys::describe_value(e),
+                   "a stress target applies to a \"free\" entry of F only; " + f_field +
+                       " is prescribed (give 0 here, or \"free\" there)");
+}
 
 MixedControl mixed_control(const toml::table& t, const LoadKeys& k, const std::string& path, const Mat3& frame,
                            std::vector<double>& breaks) {
@@ -164,6 +196,7 @@ MixedControl mixed_control(const toml::table& t, const LoadKeys& k, const std::s
         for (auto& v : p.v) v *= target;
       } else {
         const double final_value = keys::read_number(e, f);
+        refuse_stress_at_prescribed(Pa, keys::join_key(path, "P"), i, j, f);
         c.kind[kk] = ControlKind::deformation;
         const double start = i == j ? 1.0 : 0.0;
         for (auto& v : p.v) v = start + v * (final_value - start);
@@ -188,7 +221,14 @@ MixedControl parse_load(const toml::table& t, const std::string& path) {
   if (present.count("direction") || present.count("in_plane")) {
     if (!(vec3(k.direction).norm() > 1e-12))
       throw InputError(keys::join_key(path, "direction"), keys::describe_value(*t.get("direction")), "must be a non-zero vector");
-    frame = load_frame(vec3(k.direction), vec3(k.in_plane));
+    const Vec3 d = vec3(k.direction), q = vec3(k.in_plane);
+    // An in_plane given along the direction cannot set the second axis (one was picked silently).
+    if (present.count("in_plane") && !((q - q.dot(d.normalized()) * d.normalized()).norm() > 1e-9 * q.norm()))
+      throw InputError(keys::join_key(path, "in_plane"), keys::describe_value(*t.get("in_plane")),
+                       "is parallel to direction [" + format_number(d.x()) + ", " + format_number(d.y()) + ", " +
+                           format_number(d.z()) + "]" +
+                           " (or zero): it must have a component across the load direction");
+    frame = load_frame(d, q);
   }
   MixedControl c;
   std::vector<double> breaks;
@@ -221,6 +261,7 @@ MixedControl parse_load(const toml::table& t, const std::string& path) {
       break;
   }
   c.times = output_times(k, path, breaks);
+  check_time_scale(c.times, breaks.back(), present, k, path);
   c.validate();
   return c;
 }

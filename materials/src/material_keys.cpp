@@ -203,7 +203,9 @@ FiberFamily read_fiber(const toml::node& node, const std::string& fp, const Fibe
     throw InputError(fp, "", "give exactly one of direction = [x, y, z] or angle_deg (spec §7: from e2 toward e1)");
   FiberFamily f = defaults;
   if (k.angle_deg) {
-    const double a = *k.angle_deg * std::numbers::pi / 180.0;
+    // Reduced to one turn first: the angle as written is exact modulo 360, and a huge one (1e308)
+    // overflowed to inf in radians, a NaN direction.
+    const double a = std::fmod(*k.angle_deg, 360.0) * std::numbers::pi / 180.0;
     f.direction = Vec3(std::sin(a), std::cos(a), 0.0);
   } else {
     f.direction = Vec3(k.direction[0], k.direction[1], k.direction[2]);

@@ -55,10 +55,7 @@ Rule1D thickness_rule(ThicknessRule rule, int n) {
   }
 }
 
-std::string number(double v) {
-  std::string s = std::to_string(v);
-  return s;
-}
+std::string number(double v) { return format_number(v); }
 
 }  // namespace
 

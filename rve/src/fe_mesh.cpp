@@ -8,6 +8,7 @@
 #include <map>
 #include <queue>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -22,6 +23,7 @@
 
 #include "softhom/materials/errors.hpp"
 #include "fiber_placement.hpp"
+#include "memory_budget.hpp"
 
 namespace softhom::rve {
 namespace {
@@ -273,7 +275,7 @@ double assign_masters(SectionMesh& m, double tol) {
     auto it = side.lower_bound(key - tol);
     if (it == side.end() || std::abs(it->first - key) > tol)
       throw std::runtime_error("periodic mesh: boundary node " + std::to_string(node) + " at (" +
-                               std::to_string(m.nodes[node].x()) + ", " + std::to_string(m.nodes[node].y()) +
+                               format_number(m.nodes[node].x()) + ", " + format_number(m.nodes[node].y()) +
                                ") has no partner on the opposite edge");
     worst = std::max(worst, std::abs(it->first - key));
     return it->second;
@@ -332,6 +334,33 @@ SectionMeshOptions normalized_options(const Section& section, const SectionMeshO
       throw InputError("solver.corner_min_size_ratio", format_number(o.corner_min_size_ratio), "must lie in (0, 1]");
   }
   return o;
+}
+
+/// T6 elements CGAL makes for the section (an estimate before meshing). Measured: a section meshed at a
+/// uniform size h has A / (0.2 h²) triangles (the ecoflex FE cell, 0.546 mm² at h = 0.01: 27 258). The
+/// size grows from interface_size with `grading` per unit distance on both sides of every fiber boundary:
+/// ∫ dd / (0.2 (h_i + g d)²) = (1/h_i − 1/h_m) / (0.2 g) per unit length of boundary; never more than the
+/// whole section at interface_size (grading → 0).
+double estimated_section_elements(const Section& section, const SectionMeshOptions& o) {
+  constexpr double kTriangleArea = 0.2;  // mesh triangles per h², measured above
+  const double A = section.L1 * section.L2, hi = o.interface_size, hm = o.mesh_size;
+  const double band = 2.0 * detail::fiber_perimeter(section) * (1.0 / hi - 1.0 / hm) / (kTriangleArea * o.grading);
+  return std::min(A / (kTriangleArea * hi * hi), A / (kTriangleArea * hm * hm) + band);
+}
+
+/// Refuses (InputError naming solver.interface_size) a section whose FE solve cannot fit, before
+/// meshing. Bytes per element measured (peak of a one-step run): uniform meshes of that cell at h = 0.01
+/// (27 258 elements) and 0.005 (108 982) peak at 0.80 and 3.15 GB, 29 kB per element (mesh, element
+/// state, the mixed system and its factor).
+void refuse_unsolvable_section(const Section& section, const SectionMeshOptions& o) {
+  constexpr double kBytesPerElement = 29e3;
+  const double elements = estimated_section_elements(section, o);
+  std::ostringstream why;
+  why.precision(2);
+  why << "about " << elements << " elements at mesh_size " << format_number(o.mesh_size) << ", grading "
+      << format_number(o.grading);
+  detail::refuse_if_too_big(detail::saturating_product({elements, kBytesPerElement}), "solver.interface_size",
+                            format_number(o.interface_size), 0, why.str());
 }
 
 /// A corner of a rectangular fiber (stress singularity) refined by power grading within radius R.
@@ -628,6 +657,7 @@ void measure_triangle_quality(const SectionMesh& m, SectionMeshQuality& quality)
 SectionMesh mesh_section(const Section& section, const SectionMeshOptions& options) {
   const double L1 = section.L1, L2 = section.L2;
   const SectionMeshOptions o = normalized_options(section, options);
+  refuse_unsolvable_section(section, o);
   const double tol = 1e-10 * std::max(L1, L2);
 
   const std::vector<PlacedFiber> fibers = placed_fibers(section);

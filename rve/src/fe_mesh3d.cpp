@@ -175,9 +175,7 @@ namespace {
 double estimated_cell_elements(const Section& section, const CellMeshOptions& o) {
   constexpr double kTetVolume = 0.1178511;  // regular tetrahedron of unit edge
   const double V = section.L1 * section.L2 * o.length;
-  double perimeter = 0.0;
-  for (const auto& f : section.fibers)
-    perimeter += f.shape == SectionShape::circle ? 2.0 * 3.14159265358979323846 * f.radius : 2.0 * (f.width + f.height);
+  const double perimeter = detail::fiber_perimeter(section);
   const double g = std::max(o.grading, 1e-3), hi = o.interface_size;
   const double band = 2.0 * perimeter * o.length / (2.0 * g * kTetVolume * hi * hi);
   return V / (kTetVolume * std::pow(o.mesh_size, 3)) + band;

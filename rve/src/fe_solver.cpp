@@ -886,7 +886,7 @@ struct Model {
       ++out.newton_iterations;
     }
     out.why = "no convergence in " + std::to_string(opt.max_newton_iterations) + " Newton iterations (residual " +
-              std::to_string(err) + ")";
+              format_number(err) + ")";
     return out;
   }
 

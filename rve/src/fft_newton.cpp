@@ -141,7 +141,7 @@ FftRveSolver::Impl::StepOutcome FftRveSolver::Impl::step(const MixedControl& con
   out.why = "no convergence in " + std::to_string(opt.max_newton_iterations) + " Newton iterations" +
             (s.continuation ? " + " + std::to_string(out.continuation_iterations) + " continuation iterations"
                             : std::string()) +
-            " (residual " + std::to_string(s.err) + "); " + describe(hot_spots(s.r));
+            " (residual " + format_number(s.err) + "); " + describe(hot_spots(s.r));
   return out;
 }
 

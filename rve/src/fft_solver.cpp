@@ -106,7 +106,7 @@ void FftRveSolver::Impl::read_fractions(const PhaseImage& image) {
   for (double f : image.fiber_fraction)
     if (!(f >= 0.0 && f <= 1.0) && !bad) bad = f;
   if (dist && image.is_slab()) bad = detail::first_bad_fraction(*dist, bad);
-  if (bad) throw InputError("microstructure", std::to_string(*bad), "fiber fraction outside [0, 1]");
+  if (bad) throw InputError("microstructure", format_number(*bad), "fiber fraction outside [0, 1]");
   const std::size_t first = image.is_slab() ? image.owned_offset() : v0;  // this rank's voxel v0 in the arrays
   comp_id.assign(N, kMatrixVoxel);
   double vf = 0.0;

@@ -42,6 +42,14 @@ inline double fiber_area(const Section& section) {
   return exact;
 }
 
+/// Fiber boundary length of the section (circles and rectangles): the interface the meshers refine along.
+inline double fiber_perimeter(const Section& section) {
+  double length = 0.0;
+  for (const auto& f : section.fibers)
+    length += f.shape == SectionShape::circle ? 2.0 * kPiPlacement * f.radius : 2.0 * (f.width + f.height);
+  return length;
+}
+
 /// The four corners of a rectangular fiber (counter-clockwise).
 inline std::array<Eigen::Vector2d, 4> rectangle_corners(const PlacedFiber& p) {
   const double a = 0.5 * p.f.width, b = 0.5 * p.f.height;

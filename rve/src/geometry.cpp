@@ -636,6 +636,23 @@ PhaseImage voxelize_section(const Section& section, int n1, int n2) {
   return img;
 }
 
+PhaseImage matrix_only_section(int n1, int n2) {
+  const std::string grid_text = "[" + std::to_string(n1) + ", " + std::to_string(n2) + "]";
+  if (n1 < 1 || n2 < 1) throw InputError("microstructure.grid", grid_text, "must have at least one pixel per direction");
+  detail::refuse_if_too_big(image_bytes(std::size_t(n1) * std::size_t(n2)), "microstructure.grid", grid_text);
+  PhaseImage section;
+  section.n = {n1, n2, 1};
+  const double h = 1.0 / n1;
+  section.size = {1.0, n2 * h, h};
+  section.fiber_fraction.assign(section.voxels(), 0.0);
+  return section;
+}
+
+void refuse_oversized_image(double voxels, double extra_bytes_per_voxel, const std::string& field, const std::string& value) {
+  const double per_voxel = double(image_bytes(1)) + extra_bytes_per_voxel;
+  detail::refuse_if_too_big(detail::saturating_product({voxels, per_voxel}), field, value);
+}
+
 PhaseImage extrude(const PhaseImage& s, int n3) {
   const std::string grid_text = "[" + std::to_string(s.n[0]) + ", " + std::to_string(s.n[1]) + ", " + std::to_string(n3) + "]";
   if (n3 < 1) throw InputError("microstructure.grid", grid_text, "n3 must be at least 1");

@@ -21,13 +21,15 @@ inline std::string gib(std::size_t bytes) {
   return s.str();
 }
 
-/// Throws InputError(field, value, "needs about X GiB, the machine has Y GiB available") when
-/// `needed` bytes exceed what is available (`available` 0: query the machine).
+/// Throws InputError(field, value, "[what: ]needs about X GiB, the machine has Y GiB available") when
+/// `needed` bytes exceed what is available (`available` 0: query the machine); `what` says what was
+/// estimated (an element count, say).
 inline void refuse_if_too_big(std::size_t needed, const std::string& field, const std::string& value,
-                              std::size_t available = 0) {
+                              std::size_t available = 0, const std::string& what = "") {
   if (available == 0) available = softhom::available_memory_bytes();
   if (available == 0 || needed <= available) return;
-  throw InputError(field, value, "needs about " + gib(needed) + " GiB, the machine has " + gib(available) + " GiB available");
+  throw InputError(field, value, (what.empty() ? "" : what + ": ") + "needs about " + gib(needed) + " GiB, the machine has " +
+                                     gib(available) + " GiB available");
 }
 
 /// Product of sizes in bytes, saturating instead of wrapping (absurd grids must still be refused).

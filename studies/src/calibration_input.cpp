@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <set>
 #include <sstream>
@@ -129,6 +130,22 @@ int CsvData::column(const std::string& name) const {
 
 namespace {
 
+/// A CSV cell as a message shows it: control bytes (a NUL, say) as \xNN, so the text stays one line
+/// and is not cut at the NUL.
+std::string printable(const std::string& cell) {
+  std::string out;
+  for (unsigned char ch : cell) {
+    if (ch >= 0x20 && ch != 0x7f) {
+      out += char(ch);
+      continue;
+    }
+    char hex[8];
+    std::snprintf(hex, sizeof hex, "\\x%02x", ch);
+    out += hex;
+  }
+  return out;
+}
+
 /// The table of CSV text read from `file` (errors name the file and the line).
 CsvData parse_csv(const std::string& text, const std::string& file) {
   // Spreadsheet programs save "CSV UTF-8" with a byte-order mark: it belongs to no field.
@@ -168,7 +185,7 @@ CsvData parse_csv(const std::string& text, const std::string& file) {
       char* end = nullptr;
       const double v = std::strtod(c.c_str(), &end);
       if (c.empty() || end != c.c_str() + c.size() || !std::isfinite(v))
-        throw InputError(where, "'" + c + "'", "not a finite number (column " + d.columns[j] + ")");
+        throw InputError(where, "'" + printable(c) + "'", "not a finite number (column " + printable(d.columns[j]) + ")");
       row.push_back(v);
     }
     d.rows.push_back(std::move(row));
@@ -563,6 +580,13 @@ void set_curve_data(CalCurve& c, const CsvData& csv, const CurveKeys& k, const t
                                            "); use x = \"t\" for a path that holds or reverses");
   const auto [ymin, ymax] = std::minmax_element(c.y_data.begin(), c.y_data.end());
   c.y_range = *ymax - *ymin;
+  // The residual's norm sums squares of the data's size, normalised by the range: both must stay finite
+  // (±1e308 made them inf, and the fit's summary non-finite after the run).
+  double squares = 0.0;
+  for (double y : c.y_data) squares += y * y;
+  if (!std::isfinite(c.y_range) || !std::isfinite(squares))
+    throw InputError(cp + ".y", c.y, "data y spans " + format_number(*ymin) + " to " + format_number(*ymax) +
+                                         ": too large for the residual's norm (its squares or range overflow a double)");
   if (!(c.y_range > 0.0)) throw InputError(cp + ".y", c.y, "data y is constant: nothing to fit (it also normalises the residual)");
 }
 
@@ -616,6 +640,32 @@ CalCurve parse_curve(const toml::table& ct, const std::string& cp, std::size_t i
   return c;
 }
 
+/// Refuses a fit whose worst case cannot finish: starts × max_iterations × model evaluations per
+/// iteration (central differences: 2 per free parameter + 1) × the load steps of the fit curves, in
+/// material-point steps. The limit, 1e9 steps, is about 7 hours at the rate measured on the shipped
+/// example_point.toml (2330 curve evaluations of ~30 steps in 1.7 s: 4e4 steps/s, one thread).
+void refuse_unbounded_fit(const CalibrationInput& in) {
+  constexpr double kMaxPointSteps = 1e9, kStepsPerSecond = 4e4;
+  double fit_steps = 0.0;
+  for (const CalCurve& c : in.curves)
+    if (!c.holdout) fit_steps += double(c.control.times.size());
+  const double per_iteration = 2.0 * double(in.model.free_indices().size()) + 1.0;
+  const double work = double(in.solver.starts) * double(in.solver.max_iterations) * per_iteration * fit_steps;
+  if (work <= kMaxPointSteps) return;
+  const auto g = [](double x) {
+    std::ostringstream s;
+    s.precision(2);
+    s << x;
+    return s.str();
+  };
+  throw InputError("solver.max_iterations", std::to_string(in.solver.max_iterations),
+                   "the fit may need up to " + g(work) + " material-point steps (" + std::to_string(in.solver.starts) +
+                       " starts x " + std::to_string(in.solver.max_iterations) + " iterations x " + g(per_iteration) +
+                       " evaluations per iteration x " + g(fit_steps) + " load steps of the fit curves), about " +
+                       format_number(std::ceil(work / kStepsPerSecond / 3600.0)) + " hours at 4e4 steps/s; at most " + g(kMaxPointSteps) +
+                       " are accepted: lower starts, max_iterations or the curves' steps");
+}
+
 }  // namespace
 
 CalibrationInput parse_calibration(const toml::table& root, const std::filesystem::path& base_dir) {
@@ -647,6 +697,7 @@ CalibrationInput parse_calibration(const toml::table& root, const std::filesyste
   if (fit_points < in.model.free_indices().size())
     throw InputError("curves", std::to_string(fit_points) + " fit points",
                      "fewer data points than free parameters (" + std::to_string(in.model.free_indices().size()) + ")");
+  refuse_unbounded_fit(in);
   return in;
 }
 

@@ -105,7 +105,7 @@ rve::Section parse_fe_section(const toml::table& t, double& target_vf, std::stri
     return s;
   }
   const rve::Section s = rve::generate_section(spec, p);
-  note = label + ", cell " + std::to_string(s.L1) + " x " + std::to_string(s.L2);
+  note = label + ", cell " + format_number(s.L1) + " x " + format_number(s.L2);
   return s;
 }
 

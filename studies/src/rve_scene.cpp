@@ -334,6 +334,10 @@ rve::PhaseImage import_phase_image(const toml::table& img, const std::string& p,
   }
   rve::PhaseImage im;
   set_image_grid(im, d, dataset, p, distributed);
+  // Refused from its shape before reading: the values as read (8 B a voxel), the image, and per vector
+  // dataset its values and unit vectors (48 B a voxel).
+  const double vector_bytes = 48.0 * double(!keys.normal_dataset.empty() + !keys.direction_dataset.empty());
+  rve::refuse_oversized_image(double(im.held_voxels()), 8.0 + vector_bytes, p + ".dataset", dataset + " " + dims_string(d.dims));
   d.values = read_held_planes(file, dataset, p + ".dataset", im).values;
   set_fiber_fractions(im, d, keys, p);
   set_image_size(im, d, keys, p);
@@ -367,6 +371,29 @@ void check_fiber_count(const rve::FiberCellSpec& spec, const std::vector<int>& n
                          std::to_string(int(spec.volume_fraction * n[0] * n[1] / kMinPixelsPerFiber)) + " fibers)");
 }
 
+/// Keys of the generated cell that contradict its shape or arrangement are refused (they were ignored):
+/// a circle's width, height or section rotation, a rectangle's radius, a square's height other than its
+/// width, and the random-placement keys of a regular arrangement. Matrix-only cells (volume_fraction = 0)
+/// may keep the fiber keys of the scene they were made from: the reference curve of a composite scene
+/// is that scene at fraction 0.
+void refuse_contradictory_cell_keys(const toml::table& t, const CellKeys& c, const std::string& p) {
+  if (c.spec.volume_fraction == 0.0) return;
+  const std::string shape = "shape = \"" + shape_choices().name_of(c.shape) + "\"";
+  auto refuse_given = [&](const char* key, const std::string& why) {
+    if (const toml::node* n = t.get(key)) throw InputError(p + "." + key, keys::describe_value(*n), why);
+  };
+  if (c.shape == ShapeName::circle)
+    for (const char* key : {"width", "height", "section_rotation_deg"})
+      refuse_given(key, "applies to rectangle and square fibers, not to " + shape + " (give radius)");
+  else refuse_given("radius", "applies to circular fibers, not to " + shape + " (give width and height)");
+  if (c.shape == ShapeName::square && c.height && *c.height != c.spec.width)
+    refuse_given("height", "a square's height is its width (" + format_number(c.spec.width) + "): use shape = \"rectangle\"");
+  if (c.spec.arrangement != rve::Arrangement::random)
+    for (const char* key : {"fiber_count", "min_gap", "seed"})
+      refuse_given(key, "applies to arrangement = \"random\" only, not to arrangement = \"" +
+                            arrangement_choices().name_of(c.spec.arrangement) + "\"");
+}
+
 /// The fiber fraction of the whole cell: a slab image's owned sums added over the ranks.
 double cell_volume_fraction(const rve::PhaseImage& im) {
   if (!im.is_slab() || !mpi::active()) return im.volume_fraction();
@@ -395,6 +422,7 @@ rve::PhaseImage phase_image_of(const toml::table& t, const MicroKeys& m, bool gr
     target_vf = cell_volume_fraction(im);
     return im;
   }
+  refuse_contradictory_cell_keys(t, m.cell, p);
   const rve::FiberCellSpec spec = cell_spec(m.cell);
   target_vf = spec.volume_fraction;
   // Straight fibers: a 3D cell is its section extruded, the whole cell or (distributed) this rank's planes.
@@ -405,13 +433,8 @@ rve::PhaseImage phase_image_of(const toml::table& t, const MicroKeys& m, bool gr
     return n3 > 1 ? rve::extrude(section, n3) : section;
   };
   if (target_vf == 0.0) {
-    rve::PhaseImage section;
-    section.n = {n[0], n[1], 1};
-    const double h = 1.0 / n[0];
-    section.size = {1.0, n[1] * h, h};
-    section.fiber_fraction.assign(section.voxels(), 0.0);
     geometry_note = "matrix only";
-    return extruded(section);
+    return extruded(rve::matrix_only_section(n[0], n[1]));
   }
   check_fiber_count(spec, n, p);
   const rve::Section section = rve::generate_section(spec, p);
@@ -422,7 +445,7 @@ rve::PhaseImage phase_image_of(const toml::table& t, const MicroKeys& m, bool gr
     throw InputError(p + ".grid", keys::describe_value(*t.get("grid")), e.what());
   }
   geometry_note = shape_choices().name_of(m.cell.shape) + " fibers, " + arrangement_choices().name_of(spec.arrangement) + " arrangement, cell " +
-                  std::to_string(section.L1) + " x " + std::to_string(section.L2);
+                  format_number(section.L1) + " x " + format_number(section.L2);
   return im;
 }
 
@@ -437,6 +460,7 @@ MicroKeys read_micro(const toml::table& t, bool& grid_given) {
 rve::FiberCellSpec parse_fiber_cell_spec(const toml::table& t, const std::string& p, std::string& label) {
   CellKeys c;
   cell_keys().read_declared(t, p, c);  // the caller refuses keys of no declaration
+  refuse_contradictory_cell_keys(t, c, p);
   label = shape_choices().name_of(c.shape) + " fibers, " + arrangement_choices().name_of(c.spec.arrangement) + " arrangement";
   return cell_spec(c);
 }

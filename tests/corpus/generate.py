@@ -457,6 +457,73 @@ def absurd_and_unreachable(corpus, sub, label, doc):
         case("gent-locking", "unreachable", m, [1], [])
 
 
+# --- work estimated before it starts, keys that contradict each other --------------------------------------
+def estimate_and_contradiction_cases(corpus, src):
+    """Sizes refused from an estimate before any work (the FE section mesher, a .geo at a fine mesh_size,
+    a calibration's worst case, a matrix-only grid) and keys that contradict each other, each refused
+    naming the key; they ran (or ended in std::bad_alloc) before."""
+    scenes = src / "studies/scenes"
+    rve = load_base(scenes / "rve_ecoflex_circ45.toml", "rve")
+    m = copy.deepcopy(rve)
+    m["microstructure"] = {"volume_fraction": 0.0, "grid": [65536, 65536]}
+    corpus.add("estimate.rve-matrix-only-65536", "absurd-size", "rve", tomlwrite.dumps(m), [2], ["microstructure.grid"])
+    for tag, extra, field in [("circle-width", {"width": 0.1}, "width"),
+                              ("square-radius", {"shape": "square", "width": 0.07, "radius": 0.1}, "radius"),
+                              ("square-arrangement-min_gap", {"min_gap": 0.01}, "min_gap")]:
+        m = copy.deepcopy(rve)
+        m["microstructure"].update(extra)
+        corpus.add("contradiction.rve-%s" % tag, "contradiction", "rve", tomlwrite.dumps(m), [2],
+                   ["microstructure." + field])
+    fe = load_base(scenes / "rve_ecoflex_circ45_fe.toml", "rve")
+    fe["solver"].update(interface_size=0.0005, grading=1e-9)
+    corpus.add("estimate.rve-fe-interface_size-grading", "absurd-size", "rve", tomlwrite.dumps(fe), [2],
+               ["solver.interface_size"])
+    point = load_base(scenes / "point_uniaxial_ecoflex.toml", "point")
+    m = copy.deepcopy(point)
+    m["load"].update(direction=[1.0, 0.0, 0.0], in_plane=[2.0, 0.0, 0.0])
+    corpus.add("contradiction.point-in_plane-parallel", "contradiction", "point", tomlwrite.dumps(m), [2], ["load.in_plane"])
+    for tag, p11 in [("nan", float("nan")), ("fre", "fre")]:
+        m = copy.deepcopy(point)
+        m["load"] = {"type": "mixed", "path": [[0.0, 0.0], [1.0, 1.0]], "steps": 3,
+                     "F": [[1.2, 0, 0], [0, "free", 0], [0, 0, "free"]], "P": [[p11, 0, 0], [0, 0, 0], [0, 0, 0]]}
+        corpus.add("contradiction.point-P-%s-at-prescribed" % tag, "contradiction", "point", tomlwrite.dumps(m), [2],
+                   ["load.P[0][0]"])
+    m = copy.deepcopy(point)
+    m["material"] = {"law": "neo-hookean", "E": 1e308, "nu": 0.49}  # K = E / (3 (1 - 2 nu)) = inf
+    corpus.add("message.point-E-1e308", "out-of-range", "point", tomlwrite.dumps(m), [2], ["material.E"])
+    m = copy.deepcopy(point)
+    m["load"]["duration"] = 5e-324
+    corpus.add("message.point-duration-5e-324", "out-of-range", "point", tomlwrite.dumps(m), [2], ["load.duration = 5e-324"])
+    tube_scene = load_base(scenes / "macro_tube_helix15_ecoflex.toml", "macro")
+    tube_scene["geometry"]["inner_radius"] = 5e-324
+    corpus.add("message.macro-inner_radius-5e-324", "out-of-range", "macro", tomlwrite.dumps(tube_scene), [2],
+               ["geometry.inner_radius = 5e-324"])
+    cal_file = src / "studies/calibrations/example_point.toml"
+    cal = load_base(cal_file, "calibrate")
+    # Curve values of ±1e308: the residual's norm overflowed and summary.json refused the fit's numbers.
+    m = copy.deepcopy(cal)
+    lines = Path(m["curves"][0]["file"]).read_text().splitlines()
+    head = next(i for i, line in enumerate(lines) if line and not line.startswith("#"))
+    y = lines[head].split(",").index(m["curves"][0]["y"])
+    rows = [line.split(",") for line in lines[head + 1:] if line]
+    for i, r in enumerate(rows):
+        r[y] = "1e308" if i % 2 else "-1e308"
+    m["curves"][0]["file"] = "huge.csv"
+    corpus.add("message.calibrate-curve-1e308", "csv", "calibrate", tomlwrite.dumps(m), [2], ["curves[0].y"],
+               files={"huge.csv": "\n".join([lines[head]] + [",".join(r) for r in rows]) + "\n"})
+    cal.setdefault("solver", {}).update(starts=1000, max_iterations=100000)
+    corpus.add("estimate.calibrate-starts-iterations", "absurd-size", "calibrate", tomlwrite.dumps(cal), [2],
+               ["solver.max_iterations"])
+    # The quarter tube's .geo reading its size from mesh_size: at 0.01 mm, 7.6e8 nodes.
+    tube = load_base(scenes / "macro_gmsh_tube.toml", "macro")
+    geo = (src / "studies/meshes/tube_quarter_tet10.geo").read_text().replace(
+        "h = 1.0;", "h = mesh_size;").replace('SetFactory("OpenCASCADE");', 'SetFactory("OpenCASCADE");\nDefineConstant[ mesh_size = 1.0 ];')
+    tube["geometry"].pop("file", None)
+    tube["geometry"].update(geo="tube.geo", mesh_size=0.01)
+    corpus.add("estimate.macro-geo-mesh_size-0.01", "absurd-size", "macro", tomlwrite.dumps(tube), [2],
+               ["geometry.mesh_size"], files={"tube.geo": geo})
+
+
 # --- side files: meshes, CSV curves, HDF5 images -------------------------------------------------------------
 def mesh_mutations(corpus, scene_doc, mesh_path):
     """Corrupted copies of a Gmsh mesh behind a shrunk macro scene."""
@@ -719,6 +786,7 @@ def main():
             malformed_mutations(corpus, "sweep", f.stem, f.read_text())
         if corpus.once("sweep", [], "specials"):
             campaign_specials(corpus, doc, f.stem)
+    estimate_and_contradiction_cases(corpus, src)
     rve_base = next((f for f in scenes if f.name == "rve_ecoflex_circ45.toml"), None)
     if rve_base:
         image_mutations(corpus, a.softhom, load_base(rve_base, "rve"), a.work.resolve())

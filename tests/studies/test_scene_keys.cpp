@@ -3,6 +3,7 @@
 // scene are refused by name.
 #include <gtest/gtest.h>
 
+#include <hdf5.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -13,6 +14,7 @@
 #include "softhom/io/scene.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/scene_keys.hpp"
+#include "softhom/materials/system_memory.hpp"
 #include "softhom/studies/calibration.hpp"
 #include "softhom/studies/campaign.hpp"
 #include "softhom/studies/rve_fe_scene.hpp"
@@ -46,6 +48,22 @@ std::string rve_error(const std::string& text, const fs::path& out = {}) {
 const std::string kPhasesLoad =
     "[phases.matrix]\nlaw = \"neo-hookean\"\nmu = 1\nK = 10\n[phases.fiber]\nlaw = \"neo-hookean\"\nmu = 10\nK = 100\n"
     "[load]\ntype = \"uniaxial\"\nstretch = 1.1\nsteps = 4\n";
+
+/// A chunked uint8 dataset of `dims` with no chunk written: a few kB on disk whatever its shape.
+void write_empty_chunked(const fs::path& file, const std::vector<hsize_t>& dims) {
+  const hid_t f = H5Fcreate(file.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  ASSERT_GE(f, 0);
+  const hid_t s = H5Screate_simple(int(dims.size()), dims.data(), nullptr);
+  const hid_t plist = H5Pcreate(H5P_DATASET_CREATE);
+  std::vector<hsize_t> chunk(dims.size(), 64);
+  H5Pset_chunk(plist, int(chunk.size()), chunk.data());
+  const hid_t d = H5Dcreate2(f, "/phase", H5T_NATIVE_UINT8, s, H5P_DEFAULT, plist, H5P_DEFAULT);
+  ASSERT_GE(d, 0);
+  H5Dclose(d);
+  H5Pclose(plist);
+  H5Sclose(s);
+  H5Fclose(f);
+}
 
 }  // namespace
 
@@ -232,4 +250,51 @@ TEST(SceneKeys, PointSolverKeys) {
   EXPECT_EQ(o.max_step_seconds, 2.5);
   EXPECT_EQ(o.tolerance, 1e-9);
   EXPECT_EQ(o.max_cutbacks, PointSolverOptions{}.max_cutbacks);
+}
+
+// 65536² pixels hold 32 B each (fraction and normal) = 128 GiB: beyond any machine that runs this suite,
+// so the refusal is certain; the matrix-only path allocated it and ended in std::bad_alloc.
+TEST(SceneKeys, MatrixOnlyGridIsEstimatedLikeAFiberGrid) {
+  if (available_memory_bytes() == 0) GTEST_SKIP() << "available memory unknown";
+  for (const char* grid : {"[65536, 65536]", "[65536, 65536, 65536]"}) {
+    const std::string e = rve_error(std::string("[microstructure]\nvolume_fraction = 0.0\ngrid = ") + grid + "\n" + kPhasesLoad);
+    EXPECT_NE(e.find("microstructure.grid = [65536, 65536]: needs about 128 GiB"), std::string::npos) << e;
+  }
+  EXPECT_EQ(rve_error("[microstructure]\nvolume_fraction = 0.0\ngrid = [16, 8]\n" + kPhasesLoad), "");
+}
+
+// The image's shape is read first and refused before its values are: 60000² voxels need 40 B each
+// (134 GiB), 4096³ voxels 2.6 TiB. Before, reading them ended in std::bad_alloc.
+TEST(SceneKeys, ChunkedImageIsRefusedFromItsShape) {
+  if (available_memory_bytes() == 0) GTEST_SKIP() << "available memory unknown";
+  const fs::path dir = fs::temp_directory_path() / ("softhom_test_big_image_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  for (const auto& [dims, shape] : {std::pair{std::vector<hsize_t>{60000, 60000}, std::string("[60000, 60000]")},
+                                    std::pair{std::vector<hsize_t>{4096, 4096, 4096}, std::string("[4096, 4096, 4096]")}}) {
+    const fs::path file = dir / "big.h5";
+    write_empty_chunked(file, dims);
+    ASSERT_LT(fs::file_size(file), 1u << 20);
+    const std::string e = rve_error("[microstructure.image]\nfile = \"" + file.string() + "\"\n" + kPhasesLoad);
+    EXPECT_NE(e.find("microstructure.image.dataset = /phase " + shape + ": needs about"), std::string::npos) << e;
+  }
+  fs::remove_all(dir);
+}
+
+TEST(SceneKeys, CellKeysThatContradictTheShapeAreRefused) {
+  const std::string circle = "[microstructure]\nshape = \"circle\"\nvolume_fraction = 0.2\ngrid = 16\n";
+  const std::string rect = "[microstructure]\nshape = \"rectangle\"\nvolume_fraction = 0.2\ngrid = 16\n";
+  const std::string square = "[microstructure]\nshape = \"square\"\nvolume_fraction = 0.2\ngrid = 16\n";
+  EXPECT_NE(rve_error(circle + "width = 0.1\n" + kPhasesLoad).find("microstructure.width = 0.1: applies to rectangle and square"),
+            std::string::npos);
+  EXPECT_NE(rve_error(circle + "section_rotation_deg = 10\n" + kPhasesLoad).find("microstructure.section_rotation_deg = 10"),
+            std::string::npos);
+  EXPECT_NE(rve_error(rect + "radius = 0.1\n" + kPhasesLoad).find("microstructure.radius = 0.1: applies to circular fibers"),
+            std::string::npos);
+  EXPECT_NE(rve_error(square + "width = 0.1\nheight = 0.2\n" + kPhasesLoad).find("microstructure.height = 0.2: a square's height"),
+            std::string::npos);
+  EXPECT_EQ(rve_error(square + "width = 0.1\nheight = 0.1\n" + kPhasesLoad), "");
+  EXPECT_NE(rve_error(circle + "fiber_count = 3\n" + kPhasesLoad).find("microstructure.fiber_count = 3: applies to arrangement = \"random\""),
+            std::string::npos);
+  // A composite scene at fraction 0 is its matrix's reference: the fiber keys stay accepted.
+  EXPECT_EQ(rve_error("[microstructure]\nshape = \"circle\"\nradius = 0.2\nwidth = 0.1\nvolume_fraction = 0\ngrid = 8\n" + kPhasesLoad), "");
 }

@@ -101,6 +101,8 @@ struct SizeEstimate {
   double bytes() const { return mesh_bytes + factor_bytes + krylov_bytes; }
 };
 SizeEstimate estimate_size(const StructureSpec& spec);
+/// The estimate of a mesh of `nodes` nodes (a mesh not yet made: a .geo at its mesh_size).
+SizeEstimate estimate_size_of_nodes(double nodes, bool factorized_solver);
 
 
 /// Throws InputError on `field` (the geometry key that sets the size, e.g. "geometry.cells") with the

@@ -108,6 +108,14 @@ Eigen::Vector3d principal_fiber_axis(const Eigen::Matrix3d& orientation_sum);
 /// interface normal of composite pixels.
 PhaseImage voxelize_section(const Section& section, int n1, int n2);
 
+/// The section image of a cell without fibers: n1 × n2 pixels of fraction 0, L1 = 1, square pixels.
+/// Refused like voxelize_section's (InputError naming microstructure.grid) when it cannot be held.
+PhaseImage matrix_only_section(int n1, int n2);
+
+/// Refuses (InputError(field, value, "needs about X GiB, ...")) a phase image of `voxels` voxels that
+/// cannot be held with `extra_bytes_per_voxel` more per voxel (a read buffer), before it is allocated.
+void refuse_oversized_image(double voxels, double extra_bytes_per_voxel, const std::string& field, const std::string& value);
+
 /// Extrudes a section image to n3 layers along y3 (for 3D solves on the same section grid).
 PhaseImage extrude(const PhaseImage& section_image, int n3);
 
