@@ -644,6 +644,8 @@ StepAttempt Simulation::Impl::try_step(double t_new, double dt) {
     const double rc_last = n.r_prev;
     n.r_prev = rc;
     if (converged) {
+      const Iterate done{t_new, t_new, dt, &n.u, n.p};
+      for (const Contribution* c : contributions_) c->commit(model_.mesh, done);
       commit(n, as, it);
       attempt_counts_.newton_iterations += it;
       return StepAttempt{true, {}};

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "contact_keys.hpp"
 #include "device_keys.hpp"
 #include "softhom/io/gmsh.hpp"
 #include "softhom/io/scene.hpp"
@@ -345,7 +346,8 @@ const KeyTable<SceneKeysTop>& scene_table() {
         .custom("boundary", "list of tables", "gmsh only: constraints on physical surfaces", skip)
         .custom("probe", "table", "gmsh only: reported surface", skip)
         .custom("regions", "table", "gmsh only: a material table per physical volume", skip)
-        .custom("device", "table", "gmsh only: device outputs (device.csv)", skip);
+        .custom("device", "table", "gmsh only: device outputs (device.csv)", skip)
+        .custom("contact", "table", "rigid obstacles against the structure ([[contact.obstacles]])", skip);
     return k;
   }();
   return t;
@@ -605,6 +607,7 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
   MacroScene m;
   read_geometry_table(scene, scene_file, mesh_cache, m.spec);
   m.device = read_device(scene.get("device"));
+  m.spec.contact = read_contact(scene.get("contact"));
   // The linear solver first: the memory estimate holds a factorization only on the direct path.
   read_solver(scene, m);
   m.spec.factorized_solver = automatic_solver_of(scene, m) != fe::SolverKind::petsc;
@@ -617,10 +620,12 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
 }
 
 std::vector<keys::TableDoc> macro_scene_tables() {
-  return {scene_table().describe(), tube_table(false).describe(), tube_table(true).describe(), sphere_table().describe(),
+  std::vector<keys::TableDoc> tables{scene_table().describe(), tube_table(false).describe(), tube_table(true).describe(), sphere_table().describe(),
            plate_table().describe(), gmsh_table().describe(), boundary_table().describe(), probe_table().describe(),
            load_table().describe(), solver_table().describe(), output_table().describe(),
           device_table().describe()};
+  for (keys::TableDoc& t : contact_tables()) tables.push_back(std::move(t));
+  return tables;
 }
 
 }  // namespace softhom::macro
