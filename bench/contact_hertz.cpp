@@ -6,6 +6,7 @@
 //
 //   build/bench/bench_contact_hertz [max_level]     (levels 0 … 4, default 4)
 #include <chrono>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -27,7 +28,7 @@ int main(int argc, char** argv) {
     const macro::HertzProblem p = macro::make_hertz_problem(fine[level], coarse[level]);
     fe::Simulation sim(p.model);
     std::vector<double> force, indentation;
-    double area = 0.0, penetration = 0.0;
+    double a = 0.0, penetration = 0.0;
     const int steps = 8;
     for (int s = 1; s <= steps; ++s) {
       const double t = double(s) / steps;
@@ -42,13 +43,14 @@ int main(int argc, char** argv) {
       if (s <= steps / 4) continue;  // the fit on d ≥ d_max/4 (a contact patch of at least 2 cells)
       force.push_back(4.0 * tot.normal_force);
       indentation.push_back(p.depth * t - tot.max_penetration);
-      area = 4.0 * tot.area;
+      a = 0.0;  // the farthest active quadrature point from the axis
+      for (const Vec3& x : p.contact->active_positions(p.model.mesh, it)) a = std::max(a, std::hypot(x[0], x[1]));
       penetration = tot.max_penetration;
     }
     const double alpha = macro::hertz_coefficient(force, indentation);
     const double alpha_hertz = std::pow(3.0 / (4.0 * p.effective_modulus * std::sqrt(p.radius)), 2.0 / 3.0);
     const double force_error = std::pow(alpha_hertz / alpha, 1.5) - 1.0;
-    const double a_hertz = p.contact_radius(force.back()), a = std::sqrt(area / M_PI);
+    const double a_hertz = p.contact_radius(force.back());
     const double h_over_a = 1.25 / fine[level];
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::printf("%6d %8.4f %8d %12.4e %12.4e %12.3e %8d %8.2f\n", fine[level] + coarse[level], h_over_a,

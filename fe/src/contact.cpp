@@ -373,6 +373,15 @@ ContactTotals ObstacleContact::totals(const Mesh& mesh, const Iterate& it) const
   return t;
 }
 
+std::vector<Vec3> ObstacleContact::active_positions(const Mesh& mesh, const Iterate& it) const {
+  std::vector<Vec3> out;
+  for (std::size_t k = 0; k < points_.size(); ++k) {
+    ObstacleGap g;
+    if (point_traction(mesh, it, int(k), g).active) out.push_back(point_position(mesh, it, points_[k]));
+  }
+  return out;
+}
+
 void ObstacleContact::face_values(const Mesh& mesh, const Iterate& it, std::vector<double>& pressure,
                                   std::vector<double>& gap) const {
   const std::size_t nfaces = quads_.size() + tris_.size();

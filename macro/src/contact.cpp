@@ -30,7 +30,8 @@ double host_shear_modulus(const fe::FeModel& model, const std::vector<fe::Quad>&
 
 void add_contacts(const ContactSpec& spec, fe::FeModel& model) {
   const fe::Mesh& mesh = model.mesh;
-  for (const ObstacleSpec& o : spec.obstacles) {
+  for (std::size_t k = 0; k < spec.obstacles.size(); ++k) {
+    const ObstacleSpec& o = spec.obstacles[k];
     if (!mesh.has_surface(o.surface))
       throw InputError(o.field + ".surface", "\"" + o.surface + "\"", "no surface of that name in the mesh");
     const auto quad_it = mesh.surfaces.find(o.surface);
@@ -46,6 +47,7 @@ void add_contacts(const ContactSpec& spec, fe::FeModel& model) {
     opt.law.friction = o.friction;
     opt.augmented = o.augmented;
     opt.field = o.field;
+    opt.label = spec.obstacles.size() == 1 ? "contact" : "contact_" + std::to_string(k);
     model.add(std::make_shared<fe::ObstacleContact>(mesh, std::move(quads), std::move(tris), o.obstacle, opt));
   }
 }

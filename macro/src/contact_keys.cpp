@@ -54,8 +54,11 @@ const keys::KeyTable<ObstacleKeys>& obstacle_table() {
                  "at t = 0: a point of the plane, the sphere's centre, a point of the cylinder's axis")
         .required()
         .numbers("normal", &O::normal, keys::any_value(), 3, 3, "-", "plane only: its normal, pointing towards the body")
+        .default_text("required for a plane")
         .numbers("axis", &O::axis, keys::any_value(), 3, 3, "-", "cylinder only: the axis direction")
+        .default_text("required for a cylinder")
         .number("radius", &O::radius, keys::at_least(0), "mm", "sphere and cylinder: radius")
+        .default_text("required for a sphere or cylinder")
         .custom("path", "list of [t, ux, uy, uz]", "translation of the obstacle over time, piecewise linear",
                 read_obstacle_path, "fixed", "", "s, mm")
         .number("friction", &O::friction, keys::closed_range(0, 3), "-",

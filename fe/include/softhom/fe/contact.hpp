@@ -117,6 +117,7 @@ class ObstacleContact final : public Contribution {
     double shear_modulus = 0.0;    ///< G of the surface's elements, for the default penalties
     bool augmented = true;         ///< λ ← p at every converged step (false: pure penalty)
     std::string field = "contact"; ///< the scene's name of this pair, for messages
+    std::string label = "contact"; ///< its outputs' name: response.csv columns <label>_..., fields <label>.h5
   };
   ObstacleContact(const Mesh& mesh, std::vector<Quad> quads, std::vector<Tri6> tris, RigidObstacle obstacle,
                   Options options);
@@ -135,6 +136,9 @@ class ObstacleContact final : public Contribution {
   /// Per face (quads first, then triangles): the mean contact pressure (Cauchy: per current area) over
   /// its quadrature points and the least gap.
   void face_values(const Mesh& mesh, const Iterate& it, std::vector<double>& pressure, std::vector<double>& gap) const;
+
+  /// Current positions of the quadrature points in contact (p > 0).
+  std::vector<Vec3> active_positions(const Mesh& mesh, const Iterate& it) const;
 
   const RigidObstacle& obstacle() const { return obstacle_; }
   const Options& options() const { return options_; }
