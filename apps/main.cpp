@@ -18,8 +18,12 @@
 #include <cstdlib>
 #include <exception>
 #include <iostream>
+#include <string>
+#include <vector>
 
+#include "cmd_examples.hpp"
 #include "cmd_keys.hpp"
+#include "wait_policy.hpp"
 #include "softhom/core/mpi.hpp"
 #include "softhom/fe/petsc.hpp"
 #include "softhom/io/fields.hpp"
@@ -61,7 +65,7 @@ int run_exit_code(bool completed) {
 
 int run_point(const CommandOptions& o) {
   const jobs::PointJob job = jobs::parse_point(jobs::load_scene_or_default(o.scene, jobs::default_scene_name("point")));
-  jobs::FileSink sink(o.out);
+  jobs::FileSink sink(o.out, "point");
   const PointRunResult result = jobs::run_point(job, sink, o.run());
   if (!result.completed) {
     std::cerr << "softhom point: stopped early: " << result.error << "\n"
@@ -76,16 +80,16 @@ int run_point(const CommandOptions& o) {
 }
 
 int run_rve(const CommandOptions& o) {
+  jobs::FileSink sink(o.out, "rve");
   jobs::RveJob job = jobs::parse_rve(jobs::load_scene_or_default(o.scene, jobs::default_scene_name("rve")),
                                      {o.out, o.resume});
-  jobs::FileSink sink(o.out);
   return run_exit_code(jobs::run_rve(job, sink, o.run()));
 }
 
 int run_macro(const CommandOptions& o) {
+  jobs::FileSink sink(o.out, "macro");  // before the parse, which may mesh a .geo into OUT/mesh
   jobs::MacroJob job =
       jobs::parse_macro(jobs::load_scene_or_default(o.scene, jobs::default_scene_name("macro")), o.out);
-  jobs::FileSink sink(o.out);
   return run_exit_code(jobs::run_macro(job, sink, o.run()));
 }
 
@@ -98,7 +102,7 @@ int run_sweep(const CommandOptions& o) {
     if (mpi::world_rank() == 0) throw;
     return 2;
   }
-  jobs::FileSink sink(o.out);
+  jobs::FileSink sink(o.out, "sweep");
   return run_exit_code(jobs::run_sweep(job, sink, o.run()));
 }
 
@@ -107,13 +111,13 @@ int run_calibrate(const CommandOptions& o) {
     throw InputError("scene", "", "calibrate needs a calibration file: softhom calibrate CALIBRATION.toml --out DIR "
                                   "(example: studies/calibrations/example_point.toml)");
   const jobs::CalibrationJob job = jobs::parse_calibration(jobs::load_scene_file(o.scene));
-  jobs::FileSink sink(o.out);
+  jobs::FileSink sink(o.out, "calibrate");
   return run_exit_code(jobs::run_calibration(job, sink, o.run(), true).result.success);
 }
 
 int run_demo(const CommandOptions& o) {
   const jobs::DemoJob job = jobs::parse_demo(o.scene);
-  jobs::FileSink sink(o.out);
+  jobs::FileSink sink(o.out, "demo");
   return jobs::run_demo(job, sink, o.run()) ? 0 : 1;
 }
 
@@ -182,6 +186,19 @@ std::string check_out_path(const std::string& path) {
   return path.empty() ? "is empty: name the output directory (e.g. --out results)" : std::string();
 }
 
+// Edits (insert, delete, substitute, swap two neighbours) from a to b: "rev" is one from "rve".
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+  for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+  for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i)
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+    }
+  return d[a.size()][b.size()];
+}
+
 CLI::Validator parallelism_range(const std::string& zero_means) {
   const int max = jobs::max_parallelism();
   return CLI::Validator(
@@ -196,6 +213,21 @@ CLI::Validator parallelism_range(const std::string& zero_means) {
 }
 
 }  // namespace
+
+/// The message for a first argument that is no subcommand ("" when it is one, or an option): the
+/// nearest subcommand names within two edits.
+std::string unknown_subcommand_message(const std::string& given, const std::vector<std::string>& names) {
+  if (given.empty() || given[0] == '-' || std::find(names.begin(), names.end(), given) != names.end()) return {};
+  std::size_t best = 3;
+  std::string near;
+  for (const auto& n : names)
+    if (const std::size_t d = edit_distance(given, n); d < best) best = d, near = n;
+  std::string m = "unknown subcommand '" + given + "'";
+  if (!near.empty()) m += " (did you mean '" + near + "'?)";
+  std::string all;
+  for (const auto& n : names) all += (all.empty() ? "" : ", ") + n;
+  return m + "; subcommands: " + all;
+}
 
 /// The options of the subcommand `name` (every subcommand: scene, --out, --threads, --quiet,
 /// --print-default; the others where they apply).
@@ -229,6 +261,7 @@ void declare_options(CLI::App& sub, const std::string& name, CommandOptions& opt
 
 int main(int argc, char** argv) {
   using namespace softhom;
+  app::restart_with_passive_waiting(argv);
   io::mark_run_started();
   // MPI only under an MPI launcher (mpirun, srun); a plain start is the one-process program.
   mpi::Environment mpi_environment(argc, argv);
@@ -269,11 +302,26 @@ int main(int argc, char** argv) {
     app::declare_options(*sub, s.name, options, print_default);
     sub->callback([&chosen, &s] { chosen = &s; });
   }
+  std::string examples_action, examples_name, examples_dir = "softhom-examples";
+  CLI::App* examples = cli.add_subcommand(
+      "examples", "lists the shipped scenes, campaigns, calibrations, devices and scripts, or copies them into a directory");
+  examples->add_option("action", examples_action, "list, or copy NAME [DIR]")
+      ->required()
+      ->check(CLI::IsMember({"list", "copy"}));
+  examples->add_option("name", examples_name, "example to copy (softhom examples list), or all");
+  examples->add_option("dir", examples_dir, "directory to copy into (created)")->capture_default_str();
   std::string keys_command = "all";
   bool keys_markdown = false;
   CLI::App* keys = cli.add_subcommand("keys", "lists every scene key: type, default, allowed values, unit, meaning");
   keys->add_option("command", keys_command, "point, rve, macro, sweep, calibrate or all")->capture_default_str();
   keys->add_flag("--markdown", keys_markdown, "Markdown (docs/keys.md)");
+  std::vector<std::string> names;
+  for (const CLI::App* sub : cli.get_subcommands([](const CLI::App*) { return true; })) names.push_back(sub->get_name());
+  if (argc > 1)
+    if (const std::string m = app::unknown_subcommand_message(argv[1], names); !m.empty()) {
+      std::cerr << "softhom: command line: " << m << "\nRun 'softhom --help' for the options.\n";
+      return 2;
+    }
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -284,6 +332,7 @@ int main(int argc, char** argv) {
   }
   try {
     if (keys->parsed()) return app::run_keys(keys_command, keys_markdown);
+    if (examples->parsed()) return app::run_examples(examples_action, examples_name, examples_dir);
     if (print_default) return app::print_default_scene(chosen->name);
     jobs::check_thread_count(options.threads, "--threads");
   } catch (const InputError& e) {

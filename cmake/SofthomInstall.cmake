@@ -49,3 +49,32 @@ install(FILES ${PROJECT_BINARY_DIR}/softhomConfig.cmake ${PROJECT_BINARY_DIR}/so
 
 # `softhom calibrate` looks for its plot script next to the installed program (share/softhom).
 install(FILES ${PROJECT_SOURCE_DIR}/studies/plot_calibration.py DESTINATION ${CMAKE_INSTALL_DATADIR}/softhom)
+
+# The examples (`softhom examples list|copy`, jobs/examples.hpp): share/softhom/examples in the layout of
+# studies/ (scenes name ../meshes, calibrations their data/ beside them), the Python examples and the
+# tutorial as python/, the plot scripts at the top. The same tree is staged in the build directory
+# (configure_file re-runs on a change), where a build that is not installed finds it.
+set(softhom_examples_dir ${CMAKE_INSTALL_DATADIR}/softhom/examples)
+file(GLOB softhom_example_sources CONFIGURE_DEPENDS
+     RELATIVE ${PROJECT_SOURCE_DIR}/studies
+     ${PROJECT_SOURCE_DIR}/studies/scenes/*.toml ${PROJECT_SOURCE_DIR}/studies/devices/*.toml
+     ${PROJECT_SOURCE_DIR}/studies/campaigns/*.toml ${PROJECT_SOURCE_DIR}/studies/calibrations/*.toml
+     ${PROJECT_SOURCE_DIR}/studies/calibrations/data/*.csv ${PROJECT_SOURCE_DIR}/studies/calibrations/data/*.py
+     ${PROJECT_SOURCE_DIR}/studies/meshes/*.geo ${PROJECT_SOURCE_DIR}/studies/meshes/*.msh
+     ${PROJECT_SOURCE_DIR}/studies/plot_*.py)
+set(softhom_example_pairs)
+foreach(f IN LISTS softhom_example_sources)
+  list(APPEND softhom_example_pairs "${PROJECT_SOURCE_DIR}/studies/${f}|${f}")
+endforeach()
+foreach(f ${PROJECT_SOURCE_DIR}/studies/examples/fiber_angle_sweep.py ${PROJECT_SOURCE_DIR}/docs/tutorial_angle_sweep.py)
+  get_filename_component(name ${f} NAME)
+  list(APPEND softhom_example_pairs "${f}|python/${name}")
+endforeach()
+foreach(pair IN LISTS softhom_example_pairs)
+  string(REPLACE "|" ";" pair "${pair}")
+  list(GET pair 0 source)
+  list(GET pair 1 relative)
+  get_filename_component(folder ${relative} DIRECTORY)
+  configure_file(${source} ${PROJECT_BINARY_DIR}/share/softhom/examples/${relative} COPYONLY)
+  install(FILES ${source} DESTINATION ${softhom_examples_dir}/${folder})
+endforeach()

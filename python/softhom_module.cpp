@@ -26,6 +26,7 @@
 #include "softhom/io/files.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/io/summary.hpp"
+#include "softhom/jobs/examples.hpp"
 #include "softhom/jobs/jobs.hpp"
 #include "softhom/jobs/run_control.hpp"
 #include "softhom/materials/errors.hpp"
@@ -536,6 +537,9 @@ PYBIND11_MODULE(_softhom, m) {
 
   // softhom.InputError(ValueError): message "field = value: reason", attributes field and value.
   static py::exception<InputError> input_error(m, "InputError", PyExc_ValueError);
+  input_error.attr("__doc__") =
+      "Bad input (a ValueError): the message is \"field = value: reason\"; the attributes field (the TOML path, "
+      "e.g. 'load.stretch') and value name what to change.";
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -555,7 +559,9 @@ PYBIND11_MODULE(_softhom, m) {
   m.def("column_unit", [](const std::string& c) { return io::column_info(c).unit; }, py::arg("column"));
   m.def("column_description", [](const std::string& c) { return io::column_info(c).description; }, py::arg("column"));
 
-  py::class_<PyMaterial>(m, "Material")
+  py::class_<PyMaterial>(m, "Material",
+                         "A constitutive law with its parameters (softhom.material(spec)): evaluate(F) gives P, the "
+                         "tangent dP/dF and the history for arrays of deformation gradients.")
       .def("describe", [](const PyMaterial& pm) { return pm.get().describe(); })
       .def_property_readonly("state_size", [](const PyMaterial& pm) { return pm.get().state_size(); })
       .def_property_readonly("initial_shear_modulus", [](const PyMaterial& pm) { return pm.get().initial_shear_modulus(); })
@@ -566,9 +572,12 @@ PYBIND11_MODULE(_softhom, m) {
                                for (const Vec3& a : pm.get().fiber_directions()) d.push_back({a[0], a[1], a[2]});
                                return d;
                              })
-      .def("initial_state", &softhom::python::initial_state, py::arg("n"))
+      .def("initial_state", &softhom::python::initial_state, py::arg("n"),
+           "[n, state_size] array: the undeformed, unloaded history of n points")
       .def("evaluate", &softhom::python::evaluate, py::arg("F"), py::arg("state") = py::none(), py::arg("dt") = 0.0,
-           py::arg("tangent") = true);
+           py::arg("tangent") = true,
+           "(P [n, 3, 3] MPa, A [n, 9, 9] = dP/dF or None, state [n, state_size]) at deformation gradients F "
+           "[n, 3, 3] after a step dt from state (None: initial_state(n)); EvaluationError names a refused point");
   m.def("make_material", &softhom::python::make_material, py::arg("kind"), py::arg("spec"));
 
   m.def("run_point", &softhom::python::run_point, py::arg("kind"), py::arg("scene"), py::arg("base"), py::arg("out"), py::arg("threads"),
@@ -580,6 +589,18 @@ PYBIND11_MODULE(_softhom, m) {
   m.def("read_campaign", &softhom::python::read_campaign, py::arg("store"));
   m.def("calibrate", &softhom::python::calibrate, py::arg("kind"), py::arg("calibration"), py::arg("base"), py::arg("out"),
         py::arg("threads"), py::arg("quiet"));
+  m.def("examples_directory", [](const std::string& extra) { return jobs::examples_directory(extra).string(); },
+        py::arg("extra"), "the shipped examples' directory (\"\" when none is found)");
+  m.def("list_examples", [](const std::string& root) {
+    std::vector<std::array<std::string, 3>> out;
+    for (const auto& e : jobs::list_examples(root)) out.push_back({e.name, e.file.string(), e.description});
+    return out;
+  }, py::arg("root"), "(name, relative file, description) of every example under root");
+  m.def("copy_example", [](const std::string& root, const std::string& name, const std::string& dir) {
+    std::vector<std::string> out;
+    for (const auto& p : jobs::copy_example(root, name, dir)) out.push_back(p.string());
+    return out;
+  }, py::arg("root"), py::arg("name"), py::arg("dir"), "copies an example (or all) into dir; the copied paths");
   m.def("to_toml", [](py::handle d) {
     std::ostringstream s;
     s << softhom::python::to_table(d, "");
@@ -587,7 +608,9 @@ PYBIND11_MODULE(_softhom, m) {
   }, py::arg("scene"), "a scene dict as TOML text");
 
   // One RVE cell (softhom/studies/cell.hpp). States are values: copy one out per quadrature point.
-  py::class_<studies::CellState>(m, "CellState")
+  py::class_<studies::CellState>(m, "CellState",
+                                  "The committed state of a Cell (F̄, fluctuations, history, P̄): a value to keep per "
+                                  "quadrature point and hand back with Cell.restore.")
       .def("copy", [](const studies::CellState& s) { return s; })
       .def("__copy__", [](const studies::CellState& s) { return s; })
       .def("__deepcopy__", [](const studies::CellState& s, py::dict) { return s; }, py::arg("memo"))

@@ -866,6 +866,10 @@ std::vector<Vec3> Simulation::current_positions() const { return impl_->current_
 double Simulation::cavity_pressure() const { return impl_->cavity_pressure_; }
 double Simulation::reaction(const std::vector<int>& dofs) const { return impl_->reaction(dofs); }
 ElementFields Simulation::element_fields() const { return impl_->element_fields(); }
+void Simulation::report(ContributionReport& out) const {
+  const Iterate it{impl_->time_, impl_->time_, 0.0, &impl_->u_, impl_->cavity_pressure_};
+  for (const Contribution* c : impl_->contributions_) c->report(impl_->model_.mesh, it, out);
+}
 RunStats Simulation::stats() const { return impl_->stats(); }
 const StepCounts& Simulation::last_step_counts() const { return impl_->last_step_; }
 

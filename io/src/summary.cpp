@@ -3,6 +3,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <ctime>
 #include <sstream>
 #include <stdexcept>
@@ -61,6 +62,9 @@ nlohmann::json summary_base(const std::string& command, const std::filesystem::p
   j["scene_file"] = scene_file.string();
   j["scene"] = nlohmann::json::parse(scene_json.str());
   j["threads"] = omp_get_max_threads();  // what the OpenMP solvers will use (honours OMP_NUM_THREADS)
+  // How waiting threads wait (the program sets passive unless the user chose): "" = OpenMP's default.
+  const char* wait_policy = std::getenv("OMP_WAIT_POLICY");
+  j["omp_wait_policy"] = wait_policy ? wait_policy : "";
   j["started_utc"] = run_started_utc();
   return j;
 }

@@ -7,6 +7,7 @@
 #include "softhom/jobs/jobs.hpp"
 #include "softhom/jobs/run_control.hpp"
 #include "softhom/materials/driver.hpp"
+#include "softhom/materials/plausibility.hpp"
 #include "softhom/materials/scene_keys.hpp"
 
 namespace softhom::jobs {
@@ -40,7 +41,9 @@ nlohmann::json point_summary(const PointJob& job, const PointRunResult& result, 
   summary["steps"] = result.steps.empty() ? 0 : result.steps.size() - 1;
   summary["newton_iterations"] = result.total_newton_iterations;
   summary["cutbacks"] = result.cutbacks;
-  summary["warnings"] = result.log;
+  nlohmann::json warnings = job.warnings;
+  for (const auto& w : result.log) warnings.push_back(w);
+  summary["warnings"] = warnings;
   summary["wall_time_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return summary;
 }
@@ -51,11 +54,13 @@ PointJob parse_point(LoadedScene scene) {
   PointJob job;
   job.parsed = parse_point_scene(scene.table);
   job.material = build_material(job.parsed.material);
+  job.warnings = plausibility_warnings(*job.material, MaterialRole::any, "material");
   job.scene = std::move(scene);
   return job;
 }
 
 PointRunResult run_point(const PointJob& job, Sink& sink, const RunOptions& options) {
+  print_warnings("softhom point", job.warnings, options.quiet);
   const auto wall_start = std::chrono::steady_clock::now();
   const MixedControl& control = job.parsed.control;
   const double t_end = control.times.back();
@@ -71,7 +76,7 @@ PointRunResult run_point(const PointJob& job, Sink& sink, const RunOptions& opti
     converged.push_back(s);
     const int tenths = t_end > 0.0 ? int(s.t / t_end * 10) : 10;
     if (tenths != tenths_shown || s.t == t_end) {
-      progress.update("[point " + job.scene.name + "] t = " + format_number(s.t) + " / " + format_number(t_end));
+      progress.update("[point " + job.scene.name + "] t = " + progress_number(s.t) + " / " + progress_number(t_end));
       tenths_shown = tenths;
     }
     stop_point(converged.size() - 1);

@@ -3,9 +3,15 @@
 #include <atomic>
 #include <iostream>
 
+#include <omp.h>
+
 #include "rve_jobs.hpp"
+#include "softhom/jobs/thread_defaults.hpp"
 #include "softhom/io/scene.hpp"
+#include "softhom/core/mpi.hpp"
+#include "softhom/jobs/run_control.hpp"
 #include "softhom/materials/errors.hpp"
+#include "softhom/materials/plausibility.hpp"
 
 namespace softhom::jobs {
 namespace {
@@ -32,6 +38,23 @@ FeRveJob parse_fe_job(const toml::table& scene, bool microstructure_only) {
   if (!microstructure_only) job.control = studies::parse_rve_load(scene);
   job.output = studies::parse_rve_output(scene, microstructure_only ? nullptr : &job.control);
   return job;
+}
+
+/// Plausibility of the matrix and fiber moduli (materials/plausibility.hpp).
+std::vector<std::string> phase_warnings(const RveJob& job) {
+  MaterialPtr matrix, fiber;
+  if (const auto* fe = std::get_if<FeRveJob>(&job.engine)) {
+    matrix = fe->phases.matrix;
+    if (fe->phases.has_fiber) fiber = fe->phases.fiber;
+  } else {
+    matrix = std::get<FftRveJob>(job.engine).setup.matrix;
+    fiber = std::get<FftRveJob>(job.engine).setup.fiber;
+  }
+  std::vector<std::string> w = matrix ? plausibility_warnings(*matrix, MaterialRole::matrix, "phases.matrix")
+                                      : std::vector<std::string>{};
+  if (fiber)
+    for (auto& f : plausibility_warnings(*fiber, MaterialRole::fiber, "phases.fiber")) w.push_back(std::move(f));
+  return w;
 }
 
 }  // namespace
@@ -99,6 +122,7 @@ RveJob parse_rve(LoadedScene scene, const RveParseOptions& options) {
     const bool with_load = !job.microstructure_only;
     job.engine = FftRveJob{studies::parse_rve_scene(scene.table, with_load, options.out, with_load)};
   }
+  job.warnings = phase_warnings(job);
   job.scene = std::move(scene);
   return job;
 }
@@ -107,8 +131,16 @@ std::size_t rve_scene_parses() { return parses.load(); }
 
 bool run_rve(RveJob& job, Sink& sink, const RunOptions& options) {
   if (job.resolution && !options.quiet) std::cerr << "softhom rve: " << job.resolution->why << "\n";
+  print_warnings("softhom rve", job.warnings, options.quiet || mpi::world_rank() != 0);
   if (auto* fe = std::get_if<FeRveJob>(&job.engine)) return run_fe_rve(job, *fe, sink, options);
-  return run_fft_rve(job, std::get<FftRveJob>(job.engine), sink, options);
+  FftRveJob& fft = std::get<FftRveJob>(job.engine);
+  // Without a thread count from the user, a small cell runs on fewer threads (thread_defaults.hpp); the
+  // voxels are this rank's (a slab under MPI).
+  const std::size_t voxels = fft.setup.image.owned_voxels();
+  const ThreadCountScope threads(thread_count_given(options.threads)
+                                     ? 0
+                                     : default_thread_count(voxels, kVoxelsPerDefaultThread, omp_get_max_threads()));
+  return run_fft_rve(job, fft, sink, options);
 }
 
 }  // namespace softhom::jobs

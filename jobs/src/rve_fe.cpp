@@ -226,7 +226,8 @@ bool run_fe_rve(const RveJob& job, const FeRveJob& fe, Sink& sink, const RunOpti
   sink.flush();
   if (writer) writer->close();
   nlohmann::json summary = fe_summary(job, fe, std::move(mesh.json), *solver);
-  if (!finish_rve_summary(summary, result, record.step_log, solver->memory_bytes(), sink, wall_start)) return false;
+  if (!finish_rve_summary(summary, result, record.step_log, solver->memory_bytes(), sink, wall_start, 0.0, job.warnings))
+    return false;
   if (!options.quiet)
     std::cerr << "softhom rve (fe): " << mesh.phase.size() << " " << mesh.element_name << " elements, "
               << result.steps.size() - 1 << " steps, " << result.newton_iterations << " Newton iterations, "

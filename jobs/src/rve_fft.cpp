@@ -50,7 +50,7 @@ struct InStepProgress {
         std::chrono::duration<double>(now - last_line).count() < kAfterSeconds)
       return;
     last_line = now;
-    progress->update(tag + "step to t = " + format_number(t_new) + ": Newton " + std::to_string(iteration) +
+    progress->update(tag + "step to t = " + progress_number(t_new) + ": Newton " + std::to_string(iteration) +
                      ", residual " + progress_number(residual) + ", Krylov " + std::to_string(krylov) + ", " +
                      std::to_string(long(std::chrono::duration<double>(now - substep_start).count())) +
                      " s into the sub-step");
@@ -317,7 +317,7 @@ bool FftRun::run() {
   if (!root_) return result.completed;
   nlohmann::json s = summary();
   if (!finish_rve_summary(s, result, record_->step_log, solver_->memory_bytes(), sink_, wall_start_,
-                          resumed_.wall_seconds))
+                          resumed_.wall_seconds, job_.warnings))
     return false;
   if (!options_.quiet)
     std::cerr << "softhom rve: " << record_->step_log.size() - 1 << " steps, " << result.newton_iterations

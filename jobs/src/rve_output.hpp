@@ -136,7 +136,7 @@ rve::RveRunResult run_rve_engine(Solver& solver, const MixedControl& control, On
 
 /// One progress line of an RVE step.
 inline std::string rve_progress_line(const std::string& tag, const rve::RveStep& s, double t_end) {
-  return tag + "t = " + format_number(s.t) + " / " + format_number(t_end) + "  P11 = " + progress_number(s.P(0, 0)) +
+  return tag + "t = " + progress_number(s.t) + " / " + progress_number(t_end) + "  P11 = " + progress_number(s.P(0, 0)) +
          "  Newton " + std::to_string(s.newton_iterations) + ", Krylov " + std::to_string(s.krylov_iterations);
 }
 
@@ -158,13 +158,16 @@ inline void set_rve_field_attributes(io::FieldWriter& w, double fiber_angle_deg,
 /// when the run stopped early, says so on stderr. Returns whether the run completed.
 inline bool finish_rve_summary(nlohmann::json& summary, const rve::RveRunResult& result, const nlohmann::json& step_log,
                                std::size_t solver_memory_bytes, Sink& sink,
-                               std::chrono::steady_clock::time_point wall_start, double earlier_wall_seconds = 0.0) {
+                               std::chrono::steady_clock::time_point wall_start, double earlier_wall_seconds = 0.0,
+                               const std::vector<std::string>& input_warnings = {}) {
   io::set_run_status(summary, result.completed, result.error);
   summary["steps"] = step_log;
   summary["newton_iterations"] = result.newton_iterations;
   summary["krylov_iterations"] = result.krylov_iterations;
   summary["cutbacks"] = result.cutbacks;
-  summary["warnings"] = result.log;
+  nlohmann::json warnings = input_warnings;  // plausibility of the phases first, then the run's notes
+  for (const auto& w : result.log) warnings.push_back(w);
+  summary["warnings"] = warnings;
   summary["solver_memory_bytes"] = solver_memory_bytes;
   summary["peak_memory_bytes"] = io::peak_memory_bytes();
   summary["peak_memory_bytes_per_voxel"] = nullptr;  // voxel engines only

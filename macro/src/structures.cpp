@@ -259,6 +259,7 @@ Structure build_structure(const StructureSpec& spec) {
     case StructureKind::imported: build_imported(s, spec.imported); break;
   }
   assign_materials(s);
+  add_fibers(s);
   add_contacts(spec.contact, s.model);  // after the materials: the penalty scales with them
   return s;
 }

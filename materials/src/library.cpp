@@ -98,7 +98,7 @@ const LawEntry& law_entry(LawKind kind) {
 }
 
 std::vector<std::string> preset_names() {
-  return {"ecoflex", "pdms", "glass", "ecoflex-anisotropic", "pdms-anisotropic", "verify-iso",
+  return {"ecoflex", "pdms", "glass", "e-glass", "ecoflex-anisotropic", "pdms-anisotropic", "verify-iso",
           "verify-aniso", "vessel", "microhand-pdms", "cpasmo-gent", "cpasmo-yeoh", "cpasmo-ogden"};
 }
 
@@ -113,7 +113,11 @@ MaterialSpec preset_spec(const std::string& name, const std::string& field_prefi
   else if (name == "pdms") s.gent = gent(0.65, 5.0, 2000.0);
   else if (name == "glass") {
     s.law = LawKind::neo_hookean;
-    s.neo_hookean = NeoHookeanParams::from_young(10.0, 0.3);
+    s.neo_hookean = NeoHookeanParams::from_young(10.0, 0.3);  // the dissertation's fiber, not glass
+  } else if (name == "e-glass") {
+    // E-glass fiber: E = 72 GPa, ν = 0.22 (the usual handbook values for E-glass).
+    s.law = LawKind::neo_hookean;
+    s.neo_hookean = NeoHookeanParams::from_young(72000.0, 0.22);
   } else if (name == "ecoflex-anisotropic") s.gent = gent(0.017, 14.0, 2000.0, 0.8, 18.0);
   else if (name == "pdms-anisotropic") s.gent = gent(0.65, 5.0, 2000.0, 0.8, 18.0);
   else if (name == "verify-iso") s.gent = gent(0.026, 0.067, 2000.0);

@@ -73,7 +73,10 @@ const keys::KeyTable<MaterialKeys>& material_keys() {
     keys::KeyTable<MaterialKeys> k("material", "a constitutive law: a named parameter set and/or a law with its parameters");
     std::string presets;
     for (const auto& n : preset_names()) presets += (presets.empty() ? "" : ", ") + ("\"" + n + "\"");
-    k.custom("preset", "choice", "named parameter set of spec §6 (its values are defaults for the keys below)",
+    k.custom("preset", "choice",
+             "named parameter set of spec §6 (its values are defaults for the keys below); \"glass\" is the "
+             "dissertation's fiber (E = 10 MPa, nu = 0.3: about 7000 times softer than glass), \"e-glass\" real E-glass "
+             "fiber (E = 72 GPa, nu = 0.22)",
              [](const toml::node& n, const std::string& f, M& m) {
                m.preset = keys::read_text(n, f);
                const auto names = preset_names();

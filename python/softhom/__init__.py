@@ -16,22 +16,56 @@ import functools
 import io as _io
 import json
 import os
+import pathlib
 import tempfile
+import warnings
 from typing import Any, Mapping, NamedTuple
 
-import numpy as np
-import pandas as pd
+def _prefer_passive_openmp_waiting() -> None:
+    """OMP_WAIT_POLICY=passive unless the user set it: OpenMP threads that spin at barriers take the
+    cores the working threads need on a busy machine (a 32² cell 6.8 s on two threads against 0.6 s on
+    one). libgomp reads the variable once, when it is loaded: this works when nothing imported before
+    softhom has loaded it already."""
+    if "OMP_WAIT_POLICY" in os.environ:
+        return
+    try:
+        with open("/proc/self/maps", encoding="utf-8", errors="replace") as maps:
+            if "libgomp" in maps.read():
+                return
+    except OSError:
+        pass
+    os.environ["OMP_WAIT_POLICY"] = "passive"
 
-from . import _softhom
-from ._softhom import CellState, InputError, Material
+
+_prefer_passive_openmp_waiting()
+
+
+import numpy as np  # noqa: E402  (numpy's OpenBLAS may load libgomp)
+import pandas as pd  # noqa: E402
+
+
+from . import _softhom  # noqa: E402  (after the OpenMP environment is set)
+from ._softhom import CellState, InputError, Material  # noqa: E402
 
 __all__ = [
-    "InputError", "EvaluationError", "Material", "Cell", "CellState", "RunResult", "CalibrationResult", "material", "presets",
-    "default_scene", "to_toml", "run_point", "run_rve", "run_macro", "open_campaign", "calibrate", "__version__",
+    "InputError", "EvaluationError", "PlausibilityWarning", "Material", "Cell", "CellState", "RunResult", "CalibrationResult", "material", "presets",
+    "default_scene", "to_toml", "examples", "example_path", "copy_example", "run_point", "run_rve", "run_macro", "open_campaign", "calibrate", "__version__",
 ]
 
 __version__ = _softhom.version()
 
+
+
+class PlausibilityWarning(UserWarning):
+    """Input that is valid but probably not meant: a modulus that looks like Pa where softhom reads MPa,
+    a negative Poisson's ratio, a compressible rubber matrix. The run goes on; the same text is in
+    ``summary["warnings"]``."""
+
+
+def _warn_plausibility(summary: dict) -> None:
+    for w in summary.get("warnings", []):
+        if isinstance(w, str) and w.startswith("plausibility: "):
+            warnings.warn(w[len("plausibility: "):], PlausibilityWarning, stacklevel=3)
 
 
 class EvaluationError(ArithmeticError):
@@ -61,11 +95,21 @@ def _input_error(field: str, value: Any, reason: str) -> InputError:
     return e
 
 
+def _looks_like_file_name(text: str) -> bool:
+    """One line without '=' or '[' that names a .toml file or an existing file: no scene is that."""
+    if not text or any(c in text for c in "=[\n"):
+        return False
+    return text.endswith(".toml") or os.path.isfile(text)
+
+
 def _scene(scene: Any) -> tuple[str, Any]:
     """(kind, payload) for the compiled module: "file" (a path), "toml" (text) or "dict"."""
     if isinstance(scene, os.PathLike):
         return "file", os.fspath(scene)
     if isinstance(scene, str):
+        if _looks_like_file_name(scene):
+            raise _input_error("scene", scene, "is a file name, not TOML text: pass pathlib.Path(...) "
+                               "(or Cell.from_file for a Cell)")
         return "toml", scene
     if isinstance(scene, Mapping):
         return "dict", scene
@@ -99,37 +143,105 @@ class Cell:
         kind, payload = _scene(scene)
         self._cell = _softhom.Cell(kind, payload, tangent_tolerance)
 
+    @classmethod
+    def from_file(cls, path: str | os.PathLike, tangent_tolerance: float = 1e-6) -> "Cell":
+        """The cell of an RVE scene file (what ``softhom rve PATH`` runs); relative paths in it are
+        relative to the file."""
+        return cls(pathlib.Path(path), tangent_tolerance)
+
+    @classmethod
+    def from_toml(cls, text: str, tangent_tolerance: float = 1e-6) -> "Cell":
+        """The cell of an RVE scene given as TOML text."""
+        if not isinstance(text, str):
+            raise TypeError(f"from_toml takes TOML text (str), not {type(text).__name__}")
+        return cls(text, tangent_tolerance)
+
+    @classmethod
+    def from_dict(cls, scene: Mapping, tangent_tolerance: float = 1e-6) -> "Cell":
+        """The cell of an RVE scene given as nested dicts (the TOML tables)."""
+        if not isinstance(scene, Mapping):
+            raise TypeError(f"from_dict takes a dict of the scene's tables, not {type(scene).__name__}")
+        return cls(scene, tangent_tolerance)
+
     def solve(self, F: Any, dt: float = 0.0, tangent: bool = True, stress_prescribed: Any = None,
               P_target: Any = None) -> dict:
+        """Solves the cell at the macroscopic F̄ (array [3, 3]) after a time step ``dt`` [s] from the
+        committed state; returns a dict with ``converged``, ``error``, ``F``, ``P`` (P̄ [MPa], [3, 3]),
+        ``tangent`` (∂P̄/∂F̄ [9, 9], with ``tangent=True``), iteration counts and seconds. Mixed control:
+        ``stress_prescribed`` ([3, 3] booleans) takes those components of P̄ from ``P_target``. Never
+        commits; a cell that does not converge returns ``converged=False`` (no exception)."""
         return self._cell.solve(np.asarray(F, dtype=float), dt, tangent,
                                 None if stress_prescribed is None else np.asarray(stress_prescribed, dtype=bool),
                                 None if P_target is None else np.asarray(P_target, dtype=float))
 
     def commit(self) -> None:
+        """Makes the last converged solve's state the start of the next solve (the macro step is accepted)."""
         self._cell.commit()
 
     def state(self) -> CellState:
+        """A copy of the committed state (keep one per quadrature point)."""
         return self._cell.state()
 
     def trial_state(self) -> CellState:
+        """The state of the last converged solve (the committed one when there is none)."""
         return self._cell.trial_state()
 
     def initial_state(self) -> CellState:
+        """The undeformed state (F̄ = I, initial history): what a new quadrature point starts from."""
         return self._cell.initial_state()
 
     def restore(self, state: CellState) -> None:
+        """Makes ``state`` (from this cell's scene) the committed state and drops the trial."""
         self._cell.restore(state)
 
     @property
     def has_history(self) -> bool:
+        """Whether a phase has history (QLV): then ``solve`` needs ``dt > 0``."""
         return self._cell.has_history
 
     @property
     def memory_bytes(self) -> int:
+        """Bytes the cell's solver holds (grid, FFT plans, tangent storage)."""
         return self._cell.memory_bytes
 
     def describe(self) -> str:
+        """One line: geometry, phases, grid and fiber angle."""
         return self._cell.describe()
+
+
+def _examples_root() -> str:
+    # Installed: PREFIX/lib/pythonX.Y/{dist,site}-packages/softhom next to PREFIX/share/softhom/examples.
+    guess = pathlib.Path(__file__).resolve().parents[4] / "share" / "softhom" / "examples"
+    root = _softhom.examples_directory(str(guess))
+    if not root:
+        raise FileNotFoundError("the softhom examples were not found (share/softhom/examples of the install); "
+                                "set SOFTHOM_EXAMPLES to that directory")
+    return root
+
+
+def examples() -> pd.DataFrame:
+    """The shipped examples (what ``softhom examples list`` prints): columns name ("scenes/rve_ecoflex_circ45",
+    "calibrations/example_point", "python/fiber_angle_sweep", ...), path (absolute) and description."""
+    root = _examples_root()
+    rows = [(n, os.path.join(root, f), d) for n, f, d in _softhom.list_examples(root)]
+    return pd.DataFrame(rows, columns=["name", "path", "description"])
+
+
+def example_path(name: str) -> pathlib.Path:
+    """The installed file of an example, by name or stem: ``example_path("rve_ecoflex_circ45")`` is the
+    scene file, ready for ``run_rve`` or ``Cell.from_file`` (read it, do not write into it: copy with
+    :func:`copy_example`)."""
+    for n, path, _ in examples().itertuples(index=False):
+        if name in (n, pathlib.Path(path).stem, pathlib.Path(path).name):
+            return pathlib.Path(path)
+    raise _input_error("name", name, "is no example (softhom.examples() lists them)")
+
+
+def copy_example(name: str, directory: str | os.PathLike) -> list[pathlib.Path]:
+    """Copies an example (or ``"all"``) with the files it names into ``directory``, in the layout of
+    ``softhom examples copy``; returns the copied files."""
+    d = os.fspath(directory)
+    return [pathlib.Path(d) / p for p in _softhom.copy_example(_examples_root(), name, d)]
 
 
 def presets() -> list[str]:
@@ -179,7 +291,9 @@ def _run(job, scene: Any, out: Any, threads: int | None, quiet: bool, base_dir: 
     directory = "" if out is None else os.fspath(out)
     if directory:
         os.makedirs(directory, exist_ok=True)
-    return _result(job(kind, payload, _base(scene, base_dir), directory, threads or 0, quiet))
+    result = _result(job(kind, payload, _base(scene, base_dir), directory, threads or 0, quiet))
+    _warn_plausibility(result.summary)
+    return result
 
 
 def run_point(scene: Any, out: Any = None, threads: int | None = None, quiet: bool = True,

@@ -131,7 +131,9 @@ namespace {
 
 /// The table of CSV text read from `file` (errors name the file and the line).
 CsvData parse_csv(const std::string& text, const std::string& file) {
-  std::istringstream in(text);
+  // Spreadsheet programs save "CSV UTF-8" with a byte-order mark: it belongs to no field.
+  const std::string_view bom = "\xEF\xBB\xBF";
+  std::istringstream in(text.starts_with(bom) ? text.substr(bom.size()) : text);
   auto trim = [](std::string s) {
     const auto b = s.find_first_not_of(" \t\r\"");
     const auto e = s.find_last_not_of(" \t\r\"");

@@ -22,11 +22,30 @@ void check_finite(const Mat3& X, const char* field) {
   if (!X.allFinite()) throw InputError(field, "", "not finite");
 }
 
+// One line without '=' or '[' that names a .toml file or an existing file: no RVE scene is that (a
+// scene has at least a [microstructure] table), and parsing it as TOML gives only a syntax error.
+bool looks_like_file_name(const std::string& text) {
+  if (text.empty() || text.find_first_of("=[\n") != std::string::npos) return false;
+  std::error_code ec;
+  return text.ends_with(".toml") || std::filesystem::is_regular_file(text, ec);
+}
+
 }  // namespace
 
 Cell::Cell(const std::string& scene_toml, const std::string& source_name, const CellOptions& options)
     : cell_options_(options) {
+  if (looks_like_file_name(scene_toml))
+    throw InputError("scene", scene_toml,
+                     "is a file name, not TOML text: use Cell::from_file (Python: softhom.Cell.from_file)");
   setup(io::parse_scene(scene_toml, source_name));
+}
+
+Cell Cell::from_file(const std::filesystem::path& scene_file, const CellOptions& options) {
+  return Cell(io::load_scene(scene_file), options);
+}
+
+Cell Cell::from_toml(const std::string& scene_toml, const CellOptions& options, const std::string& source_name) {
+  return Cell(scene_toml, source_name, options);
 }
 
 Cell::Cell(const toml::table& scene, const CellOptions& options) : cell_options_(options) { setup(scene); }

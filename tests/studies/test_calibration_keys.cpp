@@ -93,6 +93,16 @@ TEST(CalibrationKeys, CsvErrorsNameTheCurveFieldFileAndLine) {
   EXPECT_NE(msg.find("1 fields, the header has 2"), std::string::npos) << msg;
 }
 
+TEST(CalibrationKeys, CsvWithAByteOrderMarkReadsLikeWithout) {
+  // "CSV UTF-8" of spreadsheet programs starts with EF BB BF; before its comment line was taken for the
+  // header (3 fields by its commas) and line 2 was refused ("2 fields, the header has 3").
+  const fs::path dir = fresh_dir("csv-bom");
+  write(dir / "u.csv", "\xEF\xBB\xBF# exported, two columns, no units\nF11,P11\n1.0,0\n1.1,abc\n");
+  const std::string msg = error_of(std::string(kModel) + kCurve, dir);
+  EXPECT_NE(msg.find("u.csv line 4"), std::string::npos) << msg;  // the header was read, the data row named
+  EXPECT_NE(msg.find("column P11"), std::string::npos) << msg;
+}
+
 TEST(CalibrationKeys, ResponseCsvNamesItsCurves) {
   studies::CalibrationResult r;
   studies::CurveFit a;

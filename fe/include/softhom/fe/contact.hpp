@@ -131,6 +131,9 @@ class ObstacleContact final : public Contribution {
   MaterialStatus assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const override;
   /// After a converged step: the stick points and multipliers of the converged state.
   void commit(const Mesh& mesh, const Iterate& converged) const override;
+  /// Probes <label>_normal_force [N], _tangential_force [N], _area [mm^2], _active_points [1],
+  /// _max_penetration [mm]; the field <label> (its faces: contact_pressure, gap, displacement of their nodes).
+  void report(const Mesh& mesh, const Iterate& it, ContributionReport& out) const override;
 
   ContactTotals totals(const Mesh& mesh, const Iterate& it) const;
   /// Per face (quads first, then triangles): the mean contact pressure (Cauchy: per current area) over

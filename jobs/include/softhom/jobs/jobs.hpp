@@ -43,6 +43,7 @@ struct PointJob {
   LoadedScene scene;
   PointScene parsed;
   MaterialPtr material;
+  std::vector<std::string> warnings;  ///< plausibility of the material (softhom/materials/plausibility.hpp)
 };
 PointJob parse_point(LoadedScene scene);
 /// Rows "response" (as the steps converge) and the summary. The result holds the converged steps.
@@ -75,6 +76,7 @@ struct RveJob {
   bool microstructure_only = false;            ///< [output] microstructure_only: no load path
   bool resume = false;                         ///< continue the checkpoint in the sink's directory
   std::variant<FftRveJob, FeRveJob> engine;
+  std::vector<std::string> warnings;           ///< plausibility of the phases (softhom/materials/plausibility.hpp)
 };
 
 struct RveParseOptions {

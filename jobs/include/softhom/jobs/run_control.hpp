@@ -9,6 +9,7 @@
 #include <iostream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "softhom/core/input_error.hpp"
 #include "softhom/io/summary.hpp"
@@ -65,6 +66,12 @@ inline void check_thread_count(long count, const std::string& field) {
   const long n = env ? std::strtol(env, &end, 10) : 0;
   if (env && end != env && !parallelism_problem(n).empty())
     throw InputError("OMP_NUM_THREADS", env, parallelism_problem(n) + "; set it lower or give " + field);
+}
+
+/// Input warnings (plausibility) on stderr, one line each, unless quiet.
+inline void print_warnings(const std::string& tag, const std::vector<std::string>& warnings, bool quiet) {
+  if (quiet) return;
+  for (const auto& w : warnings) std::cerr << tag << ": warning: " << w << "\n";
 }
 
 /// "interrupted by SIGTERM" (or "interrupted" without a signal).

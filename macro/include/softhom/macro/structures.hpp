@@ -11,6 +11,7 @@
 
 #include "softhom/fe/solver.hpp"
 #include "softhom/macro/contact.hpp"
+#include "softhom/macro/fiber_geometry.hpp"
 #include "softhom/macro/geometry.hpp"
 
 namespace softhom::macro {
@@ -69,6 +70,7 @@ struct StructureSpec {
   /// memory estimate holds a multigrid hierarchy and a Krylov basis instead of a factor.
   bool factorized_solver = true;
   ContactSpec contact;                ///< rigid obstacles against the structure's surfaces
+  std::vector<FiberSpec> fibers;      ///< [[fibers]]: fibers tied to the mesh (fiber_geometry.hpp)
 };
 
 struct Structure {
@@ -76,6 +78,7 @@ struct Structure {
   StructureSpec spec;
   std::vector<int> inner_nodes, end_nodes;  ///< probes: cavity wall; free end (tube zmax / plate xmax)
   std::vector<int> load_dofs;               ///< plate: x-dofs of xmax (reaction force)
+  std::vector<std::shared_ptr<const fe::TiedFibers>> fibers;  ///< also among model.contributions
 };
 
 /// Builds mesh, materials (rotated into the fiber frame per element), constraints and loads.

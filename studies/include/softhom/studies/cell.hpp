@@ -23,6 +23,7 @@
 // per thread for concurrent cells. CellState is a plain value (copyable, movable).
 #include <array>
 #include <cstddef>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -70,10 +71,18 @@ struct CellResult {
 
 class Cell {
  public:
+  /// From an RVE scene file (the file `softhom rve` would run), read through the checked opener;
+  /// imported images (microstructure.image.file) are read relative to the scene file's directory.
+  static Cell from_file(const std::filesystem::path& scene_file, const CellOptions& options = {});
+  /// From the text of an RVE scene (TOML); `source_name` names it in TOML syntax errors.
+  static Cell from_toml(const std::string& scene_toml, const CellOptions& options = {},
+                        const std::string& source_name = "cell");
+
   /// From the text of an RVE scene (TOML); `source_name` names it in TOML syntax errors. Every bad key
   /// is an InputError naming the TOML path ("phases.matrix.G = -1: ...", "solver.tolerance = ...");
   /// solver.engine must be "fft" (or absent). Imported images (microstructure.image.file) are read
-  /// relative to the working directory.
+  /// relative to the working directory. Text that is a file name rather than TOML is refused with an
+  /// InputError pointing to from_file.
   explicit Cell(const std::string& scene_toml, const std::string& source_name = "cell", const CellOptions& options = {});
   /// From a parsed scene table.
   explicit Cell(const toml::table& scene, const CellOptions& options = {});
