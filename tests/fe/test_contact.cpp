@@ -181,13 +181,15 @@ struct PressedBlock {
   double reaction_z = 0.0, top_area = 0.0;
   ContactTotals totals;
   std::vector<double> pressure, gap;
+  ContributionReport report;
   double face_size = 0.0, penalty = 0.0, shear_modulus = 1.0;
 };
 
 /// A unit block on a frictionless rigid plane at z = 0, symmetry planes x = 0 and y = 0, the top moved
 /// down by `delta` in `steps` load steps: a uniform uniaxial state whose top traction is what the plane
 /// must transmit.
-PressedBlock press_block(bool tet10, double delta, int steps, bool augmented) {
+PressedBlock press_block(bool tet10, double delta, int steps, bool augmented,
+                         SolverKind solver = SolverKind::automatic) {
   Mesh m = block(3, 2, 1.0, 1.0);
   if (tet10) m = hex_to_tet10(m);
   FeModel model;
@@ -208,7 +210,9 @@ PressedBlock press_block(bool tet10, double delta, int steps, bool augmented) {
   out.penalty = default_contact_penalty(1.0, out.face_size);
   const auto contact = contact_on(m, "bottom", plane_at(0.0), law_options(out.penalty, 0.0, augmented));
   model.add(contact);
-  Simulation sim(model);
+  NewtonOptions newton;
+  newton.solver = solver;
+  Simulation sim(model, newton);
   for (int s = 1; s <= steps; ++s) EXPECT_TRUE(sim.advance_to(double(s) / steps).reached());
   std::vector<int> top_z;
   for (int n : surface_nodes(m, "top")) top_z.push_back(3 * n + 2);
@@ -219,6 +223,7 @@ PressedBlock press_block(bool tet10, double delta, int steps, bool augmented) {
   it.u = &u;
   out.totals = contact->totals(m, it);
   contact->face_values(m, it, out.pressure, out.gap);
+  contact->report(m, it, out.report);
   // The top is as wide as the bottom in a uniform state: its current area from the corner node (1, 1, 1).
   for (int n = 0; n < m.num_nodes(); ++n)
     if ((m.nodes[n] - Vec3(1, 1, 1)).norm() < 1e-12) out.top_area = (1 + u[3 * n]) * (1 + u[3 * n + 1]);
@@ -240,6 +245,39 @@ TEST(Contact, PressedBlockTransmitsUniformPressure) {
     for (double p : b.pressure) EXPECT_NEAR(p, applied, 1e-6 * applied) << (tet10 ? "tet10" : "hex8");
     EXPECT_NEAR(b.totals.normal_force, -b.reaction_z, 1e-6 * applied) << (tet10 ? "tet10" : "hex8");
     EXPECT_NEAR(b.totals.area, b.top_area, 1e-9);
+  }
+}
+
+// The same on the PETSc path (the contact's couplings in its preallocation, its tangent through PETSc's
+// fill): the pressure of the CHOLMOD run to 1e-6, the tolerance of the patch test.
+TEST(Contact, PressedBlockOnPetscPath) {
+  const PressedBlock direct = press_block(true, 0.05, 2, true);
+  const PressedBlock petsc = press_block(true, 0.05, 2, true, SolverKind::petsc);
+  ASSERT_EQ(petsc.pressure.size(), direct.pressure.size());
+  for (std::size_t f = 0; f < petsc.pressure.size(); ++f)
+    EXPECT_NEAR(petsc.pressure[f], direct.pressure[f], 1e-6 * direct.pressure[f]);
+}
+
+// What the macro job writes: the probes (the totals) and one field on the bottom's faces with the
+// face pressures and gaps, and the displacement of the faces' nodes.
+TEST(Contact, ReportsProbesAndFaceField) {
+  for (bool tet10 : {false, true}) {
+    const PressedBlock b = press_block(tet10, 0.05, 1, true);
+    ASSERT_EQ(b.report.probes.size(), 5u);
+    EXPECT_EQ(b.report.probes[0].first, "contact_normal_force [N]");
+    EXPECT_EQ(b.report.probes[0].second, b.totals.normal_force);
+    EXPECT_EQ(b.report.probes[3].first, "contact_active_points [1]");
+    EXPECT_EQ(b.report.probes[3].second, double(b.totals.active_points));
+    ASSERT_EQ(b.report.fields.size(), 1u);
+    const ReportField& f = b.report.fields[0];
+    EXPECT_EQ(f.cells.stem, "contact");
+    EXPECT_EQ(f.cells.type, tet10 ? ReportCells::Type::triangle6 : ReportCells::Type::quad4);
+    EXPECT_EQ(f.cells.connectivity.size(), tet10 ? 6u * 18u : 4u * 9u);
+    EXPECT_EQ(f.cells.points.size(), tet10 ? 49u : 16u);  // the bottom's nodes: 7 × 7 with mid-edge nodes, 4 × 4
+    ASSERT_EQ(f.arrays.size(), 3u);
+    EXPECT_EQ(f.arrays[0].values, b.pressure);
+    EXPECT_EQ(f.arrays[1].values, b.gap);
+    EXPECT_EQ(f.arrays[2].values.size(), 3 * f.cells.points.size());
   }
 }
 
