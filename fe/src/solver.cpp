@@ -618,9 +618,10 @@ StepAttempt Simulation::Impl::try_step(double t_new, double dt) {
     const bool predictor = it == 0 && !n.du_c.empty();
     MaterialStatus st = evaluate_iterate(it, predictor, t_new, dt, v_target, n, as);
     if (it > 0 && options_.line_search) st = line_search(t_new, dt, st, n, as);
-    if (st != MaterialStatus::ok)
-      return fail(std::string("material call failed (") + to_string(st) + ") in element " +
-                  std::to_string(as.failed_element));
+    if (st != MaterialStatus::ok)  // an element's material, or a contribution (a contact's penetration)
+      return fail(as.failed_element >= 0 ? std::string("material call failed (") + to_string(st) + ") in element " +
+                                               std::to_string(as.failed_element)
+                                         : std::string("iterate refused (") + to_string(st) + ")");
     double rn = 0.0, rn_true = 0.0;
     for (int d = 0; d < ndof; ++d)
       if (dofs_.eq[d] >= 0) {
@@ -644,6 +645,8 @@ StepAttempt Simulation::Impl::try_step(double t_new, double dt) {
     const double rc_last = n.r_prev;
     n.r_prev = rc;
     if (converged) {
+      const Iterate done{t_new, t_new, dt, &n.u, n.p};
+      for (const Contribution* c : contributions_) c->commit(model_.mesh, done);
       commit(n, as, it);
       attempt_counts_.newton_iterations += it;
       return StepAttempt{true, {}};

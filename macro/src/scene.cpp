@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "contact_keys.hpp"
 #include "device_keys.hpp"
 #include "fiber_keys.hpp"
 #include "helix_tube_keys.hpp"
@@ -351,7 +352,8 @@ const KeyTable<SceneKeysTop>& scene_table() {
         .custom("regions", "table", "gmsh only: a material table per physical volume", skip)
         .custom("device", "table", "gmsh only: device outputs (device.csv)", skip)
         .custom("fibers", "list of tables", "fibers tied to the structure ([[fibers]] below)", skip)
-        .custom("helix_tube", "table", "gmsh only: parameters of a tube with helical solid fibers, passed to its .geo", skip);
+        .custom("helix_tube", "table", "gmsh only: parameters of a tube with helical solid fibers, passed to its .geo", skip)
+        .custom("contact", "table", "rigid obstacles against the structure ([[contact.obstacles]])", skip);
     return k;
   }();
   return t;
@@ -620,6 +622,7 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
   read_geometry_table(scene, scene_file, mesh_cache, m.spec);
   m.device = read_device(scene.get("device"));
   m.spec.fibers = read_fibers(scene.get("fibers"));  // tied to the mesh (and checked against it) when it is built
+  m.spec.contact = read_contact(scene.get("contact"));
   // The linear solver first: the memory estimate holds a factorization only on the direct path.
   read_solver(scene, m);
   m.spec.factorized_solver = automatic_solver_of(scene, m) != fe::SolverKind::petsc;
@@ -632,10 +635,12 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
 }
 
 std::vector<keys::TableDoc> macro_scene_tables() {
-  return {scene_table().describe(), tube_table(false).describe(), tube_table(true).describe(), sphere_table().describe(),
+  std::vector<keys::TableDoc> tables{scene_table().describe(), tube_table(false).describe(), tube_table(true).describe(), sphere_table().describe(),
            plate_table().describe(), gmsh_table().describe(), boundary_table().describe(), probe_table().describe(),
            load_table().describe(), solver_table().describe(), output_table().describe(),
           device_table().describe(), fibers_table_doc(), helix_tube_table().describe()};
+  for (keys::TableDoc& t : contact_tables()) tables.push_back(std::move(t));
+  return tables;
 }
 
 }  // namespace softhom::macro

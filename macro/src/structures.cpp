@@ -260,6 +260,7 @@ Structure build_structure(const StructureSpec& spec) {
   }
   assign_materials(s);
   add_fibers(s);
+  add_contacts(spec.contact, s.model);  // after the materials: the penalty scales with them
   return s;
 }
 

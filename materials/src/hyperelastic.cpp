@@ -12,6 +12,7 @@ const char* to_string(MaterialStatus s) {
     case MaterialStatus::locking: return "locking (Gent limit I1bar - 3 >= Jm reached)";
     case MaterialStatus::inverted: return "inverted element (det F <= 0)";
     case MaterialStatus::not_finite: return "non-finite value (input or overflow)";
+    case MaterialStatus::penetration: return "penetration (a surface point passed through a contact obstacle)";
   }
   return "unknown";
 }

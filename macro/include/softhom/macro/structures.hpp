@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "softhom/fe/solver.hpp"
+#include "softhom/macro/contact.hpp"
 #include "softhom/macro/fiber_geometry.hpp"
 #include "softhom/macro/geometry.hpp"
 
@@ -68,6 +69,7 @@ struct StructureSpec {
   /// The linear solver factorizes the tangent (CHOLMOD/UMFPACK); false: the PETSc Krylov path, whose
   /// memory estimate holds a multigrid hierarchy and a Krylov basis instead of a factor.
   bool factorized_solver = true;
+  ContactSpec contact;                ///< rigid obstacles against the structure's surfaces
   std::vector<FiberSpec> fibers;      ///< [[fibers]]: fibers tied to the mesh (fiber_geometry.hpp)
 };
 

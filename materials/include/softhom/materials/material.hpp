@@ -22,6 +22,7 @@ enum class MaterialStatus {
   locking,      ///< Gent limit reached: Ī1 − 3 ≥ Jm
   inverted,     ///< J = det F ≤ 0
   not_finite,   ///< non-finite input or a non-finite intermediate (e.g. exp overflow in HGO)
+  penetration,  ///< an FE iterate put a surface point through a contact obstacle (fe/contact.hpp)
 };
 const char* to_string(MaterialStatus s);
 

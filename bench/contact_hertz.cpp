@@ -1,0 +1,65 @@
+// Hertz indentation by the contact contribution (fe/contact.hpp), refined: a rigid sphere (R = 1) pressed
+// 0.01 into a graded quarter block of neo-Hookean solid (G = 1, ν = 0.3), macro/contact_benchmarks.hpp.
+// Per mesh: cells, h/a at the contact, the error of the Hertz coefficient of F(d) fitted beyond the far
+// field's linear compliance (as a force error at equal indentation), the contact radius against Hertz's,
+// the penetration, Newton iterations and time; then the observed order of the force error.
+//
+//   build/bench/bench_contact_hertz [max_level]     (levels 0 … 4, default 4)
+#include <chrono>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
+
+#include "softhom/fe/solver.hpp"
+#include "softhom/macro/contact_benchmarks.hpp"
+
+using namespace softhom;
+
+int main(int argc, char** argv) {
+  const int max_level = argc > 1 ? std::atoi(argv[1]) : 4;
+  const int fine[] = {4, 6, 8, 12, 16}, coarse[] = {4, 5, 6, 8, 10};
+  std::printf("%6s %8s %8s %12s %12s %12s %8s %8s\n", "cells", "h/a", "dofs", "force_err", "radius_err", "pen/h",
+              "newton", "time_s");
+  std::vector<double> hs, errs;
+  for (int level = 0; level <= max_level && level < 5; ++level) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const macro::HertzProblem p = macro::make_hertz_problem(fine[level], coarse[level]);
+    fe::Simulation sim(p.model);
+    std::vector<double> force, indentation;
+    double a = 0.0, penetration = 0.0;
+    const int steps = 8;
+    for (int s = 1; s <= steps; ++s) {
+      const double t = double(s) / steps;
+      if (!sim.advance_to(t).reached()) {
+        std::printf("level %d: stopped at t = %g\n", level, t);
+        return 1;
+      }
+      fe::Iterate it;
+      it.t = t;
+      it.u = &sim.displacement();
+      const fe::ContactTotals tot = p.contact->totals(p.model.mesh, it);
+      if (s <= steps / 4) continue;  // the fit on d ≥ d_max/4 (a contact patch of at least 2 cells)
+      force.push_back(4.0 * tot.normal_force);
+      indentation.push_back(p.depth * t - tot.max_penetration);
+      a = 0.0;  // the farthest active quadrature point from the axis
+      for (const Vec3& x : p.contact->active_positions(p.model.mesh, it)) a = std::max(a, std::hypot(x[0], x[1]));
+      penetration = tot.max_penetration;
+    }
+    const double alpha = macro::hertz_coefficient(force, indentation);
+    const double alpha_hertz = std::pow(3.0 / (4.0 * p.effective_modulus * std::sqrt(p.radius)), 2.0 / 3.0);
+    const double force_error = std::pow(alpha_hertz / alpha, 1.5) - 1.0;
+    const double a_hertz = p.contact_radius(force.back());
+    const double h_over_a = 1.25 / fine[level];
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::printf("%6d %8.4f %8d %12.4e %12.4e %12.3e %8d %8.2f\n", fine[level] + coarse[level], h_over_a,
+                sim.num_free_dofs(), force_error, a / a_hertz - 1.0, penetration / (h_over_a * std::sqrt(p.depth)),
+                sim.stats().newton_iterations, seconds);
+    hs.push_back(h_over_a);
+    errs.push_back(std::abs(force_error));
+  }
+  for (std::size_t k = 1; k < hs.size(); ++k)
+    std::printf("observed order %zu→%zu: %.2f\n", k - 1, k, std::log(errs[k - 1] / errs[k]) / std::log(hs[k - 1] / hs[k]));
+  return 0;
+}

@@ -1,0 +1,35 @@
+#pragma once
+// The contact problems the tests and bench/contact_hertz.cpp share.
+#include <memory>
+#include <vector>
+
+#include "softhom/fe/contact.hpp"
+#include "softhom/fe/model.hpp"
+
+namespace softhom::macro {
+
+/// Hertz indentation (Hertz 1882; Johnson 1985, §4.2): a rigid sphere of radius R = 1 pressed into a flat
+/// neo-Hookean solid (G = 1, ν = 0.3 at small strain) by `depth` · t over t ∈ [0, 1], frictionless. The
+/// solid is the quarter x, y ≥ 0 of a block [0, L]² × [−L, 0] with L = 20 a (a = √(R depth) the final
+/// contact radius) on symmetry planes x = 0, y = 0 and a frictionless bottom; `fine` cells span 1.25 a
+/// uniformly along x, y and z, `coarse` cells grow geometrically from there to L.
+struct HertzProblem {
+  fe::FeModel model;
+  std::shared_ptr<const fe::ObstacleContact> contact;
+  double radius = 1.0;
+  double depth = 0.0;
+  double effective_modulus = 0.0;  ///< E* = E / (1 − ν²) (the sphere rigid)
+  /// Hertz's whole-sphere force at indentation d: (4/3) E* √R d^{3/2}.
+  double force(double d) const;
+  /// Hertz's contact radius at force F: (3 F R / (4 E*))^{1/3}.
+  double contact_radius(double force) const;
+};
+HertzProblem make_hertz_problem(int fine, int coarse, double depth = 0.01);
+
+/// The Hertz coefficient of indentation data beyond a far-field compliance: the least-squares fit
+/// d = α F^{2/3} + C F (C F the displacement of the finite block's far field, linear in the total force
+/// where a ≪ L) returns α; Hertz's is (3 / (4 E* √R))^{2/3}.
+double hertz_coefficient(const std::vector<double>& force, const std::vector<double>& indentation,
+                         double* compliance = nullptr);
+
+}  // namespace softhom::macro

@@ -1,0 +1,101 @@
+// The shared contact problems (contact_benchmarks.hpp).
+#include "softhom/macro/contact_benchmarks.hpp"
+
+#include <cmath>
+
+#include <Eigen/Dense>
+
+#include "softhom/materials/laws.hpp"
+
+namespace softhom::macro {
+namespace {
+
+/// Node coordinates 0 … length: `fine` equal cells over fine_length, then `coarse` cells growing by a
+/// common ratio (found by bisection) to length.
+std::vector<double> graded(int fine, double fine_length, int coarse, double length) {
+  const double h = fine_length / fine;
+  std::vector<double> x;
+  for (int i = 0; i <= fine; ++i) x.push_back(i * h);
+  if (coarse == 0) return x;
+  auto span = [&](double r) {  // h r + h r² + … + h r^coarse
+    double s = 0.0, c = h;
+    for (int k = 0; k < coarse; ++k) s += (c *= r);
+    return s;
+  };
+  double lo = 1.0, hi = 10.0;
+  for (int it = 0; it < 200; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (span(mid) < length - fine_length ? lo : hi) = mid;
+  }
+  double c = h;
+  for (int k = 0; k < coarse; ++k) x.push_back(x.back() + (c *= lo));
+  x.back() = length;
+  return x;
+}
+
+}  // namespace
+
+double HertzProblem::force(double d) const { return 4.0 / 3.0 * effective_modulus * std::sqrt(radius) * std::pow(d, 1.5); }
+
+double HertzProblem::contact_radius(double f) const { return std::cbrt(3.0 * f * radius / (4.0 * effective_modulus)); }
+
+HertzProblem make_hertz_problem(int fine, int coarse, double depth) {
+  HertzProblem p;
+  p.depth = depth;
+  const double G = 1.0, nu = 0.3, K = 2.0 * G * (1 + nu) / (3 * (1 - 2 * nu));
+  p.effective_modulus = 2.0 * G * (1 + nu) / (1 - nu * nu);
+  const double a = std::sqrt(p.radius * depth), L = 20.0 * a;
+  const std::vector<double> xs = graded(fine, 1.25 * a, coarse, L);
+  const int n = int(xs.size());
+  fe::Mesh& m = p.model.mesh;
+  auto id = [&](int i, int j, int k) { return i + n * (j + n * k); };
+  for (int k = 0; k < n; ++k)  // z from −L (k = 0) up to the surface z = 0 (k = n − 1), fine at the top
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) m.nodes.emplace_back(xs[i], xs[j], -xs[n - 1 - k]);
+  for (int k = 0; k + 1 < n; ++k)
+    for (int j = 0; j + 1 < n; ++j)
+      for (int i = 0; i + 1 < n; ++i)
+        m.hexes.push_back({id(i, j, k), id(i + 1, j, k), id(i + 1, j + 1, k), id(i, j + 1, k), id(i, j, k + 1),
+                           id(i + 1, j, k + 1), id(i + 1, j + 1, k + 1), id(i, j + 1, k + 1)});
+  fe::name_boundary_faces(m, [](const Vec3&, const Vec3& nrm) -> std::string {
+    if (nrm[2] > 0.9) return "top";
+    if (nrm[2] < -0.9) return "bottom";
+    if (nrm[0] < -0.9) return "xmin";
+    if (nrm[1] < -0.9) return "ymin";
+    return "";
+  });
+  p.model.element_material.assign(m.num_elements(), make_material(make_neo_hookean({G, K})));
+  const std::pair<const char*, int> supports[3] = {{"xmin", 0}, {"ymin", 1}, {"bottom", 2}};
+  for (const auto& [surface, comp] : supports) {
+    fe::DirichletGroup g;
+    for (int node : fe::surface_nodes(m, surface)) g.dofs.push_back(3 * node + comp);
+    p.model.dirichlet.push_back(g);
+  }
+  fe::RigidObstacle sphere;
+  sphere.shape = fe::RigidObstacle::Shape::sphere;
+  sphere.point = Vec3(0, 0, p.radius);
+  sphere.radius = p.radius;
+  sphere.path[2] = PiecewiseLinear{{0.0, 1.0}, {0.0, -depth}};
+  fe::ObstacleContact::Options opt;
+  opt.shear_modulus = G;
+  opt.field = "hertz";
+  auto contact = std::make_shared<fe::ObstacleContact>(m, m.surfaces.at("top"), std::vector<fe::Tri6>{}, sphere, opt);
+  p.contact = contact;
+  p.model.add(contact);
+  return p;
+}
+
+double hertz_coefficient(const std::vector<double>& force, const std::vector<double>& indentation, double* compliance) {
+  Eigen::MatrixXd A(force.size(), 2);
+  Eigen::VectorXd d(force.size());
+  for (std::size_t i = 0; i < force.size(); ++i) {
+    A(Eigen::Index(i), 0) = std::pow(force[i], 2.0 / 3.0);
+    A(Eigen::Index(i), 1) = force[i];
+    d[Eigen::Index(i)] = indentation[i];
+  }
+  const Eigen::Vector2d c = A.colPivHouseholderQr().solve(d);
+  if (compliance) *compliance = c[1];
+  return c[0];
+}
+
+}  // namespace softhom::macro

@@ -1,0 +1,91 @@
+// [[contact.obstacles]] of macro scenes (macro/contact.hpp): a scene's obstacle becomes a contact
+// contribution on the named surface; each refusal names its field: a surface that does not exist, a
+// Coulomb coefficient out of [0, 3], keys of another shape, a missing radius, and a body that starts
+// inside the obstacle (naming the point and its depth).
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "softhom/fe/contact.hpp"
+#include "softhom/fe/solver.hpp"
+#include "softhom/io/scene.hpp"
+#include "softhom/macro/scene.hpp"
+#include "softhom/materials/errors.hpp"
+
+using namespace softhom;
+
+namespace {
+
+/// A 2 × 2 × 1 mm plate in tension along x with `obstacle` as its [[contact.obstacles]] table.
+std::string plate_with(const std::string& obstacle) {
+  return R"(
+[geometry]
+type = "plate"
+size = [2.0, 2.0, 1.0]
+cells = [2, 2, 1]
+[material]
+preset = "ecoflex"
+[load]
+control = "stretch"
+path = [[0.0, 1.0], [1.0, 1.1]]
+steps = 2
+[[contact.obstacles]]
+)" + obstacle;
+}
+
+/// The InputError of parsing, building and setting up the scene's simulation, or "no error".
+std::string error_of(const std::string& text) {
+  try {
+    const macro::MacroScene m = macro::parse_macro_scene(io::parse_scene(text, "<test>"));
+    const macro::Structure s = macro::build_structure(m.spec);
+    fe::Simulation sim(s.model);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+}  // namespace
+
+TEST(ContactScene, ObstacleBecomesAContribution) {
+  const macro::MacroScene m = macro::parse_macro_scene(io::parse_scene(
+      plate_with("type = \"sphere\"\nsurface = \"zmax\"\nposition = [1.0, 1.0, 3.0]\nradius = 1.5\nfriction = 0.4\n"
+                 "path = [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, -0.6]]\n"),
+      "<test>"));
+  const macro::Structure s = macro::build_structure(m.spec);
+  ASSERT_EQ(s.model.contributions.size(), 1u);
+  const auto* c = dynamic_cast<const fe::ObstacleContact*>(s.model.contributions[0].get());
+  ASSERT_NE(c, nullptr);
+  EXPECT_EQ(c->name(), "contact.obstacles[0]");
+  EXPECT_EQ(c->options().label, "contact");
+  EXPECT_EQ(c->obstacle().shape, fe::RigidObstacle::Shape::sphere);
+  EXPECT_EQ(c->quads().size(), 4u);               // the 2 × 2 faces of zmax
+  EXPECT_DOUBLE_EQ(c->options().law.friction, 0.4);
+  EXPECT_DOUBLE_EQ(c->obstacle().translation(0.5)[2], -0.3);
+  EXPECT_GT(c->options().shear_modulus, 0.0);      // the automatic penalty's G
+}
+
+TEST(ContactScene, RefusalsNameTheirField) {
+  const std::string plane = "type = \"plane\"\nposition = [0.0, 0.0, -0.5]\nnormal = [0.0, 0.0, 1.0]\n";
+  EXPECT_NE(error_of(plate_with(plane + "surface = \"nope\"\n")).find("contact.obstacles[0].surface"), std::string::npos);
+  EXPECT_NE(error_of(plate_with(plane + "surface = \"zmin\"\nfriction = 4.0\n")).find("contact.obstacles[0].friction"),
+            std::string::npos);
+  EXPECT_NE(error_of(plate_with(plane + "surface = \"zmin\"\nradius = 1.0\n")).find("contact.obstacles[0].radius"),
+            std::string::npos);
+  EXPECT_NE(error_of(plate_with("type = \"sphere\"\nsurface = \"zmin\"\nposition = [0.0, 0.0, -3.0]\n"))
+                .find("contact.obstacles[0].radius"),
+            std::string::npos);
+  EXPECT_NE(error_of(plate_with("type = \"plane\"\nsurface = \"zmin\"\nposition = [0.0, 0.0, -0.5]\nnormal = [0, 0, 0]\n"))
+                .find("contact.obstacles[0].normal"),
+            std::string::npos);
+  EXPECT_NE(error_of(plate_with(plane + "surface = \"zmin\"\npath = [[1.0, 0, 0, 0], [0.5, 0, 0, 1]]\n"))
+                .find("contact.obstacles[0].path[1][0]"),
+            std::string::npos);
+  EXPECT_EQ(error_of(plate_with(plane + "surface = \"zmin\"\n")), "no error");
+  // The plane 0.25 mm inside the plate's bottom face.
+  const std::string overlap = error_of(
+      plate_with("type = \"plane\"\nsurface = \"zmin\"\nposition = [0.0, 0.0, 0.25]\nnormal = [0.0, 0.0, 1.0]\n"));
+  EXPECT_NE(overlap.find("contact.obstacles[0]"), std::string::npos) << overlap;
+  EXPECT_NE(overlap.find("overlaps the body"), std::string::npos) << overlap;
+  EXPECT_NE(overlap.find("0.25 mm inside"), std::string::npos) << overlap;
+}
