@@ -54,7 +54,7 @@ void Simulation::Impl::build_dofs() {
   if (dofs_.num_free == 0) throw InputError("boundary", "", "every degree of freedom is prescribed");
   // A free rigid-body motion makes every tangent singular (the first factorization would fail, or a
   // nearly singular one would let the body drift until a material limit): refuse it here, by name.
-  const std::vector<std::string> free_motions = free_rigid_motions(mesh, constrained);
+  const std::vector<std::string> free_motions = free_rigid_motions(mesh, constrained, couplings_);
   if (!free_motions.empty()) {
     std::string list;
     for (const auto& m : free_motions) list += (list.empty() ? "" : ", ") + m;
@@ -124,7 +124,18 @@ void Simulation::Impl::build_history() {
       for (int q = 0; q < gauss_points(mesh, e); ++q) m.init_state(state_old_.data() + state_offset_[e] + q * m.state_size());
     }
   state_new_ = state_old_;
-
+  // The contributions' history (elastic ones allocate nothing).
+  contribution_state_offset_.assign(contributions_.size(), -1);
+  std::size_t ctotal = 0;
+  for (std::size_t k = 0; k < contributions_.size(); ++k)
+    if (const int ns = contributions_[k]->state_size(); ns > 0) {
+      contribution_state_offset_[k] = long(ctotal);
+      ctotal += std::size_t(ns);
+    }
+  contribution_state_old_.assign(ctotal, 0.0);
+  for (std::size_t k = 0; k < contributions_.size(); ++k)
+    if (contribution_state_offset_[k] >= 0) contributions_[k]->init_state(contribution_state_old_.data() + contribution_state_offset_[k]);
+  contribution_state_new_ = contribution_state_old_;
 }
 
 void Simulation::Impl::build_linear_solvers() {
@@ -463,6 +474,7 @@ void Simulation::Impl::commit(NewtonIterate& n, Assembly& as, int iterations) {
   u_ = std::move(n.u);
   cavity_pressure_ = n.p;
   std::swap(state_old_, state_new_);
+  std::swap(contribution_state_old_, contribution_state_new_);
   reduce_cauchy(as.cauchy);
   cauchy_.swap(as.cauchy);
   fint_.swap(as.fint);
