@@ -9,37 +9,14 @@
 
 #include "softhom/fe/model.hpp"
 #include "softhom/fe/mesh.hpp"
+#include "dense_sink.hpp"
 
 using namespace softhom;
 using namespace softhom::fe;
 
 namespace {
 
-/// Everything a contribution adds, dense over the mesh's dofs.
-class DenseSink final : public AssemblySink {
- public:
-  DenseSink(int ndof, bool tangent)
-      : AssemblySink(tangent), R(Eigen::VectorXd::Zero(ndof)), K(Eigen::MatrixXd::Zero(ndof, ndof)),
-        a(Eigen::VectorXd::Zero(ndof)), g(Eigen::VectorXd::Zero(ndof)) {}
-  void add_residual(int n, const int* dofs, const double* r) override {
-    for (int i = 0; i < n; ++i) R[dofs[i]] += r[i];
-  }
-  void add_tangent(int nr, const int* rows, int nc, const int* cols, const double* k) override {
-    for (int j = 0; j < nc; ++j)
-      for (int i = 0; i < nr; ++i) K(rows[i], cols[j]) += k[i + nr * j];
-  }
-  void add_border(int n, const int* dofs, const double* dR, const double* dc) override {
-    for (int i = 0; i < n; ++i) {
-      a[dofs[i]] += dR[i];
-      g[dofs[i]] += dc[i];
-    }
-  }
-  void add_constraint_value(double v) override { c += v; }
-  Eigen::VectorXd R;
-  Eigen::MatrixXd K;
-  Eigen::VectorXd a, g;
-  double c = 0.0;
-};
+using test::DenseSink;
 
 /// A unit cube's hex8 with its corners moved by up to 0.15 (seeded), and its six faces (outward).
 Mesh distorted_cube() {
