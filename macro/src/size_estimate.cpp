@@ -59,6 +59,7 @@ SizeEstimate estimate_size(const StructureSpec& spec) {
     case StructureKind::actuator: e.nodes = tube_nodes(spec.tube, spec.tet10); break;
     case StructureKind::sphere: e.nodes = sphere_nodes(spec.sphere, spec.tet10); break;
     case StructureKind::imported: e.nodes = double(spec.imported.mesh.num_nodes()); break;
+    case StructureKind::shell: e.nodes = shell_nodes_estimate(spec.shell); break;
   }
   e.dofs = 3.0 * e.nodes;
   e.mesh_bytes = kMeshBytesPerDof * e.dofs;
@@ -74,6 +75,7 @@ std::string size_field(const StructureSpec& spec) {
     case StructureKind::actuator: return "geometry.circumferential_cells";
     case StructureKind::sphere: return "geometry.patch_cells";
     case StructureKind::imported: return "geometry.file";
+    case StructureKind::shell: return spec.shell.shape == ShellShape::gmsh ? "geometry.file" : "geometry.cells";
   }
   return "geometry";
 }
