@@ -185,6 +185,12 @@ ShellPatch make_patch(const Mesh& mesh, const std::vector<Tri3>& tris, const She
   for (int j = 0; j < 6; ++j) {
     const double u = P[j].x() / h, v = P[j].y() / h;
     V.row(j) << 1.0, u, v, u * u, u * v, v * v;
+    if (j < 3 || p.kind[j - 3] != 0) continue;
+    // A free edge has no point across it: its row says instead that the surface has no curvature
+    // across the edge (∂²q/∂ν² = 0, BST's free edge), in the reference and in every deformation, so the
+    // fit stays exact for surfaces curved along the edge only (a cantilever's bending).
+    const Eigen::Vector2d nu = (P[j] - P[j - 3]).normalized();
+    V.row(j) << 0.0, 0.0, 0.0, nu.x() * nu.x(), nu.x() * nu.y(), nu.y() * nu.y();
   }
   const Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(V);
   const Eigen::Matrix<double, 6, 6> Vinv = lu.inverse();
@@ -220,6 +226,7 @@ ShellDomain::ShellDomain(const Mesh& mesh, ShellSpec spec) : spec_(std::move(spe
     bool fallback = false;
     patches_[e] = make_patch(mesh, spec_.triangles, topology_, e, edges, spec_.frame, fallback);
     frame_fallbacks_ += fallback;
+    for (int k = 0; k < 3; ++k) has_clamped_ |= patches_[e].kind[k] == 2;
   }
 }
 

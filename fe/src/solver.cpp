@@ -55,7 +55,9 @@ void Simulation::Impl::build_dofs() {
   // A free rigid-body motion makes every tangent singular (the first factorization would fail, or a
   // nearly singular one would let the body drift until a material limit): refuse it here, by name.
   const std::vector<std::string> free_motions = free_rigid_motions(mesh, constrained, couplings_);
-  if (!free_motions.empty()) {
+  const bool held_otherwise = std::any_of(contributions_.begin(), contributions_.end(),
+                                          [](const Contribution* c) { return c->holds_rigid_motion(); });
+  if (!free_motions.empty() && !held_otherwise) {
     std::string list;
     for (const auto& m : free_motions) list += (list.empty() ? "" : ", ") + m;
     throw InputError("boundary", "", "the body is not constrained against " + list +

@@ -11,8 +11,10 @@
 namespace softhom::macro {
 namespace {
 
-/// A (nu × nv) grid mapped by `map` from [0, 1]², split into triangles with alternating diagonals
-/// (no preferred direction); `name` names the four sides (u = 0, u = 1, v = 0, v = 1; "" unnamed).
+/// A (nu × nv) grid mapped by `map` from [0, 1]², each cell split along the same diagonal; `name` names
+/// the four sides (u = 0, u = 1, v = 0, v = 1; "" unnamed). (Alternating diagonals, where nodes of 4 and
+/// 8 triangles alternate, give the patch curvature a soft mode: a cantilever strip of square cells
+/// bent 1.5 times as far as Euler–Bernoulli's, against 1.06 → 1.016 → 1.005 with one diagonal.)
 ShellSurface mapped_grid(int nu, int nv, const std::function<Vec3(double, double)>& map,
                          const std::array<std::string, 4>& name) {
   ShellSurface s;
@@ -22,13 +24,8 @@ ShellSurface mapped_grid(int nu, int nv, const std::function<Vec3(double, double
   for (int j = 0; j < nv; ++j)
     for (int i = 0; i < nu; ++i) {
       const int a = node(i, j), b = node(i + 1, j), c = node(i + 1, j + 1), d = node(i, j + 1);
-      if ((i + j) % 2 == 0) {
-        s.triangles.push_back({a, b, c});
-        s.triangles.push_back({a, c, d});
-      } else {
-        s.triangles.push_back({a, b, d});
-        s.triangles.push_back({b, c, d});
-      }
+      s.triangles.push_back({a, b, c});
+      s.triangles.push_back({a, c, d});
     }
   for (int j = 0; j < nv; ++j) {
     if (!name[0].empty()) s.edges[name[0]].push_back({node(0, j), node(0, j + 1)});

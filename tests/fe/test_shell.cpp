@@ -50,11 +50,12 @@ Grid grid(int nx, int ny, double Lx, double Ly, double jitter, const std::functi
   return g;
 }
 
-std::shared_ptr<const ShellSection> neo_hookean_section(double thickness) {
+std::shared_ptr<const ShellSection> neo_hookean_section(double thickness,
+                                                        PlaneStressMode mode = PlaneStressMode::incompressible) {
   NeoHookeanParams p;
   p.mu = 1.0;
-  p.K = 1000.0;
-  return std::make_shared<ShellSection>(std::vector<ShellLayer>{{make_material(make_neo_hookean(p)), thickness, 3}});
+  p.K = mode == PlaneStressMode::incompressible ? 1000.0 : 2.0;
+  return std::make_shared<ShellSection>(std::vector<ShellLayer>{{make_material(make_neo_hookean(p)), thickness, 3}}, mode);
 }
 
 /// Two layers: neo-Hookean below, Gent with one fiber family at 30° from e1 above.
@@ -114,6 +115,12 @@ Vec3 cylinder(double x, double y) {  // radius 2 about the x axis, y the arc len
 TEST(ShellTriangle, TangentMatchesDifferencesOnACurvedPatchWithFreeEdges) {
   const Grid g = grid(3, 3, 1.0, 1.2, 0.2, cylinder);
   const ShellDomain shell(g.mesh, {g.tris, {}, neo_hookean_section(0.1), {}, true});
+  expect_tangent_matches(shell, g.mesh, 0.04);
+}
+
+TEST(ShellTriangle, TangentMatchesDifferencesOfACompressibleSection) {
+  const Grid g = grid(3, 3, 1.0, 1.2, 0.2, cylinder);
+  const ShellDomain shell(g.mesh, {g.tris, {}, neo_hookean_section(0.1, PlaneStressMode::compressible), {}, true});
   expect_tangent_matches(shell, g.mesh, 0.04);
 }
 
@@ -230,3 +237,4 @@ TEST(ShellFrame, ProjectsTheAxisAndFallsBackNearTheNormal) {
   EXPECT_TRUE(fallback);  // x is the normal: y projected instead
   EXPECT_NEAR((g.col(0) - Vec3::UnitY()).norm(), 0.0, 1e-14);
 }
+

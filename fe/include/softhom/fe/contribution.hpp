@@ -98,6 +98,10 @@ class Contribution {
     (void)t;
     (void)levels;
   }
+  /// It holds some rigid-body motion by itself (a clamped shell edge's rotation, an elastic support):
+  /// the driver then leaves a motion that the prescribed dofs leave free to the first factorization's
+  /// singularity check instead of refusing the model.
+  virtual bool holds_rigid_motion() const { return false; }
   /// Its residual counts as external force (the force scale's f_ext, never a reaction).
   virtual bool external_force() const { return kind() == Kind::load; }
   /// History values it keeps (e.g. per element and through-thickness point of a viscoelastic law): the

@@ -16,11 +16,13 @@
 //    inverse of the 6-point quadratic interpolation (the idea of the enhanced BST, Flores & Oñate 2005):
 //    exact for a quadratic surface on any mesh. The curvature change κ = −(b − B) (B: the same in the
 //    reference) makes E(z) = ε + z κ; curved reference surfaces (spheres, cylinders) start at κ = 0.
-//  - Boundary edges have no neighbour: the missing node is the mirror image of the opposite vertex
-//    across the edge, at height 0 for a `free` edge (free or simply supported: no curvature across the
-//    edge, BST's condition) or 2 δ t·T for a `clamped` one (clamped or symmetry: the surface leaves the
-//    edge along its reference conormal T, δ the vertex's distance from the edge). Displacement
-//    conditions of either are Dirichlet constraints of the model, not of the element.
+//  - Boundary edges have no neighbour. A `clamped` one (clamped or symmetry) has a point at the mirror
+//    image of the opposite vertex across the edge, at height 2 δ t·T: the surface leaves the edge along
+//    its reference conormal T (δ the vertex's distance from the edge), as a mirrored neighbour would.
+//    A `free` one (free or simply supported) replaces the missing point's equation of the fit by
+//    ∂²q/∂ν² = 0: no curvature across the edge (BST's free edge, where the moment M_νν vanishes), exact
+//    for surfaces curved along the edge only. Displacement conditions of either are Dirichlet
+//    constraints of the model, not of the element.
 // The residual is A₀ Bᵀ [N; M] and the tangent A₀ (Bᵀ D B + N·∂²ε + M·∂²κ), B = ∂[ε; κ]/∂x, with the
 // second derivatives of the strains exact (forward second-order differentiation of the kinematics).
 //
@@ -121,6 +123,8 @@ class ShellDomain final : public Contribution {
   void validate(const Mesh& mesh) const override;
   void declare_couplings(Couplings& couplings) const override;
   MaterialStatus assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const override;
+  /// A clamped edge holds the rotation about it (which no prescribed displacement of its nodes does).
+  bool holds_rigid_motion() const override { return has_clamped_; }
   int state_size() const override { return int(patches_.size()) * section_->state_size(); }
   void init_state(double* state) const override;
 
@@ -149,6 +153,7 @@ class ShellDomain final : public Contribution {
   ShellTopology topology_;
   std::vector<ShellPatch> patches_;
   int frame_fallbacks_ = 0;
+  bool has_clamped_ = false;
 };
 
 /// The triangles as degenerate quads (a, c, b, b) whose normal points against the triangle's (a, b, c):
