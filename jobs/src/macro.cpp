@@ -247,6 +247,9 @@ bool run_macro(MacroJob& job, Sink& given_sink, const RunOptions& given) {
   if (!options.quiet)
     std::cerr << tag << structure.model.mesh.num_hexes() << " hex8 + " << structure.model.mesh.tets.size() << " tet10, "
               << sim.num_free_dofs() << " free dofs, " << fe::to_string(sim.solver_kind()) << "\n";
+  if (structure.shell && structure.shell->frame_fallbacks() > 0 && root)  // the [shell] frame's documented fall-back
+    std::cerr << tag << "warning: shell.frame_axis is within 1e-3 of the normal of " << structure.shell->frame_fallbacks()
+              << " triangles: their e1 is the projection of the y axis (or z) instead\n";
   MacroRecorder record(job, structure, sim, sink, options);
   const MacroOutcome outcome = advance_through_output_times(ms, sim, record);
   record.close();

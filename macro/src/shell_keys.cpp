@@ -54,7 +54,9 @@ const KeyTable<LayerKeys>& layer_table() {
                  "integration points through the layer (Lobatto 2..5: its faces are points; Gauss 1..5)")
         .numbers("fiber_angles", &LayerKeys::fiber_angles, keys::closed_range(-360, 360), 0, 8, "deg",
                  "one fiber family per angle, measured from the frame's e1 toward e2 in the tangent plane")
-        .custom("material", "table", "the layer's law ([material] keys; fibers from fiber_angles)",
+        .custom("material", "table",
+                "the layer's law ([material] keys); with fiber_angles its fiber families give k1, k2 only (one family "
+                "serves every angle; an anisotropic preset needs none)",
                 [](const toml::node& n, const std::string&, LayerKeys& l) { l.material = &n; })
         .required();
     return k;
@@ -115,6 +117,23 @@ const KeyTable<ShellKeys>& shell_keys_table() {
   return t;
 }
 
+/// With fiber_angles the layer's angles give the directions: families of the material table (or of
+/// an anisotropic preset, one family when none is given) need only their k1, k2 (κ), so a direction
+/// that fiber_angles then replaces is filled in where none is given.
+void with_placeholder_directions(toml::table& material) {
+  auto placeholder = [] { return toml::array{1.0, 0.0, 0.0}; };
+  if (!material.contains("fibers")) {
+    toml::table family;
+    family.insert("direction", placeholder());
+    material.insert("fibers", toml::array{std::move(family)});
+    return;
+  }
+  if (toml::array* families = material["fibers"].as_array())
+    for (auto& f : *families)
+      if (toml::table* t = f.as_table(); t && !t->contains("direction") && !t->contains("angle_deg"))
+        t->insert("direction", placeholder());
+}
+
 std::shared_ptr<const ShellSection> read_section(const ShellKeys& k) {
   const toml::array& arr = keys::read_array(*k.layers, "shell.layers");
   std::vector<ShellLayer> layers;
@@ -122,7 +141,9 @@ std::shared_ptr<const ShellSection> read_section(const ShellKeys& k) {
     const std::string field = keys::index_field("shell.layers", i);
     LayerKeys l;
     layer_table().read(keys::read_table(*arr.get(i), field), field, l);
-    MaterialSpec spec = io::parse_material(keys::read_table(*l.material, field + ".material"), field + ".material");
+    toml::table material = keys::read_table(*l.material, field + ".material");
+    if (!l.fiber_angles.empty()) with_placeholder_directions(material);
+    MaterialSpec spec = io::parse_material(material, field + ".material");
     const MaterialPtr law = l.fiber_angles.empty() ? build_material(spec) : layer_material(spec, l.fiber_angles);
     layers.push_back({law, l.thickness, l.points});
   }

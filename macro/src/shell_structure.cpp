@@ -143,12 +143,12 @@ void build_shell(Structure& s) {
   const bool cavity = s.spec.control == LoadControl::volume || top.boundary_edges == 0;
   if (cavity && enclosed_volume(m.mesh, surface.triangles) < 0.0)
     for (fe::Tri3& t : surface.triangles) std::swap(t[1], t[2]);
-  std::vector<ShellEdgeCondition> conditions = default_shell_edges(spec.shape, spec.sweep_deg);
-  for (const ShellEdgeCondition& c : spec.edges) {
-    conditions.erase(std::remove_if(conditions.begin(), conditions.end(), [&](const ShellEdgeCondition& d) { return d.edge == c.edge; }),
-                     conditions.end());
-    conditions.push_back(c);
-  }
+  // The scene's conditions first (shell.edges[k] in messages), then the shape's own symmetry edges
+  // that none of them replaces.
+  std::vector<ShellEdgeCondition> conditions = spec.edges;
+  for (const ShellEdgeCondition& d : default_shell_edges(spec.shape, spec.sweep_deg))
+    if (std::none_of(spec.edges.begin(), spec.edges.end(), [&](const ShellEdgeCondition& c) { return c.edge == d.edge; }))
+      conditions.push_back(d);
   fe::ShellSpec shell{surface.triangles, {}, spec.section, spec.frame, true};
   const std::vector<std::string> symmetry = apply_edges(surface, conditions, m, shell.edges);
   if (spec.shape == ShellShape::sphere) {
