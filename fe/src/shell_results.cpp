@@ -39,7 +39,9 @@ ShellDomain::Results ShellDomain::results(const Mesh& mesh, const std::vector<do
   out.fiber.assign(3 * std::size_t(ne), 0.0);
   out.max_principal = -std::numeric_limits<double>::infinity();
   std::vector<double> scratch(ss);
-  const auto fibers = section_->layers()[0].law->fiber_directions();
+  std::vector<Vec3> fibers;  // of the first layer that has fibers
+  for (const ShellLayer& l : section_->layers())
+    if (fibers.empty()) fibers = l.law->fiber_directions();
   SectionResponse resp;
   Iterate it;
   it.u = &u;

@@ -8,6 +8,7 @@
 
 #include "dense_sink.hpp"
 #include "softhom/fe/shell.hpp"
+#include "softhom/fe/solver.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/laws.hpp"
 
@@ -238,3 +239,62 @@ TEST(ShellFrame, ProjectsTheAxisAndFallsBackNearTheNormal) {
   EXPECT_NEAR((g.col(0) - Vec3::UnitY()).norm(), 0.0, 1e-14);
 }
 
+
+TEST(ShellModel, EachPartMustBeHeldOnItsOwn) {
+  // Two separate square patches in one shell model, the first held at every node, the second not: the
+  // rigid-motion check takes the parts from the shell's couplings and names the free one (a check of
+  // the whole mesh would count the first part's holds for both).
+  Grid a = grid(2, 2, 1.0, 1.0, 0.0, [](double x, double y) { return Vec3(x, y, 0.0); });
+  const Grid b = grid(2, 2, 1.0, 1.0, 0.0, [](double x, double y) { return Vec3(x + 3.0, y, 0.0); });
+  const int offset = a.mesh.num_nodes();
+  a.mesh.nodes.insert(a.mesh.nodes.end(), b.mesh.nodes.begin(), b.mesh.nodes.end());
+  for (Tri3 t : b.tris) a.tris.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  FeModel m;
+  m.mesh = a.mesh;
+  m.add(std::make_shared<ShellDomain>(m.mesh, ShellSpec{a.tris, {}, neo_hookean_section(0.1), {}, true}));
+  DirichletGroup held;
+  for (int d = 0; d < 3 * offset; ++d) held.dofs.push_back(d);
+  m.dirichlet.push_back(held);
+  try {
+    Simulation sim(m);
+    FAIL() << "a free part accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("part containing node " + std::to_string(offset)), std::string::npos) << e.what();
+  }
+  // Held at three corners in a way that leaves no rigid motion, the same model is accepted.
+  for (int c : {offset, offset + 2, offset + 8})
+    for (int i = 0; i < 3; ++i) m.dirichlet.back().dofs.push_back(3 * c + i);
+  EXPECT_NO_THROW(Simulation(m, NewtonOptions{}));
+}
+
+TEST(ShellResults, EquibiaxialStretchGivesTheClosedFormStressesStretchesAndFiberDirection) {
+  // u = (λ − 1)(x, y, 0) on a flat patch: incompressible neo-Hookean (μ = 1) gives λ3 = λ⁻², the Cauchy
+  // stress σ = μ (λ² − λ⁻⁴) in both in-plane directions at every section point (no bending), principal
+  // stretches (λ, λ, λ⁻²); a fiber at 30° from e1 stays at 30° (equal stretches). Round-off of the
+  // plane-stress condensation: 1e-10.
+  const Grid g = grid(2, 2, 1.0, 1.0, 0.2, [](double x, double y) { return Vec3(x, y, 0.0); });
+  const ShellDomain shell(g.mesh, {g.tris, {}, fiber_section(0.1), {}, true});
+  const double l = 1.4;
+  std::vector<double> u(g.mesh.num_dofs(), 0.0);
+  for (int n = 0; n < g.mesh.num_nodes(); ++n) {
+    u[3 * n] = (l - 1.0) * g.mesh.nodes[n].x();
+    u[3 * n + 1] = (l - 1.0) * g.mesh.nodes[n].y();
+  }
+  const ShellDomain::Results r = shell.results(g.mesh, u, nullptr);
+  const double sigma = l * l - std::pow(l, -4);  // the neo-Hookean layer (layer 0)
+  for (int e = 0; e < int(shell.triangles().size()); ++e) {
+    for (int k = 0; k < 3; ++k) {  // bottom, middle, top of layer 0
+      const double* c = &r.cauchy[(std::size_t(e) * 2 + 0) * 9 + 3 * k];
+      EXPECT_NEAR(c[0], sigma, 1e-10);
+      EXPECT_NEAR(c[1], sigma, 1e-10);
+      EXPECT_NEAR(c[2], 0.0, 1e-10);
+    }
+    EXPECT_NEAR(r.principal_stretch[3 * e], l, 1e-12);
+    EXPECT_NEAR(r.principal_stretch[3 * e + 1], l, 1e-12);
+    EXPECT_NEAR(r.thickness_stretch[e], 1.0 / (l * l), 1e-10);
+    EXPECT_NEAR(r.fiber[3 * e], std::cos(M_PI / 6), 1e-12);
+    EXPECT_NEAR(r.fiber[3 * e + 1], std::sin(M_PI / 6), 1e-12);
+  }
+  EXPECT_GE(r.max_principal, sigma - 1e-10);  // the fiber layer adds its tension on top
+  EXPECT_GE(r.max_element, 0);
+}

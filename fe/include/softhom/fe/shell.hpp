@@ -141,7 +141,7 @@ class ShellDomain final : public Contribution {
     std::vector<double> cauchy;             ///< per triangle, layer, position (bottom, middle, top): σ11, σ22, σ12
     std::vector<double> principal_stress;   ///< 2 per triangle: in-plane principal σ of the mid-surface
     std::vector<double> principal_stretch;  ///< 3 per triangle: in-plane λ1 ≥ λ2, thickness λ3
-    std::vector<double> fiber;              ///< 3 per triangle: current direction of layer 0's first fiber (0 if none)
+    std::vector<double> fiber;              ///< 3 per triangle: current direction of the first fiber of the first layer with fibers (0 if none)
     double max_principal = 0.0;             ///< over triangles and section points
     int max_element = -1;
   };
