@@ -20,11 +20,6 @@ namespace {
 using keys::Choices;
 using keys::KeyTable;
 
-// Scenes are in mm. A structure larger than 1 km is a unit mistake; beyond it the generators'
-// coordinates lose all digits (outer_radius = 1e300 produced empty surfaces, not an error).
-const keys::Range kLength = keys::left_open(0.0, 1e6);
-// Cells along one direction; the total mesh size is bounded where the mesh is generated.
-const keys::Range kCells = keys::closed_range(1, 100000);
 
 /// The keys every generated geometry shares, plus the members of its generator's spec.
 template <class Spec>

@@ -14,9 +14,6 @@ namespace {
 using keys::Choices;
 using keys::KeyTable;
 
-const keys::Range kLength = keys::left_open(0.0, 1e6);
-const keys::Range kCells = keys::closed_range(1, 100000);
-
 struct ShellGeometryKeys {
   std::string type;
   ShellShape shape = ShellShape::sphere;
