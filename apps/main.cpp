@@ -61,7 +61,7 @@ int run_exit_code(bool completed) {
 
 int run_point(const CommandOptions& o) {
   const jobs::PointJob job = jobs::parse_point(jobs::load_scene_or_default(o.scene, jobs::default_scene_name("point")));
-  jobs::FileSink sink(o.out);
+  jobs::FileSink sink(o.out, "point");
   const PointRunResult result = jobs::run_point(job, sink, o.run());
   if (!result.completed) {
     std::cerr << "softhom point: stopped early: " << result.error << "\n"
@@ -76,16 +76,16 @@ int run_point(const CommandOptions& o) {
 }
 
 int run_rve(const CommandOptions& o) {
+  jobs::FileSink sink(o.out, "rve");
   jobs::RveJob job = jobs::parse_rve(jobs::load_scene_or_default(o.scene, jobs::default_scene_name("rve")),
                                      {o.out, o.resume});
-  jobs::FileSink sink(o.out);
   return run_exit_code(jobs::run_rve(job, sink, o.run()));
 }
 
 int run_macro(const CommandOptions& o) {
+  jobs::FileSink sink(o.out, "macro");  // before the parse, which may mesh a .geo into OUT/mesh
   jobs::MacroJob job =
       jobs::parse_macro(jobs::load_scene_or_default(o.scene, jobs::default_scene_name("macro")), o.out);
-  jobs::FileSink sink(o.out);
   return run_exit_code(jobs::run_macro(job, sink, o.run()));
 }
 
@@ -98,7 +98,7 @@ int run_sweep(const CommandOptions& o) {
     if (mpi::world_rank() == 0) throw;
     return 2;
   }
-  jobs::FileSink sink(o.out);
+  jobs::FileSink sink(o.out, "sweep");
   return run_exit_code(jobs::run_sweep(job, sink, o.run()));
 }
 
@@ -107,13 +107,13 @@ int run_calibrate(const CommandOptions& o) {
     throw InputError("scene", "", "calibrate needs a calibration file: softhom calibrate CALIBRATION.toml --out DIR "
                                   "(example: studies/calibrations/example_point.toml)");
   const jobs::CalibrationJob job = jobs::parse_calibration(jobs::load_scene_file(o.scene));
-  jobs::FileSink sink(o.out);
+  jobs::FileSink sink(o.out, "calibrate");
   return run_exit_code(jobs::run_calibration(job, sink, o.run(), true).result.success);
 }
 
 int run_demo(const CommandOptions& o) {
   const jobs::DemoJob job = jobs::parse_demo(o.scene);
-  jobs::FileSink sink(o.out);
+  jobs::FileSink sink(o.out, "demo");
   return jobs::run_demo(job, sink, o.run()) ? 0 : 1;
 }
 

@@ -93,7 +93,7 @@ def label_of(c, extra=""):
     return s + extra
 
 
-def stress_panels(cases, out, title, load, section, vf, matrices, fname, xlabel="stretch λ"):
+def stress_panels(cases, out, title, load, section, vf, matrices, fname, xlabel="stretch λ [1]"):
     fig, axes = plt.subplots(1, len(matrices), figsize=(5.2 * len(matrices), 4.2), squeeze=False)
     drawn = 0
     for ax, m in zip(axes[0], matrices):
@@ -120,10 +120,13 @@ def save(fig, out, fname, drawn):
         print("plot_campaign: %s skipped (no cases in the store)" % fname)
         return None
     path = os.path.join(out, fname)
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=120)
+    # PNG at 300 dpi for documents and the same figure as SVG for papers, each written whole first.
+    for target, options in ((path, {"dpi": 300}), (os.path.splitext(path)[0] + ".svg", {})):
+        ext = os.path.splitext(target)[1]
+        tmp = target + ".tmp" + ext
+        fig.savefig(tmp, **options)
+        os.replace(tmp, target)
     plt.close(fig)
-    os.replace(tmp, path)
     print("plot_campaign: " + path)
     return path
 
@@ -144,7 +147,7 @@ def fig23(cases, out, matrices):
                         label="%s, VF %g" % (m, vf))
                 drawn += 1
         ax.set_title("%s fibers, α = 45°" % s)
-        ax.set_xlabel("stretch λ")
+        ax.set_xlabel("stretch λ [1]")
         ax.set_ylabel("engineering stress P11 [MPa]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)

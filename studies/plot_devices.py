@@ -65,7 +65,7 @@ def main(argv):
             ax.grid(alpha=0.3)
             ax.legend(fontsize=7)
         fig.tight_layout()
-        fig.savefig(os.path.join(out, "devices_cpasmo_height.png"), dpi=120)
+        fig.savefig(os.path.join(out, "devices_cpasmo_height.png"), dpi=300)
         print("wrote", os.path.join(out, "devices_cpasmo_height.png"))
     if gripper or creep:
         fig, axes = plt.subplots(1, 3, figsize=(14, 4))
@@ -81,7 +81,7 @@ def main(argv):
             ax.grid(alpha=0.3)
             ax.legend(fontsize=7)
         fig.tight_layout()
-        fig.savefig(os.path.join(out, "devices_gripper_angle.png"), dpi=120)
+        fig.savefig(os.path.join(out, "devices_gripper_angle.png"), dpi=300)
         print("wrote", os.path.join(out, "devices_gripper_angle.png"))
     return 0
 

@@ -105,7 +105,7 @@ def main(argv):
     fig.suptitle(f"Fig. 20 analogue: periodic unit cells ({grid}² sections, VF 0.23, circular glass fibers) "
                  "vs the calibrated homogeneous model", fontsize=10)
     fig.tight_layout()
-    fig.savefig(out, dpi=130)
+    fig.savefig(out, dpi=300)
     print("\n".join(table))
     print()
     print("\n".join(params))

@@ -6,6 +6,7 @@
 // so u_x(n1) = F / k1 and u_x(n2) = F / k1 + F / k2 in the first Newton step (the springs are linear).
 #include <array>
 #include <memory>
+#include <string>
 
 #include "softhom/fe/model.hpp"
 #include "softhom/materials/laws.hpp"
@@ -39,6 +40,16 @@ class Spring final : public fe::Contribution {
     }
     sink.add_tangent(6, dofs.data(), 6, dofs.data(), K.data());
     return MaterialStatus::ok;
+  }
+  /// Its tension k (u_b − u_a)·x as a probe "spring_<a>_<b>_force [N]" and a field on one segment.
+  void report(const fe::Mesh& mesh, const fe::Iterate& it, fe::ContributionReport& out) const override {
+    const std::string id = "spring_" + std::to_string(nodes_[0]) + "_" + std::to_string(nodes_[1]);
+    const double force = k_ * ((*it.u)[3 * nodes_[1]] - (*it.u)[3 * nodes_[0]]);
+    out.probes.emplace_back(id + "_force [N]", force);
+    fe::ReportField f;
+    f.cells = {id, fe::ReportCells::Type::line2, {mesh.nodes[nodes_[0]], mesh.nodes[nodes_[1]]}, {0, 1}};
+    f.arrays.push_back({"force", "N", 1, true, {force}});
+    out.fields.push_back(std::move(f));
   }
 
  private:

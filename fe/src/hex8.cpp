@@ -13,8 +13,9 @@ const double kGauss = 1.0 / std::sqrt(3.0);
 
 Vec3 gauss_point(int g) { return kGauss * Vec3(kSign[g][0], kSign[g][1], kSign[g][2]); }
 
-/// ∂N_a/∂ξ_J at ξ (8x3).
-Mat83 shape_derivatives(const Vec3& xi) {
+}  // namespace
+
+Mat83 hex8_shape_derivatives(const Vec3& xi) {
   Mat83 d;
   for (int a = 0; a < 8; ++a) {
     const double f0 = 1.0 + kSign[a][0] * xi[0], f1 = 1.0 + kSign[a][1] * xi[1], f2 = 1.0 + kSign[a][2] * xi[2];
@@ -24,8 +25,6 @@ Mat83 shape_derivatives(const Vec3& xi) {
   }
   return d;
 }
-
-}  // namespace
 
 Eigen::Matrix<double, 8, 1> hex8_shape(const Vec3& xi) {
   Eigen::Matrix<double, 8, 1> N;
@@ -38,7 +37,7 @@ Hex8Geometry hex8_geometry(const Mat83& X) {
   Hex8Geometry g;
   g.valid = true;
   for (int q = 0; q < 8; ++q) {
-    const Mat83 dxi = shape_derivatives(gauss_point(q));
+    const Mat83 dxi = hex8_shape_derivatives(gauss_point(q));
     const Mat3 Jm = X.transpose() * dxi;  // ∂X_I/∂ξ_J
     const double det = Jm.determinant();
     if (!(det > 0.0)) g.valid = false;

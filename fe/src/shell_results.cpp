@@ -110,4 +110,47 @@ ShellDomain::Results ShellDomain::results(const Mesh& mesh, const std::vector<do
   return out;
 }
 
+void ShellDomain::report(const Mesh& mesh, const Iterate& it, ContributionReport& out) const {
+  const Results r = results(mesh, *it.u, it.state_old);
+  out.probes.emplace_back("shell max principal stress [MPa]", r.max_principal);
+  out.probes.emplace_back("shell max principal element [-]", double(r.max_element));
+  ReportField f;
+  f.cells.stem = "shell";
+  f.cells.type = ReportCells::Type::triangle3;
+  // The shell's own points: its triangles' nodes, renumbered in order of first use.
+  std::vector<int> point_of(mesh.num_nodes(), -1), nodes;
+  for (const Tri3& t : spec_.triangles)
+    for (int n : t) {
+      if (point_of[n] < 0) {
+        point_of[n] = int(nodes.size());
+        nodes.push_back(n);
+        f.cells.points.push_back(mesh.nodes[n]);
+      }
+      f.cells.connectivity.push_back(point_of[n]);
+    }
+  const int nl = int(section_->layers().size());
+  f.arrays.push_back({"thickness stretch", "-", 1, true, r.thickness_stretch});
+  const char* position[3] = {"bottom", "middle", "top"};
+  for (int L = 0; L < nl; ++L)
+    for (int k = 0; k < 3; ++k) {
+      ReportArray a{"cauchy layer " + std::to_string(L) + " " + position[k], "MPa", 3, true, {}};
+      for (std::size_t e = 0; e < patches_.size(); ++e)
+        for (int c = 0; c < 3; ++c) a.values.push_back(r.cauchy[(e * nl + L) * 9 + 3 * k + c]);
+      f.arrays.push_back(std::move(a));
+    }
+  ReportArray ps{"principal stress", "MPa", 3, true, {}}, pl{"principal stretch", "-", 3, true, {}};
+  for (std::size_t e = 0; e < patches_.size(); ++e) {
+    ps.values.insert(ps.values.end(), {r.principal_stress[2 * e], r.principal_stress[2 * e + 1], 0.0});
+    pl.values.insert(pl.values.end(), r.principal_stretch.begin() + 3 * e, r.principal_stretch.begin() + 3 * e + 3);
+  }
+  f.arrays.push_back(std::move(ps));
+  f.arrays.push_back(std::move(pl));
+  f.arrays.push_back({"fiber direction", "-", 3, true, r.fiber});
+  ReportArray u{"displacement", "mm", 3, false, {}};
+  for (int n : nodes)
+    for (int i = 0; i < 3; ++i) u.values.push_back((*it.u)[3 * n + i]);
+  f.arrays.push_back(std::move(u));
+  out.fields.push_back(std::move(f));
+}
+
 }  // namespace softhom::fe

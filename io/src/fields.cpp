@@ -247,6 +247,8 @@ struct CellInfo {
 };
 CellInfo cell_info(CellType t) {
   switch (t) {
+    case CellType::line2: return {"Polyline", 2};
+    case CellType::line3: return {"Edge_3", 3};
     case CellType::triangle3: return {"Triangle", 3};
     case CellType::triangle6: return {"Triangle_6", 6};
     case CellType::quad4: return {"Quadrilateral", 4};
@@ -290,14 +292,17 @@ void move_into_place(TemporaryFile& temporary, const fs::path& target) {
 }
 
 // Attributes every field file carries at its root, so that a file read on its own says what it holds.
-void write_file_attributes(hid_t file, const fs::path& target) {
+void write_file_attributes(hid_t file, const fs::path& target, bool voxel) {
   write_string_attribute(file, "softhom_version", softhom_version(), target);
   write_string_attribute(file, "units", "length mm, stress MPa, time s (F, J, fractions dimensionless)", target);
   write_string_attribute(file, "tensor_component_order",
                          "row-major: 11 12 13 21 22 23 31 32 33 (index 3*i + j), last dataset dimension", target);
   write_string_attribute(file, "layout",
-                         "one group /step_<k> per output step with attribute time [s]; cell data of a voxel "
-                         "grid with dims z y x (x fastest)", target);
+                         voxel ? "one group /step_<k> per output step with attribute time [s]; cell data of a voxel "
+                                 "grid with dims z y x (x fastest)"
+                               : "one group /step_<k> per output step with attribute time [s]; cell data in the "
+                                 "order of /mesh/connectivity, node data in the order of /mesh/coordinates",
+                         target);
 }
 
 }  // namespace
@@ -341,7 +346,7 @@ struct FieldWriter::Impl {
     if (write_failure_injected(h5_final)) throw WriteError(h5_final, "cannot create temporary", ENOSPC);
     file = checked_write(H5Fcreate(h5_tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, h5_final,
                          "cannot create temporary '" + h5_tmp.string() + "'");
-    write_file_attributes(file.get(), h5_final);
+    write_file_attributes(file.get(), h5_final, voxel);
   }
 
   std::string href(const std::string& dataset) const {

@@ -91,7 +91,10 @@ void report_fit(const studies::CalibrationResult& result, const studies::CardCom
 }
 
 /// fit.png from the files in `out` (studies/plot_calibration.py with a python3 that has matplotlib).
+/// SOFTHOM_PLOT_CALIBRATION=off skips it (batch runs that need no figure: the figure costs more than a
+/// small fit).
 void plot_fit(const std::filesystem::path& out, bool quiet) {
+  if (const char* env = std::getenv("SOFTHOM_PLOT_CALIBRATION"); env && std::string(env) == "off") return;
   const std::filesystem::path script = find_plot_script();
   if (script.empty()) {
     std::cerr << "softhom calibrate: warning: studies/plot_calibration.py not found (set SOFTHOM_PLOT_CALIBRATION): no fit.png\n";

@@ -2,6 +2,7 @@
 //
 // The scene (geometry, material, load path, solver, output) is parsed by macro::parse_macro_scene
 // (macro/scene.hpp, every key declared there); this file wires the run and its outputs to the sink.
+#include <algorithm>
 #include <chrono>
 #include <iostream>
 
@@ -56,6 +57,70 @@ std::vector<std::string> response_columns(const macro::Structure& structure) {
   return columns;
 }
 
+io::CellType report_cell_type(fe::ReportCells::Type t) {
+  switch (t) {
+    case fe::ReportCells::Type::line2: return io::CellType::line2;
+    case fe::ReportCells::Type::line3: return io::CellType::line3;
+    case fe::ReportCells::Type::triangle3: return io::CellType::triangle3;
+    case fe::ReportCells::Type::triangle6: return io::CellType::triangle6;
+    case fe::ReportCells::Type::quad4: return io::CellType::quad4;
+  }
+  return io::CellType::triangle3;
+}
+
+io::UnstructuredMesh report_mesh(const fe::ReportCells& cells) {
+  io::UnstructuredMesh out;
+  for (const Vec3& x : cells.points) out.coordinates.insert(out.coordinates.end(), {x[0], x[1], x[2]});
+  out.connectivity.assign(cells.connectivity.begin(), cells.connectivity.end());
+  out.cell_type = report_cell_type(cells.type);
+  return out;
+}
+
+/// The probes and fields the model's contributions report (shells, fibers, contact): extra columns of
+/// response.csv and one time series <stem>.h5/.xdmf per field, whose cells are fixed at the start.
+class ContributionRecorder {
+ public:
+  ContributionRecorder(const fe::Simulation& sim, Sink& sink, bool fields) : sim_(sim) {
+    const fe::ContributionReport r = now();
+    for (const auto& [name, value] : r.probes) columns_.push_back(name);
+    if (!fields) return;
+    for (const fe::ReportField& f : r.fields) writers_.push_back(sink.open_fields(f.cells.stem, report_mesh(f.cells)));
+    if (std::none_of(writers_.begin(), writers_.end(), [](const auto& w) { return bool(w); })) writers_.clear();
+  }
+  const std::vector<std::string>& columns() const { return columns_; }
+  /// Appends this state's probe values to a response row.
+  void append_probes(std::vector<double>& row) const {
+    const fe::ContributionReport r = now();
+    for (const auto& [name, value] : r.probes) row.push_back(value);
+  }
+  void write_fields() const {
+    if (writers_.empty()) return;
+    const fe::ContributionReport r = now();
+    for (std::size_t k = 0; k < writers_.size() && k < r.fields.size(); ++k) {
+      if (!writers_[k]) continue;
+      io::FieldWriter& w = *writers_[k];
+      w.begin_step(sim_.time());
+      for (const fe::ReportArray& a : r.fields[k].arrays)
+        w.add(a.name, a.values, a.components, a.per_cell ? io::Centering::cell : io::Centering::node, a.unit);
+      w.end_step();
+    }
+  }
+  void close() {
+    for (auto& w : writers_)
+      if (w) w->close();
+  }
+
+ private:
+  fe::ContributionReport now() const {
+    fe::ContributionReport r;
+    sim_.report(r);
+    return r;
+  }
+  const fe::Simulation& sim_;
+  std::vector<std::string> columns_;
+  std::vector<std::unique_ptr<io::FieldWriter>> writers_;
+};
+
 /// The [device] of a run: its own quantities (table "device") and its geometric stop (gripper fingertips).
 struct DeviceRecord {
   std::unique_ptr<macro::DeviceProbe> probe;
@@ -84,16 +149,25 @@ class MacroRecorder {
   std::vector<std::string> columns_;
   DeviceRecord device_;
   std::unique_ptr<io::FieldWriter> writer_;
+  ContributionRecorder contributions_;
   Progress progress_;
+  std::vector<double> response_row() const {
+    std::vector<double> row = macro::probe_values(structure_, sim_);
+    contributions_.append_probes(row);
+    return row;
+  }
 };
 
 MacroRecorder::MacroRecorder(const MacroJob& job, const macro::Structure& structure, const fe::Simulation& sim,
                              Sink& sink, const RunOptions& options)
     : job_(job), structure_(structure), sim_(sim), sink_(sink), tag_("[macro " + job.scene.name + "] "),
-      columns_(response_columns(structure)), progress_(options.quiet) {
+      columns_(response_columns(structure)), contributions_(sim, sink, job.parsed.fields),
+      progress_(options.quiet) {
   const macro::MacroScene& ms = job.parsed;
+  columns_.insert(columns_.end(), contributions_.columns().begin(), contributions_.columns().end());
   sink.open_table("response", columns_);
-  sink.add_row("response", macro::probe_values(structure, sim));
+  sink.add_row("response", response_row());
+  if (ms.fields_at(0.0)) contributions_.write_fields();
   if (ms.device.kind != macro::DeviceKind::none) {
     device_.probe = std::make_unique<macro::DeviceProbe>(ms.device, structure);
     device_.columns = device_.probe->columns();
@@ -112,8 +186,9 @@ MacroRecorder::MacroRecorder(const MacroJob& job, const macro::Structure& struct
 
 bool MacroRecorder::record(double t, std::size_t done, const fe::AdvanceResult& step) {
   const macro::MacroScene& ms = job_.parsed;
-  sink_.add_row("response", macro::probe_values(structure_, sim_));
+  sink_.add_row("response", response_row());
   if (writer_ && ms.fields_at(t)) write_fields(*writer_, sim_);
+  if (ms.fields_at(t)) contributions_.write_fields();
   if (device_.probe) {
     const std::vector<double> row = device_.probe->values(sim_);
     sink_.add_row("device", row);
@@ -135,6 +210,7 @@ bool MacroRecorder::record(double t, std::size_t done, const fe::AdvanceResult& 
 void MacroRecorder::close() {
   progress_.finish();
   if (writer_) writer_->close();
+  contributions_.close();
 }
 
 /// What a macro run reports beyond its rows.

@@ -1,11 +1,37 @@
 // Where a job's results go (sink.hpp).
 #include "softhom/jobs/sink.hpp"
 
+#include "softhom/core/input_error.hpp"
+#include "softhom/io/files.hpp"
+
 #include "softhom/io/summary.hpp"
 
 namespace softhom::jobs {
 
 FileSink::FileSink(std::filesystem::path out) : out_(std::move(out)) {}
+
+namespace {
+
+/// The subcommand whose results are in `out` (its summary.json's "command"), or "" when none can be read.
+std::string command_of_results(const std::filesystem::path& out) {
+  const std::filesystem::path summary = out / "summary.json";
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(summary, ec)) return "";
+  if (!io::input_file_problem(summary, io::kJsonFile).empty()) return "";
+  const nlohmann::json j = nlohmann::json::parse(io::read_input_file(summary, "--out", io::kJsonFile), nullptr, false);
+  if (!j.is_object() || !j.contains("command") || !j["command"].is_string()) return "";
+  return j["command"].get<std::string>();
+}
+
+}  // namespace
+
+FileSink::FileSink(std::filesystem::path out, const std::string& command) : out_(std::move(out)) {
+  const std::string earlier = command_of_results(out_);
+  if (!earlier.empty() && earlier != command)
+    throw InputError("--out", out_.string(),
+                     "holds the results of `softhom " + earlier + "` (its summary.json): the files of a " + command +
+                         " run would mix with them; choose another directory");
+}
 
 void FileSink::prepare() { std::filesystem::create_directories(out_); }
 

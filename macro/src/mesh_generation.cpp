@@ -1,5 +1,7 @@
 #include "softhom/macro/mesh_generation.hpp"
 
+#include "geo_policy.hpp"
+
 #include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -99,6 +101,7 @@ std::filesystem::path mesh_from_geo(const std::filesystem::path& geo, double mes
   namespace fs = std::filesystem;
   if (!fs::is_regular_file(geo)) throw InputError(field, geo.string(), "no such .geo file");
   const std::string text = read_text(geo);
+  check_geo_text(text, geo, field);
   const std::string h = size_text(mesh_size);
   char hash[17];
   std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(fnv1a(text + "\n#mesh_size=" + h)));

@@ -4,11 +4,14 @@
 #include "softhom/materials/system_memory.hpp"
 #include "softhom/macro/scene.hpp"
 
+#include "softhom/fe/petsc_options.hpp"
+
 #include <algorithm>
 #include <cmath>
 
 #include "device_keys.hpp"
 #include "shell_keys.hpp"
+#include "fiber_keys.hpp"
 #include "softhom/io/gmsh.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/macro/mesh_generation.hpp"
@@ -342,6 +345,7 @@ const KeyTable<SceneKeysTop>& scene_table() {
         .custom("probe", "table", "gmsh only: reported surface", skip)
         .custom("regions", "table", "gmsh only: a material table per physical volume", skip)
         .custom("device", "table", "gmsh only: device outputs (device.csv)", skip)
+        .custom("fibers", "list of tables", "fibers tied to the structure ([[fibers]] below)", skip)
         .custom("shell", "table", "shell only: section, fiber frame and edges", skip);
     return k;
   }();
@@ -540,6 +544,9 @@ void read_load(const toml::table& scene, MacroScene& m) {
     for (const std::string& n : l.surfaces)
       if (!s.imported.mesh.has_surface(n))
         throw InputError("load.surface", "\"" + n + "\"", "no physical surface of that name in the mesh");
+    if (l.surfaces.empty() && l.control != LoadControl::stretch)
+      throw InputError("load.surface", "(missing)",
+                       "pressure and volume control on a Gmsh mesh load a physical surface: name it (e.g. surface = \"inner\")");
     s.imported.load_surfaces = l.surfaces;
     if (l.cavity_mask) s.imported.cavity_mask = *l.cavity_mask;
   } else if (!l.surfaces.empty() || l.cavity_mask) {
@@ -571,6 +578,7 @@ void read_solver(const toml::table& scene, MacroScene& m) {
                      "limit max_krylov_iterations instead");
   SolverKeys k{m.newton, m.spec.formulation};
   solver_table().read(sv, "solver", k);
+  fe::check_petsc_options(k.newton.petsc_options);  // nothing of a shared scene writes outside --out
   m.newton = k.newton;
   m.spec.formulation = k.formulation;
 }
@@ -611,6 +619,7 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
   MacroScene m;
   read_geometry_table(scene, scene_file, mesh_cache, m.spec);
   m.device = read_device(scene.get("device"));
+  m.spec.fibers = read_fibers(scene.get("fibers"));  // tied to the mesh (and checked against it) when it is built
   // The linear solver first: the memory estimate holds a factorization only on the direct path.
   read_solver(scene, m);
   m.spec.factorized_solver = automatic_solver_of(scene, m) != fe::SolverKind::petsc;
@@ -626,7 +635,7 @@ std::vector<keys::TableDoc> macro_scene_tables() {
   std::vector<keys::TableDoc> tables{scene_table().describe(), tube_table(false).describe(), tube_table(true).describe(), sphere_table().describe(),
            plate_table().describe(), gmsh_table().describe(), boundary_table().describe(), probe_table().describe(),
            load_table().describe(), solver_table().describe(), output_table().describe(),
-          device_table().describe()};
+          device_table().describe(), fibers_table_doc()};
   const std::vector<keys::TableDoc> shells = shell_scene_tables();
   tables.insert(tables.end(), shells.begin(), shells.end());
   return tables;

@@ -260,6 +260,7 @@ Structure build_structure(const StructureSpec& spec) {
     case StructureKind::shell: build_shell(s); break;
   }
   assign_materials(s);
+  add_fibers(s);
   return s;
 }
 

@@ -54,7 +54,7 @@ class GentHGOLaw final : public ElasticLaw {
       p_.fibers[i].direction = a0;
       const double kappa = p.fibers[i].kappa;
       if (!(kappa >= 0.0 && kappa <= 1.0 / 3.0))
-        throw InputError("fibers[" + std::to_string(i) + "].kappa", std::to_string(kappa),
+        throw InputError("fibers[" + std::to_string(i) + "].kappa", format_number(kappa),
                          "fiber dispersion must lie in [0, 1/3]");
       fibers_.push_back({a0, a0 * a0.transpose(), p.fibers[i].k1, p.fibers[i].k2, kappa,
                          3.0 * kappa + (1.0 - 3.0 * kappa) * a0.squaredNorm()});

@@ -31,7 +31,7 @@ void MixedControl::validate() const {
   double previous = 0.0;
   for (std::size_t k = 0; k < times.size(); ++k) {
     if (!(times[k] > previous) || !std::isfinite(times[k]))
-      throw InputError("load.times[" + std::to_string(k) + "]", std::to_string(times[k]),
+      throw InputError("load.times[" + std::to_string(k) + "]", format_number(times[k]),
                        "output times must be finite and strictly increasing from t > 0");
     previous = times[k];
   }

@@ -17,6 +17,11 @@ constexpr double kTolerance = 1e-10;
 /// Below this the iteration stops without a further step (quadratic convergence gets there in one).
 constexpr double kTight = 1e-13;
 constexpr int kMaxEvaluations = 60;
+/// Compressible mode: an equilibrium within this Material::limit_margin of the law's limit is refused
+/// as locking, like the material-point driver's default (PointSolverOptions::limit_margin). Beyond the
+/// incompressible limit the compressible Gent law still balances S33 = 0, but only by dilating (J − 1
+/// of order 1 at a margin of order G/K): a state where only the bulk modulus resists.
+constexpr double kLimitMargin = 1e-3;
 
 /// Symmetric basis matrix of the Voigt coordinate b: 0 = E11, 1 = E22, 2 = 2E12 (engineering), 3 = E33.
 Mat3 voigt_basis(int b) {
@@ -97,20 +102,26 @@ double safeguarded(double lo, double hi, double lambda) {
 MaterialStatus solve_thickness(const Material& law, const InPlane& k, const double* state_old, double* state_new,
                                double dt, PlaneStressPoint& out, Mat3& F, Mat3& P, Mat9& A) {
   const double incompressible_guess = 1.0 / std::sqrt(k.detC);
+  const auto given = [](double v) { return v > 0.0 && std::isfinite(v); };
+  const double guess = given(out.J)         ? out.J * incompressible_guess
+                       : given(out.lambda3) ? out.lambda3
+                                            : incompressible_guess;
   // Starting points tried in turn while none is admissible: the caller's guess, J = 1, the λ3 of least
   // Ī1 (λ3² = tr C2 / 2, the point farthest from a Gent limit), the reference.
-  const double starts[] = {out.lambda3 > 0.0 && std::isfinite(out.lambda3) ? out.lambda3 : incompressible_guess,
-                           incompressible_guess, std::sqrt(0.5 * k.C.trace()), 1.0};
+  const double starts[] = {guess, incompressible_guess, std::sqrt(0.5 * k.C.trace()), 1.0};
   int start = 0;
   double lambda = starts[0], lo = 0.0, hi = std::numeric_limits<double>::infinity(), good = 0.0;
-  MaterialStatus failure = MaterialStatus::not_finite;
+  double good_margin = 1.0;
+  bool locked = false;  // some iterate hit the law's limit
   out.iterations = 0;
   while (out.iterations < kMaxEvaluations) {
     ++out.iterations;
     F = block_F(k.U, lambda);
     const MaterialStatus st = law.evaluate(F, state_old, state_new, dt, P, &A);
     if (st != MaterialStatus::ok) {
-      failure = st;
+      locked = locked || st == MaterialStatus::locking;
+      // The root lies between an iterate at the limit and one within kLimitMargin of it: refused anyway.
+      if (locked && good > 0.0 && good_margin < kLimitMargin) return MaterialStatus::locking;
       if (good > 0.0) {
         lambda = std::sqrt(lambda * good);  // back towards the last admissible iterate
       } else if (++start < int(std::size(starts))) {
@@ -121,20 +132,22 @@ MaterialStatus solve_thickness(const Material& law, const InPlane& k, const doub
       continue;
     }
     good = lambda;
+    good_margin = law.limit_margin(F);
     const double S33 = P(2, 2) / lambda, scale = stress_scale(law, F.inverse() * P);
     out.lambda3 = lambda;
     out.residual = std::abs(S33) / scale;
-    if (out.residual <= kTight) return MaterialStatus::ok;
     const double step = -P(2, 2) / A(8, 8);
-    // Round-off level: Newton cannot improve λ3 by more than its last bits.
-    if (out.residual <= kTolerance && !(std::abs(step) > 8.0 * std::numeric_limits<double>::epsilon() * lambda))
-      return MaterialStatus::ok;
+    // Converged: tight, or at round-off level (Newton cannot improve λ3 by more than its last bits; the
+    // floor of S33 is then ~ε K, above kTolerance · G only beyond K/G ≈ 1e5).
+    const double eps = std::numeric_limits<double>::epsilon();
+    if (out.residual <= kTight || (out.residual <= kTolerance + 32.0 * eps * law.initial_bulk_modulus() / scale &&
+                                   !(std::abs(step) > 8.0 * eps * lambda)))
+      return good_margin < kLimitMargin ? MaterialStatus::locking : MaterialStatus::ok;
     (S33 > 0.0 ? hi : lo) = lambda;
     const double next = lambda + step;
     lambda = (A(8, 8) > 0.0 && next > lo && next < hi) ? next : safeguarded(lo, hi, lambda);
-    failure = MaterialStatus::not_finite;
   }
-  return failure;
+  return locked ? MaterialStatus::locking : MaterialStatus::not_finite;
 }
 
 /// Condensed tangent of the compressible mode: D_ab − D_a3 D_3b / D_33.
@@ -152,6 +165,7 @@ MaterialStatus compressible(const Material& law, const InPlane& k, const double*
   if (st != MaterialStatus::ok) return st;
   const Mat3 S = F.inverse() * P;
   out.S = in_plane_voigt(S);
+  out.J = F.determinant();
   out.pressure = 0.0;
   out.converged = true;
   if (!condense_compressible(voigt_tangent(material_tangent(F, S, A)), out.D)) return MaterialStatus::not_finite;
@@ -197,6 +211,7 @@ MaterialStatus incompressible(const Material& law, const InPlane& k, const doubl
     for (int a = 0; a < 3; ++a) out.D(a, b) = R(a, b) + R(a, 3) * g[b] + c[a] * dq + q * dc[a];
   }
   out.lambda3 = l3;
+  out.J = 1.0;
   out.residual = 0.0;  // S33 = S_rest,33 + q / λ3² = 0 by construction
   out.converged = true;
   return out.S.allFinite() && out.D.allFinite() ? MaterialStatus::ok : MaterialStatus::not_finite;
@@ -218,6 +233,7 @@ MaterialStatus plane_stress(const Material& law, const Vec3v& E, const double* s
     out.pressure = 0.0;
     out.converged = false;
     if (!std::isfinite(out.lambda3)) out.lambda3 = 0.0;
+    if (!std::isfinite(out.J)) out.J = 0.0;
     if (!std::isfinite(out.residual)) out.residual = 0.0;
   }
   return st;

@@ -117,7 +117,8 @@ MaterialStatus ShellSection::evaluate(const Vec3v& eps, const Vec3v& kappa, cons
     const Material& law = *layers_[layer_[p]].law;
     const bool history = law.state_size() > 0;
     const double z = z_[p], w = w_[p];
-    pt.lambda3 = warm ? out.points[p].lambda3 : 0.0;
+    pt.lambda3 = 0.0;
+    pt.J = warm ? out.points[p].J : 0.0;
     const MaterialStatus st =
         plane_stress(law, eps + z * kappa, history ? state_old + state_offset_[p] : nullptr,
                      history ? state_new + state_offset_[p] : nullptr, dt, mode_, pt);
@@ -128,7 +129,7 @@ MaterialStatus ShellSection::evaluate(const Vec3v& eps, const Vec3v& kappa, cons
       out.failed_point = p;
       return st;
     }
-    out.points[p] = SectionPoint{layer_[p], z, pt.S, pt.lambda3};
+    out.points[p] = SectionPoint{layer_[p], z, pt.S, pt.lambda3, pt.J};
     out.N += w * pt.S;
     out.M += (w * z) * pt.S;
     stretch += w * pt.lambda3;

@@ -160,11 +160,13 @@ TEST(OutputsCli, InjectedWriteFailureNamesFileExitsOneKeepsPreviousFile) {
   EXPECT_EQ(read_csv(out / "response.csv").rows.size(), before.rows.size());  // previous complete file intact
   EXPECT_TRUE(temporaries(out).empty());
   // The HDF5 path: a failing fields.h5 ends cleanly (exit 1, not a crash in HDF5's exit handler).
-  const CommandResult f = run_env("SOFTHOM_INJECT_WRITE_FAILURE=fields.h5", "rve -q -o " + out.string());
+  const auto rve_out = fresh_dir("outputs_inject_rve");  // a directory of its own (no point results in it)
+  const CommandResult f = run_env("SOFTHOM_INJECT_WRITE_FAILURE=fields.h5", "rve -q -o " + rve_out.string());
   EXPECT_EQ(f.exit_code, 1) << f.output;
-  EXPECT_NE(f.output.find((out / "fields.h5").string()), std::string::npos) << f.output;
-  EXPECT_TRUE(temporaries(out).empty());
+  EXPECT_NE(f.output.find((rve_out / "fields.h5").string()), std::string::npos) << f.output;
+  EXPECT_TRUE(temporaries(rve_out).empty());
   fs::remove_all(out);
+  fs::remove_all(rve_out);
 }
 
 TEST(OutputsCli, FullAndReadOnlyFileSystems) {
@@ -277,4 +279,25 @@ TEST(OutputsCli, EveryRveAndPointColumnHasAUnit) {
     for (const auto& c : csv.columns) EXPECT_FALSE(s["columns"][c]["unit"].get<std::string>().empty()) << command << " " << c;
     fs::remove_all(out);
   }
+}
+
+TEST(OutputsCli, AnOutDirectoryOfAnotherSubcommandIsRefusedAndKept) {
+  // A point run into a macro run's --out overwrote response.csv and summary.json and left fields.h5
+  // beside them; now it is refused naming --out (exit 2), and the macro run's files stay as they were.
+  const auto out = fresh_dir("outputs_other_subcommand");
+  fs::create_directories(out);
+  {
+    std::ofstream summary(out / "summary.json");
+    summary << R"({"command": "macro", "status": "completed"})" << "\n";
+  }
+  const auto r = run_softhom("point " + scene("point_uniaxial_ecoflex") + " --out " + out.string() + " -q");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--out"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("softhom macro"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out / "response.csv"));
+  EXPECT_EQ(read_json(out / "summary.json")["command"], "macro");
+  // The same subcommand again replaces its own results.
+  const auto again = fresh_dir("outputs_same_subcommand");
+  ASSERT_EQ(run_softhom("point " + scene("point_uniaxial_ecoflex") + " --out " + again.string() + " -q").exit_code, 0);
+  EXPECT_EQ(run_softhom("point " + scene("point_uniaxial_ecoflex") + " --out " + again.string() + " -q").exit_code, 0);
 }

@@ -477,6 +477,30 @@ def thread_bounds(softhom, work):
               % sorted(p.name for p in work.iterdir()))
 
 
+def scene_reach(softhom, work):
+    """A shared scene cannot write outside --out: PETSc viewers pointed at a file (-ksp_view ascii:F
+    replaced F with a dump) and a .geo that runs a shell command (System "touch F") are refused before
+    anything runs, naming the key, and F stays as it was."""
+    victim = work / "victim.txt"
+    victim.write_text("untouched\n")
+    macro = (HERE.parents[1] / "studies/scenes/macro_balloon.toml").read_text()
+    for option in ("-ksp_view ascii:%s" % victim, "-log_view :%s" % victim, "-viewer_binary_filename %s" % victim,
+                   "-totally_unknown_option 5", "-ksp_rtol -1"):
+        scene = work / "petsc.toml"
+        scene.write_text(macro + '\n[solver]\nlinear_solver = "petsc"\npetsc_options = "%s"\n' % option)
+        refused(softhom, ["macro", scene, "--out", work / "out-petsc"], ["solver.petsc_options"])
+    pwned = work / "pwned"
+    geo = work / "box.geo"
+    geo.write_text('System "touch %s";\nSetFactory("OpenCASCADE");\nBox(1) = {0, 0, 0, 1, 1, 1};\n'
+                   'Physical Volume("body") = {1};\n' % pwned)
+    device = (HERE.parents[1] / "studies/devices/cpasmo_gent_coarse.toml").read_text()
+    scene = work / "geo.toml"
+    scene.write_text(re.sub(r'(?m)^geo *=.*$', 'geo = "%s"' % geo, device))
+    refused(softhom, ["macro", scene, "--out", work / "out-geo"], ["geometry.geo"])
+    check(not pwned.exists(), "the .geo's System command ran")
+    check(victim.read_text() == "untouched\n", "the victim file was written")
+
+
 def sigterm_calibrate(softhom, work):
     """SIGTERM during calibrate: exit 143, summary.json "status": "interrupted" and "success": false, and
     material.toml says its parameters are the best so far, not a fit (it exited 0 with success true)."""
@@ -512,6 +536,7 @@ TESTS = {
     "lock-symlink": lock_symlink,
     "thread-bounds": thread_bounds,
     "sigterm-calibrate": sigterm_calibrate,
+    "scene-reach": scene_reach,
 }
 
 

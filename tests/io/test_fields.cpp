@@ -188,6 +188,29 @@ TEST(FieldWriter, UnstructuredTetraMeshRoundTrip) {
   EXPECT_EQ(check_xdmf_references(x, dir), 10u);
 }
 
+TEST(FieldWriter, PolylinesOfFibersAndTheLayoutOfAnUnstructuredMesh) {
+  // Fibers' segments are XDMF polylines of two nodes (quadratic ones Edge_3); an unstructured file's
+  // layout attribute speaks of its connectivity, not of a voxel grid.
+  test::TempDir tmp{"fields"};
+  io::UnstructuredMesh mesh;
+  mesh.cell_type = io::CellType::line2;
+  mesh.coordinates = {0, 0, 0, 1, 0, 0, 2, 0, 0};
+  mesh.connectivity = {0, 1, 1, 2};
+  {
+    io::FieldWriter w(tmp.path / "fibers", mesh);
+    w.begin_step(0.0);
+    w.add("stretch", std::vector<double>{1.0, 1.1}, 1, io::Centering::cell, "1");
+    w.end_step();
+    w.close();
+  }
+  const std::string x = slurp(tmp.path / "fibers.xdmf");
+  EXPECT_EQ(count(x, R"(TopologyType="Polyline" NumberOfElements="2" NodesPerElement="2")"), 1u) << x;
+  // The attribute's string is stored as it is in the HDF5 file's bytes.
+  const std::string h5 = slurp(tmp.path / "fibers.h5");
+  EXPECT_EQ(h5.find("voxel grid"), std::string::npos);
+  EXPECT_NE(h5.find("cell data in the order of /mesh/connectivity"), std::string::npos);
+}
+
 TEST(FieldWriter, UnfinishedWriterLeavesNothingAndKeepsPreviousResult) {
   test::TempDir tmp{"fields"};
   io::VoxelGrid grid;

@@ -58,3 +58,28 @@ TEST(ContributionSeam, ATangentOutsideTheDeclaredCouplingsIsRefused) {
   fe::Simulation sim(c.model, o);
   EXPECT_THROW((void)sim.advance_to(1.0), std::logic_error);
 }
+
+TEST(ContributionSeam, ContributionsReportTheirProbesAndFieldsAtTheConvergedState) {
+  // Springs in series carry the load F each: the probes read it back at the converged state (1e-8
+  // relative as the displacements), one field per spring with its segment's reference ends.
+  const test::SpringChain c = test::spring_chain();
+  fe::NewtonOptions o;
+  o.solver = fe::SolverKind::cholmod;
+  o.mixed = false;
+  fe::Simulation sim(c.model, o);
+  fe::ContributionReport before;
+  sim.report(before);
+  ASSERT_EQ(before.probes.size(), 2u);
+  EXPECT_EQ(before.probes[0].second, 0.0);
+  ASSERT_TRUE(sim.advance_to(1.0).reached());
+  fe::ContributionReport r;
+  sim.report(r);
+  ASSERT_EQ(r.probes.size(), 2u);
+  EXPECT_EQ(r.probes[1].first, "spring_12_13_force [N]");
+  for (const auto& [name, force] : r.probes) EXPECT_NEAR(force, c.force, 1e-8 * c.force) << name;
+  ASSERT_EQ(r.fields.size(), 2u);
+  EXPECT_EQ(r.fields[1].cells.stem, "spring_12_13");
+  EXPECT_EQ(r.fields[1].cells.points[1], c.model.mesh.nodes[c.n2]);
+  ASSERT_EQ(r.fields[1].arrays.size(), 1u);
+  EXPECT_NEAR(r.fields[1].arrays[0].values[0], c.force, 1e-8 * c.force);
+}

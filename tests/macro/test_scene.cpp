@@ -165,6 +165,15 @@ TEST(MacroScene, GmshBodyMustBeConstrained) {
   EXPECT_NE(msg.find("boundary[0].surface = \"zmni\": no physical surface"), std::string::npos) << msg;
 }
 
+TEST(MacroScene, GmshPressureControlNeedsItsSurface) {
+  // Without load.surface the pressure had nowhere to act: the run wrote a response.csv of zeros, exit 0.
+  const fs::path file = kScenes / "macro_gmsh_tube.toml";
+  std::ifstream in(file);
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  const std::string msg = error_of(replaced(text, "surface = \"inner\"", ""), file);
+  EXPECT_NE(msg.find("load.surface"), std::string::npos) << msg;
+}
+
 TEST(MacroScene, FieldTimesJoinTheOutputSteps) {
   const macro::MacroScene m = parse(std::string(kTube) + "[output]\nfields = [0.3, 1.0]\n");
   // 4 uniform steps (0.25, 0.5, 0.75, 1) plus 0.3.

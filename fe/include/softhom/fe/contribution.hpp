@@ -13,6 +13,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "softhom/fe/mesh.hpp"
@@ -74,6 +75,34 @@ class AssemblySink {
   bool tangent_ = false;
 };
 
+/// Cells of a contribution's own, for its fields (a shell's triangles, a fiber's segments, contact faces).
+struct ReportCells {
+  enum class Type { line2, line3, triangle3, triangle6, quad4 };
+  std::string stem;               ///< output file stem: <stem>.h5 + <stem>.xdmf ("shell", "fibers", "contact")
+  Type type = Type::triangle3;
+  std::vector<Vec3> points;       ///< reference positions, fixed through the run
+  std::vector<int> connectivity;  ///< nodes per cell × cells, indices into points, in XDMF/VTK node order
+};
+/// One array on a ReportCells: components per cell (or per point) in cell (point) order.
+struct ReportArray {
+  std::string name, unit;
+  int components = 1;  ///< 1, 3 or 9 (row-major tensor)
+  bool per_cell = true;
+  std::vector<double> values;
+};
+struct ReportField {
+  ReportCells cells;
+  std::vector<ReportArray> arrays;
+};
+/// What contributions report of a converged state beyond the solids' fields. The macro job appends the
+/// probes to response.csv and writes each field as the time series <stem>.h5 + <stem>.xdmf; a
+/// contribution gives the same probe names, stems and cells at every call (the columns and meshes are
+/// fixed when the run starts).
+struct ContributionReport {
+  std::vector<std::pair<std::string, double>> probes;  ///< column "name [unit]" and its value
+  std::vector<ReportField> fields;
+};
+
 class Contribution {
  public:
   /// What a contribution is, which fixes where the driver evaluates it: domains and interfaces first
@@ -115,6 +144,12 @@ class Contribution {
     (void)it;
     (void)sink;
     return MaterialStatus::ok;
+  }
+  /// Appends its probes and fields at a converged state (see ContributionReport). Called on every rank.
+  virtual void report(const Mesh& mesh, const Iterate& it, ContributionReport& out) const {
+    (void)mesh;
+    (void)it;
+    (void)out;
   }
 
  protected:

@@ -42,6 +42,8 @@ Hex8Geometry hex8_geometry(const Mat83& X);
 
 /// Shape functions at the reference point ξ.
 Eigen::Matrix<double, 8, 1> hex8_shape(const Vec3& xi);
+/// ∂N_a/∂ξ_J at the reference point ξ (row a).
+Mat83 hex8_shape_derivatives(const Vec3& xi);
 
 /// Deformation gradients at the Gauss points (F̄ for fbar) and the volume ratio θ.
 struct Hex8Kinematics {

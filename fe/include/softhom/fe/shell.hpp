@@ -127,6 +127,11 @@ class ShellDomain final : public Contribution {
   bool holds_rigid_motion() const override { return has_clamped_; }
   int state_size() const override { return int(patches_.size()) * section_->state_size(); }
   void init_state(double* state) const override;
+  /// Probes "shell max principal stress [MPa]" and "shell max principal element [-]"; the field "shell":
+  /// the triangles with per-cell thickness stretch, Cauchy stress per layer at bottom, middle and top
+  /// (σ11, σ22, σ12 in the local frame carried by the mid-surface's rotation), in-plane principal
+  /// stresses and stretches, the current fiber direction, and the points' displacement.
+  void report(const Mesh& mesh, const Iterate& it, ContributionReport& out) const override;
 
   const std::vector<Tri3>& triangles() const { return spec_.triangles; }
   const ShellTopology& topology() const { return topology_; }

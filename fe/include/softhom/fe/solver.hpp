@@ -186,6 +186,8 @@ class Simulation {
   /// under MPI a collective call before the first step (each rank sums its own elements).
   double reaction(const std::vector<int>& dofs) const;
   ElementFields element_fields() const;
+  /// The probes and fields of every contribution at the converged state (ContributionReport).
+  void report(ContributionReport& out) const;
   /// Statistics so far (linear-solver times of the current solver object).
   RunStats stats() const;
   /// Work of the last converged sub-step.

@@ -21,7 +21,7 @@ struct VoxelGrid {
   std::array<double, 3> origin{0.0, 0.0, 0.0};
 };
 
-enum class CellType { triangle3, triangle6, quad4, tetra4, tetra10, hexa8 };
+enum class CellType { line2, line3, triangle3, triangle6, quad4, tetra4, tetra10, hexa8 };
 
 /// An unstructured mesh: node coordinates (x, y, z per node) and connectivity (nodes per cell, all
 /// cells of one type).

@@ -45,6 +45,9 @@ class Sink {
 class FileSink final : public Sink {
  public:
   explicit FileSink(std::filesystem::path out);
+  /// The directory of `softhom <command>`: refused (InputError naming --out) when it holds another
+  /// subcommand's results (its summary.json says which), so that two runs' files never mix.
+  FileSink(std::filesystem::path out, const std::string& command);
   void prepare() override;
   void open_table(const std::string& name, const std::vector<std::string>& columns) override;
   void add_row(const std::string& name, const std::vector<double>& row) override;

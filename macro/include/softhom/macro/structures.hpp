@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "softhom/fe/solver.hpp"
+#include "softhom/macro/fiber_geometry.hpp"
 #include "softhom/macro/geometry.hpp"
 #include "softhom/macro/shell_structure.hpp"
 
@@ -70,6 +71,7 @@ struct StructureSpec {
   /// The linear solver factorizes the tangent (CHOLMOD/UMFPACK); false: the PETSc Krylov path, whose
   /// memory estimate holds a multigrid hierarchy and a Krylov basis instead of a factor.
   bool factorized_solver = true;
+  std::vector<FiberSpec> fibers;      ///< [[fibers]]: fibers tied to the mesh (fiber_geometry.hpp)
 };
 
 struct Structure {
@@ -78,6 +80,7 @@ struct Structure {
   std::vector<int> inner_nodes, end_nodes;  ///< probes: cavity wall; free end (tube zmax / plate xmax)
   std::vector<int> load_dofs;               ///< plate: x-dofs of xmax (reaction force)
   std::shared_ptr<const fe::ShellDomain> shell;  ///< shell structures: the shell contribution
+  std::vector<std::shared_ptr<const fe::TiedFibers>> fibers;  ///< also among model.contributions
 };
 
 /// Builds mesh, materials (rotated into the fiber frame per element), constraints and loads.

@@ -9,6 +9,7 @@
 // A law's fiber directions are read in that same local frame (helpers at the end build a layer's law
 // from fiber angles).
 #include <span>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -40,11 +41,17 @@ struct PlaneStressPoint {
   Vec3v S = Vec3v::Zero();  ///< [S11, S22, S12]
   Mat3v D = Mat3v::Zero();  ///< condensed consistent tangent dS/dE (E in Voigt [E11, E22, 2E12])
   /// Thickness stretch. On input: the starting guess of the compressible Newton iteration when > 0
-  /// (e.g. the value of the previous step at this point); ignored otherwise and in incompressible mode.
+  /// and J is not given; ignored in incompressible mode.
   double lambda3 = 0.0;
+  /// Volume ratio det F = λ3 sqrt(det C2). On input, when > 0: the compressible mode starts from
+  /// λ3 = J / sqrt(det C2), preferred to lambda3 as a warm start (the previous step's J at this point):
+  /// near incompressibility J moves by O(G/K) between steps where λ3 moves with the strain.
+  double J = 0.0;
   /// Incompressible mode: the pressure p of S = S_rest(C) − p C⁻¹ (0 in compressible mode).
   double pressure = 0.0;
-  /// |S33| / max(|S|, G0) at the returned λ3 (G0 the law's initial shear modulus); ≤ 1e-10 when ok.
+  /// |S33| / max(|S|, G0) at the returned λ3 (G0 the law's initial shear modulus). When ok: ≤ 1e-10,
+  /// or at the round-off floor of the law's pressure (≈ 32 ε K / max(|S|, G0), larger only for K/G
+  /// beyond ≈ 1e5) where Newton can no longer move λ3.
   double residual = 0.0;
   int iterations = 0;      ///< law evaluations spent on λ3 (incompressible: 1)
   bool converged = false;  ///< false when the Newton iteration for λ3 did not converge (status not_finite)
@@ -52,10 +59,11 @@ struct PlaneStressPoint {
 
 /// Condenses `law` to plane stress at the in-plane Green–Lagrange strain E (local frame; see the file
 /// comment): F = U ⊕ λ3 with U = sqrt(I + 2E) the in-plane right stretch (laws are objective).
-/// `state_old` / `state_new` as in Material::evaluate (state_new written on success only... of the
-/// final evaluation). Returns the law's status (locking, inverted, not_finite) or not_finite when λ3
-/// did not converge; on any non-ok status out.S and out.D are zero (never NaN) and out.lambda3 is the
-/// last admissible iterate or the starting guess.
+/// `state_old` / `state_new` as in Material::evaluate (state_new is meaningful on success only: it is
+/// that of the law's evaluation at the returned λ3). Returns the law's status (locking, inverted,
+/// not_finite), locking for a compressible equilibrium within 1e-3 of the law's limit (limit_margin),
+/// or not_finite when λ3 did not converge; on any non-ok status out.S and out.D are zero (never NaN)
+/// and out.lambda3 is the last admissible iterate or the starting guess. Thread-safe like the law.
 MaterialStatus plane_stress(const Material& law, const Vec3v& E, const double* state_old, double* state_new,
                             double dt, PlaneStressMode mode, PlaneStressPoint& out);
 
@@ -88,6 +96,7 @@ struct SectionPoint {
   double z = 0.0;                ///< reference distance from the mid-surface of the whole stack
   Vec3v S = Vec3v::Zero();       ///< [S11, S22, S12] at this point
   double lambda3 = 1.0;          ///< thickness stretch at this point
+  double J = 0.0;                ///< volume ratio at this point (the warm start; 0 = none)
 };
 
 /// Result of one section evaluation; reuse one object so that `points` is not reallocated.
@@ -95,8 +104,8 @@ struct SectionResponse {
   Vec3v N = Vec3v::Zero();        ///< membrane forces ∫ S dz per unit reference length [N/mm]
   Vec3v M = Vec3v::Zero();        ///< moments ∫ z S dz per unit reference length [N]
   Mat6v tangent = Mat6v::Zero();  ///< d[N; M]/d[ε; κ] (when asked for)
-  /// Per point, bottom to top. On input, when it already holds num_points() entries, their lambda3
-  /// are the starting guesses of the compressible thickness iteration (warm start).
+  /// Per point, bottom to top. On input, when it already holds num_points() entries, their J are the
+  /// starting guesses of the compressible thickness iteration (warm start; see PlaneStressPoint::J).
   std::vector<SectionPoint> points;
   double thickness_stretch = 1.0;  ///< current / reference thickness, ∫ λ3 dz / h
   int failed_point = -1;           ///< index of the first point whose law failed (status non-ok)
@@ -126,7 +135,8 @@ class ShellSection {
 
   /// N, M and (want_tangent) their tangent at membrane strain ε and curvature change κ (Voigt, κ12
   /// engineering: E(z) = ε + z κ). Returns ok or the first failing point's status (out.failed_point);
-  /// then N, M, tangent are zero, never NaN. state_new is written only on success.
+  /// then N, M, tangent are zero, never NaN. state_new is meaningful only on success (points before the
+  /// failing one have written theirs). Const and allocation-free once out.points has its size.
   MaterialStatus evaluate(const Vec3v& eps, const Vec3v& kappa, const double* state_old, double* state_new,
                           double dt, bool want_tangent, SectionResponse& out) const;
 

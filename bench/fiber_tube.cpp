@@ -1,0 +1,199 @@
+// Tied-fiber tubes: (1) the middle of a capped tube with near-inextensible helices against the
+// thin-walled kinematic model (macro/fiber_tube_model.hpp) for thin and thick walls; (2) the
+// dissertation's Table 17 pair and the single-helix tube (Tables 18–19): the shipped anisotropic
+// scenes against the same tubes with glass fibers (E = 10 MPa, 0.5 mm) tied on the outer surface;
+// (3) the cost of the fibers: the Table 17 tube with and without them. Plain program, ~1–2 min.
+//
+//   bench_fiber_tube [--source DIR] [--part 1|2|3] (DIR: the source tree, for studies/scenes; default: the
+//                                                  working directory; --part: only (1), (2) or (3))
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include <toml++/toml.h>
+
+#include "../tests/macro/fiber_tube.hpp"
+#include "softhom/macro/fiber_tube_model.hpp"
+#include "softhom/macro/scene.hpp"
+
+using namespace softhom;
+
+namespace {
+
+void kinematic_table() {
+  std::printf("\n(1) middle of the tube vs thin-walled kinematic model (G 0.1, K 100, E A 500 N, 12 fibers per family)\n");
+  std::printf("%-7s %-6s %-6s %-8s | %-9s %-9s %-7s | %-9s %-9s %-7s | %-9s %-9s\n", "Ro/Ri", "alpha", "helix", "p [MPa]",
+              "ez FE", "ez model", "gap", "eth FE", "eth model", "gap", "twist FE", "model");
+  struct Row {
+    double ro, alpha, p;
+    bool twin;
+  };
+  for (const Row& row : {Row{5.5, 40, 0.01, true}, Row{5.5, 70, 0.01, true}, Row{5.5, 40, 0.004, false},
+                         Row{6.5, 40, 0.03, true}, Row{6.5, 70, 0.03, true}, Row{7.5, 40, 0.04, true}}) {
+    test::FiberTubeCase c;
+    c.outer_radius = row.ro;
+    c.radial_cells = row.ro > 6.0 ? 3 : 1;
+    c.angle_deg = row.alpha;
+    c.pressure = row.p;
+    c.geometry = row.twin ? macro::FiberGeometry::double_helix : macro::FiberGeometry::helix;
+    c.substeps = 8;
+    const test::FiberTubeResult r = test::inflate_fiber_tube(c);
+    macro::ThinTube t;
+    t.inner_radius = c.inner_radius;
+    t.outer_radius = c.outer_radius;
+    t.shear_modulus = c.G;
+    t.angle_deg = c.angle_deg;
+    t.double_helix = row.twin;
+    const macro::ThinTubeState m = macro::thin_tube_state(t, c.pressure);
+    const double ez = r.axial_stretch_mid - 1, mz = m.axial_stretch - 1, et = r.hoop_stretch_mid - 1, mt = m.hoop_stretch - 1;
+    std::printf("%-7.2f %-6.0f %-6s %-8.3g | %-9.4f %-9.4f %-6.1f%% | %-9.4f %-9.4f %-6.1f%% | %-9.3f %-9.3f%s\n", row.ro / 5.0,
+                row.alpha, row.twin ? "double" : "single", row.p, ez, mz, 100 * (ez - mz) / std::abs(mz), et, mt,
+                100 * (et - mt) / std::abs(mt), r.twist_mid_deg, m.twist_per_length * 0.5 * c.length * 180 / M_PI,
+                r.reached ? "" : "  (not reached)");
+  }
+}
+
+struct SceneRun {
+  bool reached = false;
+  double axial = 1, radial = 1, twist = 0, angle = 0, seconds = 0;
+  int newton = 0, fiber_elements = 0;
+};
+
+/// Runs a macro scene table to its end: the end's axial stretch, inner radial stretch, twist, and the
+/// mean |angle| of the fibers at the middle third of the tube.
+SceneRun run_scene(const toml::table& scene) {
+  const macro::MacroScene ms = macro::parse_macro_scene(scene);
+  const auto t0 = std::chrono::steady_clock::now();
+  const macro::Structure s = macro::build_structure(ms.spec);
+  fe::Simulation sim(s.model, ms.newton);
+  SceneRun r;
+  r.reached = true;
+  for (double t : ms.times)
+    if (!sim.advance_to(t).reached()) {
+      r.reached = false;
+      break;
+    }
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto v = macro::probe_values(s, sim);
+  r.radial = v[4];
+  r.axial = v[5];
+  r.twist = v[6];
+  r.newton = sim.stats().newton_iterations;
+  if (!s.fibers.empty()) {
+    fe::Iterate it;
+    it.u = &sim.displacement();
+    const auto states = s.fibers[0]->states(s.model.mesh, it);
+    const auto& ref = s.fibers[0]->reference_points();
+    const auto& conn = s.fibers[0]->connectivity();
+    const int m = s.fibers[0]->nodes_per_element();
+    int n = 0;
+    for (std::size_t e = 0; e < states.size(); ++e) {
+      const double z = 0.5 * (ref[conn[m * e]][2] + ref[conn[m * e + 1]][2]);
+      if (z < ms.spec.tube.length / 3 || z > 2 * ms.spec.tube.length / 3) continue;
+      r.angle += std::abs(states[e].angle_deg);
+      ++n;
+    }
+    r.angle /= std::max(n, 1);
+    r.fiber_elements = s.fibers[0]->num_elements();
+  }
+  return r;
+}
+
+/// The shipped anisotropic scene with its [material] replaced by the matrix and its fibers tied.
+toml::table tied_version(toml::table scene, const std::string& matrix, bool twin, double angle) {
+  toml::table* g = scene["geometry"].as_table();
+  g->erase("fiber_frame");
+  scene.insert_or_assign("material", toml::table{{"preset", matrix}});
+  toml::table f{{"geometry", twin ? "double_helix" : "helix"}, {"angle_deg", angle}, {"count", 6}, {"tie", "surface"},
+                {"modulus", 10.0}, {"area", 0.19635}};
+  scene.insert_or_assign("fibers", toml::array{f});
+  return scene;
+}
+
+void print_run(const char* what, const SceneRun& r) {
+  std::printf("  %-34s axial %.4f  radial(inner) %.4f  twist %8.3f deg  fiber |angle| %5.1f  %3d Newton  %6.2f s%s\n", what,
+              r.axial, r.radial, r.twist, r.angle, r.newton, r.seconds, r.reached ? "" : "  (not reached)");
+}
+
+void dissertation_tables(const std::string& source) {
+  std::printf("\n(2) dissertation Table 17 (double helix) and Tables 18-19 (single helix): anisotropic model vs tied glass fibers\n");
+  struct Case {
+    const char* scene;
+    const char* matrix;
+    bool twin;
+    double angle;
+  };
+  for (const Case& c : {Case{"macro_tube_helix15_pdms", "pdms", true, 15}, Case{"macro_tube_helix45_pdms", "pdms", true, 45},
+                        Case{"macro_tube_helix15_ecoflex", "ecoflex", true, 15},
+                        Case{"macro_tube_helix45_ecoflex", "ecoflex", true, 45},
+                        Case{"macro_tube_single_helix45_ecoflex", "ecoflex", false, 45}}) {
+    const toml::table scene = toml::parse_file(source + "/studies/scenes/" + c.scene + ".toml");
+    std::printf("%s\n", c.scene);
+    print_run("anisotropic (homogenized) model", run_scene(scene));
+    const SceneRun tied = run_scene(tied_version(scene, c.matrix, c.twin, c.angle));
+    print_run("tied fibers on the outer surface", tied);
+  }
+}
+
+/// (3) The cost of the fibers: the Table 17 ecoflex tube with its tied fibers and without, each taken
+/// one load step to 1 kPa (both tubes deform alike there), per Newton iteration; and the fibers' own
+/// assembly (residual and tangent into a sink that drops them) against the run's whole assembly.
+void cost(const std::string& source) {
+  struct Drop final : fe::AssemblySink {
+    Drop() : AssemblySink(true) {}
+    void add_residual(int, const int*, const double*) override {}
+    void add_tangent(int, const int*, int, const int*, const double*) override {}
+    void add_border(int, const int*, const double*, const double*) override {}
+    void add_constraint_value(double) override {}
+  };
+  std::printf("\n(3) cost of the tied fibers (macro_tube_helix45_ecoflex geometry, 6 + 6 glass fibers on the outer surface)\n");
+  const toml::table scene = toml::parse_file(source + "/studies/scenes/macro_tube_helix45_ecoflex.toml");
+  for (bool with : {true, false}) {
+    toml::table t = tied_version(scene, "ecoflex", true, 45);
+    if (!with) t.erase("fibers");
+    t.insert_or_assign("load", toml::table{{"control", "pressure"}, {"path", toml::array{toml::array{0.0, 0.0}, toml::array{1.0, 0.001}}}, {"steps", 1}});
+    const macro::MacroScene ms = macro::parse_macro_scene(t);
+    const macro::Structure s = macro::build_structure(ms.spec);
+    const auto t0 = std::chrono::steady_clock::now();
+    fe::Simulation sim(s.model, ms.newton);
+    const bool reached = sim.advance_to(1.0).reached();
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const fe::RunStats st = sim.stats();
+    const int n = std::max(1, st.newton_iterations);
+    double own = 0.0;
+    if (with) {
+      Drop drop;
+      fe::Iterate it;
+      it.u = &sim.displacement();
+      const int reps = 50;
+      const auto a0 = std::chrono::steady_clock::now();
+      for (int r = 0; r < reps; ++r) (void)s.fibers[0]->assemble(s.model.mesh, it, drop);
+      own = std::chrono::duration<double>(std::chrono::steady_clock::now() - a0).count() / reps;
+    }
+    std::printf("  %-15s %5d free dofs %5d fiber elements: %2d Newton, %.3f s per iteration (assembly %.3f s, factorization "
+                "%.3f s), fibers' own assembly %.4f s%s\n",
+                with ? "with fibers" : "without fibers", sim.num_free_dofs(), with ? s.fibers[0]->num_elements() : 0,
+                st.newton_iterations, wall / n, st.assembly_time / n, st.linear.factorization / n, own,
+                reached ? "" : " (not reached)");
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // rows as they come
+  std::string source = ".", part = "all";
+  for (int a = 1; a + 1 < argc; ++a) {
+    if (std::string(argv[a]) == "--source") source = argv[a + 1];
+    if (std::string(argv[a]) == "--part") part = argv[a + 1];
+  }
+  if (!std::filesystem::exists(source + "/studies/scenes")) {
+    std::fprintf(stderr, "bench_fiber_tube: no studies/scenes under %s (give --source DIR)\n", source.c_str());
+    return 2;
+  }
+  if (part == "all" || part == "1") kinematic_table();
+  if (part == "all" || part == "2") dissertation_tables(source);
+  if (part == "all" || part == "3") cost(source);
+  return 0;
+}
