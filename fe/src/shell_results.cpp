@@ -129,23 +129,23 @@ void ShellDomain::report(const Mesh& mesh, const Iterate& it, ContributionReport
       f.cells.connectivity.push_back(point_of[n]);
     }
   const int nl = int(section_->layers().size());
-  f.arrays.push_back({"thickness stretch", "-", 1, true, r.thickness_stretch});
+  f.arrays.push_back({"thickness_stretch", "-", 1, true, r.thickness_stretch});
   const char* position[3] = {"bottom", "middle", "top"};
   for (int L = 0; L < nl; ++L)
     for (int k = 0; k < 3; ++k) {
-      ReportArray a{"cauchy layer " + std::to_string(L) + " " + position[k], "MPa", 3, true, {}};
+      ReportArray a{"cauchy_layer" + std::to_string(L) + "_" + position[k], "MPa", 3, true, {}};
       for (std::size_t e = 0; e < patches_.size(); ++e)
         for (int c = 0; c < 3; ++c) a.values.push_back(r.cauchy[(e * nl + L) * 9 + 3 * k + c]);
       f.arrays.push_back(std::move(a));
     }
-  ReportArray ps{"principal stress", "MPa", 3, true, {}}, pl{"principal stretch", "-", 3, true, {}};
+  ReportArray ps{"principal_stress", "MPa", 3, true, {}}, pl{"principal_stretch", "-", 3, true, {}};
   for (std::size_t e = 0; e < patches_.size(); ++e) {
     ps.values.insert(ps.values.end(), {r.principal_stress[2 * e], r.principal_stress[2 * e + 1], 0.0});
     pl.values.insert(pl.values.end(), r.principal_stretch.begin() + 3 * e, r.principal_stretch.begin() + 3 * e + 3);
   }
   f.arrays.push_back(std::move(ps));
   f.arrays.push_back(std::move(pl));
-  f.arrays.push_back({"fiber direction", "-", 3, true, r.fiber});
+  f.arrays.push_back({"fiber_direction", "-", 3, true, r.fiber});
   ReportArray u{"displacement", "mm", 3, false, {}};
   for (int n : nodes)
     for (int i = 0; i < 3; ++i) u.values.push_back((*it.u)[3 * n + i]);

@@ -125,3 +125,26 @@ TEST(ShellBalloon, AViscoelasticWallRelaxesToItsLongTermPressure) {
   EXPECT_NEAR(qlv.back() / elastic.back(), 0.5, 1e-3);
   EXPECT_GT(qlv.front() / elastic.front(), 0.98);  // the fast ramp: nearly the instantaneous response
 }
+
+TEST(ShellBalloon, ReportGivesTheLargestStressAndTheShellField) {
+  // At λ = 2 the equibiaxial Cauchy stress of the thin neo-Hookean wall is G (λ² − λ⁻⁴) = 1.96875 G;
+  // the largest over the section points adds the bending of the facets (H/R = 0.01): 2 %.
+  const Structure s = build_structure(balloon(neo_hookean(), 8, 8.0));
+  fe::Simulation sim(s.model);
+  ASSERT_TRUE(sim.advance_to(1.0).reached());
+  fe::ContributionReport r;
+  sim.report(r);
+  ASSERT_EQ(r.probes.size(), 2u);
+  EXPECT_EQ(r.probes[0].first, "shell max principal stress [MPa]");
+  EXPECT_NEAR(r.probes[0].second, kG * (4.0 - 1.0 / 16.0), 0.02 * kG * 3.9375);
+  ASSERT_EQ(r.fields.size(), 1u);
+  const fe::ReportField& f = r.fields[0];
+  EXPECT_EQ(f.cells.stem, "shell");
+  EXPECT_EQ(f.cells.connectivity.size(), 3u * 64u);
+  for (const fe::ReportArray& a : f.arrays) {
+    const std::size_t count = a.per_cell ? 64u : f.cells.points.size();
+    EXPECT_EQ(a.values.size(), count * a.components) << a.name;
+    if (a.name == "thickness_stretch")
+      for (double v : a.values) EXPECT_NEAR(v, 0.25, 0.01);  // λ3 = λ⁻² at λ = 2 (facets: ±1 %)
+  }
+}
