@@ -74,10 +74,16 @@ MaterialStatus Simulation::Impl::assemble(double t, double dt, bool tangent, con
     out.fint = mix_bulk_.empty() ? out.R : out.R_true;
     internal_done = true;
   };
-  for (const Contribution* c : contributions_) {
+  for (std::size_t k = 0; k < contributions_.size(); ++k) {
+    const Contribution* c = contributions_[k];
     sink.external = c->external_force();
     if (sink.external && !internal_done) finish_internal();
-    status = c->assemble(model_.mesh, it, sink);
+    Iterate own = it;  // with the contribution's history slice, when it keeps one
+    if (const long off = contribution_state_offset_[k]; off >= 0) {
+      own.state_old = contribution_state_old_.data() + off;
+      own.state_new = contribution_state_new_.data() + off;
+    }
+    status = c->assemble(model_.mesh, own, sink);
     if (status != MaterialStatus::ok) break;
   }
   if (status == MaterialStatus::ok) {

@@ -315,6 +315,10 @@ struct Simulation::Impl {
   std::vector<double> cauchy_;     ///< element-mean Cauchy stress of the last converged state
   std::vector<double> fint_;       ///< internal forces (all dofs) of the last converged state
   std::vector<int> state_offset_;  ///< per element into the state arrays (−1: elastic)
+  /// The contributions' own history (Contribution::state_size), committed with the elements': per entry
+  /// of contributions_ its offset into these arrays (−1: none).
+  std::vector<double> contribution_state_old_, contribution_state_new_;
+  std::vector<long> contribution_state_offset_;
   double time_ = 0.0, last_dt_ = 0.0;
   bool recent_cutback_ = false;
   double next_dt_ = 0.0;           ///< sub-step the next interval starts with after cut-backs

@@ -54,8 +54,10 @@ void Simulation::Impl::build_dofs() {
   if (dofs_.num_free == 0) throw InputError("boundary", "", "every degree of freedom is prescribed");
   // A free rigid-body motion makes every tangent singular (the first factorization would fail, or a
   // nearly singular one would let the body drift until a material limit): refuse it here, by name.
-  const std::vector<std::string> free_motions = free_rigid_motions(mesh, constrained);
-  if (!free_motions.empty()) {
+  const std::vector<std::string> free_motions = free_rigid_motions(mesh, constrained, couplings_);
+  const bool held_otherwise = std::any_of(contributions_.begin(), contributions_.end(),
+                                          [](const Contribution* c) { return c->holds_rigid_motion(); });
+  if (!free_motions.empty() && !held_otherwise) {
     std::string list;
     for (const auto& m : free_motions) list += (list.empty() ? "" : ", ") + m;
     throw InputError("boundary", "", "the body is not constrained against " + list +
@@ -124,7 +126,18 @@ void Simulation::Impl::build_history() {
       for (int q = 0; q < gauss_points(mesh, e); ++q) m.init_state(state_old_.data() + state_offset_[e] + q * m.state_size());
     }
   state_new_ = state_old_;
-
+  // The contributions' history (elastic ones allocate nothing).
+  contribution_state_offset_.assign(contributions_.size(), -1);
+  std::size_t ctotal = 0;
+  for (std::size_t k = 0; k < contributions_.size(); ++k)
+    if (const int ns = contributions_[k]->state_size(); ns > 0) {
+      contribution_state_offset_[k] = long(ctotal);
+      ctotal += std::size_t(ns);
+    }
+  contribution_state_old_.assign(ctotal, 0.0);
+  for (std::size_t k = 0; k < contributions_.size(); ++k)
+    if (contribution_state_offset_[k] >= 0) contributions_[k]->init_state(contribution_state_old_.data() + contribution_state_offset_[k]);
+  contribution_state_new_ = contribution_state_old_;
 }
 
 void Simulation::Impl::build_linear_solvers() {
@@ -463,6 +476,7 @@ void Simulation::Impl::commit(NewtonIterate& n, Assembly& as, int iterations) {
   u_ = std::move(n.u);
   cavity_pressure_ = n.p;
   std::swap(state_old_, state_new_);
+  std::swap(contribution_state_old_, contribution_state_new_);
   reduce_cauchy(as.cauchy);
   cauchy_.swap(as.cauchy);
   fint_.swap(as.fint);
@@ -869,7 +883,12 @@ double Simulation::reaction(const std::vector<int>& dofs) const { return impl_->
 ElementFields Simulation::element_fields() const { return impl_->element_fields(); }
 void Simulation::report(ContributionReport& out) const {
   const Iterate it{impl_->time_, impl_->time_, 0.0, &impl_->u_, impl_->cavity_pressure_};
-  for (const Contribution* c : impl_->contributions_) c->report(impl_->model_.mesh, it, out);
+  for (std::size_t k = 0; k < impl_->contributions_.size(); ++k) {
+    Iterate own = it;  // with the contribution's committed history (read only: state_new stays null)
+    if (const long off = impl_->contribution_state_offset_[k]; off >= 0)
+      own.state_old = impl_->contribution_state_old_.data() + off;
+    impl_->contributions_[k]->report(impl_->model_.mesh, own, out);
+  }
 }
 RunStats Simulation::stats() const { return impl_->stats(); }
 const StepCounts& Simulation::last_step_counts() const { return impl_->last_step_; }

@@ -175,7 +175,7 @@ MacroRecorder::MacroRecorder(const MacroJob& job, const macro::Structure& struct
     device_.last_row = device_.probe->values(sim);
     sink.add_row("device", device_.last_row);
   }
-  if (ms.fields) {
+  if (ms.fields && structure.model.mesh.num_elements() > 0) {  // (a shell's fields are its own report)
     writer_ = sink.open_fields("fields", field_mesh(structure.model.mesh));
     if (writer_) {
       writer_->set_attribute("frame", "global Cartesian frame of the structure's mesh (x, y, z); tensors row-major");
@@ -227,7 +227,10 @@ nlohmann::json macro_summary(const MacroJob& job, const macro::Structure& struct
   const macro::MacroScene& ms = job.parsed;
   const fe::RunStats st = sim.stats();
   nlohmann::json summary = io::summary_base("macro", job.scene.file, job.scene.table);
-  summary["material"] = ms.spec.material->describe();
+  if (ms.spec.material) summary["material"] = ms.spec.material->describe();
+  if (ms.spec.kind == macro::StructureKind::shell)  // a shell's laws are its layers'
+    for (const ShellLayer& l : ms.spec.shell.section->layers())
+      summary["shell_layers"].push_back({{"thickness_mm", l.thickness}, {"points", l.points}, {"material", l.law->describe()}});
   io::set_run_status(summary, outcome.completed, outcome.error);
   summary["columns"] = io::columns_json(record.columns());
   if (const DeviceRecord& device = record.device(); device.probe) {
@@ -320,6 +323,9 @@ bool run_macro(MacroJob& job, Sink& given_sink, const RunOptions& given) {
   if (!options.quiet)
     std::cerr << tag << structure.model.mesh.num_hexes() << " hex8 + " << structure.model.mesh.tets.size() << " tet10, "
               << sim.num_free_dofs() << " free dofs, " << fe::to_string(sim.solver_kind()) << "\n";
+  if (structure.shell && structure.shell->frame_fallbacks() > 0 && root)  // the [shell] frame's documented fall-back
+    std::cerr << tag << "warning: shell.frame_axis is within 1e-3 of the normal of " << structure.shell->frame_fallbacks()
+              << " triangles: their e1 is the projection of the y axis (or z) instead\n";
   MacroRecorder record(job, structure, sim, sink, options);
   const MacroOutcome outcome = advance_through_output_times(ms, sim, record);
   record.close();

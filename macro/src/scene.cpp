@@ -11,6 +11,7 @@
 
 #include "contact_keys.hpp"
 #include "device_keys.hpp"
+#include "shell_keys.hpp"
 #include "fiber_keys.hpp"
 #include "helix_tube_keys.hpp"
 #include "softhom/io/gmsh.hpp"
@@ -24,11 +25,6 @@ namespace {
 using keys::Choices;
 using keys::KeyTable;
 
-// Scenes are in mm. A structure larger than 1 km is a unit mistake; beyond it the generators'
-// coordinates lose all digits (outer_radius = 1e300 produced empty surfaces, not an error).
-const keys::Range kLength = keys::left_open(0.0, 1e6);
-// Cells along one direction; the total mesh size is bounded where the mesh is generated.
-const keys::Range kCells = keys::closed_range(1, 100000);
 
 /// The keys every generated geometry shares, plus the members of its generator's spec.
 template <class Spec>
@@ -63,7 +59,7 @@ const Choices<FiberFrame> kFrames{{{"global", FiberFrame::global},
                                    {"cylindrical", FiberFrame::cylindrical},
                                    {"spherical", FiberFrame::spherical}},
                                   {}};
-const std::string kTypes = "\"tube\", \"actuator\", \"sphere\", \"plate\", \"gmsh\"";
+const std::string kTypes = "\"tube\", \"actuator\", \"sphere\", \"plate\", \"gmsh\", \"shell\"";
 
 template <class O>
 void add_common(KeyTable<O>& t, bool elements) {
@@ -342,7 +338,7 @@ const KeyTable<SceneKeysTop>& scene_table() {
     KeyTable<SceneKeysTop> k("", "A macro scene: structure, material, load path, solver and output.");
     k.text("description", &SceneKeysTop::description, "free text, copied to summary.json")
         .custom("geometry", "table", "the structure ([geometry] tables below)", skip).required()
-        .custom("material", "table", "material of the structure (region 0), fibers given in the fiber frame", skip).required()
+        .custom("material", "table", "material of the structure (region 0), fibers given in the fiber frame (required but for shells)", skip)
         .custom("material_lower", "table", "actuator only: the stiffer lower half (y < 0)", skip)
         .custom("load", "table", "load control and path", skip).required()
         .custom("solver", "table", "Newton and linear-solver settings", skip)
@@ -353,7 +349,8 @@ const KeyTable<SceneKeysTop>& scene_table() {
         .custom("device", "table", "gmsh only: device outputs (device.csv)", skip)
         .custom("fibers", "list of tables", "fibers tied to the structure ([[fibers]] below)", skip)
         .custom("helix_tube", "table", "gmsh only: parameters of a tube with helical solid fibers, passed to its .geo", skip)
-        .custom("contact", "table", "rigid obstacles against the structure ([[contact.obstacles]])", skip);
+        .custom("contact", "table", "rigid obstacles against the structure ([[contact.obstacles]])", skip)
+        .custom("shell", "table", "shell only: section, fiber frame and edges", skip);
     return k;
   }();
   return t;
@@ -388,7 +385,8 @@ O read_geometry(const KeyTable<O>& t, const toml::table& g, const std::string& t
     std::string owners;
     for (const auto& [name, other] : std::vector<std::pair<std::string, std::vector<std::string>>>{
              {"tube", tube_table(false).names()}, {"actuator", tube_table(true).names()},
-             {"sphere", sphere_table().names()}, {"plate", plate_table().names()}, {"gmsh", gmsh_table().names()}})
+             {"sphere", sphere_table().names()}, {"plate", plate_table().names()}, {"gmsh", gmsh_table().names()},
+             {"shell", shell_geometry_key_names()}})
       if (std::find(other.begin(), other.end(), key) != other.end()) owners += (owners.empty() ? "" : ", ") + name;
     if (!owners.empty())
       throw InputError("geometry." + key, keys::describe_value(node),
@@ -509,14 +507,22 @@ void read_geometry_table(const toml::table& scene, const std::filesystem::path& 
     set_common(o, s);
   } else if (type == "gmsh") {
     read_imported(scene, g, scene_file, mesh_cache, s);
+  } else if (type == "shell") {
+    read_shell(scene, g, s);
   } else {
-    throw InputError("geometry.type", keys::describe_value(*tn), "must be " + kTypes + keys::did_you_mean(type, {"tube", "actuator", "sphere", "plate", "gmsh"}));
+    throw InputError("geometry.type", keys::describe_value(*tn), "must be " + kTypes + keys::did_you_mean(type, {"tube", "actuator", "sphere", "plate", "gmsh", "shell"}));
   }
   for (const char* key : {"boundary", "probe", "regions", "device", "helix_tube"})
     if (type != "gmsh" && scene.contains(key)) throw InputError(key, "", "only for geometry.type = \"gmsh\"");
+  if (type != "shell" && scene.contains("shell")) throw InputError("shell", "", "only for geometry.type = \"shell\"");
 }
 
 void read_materials(const toml::table& scene, StructureSpec& s) {
+  if (s.kind == StructureKind::shell) {  // each layer has its law
+    if (scene.contains("material")) throw InputError("material", "", "a shell's laws are its layers' ([[shell.layers]] material)");
+    return;
+  }
+  if (!scene.contains("material")) throw InputError("material", "", "missing: material of the structure");
   s.material = build_material(io::parse_material(keys::read_table(*scene.get("material"), "material"), "material"));
   if (const toml::node* lower = scene.get("material_lower")) {
     if (s.kind != StructureKind::actuator) throw InputError("material_lower", "", "only for geometry.type = \"actuator\"");
@@ -640,6 +646,8 @@ std::vector<keys::TableDoc> macro_scene_tables() {
            load_table().describe(), solver_table().describe(), output_table().describe(),
           device_table().describe(), fibers_table_doc(), helix_tube_table().describe()};
   for (keys::TableDoc& t : contact_tables()) tables.push_back(std::move(t));
+  const std::vector<keys::TableDoc> shells = shell_scene_tables();
+  tables.insert(tables.end(), shells.begin(), shells.end());
   return tables;
 }
 

@@ -69,6 +69,7 @@ SizeEstimate estimate_size(const StructureSpec& spec) {
     case StructureKind::actuator: nodes = tube_nodes(spec.tube, spec.tet10); break;
     case StructureKind::sphere: nodes = sphere_nodes(spec.sphere, spec.tet10); break;
     case StructureKind::imported: nodes = double(spec.imported.mesh.num_nodes()); break;
+    case StructureKind::shell: nodes = shell_nodes_estimate(spec.shell); break;
   }
   return estimate_size_of_nodes(nodes, spec.factorized_solver);
 }
@@ -80,6 +81,7 @@ std::string size_field(const StructureSpec& spec) {
     case StructureKind::actuator: return "geometry.circumferential_cells";
     case StructureKind::sphere: return "geometry.patch_cells";
     case StructureKind::imported: return "geometry.file";
+    case StructureKind::shell: return spec.shell.shape == ShellShape::gmsh ? "geometry.file" : "geometry.cells";
   }
   return "geometry";
 }

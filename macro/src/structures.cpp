@@ -242,7 +242,7 @@ void build_imported(Structure& s, const ImportedSpec& im) {
 }  // namespace
 
 Structure build_structure(const StructureSpec& spec) {
-  if (!spec.material) throw InputError("material", "", "missing material");
+  if (!spec.material && spec.kind != StructureKind::shell) throw InputError("material", "", "missing material");
   // Refused before any of it is allocated when the machine cannot hold the mesh and its factorization.
   refuse_if_too_large(spec, double(softhom::available_memory_bytes()), size_field(spec));
   Structure s;
@@ -257,6 +257,7 @@ Structure build_structure(const StructureSpec& spec) {
     case StructureKind::actuator: build_tube(s); break;
     case StructureKind::sphere: build_sphere(s); break;
     case StructureKind::imported: build_imported(s, spec.imported); break;
+    case StructureKind::shell: build_shell(s); break;
   }
   assign_materials(s);
   add_fibers(s);
@@ -273,6 +274,7 @@ std::vector<std::string> probe_names(const Structure& s) {
     case StructureKind::actuator: return {"time", "pressure", "volume", "tip_angle_deg", "tip_deflection"};
     case StructureKind::imported:
       return {"time", "pressure", "volume", "mean_radius", "probe_ux", "probe_uy", "probe_uz"};
+    case StructureKind::shell: return {"time", "pressure", "volume", "volume_ratio", "mean_radius"};
   }
   return {};
 }
@@ -290,6 +292,7 @@ std::vector<double> probe_values(const Structure& s, const fe::Simulation& sim) 
     p = s.model.pressures[0].pressure(t);
     Vec3 mask = spec.tube.cap_thickness > 0.0 || spec.kind == StructureKind::sphere ? Vec3(1, 1, 1) : Vec3(1, 1, 0);
     if (spec.kind == StructureKind::imported) mask = spec.imported.cavity_mask;
+    if (spec.kind == StructureKind::shell) mask = Vec3(1, 1, 1);
     volume = fe::cavity_volume(x, s.model.pressures[0].faces, mask, s.model.pressures[0].tris);
   }
   switch (spec.kind) {
@@ -338,6 +341,13 @@ std::vector<double> probe_values(const Structure& s, const fe::Simulation& sim) 
       Vec3 du = Vec3::Zero();
       for (int n : s.end_nodes) du += (x[n] - X[n]) / double(s.end_nodes.size());
       return {t, p, volume, mean_radius(x, s.inner_nodes, false), du[0], du[1], du[2]};
+    }
+    case StructureKind::shell: {
+      // The volume enclosed by the surface (closed by its symmetry planes), its ratio to the reference
+      // one, and the mean distance of the nodes from the origin (a balloon's radius).
+      const auto faces = fe::shell_load_faces(s.shell->triangles());
+      const double v = fe::cavity_volume(x, faces, Vec3(1, 1, 1)), v0 = fe::cavity_volume(X, faces, Vec3(1, 1, 1));
+      return {t, p, v, v0 != 0.0 ? v / v0 : 0.0, mean_radius(x, s.inner_nodes, true)};
     }
   }
   return {};

@@ -118,12 +118,12 @@ TEST(StepLoop, GmshTubeWithoutItsBoundaryIsRefusedBeforeSolving) {
   EXPECT_FALSE(has(why, "translation along z")) << why;
 }
 
-TEST(StepLoop, DisconnectedPartStopsAtTheFirstFactorization) {
-  // The plate's constraints hold every rigid motion of the whole, but a second, unconnected element
-  // floats: its stiffness block is singular, which only the factorization sees.
+/// The plate with a second, unconnected hex 5 mm above its first: the constraints hold every rigid
+/// motion of the plate, none of the floating element's.
+fe::FeModel plate_with_floating_element(int& base) {
   Structure s = build_structure(plate_spec(1.2));
   fe::FeModel model = s.model;
-  const int base = model.mesh.num_nodes();
+  base = model.mesh.num_nodes();
   const fe::Hex& first = model.mesh.hexes[0];
   fe::Hex extra;
   for (int a = 0; a < 8; ++a) {
@@ -132,6 +132,35 @@ TEST(StepLoop, DisconnectedPartStopsAtTheFirstFactorization) {
   }
   model.mesh.hexes.push_back(extra);
   model.element_material.push_back(model.element_material[0]);
+  return model;
+}
+
+/// A contribution that says it holds rigid motions itself (as a clamped shell edge does) and adds nothing.
+struct ClaimsSupport final : fe::Contribution {
+  Kind kind() const override { return Kind::constraint; }
+  std::string name() const override { return "claims support"; }
+  bool holds_rigid_motion() const override { return true; }
+};
+
+TEST(StepLoop, DisconnectedPartIsRefusedNamingIt) {
+  // Each part (connected through elements and couplings) is checked on its own: the floating element
+  // is refused before anything runs, naming a node of it.
+  int base = 0;
+  const fe::FeModel model = plate_with_floating_element(base);
+  try {
+    fe::Simulation sim(model);
+    FAIL() << "a floating element accepted";
+  } catch (const InputError& e) {
+    EXPECT_TRUE(has(e.what(), "part containing node " + std::to_string(base))) << e.what();
+  }
+}
+
+TEST(StepLoop, DisconnectedPartStopsAtTheFirstFactorization) {
+  // A contribution holding rigid motions by itself leaves the check to the factorization: the floating
+  // element's stiffness block is singular, which the first factorization sees.
+  int base = 0;
+  fe::FeModel model = plate_with_floating_element(base);
+  model.add(std::make_shared<ClaimsSupport>());
   fe::Simulation sim(model);
   const fe::AdvanceResult r = sim.advance_to(1.0);
   std::cerr << "disconnected part: " << r.message << "\n";

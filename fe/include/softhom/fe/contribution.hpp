@@ -6,8 +6,8 @@
 // the factorizing path, the PETSc preallocation of the distributed one) from the declared couplings
 // and the mesh's elements, and assembles every contribution in one loop, on either linear-solver path.
 //
-// Contributions are const during assembly (their state is the iterate they are given), so a model may
-// be copied and solved twice. A new element family or interface is a new subclass added to
+// Contributions are const during assembly (their state is the iterate they are given, with their own
+// history slice when they keep one), so a model may be copied and solved twice. A new element family or interface is a new subclass added to
 // FeModel::contributions; a tie maps its own dofs through an interpolation onto host nodes by declaring
 // the host nodes as its couplings and scattering Nᵀ r and Nᵀ K N onto them.
 #include <functional>
@@ -42,6 +42,10 @@ struct Iterate {
   double dt = 0.0;            ///< step size (history-dependent laws)
   const std::vector<double>* u = nullptr;  ///< displacement of every mesh dof (3 per node)
   double bordered = 0.0;      ///< the bordered unknown (the cavity pressure) at this iterate
+  /// The contribution's own history (its state_size() values): the converged one, and where this
+  /// evaluation writes its new one (the driver keeps it only when the step converges). Null without.
+  const double* state_old = nullptr;
+  double* state_new = nullptr;
   /// Current position of `node`.
   Vec3 position(const Mesh& mesh, int node) const {
     return mesh.nodes[node] + Vec3((*u)[3 * node], (*u)[3 * node + 1], (*u)[3 * node + 2]);
@@ -123,8 +127,16 @@ class Contribution {
     (void)t;
     (void)levels;
   }
+  /// It holds some rigid-body motion by itself (a clamped shell edge's rotation, an elastic support):
+  /// the driver then leaves a motion that the prescribed dofs leave free to the first factorization's
+  /// singularity check instead of refusing the model.
+  virtual bool holds_rigid_motion() const { return false; }
   /// Its residual counts as external force (the force scale's f_ext, never a reaction).
   virtual bool external_force() const { return kind() == Kind::load; }
+  /// History values it keeps (e.g. per element and through-thickness point of a viscoelastic law): the
+  /// driver allocates them, starts them with init_state and commits them after convergence only.
+  virtual int state_size() const { return 0; }
+  virtual void init_state(double* state) const { (void)state; }
   /// Adds its residual (and with sink.tangent() its consistent tangent) at the iterate. Evaluated on
   /// every rank alike (each rank's sink keeps what it owns of the matrix); a non-ok status cuts the step.
   virtual MaterialStatus assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const {

@@ -127,6 +127,10 @@ namespace softhom::fe {
 /// "translation along x", "rotation about z", and "a combination of rigid motions" for a free
 /// combination that is none of the six. Empty when every rigid motion is held. The stiffness of a
 /// body with a free rigid motion is singular: Simulation refuses it before the first factorization.
+/// Each part (nodes connected through elements and `couplings`) is checked on its own, and the phrases
+/// of a model with several parts name one node of the part.
+std::vector<std::string> free_rigid_motions(const Mesh& mesh, const std::vector<char>& constrained,
+                                            const Couplings& couplings);
 std::vector<std::string> free_rigid_motions(const Mesh& mesh, const std::vector<char>& constrained);
 
 }  // namespace softhom::fe

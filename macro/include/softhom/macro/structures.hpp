@@ -13,6 +13,7 @@
 #include "softhom/macro/contact.hpp"
 #include "softhom/macro/fiber_geometry.hpp"
 #include "softhom/macro/geometry.hpp"
+#include "softhom/macro/shell_structure.hpp"
 
 namespace softhom::macro {
 
@@ -22,6 +23,7 @@ enum class StructureKind {
   sphere,    ///< 1/8 sphere with symmetry planes, inflated
   actuator,  ///< capped two-material tube clamped at z = 0 (dissertation Fig. 30)
   imported,  ///< a mesh from outside (Gmsh) with constraints and loads on its named surfaces
+  shell,     ///< a thin shell (shell_structure.hpp), pressurized or under cavity-volume control
 };
 
 /// Frame in which the material's fiber directions are given.
@@ -58,6 +60,7 @@ struct StructureSpec {
   TubeSpec tube;
   SphereSpec sphere;
   ImportedSpec imported;
+  ShellStructureSpec shell;
   bool tet10 = false;                 ///< split the generated hexes into 10-node tets (mid nodes on curved surfaces)
   bool plane_strain = false;          ///< tube without cap: u_z = 0 on both ends
   MaterialPtr material;               ///< region 0
@@ -78,6 +81,7 @@ struct Structure {
   StructureSpec spec;
   std::vector<int> inner_nodes, end_nodes;  ///< probes: cavity wall; free end (tube zmax / plate xmax)
   std::vector<int> load_dofs;               ///< plate: x-dofs of xmax (reaction force)
+  std::shared_ptr<const fe::ShellDomain> shell;  ///< shell structures: the shell contribution
   std::vector<std::shared_ptr<const fe::TiedFibers>> fibers;  ///< also among model.contributions
 };
 
