@@ -37,24 +37,27 @@ const std::vector<LawEntry>& law_table() {
   using V = const std::vector<double>&;
   static const std::vector<LawEntry> table = [] {
     const keys::Range positive = keys::above(0.0);
+    // Moduli up to 1e9 MPa (1e15 Pa, 10⁴× diamond's): larger ones overflow the stresses of a law's
+    // evaluation (E = 1e308 with nu = 0.3 stopped at the first step with a non-finite value).
+    const keys::Range modulus = keys::left_open(0.0, 1e9);
     const std::string bulk = "bulk modulus (volumetric energy W_V(J), spec §2)";
     std::vector<LawEntry> t;
     t.push_back({LawKind::gent_hgo, "gent", {"gent-hgo"}, "Gent-HGO",
                  "Gent matrix with optional HGO fiber families (spec §2)",
-                 {{"G", "MPa", positive, "initial shear modulus", false, "required (or from the preset)",
+                 {{"G", "MPa", modulus, "initial shear modulus", false, "required (or from the preset)",
                    [](MaterialSpec& s, V v) { s.gent.G = v[0]; }},
                   {"Jm", "-", positive, "Gent locking parameter (Ī1 - 3 < Jm)", false, "required (or from the preset)",
                    [](MaterialSpec& s, V v) { s.gent.Jm = v[0]; }},
-                  {"K", "MPa", positive, bulk, false, "required (or from the preset)",
+                  {"K", "MPa", modulus, bulk, false, "required (or from the preset)",
                    [](MaterialSpec& s, V v) { s.gent.K = v[0]; }}},
                  nullptr});
     t.push_back({LawKind::neo_hookean, "neo-hookean", {}, "neo-Hookean",
                  "compressible neo-Hookean; (mu, K) or (E, nu); form = \"isochoric\" | \"lame-log\"",
-                 {{"mu", "MPa", positive, "shear modulus", false, "required unless E, nu (or from the preset)",
+                 {{"mu", "MPa", modulus, "shear modulus", false, "required unless E, nu (or from the preset)",
                    [](MaterialSpec& s, V v) { s.neo_hookean.mu = v[0]; }},
-                  {"K", "MPa", positive, bulk, false, "required unless E, nu (or from the preset)",
+                  {"K", "MPa", modulus, bulk, false, "required unless E, nu (or from the preset)",
                    [](MaterialSpec& s, V v) { s.neo_hookean.K = v[0]; }},
-                  {"E", "MPa", positive, "Young's modulus (with nu, instead of mu and K)", false, "unset", nullptr},
+                  {"E", "MPa", modulus, "Young's modulus (with nu, instead of mu and K)", false, "unset", nullptr},
                   {"nu", "-", keys::open_range(-1.0, 0.5), "Poisson's ratio (with E, instead of mu and K)", false, "unset",
                    nullptr}},
                  [](MaterialSpec& s, const std::map<std::string, std::vector<double>>& given, const std::string& path) {
@@ -75,13 +78,13 @@ const std::vector<LawEntry>& law_table() {
                                           ", K = " + format_number(s.neo_hookean.K) + ": too large for a finite modulus");
                  }});
     t.push_back({LawKind::yeoh, "yeoh", {}, "Yeoh", "three-term Yeoh, initial shear modulus 2 C1",
-                 {{"C1", "MPa", positive, "first coefficient (initial shear modulus 2 C1)", false,
+                 {{"C1", "MPa", modulus, "first coefficient (initial shear modulus 2 C1)", false,
                    "required (or from the preset)", [](MaterialSpec& s, V v) { s.yeoh.C1 = v[0]; }},
                   {"C2", "MPa", keys::any_value(), "second coefficient", false, "0",
                    [](MaterialSpec& s, V v) { s.yeoh.C2 = v[0]; }},
                   {"C3", "MPa", keys::at_least(0.0), "third coefficient (>= 0: stable at large stretch)", false, "0",
                    [](MaterialSpec& s, V v) { s.yeoh.C3 = v[0]; }},
-                  {"K", "MPa", positive, bulk, false, "required (or from the preset)",
+                  {"K", "MPa", modulus, bulk, false, "required (or from the preset)",
                    [](MaterialSpec& s, V v) { s.yeoh.K = v[0]; }}},
                  nullptr});
     t.push_back({LawKind::ogden, "ogden", {}, "Ogden", "N-term Ogden (Abaqus convention), initial shear modulus Σ mu_i",
@@ -89,7 +92,7 @@ const std::vector<LawEntry>& law_table() {
                    [](MaterialSpec& s, V v) { s.ogden.mu = v; }},
                   {"alpha", "-", keys::any_value(), "term exponents alpha_i (non-zero, as many as mu)", true,
                    "required (or from the preset)", [](MaterialSpec& s, V v) { s.ogden.alpha = v; }},
-                  {"K", "MPa", positive, bulk, false, "required (or from the preset)",
+                  {"K", "MPa", modulus, bulk, false, "required (or from the preset)",
                    [](MaterialSpec& s, V v) { s.ogden.K = v[0]; }}},
                  nullptr});
     return t;
