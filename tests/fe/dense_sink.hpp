@@ -1,7 +1,10 @@
 #pragma once
 // Everything a contribution adds through the AssemblySink, dense over the mesh's dofs (tests of
 // contributions against central differences).
+#include <vector>
+
 #include <Eigen/Dense>
+#include <gtest/gtest.h>
 
 #include "softhom/fe/contribution.hpp"
 
@@ -31,5 +34,27 @@ class DenseSink final : public fe::AssemblySink {
   Eigen::VectorXd a, g;
   double c = 0.0;
 };
+
+/// A contribution's residual (and with `tangent` its tangent) at displacement u, t = 0.
+inline DenseSink evaluate_dense(const fe::Contribution& c, const fe::Mesh& mesh, const std::vector<double>& u, bool tangent) {
+  DenseSink sink(mesh.num_dofs(), tangent);
+  fe::Iterate it;
+  it.u = &u;
+  EXPECT_EQ(c.assemble(mesh, it, sink), MaterialStatus::ok);
+  return sink;
+}
+
+/// ∂R/∂u by central differences of evaluate_dense's residual (step h).
+inline Eigen::MatrixXd central_difference_tangent(const fe::Contribution& c, const fe::Mesh& mesh,
+                                                  const std::vector<double>& u, double h) {
+  Eigen::MatrixXd fd(mesh.num_dofs(), mesh.num_dofs());
+  for (int j = 0; j < mesh.num_dofs(); ++j) {
+    std::vector<double> up = u, um = u;
+    up[j] += h;
+    um[j] -= h;
+    fd.col(j) = (evaluate_dense(c, mesh, up, false).R - evaluate_dense(c, mesh, um, false).R) / (2 * h);
+  }
+  return fd;
+}
 
 }  // namespace softhom::test

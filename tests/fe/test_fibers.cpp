@@ -23,11 +23,7 @@ namespace {
 using test::DenseSink;
 
 DenseSink evaluate(const Contribution& c, const Mesh& mesh, const std::vector<double>& u, bool tangent) {
-  DenseSink sink(mesh.num_dofs(), tangent);
-  Iterate it;
-  it.u = &u;
-  EXPECT_EQ(c.assemble(mesh, it, sink), MaterialStatus::ok);
-  return sink;
+  return test::evaluate_dense(c, mesh, u, tangent);
 }
 
 /// A box [0, size] of n cells per direction (hex8), node (i, j, k) at i + (n0+1)(j + (n1+1) k); nodes
@@ -229,14 +225,7 @@ double tangent_gap(const Mesh& mesh, const TiedFibers& fibers, double amplitude)
   std::vector<double> u = affine(mesh, Vec3(1.3, 0.9, 1.1).asDiagonal());
   for (double& v : u) v += d(rng);
   const DenseSink at = evaluate(fibers, mesh, u, true);
-  const double h = 1e-6;
-  Eigen::MatrixXd fd(mesh.num_dofs(), mesh.num_dofs());
-  for (int j = 0; j < mesh.num_dofs(); ++j) {
-    std::vector<double> up = u, um = u;
-    up[j] += h;
-    um[j] -= h;
-    fd.col(j) = (evaluate(fibers, mesh, up, false).R - evaluate(fibers, mesh, um, false).R) / (2 * h);
-  }
+  const Eigen::MatrixXd fd = test::central_difference_tangent(fibers, mesh, u, 1e-6);
   return (at.K - fd).cwiseAbs().maxCoeff() / at.K.cwiseAbs().maxCoeff();
 }
 

@@ -78,11 +78,7 @@ std::shared_ptr<const ShellSection> fiber_section(double thickness) {
 }
 
 test::DenseSink evaluate(const ShellDomain& shell, const Mesh& mesh, const std::vector<double>& u, bool tangent) {
-  test::DenseSink sink(mesh.num_dofs(), tangent);
-  Iterate it;
-  it.u = &u;
-  EXPECT_EQ(shell.assemble(mesh, it, sink), MaterialStatus::ok);
-  return sink;
+  return test::evaluate_dense(shell, mesh, u, tangent);
 }
 
 /// The tangent against central differences of the residual at a random finite deformation.
@@ -94,14 +90,7 @@ void expect_tangent_matches(const ShellDomain& shell, const Mesh& mesh, double a
   const test::DenseSink at = evaluate(shell, mesh, u, true);
   // Central differences: error O(h² R''') ~ 1e-10 relative at h = 1e-6, round-off ~ 1e-16 |R| / h
   // ~ 1e-10; 1e-6 of the largest entry is far above both and far below a wrong term.
-  const double h = 1e-6;
-  Eigen::MatrixXd fd(mesh.num_dofs(), mesh.num_dofs());
-  for (int j = 0; j < mesh.num_dofs(); ++j) {
-    std::vector<double> up = u, um = u;
-    up[j] += h;
-    um[j] -= h;
-    fd.col(j) = (evaluate(shell, mesh, up, false).R - evaluate(shell, mesh, um, false).R) / (2 * h);
-  }
+  const Eigen::MatrixXd fd = test::central_difference_tangent(shell, mesh, u, 1e-6);
   const double scale = fd.cwiseAbs().maxCoeff();
   EXPECT_GT(scale, 0.0);
   EXPECT_LT((at.K - fd).cwiseAbs().maxCoeff(), 1e-6 * scale);
