@@ -88,14 +88,12 @@ class ContributionRecorder {
     if (std::none_of(writers_.begin(), writers_.end(), [](const auto& w) { return bool(w); })) writers_.clear();
   }
   const std::vector<std::string>& columns() const { return columns_; }
-  /// Appends this state's probe values to a response row.
-  void append_probes(std::vector<double>& row) const {
+  /// This state's report, taken once: its probe values appended to a response row and, when `fields` is
+  /// due, its arrays written as the next step of each field file.
+  void record(std::vector<double>& row, bool fields) const {
     const fe::ContributionReport r = now();
     for (const auto& [name, value] : r.probes) row.push_back(value);
-  }
-  void write_fields() const {
-    if (writers_.empty()) return;
-    const fe::ContributionReport r = now();
+    if (!fields) return;
     for (std::size_t k = 0; k < writers_.size() && k < r.fields.size(); ++k) {
       if (!writers_[k]) continue;
       io::FieldWriter& w = *writers_[k];
@@ -151,9 +149,10 @@ class MacroRecorder {
   std::unique_ptr<io::FieldWriter> writer_;
   ContributionRecorder contributions_;
   Progress progress_;
-  std::vector<double> response_row() const {
+  /// The response row of the converged state (the contributions' fields written with it when due).
+  std::vector<double> response_row(bool fields_due) const {
     std::vector<double> row = macro::probe_values(structure_, sim_);
-    contributions_.append_probes(row);
+    contributions_.record(row, fields_due);
     return row;
   }
 };
@@ -166,8 +165,7 @@ MacroRecorder::MacroRecorder(const MacroJob& job, const macro::Structure& struct
   const macro::MacroScene& ms = job.parsed;
   columns_.insert(columns_.end(), contributions_.columns().begin(), contributions_.columns().end());
   sink.open_table("response", columns_);
-  sink.add_row("response", response_row());
-  if (ms.fields_at(0.0)) contributions_.write_fields();
+  sink.add_row("response", response_row(ms.fields_at(0.0)));
   if (ms.device.kind != macro::DeviceKind::none) {
     device_.probe = std::make_unique<macro::DeviceProbe>(ms.device, structure);
     device_.columns = device_.probe->columns();
@@ -186,9 +184,8 @@ MacroRecorder::MacroRecorder(const MacroJob& job, const macro::Structure& struct
 
 bool MacroRecorder::record(double t, std::size_t done, const fe::AdvanceResult& step) {
   const macro::MacroScene& ms = job_.parsed;
-  sink_.add_row("response", response_row());
+  sink_.add_row("response", response_row(ms.fields_at(t)));
   if (writer_ && ms.fields_at(t)) write_fields(*writer_, sim_);
-  if (ms.fields_at(t)) contributions_.write_fields();
   if (device_.probe) {
     const std::vector<double> row = device_.probe->values(sim_);
     sink_.add_row("device", row);
