@@ -232,7 +232,10 @@ nlohmann::json macro_summary(const MacroJob& job, const macro::Structure& struct
   summary["columns"] = io::columns_json(record.columns());
   if (const DeviceRecord& device = record.device(); device.probe) {
     nlohmann::json d;
-    d["kind"] = ms.device.kind == macro::DeviceKind::cpasmo ? "cpasmo" : ms.device.kind == macro::DeviceKind::gripper ? "gripper" : "tube";
+    d["kind"] = ms.device.kind == macro::DeviceKind::cpasmo    ? "cpasmo"
+                : ms.device.kind == macro::DeviceKind::gripper ? "gripper"
+                : ms.device.kind == macro::DeviceKind::bending ? "bending"
+                                                               : "tube";
     d["file"] = "device.csv";
     d["columns"] = device.columns;
     d["stopped_before_contact"] = !device.stop.empty();
