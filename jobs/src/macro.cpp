@@ -6,12 +6,15 @@
 #include <chrono>
 #include <iostream>
 
+#include <omp.h>
+
 #include "softhom/io/fields.hpp"
 #include "softhom/io/files.hpp"
 #include "softhom/core/mpi.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/jobs/jobs.hpp"
 #include "softhom/jobs/run_control.hpp"
+#include "softhom/jobs/thread_defaults.hpp"
 #include "softhom/macro/devices.hpp"
 #include "softhom/macro/mesh_generation.hpp"
 #include "softhom/macro/scene.hpp"
@@ -319,6 +322,11 @@ bool run_macro(MacroJob& job, Sink& given_sink, const RunOptions& given) {
   const macro::Structure structure = macro::build_structure(ms.spec);
   ms.spec.imported.mesh = fe::Mesh{};  // built into structure.model: not kept twice for the run
   fe::Simulation sim(structure.model, ms.newton);
+  // Without a thread count from the user, a small mesh runs on fewer threads (thread_defaults.hpp).
+  const ThreadCountScope threads(thread_count_given(options.threads)
+                                     ? 0
+                                     : default_thread_count(std::size_t(sim.num_free_dofs()) / mpi::world_size(),
+                                                            kFreeDofsPerDefaultThread, omp_get_max_threads()));
   const std::string tag = "[macro " + job.scene.name + "] ";
   if (!options.quiet)
     std::cerr << tag << structure.model.mesh.num_hexes() << " hex8 + " << structure.model.mesh.tets.size() << " tet10, "
