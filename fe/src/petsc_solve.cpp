@@ -1021,6 +1021,13 @@ void PetscSolver::Data::count_row_entries(const std::vector<int>& element_owner,
   }
 }
 
+void PetscSolver::accept_new_entries() {
+  Data& d = *d_;
+  d.pattern_final = false;
+  Mat target = d.nest ? d.nest->block(0, 0) : d.A;  // a contribution's entries lie in the displacement block
+  if (target) check(MatSetOption(target, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE), "MatSetOption (new couplings)");
+}
+
 void PetscSolver::begin_fill() {
   Data& d = *d_;
   if (d.nest) d.nest->zero();
@@ -1308,6 +1315,7 @@ void PetscSolver::end_fill() {
   if (d.bddc_flux) set_bddc_constraints();
   if (d.diagonal_known) {
     if (d.schur_pre) d.lagged_fill ? finish_lagged_augmentation() : finish_augmented_split();
+    d.pattern_final = true;  // again, after a fill that took new entries (accept_new_entries)
     return;
   }
   // The Dirichlet rows' diagonal: the mean free diagonal of the first tangent (as in factorize).
