@@ -2,7 +2,8 @@
 // sub-step attempt the contributions that pair surfaces choose their pairing from the converged state,
 // and the stiffness pattern follows it. On the factorizing path the CSC pattern, its scatter positions
 // and the symbolic analysis are rebuilt; on the petsc path the matrix keeps its preallocation and takes
-// the new entries at its next fill (PETSc allocates them; entries no longer coupled stay, as zeros).
+// the new couplings' entries at its next fill (PETSc allocates them; entries no longer coupled stay, as
+// zeros).
 #include <chrono>
 
 #include "simulation_impl.hpp"
@@ -40,7 +41,7 @@ void Simulation::Impl::update_pairing() {
 void Simulation::Impl::rebuild_pattern() {
   const auto t0 = std::chrono::steady_clock::now();
   if (distributed_) {
-    petsc_->accept_new_entries();
+    petsc_->accept_new_entries(pairing_couplings_);
   } else {
     K_ = build_pattern(model_.mesh, dofs_, all_couplings());
     build_scatter();
