@@ -162,28 +162,28 @@ void clamp_to_face(bool quad, double& xi, double& eta) {
 
 /// The directions the face's bounds leave free at (ξ, η): a bound holds the point where it lies on it and
 /// the distance's descent direction leaves the face there (a positive multiplier).
-void free_directions(bool quad, double xi, double eta, const Eigen::Vector2d& step, FaceProjection& p) {
+void free_directions(bool quad, double xi, double eta, const Eigen::Vector2d& descent, FaceProjection& p) {
   constexpr double on = 1e-12;
-  std::vector<Eigen::Vector2d> blocked;  // outward normals of the bounds in force
+  std::array<Eigen::Vector2d, 3> blocked;  // outward normals of the bounds in force
+  int count = 0;
+  auto block = [&](bool holds, double nx, double ny) {
+    if (holds) blocked[count++] = Eigen::Vector2d(nx, ny);
+  };
   if (quad) {
-    if (xi >= 1 - on && step[0] > 0) blocked.emplace_back(1, 0);
-    if (xi <= -1 + on && step[0] < 0) blocked.emplace_back(-1, 0);
-    if (eta >= 1 - on && step[1] > 0) blocked.emplace_back(0, 1);
-    if (eta <= -1 + on && step[1] < 0) blocked.emplace_back(0, -1);
+    block(xi >= 1 - on && descent[0] > 0, 1, 0);
+    block(xi <= -1 + on && descent[0] < 0, -1, 0);
+    block(eta >= 1 - on && descent[1] > 0, 0, 1);
+    block(eta <= -1 + on && descent[1] < 0, 0, -1);
   } else {
-    if (xi <= on && step[0] < 0) blocked.emplace_back(-1, 0);
-    if (eta <= on && step[1] < 0) blocked.emplace_back(0, -1);
-    if (xi + eta >= 1 - on && step[0] + step[1] > 0) blocked.emplace_back(1, 1);
+    block(xi <= on && descent[0] < 0, -1, 0);
+    block(eta <= on && descent[1] < 0, 0, -1);
+    block(xi + eta >= 1 - on && descent[0] + descent[1] > 0, 1, 1);
   }
-  if (blocked.empty()) {
-    p.free = 2;
-    p.free_basis = {1, 0, 0, 1};
-  } else if (blocked.size() == 1) {
+  p.free = count == 0 ? 2 : count == 1 ? 1 : 0;
+  p.free_basis = {1, 0, 0, 1};
+  if (count == 1) {
     const Eigen::Vector2d t = Eigen::Vector2d(-blocked[0][1], blocked[0][0]).normalized();
-    p.free = 1;
     p.free_basis = {t[0], t[1], 0, 0};
-  } else {
-    p.free = 0;
   }
 }
 

@@ -2,19 +2,24 @@
 // response.csv and the contact pressure and gap on its slave faces as a field of its own.
 #include <cmath>
 #include <map>
+#include <utility>
 
 #include "softhom/fe/surface_contact.hpp"
 
 namespace softhom::fe {
 
+void add_contact_probes(const std::string& label, const ContactTotals& t, ContributionReport& out) {
+  const std::pair<const char*, double> columns[] = {{"_normal_force [N]", t.normal_force},
+                                                    {"_tangential_force [N]", t.tangential_force},
+                                                    {"_area [mm^2]", t.area},
+                                                    {"_active_points [1]", double(t.active_points)},
+                                                    {"_max_penetration [mm]", t.max_penetration}};
+  for (const auto& [column, value] : columns) out.probes.emplace_back(label + column, value);
+}
+
 void SurfaceContact::report(const Mesh& mesh, const Iterate& it, ContributionReport& out) const {
-  const ContactTotals t = totals(mesh, it);
   const std::string& s = options_.label;
-  out.probes.emplace_back(s + "_normal_force [N]", t.normal_force);
-  out.probes.emplace_back(s + "_tangential_force [N]", t.tangential_force);
-  out.probes.emplace_back(s + "_area [mm^2]", t.area);
-  out.probes.emplace_back(s + "_active_points [1]", double(t.active_points));
-  out.probes.emplace_back(s + "_max_penetration [mm]", t.max_penetration);
+  add_contact_probes(s, totals(mesh, it), out);
   std::vector<double> pressure, gap;
   face_values(mesh, it, pressure, gap);
   // One field per face kind on the slave faces (quads, then 6-node triangles on a mixed surface). A face
