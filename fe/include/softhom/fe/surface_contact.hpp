@@ -16,11 +16,11 @@
 // more than half a face beside its master face bears nothing until the next step pairs it again.
 //
 // Pairing: at the start of every step (Contribution::pair) each slave point takes the nearest master
-// face within two face sizes whose normal opposes the slave face's, and which the point lies in front
-// of or at most half a face behind (deeper is the far side of a wall thinner than that, never a
-// contact: a wall must be thicker than half a face to be told from a penetration) (a uniform grid over the master
-// faces' boxes finds the candidates: linear in the surfaces' size); a self-contact point skips the faces
-// that share a node with its own. The pairing, the parametric start of the projection and the
+// face within two face sizes whose normal opposes the slave face's and which the point lies in front
+// of, or at most half a face behind (deeper is the far side of a wall, never a contact: a wall must be
+// thicker than half a face to be told from a penetration). A uniform grid over the master faces' boxes
+// finds the candidates (linear in the surfaces' size); no point pairs with its own face or one sharing
+// a node with it (a self-contact's neighbours). The pairing, the parametric start of the projection and the
 // multiplier are the contribution's history (state_size: 5 per slave point), so a cut-back step is
 // retried with the pairing of the converged state. The couplings are the (slave face, master face)
 // pairs: the driver rebuilds the stiffness pattern when they change.
