@@ -262,6 +262,10 @@ nlohmann::json macro_summary(const MacroJob& job, const macro::Structure& struct
                               {"factorizations", ls.factorizations}, {"solves", ls.solves}};
   summary["mpi_ranks"] = mpi::world_size();
   summary["assembly_time_s"] = st.assembly_time;
+  if (st.pattern_rebuilds > 0) {  // a contact between deformable surfaces moved its pairs
+    summary["pattern_rebuilds"] = st.pattern_rebuilds;
+    summary["pattern_rebuild_time_s"] = st.pattern_rebuild_time;
+  }
   summary["analysis_time_s"] = st.linear.analysis;
   summary["factorization_time_s"] = st.linear.factorization;
   summary["solve_time_s"] = st.linear.solve;

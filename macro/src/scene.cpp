@@ -349,7 +349,7 @@ const KeyTable<SceneKeysTop>& scene_table() {
         .custom("device", "table", "device outputs (device.csv): Gmsh meshes; kind = \"tube\" and \"bending\" also generated tubes and actuators", skip)
         .custom("fibers", "list of tables", "fibers tied to the structure ([[fibers]] below)", skip)
         .custom("helix_tube", "table", "gmsh only: parameters of a tube with helical solid fibers, passed to its .geo", skip)
-        .custom("contact", "table", "rigid obstacles against the structure ([[contact.obstacles]])", skip)
+        .custom("contact", "table", "rigid obstacles against the structure and contact between its surfaces ([[contact.obstacles]], [[contact.pairs]], [[contact.self]])", skip)
         .custom("shell", "table", "shell only: section, fiber frame and edges", skip);
     return k;
   }();
