@@ -218,6 +218,10 @@ ShellDomain::ShellDomain(const Mesh& mesh, ShellSpec spec) : spec_(std::move(spe
   if (!section_) throw InputError("shell.layers", "", "a shell needs a section (its layers)");
   if (spec_.triangles.empty()) throw InputError("shell", "", "no triangles");
   topology_ = shell_topology(spec_.triangles, mesh.num_nodes(), spec_.orient, "shell");
+  for (const auto& [name, tris] : spec_.groups)
+    for (int t : tris)
+      if (t < 0 || t >= int(spec_.triangles.size()))
+        throw InputError("shell", name, "group refers to triangle " + std::to_string(t) + " of " + std::to_string(spec_.triangles.size()));
   std::map<std::pair<int, int>, ShellEdge> edges;
   for (const auto& [nodes, kind] : spec_.edges)
     edges[{std::min(nodes[0], nodes[1]), std::max(nodes[0], nodes[1])}] = kind;

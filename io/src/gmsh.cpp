@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <unordered_map>
 
@@ -201,6 +202,8 @@ struct GmshReader {
   std::unordered_map<long, int> node_index;
   std::vector<VolumeElement> volumes;
   std::vector<SurfaceElement> surfaces;
+  bool keep_lines = false;             // shell surfaces: physical curves name their edges
+  std::vector<SurfaceElement> lines;   // 2- and 3-node lines (keep_lines only)
 
   long int_field(const char* what) { return binary ? long(tk.raw<std::int32_t>(what)) : tk.integer(what); }
   long size_field(const char* what) {
@@ -256,9 +259,6 @@ void GmshReader::read_sections() {
   }
   if (!have_format) tk.fail("", "empty file or no $MeshFormat");
   if (!have_nodes || !have_elements) tk.fail("", "missing $Nodes or $Elements");
-  if (volumes.empty())
-    tk.fail("", "no volume elements (tetrahedra or hexahedra): mesh the volume (gmsh -3) and make sure its "
-                "physical group is saved");
 }
 
 void GmshReader::read_format() {
@@ -371,10 +371,12 @@ void GmshReader::read_elements() {
     const int nn = gmsh_nodes(type);
     if (nn == 0)
       tk.fail_at(type_line, std::to_string(type), "unknown Gmsh element type");
-    const bool ignored = dim < 2;
+    const bool is_line = keep_lines && dim == 1;
+    const bool ignored = dim < 2 && !is_line;
     const bool volume_ok = dim == 3 && (type == 4 || type == 11 || type == 5);
     const bool surface_ok = dim == 2 && (type == 2 || type == 9 || type == 3);
-    if (!ignored && !volume_ok && !surface_ok)
+    const bool line_ok = is_line && (type == 1 || type == 8);
+    if (!ignored && !volume_ok && !surface_ok && !line_ok)
       tk.fail_at(type_line, std::to_string(type),
                  std::string("unsupported element type (") + gmsh_name(type) + ", dimension " +
                      std::to_string(dim) + "): volumes must be tetrahedra (4, 11) or hexahedra (5), " +
@@ -388,7 +390,8 @@ void GmshReader::read_elements() {
       for (int& v : en) v = ignored ? (size_field("node tag"), 0) : node_of(size_field("node tag"));
       if (ignored) continue;
       if (dim == 3) volumes.push_back({tag, line, entity, type, std::move(en)});
-      else surfaces.push_back({tag, line, int(entity), std::move(en)});
+      else if (dim == 2) surfaces.push_back({tag, line, int(entity), std::move(en)});
+      else lines.push_back({tag, line, int(entity), std::move(en)});
     }
   }
   tk.expect("$EndElements");
@@ -581,10 +584,119 @@ Mesh parse_gmsh(std::istream& in, const std::string& source, bool straighten_inv
   buffer << in.rdbuf();
   GmshReader reader(buffer.str(), source);
   reader.read_sections();
+  if (reader.volumes.empty())
+    reader.tk.fail("", "no volume elements (tetrahedra or hexahedra): mesh the volume (gmsh -3) and make sure its "
+                       "physical group is saved");
   Mesh mesh = volume_mesh(reader, straighten_inverted);
   attach_surfaces(reader, mesh);
   drop_unused_nodes(mesh);
   return mesh;
+}
+
+namespace {
+
+/// The physical groups (of dimension dim) an entity belongs to, by name.
+std::vector<std::string> group_names(const GmshReader& r, int dim, int entity) {
+  std::vector<std::string> out;
+  const auto it = r.entity_physicals[dim].find(entity);
+  if (it != r.entity_physicals[dim].end())
+    for (long phys : it->second) out.push_back(r.physical_name(dim, phys));
+  return out;
+}
+
+/// The triangles of a 3- or 6-node triangle element; a 6-node one (vertices 0, 1, 2, then the mid-edge
+/// nodes of 01, 12, 20) as its four 3-node triangles, in the parent's orientation.
+void append_triangles(const std::vector<int>& n, std::vector<std::array<int, 3>>& out) {
+  if (n.size() == 3) {
+    out.push_back({n[0], n[1], n[2]});
+    return;
+  }
+  out.push_back({n[0], n[3], n[5]});
+  out.push_back({n[3], n[1], n[4]});
+  out.push_back({n[5], n[4], n[2]});
+  out.push_back({n[3], n[4], n[5]});
+}
+
+/// Keeps the nodes the triangles use (renumbered in order of first use) and the curve segments whose
+/// nodes both stay.
+void compact_surface(GmshSurface& s) {
+  std::vector<int> id(s.nodes.size(), -1);
+  std::vector<Vec3> kept;
+  for (auto& t : s.triangles)
+    for (int& n : t) {
+      if (id[n] < 0) {
+        id[n] = int(kept.size());
+        kept.push_back(s.nodes[n]);
+      }
+      n = id[n];
+    }
+  s.nodes = std::move(kept);
+  for (auto it = s.curves.begin(); it != s.curves.end();) {
+    std::vector<std::array<int, 2>> segments;
+    for (const auto& e : it->second)
+      if (id[e[0]] >= 0 && id[e[1]] >= 0) segments.push_back({id[e[0]], id[e[1]]});
+    if (segments.empty()) it = s.curves.erase(it);
+    else (it++)->second = std::move(segments);
+  }
+}
+
+}  // namespace
+
+GmshSurface parse_gmsh_surface(std::istream& in, const std::string& source, const std::vector<std::string>& groups,
+                               const std::string& field) {
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  GmshReader r(buffer.str(), source);
+  r.keep_lines = true;
+  r.read_sections();
+  std::set<std::string> available, wanted(groups.begin(), groups.end());
+  for (const auto& [tag, name] : r.physical_names[2]) available.insert(name);
+  for (const auto& [entity, phys] : r.entity_physicals[2])
+    for (long p : phys) available.insert(r.physical_name(2, p));
+  for (std::size_t k = 0; k < groups.size(); ++k)
+    if (!available.count(groups[k])) {
+      std::string names;
+      for (const std::string& a : available) names += (names.empty() ? "" : ", ") + ("\"" + a + "\"");
+      throw InputError(groups.size() > 1 ? field + "[" + std::to_string(k) + "]" : field, "\"" + groups[k] + "\"",
+                       "no physical surface of that name in " + source + " (it has " + (names.empty() ? "none" : names) + ")");
+    }
+  GmshSurface s;
+  s.nodes = std::move(r.nodes);
+  for (const SurfaceElement& e : r.surfaces) {
+    const std::vector<std::string> of = group_names(r, 2, e.entity);
+    // No group named: the triangles of every physical surface (or all of them when the file has none).
+    const bool take = wanted.empty() ? (available.empty() || !of.empty())
+                                     : std::any_of(of.begin(), of.end(), [&](const std::string& g) { return wanted.count(g) > 0; });
+    if (!take) continue;
+    if (e.nodes.size() == 4)
+      throw InputError(field, source + ":" + std::to_string(e.line),
+                       "element " + std::to_string(e.tag) + " is a quadrangle: a shell surface is made of 3- or 6-node triangles");
+    const int first = int(s.triangles.size());
+    append_triangles(e.nodes, s.triangles);
+    s.split_quadratic += e.nodes.size() == 6;
+    for (const std::string& g : of)
+      for (int t = first; t < int(s.triangles.size()); ++t) s.groups[g].push_back(t);
+  }
+  for (const std::string& g : groups)
+    if (!s.groups.count(g))
+      throw InputError(field, "\"" + g + "\"", "the physical surface holds no triangles in " + source +
+                                                   " (mesh it in 2D: gmsh -2, and save its group)");
+  if (s.triangles.empty())
+    throw InputError(field, source, "no triangles on physical surfaces: mesh the surface (gmsh -2) and save its physical group");
+  for (const SurfaceElement& e : r.lines)
+    for (const std::string& g : group_names(r, 1, e.entity)) {
+      auto& list = s.curves[g];
+      if (e.nodes.size() == 2) list.push_back({e.nodes[0], e.nodes[1]});
+      else list.insert(list.end(), {{e.nodes[0], e.nodes[2]}, {e.nodes[2], e.nodes[1]}});  // line3: ends, then middle
+    }
+  compact_surface(s);
+  return s;
+}
+
+GmshSurface read_gmsh_surface(const std::filesystem::path& file, const std::vector<std::string>& groups,
+                              const std::string& field, const std::string& groups_field) {
+  std::istringstream in(read_input_file(file, field, kMeshFile));
+  return parse_gmsh_surface(in, file.string(), groups, groups_field);
 }
 
 Mesh read_gmsh(const std::filesystem::path& file, const std::string& field, bool straighten_inverted) {

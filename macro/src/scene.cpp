@@ -508,7 +508,7 @@ void read_geometry_table(const toml::table& scene, const std::filesystem::path& 
   } else if (type == "gmsh") {
     read_imported(scene, g, scene_file, mesh_cache, s);
   } else if (type == "shell") {
-    read_shell(scene, g, s);
+    read_shell(scene, g, s, scene_file, mesh_cache);
   } else {
     throw InputError("geometry.type", keys::describe_value(*tn), "must be " + kTypes + keys::did_you_mean(type, {"tube", "actuator", "sphere", "plate", "gmsh", "shell"}));
   }

@@ -24,8 +24,10 @@ std::filesystem::path mesh_cache_dir(const std::filesystem::path& out = {});
 /// Path of the cached mesh of `geo` at `mesh_size` (mm), generating it when absent. `field` names the
 /// scene key in errors: InputError when the .geo is missing, gmsh is not installed, or gmsh fails (its
 /// error lines in the message). `parameters` are passed as further -setnumber NAME VALUE (and hashed).
+/// `dimension` 2 meshes the surfaces only, into 3-node triangles (`gmsh -2 -order 1`: shells).
 std::filesystem::path mesh_from_geo(const std::filesystem::path& geo, double mesh_size,
                                     const std::filesystem::path& cache_dir, const std::string& field,
-                                    const std::vector<std::pair<std::string, double>>& parameters = {});
+                                    const std::vector<std::pair<std::string, double>>& parameters = {},
+                                    int dimension = 3);
 
 }  // namespace softhom::macro
