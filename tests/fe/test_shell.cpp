@@ -287,3 +287,44 @@ TEST(ShellResults, EquibiaxialStretchGivesTheClosedFormStressesStretchesAndFiber
   EXPECT_GE(r.max_principal, sigma - 1e-10);  // the fiber layer adds its tension on top
   EXPECT_GE(r.max_element, 0);
 }
+
+// The closed-form kinematics of the assembly (shell_kinematics, shell_geometric_stiffness) against the
+// forward jets of shell_strains on every patch of a jittered curved grid with clamped and free edges,
+// at a random finite deformation and random section forces: the same strains, B and Σ NM_k ∂²s_k to
+// round-off (1e-10 of the largest entry; a wrong term is O(1) of it).
+TEST(ShellTriangle, ClosedFormKinematicsMatchTheJets) {
+  Grid g = grid(4, 3, 2.0, 1.5, 0.2, cylinder);
+  std::vector<std::pair<std::array<int, 2>, ShellEdge>> edges;
+  for (int j = 0; j < g.ny; ++j) edges.push_back({{g.node(0, j), g.node(0, j + 1)}, ShellEdge::clamped});
+  const ShellDomain shell(g.mesh, {g.tris, edges, neo_hookean_section(0.1), {}, true, {}});
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> d(-0.1, 0.1);
+  for (const ShellPatch& p : shell.patches()) {
+    std::array<Vec3, 6> x;
+    for (int s = 0; s < 6; ++s)
+      if (p.nodes[s] >= 0) x[s] = g.mesh.nodes[p.nodes[s]] + Vec3(d(rng), d(rng), d(rng));
+    Vec6v NM;
+    for (int k = 0; k < 6; ++k) NM[k] = 10.0 * d(rng);
+    Vec6v s_jet, s_closed;
+    Eigen::Matrix<double, 6, 18> B_jet, B_closed;
+    std::array<Eigen::Matrix<double, 18, 18>, 6> H;
+    shell_strains(p, x, s_jet, &B_jet, &H);
+    Eigen::Matrix<double, 18, 18> G_jet = Eigen::Matrix<double, 18, 18>::Zero(), G_closed;
+    for (int k = 0; k < 6; ++k) G_jet += NM[k] * H[k];
+    shell_kinematics(p, x, s_closed, B_closed);
+    shell_geometric_stiffness(p, x, NM, G_closed);
+    // Absent slots carry no dofs: their rows and columns are compared as zeros on both sides.
+    for (int s = 0; s < 6; ++s)
+      if (p.nodes[s] < 0) {
+        B_jet.middleCols<3>(3 * s).setZero();
+        G_jet.middleRows<3>(3 * s).setZero();
+        G_jet.middleCols<3>(3 * s).setZero();
+        B_closed.middleCols<3>(3 * s).setZero();
+        G_closed.middleRows<3>(3 * s).setZero();
+        G_closed.middleCols<3>(3 * s).setZero();
+      }
+    EXPECT_LT((s_jet - s_closed).cwiseAbs().maxCoeff(), 1e-10 * s_jet.cwiseAbs().maxCoeff() + 1e-14);
+    EXPECT_LT((B_jet - B_closed).cwiseAbs().maxCoeff(), 1e-10 * B_jet.cwiseAbs().maxCoeff());
+    EXPECT_LT((G_jet - G_closed).cwiseAbs().maxCoeff(), 1e-10 * G_jet.cwiseAbs().maxCoeff());
+  }
+}

@@ -102,6 +102,14 @@ Mat3 shell_frame(const ShellFrameRule& rule, const Vec3& n, const Vec3& c, bool&
 void shell_strains(const ShellPatch& p, const std::array<Vec3, 6>& x, Vec6v& strains,
                    Eigen::Matrix<double, 6, 18>* B = nullptr, std::array<Eigen::Matrix<double, 18, 18>, 6>* H = nullptr);
 
+/// The same strains and B in closed form (shell_kinematics.cpp).
+void shell_kinematics(const ShellPatch& p, const std::array<Vec3, 6>& x, Vec6v& strains, Eigen::Matrix<double, 6, 18>& B);
+/// The stress-weighted sum of the strains' second derivatives G = Σ_k NM_k ∂²[ε; κ]_k/∂x² (the geometric
+/// part of the tangent) for NM = [N; M], in closed form: one Hessian of t·W instead of the six carried
+/// by the forward jets of shell_strains (which the tests keep as its reference).
+void shell_geometric_stiffness(const ShellPatch& p, const std::array<Vec3, 6>& x, const Vec6v& NM,
+                               Eigen::Matrix<double, 18, 18>& G);
+
 /// What a shell is made of: the triangles, their edge conditions, section and frame.
 struct ShellSpec {
   std::vector<Tri3> triangles;
