@@ -2,7 +2,7 @@
 // aneurysm.geo): the scene's pressure path to 0.025 MPa, with the mesh's size, the wall time, Newton
 // iterations, where the time goes (assembly against the linear solver's analysis, factorization and
 // solves) and the peak memory, and the sac's maximum principal stress and stretch.
-// Usage: bench_shell_aneurysm [scene=studies/structures/aneurysm_gent_fine.toml]
+// Usage (in the source tree): bench_shell_aneurysm [scene=studies/structures/aneurysm_gent_fine.toml]
 // (the .geo is meshed into $SOFTHOM_MESH_CACHE, or <temp>/softhom-mesh-cache, once).
 #include <chrono>
 #include <cstdio>
@@ -36,7 +36,7 @@ double probe(const macro::Structure& s, const fe::Simulation& sim, const std::st
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::string scene = argc > 1 ? argv[1] : std::string(SOFTHOM_SOURCE_DIR) + "/studies/structures/aneurysm_gent_fine.toml";
+  const std::string scene = argc > 1 ? argv[1] : "studies/structures/aneurysm_gent_fine.toml";  // from the source tree
   auto t0 = std::chrono::steady_clock::now();
   const macro::MacroScene m = macro::parse_macro_scene(io::load_scene(scene), scene);
   const double mesh_time = seconds_since(t0);
