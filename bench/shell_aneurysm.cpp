@@ -36,6 +36,7 @@ double probe(const macro::Structure& s, const fe::Simulation& sim, const std::st
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines as they come (long runs, redirected)
   const std::string scene = argc > 1 ? argv[1] : "studies/structures/aneurysm_gent_fine.toml";  // from the source tree
   auto t0 = std::chrono::steady_clock::now();
   const macro::MacroScene m = macro::parse_macro_scene(io::load_scene(scene), scene);

@@ -212,4 +212,25 @@ std::filesystem::path mesh_from_geo(const std::filesystem::path& geo, double mes
   return mesh;
 }
 
+std::filesystem::path scene_mesh_file(const std::string& file, const std::string& geo, double mesh_size,
+                                      const std::filesystem::path& scene_file, const std::filesystem::path& mesh_cache,
+                                      int dimension, const std::vector<std::pair<std::string, double>>& parameters) {
+  if (file.empty() == geo.empty())
+    throw InputError(file.empty() ? "geometry.file" : "geometry.geo", "",
+                     file.empty() ? "missing: give file (a .msh) or geo (a .geo with mesh_size)" : "give file or geo, not both");
+  if (!geo.empty() && !(mesh_size > 0.0)) throw InputError("geometry.mesh_size", "", "missing: required with geometry.geo");
+  if (geo.empty() && mesh_size > 0.0) throw InputError("geometry.mesh_size", format_number(mesh_size), "only with geometry.geo");
+  auto resolve = [&](const std::string& f) {
+    std::filesystem::path p(f);
+    if (p.is_relative() && !scene_file.empty()) p = scene_file.parent_path() / p;
+    return p;
+  };
+  std::filesystem::path path = resolve(file);
+  if (!geo.empty())
+    path = mesh_from_geo(resolve(geo), mesh_size, mesh_cache.empty() ? mesh_cache_dir() : mesh_cache, "geometry.geo",
+                         parameters, dimension);
+  if (!std::filesystem::exists(path)) throw InputError("geometry.file", path.string(), "no such file");
+  return path;
+}
+
 }  // namespace softhom::macro

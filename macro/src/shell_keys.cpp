@@ -73,7 +73,7 @@ const KeyTable<EdgeKeys>& edge_table() {
   using T = ShellEdgeCondition::Type;
   static const KeyTable<EdgeKeys> t = [] {
     KeyTable<EdgeKeys> k("shell.edges[]", "A condition on a named boundary edge of the surface (others are free).");
-    k.text("edge", &EdgeKeys::edge, "edge name of the shape (x0, y0, z0, z1, theta0, xmin, hole, free, ...)").required()
+    k.text("edge", &EdgeKeys::edge, "edge name of the shape (x0, y0, z0, z1, theta0, xmin, hole, free, ...) or a physical curve of a gmsh surface").required()
         .choice("type", &EdgeKeys::type,
                 Choices<T>{{{"clamped", T::clamped},
                             {"simply_supported", T::simply_supported},
@@ -171,7 +171,7 @@ std::vector<ShellEdgeCondition> read_edges(const ShellKeys& k) {
 const KeyTable<ShellGeometryKeys>& shell_geometry_table() {
   using O = ShellGeometryKeys;
   static const KeyTable<O> t = [] {
-    KeyTable<O> k("geometry (shell)", "A thin shell's mid-surface, built in ([shell] gives its section and edges).");
+    KeyTable<O> k("geometry (shell)", "A thin shell's mid-surface, built in or from Gmsh ([shell] gives its section and edges).");
     k.text("type", &O::type, "structure kind: \"shell\"").required()
         .choice("shape", &O::shape,
                 Choices<ShellShape>{{{"sphere", ShellShape::sphere},
@@ -217,21 +217,7 @@ const KeyTable<ShellGeometryKeys>& shell_geometry_table() {
 /// The gmsh shape's surface: the triangles of the named physical surfaces, the physical curves as edges.
 ShellSurface read_gmsh_shell(const ShellGeometryKeys& g, const std::filesystem::path& scene_file,
                              const std::filesystem::path& mesh_cache) {
-  if (g.file.empty() == g.geo.empty())
-    throw InputError(g.file.empty() ? "geometry.file" : "geometry.geo", "",
-                     g.file.empty() ? "missing: shape \"gmsh\" needs file (a .msh) or geo (a .geo with mesh_size)"
-                                    : "give file or geo, not both");
-  if (!g.geo.empty() && !(g.mesh_size > 0.0)) throw InputError("geometry.mesh_size", "", "missing: required with geometry.geo");
-  if (g.geo.empty() && g.mesh_size > 0.0) throw InputError("geometry.mesh_size", format_number(g.mesh_size), "only with geometry.geo");
-  auto resolve = [&](const std::string& f) {
-    std::filesystem::path p(f);
-    if (p.is_relative() && !scene_file.empty()) p = scene_file.parent_path() / p;
-    return p;
-  };
-  std::filesystem::path path = resolve(g.file);
-  if (!g.geo.empty())
-    path = mesh_from_geo(resolve(g.geo), g.mesh_size, mesh_cache.empty() ? mesh_cache_dir() : mesh_cache, "geometry.geo", {}, 2);
-  if (!std::filesystem::exists(path)) throw InputError("geometry.file", path.string(), "no such file");
+  const std::filesystem::path path = scene_mesh_file(g.file, g.geo, g.mesh_size, scene_file, mesh_cache, 2);
   io::GmshSurface m = io::read_gmsh_surface(path, g.surfaces, g.geo.empty() ? "geometry.file" : "geometry.geo", "geometry.surfaces");
   ShellSurface out;
   out.mesh.nodes = std::move(m.nodes);

@@ -14,7 +14,7 @@
 //     dome height ≈ 4.8 mm above the neck, aspect ratio ≈ 1.0 and size ratio 6/4 = 1.5 (the
 //     morphology indices of Dhar et al. 2008, Neurosurgery 63:185–197).
 //   The wall thickness is the scene's ([[shell.layers]]).
-// Sizes: mesh_size = 0.8 gives ≈ 1 200 triangles (tests), 0.095 ≈ 80 000 (the dissertation's count).
+// Sizes: mesh_size = 0.8 gives 1 226 triangles (tests), 0.094 gives 79 226 (the dissertation's ≈ 80 000).
 //
 // Physical groups: surfaces "artery" (the parent vessel), "neck" (the 1 mm fillet that joins the sac to
 // it) and "sac" (the aneurysm beyond the neck);

@@ -30,4 +30,12 @@ std::filesystem::path mesh_from_geo(const std::filesystem::path& geo, double mes
                                     const std::vector<std::pair<std::string, double>>& parameters = {},
                                     int dimension = 3);
 
+/// The mesh file of a scene's [geometry]: `file`, or `geo` meshed at `mesh_size` (mesh_from_geo with
+/// `dimension` and `parameters`), both relative to scene_file. Throws InputError naming geometry.file,
+/// geometry.geo or geometry.mesh_size when neither or both are given, mesh_size is missing with geo or
+/// given without it, or the file does not exist.
+std::filesystem::path scene_mesh_file(const std::string& file, const std::string& geo, double mesh_size,
+                                      const std::filesystem::path& scene_file, const std::filesystem::path& mesh_cache,
+                                      int dimension, const std::vector<std::pair<std::string, double>>& parameters = {});
+
 }  // namespace softhom::macro
