@@ -2,10 +2,12 @@
 // aneurysm.geo): the scene's pressure path to 0.025 MPa, with the mesh's size, the wall time, Newton
 // iterations, where the time goes (assembly against the linear solver's analysis, factorization and
 // solves) and the peak memory, and the sac's maximum principal stress and stretch.
-// Usage (in the source tree): bench_shell_aneurysm [scene=studies/structures/aneurysm_gent_fine.toml]
+// Usage (in the source tree): bench_shell_aneurysm [scene=studies/structures/aneurysm_gent_fine.toml] [t_end=1]
+// (t_end < 1 stops early: one step to a small pressure gives the cost of a Newton iteration)
 // (the .geo is meshed into $SOFTHOM_MESH_CACHE, or <temp>/softhom-mesh-cache, once).
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 
 #include "softhom/io/files.hpp"
@@ -38,6 +40,7 @@ double probe(const macro::Structure& s, const fe::Simulation& sim, const std::st
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines as they come (long runs, redirected)
   const std::string scene = argc > 1 ? argv[1] : "studies/structures/aneurysm_gent_fine.toml";  // from the source tree
+  const double t_end = argc > 2 ? std::atof(argv[2]) : 1.0;  // stop at this time of the path (cost per iteration)
   auto t0 = std::chrono::steady_clock::now();
   const macro::MacroScene m = macro::parse_macro_scene(io::load_scene(scene), scene);
   const double mesh_time = seconds_since(t0);
@@ -52,6 +55,7 @@ int main(int argc, char** argv) {
   bool ok = true;
   for (double t : m.times) {
     if (t <= 0.0) continue;
+    if (t > t_end) t = t_end;
     const fe::AdvanceResult a = sim.advance_to(t);
     if (!a.reached()) {
       std::printf("stopped at t = %g: %s\n", t, a.message.c_str());
@@ -61,6 +65,7 @@ int main(int argc, char** argv) {
     std::printf("%8.3f %10.5f %8d %10.1f %14.4g %14.4f\n", t, m.spec.load(t), sim.stats().newton_iterations,
                 seconds_since(t0), probe(s, sim, "shell sac max principal stress [MPa]"),
                 probe(s, sim, "shell sac max principal stretch [-]"));
+    if (t >= t_end) break;
   }
   const double wall = seconds_since(t0);
   const fe::RunStats st = sim.stats();
