@@ -27,9 +27,7 @@ TEST(ContactHertz, ForceAndContactRadiusFollowHertz) {
   for (int s = 1; s <= 4; ++s) {
     const double t = 0.25 * s;
     ASSERT_TRUE(sim.advance_to(t).reached()) << t;
-    fe::Iterate it;
-    it.t = t;
-    it.u = &sim.displacement();
+    const fe::Iterate it = sim.converged_iterate(*p.contact);
     const fe::ContactTotals tot = p.contact->totals(p.model.mesh, it);
     if (s == 1) continue;  // the fit on d ≥ d_max/2: a patch of at least 3 cells
     force.push_back(4.0 * tot.normal_force);  // the quarter's force × 4
