@@ -15,6 +15,8 @@ namespace {
 /// Coulomb coefficients above this are refused as a unit or typing slip: measured rubber-on-glass
 /// coefficients reach about 3 (Roberts 1977), so the bound leaves room for every real pairing.
 constexpr double kMaxFriction = 3.0;
+/// Iterates whose penalty pressure exceeds this multiple of the shear modulus are refused (penetration_limit).
+constexpr double kMaxPressureOverShear = 10.0;
 
 Mat3 outer(const Vec3& a, const Vec3& b) { return a * b.transpose(); }
 
@@ -245,9 +247,16 @@ ObstacleContact::PointState ObstacleContact::read_state(const Iterate& it, int k
 
 double ObstacleContact::penetration_limit(int face) const {
   // Deeper than its face (or half a curved obstacle's radius, past which its normal field folds) is no
-  // state Newton should linearize about.
+  // state Newton should linearize about; nor is a penalty pressure ε (−g) above ten times the surface's
+  // shear modulus (0.1 h under the default penalty): a soft solid carries no such pressure, and an
+  // iterate that reaches it is one whose tangent did not yet see the contact (the step that first
+  // touches a curved obstacle: the whole increment of the step goes into it). Refused, the line search
+  // backtracks to a shallower iterate instead of bouncing off a stiff penalty (the gripper closing on
+  // a sphere: 25 iterations without convergence, then an inverted element, with the face size alone).
   const double h = face_size_[face];
-  return obstacle_.shape == RigidObstacle::Shape::plane ? h : std::min(h, 0.5 * obstacle_.radius);
+  double limit = obstacle_.shape == RigidObstacle::Shape::plane ? h : std::min(h, 0.5 * obstacle_.radius);
+  if (options_.shear_modulus > 0.0) limit = std::min(limit, kMaxPressureOverShear * options_.shear_modulus / face_law_[face].penalty);
+  return limit;
 }
 
 void ObstacleContact::validate(const Mesh& mesh) const {

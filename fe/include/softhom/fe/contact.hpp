@@ -21,8 +21,8 @@
 // converged contact pressure p penetrates a face by (p − λ)/ε_N ≤ (p / G) h / 100 — under 1 % of the face
 // at pressures up to G, on graded meshes too — and the per-step augmentation λ ← p shrinks that to the
 // pressure change of one step. An iterate deeper than its face's size (or half the radius of a curved
-// obstacle) is refused with
-// MaterialStatus::penetration: the line search backtracks, or the step is cut back and retried smaller.
+// obstacle), or whose penalty pressure exceeds 10 G (0.1 h deep under the default penalty), is refused
+// with MaterialStatus::penetration: the line search backtracks, or the step is cut back and retried smaller.
 //
 // History: the stick point (in the obstacle's frame) and the multiplier of every point are the
 // contribution's state (state_size(), Iterate::state_old/state_new), two sets per point: the one the
