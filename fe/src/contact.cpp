@@ -245,17 +245,21 @@ ObstacleContact::PointState ObstacleContact::read_state(const Iterate& it, int k
   return PointState{Vec3(s[0], s[1], s[2]), s[3]};
 }
 
-double ObstacleContact::penetration_limit(int face) const {
+double ObstacleContact::penetration_limit(int face, const Iterate& it) const {
   // Deeper than its face (or half a curved obstacle's radius, past which its normal field folds) is no
   // state Newton should linearize about; nor is a penalty pressure ε (−g) above ten times the surface's
-  // shear modulus (0.1 h under the default penalty): a soft solid carries no such pressure, and an
-  // iterate that reaches it is one whose tangent did not yet see the contact (the step that first
-  // touches a curved obstacle: the whole increment of the step goes into it). Refused, the line search
-  // backtracks to a shallower iterate instead of bouncing off a stiff penalty (the gripper closing on
-  // a sphere: 25 iterations without convergence, then an inverted element, with the face size alone).
+  // shear modulus (0.1 h under the default penalty) beyond what the obstacle's own motion over the step
+  // pushes in (the step's first iterate, the body where it was): a soft solid carries no such pressure,
+  // and an iterate that reaches it is one whose tangent did not yet see the contact (the step that
+  // first touches a curved obstacle: the whole increment of the step goes into it). Refused, the line
+  // search backtracks to a shallower iterate instead of bouncing off a stiff penalty (the gripper
+  // closing on a sphere: 25 iterations without convergence, then an inverted element, without it).
   const double h = face_size_[face];
   double limit = obstacle_.shape == RigidObstacle::Shape::plane ? h : std::min(h, 0.5 * obstacle_.radius);
-  if (options_.shear_modulus > 0.0) limit = std::min(limit, kMaxPressureOverShear * options_.shear_modulus / face_law_[face].penalty);
+  if (options_.shear_modulus > 0.0) {
+    const double moved = (obstacle_.translation(it.t) - obstacle_.translation(it.t - it.dt)).norm();
+    limit = std::min(limit, kMaxPressureOverShear * options_.shear_modulus / face_law_[face].penalty + moved);
+  }
   return limit;
 }
 
@@ -354,7 +358,7 @@ MaterialStatus ObstacleContact::assemble(const Mesh& mesh, const Iterate& it, As
       ObstacleGap g;
       const PointState s = solving_state(it, int(k));
       const PointTraction pt = point_traction(mesh, it, int(k), s, g);
-      if (-g.gap > penetration_limit(face)) return MaterialStatus::penetration;
+      if (-g.gap > penetration_limit(face, it)) return MaterialStatus::penetration;
       if (it.state_new) write_state(it.state_new, int(k), s, advanced_state(it, int(k), s, pt, g));
       if (!pt.active) continue;
       any = true;

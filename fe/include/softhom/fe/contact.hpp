@@ -21,7 +21,8 @@
 // converged contact pressure p penetrates a face by (p − λ)/ε_N ≤ (p / G) h / 100 — under 1 % of the face
 // at pressures up to G, on graded meshes too — and the per-step augmentation λ ← p shrinks that to the
 // pressure change of one step. An iterate deeper than its face's size (or half the radius of a curved
-// obstacle), or whose penalty pressure exceeds 10 G (0.1 h deep under the default penalty), is refused
+// obstacle), or whose penalty pressure exceeds 10 G (0.1 h deep under the default penalty) by more than
+// the obstacle's own motion over the step, is refused
 // with MaterialStatus::penetration: the line search backtracks, or the step is cut back and retried smaller.
 //
 // History: the stick point (in the obstacle's frame) and the multiplier of every point are the
@@ -186,7 +187,7 @@ class ObstacleContact final : public Contribution {
                             const ObstacleGap& g) const;
   PointState read_state(const Iterate& it, int k, int set) const;
   /// Deepest admissible penetration of a face's point in an iterate.
-  double penetration_limit(int face) const;
+  double penetration_limit(int face, const Iterate& it) const;
 
   std::vector<Quad> quads_;
   std::vector<Tri6> tris_;
