@@ -31,7 +31,8 @@ HertzProblem make_hertz_problem(int fine, int coarse, double depth = 0.01);
 /// friction μ = 0.3. Here the die is rigid (a cylinder of radius 3 across the block's width, axis along
 /// y) and the block [0, 15] × [0, 3] × [0, 4] longer than the published 9 so that the die, starting
 /// 2.5 from its left end, slides the whole 10 on it; bottom fixed, u_y = 0 on both sides (the die spans
-/// the width: plane strain); `cells` hex8 per unit length.
+/// the width: plane strain); `cells` hex8 per unit length; the default normal penalty, a tenth of it
+/// tangentially.
 struct IroningProblem {
   fe::FeModel model;
   std::shared_ptr<const fe::ObstacleContact> contact;
