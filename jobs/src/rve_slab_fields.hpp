@@ -31,14 +31,15 @@ struct RveFieldView {
 };
 
 /// The fields an FFT cell writes at an output step, in file order (one list for the one-process and
-/// the distributed writer); `displacement` in the components of the frame the cell is shown in.
+/// the distributed writer); `displacement` in the components of the frame the cell is shown in, in mm
+/// as the cell sizes (`cell_size`, the fiber radius).
 inline std::array<RveFieldView, 6> rve_field_views(const rve::RveFields& f, const std::vector<double>& displacement) {
   return {{{"F", &f.F, 9, io::Centering::cell, "1"},
            {"P", &f.P, 9, io::Centering::cell, "MPa"},
            {"sigma", &f.sigma, 9, io::Centering::cell, "MPa"},
            {"von_mises", &f.von_mises, 1, io::Centering::cell, "MPa"},
            {"fiber_fraction", &f.fiber_fraction, 1, io::Centering::cell, "1"},
-           {"displacement", &displacement, 3, io::Centering::node, "cell_size unit"}}};
+           {"displacement", &displacement, 3, io::Centering::node, "mm"}}};
 }
 
 /// `writer` on rank 0 (inside begin_step/end_step), null elsewhere; `f` this rank's slab of the fields
