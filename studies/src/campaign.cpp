@@ -328,6 +328,23 @@ std::unique_ptr<rve::FftRveSolver> make_solver(const ChainContext& ctx, const Ca
   return solver;
 }
 
+/// The output-step callback of a case: a case that runs for long shows where it is ("[sweep] ID: step
+/// 3 of 12, 25s"), from 10 s on and at most every 10 s, so a sweep is never silent for minutes. Empty
+/// without ctx.case_progress.
+std::function<void(const rve::RveStep&, const rve::RveFields*)> case_progress(const ChainContext& ctx, const std::string& id,
+                                                                              int steps, Clock::time_point start) {
+  if (!ctx.case_progress) return {};
+  constexpr double kEverySeconds = 10.0;
+  return [id, steps, start, step = 0, last_line = start](const rve::RveStep&, const rve::RveFields*) mutable {
+    ++step;
+    const auto now = Clock::now();
+    if (std::chrono::duration<double>(now - last_line).count() < kEverySeconds || step >= steps) return;
+    last_line = now;
+    std::cerr << ("[sweep] " + id + ": step " + std::to_string(step) + " of " + std::to_string(steps) + ", " +
+                  hms(std::chrono::duration<double>(now - start).count()) + "\n");
+  };
+}
+
 /// Member k of a chain: continues the shared path up to the member's last output time (if not
 /// reached yet) and reads the member's rows off it. Returns its record; `failed` when the path ended
 /// before the member's end.
@@ -355,7 +372,7 @@ CaseRecord run_member(const ChainContext& ctx, const std::vector<int>& members, 
       seg.times.clear();
       for (std::size_t j = done; j <= idx.back(); ++j) seg.times.push_back(done == 0 ? S[j] : S[j] - S[done - 1]);
       if (!solver) solver = make_solver(ctx, c, r);
-      result = solver->run(seg);
+      result = solver->run(seg, case_progress(ctx, c.id, int(idx.back() + 1 - done), t0));
       for (std::size_t st = done == 0 ? 0 : 1; st < result.steps.size(); ++st) {
         path.push_back(result.steps[st]);
         newton += result.steps[st].newton_iterations;
@@ -422,12 +439,13 @@ class ChainScheduler {
  public:
   ChainScheduler(const Campaign& campaign, const std::filesystem::path& dir, std::vector<Chain> chains, int jobs,
                  int threads_per_job, std::atomic<long>& newton,
-                 std::function<void(const CaseRecord&)> on_case_finished = {})
+                 std::function<void(const CaseRecord&)> on_case_finished = {}, bool case_progress = false)
       : chains_(std::move(chains)),
         on_case_finished_(std::move(on_case_finished)),
         ctx_{campaign, dir, threads_per_job, [this] { return stopping(); }, [this] { case_started(); },
              [this](CaseRecord&& r) { case_finished(std::move(r)); }, &newton, {}},
         workers_alive_(jobs) {
+    ctx_.case_progress = case_progress;
     for (int j = 0; j < jobs; ++j) threads_.emplace_back([this, threads_per_job] { work(threads_per_job); });
   }
   ~ChainScheduler() {
@@ -586,7 +604,8 @@ SweepReport run_campaign(const Campaign& campaign, const std::filesystem::path& 
   const bool stop_was_requested = stop_requested();
   {
     const int workers = chains.empty() ? 0 : jobs;
-    ChainScheduler scheduler(campaign, dir, std::move(chains), workers, tpj, newton_computed, options.on_case_finished);
+    ChainScheduler scheduler(campaign, dir, std::move(chains), workers, tpj, newton_computed, options.on_case_finished,
+                             !options.quiet);
     try {
       int committed = 0, running = 0;
       std::vector<CaseRecord> batch;

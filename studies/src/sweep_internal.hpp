@@ -30,6 +30,7 @@ struct ChainContext {
   std::function<void(CaseRecord&&)> case_finished;  // ... and ends (its record)
   std::atomic<long>* newton_computed = nullptr;
   std::filesystem::path wisdom_file;                // FFTW wisdom (empty: DIR/fftw.wisdom)
+  bool case_progress = false;                       // a line per output step of a long case (stderr)
 };
 
 /// "1.5s", "2m05s", "1h02m".
