@@ -34,7 +34,7 @@ steps = 2
 }
 
 /// The InputError of parsing, building and setting up the scene's simulation, or "no error".
-std::string error_of(const std::string& text) {
+std::string contact_error_of(const std::string& text) {
   try {
     const macro::MacroScene m = macro::parse_macro_scene(io::parse_scene(text, "<test>"));
     const macro::Structure s = macro::build_structure(m.spec);
@@ -67,23 +67,23 @@ TEST(ContactScene, ObstacleBecomesAContribution) {
 
 TEST(ContactScene, RefusalsNameTheirField) {
   const std::string plane = "type = \"plane\"\nposition = [0.0, 0.0, -0.5]\nnormal = [0.0, 0.0, 1.0]\n";
-  EXPECT_NE(error_of(plate_with(plane + "surface = \"nope\"\n")).find("contact.obstacles[0].surface"), std::string::npos);
-  EXPECT_NE(error_of(plate_with(plane + "surface = \"zmin\"\nfriction = 4.0\n")).find("contact.obstacles[0].friction"),
+  EXPECT_NE(contact_error_of(plate_with(plane + "surface = \"nope\"\n")).find("contact.obstacles[0].surface"), std::string::npos);
+  EXPECT_NE(contact_error_of(plate_with(plane + "surface = \"zmin\"\nfriction = 4.0\n")).find("contact.obstacles[0].friction"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with(plane + "surface = \"zmin\"\nradius = 1.0\n")).find("contact.obstacles[0].radius"),
+  EXPECT_NE(contact_error_of(plate_with(plane + "surface = \"zmin\"\nradius = 1.0\n")).find("contact.obstacles[0].radius"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with("type = \"sphere\"\nsurface = \"zmin\"\nposition = [0.0, 0.0, -3.0]\n"))
+  EXPECT_NE(contact_error_of(plate_with("type = \"sphere\"\nsurface = \"zmin\"\nposition = [0.0, 0.0, -3.0]\n"))
                 .find("contact.obstacles[0].radius"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with("type = \"plane\"\nsurface = \"zmin\"\nposition = [0.0, 0.0, -0.5]\nnormal = [0, 0, 0]\n"))
+  EXPECT_NE(contact_error_of(plate_with("type = \"plane\"\nsurface = \"zmin\"\nposition = [0.0, 0.0, -0.5]\nnormal = [0, 0, 0]\n"))
                 .find("contact.obstacles[0].normal"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with(plane + "surface = \"zmin\"\npath = [[1.0, 0, 0, 0], [0.5, 0, 0, 1]]\n"))
+  EXPECT_NE(contact_error_of(plate_with(plane + "surface = \"zmin\"\npath = [[1.0, 0, 0, 0], [0.5, 0, 0, 1]]\n"))
                 .find("contact.obstacles[0].path[1][0]"),
             std::string::npos);
-  EXPECT_EQ(error_of(plate_with(plane + "surface = \"zmin\"\n")), "no error");
+  EXPECT_EQ(contact_error_of(plate_with(plane + "surface = \"zmin\"\n")), "no error");
   // The plane 0.25 mm inside the plate's bottom face.
-  const std::string overlap = error_of(
+  const std::string overlap = contact_error_of(
       plate_with("type = \"plane\"\nsurface = \"zmin\"\nposition = [0.0, 0.0, 0.25]\nnormal = [0.0, 0.0, 1.0]\n"));
   EXPECT_NE(overlap.find("contact.obstacles[0]"), std::string::npos) << overlap;
   EXPECT_NE(overlap.find("overlaps the body"), std::string::npos) << overlap;
