@@ -29,6 +29,7 @@
 #include "softhom/jobs/examples.hpp"
 #include "softhom/jobs/jobs.hpp"
 #include "softhom/jobs/run_control.hpp"
+#include "softhom/jobs/thread_defaults.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/interrupt.hpp"
 #include "softhom/materials/library.hpp"
@@ -141,8 +142,15 @@ jobs::LoadedScene load_scene(const std::string& kind, py::handle scene, const st
 
 extern "C" void request_stop_on_signal(int signal) { request_stop(signal); }
 
+/// Whether OpenMP was loaded before the module could ask for passive waiting (numpy, pandas or matplotlib
+/// imported first: their OpenBLAS loads libgomp, which reads OMP_WAIT_POLICY once, at its loading), so
+/// that its idle threads spin at every barrier; softhom/__init__.py sets it at import.
+bool openmp_threads_spin = false;
+
 /// For the lifetime of the object: SIGINT asks softhom's loops to stop (instead of Python's handler,
-/// which would only be run after the job), and at most `threads` OpenMP threads (0: unchanged).
+/// which would only be run after the job), and at most `threads` OpenMP threads (0: the defaults; one
+/// thread where OpenMP threads spin, since a spinning second thread costs 2-4x on a busy machine
+/// and gains at most 1.4x on an idle one: BENCHMARKS.md, "Default threads").
 class JobScope {
  public:
   explicit JobScope(int threads) : threads_before_(omp_get_max_threads()) {
@@ -151,7 +159,10 @@ class JobScope {
     action.sa_handler = request_stop_on_signal;
     sigemptyset(&action.sa_mask);
     sigaction(SIGINT, &action, &previous_);
-    if (threads > 0) omp_set_num_threads(threads);
+    if (threads > 0)
+      omp_set_num_threads(threads);
+    else if (openmp_threads_spin && !jobs::thread_count_given(0))
+      omp_set_num_threads(1);
   }
   ~JobScope() {
     sigaction(SIGINT, &previous_, nullptr);
@@ -554,6 +565,7 @@ PYBIND11_MODULE(_softhom, m) {
   });
 
   m.def("version", &io::softhom_version);
+  m.def("_set_openmp_threads_spin", [](bool spin) { openmp_threads_spin = spin; });
   m.def("presets", &preset_names, "names of the parameter sets (docs/model.md §6)");
   m.def("default_scene", &softhom::python::default_scene, py::arg("command"), "the embedded default scene of a subcommand (TOML)");
   m.def("column_unit", [](const std::string& c) { return io::column_info(c).unit; }, py::arg("column"));

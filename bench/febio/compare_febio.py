@@ -68,7 +68,7 @@ def main():
             continue
         k = matches[0]
         uf = np.array([rows[i + 1][:3] for i in range(len(X))])
-        key = f"step_{k}"
+        key = f"step_{k:06d}"  # io::step_group_name
         if key not in h5:
             break
         us = h5[key]["displacement"][()]

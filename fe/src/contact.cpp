@@ -402,3 +402,19 @@ void ObstacleContact::face_values(const Mesh& mesh, const Iterate& it, std::vect
 }
 
 }  // namespace softhom::fe
+
+namespace softhom::fe {
+
+std::vector<ObstacleContact::Point> contact_rule_points(bool quad) {
+  std::vector<ObstacleContact::Point> out;
+  for (const auto& r : quad ? quad_rule() : tri_rule()) {
+    ObstacleContact::Point p;
+    if (quad) quad_shape(r.xi, r.eta, p);
+    else tri_shape(r.xi, r.eta, p);
+    p.rule_weight = r.w;
+    out.push_back(p);
+  }
+  return out;
+}
+
+}  // namespace softhom::fe

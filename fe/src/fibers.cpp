@@ -110,6 +110,10 @@ TiedFibers::TiedFibers(const Mesh& mesh, const FiberLines& lines, FiberOptions o
       el.host = host.get();
       if (std::find(materials_.begin(), materials_.end(), host) == materials_.end()) materials_.push_back(host);
     }
+    if (el.host && el.host->state_size() > 0) {
+      el.state = state_size_;
+      state_size_ += int(line_rule(options_.order).size()) * el.host->state_size();
+    }
     elements_.push_back(std::move(el));
   }
   if (elements_.empty()) throw InputError(f, "no fibers", "the fiber geometry gives no fiber element");
@@ -119,6 +123,13 @@ void TiedFibers::validate(const Mesh& mesh) const {
   for (const Element& el : elements_)
     for (int n : el.nodes)
       if (n < 0 || n >= mesh.num_nodes()) throw InputError(options_.field, std::to_string(n), "host node out of range");
+}
+
+void TiedFibers::init_state(double* state) const {
+  const int points = int(line_rule(options_.order).size());
+  for (const Element& el : elements_)
+    if (el.state >= 0)
+      for (int q = 0; q < points; ++q) el.host->init_state(state + el.state + q * el.host->state_size());
 }
 
 void TiedFibers::declare_couplings(Couplings& couplings) const {
@@ -136,12 +147,35 @@ struct FiberPoint {
 
 }  // namespace
 
-/// The fiber's force at one Gauss point (the host's uniaxial stress subtracted with the correction).
-static MaterialStatus point_force(const FiberOptions& o, const Material* host, FiberPoint& p) {
+namespace {
+
+/// Where a Gauss point's host history is read and written (the volume correction in a host with one).
+struct PointHistory {
+  const double* old = nullptr;
+  double* next = nullptr;
+  double dt = 0.0;
+};
+
+}  // namespace
+
+/// The history of Gauss point q of an element at the iterate: its committed values, and the iterate's
+/// new ones or `scratch` when it keeps none (a report). None without a host history.
+static PointHistory point_history(long offset, int q, const Material* host, const Iterate& it, double dt,
+                                  std::vector<double>& scratch) {
+  if (offset < 0 || !it.state_old) return {};
+  const int n = host->state_size();
+  scratch.resize(std::size_t(n));
+  return {it.state_old + offset + q * n, it.state_new ? it.state_new + offset + q * n : scratch.data(), dt};
+}
+
+/// The fiber's force at one Gauss point (the host's uniaxial stress subtracted with the correction:
+/// a viscoelastic host's from its history when there is one, else its elastic response).
+static MaterialStatus point_force(const FiberOptions& o, const Material* host, FiberPoint& p, const PointHistory& h) {
   p.force = fiber_force(o.law, p.stretch);
   if (!host) return MaterialStatus::ok;
   FiberForce m;
-  const MaterialStatus s = uniaxial_nominal_stress(*host, p.T, p.stretch, m);
+  const MaterialStatus s = h.old ? uniaxial_nominal_stress(*host, p.T, p.stretch, m, h.old, h.next, h.dt)
+                                 : uniaxial_nominal_stress(*host, p.T, p.stretch, m);
   if (s != MaterialStatus::ok) return s;
   p.force.force -= o.law.area * m.force;
   p.force.stiffness -= o.law.area * m.stiffness;
@@ -152,6 +186,7 @@ MaterialStatus TiedFibers::assemble(const Mesh& mesh, const Iterate& it, Assembl
   const int m = nodes_per_element();
   const auto rule = line_rule(options_.order);
   std::vector<int> dofs;
+  std::vector<double> scratch;
   Eigen::VectorXd r, g;
   Eigen::MatrixXd K;
   for (int e = 0; e < num_elements(); ++e) {
@@ -169,7 +204,8 @@ MaterialStatus TiedFibers::assemble(const Mesh& mesh, const Iterate& it, Assembl
     r.setZero(3 * n);
     if (sink.tangent()) K.setZero(3 * n, 3 * n);
     g.resize(n);
-    for (const LinePoint& q : rule) {
+    for (int qi = 0; qi < int(rule.size()); ++qi) {
+      const LinePoint& q = rule[qi];
       const auto dM = line_derivatives(options_.order, q.s);
       FiberPoint p;
       Vec3 Xs = Vec3::Zero(), xs = Vec3::Zero();
@@ -183,7 +219,8 @@ MaterialStatus TiedFibers::assemble(const Mesh& mesh, const Iterate& it, Assembl
       p.T = Xs / p.J0;
       p.e = xs / p.length;
       p.stretch = p.length / p.J0;
-      if (const MaterialStatus s = point_force(options_, el.host, p); s != MaterialStatus::ok) return s;
+      const PointHistory h = point_history(el.state, qi, el.host, it, it.dt, scratch);
+      if (const MaterialStatus s = point_force(options_, el.host, p, h); s != MaterialStatus::ok) return s;
       // g_k = Σ_i W(k, i) dM_i/ds: host node k's share of the current tangent x_s.
       for (int k = 0; k < n; ++k) {
         g[k] = 0.0;
@@ -216,10 +253,12 @@ std::vector<FiberElementState> TiedFibers::states(const Mesh& mesh, const Iterat
   const int m = nodes_per_element();
   const auto rule = line_rule(options_.order);
   std::vector<FiberElementState> out(elements_.size());
+  std::vector<double> scratch;
   for (int e = 0; e < num_elements(); ++e) {
     FiberElementState& st = out[e];
     st.stretch = st.force = 0.0;
-    for (const LinePoint& q : rule) {
+    for (int qi = 0; qi < int(rule.size()); ++qi) {
+      const LinePoint& q = rule[qi];
       const auto dM = line_derivatives(options_.order, q.s);
       Vec3 Xs = Vec3::Zero(), xs = Vec3::Zero();
       for (int i = 0; i < m; ++i) {
@@ -230,7 +269,9 @@ std::vector<FiberElementState> TiedFibers::states(const Mesh& mesh, const Iterat
       p.J0 = Xs.norm();
       p.T = Xs / p.J0;
       p.stretch = xs.norm() / p.J0;
-      if (point_force(options_, elements_[e].host, p) != MaterialStatus::ok) p.force.force = 0.0;
+      // dt = 0 from the committed history: the converged state's stress (no further relaxation).
+      const PointHistory h = point_history(elements_[e].state, qi, elements_[e].host, it, 0.0, scratch);
+      if (point_force(options_, elements_[e].host, p, h) != MaterialStatus::ok) p.force.force = 0.0;
       st.stretch += 0.5 * q.w * p.stretch;  // the weights sum to 2
       st.force += 0.5 * q.w * p.force.force;
     }

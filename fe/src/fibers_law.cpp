@@ -39,10 +39,16 @@ Eigen::Matrix<double, 9, 1> dyad(const Vec3& a, const Vec3& b) {
 }  // namespace
 
 MaterialStatus uniaxial_nominal_stress(const Material& material, const Vec3& T, double stretch, FiberForce& out) {
-  const auto [n1, n2] = lateral_frame(T);
-  const Eigen::Matrix<double, 9, 1> dT = dyad(T, T), d1 = dyad(n1, n1), d2 = dyad(n2, n2);
   std::vector<double> state(std::size_t(material.state_size()), 0.0), scratch(state.size(), 0.0);
   if (!state.empty()) material.init_state(state.data());
+  return uniaxial_nominal_stress(material, T, stretch, out, state.empty() ? nullptr : state.data(),
+                                 scratch.empty() ? nullptr : scratch.data(), 0.0);
+}
+
+MaterialStatus uniaxial_nominal_stress(const Material& material, const Vec3& T, double stretch, FiberForce& out,
+                                       const double* state_old, double* state_new, double dt) {
+  const auto [n1, n2] = lateral_frame(T);
+  const Eigen::Matrix<double, 9, 1> dT = dyad(T, T), d1 = dyad(n1, n1), d2 = dyad(n2, n2);
   Eigen::Vector2d y = Eigen::Vector2d::Constant(1.0 / std::sqrt(stretch));  // incompressible start
   Mat3 P;
   Mat9 A;
@@ -52,8 +58,7 @@ MaterialStatus uniaxial_nominal_stress(const Material& material, const Vec3& T, 
   bool polished = false;
   for (int iter = 0; iter < 60; ++iter) {
     const Mat3 F = stretch * T * T.transpose() + y[0] * n1 * n1.transpose() + y[1] * n2 * n2.transpose();
-    const MaterialStatus s = material.evaluate(F, state.empty() ? nullptr : state.data(),
-                                               scratch.empty() ? nullptr : scratch.data(), 0.0, P, &A);
+    const MaterialStatus s = material.evaluate(F, state_old, state_new, dt, P, &A);
     if (s != MaterialStatus::ok) return s;
     Eigen::Matrix<double, 9, 1> p;
     for (int i = 0; i < 3; ++i)

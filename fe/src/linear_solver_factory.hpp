@@ -18,6 +18,8 @@ class SparseDirectSolver final : public LinearSolver {
   explicit SparseDirectSolver(LinearRoute route);
   /// A new load step: Cholesky is tried again.
   void begin_step() { lu_this_step_ = false; }
+  /// The matrix's pattern changed (a moving contact set): both factorizations analyse it again.
+  void new_pattern() { cholesky_analyzed_ = lu_analyzed_ = false; }
   /// The Cholesky analysis (once), so that predicted_flops() knows the first factorization's cost.
   void analyze(const CscMatrix& A) override;
   /// Cholesky of the symmetric part unless this step already fell back to LU; LU where it fails.

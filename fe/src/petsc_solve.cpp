@@ -219,6 +219,9 @@ struct PetscSolver::Data {
   // [solver] petsc_nested_matrix = false asks for one AIJ matrix.
   std::vector<PetscInt> dnz_p, onz_p;
   std::unique_ptr<NestedSaddleMatrix> nest;
+  /// Couplings that changed since the last fill (accept_new_entries), entered as zeros at the next one.
+  Couplings new_couplings;
+  void add_coupling_zeros();
   /// MatSetValues on the system in its own numbering (routed to the nest's blocks).
   void set_values(PetscInt nr, const PetscInt* rows, PetscInt nc, const PetscInt* cols, const PetscScalar* v,
                   InsertMode mode) {
@@ -1021,6 +1024,40 @@ void PetscSolver::Data::count_row_entries(const std::vector<int>& element_owner,
   }
 }
 
+void PetscSolver::accept_new_entries(const Couplings& couplings) {
+  Data& d = *d_;
+  // The next fill goes through MatSetValues (the direct fill of a final pattern would write into arrays
+  // that a new entry reallocates) and, before its assembly, adds explicit zeros on every pair of the
+  // couplings' free dofs in this rank's rows: the pattern then holds every entry the couplings may
+  // take, also those of points not yet in contact, and the direct fill is safe again after it.
+  d.pattern_final = false;
+  d.new_couplings = couplings;
+  Mat target = d.nest ? d.nest->block(0, 0) : d.A;  // a contribution's entries lie in the displacement block
+  if (target) check(MatSetOption(target, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE), "MatSetOption (new couplings)");
+}
+
+void PetscSolver::Data::add_coupling_zeros() {
+  Data& d = *this;
+  const std::vector<int>& eq = d.dofs->eq;
+  std::vector<PetscInt> rows, cols;
+  std::vector<PetscScalar> zeros;
+  const Couplings& c = d.new_couplings;
+  for (int g = 0; g < c.size(); ++g) {
+    rows.clear();
+    cols.clear();
+    for (int k = c.offsets[g]; k < c.offsets[g + 1]; ++k)
+      for (int i = 0; i < 3; ++i) {
+        const int dof = 3 * c.nodes[k] + i;
+        if (eq[dof] < 0) continue;  // prescribed: its row is the identity, its column the predictor's
+        cols.push_back(d.urow[dof]);
+        if (d.node_owner[c.nodes[k]] == d.rank) rows.push_back(d.urow[dof]);
+      }
+    zeros.assign(rows.size() * cols.size(), 0.0);
+    if (!rows.empty()) d.set_values(PetscInt(rows.size()), rows.data(), PetscInt(cols.size()), cols.data(), zeros.data(), ADD_VALUES);
+  }
+  d.new_couplings = Couplings{};
+}
+
 void PetscSolver::begin_fill() {
   Data& d = *d_;
   if (d.nest) d.nest->zero();
@@ -1289,6 +1326,7 @@ void PetscSolver::end_fill() {
   Data& d = *d_;
   const std::vector<int>& eq = d.dofs->eq;
   d.end_direct_fill();
+  if (!d.new_couplings.empty()) d.add_coupling_zeros();
   auto add_dirichlet = [&](double value) {
     if (d.bddc) {  // shared among the subdomains that hold the node: the sum is the value
       const std::vector<PetscInt>& rows = d.subdomains->prescribed();
@@ -1308,6 +1346,7 @@ void PetscSolver::end_fill() {
   if (d.bddc_flux) set_bddc_constraints();
   if (d.diagonal_known) {
     if (d.schur_pre) d.lagged_fill ? finish_lagged_augmentation() : finish_augmented_split();
+    d.pattern_final = true;  // again, after a fill that took new entries (accept_new_entries)
     return;
   }
   // The Dirichlet rows' diagonal: the mean free diagonal of the first tangent (as in factorize).

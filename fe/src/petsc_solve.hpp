@@ -66,6 +66,10 @@ class PetscSolver final : public LinearSolver {
   /// `couplings`: node groups beyond the elements (the model's contributions) in the preallocation.
   void distribute(const std::vector<int>& element_owner, const std::vector<int>& node_owner,
                   const std::vector<int>& mixed_elements, const Couplings& couplings);
+  /// The couplings of contributions that changed them (a moving contact set): the next fill goes
+  /// through MatSetValues and enters every pair of their free dofs (zeros where nothing is added), which
+  /// PETSc allocates beyond the preallocation; entries of earlier couplings stay (as zeros).
+  void accept_new_entries(const Couplings& couplings);
   /// One tangent into the distributed matrix (every rank, collective at end_fill): begin_fill, then
   /// add_element for the owned elements and add_entry for the loads, then end_fill.
   void begin_fill();

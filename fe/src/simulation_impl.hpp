@@ -160,6 +160,13 @@ struct Simulation::Impl {
   /// Σ over the ranks (distributed assembly), v itself otherwise.
   double sum_over_ranks(double v) const;
 
+  // Couplings that follow the configuration (pairing.cpp): the contributions' pairing at the start of
+  // every sub-step attempt, and the stiffness pattern rebuilt when their couplings change.
+  void update_pairing();
+  /// The static couplings and the current pairing's, in one list (the pattern's and the preallocation's).
+  Couplings all_couplings() const;
+  void rebuild_pattern();
+
   // One sub-step (solver.cpp): predictor, Newton iteration with line search, commit.
   StepAttempt try_step(double t_new, double dt);
   void reset_mixed_iterate();
@@ -243,6 +250,8 @@ struct Simulation::Impl {
   /// Assembly order: the solids, then model_.assembly_order() (internal forces first).
   std::vector<const Contribution*> contributions_;
   Couplings couplings_;  ///< of every contribution beyond the solids (whose couplings are the mesh's elements)
+  Couplings pairing_couplings_;  ///< of the contributions whose couplings change (Contribution::pair), this step's
+  bool pairing_ = false;         ///< some contribution's couplings change
   NewtonOptions options_;
   DofMap dofs_;
   CscMatrix K_;

@@ -24,12 +24,17 @@ Simulation::Impl::Impl(FeModel model, NewtonOptions options) : model_(std::move(
   for (const Contribution* c : model_.assembly_order()) {
     contributions_.push_back(c);
     c->declare_couplings(couplings_);
+    pairing_ = pairing_ || c->couplings_change();
   }
   build_dofs();
   build_partition();
   build_geometry();
   build_history();
   build_linear_solvers();
+  if (pairing_ && linear_choice_.preconditioner == Preconditioner::bddc)
+    throw InputError("solver.petsc_preconditioner", "bddc",
+                     "BDDC's subdomains are fixed when the run starts and cannot follow a contact between deformable "
+                     "surfaces: use field_split or lu");
   build_colouring();
   build_scatter();
   build_mixed();
@@ -689,6 +694,7 @@ StepAttempt Simulation::Impl::attempt_substep(double t_new, double dt) {
   const SolverTimes linear_before = linear_times();
   const int krylov_before = stats_.krylov_iterations;
   extrapolate_step_ = true;
+  update_pairing();  // from the converged state: the same pairing for a retry after a cut-back
   StepAttempt a = try_step(t_new, dt);
   if (!a.ok && !a.fatal && extrapolated_ && !stop_requested()) {
     // The secant start may overshoot where the response stiffens or softens abruptly: retry the same

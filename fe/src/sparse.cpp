@@ -176,6 +176,9 @@ class CholmodSolver final : public LinearSolver {
 
   void analyze(const CscMatrix& A) override {
     const auto t0 = std::chrono::steady_clock::now();
+    // A new pattern (couplings that changed) replaces the last analysis.
+    if (factor_) cholmod_free_factor(&factor_, &common_);
+    if (upper_) cholmod_free_sparse(&upper_, &common_);
     n_ = A.n;
     // Copy the upper-triangle pattern once; map its entries to positions in A.values (and of their
     // transposes, to factorize the symmetric part).
@@ -269,6 +272,8 @@ class UmfpackSolver final : public LinearSolver {
     // METIS nested dissection (via CHOLMOD) instead of AMD on larger systems: ~1.6x fewer flops on
     // 3D meshes of 1e4 dofs, more beyond.
     control_[UMFPACK_ORDERING] = A.n >= 2000 ? UMFPACK_ORDERING_METIS : UMFPACK_ORDERING_AMD;
+    if (numeric_) umfpack_di_free_numeric(&numeric_);  // of the pattern analysed before, if any
+    if (symbolic_) umfpack_di_free_symbolic(&symbolic_);
     const int status = umfpack_di_symbolic(A.n, A.n, A.colptr.data(), A.rowind.data(), A.values.data(),
                                            &symbolic_, control_, info_);
     if (status != UMFPACK_OK) throw std::runtime_error("UMFPACK: symbolic analysis failed, status " + std::to_string(status));

@@ -297,11 +297,12 @@ void write_file_attributes(hid_t file, const fs::path& target, bool voxel) {
   write_string_attribute(file, "units", "length mm, stress MPa, time s (F, J, fractions dimensionless)", target);
   write_string_attribute(file, "tensor_component_order",
                          "row-major: 11 12 13 21 22 23 31 32 33 (index 3*i + j), last dataset dimension", target);
+  const std::string steps =
+      "one group /step_<k> per output step (k from 0, zero-padded to 6 digits) with attribute time [s]; ";
   write_string_attribute(file, "layout",
-                         voxel ? "one group /step_<k> per output step with attribute time [s]; cell data of a voxel "
-                                 "grid with dims z y x (x fastest)"
-                               : "one group /step_<k> per output step with attribute time [s]; cell data in the "
-                                 "order of /mesh/connectivity, node data in the order of /mesh/coordinates",
+                         steps + (voxel ? "cell data of a voxel grid with dims z y x (x fastest)"
+                                        : "cell data in the order of /mesh/connectivity, node data in the order of "
+                                          "/mesh/coordinates"),
                          target);
 }
 
@@ -349,6 +350,44 @@ struct FieldWriter::Impl {
     write_file_attributes(file.get(), h5_final, voxel);
   }
 
+  // The voxel corners in the frame of grid.axes, written one plane z = const at a time (a plane of
+  // corners in memory, not the grid: 1024³ cells would need 26 GB), and the grid described by them.
+  void write_turned_corners(const VoxelGrid& grid) {
+    const auto [nx, ny, nz] = grid.cells;
+    const std::string what = "cannot write dataset '/mesh/coordinates'";
+    Handle g = checked_write(H5Gcreate2(file.get(), "mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, h5_final,
+                             "cannot create group /mesh");
+    write_dataset(g.get(), "grid_axes", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, grid.axes.data(), {3, 3}, h5_final);
+    std::vector<hsize_t> dims = node_dims;
+    dims.push_back(3);
+    Handle space = checked_write(H5Screate_simple(4, dims.data(), nullptr), H5Sclose, h5_final, what);
+    Handle set = checked_write(H5Dcreate2(g.get(), "coordinates", H5T_IEEE_F64LE, space.get(), H5P_DEFAULT,
+                                          H5P_DEFAULT, H5P_DEFAULT),
+                               H5Dclose, h5_final, what);
+    write_string_attribute(set.get(), "unit", "mm", h5_final);
+    std::vector<double> plane(3 * std::size_t(nx + 1) * std::size_t(ny + 1));
+    const hsize_t extent[4] = {1, dims[1], dims[2], 3};
+    Handle memory = checked_write(H5Screate_simple(4, extent, nullptr), H5Sclose, h5_final, what);
+    for (int k = 0; k <= nz; ++k) {
+      std::size_t at = 0;
+      for (int j = 0; j <= ny; ++j)
+        for (int i = 0; i <= nx; ++i) {
+          const double y[3] = {grid.origin[0] + i * grid.spacing[0], grid.origin[1] + j * grid.spacing[1],
+                               grid.origin[2] + k * grid.spacing[2]};
+          for (int r = 0; r < 3; ++r)
+            plane[at++] = grid.axes[3 * r] * y[0] + grid.axes[3 * r + 1] * y[1] + grid.axes[3 * r + 2] * y[2];
+        }
+      const hsize_t start[4] = {hsize_t(k), 0, 0, 0};
+      if (H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start, nullptr, extent, nullptr) < 0 ||
+          H5Dwrite(set.get(), H5T_NATIVE_DOUBLE, memory.get(), space.get(), H5P_DEFAULT, plane.data()) < 0)
+        hdf5_write_fail(h5_final, what);
+    }
+    mesh_xml = "        <Topology TopologyType=\"3DSMesh\" Dimensions=\"" + join(node_dims) + "\"/>\n" +
+               "        <Geometry GeometryType=\"XYZ\">\n          <DataItem Dimensions=\"" + join(dims) +
+               "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" + href("/mesh/coordinates") +
+               "</DataItem>\n        </Geometry>\n";
+  }
+
   std::string href(const std::string& dataset) const {
     // Relative to the XDMF file (same directory), so the pair can be moved together.
     return xml_escape(h5_final.filename().string()) + ":" + dataset;
@@ -389,7 +428,7 @@ struct FieldWriter::Impl {
                 (c == Centering::cell ? "Cell" : "Node") + "\">\n";
     step_xml += "          <DataItem Dimensions=\"" + join(dims) + "\" NumberType=\"" + number_type +
                 "\" Precision=\"" + std::to_string(precision) + "\" Format=\"HDF\">" +
-                href("/step_" + std::to_string(step) + "/" + name) + "</DataItem>\n";
+                href("/" + step_group_name(step) + "/" + name) + "</DataItem>\n";
     step_xml += "        </Attribute>\n";
     step_names.insert(name);
   }
@@ -406,6 +445,8 @@ FieldWriter::FieldWriter(const std::filesystem::path& stem, const VoxelGrid& gri
     if (!std::isfinite(grid.origin[d]))
       throw std::invalid_argument("FieldWriter: voxel grid origin[" + std::to_string(d) + "] must be finite");
   }
+  if (!std::all_of(grid.axes.begin(), grid.axes.end(), [](double a) { return std::isfinite(a); }))
+    throw std::invalid_argument("FieldWriter: voxel grid axes must be finite");
   auto& m = *impl_;
   m.voxel = true;
   const auto [nx, ny, nz] = grid.cells;
@@ -427,6 +468,7 @@ FieldWriter::FieldWriter(const std::filesystem::path& stem, const VoxelGrid& gri
                "</DataItem>\n"
                "        </Geometry>\n";
   m.open(stem);
+  if (grid.axes != VoxelGrid{}.axes) m.write_turned_corners(grid);
 }
 
 FieldWriter::FieldWriter(const std::filesystem::path& stem, const UnstructuredMesh& mesh)
@@ -476,6 +518,11 @@ FieldWriter::FieldWriter(const std::filesystem::path& stem, const UnstructuredMe
                "        </Geometry>\n";
 }
 
+std::string step_group_name(int k) {
+  const std::string digits = std::to_string(k);
+  return "step_" + std::string(digits.size() < 6 ? 6 - digits.size() : 0, '0') + digits;
+}
+
 FieldWriter::~FieldWriter() = default;  // Impl's destructor removes the temporaries if not closed
 
 void FieldWriter::begin_step(double time) {
@@ -483,7 +530,7 @@ void FieldWriter::begin_step(double time) {
   m.require_open("begin_step");
   if (m.in_step) throw std::logic_error("FieldWriter::begin_step: step " + std::to_string(m.step) + " not ended");
   if (!std::isfinite(time)) throw std::invalid_argument("FieldWriter::begin_step: time is not finite");
-  const std::string name = "step_" + std::to_string(m.step);
+  const std::string name = step_group_name(m.step);
   m.group = checked_write(H5Gcreate2(m.file.get(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
                           m.h5_final, "cannot create group /" + name);
   write_double_attribute(m.group.get(), "time", time, m.h5_final);
@@ -560,8 +607,8 @@ void FieldWriter::add(const std::string& name, std::span<const int> data, Center
 void FieldWriter::end_step() {
   auto& m = *impl_;
   m.require_step("end_step");
-  if (!m.group.reset()) hdf5_write_fail(m.h5_final, "cannot close group /step_" + std::to_string(m.step));
-  m.steps_xml += "      <Grid Name=\"step_" + std::to_string(m.step) + "\" GridType=\"Uniform\">\n" +
+  if (!m.group.reset()) hdf5_write_fail(m.h5_final, "cannot close group /" + step_group_name(m.step));
+  m.steps_xml += "      <Grid Name=\"" + step_group_name(m.step) + "\" GridType=\"Uniform\">\n" +
                  "        <Time Value=\"" + number(m.time) + "\"/>\n" + m.mesh_xml + m.step_xml + "      </Grid>\n";
   m.in_step = false;
   ++m.step;

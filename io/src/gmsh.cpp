@@ -167,6 +167,12 @@ struct SurfaceElement {
   std::vector<int> nodes;  ///< mesh node indices (3, 4 or 6)
 };
 
+/// A 2- or 3-node line (Gmsh types 1 and 8) of a curve entity: fiber polylines (read_gmsh_line_group).
+struct LineElement {
+  long entity;
+  std::vector<int> nodes;  ///< mesh node indices: the two ends, then the middle
+};
+
 struct VolumeElement {
   long tag;
   int line;
@@ -201,6 +207,8 @@ struct GmshReader {
   std::unordered_map<long, int> node_index;
   std::vector<VolumeElement> volumes;
   std::vector<SurfaceElement> surfaces;
+  std::vector<LineElement> lines;
+  bool volumes_required = true;  ///< false: a file of fiber lines only
 
   long int_field(const char* what) { return binary ? long(tk.raw<std::int32_t>(what)) : tk.integer(what); }
   long size_field(const char* what) {
@@ -256,7 +264,7 @@ void GmshReader::read_sections() {
   }
   if (!have_format) tk.fail("", "empty file or no $MeshFormat");
   if (!have_nodes || !have_elements) tk.fail("", "missing $Nodes or $Elements");
-  if (volumes.empty())
+  if (volumes.empty() && volumes_required)
     tk.fail("", "no volume elements (tetrahedra or hexahedra): mesh the volume (gmsh -3) and make sure its "
                 "physical group is saved");
 }
@@ -371,10 +379,11 @@ void GmshReader::read_elements() {
     const int nn = gmsh_nodes(type);
     if (nn == 0)
       tk.fail_at(type_line, std::to_string(type), "unknown Gmsh element type");
-    const bool ignored = dim < 2;
+    const bool line_ok = dim == 1 && (type == 1 || type == 8);
+    const bool ignored = dim < 2 && !line_ok;
     const bool volume_ok = dim == 3 && (type == 4 || type == 11 || type == 5);
     const bool surface_ok = dim == 2 && (type == 2 || type == 9 || type == 3);
-    if (!ignored && !volume_ok && !surface_ok)
+    if (!ignored && !line_ok && !volume_ok && !surface_ok)
       tk.fail_at(type_line, std::to_string(type),
                  std::string("unsupported element type (") + gmsh_name(type) + ", dimension " +
                      std::to_string(dim) + "): volumes must be tetrahedra (4, 11) or hexahedra (5), " +
@@ -387,7 +396,8 @@ void GmshReader::read_elements() {
       std::vector<int> en(nn);
       for (int& v : en) v = ignored ? (size_field("node tag"), 0) : node_of(size_field("node tag"));
       if (ignored) continue;
-      if (dim == 3) volumes.push_back({tag, line, entity, type, std::move(en)});
+      if (dim == 1) lines.push_back({entity, std::move(en)});
+      else if (dim == 3) volumes.push_back({tag, line, entity, type, std::move(en)});
       else surfaces.push_back({tag, line, int(entity), std::move(en)});
     }
   }
@@ -590,6 +600,97 @@ Mesh parse_gmsh(std::istream& in, const std::string& source, bool straighten_inv
 Mesh read_gmsh(const std::filesystem::path& file, const std::string& field, bool straighten_inverted) {
   std::istringstream in(read_input_file(file, field, kMeshFile));
   return parse_gmsh(in, file.string(), straighten_inverted);
+}
+
+namespace {
+
+/// The lines of the group (by name, or by tag when it has none), InputError on group_field when none.
+std::vector<const LineElement*> group_lines(const GmshReader& r, const std::string& group, const std::string& group_field,
+                                            const std::string& source) {
+  std::vector<long> tags;
+  std::string known;
+  std::map<long, bool> seen;
+  for (const auto& [entity, physicals] : r.entity_physicals[1])
+    for (long p : physicals) seen.emplace(p, true);
+  for (const auto& [p, name] : r.physical_names[1]) seen.emplace(p, true);
+  for (const auto& [p, unused] : seen) {
+    const std::string name = r.physical_name(1, p);
+    known += (known.empty() ? "" : ", ") + ("\"" + name + "\"");
+    if (name == group || std::to_string(p) == group) tags.push_back(p);
+  }
+  if (tags.empty())
+    throw InputError(group_field, "\"" + group + "\"",
+                     "no physical curve group of that name in " + source +
+                         (known.empty() ? " (it has none)" : " (its curve groups: " + known + ")"));
+  std::vector<const LineElement*> out;
+  for (const LineElement& l : r.lines) {
+    const auto it = r.entity_physicals[1].find(l.entity);
+    if (it == r.entity_physicals[1].end()) continue;
+    if (std::any_of(it->second.begin(), it->second.end(), [&](long p) { return std::find(tags.begin(), tags.end(), p) != tags.end(); }))
+      out.push_back(&l);
+  }
+  if (out.empty())
+    throw InputError(group_field, "\"" + group + "\"",
+                     "the physical curve group has no line elements in " + source + " (mesh its curves and save the group)");
+  for (const LineElement* l : out)
+    if (l->nodes.size() != out.front()->nodes.size())
+      throw InputError(group_field, "\"" + group + "\"", "the group mixes 2-node and 3-node lines");
+  return out;
+}
+
+/// Chains lines sharing end nodes into polylines (see GmshLineGroup): first from every node where the
+/// chain cannot continue (not two lines), then the closed loops left.
+std::vector<std::vector<Vec3>> chain_lines(const std::vector<const LineElement*>& lines, const std::vector<Vec3>& x) {
+  std::unordered_map<int, std::vector<int>> at;  // end node → lines
+  for (int e = 0; e < int(lines.size()); ++e)
+    for (int end = 0; end < 2; ++end) at[lines[e]->nodes[end]].push_back(e);
+  std::vector<bool> used(lines.size(), false);
+  std::vector<std::vector<Vec3>> out;
+  auto walk = [&](int e, int node) {
+    std::vector<Vec3> points{x[node]};
+    while (!used[e]) {
+      used[e] = true;
+      const std::vector<int>& n = lines[e]->nodes;
+      const int next = n[0] == node ? n[1] : n[0];
+      if (n.size() == 3) points.push_back(x[n[2]]);
+      points.push_back(x[next]);
+      node = next;
+      const std::vector<int>& there = at[node];
+      if (there.size() != 2) break;
+      e = there[0] == e ? there[1] : there[0];
+    }
+    out.push_back(std::move(points));
+  };
+  for (int e = 0; e < int(lines.size()); ++e)
+    for (int end = 0; end < 2; ++end) {
+      const int node = lines[e]->nodes[end];
+      if (!used[e] && at[node].size() != 2) walk(e, node);
+    }
+  for (int e = 0; e < int(lines.size()); ++e)
+    if (!used[e]) walk(e, lines[e]->nodes[0]);
+  return out;
+}
+
+}  // namespace
+
+GmshLineGroup parse_gmsh_line_group(std::istream& in, const std::string& source, const std::string& group,
+                                    const std::string& group_field) {
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  GmshReader reader(buffer.str(), source);
+  reader.volumes_required = false;
+  reader.read_sections();
+  const std::vector<const LineElement*> lines = group_lines(reader, group, group_field, source);
+  GmshLineGroup out;
+  out.nodes_per_line = int(lines.front()->nodes.size());
+  out.polylines = chain_lines(lines, reader.nodes);
+  return out;
+}
+
+GmshLineGroup read_gmsh_line_group(const std::filesystem::path& file, const std::string& group,
+                                   const std::string& group_field, const std::string& file_field) {
+  std::istringstream in(read_input_file(file, file_field, kMeshFile));
+  return parse_gmsh_line_group(in, file.string(), group, group_field);
 }
 
 }  // namespace softhom::io

@@ -6,12 +6,15 @@
 #include <chrono>
 #include <iostream>
 
+#include <omp.h>
+
 #include "softhom/io/fields.hpp"
 #include "softhom/io/files.hpp"
 #include "softhom/core/mpi.hpp"
 #include "softhom/io/summary.hpp"
 #include "softhom/jobs/jobs.hpp"
 #include "softhom/jobs/run_control.hpp"
+#include "softhom/jobs/thread_defaults.hpp"
 #include "softhom/macro/devices.hpp"
 #include "softhom/macro/mesh_generation.hpp"
 #include "softhom/macro/scene.hpp"
@@ -232,7 +235,10 @@ nlohmann::json macro_summary(const MacroJob& job, const macro::Structure& struct
   summary["columns"] = io::columns_json(record.columns());
   if (const DeviceRecord& device = record.device(); device.probe) {
     nlohmann::json d;
-    d["kind"] = ms.device.kind == macro::DeviceKind::cpasmo ? "cpasmo" : ms.device.kind == macro::DeviceKind::gripper ? "gripper" : "tube";
+    d["kind"] = ms.device.kind == macro::DeviceKind::cpasmo    ? "cpasmo"
+                : ms.device.kind == macro::DeviceKind::gripper ? "gripper"
+                : ms.device.kind == macro::DeviceKind::bending ? "bending"
+                                                               : "tube";
     d["file"] = "device.csv";
     d["columns"] = device.columns;
     d["stopped_before_contact"] = !device.stop.empty();
@@ -256,6 +262,10 @@ nlohmann::json macro_summary(const MacroJob& job, const macro::Structure& struct
                               {"factorizations", ls.factorizations}, {"solves", ls.solves}};
   summary["mpi_ranks"] = mpi::world_size();
   summary["assembly_time_s"] = st.assembly_time;
+  if (st.pattern_rebuilds > 0) {  // a contact between deformable surfaces moved its pairs
+    summary["pattern_rebuilds"] = st.pattern_rebuilds;
+    summary["pattern_rebuild_time_s"] = st.pattern_rebuild_time;
+  }
   summary["analysis_time_s"] = st.linear.analysis;
   summary["factorization_time_s"] = st.linear.factorization;
   summary["solve_time_s"] = st.linear.solve;
@@ -316,6 +326,11 @@ bool run_macro(MacroJob& job, Sink& given_sink, const RunOptions& given) {
   const macro::Structure structure = macro::build_structure(ms.spec);
   ms.spec.imported.mesh = fe::Mesh{};  // built into structure.model: not kept twice for the run
   fe::Simulation sim(structure.model, ms.newton);
+  // Without a thread count from the user, a small mesh runs on fewer threads (thread_defaults.hpp).
+  const ThreadCountScope threads(thread_count_given(options.threads)
+                                     ? 0
+                                     : default_thread_count(std::size_t(sim.num_free_dofs()) / mpi::world_size(),
+                                                            kFreeDofsPerDefaultThread, omp_get_max_threads()));
   const std::string tag = "[macro " + job.scene.name + "] ";
   if (!options.quiet)
     std::cerr << tag << structure.model.mesh.num_hexes() << " hex8 + " << structure.model.mesh.tets.size() << " tet10, "

@@ -115,6 +115,7 @@ FeCellMesh mesh_fe_cell(const FeRveJob& fe) {
     m.cell_measure *= m.cell->L3;
     m.element_name = "Tet10";
   }
+  m.field_mesh.coordinates = vectors_in_load_frame(m.field_mesh.coordinates, fe.fiber_angle_deg);
   m.json["mesh_time_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - mesh_start).count();
   return m;
 }
@@ -140,9 +141,9 @@ void write_fe_microstructure(const RveJob& job, const FeRveJob& fe, const FeCell
   if (!options.quiet) std::cerr << "softhom rve: mesh written to " << sink.where("fields.xdmf") << "\n";
 }
 
-void write_fe_fields(io::FieldWriter& writer, double t, const rve::FeFields& f) {
+void write_fe_fields(io::FieldWriter& writer, double t, const rve::FeFields& f, double fiber_angle_deg) {
   writer.begin_step(t);
-  writer.add("displacement", f.displacement, 3, io::Centering::node, "mm");
+  writer.add("displacement", vectors_in_load_frame(f.displacement, fiber_angle_deg), 3, io::Centering::node, "mm");
   writer.add("F", f.F, 9, io::Centering::cell, "1");
   writer.add("P", f.P, 9, io::Centering::cell, "MPa");
   writer.add("sigma", f.sigma, 9, io::Centering::cell, "MPa");
@@ -209,13 +210,13 @@ bool run_fe_rve(const RveJob& job, const FeRveJob& fe, Sink& sink, const RunOpti
   std::unique_ptr<io::FieldWriter> writer;
   if (fe.output.fields_mode != "none") writer = sink.open_fields("fields", mesh.field_mesh);
   if (writer)
-    set_rve_field_attributes(*writer, alpha, std::string(mesh.element_name) + " mesh, node coordinates in the grid frame");
+    set_rve_field_attributes(*writer, alpha, std::string(mesh.element_name) + " mesh");
   auto want_fields = [&](double t) { return fe.output.wants_fields(t, t_end); };
   RveRecorder record(sink, studies::rve_response_columns());
   Progress progress(options.quiet);
   auto on_step = [&](const rve::RveStep& s, const rve::FeFields* f) {
     record.record(s, studies::rve_response_row(s));
-    if (f && writer) write_fe_fields(*writer, s.t, *f);
+    if (f && writer) write_fe_fields(*writer, s.t, *f, alpha);
     progress.update(rve_progress_line("[rve fe " + job.scene.name + "] ", s, t_end));
     stop_point(record.steps.size() - 1);
   };

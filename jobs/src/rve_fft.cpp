@@ -36,6 +36,15 @@ io::VoxelGrid voxel_grid(const rve::PhaseImage& im) {
   return g;
 }
 
+/// The fields' grid: the cell shown in the load frame, its axes the grid axes (rve::grid_rotation).
+io::VoxelGrid load_frame_grid(const rve::PhaseImage& im, double fiber_angle_deg) {
+  io::VoxelGrid g = voxel_grid(im);
+  const Mat3 R = rve::grid_rotation(fiber_angle_deg);
+  for (int c = 0; c < 9; ++c) g.axes[c] = R(c / 3, c % 3);
+  return g;
+}
+
+
 /// Progress lines inside long sub-steps (FftSolverOptions::on_newton_iteration).
 struct InStepProgress {
   static constexpr double kAfterSeconds = 10.0;
@@ -203,20 +212,21 @@ void FftRun::open_fields() {
   // their own.
   if (resumed_.field_steps > 0) fields_stem_ = "fields_resumed_" + std::to_string(resumed_.step_log.size() - 1);
   if (setup_.output.fields_mode == "none" || !root_) return;
-  writer_ = sink_.open_fields(fields_stem_, voxel_grid(setup_.image));
+  writer_ = sink_.open_fields(fields_stem_, load_frame_grid(setup_.image, setup_.fiber_angle_deg));
   if (writer_) set_rve_field_attributes(*writer_, setup_.fiber_angle_deg, "FFT voxels");
 }
 
 void FftRun::write_step_fields(double t, const rve::RveFields& f) {
   if (setup_.output.fields_mode == "none") return;
   ++field_steps_;
+  const std::vector<double> displacement = vectors_in_load_frame(f.displacement, setup_.fiber_angle_deg);
   if (slabs_) {  // collective: the other ranks send their slabs to rank 0's writer
     if (writer_) writer_->begin_step(t);
-    write_slab_fields(writer_.get(), *slabs_, f);
+    write_slab_fields(writer_.get(), *slabs_, f, displacement);
     if (writer_) writer_->end_step();
   } else if (writer_) {
     writer_->begin_step(t);
-    for (const RveFieldView& field : rve_field_views(f))
+    for (const RveFieldView& field : rve_field_views(f, displacement))
       writer_->add(field.name, *field.values, field.components, field.centering, field.unit);
     writer_->end_step();
   }

@@ -140,17 +140,28 @@ inline std::string rve_progress_line(const std::string& tag, const rve::RveStep&
          "  Newton " + std::to_string(s.newton_iterations) + ", Krylov " + std::to_string(s.krylov_iterations);
 }
 
+/// Vectors (3 per node: displacements, coordinates) from grid-frame into load-frame components: the
+/// fields files show the cell in the load frame (docs/outputs.md).
+inline std::vector<double> vectors_in_load_frame(const std::vector<double>& grid_frame, double fiber_angle_deg) {
+  const Mat3 R = rve::grid_rotation(fiber_angle_deg);
+  std::vector<double> out(grid_frame.size());
+  for (std::size_t p = 0; p + 2 < grid_frame.size(); p += 3) {
+    Eigen::Map<Vec3> to(&out[p]);
+    to = R * Eigen::Map<const Vec3>(&grid_frame[p]);
+  }
+  return out;
+}
+
 /// Root attributes of an RVE fields.h5 beyond the ones every field file has (fields.hpp): where the
 /// cells sit and in which frame the tensors are given.
 inline void set_rve_field_attributes(io::FieldWriter& w, double fiber_angle_deg, const std::string& engine) {
   const std::string a = format_number(fiber_angle_deg);
   w.set_attribute("frame",
-                  "tensor and vector components in the load frame (e1 load direction, e2 in-plane transverse, "
-                  "e3 plate normal); cells on the fiber-aligned grid (" + engine +
-                  "): grid axes g1 = (cos a, -sin a, 0), g2 = (0, 0, -1), g3 = fiber = (sin a, cos a, 0) in "
-                  "load-frame coordinates, a = fiber_angle_deg = " + a +
-                  "; the node field displacement is in grid-frame components (the mesh's own axes), so that "
-                  "Warp By Vector moves the cell");
+                  "load frame (e1 load direction, e2 in-plane transverse, e3 plate normal): tensor and vector "
+                  "components, the node coordinates and the displacement; the cell (" + engine +
+                  ") is the fiber-aligned grid turned into the load frame, grid axes g1 = (cos a, -sin a, 0), "
+                  "g2 = (0, 0, -1), g3 = fiber = (sin a, cos a, 0) in load-frame coordinates, a = fiber_angle_deg = " +
+                  a);
   w.set_attribute("fiber_angle_deg", a);
 }
 

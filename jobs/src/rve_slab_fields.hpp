@@ -31,19 +31,20 @@ struct RveFieldView {
 };
 
 /// The fields an FFT cell writes at an output step, in file order (one list for the one-process and
-/// the distributed writer).
-inline std::array<RveFieldView, 6> rve_field_views(const rve::RveFields& f) {
+/// the distributed writer); `displacement` in the components of the frame the cell is shown in.
+inline std::array<RveFieldView, 6> rve_field_views(const rve::RveFields& f, const std::vector<double>& displacement) {
   return {{{"F", &f.F, 9, io::Centering::cell, "1"},
            {"P", &f.P, 9, io::Centering::cell, "MPa"},
            {"sigma", &f.sigma, 9, io::Centering::cell, "MPa"},
            {"von_mises", &f.von_mises, 1, io::Centering::cell, "MPa"},
            {"fiber_fraction", &f.fiber_fraction, 1, io::Centering::cell, "1"},
-           {"displacement", &f.displacement, 3, io::Centering::node, "cell_size unit"}}};
+           {"displacement", &displacement, 3, io::Centering::node, "cell_size unit"}}};
 }
 
 /// `writer` on rank 0 (inside begin_step/end_step), null elsewhere; `f` this rank's slab of the fields
 /// (cells of its planes i3, corner nodes of its planes, the last rank's also of i3 = n3).
-inline void write_slab_fields(io::FieldWriter* writer, const fft::SlabDecomposition& d, const rve::RveFields& f) {
+inline void write_slab_fields(io::FieldWriter* writer, const fft::SlabDecomposition& d, const rve::RveFields& f,
+                              const std::vector<double>& displacement) {
   const std::array<int, 3>& n = d.grid().n;
   const std::size_t cell_plane = d.plane_voxels(), node_plane = std::size_t(n[0] + 1) * (n[1] + 1);
   // Corner planes of rank r: its planes i3, and the plane i3 = n3 on the rank holding the last plane.
@@ -53,7 +54,7 @@ inline void write_slab_fields(io::FieldWriter* writer, const fft::SlabDecomposit
   };
   std::vector<double> buffer;  // rank 0: one slab of one field
   int tag = 90;
-  for (const RveFieldView& field : rve_field_views(f)) {
+  for (const RveFieldView& field : rve_field_views(f, displacement)) {
     ++tag;
     auto values_of = [&](int r) {
       const std::size_t planes = field.centering == io::Centering::cell ? std::size_t(d.slab(r).count) : node_planes(r);

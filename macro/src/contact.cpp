@@ -50,6 +50,7 @@ void add_contacts(const ContactSpec& spec, fe::FeModel& model) {
     opt.label = spec.obstacles.size() == 1 ? "contact" : "contact_" + std::to_string(k);
     model.add(std::make_shared<fe::ObstacleContact>(mesh, std::move(quads), std::move(tris), o.obstacle, opt));
   }
+  add_surface_contacts(spec.pairs, model);
 }
 
 }  // namespace softhom::macro

@@ -2,6 +2,8 @@
 // on a surface of the structure, declared once here.
 #include "contact_keys.hpp"
 
+#include "surface_contact_keys.hpp"
+
 #include <array>
 #include <set>
 #include <string>
@@ -75,10 +77,15 @@ struct ContactKeys {};
 
 const keys::KeyTable<ContactKeys>& contact_table() {
   static const keys::KeyTable<ContactKeys> t = [] {
-    keys::KeyTable<ContactKeys> k("contact", "Contact with rigid obstacles; probes per obstacle in response.csv, "
-                                             "contact pressure and gap per face in contact.h5/.xdmf.");
+    keys::KeyTable<ContactKeys> k("contact", "Contact with rigid obstacles and between the structure's surfaces; probes "
+                                             "per obstacle, pair and self-contact surface in response.csv, contact "
+                                             "pressure and gap per face in <label>.h5/.xdmf.");
     k.custom("obstacles", "list of tables", "the obstacles ([[contact.obstacles]] below)",
-             [](const toml::node&, const std::string&, ContactKeys&) {});
+             [](const toml::node&, const std::string&, ContactKeys&) {})
+        .custom("pairs", "list of tables", "contact between two surfaces ([[contact.pairs]] below)",
+                [](const toml::node&, const std::string&, ContactKeys&) {})
+        .custom("self", "list of tables", "self-contact of a surface ([[contact.self]] below)",
+                [](const toml::node&, const std::string&, ContactKeys&) {});
     return k;
   }();
   return t;
@@ -145,8 +152,11 @@ ContactSpec read_contact(const toml::node* node) {
   const toml::table& table = keys::read_table(*node, "contact");
   ContactKeys unused;
   contact_table().read(table, "contact", unused);
+  spec.pairs = read_surface_contacts(table);
   const toml::node* list = table.get("obstacles");
-  if (!list) throw InputError("contact.obstacles", "", "missing: give [[contact.obstacles]] tables");
+  if (!list && spec.pairs.empty())
+    throw InputError("contact.obstacles", "", "missing: give [[contact.obstacles]], [[contact.pairs]] or [[contact.self]] tables");
+  if (!list) return spec;
   const toml::array& arr = keys::read_array(*list, "contact.obstacles");
   for (std::size_t i = 0; i < arr.size(); ++i) {
     const std::string field = keys::index_field("contact.obstacles", i);
@@ -157,6 +167,10 @@ ContactSpec read_contact(const toml::node* node) {
   return spec;
 }
 
-std::vector<keys::TableDoc> contact_tables() { return {contact_table().describe(), obstacle_table().describe()}; }
+std::vector<keys::TableDoc> contact_tables() {
+  std::vector<keys::TableDoc> tables{contact_table().describe(), obstacle_table().describe()};
+  for (keys::TableDoc& t : surface_contact_tables()) tables.push_back(std::move(t));
+  return tables;
+}
 
 }  // namespace softhom::macro

@@ -7,8 +7,8 @@ namespace softhom::macro {
 const keys::KeyTable<DeviceSpec>& device_table() {
   using O = DeviceSpec;
   static const keys::KeyTable<O> t = [] {
-    keys::KeyTable<O> k("device", "gmsh only: device outputs on the mesh's physical surfaces, written to device.csv (cpasmo: heights and well expansion by region; gripper: finger angle, stop before the fingers touch; tube: axial and radial stretch, twist).");
-    k.choice("kind", &O::kind, {{"cpasmo", DeviceKind::cpasmo}, {"gripper", DeviceKind::gripper}, {"tube", DeviceKind::tube}},
+    keys::KeyTable<O> k("device", "device outputs on the mesh's physical surfaces, written to device.csv (cpasmo: heights and well expansion by region; gripper: finger angle, stop before the fingers touch; tube: axial and radial stretch, twist; bending: end rotation and tip displacement). Gmsh meshes; tube and bending also generated tubes and actuators.");
+    k.choice("kind", &O::kind, {{"cpasmo", DeviceKind::cpasmo}, {"gripper", DeviceKind::gripper}, {"tube", DeviceKind::tube}, {"bending", DeviceKind::bending}},
              "which device's quantities (macro/devices.hpp)")
         .required()
         .text("top_surface", &O::top_surface, "cpasmo: the top surface whose rise is the height")

@@ -109,6 +109,8 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
     }
   } else if (spec.kind == DeviceKind::tube) {
     tube_ = std::make_shared<const TubeGauge>(mesh, "device.kind");
+  } else if (spec.kind == DeviceKind::bending) {
+    bending_ = std::make_shared<const BendingGauge>(mesh, "device.kind");
   }
   volume0_ = channel_volume(X);
 }
@@ -131,6 +133,8 @@ std::vector<std::string> DeviceProbe::columns() const {
     c.push_back("tip_axis_distance_mm");
   } else if (spec_.kind == DeviceKind::tube) {
     for (const std::string& n : TubeGauge::columns()) c.push_back(n);
+  } else if (spec_.kind == DeviceKind::bending) {
+    for (const std::string& n : BendingGauge::columns()) c.push_back(n);
   }
   return c;
 }
@@ -174,6 +178,8 @@ std::vector<double> DeviceProbe::values(const fe::Simulation& sim) const {
     row.push_back(distance);
   } else if (tube_) {
     for (double q : tube_->values(X, x)) row.push_back(q);
+  } else if (bending_) {
+    for (double q : bending_->values(X, x)) row.push_back(q);
   }
   return row;
 }

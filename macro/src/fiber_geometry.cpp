@@ -33,6 +33,10 @@ fe::FiberLines fiber_lines(const FiberSpec& spec, double radius, double z_to, do
   const std::string& f = spec.options.field;
   fe::FiberLines out;
   const int per_element = spec.options.order;  // points added per element
+  if (spec.geometry == FiberGeometry::gmsh) {
+    out.lines = spec.polylines;  // the file's lines are the elements
+    return out;
+  }
   if (spec.geometry == FiberGeometry::straight) {
     const double length = (spec.to - spec.from).norm();
     if (!(length > 0.0)) throw InputError(f + ".to", "", "must differ from " + f + ".from");

@@ -19,6 +19,8 @@ struct FiberKeys {
   bool cable = false, volume_correction = false;
   fe::FiberTie tie = fe::FiberTie::embedded;
   std::string surface;
+  std::string group, file;
+  double mesh_size = 0.0;
 };
 
 const keys::Range kLength = keys::left_open(0.0, 1e6);
@@ -31,9 +33,11 @@ const KeyTable<FiberKeys>& fibers_table() {
     k.choice("geometry", &O::geometry,
              Choices<FiberGeometry>{{{"double_helix", FiberGeometry::double_helix},
                                      {"helix", FiberGeometry::helix},
-                                     {"straight", FiberGeometry::straight}},
+                                     {"straight", FiberGeometry::straight},
+                                     {"gmsh", FiberGeometry::gmsh}},
                                     {}},
-             "helices about the z axis (double: the mirror family at −angle from the same start angles), or straight lines")
+             "helices about the z axis (double: the mirror family at −angle from the same start angles), straight lines, "
+             "or the lines of a Gmsh physical curve group")
         .number("angle_deg", &O::angle_deg, keys::right_open(0, 90), "deg", "helix angle from the tube axis")
         .number("pitch", &O::pitch, keys::at_least(0), "mm", "axial advance per turn (> 0: replaces angle_deg)")
         .integer("count", &O::count, keys::closed_range(1, 100000), "", "fibers per family (helices: start angles spread over 360°)")
@@ -46,6 +50,11 @@ const KeyTable<FiberKeys>& fibers_table() {
         .numbers("from", &O::from, keys::any_value(), 3, 3, "mm", "straight: first fiber's start point")
         .numbers("to", &O::to, keys::any_value(), 3, 3, "mm", "straight: first fiber's end point")
         .numbers("spacing", &O::spacing, keys::any_value(), 3, 3, "mm", "straight: shift from one fiber to the next")
+        .text("group", &O::group, "gmsh: the physical curve group (name or tag) whose 2- or 3-node lines are the fiber elements")
+        .text("file", &O::file,
+              "gmsh: the .msh (or .geo, meshed at mesh_size with quadratic lines) holding the group, relative to the scene "
+              "(default: the geometry's own Gmsh mesh)")
+        .number("mesh_size", &O::mesh_size, keys::at_least(0), "mm", "gmsh: the mesh size of a .geo file")
         .integer("elements", &O::elements, keys::closed_range(0, 1000000), "",
                  "elements per fiber (0: about the host's smallest cell size long)")
         .integer("order", &O::order, keys::closed_range(1, 2), "", "1: 2-node elements, 2: 3-node (quadratic) elements")
@@ -63,6 +72,20 @@ const KeyTable<FiberKeys>& fibers_table() {
     return k;
   }();
   return t;
+}
+
+/// The keys of a Gmsh curve group only with geometry = "gmsh", and its group with it.
+void check_curve_group_keys(const FiberKeys& k, const std::string& field) {
+  const bool gmsh = k.geometry == FiberGeometry::gmsh;
+  if (gmsh && k.group.empty()) throw InputError(field + ".group", "", "missing: the physical curve group of the fibers");
+  if (gmsh && k.elements > 0)
+    throw InputError(field + ".elements", std::to_string(k.elements), "not with geometry = \"gmsh\": the file's lines are the elements");
+  if (!gmsh && !k.group.empty()) throw InputError(field + ".group", "\"" + k.group + "\"", "only with geometry = \"gmsh\"");
+  if (!gmsh && !k.file.empty()) throw InputError(field + ".file", "\"" + k.file + "\"", "only with geometry = \"gmsh\"");
+  if (k.mesh_size > 0.0 && !k.file.ends_with(".geo"))
+    throw InputError(field + ".mesh_size", format_number(k.mesh_size), "only with a .geo file");
+  if (k.file.ends_with(".geo") && !(k.mesh_size > 0.0))
+    throw InputError(field + ".mesh_size", "", "missing: required with a .geo file");
 }
 
 FiberSpec spec_of(const FiberKeys& k, const std::string& field) {
@@ -85,6 +108,10 @@ FiberSpec spec_of(const FiberKeys& k, const std::string& field) {
   s.options.surface = k.surface;
   s.options.volume_correction = k.volume_correction;
   s.options.field = field;
+  s.group = k.group;
+  s.file = k.file;
+  s.mesh_size = k.mesh_size;
+  check_curve_group_keys(k, field);
   if (!k.surface.empty() && k.tie != fe::FiberTie::surface)
     throw InputError(field + ".surface", "\"" + k.surface + "\"", "only with tie = \"surface\"");
   return s;

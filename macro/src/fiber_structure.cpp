@@ -33,7 +33,7 @@ double default_element_length(const StructureSpec& spec, double radius) {
 fe::FiberLines lines_of(const StructureSpec& spec, FiberSpec& f) {
   const std::string& field = f.options.field;
   double radius = f.radius, z_to = f.z_to;
-  if (f.geometry != FiberGeometry::straight) {
+  if (f.geometry != FiberGeometry::straight && f.geometry != FiberGeometry::gmsh) {
     if (is_tube(spec)) {
       const TubeSpec& t = spec.tube;
       if (t.sweep_deg < 360.0 - 1e-9)
@@ -53,6 +53,8 @@ fe::FiberLines lines_of(const StructureSpec& spec, FiberSpec& f) {
 std::string placing_keys(const FiberSpec& f) {
   const std::string& k = f.options.field;
   if (f.geometry == FiberGeometry::straight) return k + ".from, " + k + ".to, " + k + ".spacing";
+  if (f.geometry == FiberGeometry::gmsh)
+    return k + ".group = \"" + f.group + "\" in " + (f.file.empty() ? "geometry's mesh" : f.options.field + ".file = \"" + f.file + "\"");
   return k + ".radius, " + k + ".z_from, " + k + ".z_to";
 }
 

@@ -346,10 +346,10 @@ const KeyTable<SceneKeysTop>& scene_table() {
         .custom("boundary", "list of tables", "gmsh only: constraints on physical surfaces", skip)
         .custom("probe", "table", "gmsh only: reported surface", skip)
         .custom("regions", "table", "gmsh only: a material table per physical volume", skip)
-        .custom("device", "table", "gmsh only: device outputs (device.csv)", skip)
+        .custom("device", "table", "device outputs (device.csv): Gmsh meshes; kind = \"tube\" and \"bending\" also generated tubes and actuators", skip)
         .custom("fibers", "list of tables", "fibers tied to the structure ([[fibers]] below)", skip)
         .custom("helix_tube", "table", "gmsh only: parameters of a tube with helical solid fibers, passed to its .geo", skip)
-        .custom("contact", "table", "rigid obstacles against the structure ([[contact.obstacles]])", skip)
+        .custom("contact", "table", "rigid obstacles against the structure and contact between its surfaces ([[contact.obstacles]], [[contact.pairs]], [[contact.self]])", skip)
         .custom("shell", "table", "shell only: section, fiber frame and edges", skip);
     return k;
   }();
@@ -470,6 +470,7 @@ void read_imported(const toml::table& scene, const toml::table& g, const std::fi
   if (!std::filesystem::exists(path)) throw InputError("geometry.file", path.string(), "no such file");
   auto& im = s.imported;
   im.mesh = io::read_gmsh(path, "geometry.file", helix != nullptr);  // curved edges on thin fibers may invert tets
+  im.file = path.string();
   read_boundaries(scene, im);
   ProbeKeys probe;
   probe_table().read_optional(scene.get("probe"), "probe", probe);
@@ -512,7 +513,7 @@ void read_geometry_table(const toml::table& scene, const std::filesystem::path& 
   } else {
     throw InputError("geometry.type", keys::describe_value(*tn), "must be " + kTypes + keys::did_you_mean(type, {"tube", "actuator", "sphere", "plate", "gmsh", "shell"}));
   }
-  for (const char* key : {"boundary", "probe", "regions", "device", "helix_tube"})
+  for (const char* key : {"boundary", "probe", "regions", "helix_tube"})
     if (type != "gmsh" && scene.contains(key)) throw InputError(key, "", "only for geometry.type = \"gmsh\"");
   if (type != "shell" && scene.contains("shell")) throw InputError("shell", "", "only for geometry.type = \"shell\"");
 }
@@ -627,7 +628,13 @@ MacroScene parse_macro_scene(const toml::table& scene, const std::filesystem::pa
   MacroScene m;
   read_geometry_table(scene, scene_file, mesh_cache, m.spec);
   m.device = read_device(scene.get("device"));
+  const bool generated_tube = m.spec.kind == StructureKind::tube || m.spec.kind == StructureKind::actuator;
+  const bool gauge = m.device.kind == DeviceKind::tube || m.device.kind == DeviceKind::bending;
+  if (m.device.kind != DeviceKind::none && m.spec.kind != StructureKind::imported && !(generated_tube && gauge))
+    throw InputError("device.kind", "", generated_tube ? "a generated tube or actuator takes kind = \"tube\" or \"bending\""
+                                                       : "only for geometry.type = \"gmsh\", \"tube\" or \"actuator\"");
   m.spec.fibers = read_fibers(scene.get("fibers"));  // tied to the mesh (and checked against it) when it is built
+  read_fiber_curve_groups(m.spec.fibers, scene_file, m.spec.imported.file, mesh_cache);
   m.spec.contact = read_contact(scene.get("contact"));
   // The linear solver first: the memory estimate holds a factorization only on the direct path.
   read_solver(scene, m);

@@ -21,23 +21,25 @@ import tempfile
 import warnings
 from typing import Any, Mapping, NamedTuple
 
-def _prefer_passive_openmp_waiting() -> None:
+def _prefer_passive_openmp_waiting() -> bool:
     """OMP_WAIT_POLICY=passive unless the user set it: OpenMP threads that spin at barriers take the
     cores the working threads need on a busy machine (a 32² cell 6.8 s on two threads against 0.6 s on
-    one). libgomp reads the variable once, when it is loaded: this works when nothing imported before
-    softhom has loaded it already."""
+    one). libgomp reads the variable once, when it is loaded: when something imported before softhom
+    (numpy, pandas, matplotlib: their OpenBLAS) has loaded it already, it is too late, and this returns
+    True: the jobs then run on one thread unless given threads= (docs/python.md)."""
     if "OMP_WAIT_POLICY" in os.environ:
-        return
+        return False
     try:
         with open("/proc/self/maps", encoding="utf-8", errors="replace") as maps:
             if "libgomp" in maps.read():
-                return
+                return True
     except OSError:
         pass
     os.environ["OMP_WAIT_POLICY"] = "passive"
+    return False
 
 
-_prefer_passive_openmp_waiting()
+_OPENMP_THREADS_SPIN = _prefer_passive_openmp_waiting()
 
 
 import numpy as np  # noqa: E402  (numpy's OpenBLAS may load libgomp)
@@ -46,6 +48,8 @@ import pandas as pd  # noqa: E402
 
 from . import _softhom  # noqa: E402  (after the OpenMP environment is set)
 from ._softhom import CellState, InputError, Material  # noqa: E402
+
+_softhom._set_openmp_threads_spin(_OPENMP_THREADS_SPIN)
 
 __all__ = [
     "InputError", "EvaluationError", "PlausibilityWarning", "Material", "Cell", "CellState", "RunResult", "CalibrationResult", "material", "presets",

@@ -86,6 +86,24 @@ def test_import_sets_passive_waiting_unless_the_user_chose():
     assert out.strip() == "active"
 
 
+def test_numpy_imported_first_runs_on_one_thread():
+    # numpy first: libgomp is loaded with spinning waits before softhom can ask for passive ones, so a run
+    # without threads= takes one thread (summary "threads"); softhom first: passive waits, all cores.
+    code = ("import os, sys\n{first}\nimport softhom\n"
+            "r = softhom.run_point(softhom.default_scene('point'))\nprint(r.summary['threads'], len(os.sched_getaffinity(0)))")
+    env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "OMP_NUM_THREADS")}
+    def threads(first):
+        out = subprocess.run([sys.executable, "-c", code.format(first=first)], env=env, capture_output=True, text=True,
+                             check=True).stdout.split()
+        return int(out[0]), int(out[1])
+    assert threads("import numpy")[0] == 1
+    used, cores = threads("pass")
+    assert used == cores
+    two = subprocess.run([sys.executable, "-c", "import numpy, softhom; print(softhom.run_point(softhom.default_scene("
+                          "'point'), threads=2).summary['threads'])"], env=env, capture_output=True, text=True, check=True)
+    assert two.stdout.strip() == "2"  # threads= given: as asked
+
+
 def test_every_public_name_has_a_docstring():
     missing = [n for n in softhom.__all__ if n != "__version__" and not (getattr(softhom, n).__doc__ or "").strip()]
     assert not missing, missing

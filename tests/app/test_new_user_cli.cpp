@@ -117,6 +117,11 @@ TEST(ThreadDefaults, OneThreadPer2048VoxelsUpToTheCores) {
   EXPECT_EQ(default_thread_count(64 * 64, 2048, 1), 1);   // never more than OpenMP would use
   EXPECT_EQ(default_thread_count(256 * 256 * 256, 2048, 8), 8);
   EXPECT_EQ(default_thread_count(0, 2048, 4), 1);
+  // Macro meshes: one thread per 16 384 free dofs (BENCHMARKS.md, "Default threads").
+  using softhom::jobs::kFreeDofsPerDefaultThread;
+  EXPECT_EQ(default_thread_count(1152, kFreeDofsPerDefaultThread, 2), 1);    // macro_tube_plane_strain
+  EXPECT_EQ(default_thread_count(30188, kFreeDofsPerDefaultThread, 2), 1);   // cpasmo_gent_coarse
+  EXPECT_EQ(default_thread_count(103680, kFreeDofsPerDefaultThread, 2), 2);  // the tube at 80 x 320 cells
 }
 
 TEST(NewUserCli, ProgressLinesShowSixDigitsOfTime) {

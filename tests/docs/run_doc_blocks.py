@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Runs every fenced ```sh and ```python block of README.md and docs/*.md, as a user would: from an
-empty directory (one per Markdown file, the blocks of a file in order, so a block may use what an
-earlier one made), with `softhom` on PATH and the Python module importable.
+"""Runs every fenced ```sh and ```python block of README.md and docs/*.md, indented ones inside lists
+too, as a user would: from an empty directory (one per Markdown file, the blocks of a file in order, so a
+block may use what an earlier one made), with `softhom` on PATH and the Python module importable.
 
 A block is changed or left out only by a marker on the line before its fence:
 
@@ -23,13 +23,22 @@ import sys
 import tempfile
 import time
 
-FENCE = re.compile(r"^```(sh|bash|python)\s*$")
-MARKER = re.compile(r"^<!--\s*doc-test:\s*(skip|small):\s*(.*?)\s*-->\s*$")
+# A fence may be indented (a block inside a list item): its body is indented alike, and that indent is
+# taken off every line (Python would refuse it; the shell would keep heredocs' indentation).
+FENCE = re.compile(r"^( *)```(sh|bash|shell|python)\s*$")
+CLOSE = re.compile(r"^ *```\s*$")
+MARKER = re.compile(r"^\s*<!--\s*doc-test:\s*(skip|small):\s*(.*?)\s*-->\s*$")
 
 
-def blocks(path: str):
-    """(line, language, code, marker kind, marker text) of every sh/python fenced block of a file."""
-    lines = open(path, encoding="utf-8").read().splitlines()
+def dedent(line: str, indent: int) -> str:
+    """`line` without the fence's indent (or without what blanks it has, when fewer)."""
+    blanks = len(line) - len(line.lstrip(" "))
+    return line[min(blanks, indent):]
+
+
+def blocks_of_text(text: str):
+    """(line, language, code, marker kind, marker text) of every sh/python fenced block of a text."""
+    lines = text.splitlines()
     i = 0
     while i < len(lines):
         m = FENCE.match(lines[i])
@@ -37,13 +46,29 @@ def blocks(path: str):
             i += 1
             continue
         marker = MARKER.match(lines[i - 1]) if i > 0 else None
+        indent = len(m.group(1))
         start, i = i, i + 1
         body = []
-        while i < len(lines) and lines[i].strip() != "```":
-            body.append(lines[i])
+        while i < len(lines) and not CLOSE.match(lines[i]):
+            body.append(dedent(lines[i], indent))
             i += 1
         i += 1
-        yield start + 1, m.group(1), "\n".join(body) + "\n", marker.group(1) if marker else "", marker.group(2) if marker else ""
+        language = "sh" if m.group(2) == "shell" else m.group(2)
+        yield start + 1, language, "\n".join(body) + "\n", marker.group(1) if marker else "", marker.group(2) if marker else ""
+
+
+def blocks(path: str):
+    return blocks_of_text(open(path, encoding="utf-8").read())
+
+
+def self_test() -> None:
+    """The extraction on a text with a top-level block and an indented one inside a list item."""
+    text = ("```sh\necho top\n```\n- a step:\n\n  <!-- doc-test: skip: sketch -->\n  ```python\n"
+            "  if True:\n      print(1)\n  ```\n1. then:\n   ```sh\n   echo listed\n   ```\n")
+    got = [(line, lang, code, kind) for line, lang, code, kind, _ in blocks_of_text(text)]
+    want = [(1, "sh", "echo top\n", ""), (7, "python", "if True:\n    print(1)\n", "skip"), (12, "sh", "echo listed\n", "")]
+    if got != want:
+        raise SystemExit(f"self-test: extracted {got}, expected {want}")
 
 
 def smaller(code: str, spec: str, where: str) -> str:
@@ -72,6 +97,7 @@ def main() -> int:
     ap.add_argument("--timeout", type=float, default=120.0, help="seconds per block")
     ap.add_argument("--list", action="store_true", help="list the blocks, run nothing")
     args = ap.parse_args()
+    self_test()
     src = os.path.abspath(args.source_dir)
     files = args.only or ["README.md"] + sorted(os.path.join("docs", f) for f in os.listdir(os.path.join(src, "docs"))
                                                 if f.endswith(".md"))

@@ -128,12 +128,15 @@ TEST(Fibers, HostUniaxialStressIsTheLawsUniaxialResponse) {
 
 namespace {
 
-/// Block 2 × 1 × 1 stretched to λ along x (xmin held in x, xmax moved, rigid modes pinned) with the
-/// fiber (y0, z0) along x, solved by the Newton driver: the reaction at xmax.
-double block_reaction(const Mesh& mesh, double lambda, const std::optional<FiberOptions>& fibers, double y0, double z0) {
+/// Block 2 × 1 × 1 of `matrix` stretched along x to λ over t ∈ [0, 1] and held there (xmin held in x,
+/// xmax moved, rigid modes pinned) with the fiber (y0, z0) along x, solved by the Newton driver: the
+/// reaction at xmax at each of `times`.
+std::vector<double> block_reactions(const Mesh& mesh, const MaterialPtr& matrix, double lambda,
+                                    const std::optional<FiberOptions>& fibers, double y0, double z0,
+                                    const std::vector<double>& times) {
   FeModel model;
   model.mesh = mesh;
-  model.element_material.assign(mesh.num_elements(), matrix_material());
+  model.element_material.assign(mesh.num_elements(), matrix);
   const auto xmin = surface_nodes(mesh, "xmin"), xmax = surface_nodes(mesh, "xmax");
   DirichletGroup held, moved;
   for (int n : xmin) held.dofs.push_back(3 * n);
@@ -142,7 +145,7 @@ double block_reaction(const Mesh& mesh, double lambda, const std::optional<Fiber
     moved.dofs.push_back(3 * n);
     reaction.push_back(3 * n);
   }
-  moved.value = PiecewiseLinear{{0.0, 1.0}, {0.0, 2.0 * (lambda - 1.0)}};
+  moved.value = PiecewiseLinear{{0.0, 1.0, 1e9}, {0.0, 2.0 * (lambda - 1.0), 2.0 * (lambda - 1.0)}};
   const int origin = select_nodes(mesh, [](const Vec3& x) { return x.norm() < 1e-12; })[0];
   const int corner = select_nodes(mesh, [](const Vec3& x) { return (x - Vec3(0, 1, 0)).norm() < 1e-12; })[0];
   held.dofs.insert(held.dofs.end(), {3 * origin + 1, 3 * origin + 2, 3 * corner + 2});
@@ -154,8 +157,16 @@ double block_reaction(const Mesh& mesh, double lambda, const std::optional<Fiber
   o.tolerance = 1e-13;  // the uniform state is the discrete solution: Newton reaches round-off
   o.mixed = false;
   Simulation sim(model, o);
-  EXPECT_TRUE(sim.advance_to(1.0).reached());
-  return sim.reaction(reaction);
+  std::vector<double> out;
+  for (double t : times) {
+    EXPECT_TRUE(sim.advance_to(t).reached());
+    out.push_back(sim.reaction(reaction));
+  }
+  return out;
+}
+
+double block_reaction(const Mesh& mesh, double lambda, const std::optional<FiberOptions>& fibers, double y0, double z0) {
+  return block_reactions(mesh, matrix_material(), lambda, fibers, y0, z0, {1.0})[0];
 }
 
 void expect_rule_of_mixtures(const Mesh& mesh) {
@@ -183,6 +194,31 @@ void expect_rule_of_mixtures(const Mesh& mesh) {
 TEST(Fibers, RuleOfMixturesInUniformTensionOnHex8) { expect_rule_of_mixtures(block({2, 1, 1}, {4, 2, 2})); }
 
 TEST(Fibers, RuleOfMixturesInUniformTensionOnTet10) { expect_rule_of_mixtures(hex_to_tet10(block({2, 1, 1}, {2, 2, 2}))); }
+
+TEST(Fibers, InARelaxingQlvHostTheForceFollowsTheRuleOfMixtures) {
+  // A QLV matrix (g∞ = 0.4, τ = 1) stretched to 1.3 over t ∈ [0, 1] and held to t = 6: the block alone
+  // relaxes (its reaction R_m(t) falls toward g∞ of the elastic one); the elastic fiber keeps its force
+  // N_f = E A (λ − 1), so with the fiber the reaction is R_m(t) + N_f at every time, and with the volume
+  // correction (the fiber displaces area A of the relaxing matrix, per unit block area 1)
+  // R_m(t) (1 − A) + N_f: the correction follows the host's relaxation through its own history. The
+  // uniform state is the discrete solution at each step (Newton at 1e-13), and the corrected fiber's
+  // uniaxial history integrates the same law over the same steps as the block's points: 1e-9 of the force.
+  const Mesh mesh = block({2, 1, 1}, {2, 1, 1});
+  const MaterialPtr qlv = make_material(make_neo_hookean({1.0, 10.0}), PronySeries{0.4, {{0.6, 1.0}}});
+  const std::vector<double> times{0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.5, 6.0};
+  const double lambda = 1.3;
+  const std::vector<double> matrix = block_reactions(mesh, qlv, lambda, std::nullopt, 0.5, 0.5, times);
+  EXPECT_LT(matrix.back(), 0.6 * matrix[3]);  // it did relax (to about g∞ = 0.4 of the ramp's end)
+  for (bool correction : {false, true}) {
+    const FiberOptions o = glass(correction);
+    const std::vector<double> with = block_reactions(mesh, qlv, lambda, o, 0.37, 0.61, times);
+    for (std::size_t k = 0; k < times.size(); ++k) {
+      const double stretch = 1.0 + (lambda - 1.0) * std::min(times[k], 1.0);
+      const double expected = matrix[k] * (correction ? 1.0 - o.law.area : 1.0) + fiber_force(o.law, stretch).force;
+      EXPECT_NEAR(with[k], expected, 1e-9 * expected) << "correction " << correction << " at t = " << times[k];
+    }
+  }
+}
 
 TEST(Fibers, EveryElementCarriesTheAffineForceWhereverTheHostCutsTheFiber) {
   // An inclined fiber (3-node elements) through a regular block and through the same block with its

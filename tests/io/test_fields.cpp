@@ -90,23 +90,23 @@ TEST(FieldWriter, VoxelGridTwoStepsRoundTrip) {
 
   const fs::path h5 = tmp.path / "fields.h5";
   // Values are stored as IEEE doubles: read back exactly.
-  auto s0 = io::read_dataset(h5, "/step_0/stress");
+  auto s0 = io::read_dataset(h5, "/step_000000/stress");
   EXPECT_EQ(s0.dims, (std::vector<std::size_t>{2, 3, 4, 9}));  // z y x, component fastest
   EXPECT_EQ(s0.values, stress0);
-  auto s1 = io::read_dataset(h5, "/step_1/stress");
+  auto s1 = io::read_dataset(h5, "/step_000001/stress");
   EXPECT_EQ(s1.values, stress1);
-  auto p = io::read_dataset(h5, "/step_0/phase");
+  auto p = io::read_dataset(h5, "/step_000000/phase");
   EXPECT_EQ(p.dims, (std::vector<std::size_t>{2, 3, 4}));
   EXPECT_EQ(p.values, as_double(phase));
-  auto d = io::read_dataset(h5, "/step_0/displacement");
+  auto d = io::read_dataset(h5, "/step_000000/displacement");
   EXPECT_EQ(d.dims, (std::vector<std::size_t>{3, 4, 5, 3}));  // node dims = cells + 1
   EXPECT_EQ(d.values, u);
-  EXPECT_EQ(io::read_dataset(h5, "/step_1/energy").values, energy);
+  EXPECT_EQ(io::read_dataset(h5, "/step_000001/energy").values, energy);
 
   // Planes of the slowest dimension, taken periodically: what one rank of a distributed cell reads.
   // Rows of s0 are planes of 3·4·9 values; [-1, 3) of 2 planes is planes 1, 0, 1, 0 (wrapped twice).
   const std::size_t plane = 3 * 4 * 9;
-  const auto wrapped = io::read_dataset_planes(h5, "/step_0/stress", -1, 4);
+  const auto wrapped = io::read_dataset_planes(h5, "/step_000000/stress", -1, 4);
   EXPECT_EQ(wrapped.dims, s0.dims);  // the whole dataset's dims
   ASSERT_EQ(wrapped.values.size(), 4 * plane);
   for (std::size_t k = 0; k < 4; ++k) {
@@ -114,9 +114,9 @@ TEST(FieldWriter, VoxelGridTwoStepsRoundTrip) {
     EXPECT_TRUE(std::equal(stress0.begin() + std::ptrdiff_t(from), stress0.begin() + std::ptrdiff_t(from + plane),
                            wrapped.values.begin() + std::ptrdiff_t(k * plane))) << "plane " << k;
   }
-  EXPECT_EQ(io::read_dataset_planes(h5, "/step_0/stress", 1, 1).values,
+  EXPECT_EQ(io::read_dataset_planes(h5, "/step_000000/stress", 1, 1).values,
             std::vector<double>(stress0.begin() + std::ptrdiff_t(plane), stress0.end()));
-  const auto header = io::read_dataset_planes(h5, "/step_0/phase", 0, 0);  // dims and type only
+  const auto header = io::read_dataset_planes(h5, "/step_000000/phase", 0, 0);  // dims and type only
   EXPECT_EQ(header.dims, p.dims);
   EXPECT_TRUE(header.values.empty());
 
@@ -132,7 +132,7 @@ TEST(FieldWriter, VoxelGridTwoStepsRoundTrip) {
   EXPECT_NE(x.find(R"(Name="displacement" AttributeType="Vector" Center="Node")"), std::string::npos);
   EXPECT_NE(x.find(R"(Name="phase" AttributeType="Scalar" Center="Cell")"), std::string::npos);
   EXPECT_NE(x.find(R"(Name="energy" AttributeType="Scalar" Center="Cell")"), std::string::npos);
-  EXPECT_NE(x.find("fields.h5:/step_1/stress"), std::string::npos);
+  EXPECT_NE(x.find("fields.h5:/step_000001/stress"), std::string::npos);
   EXPECT_EQ(x.find(".tmp-"), std::string::npos);  // refers to the final name, not the temporary
   EXPECT_EQ(check_xdmf_references(x, tmp.path), 5u);
 
@@ -145,6 +145,17 @@ TEST(FieldWriter, VoxelGridTwoStepsRoundTrip) {
   if (!(WIFEXITED(rc) && WEXITSTATUS(rc) == 127)) {
     EXPECT_EQ(rc, 0) << cmd;
   }
+}
+
+TEST(FieldWriter, StepGroupsSortInTimeOrder) {
+  // Names compared as strings (h5ls, h5py's keys, ParaView's tree) order steps 0..11 by time only when
+  // zero-padded: unpadded, step_10 would sort between step_1 and step_2.
+  std::vector<std::string> names;
+  for (int k = 0; k < 12; ++k) names.push_back(io::step_group_name(k));
+  EXPECT_TRUE(std::is_sorted(names.begin(), names.end()));
+  EXPECT_EQ(io::step_group_name(0), "step_000000");
+  EXPECT_EQ(io::step_group_name(123456), "step_123456");
+  EXPECT_EQ(io::step_group_name(1234567), "step_1234567");  // beyond 6 digits: longer, still unique
 }
 
 TEST(FieldWriter, UnstructuredTetraMeshRoundTrip) {
@@ -175,8 +186,8 @@ TEST(FieldWriter, UnstructuredTetraMeshRoundTrip) {
   const auto k = io::read_dataset(dir / "mesh.h5", "/mesh/connectivity");
   EXPECT_EQ(k.dims, (std::vector<std::size_t>{2, 4}));
   EXPECT_EQ(k.values, as_double(mesh.connectivity));
-  EXPECT_EQ(io::read_dataset(dir / "mesh.h5", "/step_1/displacement").values, u);
-  EXPECT_EQ(io::read_dataset(dir / "mesh.h5", "/step_1/J").values, j);
+  EXPECT_EQ(io::read_dataset(dir / "mesh.h5", "/step_000001/displacement").values, u);
+  EXPECT_EQ(io::read_dataset(dir / "mesh.h5", "/step_000001/J").values, j);
 
   const std::string x = slurp(dir / "mesh.xdmf");
   EXPECT_EQ(count(x, R"(TopologyType="Tetrahedron" NumberOfElements="2" NodesPerElement="4")"), 2u) << x;
@@ -239,7 +250,7 @@ TEST(FieldWriter, UnfinishedWriterLeavesNothingAndKeepsPreviousResult) {
     // destroyed without close(): the finished result of the previous run must survive untouched
   }
   EXPECT_EQ(listing(tmp.path), (std::vector<std::string>{"fields.h5", "fields.xdmf"}));
-  EXPECT_EQ(io::read_dataset(tmp.path / "fields.h5", "/step_0/a").values, (std::vector<double>{1, 2, 3, 4}));
+  EXPECT_EQ(io::read_dataset(tmp.path / "fields.h5", "/step_000000/a").values, (std::vector<double>{1, 2, 3, 4}));
   EXPECT_EQ(slurp(tmp.path / "fields.xdmf"), xdmf_before);
 }
 
@@ -273,8 +284,8 @@ TEST(FieldWriter, RefusesBadFieldsNamingThem) {
   w.end_step();
   w.close();
   // Refused fields were not written.
-  EXPECT_THROW(io::read_dataset(tmp.path / "fields.h5", "/step_0/sigma_nan"), std::runtime_error);
-  EXPECT_EQ(io::read_dataset(tmp.path / "fields.h5", "/step_0/ok").values, two);
+  EXPECT_THROW(io::read_dataset(tmp.path / "fields.h5", "/step_000000/sigma_nan"), std::runtime_error);
+  EXPECT_EQ(io::read_dataset(tmp.path / "fields.h5", "/step_000000/ok").values, two);
   EXPECT_THROW(w.begin_step(1.0), std::logic_error);  // closed
 }
 
@@ -300,7 +311,7 @@ TEST(ReadDataset, MissingDatasetOrFileNamesIt) {
     w.end_step();
     w.close();
   }
-  for (const std::string name : {"/step_0/nonexistent_field", "/step_7/x", "/step_0"}) {
+  for (const std::string name : {"/step_000000/nonexistent_field", "/step_000007/x", "/step_000000"}) {
     try {
       io::read_dataset(tmp.path / "f.h5", name);
       ADD_FAILURE() << "expected std::runtime_error for " << name;

@@ -202,7 +202,7 @@ TEST(FieldAttributes, FileStepAndDatasetsSayWhatTheyHold) {
   EXPECT_NE(string_attribute(f, "units").find("MPa"), std::string::npos);
   EXPECT_NE(string_attribute(f, "tensor_component_order").find("11 12 13 21"), std::string::npos);
   EXPECT_EQ(string_attribute(f, "frame"), "load frame");
-  const hid_t g = H5Gopen2(f, "step_1", H5P_DEFAULT);
+  const hid_t g = H5Gopen2(f, "step_000001", H5P_DEFAULT);
   ASSERT_GE(g, 0);
   EXPECT_EQ(double_attribute(g, "time"), 0.75);  // stored as given: exact
   const hid_t d = H5Dopen2(g, "P", H5P_DEFAULT);

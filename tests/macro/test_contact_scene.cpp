@@ -8,6 +8,7 @@
 
 #include "softhom/fe/contact.hpp"
 #include "softhom/fe/solver.hpp"
+#include "softhom/fe/surface_contact.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/macro/scene.hpp"
 #include "softhom/materials/errors.hpp"
@@ -88,4 +89,70 @@ TEST(ContactScene, RefusalsNameTheirField) {
   EXPECT_NE(overlap.find("contact.obstacles[0]"), std::string::npos) << overlap;
   EXPECT_NE(overlap.find("overlaps the body"), std::string::npos) << overlap;
   EXPECT_NE(overlap.find("0.25 mm inside"), std::string::npos) << overlap;
+}
+
+namespace {
+
+/// The plate without obstacles, with `tables` ([[contact.pairs]], [[contact.self]]) as its [contact].
+std::string plate_with_surface_contacts(const std::string& tables) {
+  std::string scene = plate_with("");
+  scene.erase(scene.find("[[contact.obstacles]]"));
+  return scene + tables;
+}
+
+}  // namespace
+
+// [[contact.pairs]] and [[contact.self]] become fe::SurfaceContact contributions with their labels
+// (the plate's two faces zmax, zmin are a pair that never touches: a point on the far side of a wall
+// is no contact), and the run goes through with the pairing updated every step.
+TEST(ContactScene, PairsAndSelfContactBecomeContributions) {
+  const macro::MacroScene m = macro::parse_macro_scene(io::parse_scene(
+      plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\nmaster = \"zmin\"\ntwo_pass = true\n"
+                                  "[[contact.self]]\nsurface = \"xmax\"\npenalty = 5.0\n"),
+      "<test>"));
+  const macro::Structure s = macro::build_structure(m.spec);
+  ASSERT_EQ(s.model.contributions.size(), 2u);
+  const auto* pair = dynamic_cast<const fe::SurfaceContact*>(s.model.contributions[0].get());
+  const auto* self = dynamic_cast<const fe::SurfaceContact*>(s.model.contributions[1].get());
+  ASSERT_NE(pair, nullptr);
+  ASSERT_NE(self, nullptr);
+  EXPECT_EQ(pair->name(), "contact.pairs[0]");
+  EXPECT_EQ(self->name(), "contact.self[0]");
+  EXPECT_EQ(pair->num_points(), 2 * 4 * 9);  // two passes over the 2 × 2 quads of each face
+  fe::Simulation sim(s.model);
+  EXPECT_TRUE(sim.advance_to(1.0).reached());
+  fe::ContributionReport report;
+  sim.report(report);
+  bool pair_probe = false, self_probe = false;
+  for (const auto& [name, value] : report.probes) {
+    pair_probe |= name == "contact_pair_normal_force [N]" && value == 0.0;
+    self_probe |= name == "contact_self_active_points [1]";
+  }
+  EXPECT_TRUE(pair_probe);
+  EXPECT_TRUE(self_probe);
+}
+
+TEST(ContactScene, SurfaceContactRefusalsNameTheirField) {
+  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"nope\"\nmaster = \"zmin\"\n"))
+                .find("contact.pairs[0].slave"),
+            std::string::npos);
+  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\nmaster = \"nope\"\n"))
+                .find("contact.pairs[0].master"),
+            std::string::npos);
+  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\n")).find("contact.pairs[0].master"),
+            std::string::npos);
+  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"nope\"\n")).find("contact.self[0].surface"),
+            std::string::npos);
+  // Friction out of range (the key's bound), and within it but not implemented between deformable surfaces.
+  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nfriction = 4.0\n"))
+                .find("contact.self[0].friction"),
+            std::string::npos);
+  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nfriction = 0.5\n"))
+                .find("contact.self[0].friction"),
+            std::string::npos);
+  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\nmaster = \"zmin\"\npenalty = -1.0\n"))
+                .find("contact.pairs[0].penalty"),
+            std::string::npos);
+  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nself = 1\n")).find("contact.self[0].self"),
+            std::string::npos);
 }

@@ -83,3 +83,93 @@ TEST(ContributionSeam, ContributionsReportTheirProbesAndFieldsAtTheConvergedStat
   ASSERT_EQ(r.fields[1].arrays.size(), 1u);
   EXPECT_NEAR(r.fields[1].arrays[0].values[0], c.force, 1e-8 * c.force);
 }
+
+namespace {
+
+/// A spring from node `from` to a partner that changes with the configuration, as a contact's pairing
+/// does: `first` while the converged time is below `switch_time`, `second` from then on. The partner is
+/// its history (state_size 1), chosen in pair() and read back in assemble.
+class SwitchingSpring final : public fe::Contribution {
+ public:
+  SwitchingSpring(int from, int first, int second, double k, double switch_time)
+      : from_(from), first_(first), second_(second), k_(k), switch_time_(switch_time) {}
+  Kind kind() const override { return Kind::interface; }
+  std::string name() const override { return "switching spring"; }
+  bool couplings_change() const override { return true; }
+  int state_size() const override { return 1; }
+  void init_state(double* s) const override { s[0] = -1.0; }
+  void pair(const fe::Mesh&, const fe::Iterate& converged, fe::Couplings& couplings) const override {
+    const int partner = converged.t < switch_time_ ? first_ : second_;
+    converged.state_new[0] = partner;
+    const int nodes[2] = {from_, partner};
+    couplings.add(nodes, 2);
+  }
+  MaterialStatus assemble(const fe::Mesh& mesh, const fe::Iterate& it, fe::AssemblySink& sink) const override {
+    const int partner = int(it.state_old[0]);
+    if (it.state_new) it.state_new[0] = partner;
+    return test::Spring(from_, partner, k_).assemble(mesh, it, sink);
+  }
+
+ private:
+  int from_, first_, second_;
+  double k_, switch_time_;
+};
+
+/// One held cube; free nodes p, q, r each on a spring k to a held corner; a force F t on p; the switching
+/// spring ks from p to q until t = 0.5, to r after. Linear: u_p = F t (k + ks) / ((k + ks)² − ks²) and
+/// the partner's u = ks u_p / (k + ks), the other free node's 0.
+struct Switching {
+  double k = 2.0, ks = 1.0, force = 0.3;
+  int p = 8, q = 9, r = 10;
+  fe::FeModel model;
+  double up(double t) const { return force * t * (k + ks) / ((k + ks) * (k + ks) - ks * ks); }
+  double partner(double t) const { return ks * up(t) / (k + ks); }
+};
+
+Switching switching_model() {
+  Switching s;
+  fe::FeModel& m = s.model;
+  for (int z = 0; z < 2; ++z)
+    for (int y = 0; y < 2; ++y)
+      for (int x = 0; x < 2; ++x) m.mesh.nodes.emplace_back(x, y, z);
+  m.mesh.hexes.push_back({0, 1, 3, 2, 4, 5, 7, 6});
+  for (int i = 0; i < 3; ++i) m.mesh.nodes.emplace_back(3.0 + i, 0.0, 0.0);  // p, q, r: in no element
+  m.element_material.assign(1, make_material(make_neo_hookean({1.0, 10.0})));
+  fe::DirichletGroup held;
+  for (int d = 0; d < 24; ++d) held.dofs.push_back(d);
+  m.dirichlet.push_back(held);
+  for (int n : {s.p, s.q, s.r}) m.add(std::make_shared<test::Spring>(1, n, s.k));
+  m.add(std::make_shared<SwitchingSpring>(s.p, s.q, s.r, s.ks, 0.5));
+  m.nodal_loads.emplace_back(std::vector<int>{3 * s.p}, std::vector<double>{s.force}, PiecewiseLinear{{0.0, 1.0}, {0.0, 1.0}});
+  return s;
+}
+
+void expect_switch(fe::SolverKind kind) {
+  const Switching s = switching_model();
+  fe::NewtonOptions o;
+  o.solver = kind;
+  o.mixed = false;
+  o.petsc_options = "-pc_type lu -pc_factor_mat_solver_type mumps";
+  fe::Simulation sim(s.model, o);
+  // Linear springs: Newton's first correction is the solution, to the convergence test's 1e-8 of the
+  // force scale, so 1e-8 relative. The partner of the steps up to t = 0.5 is q (paired from converged
+  // times 0 and 0.25), then r (from 0.5 and 0.75): a coupling (p, r) outside the first pattern, which
+  // the assembly would refuse had the pattern not been rebuilt.
+  for (double t : {0.25, 0.5}) ASSERT_TRUE(sim.advance_to(t).reached());
+  const std::vector<double>& u = sim.displacement();
+  EXPECT_NEAR(u[3 * s.p], s.up(0.5), 1e-8 * s.up(0.5));
+  EXPECT_NEAR(u[3 * s.q], s.partner(0.5), 1e-8 * s.up(0.5));
+  EXPECT_NEAR(u[3 * s.r], 0.0, 1e-8 * s.up(0.5));
+  for (double t : {0.75, 1.0}) ASSERT_TRUE(sim.advance_to(t).reached());
+  EXPECT_NEAR(u[3 * s.p], s.up(1.0), 1e-8 * s.up(1.0));
+  EXPECT_NEAR(u[3 * s.q], 0.0, 1e-8 * s.up(1.0));
+  EXPECT_NEAR(u[3 * s.r], s.partner(1.0), 1e-8 * s.up(1.0));
+  // The pattern was built for the first pairing and rebuilt once, at the switch.
+  EXPECT_EQ(sim.stats().pattern_rebuilds, 2);
+}
+
+}  // namespace
+
+TEST(ContributionSeam, CouplingsThatChangeRebuildThePatternOnTheCholmodPath) { expect_switch(fe::SolverKind::cholmod); }
+
+TEST(ContributionSeam, CouplingsThatChangeEnterThePetscMatrix) { expect_switch(fe::SolverKind::petsc); }

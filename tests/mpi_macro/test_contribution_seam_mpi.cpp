@@ -5,6 +5,7 @@
 
 #include "softhom/fe/solver.hpp"
 #include "spring_contribution.hpp"
+#include "surface_contact_blocks.hpp"
 
 using namespace softhom;
 
@@ -45,4 +46,19 @@ TEST(ContributionSeamMpi, SpringChainGivesTheClosedFormUnderBddc) {
   ASSERT_TRUE(solve_chain(c, o, u));
   EXPECT_NEAR(u[3 * c.n1], c.u1(), 1e-8 * c.u2());
   EXPECT_NEAR(u[3 * c.n2], c.u2(), 1e-8 * c.u2());
+}
+
+// A contact between deformable surfaces on the distributed petsc path: its pairs, chosen at every step
+// (the first step adds them all), enter the matrix at the next fill on every rank. The stacked blocks'
+// contact patch test (tests/fe/test_surface_contact.cpp) gives the CHOLMOD run's face pressures to 1e-6
+// of the applied traction (both to Newton's 1e-8 of the force scale) and its uniform pressure.
+TEST(ContributionSeamMpi, ContactPatchTestEqualsCholmod) {
+  const test::Stack direct = test::stack(2, 4, false, true, false);
+  const test::Stack petsc = test::stack(2, 4, false, true, false, false, fe::SolverKind::petsc);
+  ASSERT_EQ(petsc.pressure.size(), direct.pressure.size());
+  for (std::size_t f = 0; f < petsc.pressure.size(); ++f) {
+    EXPECT_NEAR(petsc.pressure[f], direct.pressure[f], 1e-6 * direct.applied);
+    EXPECT_NEAR(petsc.pressure[f], petsc.applied, 1e-6 * petsc.applied);
+  }
+  EXPECT_GE(petsc.rebuilds, 1);
 }

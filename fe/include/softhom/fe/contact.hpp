@@ -190,4 +190,8 @@ class ObstacleContact final : public Contribution {
   mutable double committed_time_ = -1e300;
 };
 
+/// The quadrature points of ObstacleContact's rule on one face kind (quad: 3×3 Gauss; 6-node triangle:
+/// Dunavant's 7 points): shape functions, their derivatives and the rule weights (face 0, weight 0).
+std::vector<ObstacleContact::Point> contact_rule_points(bool quad);
+
 }  // namespace softhom::fe

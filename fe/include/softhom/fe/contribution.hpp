@@ -32,6 +32,7 @@ struct Couplings {
   }
   int size() const { return int(offsets.size()) - 1; }
   bool empty() const { return size() == 0; }
+  bool operator==(const Couplings& o) const { return offsets == o.offsets && nodes == o.nodes; }
 };
 
 /// The state a contribution is evaluated at.
@@ -137,6 +138,22 @@ class Contribution {
   /// driver allocates them, starts them with init_state and commits them after convergence only.
   virtual int state_size() const { return 0; }
   virtual void init_state(double* state) const { (void)state; }
+  /// Its couplings follow the configuration (a contact between deformable surfaces: which master face
+  /// each slave point sees). The driver then calls pair() at the start of every sub-step attempt and
+  /// rebuilds the stiffness pattern (the CSC pattern and its symbolic factorization; on the petsc path
+  /// the matrix takes the new entries at its next fill) whenever the couplings it declares change.
+  virtual bool couplings_change() const { return false; }
+  /// At the start of a sub-step attempt (a new step, or the retry after a cut-back), at the converged
+  /// state: chooses the pairing the step keeps and declares its couplings (beyond declare_couplings').
+  /// The pairing belongs to the contribution's history: `converged.state_new` (and state_old) point at
+  /// the converged history, which it may rewrite in place; the step then reads it through state_old.
+  /// Called on every rank alike; a deterministic function of the converged state, so that a retried
+  /// step gets the same pairing.
+  virtual void pair(const Mesh& mesh, const Iterate& converged, Couplings& couplings) const {
+    (void)mesh;
+    (void)converged;
+    (void)couplings;
+  }
   /// Adds its residual (and with sink.tangent() its consistent tangent) at the iterate. Evaluated on
   /// every rank alike (each rank's sink keeps what it owns of the matrix); a non-ok status cuts the step.
   virtual MaterialStatus assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const {

@@ -51,6 +51,11 @@ FiberForce fiber_force(const FiberLaw& law, double stretch);
 /// complement of the lateral block). Elastic response from the initial state (history laws: the
 /// instantaneous one). Non-ok status when the law refuses a state on the way.
 MaterialStatus uniaxial_nominal_stress(const Material& material, const Vec3& T, double stretch, FiberForce& out);
+/// The same from the history `state_old` over a step dt, writing the new history into `state_new`
+/// (both material.state_size() values): a viscoelastic host's relaxed uniaxial stress and its
+/// algorithmic stiffness.
+MaterialStatus uniaxial_nominal_stress(const Material& material, const Vec3& T, double stretch, FiberForce& out,
+                                       const double* state_old, double* state_new, double dt);
 
 // --- Where fiber nodes sit in the mesh ----------------------------------------------------------------
 
@@ -115,7 +120,8 @@ struct FiberOptions {
   int order = 1;                    ///< 1: 2-node elements, 2: 3-node elements
   FiberTie tie = FiberTie::embedded;
   std::string surface;              ///< the tie = surface face set (a named surface of the mesh)
-  bool volume_correction = false;   ///< subtract the host's uniaxial stress along the fiber over A
+  bool volume_correction = false;   ///< subtract the host's uniaxial stress along the fiber over A (a
+                                    ///< viscoelastic host's relaxed one: its history kept per fiber point)
   std::string field = "fibers";     ///< the scene key the messages name
 };
 
@@ -139,6 +145,9 @@ class TiedFibers final : public Contribution {
   std::string name() const override { return "fibers"; }
   void validate(const Mesh& mesh) const override;
   void declare_couplings(Couplings& couplings) const override;
+  /// The history of the volume correction in a host with one (QLV): the host law's state per Gauss point.
+  int state_size() const override { return state_size_; }
+  void init_state(double* state) const override;
   MaterialStatus assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const override;
   /// Probes <stem>_max_stretch, <stem>_max_force [N], <stem>_mean_abs_angle [deg]; the field <stem>
   /// (line2/line3 cells) with per-element stretch, force [N], current angle [deg] and the nodes'
@@ -163,7 +172,9 @@ class TiedFibers final : public Contribution {
     std::vector<int> nodes;            ///< unique host nodes the element couples
     std::vector<double> weights;       ///< nodes.size() × (order + 1), column i: fiber node i's weights
     const Material* host = nullptr;    ///< the host material for the volume correction
+    long state = -1;                   ///< offset of its points' host history (-1: none)
   };
+  int state_size_ = 0;
   FiberOptions options_;
   std::vector<Vec3> reference_;
   std::vector<HostPoint> hosts_;

@@ -122,6 +122,10 @@ struct RunStats {
   /// sums over the ranks and the matrix assembly of distributed runs), wall and CPU seconds of this process.
   double element_loop_time = 0.0, element_loop_cpu = 0.0;
   double krylov_time = 0.0;   ///< GMRES without its preconditioner solves (matrix products, orthogonalization)
+  /// Stiffness patterns rebuilt because a contribution's couplings changed (a moving contact set), and
+  /// their time (pattern, scatter positions; the symbolic analysis is counted in `linear`).
+  int pattern_rebuilds = 0;
+  double pattern_rebuild_time = 0.0;
   SolverTimes linear;         ///< analysis / factorization / solve times
   LinearSolverReport linear_solver;  ///< the route, its preconditioner and their counts
   std::vector<std::string> log;  ///< cut-backs and notes, human readable (expected events once)

@@ -19,6 +19,11 @@ struct VoxelGrid {
   std::array<int, 3> cells{1, 1, 1};
   std::array<double, 3> spacing{1.0, 1.0, 1.0};
   std::array<double, 3> origin{0.0, 0.0, 0.0};
+  /// The frame the grid is shown in: row-major 3×3 whose column j is grid axis j in that frame
+  /// (x = axes · (origin + i ⊙ spacing)). Not the identity: the writer stores the voxel corners so turned
+  /// (/mesh/coordinates, dims z y x 3, and /mesh/grid_axes) and describes a curvilinear grid (XDMF 3DSMesh),
+  /// so that ParaView shows the cell in that frame; the data keep the grid's z y x layout.
+  std::array<double, 9> axes{1, 0, 0, 0, 1, 0, 0, 0, 1};
 };
 
 enum class CellType { line2, line3, triangle3, triangle6, quad4, tetra4, tetra10, hexa8 };
@@ -33,6 +38,10 @@ struct UnstructuredMesh {
 
 enum class Centering { cell, node };
 
+/// The HDF5 group of output step k (from 0): "step_000012". Zero-padded to 6 digits so that h5ls, h5py
+/// and ParaView's tree list the steps in time order (step_10 after step_9, not after step_1).
+std::string step_group_name(int k);
+
 class FieldWriter {
  public:
   /// `stem` is DIR/name: writes DIR/name.h5 and DIR/name.xdmf.
@@ -42,7 +51,7 @@ class FieldWriter {
   FieldWriter(const FieldWriter&) = delete;
   FieldWriter& operator=(const FieldWriter&) = delete;
 
-  /// Starts step k (datasets under /step_<k>/). The mesh itself is fixed: give the deformed shape as a
+  /// Starts step k (datasets under /step_group_name(k)/). The mesh itself is fixed: give the deformed shape as a
   /// node-centred 3-component field named "displacement" (ParaView: Warp By Vector).
   void begin_step(double time);
   /// `components` is 1 (scalar), 3 (vector) or 9 (tensor, row-major); data has components × count.
@@ -58,7 +67,7 @@ class FieldWriter {
                      const std::function<std::span<const double>()>& next_piece, const std::string& unit = "");
   void end_step();
   /// A string attribute on the file's root (e.g. "frame"). Every file already carries
-  /// "softhom_version", "units", "tensor_component_order" and "layout"; every /step_<k> group a
+  /// "softhom_version", "units", "tensor_component_order" and "layout"; every step group a
   /// float64 attribute "time" (s).
   void set_attribute(const std::string& name, const std::string& value);
   /// Finishes both files and renames them into place. Write failures throw io::WriteError naming

@@ -25,6 +25,7 @@
 #include <filesystem>
 #include <istream>
 #include <string>
+#include <vector>
 
 #include "softhom/fe/mesh.hpp"
 
@@ -40,5 +41,21 @@ fe::Mesh parse_gmsh(std::istream& in, const std::string& source, bool straighten
 /// file of at most 1 GiB is an InputError naming `field`, the scene key that names the file.
 fe::Mesh read_gmsh(const std::filesystem::path& file, const std::string& field = "geometry.file",
                    bool straighten_inverted = false);
+
+/// The line elements of one physical curve group (2-node lines, type 1, or 3-node lines, type 8) as
+/// polylines: lines that share an end node are chained (a node where more or fewer than two lines meet
+/// ends a chain; a closed loop is one chain), each chain's points in order along it, for 3-node lines
+/// end, middle, end, middle, ..., end. The file may hold volumes too (the host mesh) or lines only.
+struct GmshLineGroup {
+  int nodes_per_line = 2;                         ///< 2 or 3 (one kind per group)
+  std::vector<std::vector<Vec3>> polylines;       ///< in the order of the group's first lines in the file
+};
+/// InputError naming `group_field` when no physical curve group has that name (or tag), when the group
+/// holds no line elements, or when it mixes 2- and 3-node lines; the file's own errors as read_gmsh's
+/// (naming the file and line), the file's kind naming `file_field`.
+GmshLineGroup parse_gmsh_line_group(std::istream& in, const std::string& source, const std::string& group,
+                                    const std::string& group_field);
+GmshLineGroup read_gmsh_line_group(const std::filesystem::path& file, const std::string& group,
+                                   const std::string& group_field, const std::string& file_field);
 
 }  // namespace softhom::io

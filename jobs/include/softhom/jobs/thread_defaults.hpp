@@ -15,6 +15,12 @@ bool thread_count_given(int count);
 /// and lose 1.6-2× beside a competing 2-thread load; at 64² they gain on both).
 inline constexpr std::size_t kVoxelsPerDefaultThread = 2048;
 
+/// Free degrees of freedom of a macro mesh (per MPI rank) per thread of its default thread count: meshes
+/// below 32 768 free dofs run on one thread (bench/thread_defaults.py, 2 cores loaded by other work: 1 vs
+/// 2 passive threads within 1.2x of each other from 1 152 to 30 188 free dofs, neither ahead throughout;
+/// one thread leaves the other core to the machine's other work).
+inline constexpr std::size_t kFreeDofsPerDefaultThread = 16384;
+
 /// `work_items` / `items_per_thread` threads, at least 1, at most `available` (the OpenMP default).
 int default_thread_count(std::size_t work_items, std::size_t items_per_thread, int available);
 

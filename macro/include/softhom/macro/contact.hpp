@@ -8,6 +8,7 @@
 
 #include "softhom/fe/contact.hpp"
 #include "softhom/fe/model.hpp"
+#include "softhom/macro/surface_contact.hpp"
 
 namespace softhom::macro {
 
@@ -22,13 +23,15 @@ struct ObstacleSpec {
 
 struct ContactSpec {
   std::vector<ObstacleSpec> obstacles;
+  std::vector<SurfacePairSpec> pairs;  ///< [[contact.pairs]] and [[contact.self]] (surface_contact.hpp)
 };
 
 /// The initial shear modulus of the elements that touch the faces' nodes (their mean), for the penalty.
 double host_shear_modulus(const fe::FeModel& model, const std::vector<fe::Quad>& quads,
                           const std::vector<fe::Tri6>& tris);
 
-/// One fe::ObstacleContact per obstacle, added to the model (after its materials are assigned). Throws
+/// One fe::ObstacleContact per obstacle and one fe::SurfaceContact per pair or self-contact surface, added
+/// to the model (after its materials are assigned). Throws
 /// InputError naming <field>.surface when the surface does not exist in the mesh or has no faces.
 void add_contacts(const ContactSpec& spec, fe::FeModel& model);
 

@@ -16,18 +16,22 @@
 //           distance falls below stop_distance (fingers are not in contact in the model).
 //   tube    a tube along z clamped at its lower end: axial and radial stretch of the gauge section,
 //           twist of the free end (helix_tube.hpp, TubeGauge).
+//   bending an actuator along z clamped at "zmin": end rotation (bending angle), chord angle and tip
+//           displacement of its free end "zmax" (bending_gauge.hpp). Tube and bending also serve the
+//           generated tube and actuator geometries, whose surfaces have these names.
 #include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "softhom/fe/solver.hpp"
+#include "softhom/macro/bending_gauge.hpp"
 #include "softhom/macro/helix_tube.hpp"
 #include "softhom/macro/structures.hpp"
 
 namespace softhom::macro {
 
-enum class DeviceKind { none, cpasmo, gripper, tube };
+enum class DeviceKind { none, cpasmo, gripper, tube, bending };
 
 struct DeviceSpec {
   DeviceKind kind = DeviceKind::none;
@@ -75,6 +79,7 @@ class DeviceProbe {
   std::vector<std::vector<Well>> regions_;
   std::vector<Finger> fingers_;
   std::shared_ptr<const TubeGauge> tube_;
+  std::shared_ptr<const BendingGauge> bending_;
   double volume0_ = 0.0;
   double channel_volume(const std::vector<Vec3>& x) const;
 };

@@ -1,6 +1,7 @@
 #pragma once
 // Fiber geometry of a structure ([[fibers]] tables): helices on a cylinder about the z axis (single, or
-// double: the mirror family at −α from the same start angles) and families of straight lines, as
+// double: the mirror family at −α from the same start angles), families of straight lines, and the
+// polylines of a Gmsh physical curve group (read by the scene: the macro library does no file I/O), as
 // polylines of fe::TiedFibers (fe/fibers.hpp), which ties them to the structure's mesh. Lengths in mm,
 // angles in degrees from the tube axis (spec §7: a fiber at α lies along (sin α, cos α) in the
 // (hoop, axial) frame).
@@ -15,6 +16,7 @@ enum class FiberGeometry {
   helix,         ///< one family at +α
   double_helix,  ///< the families +α and −α, mirror images in every plane through the axis and a start angle
   straight,      ///< count parallel lines from `from` to `to`, the k-th shifted by k · spacing
+  gmsh,          ///< the line elements of a physical curve group, each a fiber element (2- or 3-node as in the file)
 };
 
 struct FiberSpec {
@@ -30,6 +32,11 @@ struct FiberSpec {
   Vec3 from{0, 0, 0}, to{1, 0, 0}, spacing{0, 0, 0};
   /// Elements per fiber (0: about the host's smallest cell size long).
   int elements = 0;
+  // Gmsh curve group
+  std::string group;                  ///< physical curve group (name, or tag as text)
+  std::string file;                   ///< .msh or .geo holding it (empty: the structure's own Gmsh mesh)
+  double mesh_size = 0.0;             ///< a .geo's mesh size [mm]
+  std::vector<std::vector<Vec3>> polylines;  ///< the group's chained lines, as read (options.order from the file)
   fe::FiberOptions options;           ///< law, area, order, tie, surface, volume correction
 };
 

@@ -43,6 +43,7 @@ enum class LoadControl {
 /// its physical groups.
 struct ImportedSpec {
   fe::Mesh mesh;
+  std::string file;  ///< the .msh it was read from ([[fibers]] curve groups default to it)
   struct Fix {
     std::string surface;
     std::array<bool, 3> components{false, false, false};  ///< u_i = 0 on the surface's nodes

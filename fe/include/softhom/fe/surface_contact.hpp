@@ -1,0 +1,171 @@
+#pragma once
+// Contact between deformable surfaces, and self-contact of one surface: frictionless penalty with one
+// augmentation of the multiplier per converged step, as the rigid obstacles' law (contact.hpp).
+//
+// Formulation: the quadrature points of the slave surface's faces (ObstacleContact's rules: 3×3 Gauss
+// on quads, Dunavant's 7 points on 6-node triangles) each see one master face (a hex8 quad or a tet10
+// 6-node triangle). The closest point of that face, a Newton iteration in its parametric coordinates
+// clamped to the face, gives the gap g = (x_s − x_m)·n along the master face's unit normal n (outward
+// of the master body: g > 0 apart) and the nominal pressure p = ⟨λ + ε (−g)⟩ per reference slave area.
+// The residual is the variation of the penalty energy: R = −Σ w p ∂g/∂u over the slave face's and the
+// master face's nodes, and its tangent the exact second variation, w (ε ∂g⊗∂g − p ∂²g), including the
+// motion of the closest point over the master face and the rotation of its normal (symmetric). It is
+// exact everywhere: where the closest point is held by an edge or a corner of the face (below a kink of
+// the master surface, or past the edge of the face it was paired with in this step) the gap is the
+// signed distance to it, which joins the normal gap continuously with its first derivative. A point
+// more than half a face beside its master face bears nothing until the next step pairs it again.
+//
+// Pairing: at the start of every step (Contribution::pair) each slave point takes the nearest master
+// face within two face sizes whose normal opposes the slave face's and which the point lies in front
+// of, or at most half a face behind (deeper is the far side of a wall, never a contact: a wall must be
+// thicker than half a face to be told from a penetration). A uniform grid over the master faces' boxes
+// finds the candidates (linear in the surfaces' size); no point pairs with its own face or one sharing
+// a node with it (a self-contact's neighbours). The pairing, the parametric start of the projection and the
+// multiplier are the contribution's history (state_size: 5 per slave point), so a cut-back step is
+// retried with the pairing of the converged state. The couplings are the (slave face, master face)
+// pairs: the driver rebuilds the stiffness pattern when they change.
+//
+// Self-contact is two-pass: every point of the surface is a slave, each weighted by one half, so both
+// sides of a fold carry the same pressure. A (slave, master) pair is one-pass unless `two_pass` (then
+// both surfaces are slaves, each weighted by one half). With one pass, a uniform pressure crosses
+// exactly when every slave face lies within one master face (the slave side finer, nested): the
+// master's loads are then the quadrature of its own shape functions (tests/fe/test_surface_contact.cpp).
+//
+// Penalty (default as the rigid law's): ε = 100 G/h per slave face. A slave point deeper than its
+// master face's size is refused with MaterialStatus::penetration (the step is cut back). A point's
+// search reaches two face sizes from the converged state: a step must not move the surfaces towards
+// each other by more than that.
+#include <array>
+#include <string>
+#include <vector>
+
+#include "softhom/fe/contact.hpp"
+#include "softhom/fe/contribution.hpp"
+#include "softhom/fe/mesh.hpp"
+
+namespace softhom::fe {
+
+/// Faces of a contact surface with outward normals (quads of hex8 meshes, 6-node triangles of tet10).
+struct ContactSurface {
+  std::vector<Quad> quads;
+  std::vector<Tri6> tris;
+  std::string name;  ///< the scene's name, for messages
+};
+
+/// The closest point of a master face to a point: parametric coordinates and the geometry there.
+struct FaceProjection {
+  double xi = 0.0, eta = 0.0;
+  /// Directions in (ξ, η) left free by the face's bounds at the closest point (2 inside, 1 on an edge,
+  /// 0 at a corner), as columns.
+  int free = 2;
+  std::array<double, 4> free_basis{1, 0, 0, 1};
+  Vec3 x = Vec3::Zero();   ///< the closest point
+  Vec3 normal = Vec3::UnitZ();
+  double gap = 0.0;        ///< (point − x)·normal
+  double distance = 0.0;   ///< |point − x|
+};
+
+class FaceGrid;
+
+class SurfaceContact final : public Contribution {
+ public:
+  struct Options {
+    double penalty = 0.0;        ///< ε [MPa/mm] > 0 on every face; 0: 100 G/h per slave face
+    double shear_modulus = 0.0;  ///< G of the surfaces' elements, for the default penalty
+    double friction = 0.0;       ///< Coulomb coefficient: only 0 (frictionless) is implemented
+    bool augmented = true;       ///< λ ← p at every converged step (false: pure penalty)
+    bool two_pass = false;       ///< pairs: the master's points against the slave's faces too
+    std::string field = "contact.pairs[0]";  ///< its TOML path, for messages
+    std::string label = "pair";  ///< its outputs: response.csv columns <label>_..., field <label>.h5
+  };
+  /// A pair: the slave surface's points against the master surface's faces.
+  SurfaceContact(const Mesh& mesh, ContactSurface slave, ContactSurface master, Options options);
+  /// Self-contact of one surface (two-pass).
+  SurfaceContact(const Mesh& mesh, ContactSurface surface, Options options);
+
+  Kind kind() const override { return Kind::interface; }
+  std::string name() const override { return options_.field; }
+  /// Refuses empty surfaces, nodes out of range, bad penalties, friction, and surfaces that overlap at
+  /// t = 0 (naming the deepest point).
+  void validate(const Mesh& mesh) const override;
+  bool couplings_change() const override { return true; }
+  void pair(const Mesh& mesh, const Iterate& converged, Couplings& couplings) const override;
+  int state_size() const override { return kStateSize * int(points_.size()); }
+  void init_state(double* state) const override;
+  MaterialStatus assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const override;
+  /// Probes <label>_normal_force [N], _tangential_force [N], _area [mm^2], _active_points [1],
+  /// _max_penetration [mm]; the field <label> on the slave faces: contact_pressure (Cauchy), gap.
+  void report(const Mesh& mesh, const Iterate& it, ContributionReport& out) const override;
+
+  /// Resultants at an iterate whose state_old holds the pairing.
+  ContactTotals totals(const Mesh& mesh, const Iterate& it) const;
+  /// Per slave face (the faces of faces(), slave ones only): the mean Cauchy contact pressure over its
+  /// points and the least gap (+inf where unpaired).
+  void face_values(const Mesh& mesh, const Iterate& it, std::vector<double>& pressure, std::vector<double>& gap) const;
+  int num_points() const { return int(points_.size()); }
+  /// History per point: the multiplier its step solves with, its pressure there (the next step's
+  /// multiplier), master face (−1: none), ξ, η of the projection's start.
+  static constexpr int kStateSize = 5;
+
+  /// One face of either surface.
+  struct Face {
+    int nodes_count = 4;
+    std::array<int, 6> nodes{};
+    double size = 0.0;  ///< h (contact.hpp's face_sizes)
+    bool slave = false;
+    bool quad() const { return nodes_count == 4; }
+  };
+  const std::vector<Face>& faces() const { return faces_; }
+
+ private:
+  /// One slave quadrature point of a pass against the master faces [master_begin, master_end).
+  struct Point {
+    int face = 0;
+    int master_begin = 0, master_end = 0;
+    std::array<double, 6> N{}, dN_xi{}, dN_eta{};
+    double rule_weight = 0.0;
+    double weight = 0.0;  ///< reference area weight × the pass's factor
+    double penalty = 0.0;
+    double factor = 1.0;  ///< the pass's weight (1/2 in two passes)
+  };
+  /// A point at positions x against its master face (history s): the projection and the pressure with
+  /// multiplier λ; `engaged` when its closest point lies on the face (or within half a face beside it).
+  struct Evaluation {
+    int master = -1;
+    bool engaged = false;
+    FaceProjection projection;
+    double gap = 0.0;  ///< along the normal inside the face; ± the distance at an edge or corner
+    double pressure = 0.0;
+  };
+  Evaluation evaluate(const Point& p, const double* s, double multiplier, const std::vector<Vec3>& x) const;
+  /// Current area weight of a point (its rule weight × |x_ξ × x_η| × the pass's factor).
+  double current_weight(const Point& p, const std::vector<Vec3>& x) const;
+  void build(const Mesh& mesh, int surfaces, bool self);
+  void add_points(const Mesh& mesh, int slave_begin, int slave_end, int master_begin, int master_end, double factor);
+  /// The point's pairing at positions x: the nearest admissible master face (−1: none) and its projection.
+  struct Candidate {
+    int face = -1;
+    FaceProjection projection;
+  };
+  Candidate nearest_face(const Point& p, const std::vector<Vec3>& x, const FaceGrid& grid) const;
+  std::vector<Vec3> positions(const Mesh& mesh, const Iterate& it) const;
+  Vec3 point_position(const Point& p, const std::vector<Vec3>& x) const;
+
+  std::vector<Face> faces_;
+  std::vector<Point> points_;
+  std::vector<std::string> surface_names_;
+  int slave_faces_ = 0;  ///< faces_[0, slave_faces_) are the (first) slave surface's
+  Options options_;
+  bool self_ = false;
+};
+
+/// The five probes of a contact's totals (ObstacleContact's columns): <label>_normal_force [N],
+/// _tangential_force [N], _area [mm^2], _active_points [1], _max_penetration [mm].
+void add_contact_probes(const std::string& label, const ContactTotals& totals, ContributionReport& out);
+
+/// The closest point of face (positions x of its nodes) to `point`, from the start (ξ0, η0): Newton in
+/// the parametric coordinates, clamped to the face.
+FaceProjection project_on_face(const SurfaceContact::Face& face, const std::vector<Vec3>& x, const Vec3& point,
+                               double xi0, double eta0);
+
+}  // namespace softhom::fe

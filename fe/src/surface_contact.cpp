@@ -1,0 +1,631 @@
+// Contact between deformable surfaces and self-contact (surface_contact.hpp): the master faces'
+// geometry and closest-point projection, the grid that finds candidate faces, the exact first and
+// second variation of the gap, and the contribution's pairing and assembly.
+#include "softhom/fe/surface_contact.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <unordered_map>
+
+#include <Eigen/Dense>
+
+#include "softhom/materials/errors.hpp"
+
+namespace softhom::fe {
+
+/// Uniform grid over the master faces' boxes, each widened by the search distance: the faces a point
+/// may pair with are those listed in its cell (expected O(1) per point, O(n) to build).
+class FaceGrid {
+ public:
+  FaceGrid(const std::vector<SurfaceContact::Face>& faces, int begin, int end, const std::vector<Vec3>& x, double reach) {
+    double extent = reach;
+    std::vector<std::pair<Vec3, Vec3>> boxes;
+    for (int f = begin; f < end; ++f) {
+      Vec3 lo = x[faces[f].nodes[0]], hi = lo;
+      for (int a = 1; a < faces[f].nodes_count; ++a) {
+        lo = lo.cwiseMin(x[faces[f].nodes[a]]);
+        hi = hi.cwiseMax(x[faces[f].nodes[a]]);
+      }
+      lo.array() -= reach;
+      hi.array() += reach;
+      extent = std::max(extent, (hi - lo).maxCoeff() / 2.0);
+      boxes.emplace_back(lo, hi);
+      origin_ = f == begin ? lo : Vec3(origin_.cwiseMin(lo));
+    }
+    cell_ = extent > 0.0 ? extent : 1.0;
+    for (int f = begin; f < end; ++f) {
+      const auto [lo, hi] = boxes[f - begin];
+      const std::array<long, 3> a = cell_of(lo), b = cell_of(hi);
+      for (long i = a[0]; i <= b[0]; ++i)
+        for (long j = a[1]; j <= b[1]; ++j)
+          for (long k = a[2]; k <= b[2]; ++k) cells_[key({i, j, k})].push_back(f);
+    }
+  }
+  /// The faces whose widened box may hold `point` (ascending).
+  const std::vector<int>& candidates(const Vec3& point) const {
+    static const std::vector<int> none;
+    const auto it = cells_.find(key(cell_of(point)));
+    return it == cells_.end() ? none : it->second;
+  }
+
+ private:
+  std::array<long, 3> cell_of(const Vec3& p) const {
+    std::array<long, 3> c{};
+    for (int i = 0; i < 3; ++i) c[i] = long(std::floor(std::clamp((p[i] - origin_[i]) / cell_, -1.0, 1e6)));
+    return c;
+  }
+  static long long key(const std::array<long, 3>& c) {
+    return ((long long)(c[0] + 1) << 42) ^ ((long long)(c[1] + 1) << 21) ^ (long long)(c[2] + 1);
+  }
+  Vec3 origin_ = Vec3::Zero();
+  double cell_ = 1.0;
+  std::unordered_map<long long, std::vector<int>> cells_;
+};
+
+namespace {
+
+using VecN = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 36, 1>;
+using MatN = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 36, 36>;
+using Mat3N = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, 36>;
+using Mat2N = Eigen::Matrix<double, 2, Eigen::Dynamic, 0, 2, 36>;
+using Face = SurfaceContact::Face;
+
+/// Search reach in face sizes: a point pairs with faces within this many sizes of it.
+constexpr double kReach = 2.0;
+/// Coulomb coefficients above this are refused (contact.cpp's bound for the rigid obstacles).
+constexpr double kMaxFriction = 3.0;
+
+/// Shape functions of a master face at (ξ, η) with their first and second derivatives: the bilinear
+/// quad on [-1, 1]² (mesh.hpp's order), or the 6-node triangle (ξ = L1, η = L2; kTet10Faces' order).
+struct FaceShape {
+  std::array<double, 6> N{}, d1{}, d2{}, d11{}, d12{}, d22{};
+};
+
+FaceShape face_shape(bool quad, double xi, double eta) {
+  FaceShape s;
+  if (quad) {
+    static const double sx[4] = {-1, 1, 1, -1}, sy[4] = {-1, -1, 1, 1};
+    for (int k = 0; k < 4; ++k) {
+      s.N[k] = 0.25 * (1 + sx[k] * xi) * (1 + sy[k] * eta);
+      s.d1[k] = 0.25 * sx[k] * (1 + sy[k] * eta);
+      s.d2[k] = 0.25 * sy[k] * (1 + sx[k] * xi);
+      s.d12[k] = 0.25 * sx[k] * sy[k];
+    }
+    return s;
+  }
+  // Each node's function as a quadratic in the barycentric L = (1 − ξ − η, ξ, η): corners L(2L − 1),
+  // mid-edges 4 L_i L_j; the ξ and η derivatives of L are (−1, 1, 0) and (−1, 0, 1).
+  const double L[3] = {1 - xi - eta, xi, eta};
+  const double dx[3] = {-1, 1, 0}, dy[3] = {-1, 0, 1};
+  for (int c = 0; c < 3; ++c) {
+    s.N[c] = L[c] * (2 * L[c] - 1);
+    s.d1[c] = (4 * L[c] - 1) * dx[c];
+    s.d2[c] = (4 * L[c] - 1) * dy[c];
+    s.d11[c] = 4 * dx[c] * dx[c];
+    s.d12[c] = 4 * dx[c] * dy[c];
+    s.d22[c] = 4 * dy[c] * dy[c];
+  }
+  static const int edge[3][2] = {{0, 1}, {1, 2}, {2, 0}};
+  for (int e = 0; e < 3; ++e) {
+    const int i = edge[e][0], j = edge[e][1];
+    s.N[3 + e] = 4 * L[i] * L[j];
+    s.d1[3 + e] = 4 * (dx[i] * L[j] + L[i] * dx[j]);
+    s.d2[3 + e] = 4 * (dy[i] * L[j] + L[i] * dy[j]);
+    s.d11[3 + e] = 8 * dx[i] * dx[j];
+    s.d12[3 + e] = 4 * (dx[i] * dy[j] + dy[i] * dx[j]);
+    s.d22[3 + e] = 8 * dy[i] * dy[j];
+  }
+  return s;
+}
+
+/// A master face's position, tangents and second derivatives at one parametric point.
+struct FaceGeometry {
+  FaceShape shape;
+  Vec3 x = Vec3::Zero(), a1 = Vec3::Zero(), a2 = Vec3::Zero(), x11 = Vec3::Zero(), x12 = Vec3::Zero(),
+       x22 = Vec3::Zero();
+  Vec3 normal() const { return a1.cross(a2).normalized(); }
+};
+
+FaceGeometry face_geometry(const Face& f, const std::vector<Vec3>& x, double xi, double eta) {
+  FaceGeometry g;
+  g.shape = face_shape(f.quad(), xi, eta);
+  for (int a = 0; a < f.nodes_count; ++a) {
+    const Vec3& p = x[f.nodes[a]];
+    g.x += g.shape.N[a] * p;
+    g.a1 += g.shape.d1[a] * p;
+    g.a2 += g.shape.d2[a] * p;
+    g.x11 += g.shape.d11[a] * p;
+    g.x12 += g.shape.d12[a] * p;
+    g.x22 += g.shape.d22[a] * p;
+  }
+  return g;
+}
+
+/// (ξ, η) clamped to the face's parameter domain.
+void clamp_to_face(bool quad, double& xi, double& eta) {
+  if (quad) {
+    xi = std::clamp(xi, -1.0, 1.0);
+    eta = std::clamp(eta, -1.0, 1.0);
+    return;
+  }
+  if (xi + eta > 1.0) {  // back onto the long edge along (1, 1), then into the corners' range
+    const double s = 0.5 * (xi + eta - 1.0);
+    xi -= s;
+    eta -= s;
+  }
+  xi = std::max(xi, 0.0);
+  eta = std::max(eta, 0.0);
+  if (xi + eta > 1.0) (xi > eta ? xi : eta) = 1.0 - std::min(xi, eta);
+}
+
+/// The directions the face's bounds leave free at (ξ, η): a bound holds the point where it lies on it and
+/// the distance's descent direction leaves the face there (a positive multiplier).
+void free_directions(bool quad, double xi, double eta, const Eigen::Vector2d& descent, FaceProjection& p) {
+  constexpr double on = 1e-12;
+  std::array<Eigen::Vector2d, 3> blocked;  // outward normals of the bounds in force
+  int count = 0;
+  auto block = [&](bool holds, double nx, double ny) {
+    if (holds) blocked[count++] = Eigen::Vector2d(nx, ny);
+  };
+  if (quad) {
+    block(xi >= 1 - on && descent[0] > 0, 1, 0);
+    block(xi <= -1 + on && descent[0] < 0, -1, 0);
+    block(eta >= 1 - on && descent[1] > 0, 0, 1);
+    block(eta <= -1 + on && descent[1] < 0, 0, -1);
+  } else {
+    block(xi <= on && descent[0] < 0, -1, 0);
+    block(eta <= on && descent[1] < 0, 0, -1);
+    block(xi + eta >= 1 - on && descent[0] + descent[1] > 0, 1, 1);
+  }
+  p.free = count == 0 ? 2 : count == 1 ? 1 : 0;
+  p.free_basis = {1, 0, 0, 1};
+  if (count == 1) {
+    const Eigen::Vector2d t = Eigen::Vector2d(-blocked[0][1], blocked[0][0]).normalized();
+    p.free_basis = {t[0], t[1], 0, 0};
+  }
+}
+
+/// The projection's Hessian m − d·x_αβ and gradient −d·a_α at a face geometry.
+void distance_derivatives(const FaceGeometry& g, const Vec3& d, Eigen::Matrix2d& A, Eigen::Vector2d& grad) {
+  A << g.a1.dot(g.a1) - d.dot(g.x11), g.a1.dot(g.a2) - d.dot(g.x12), g.a1.dot(g.a2) - d.dot(g.x12),
+      g.a2.dot(g.a2) - d.dot(g.x22);
+  grad << -d.dot(g.a1), -d.dot(g.a2);
+}
+
+std::string point_text(const Vec3& x) {
+  std::ostringstream s;
+  s << "(" << format_number(x[0]) << ", " << format_number(x[1]) << ", " << format_number(x[2]) << ")";
+  return s.str();
+}
+
+bool shares_node(const Face& a, const Face& b) {
+  for (int i = 0; i < a.nodes_count; ++i)
+    for (int j = 0; j < b.nodes_count; ++j)
+      if (a.nodes[i] == b.nodes[j]) return true;
+  return false;
+}
+
+/// ∂g/∂u and ∂²g/∂u² of one slave point against its master face (surface_contact.hpp): dofs are the
+/// slave face's nodes, then the master face's. D, B_α map nodal increments to Δ(x_s − x_m) and Δa_α at
+/// fixed (ξ, η); Ξ = ∂ξ/∂u from the stationarity of the distance; T_α the total Δa_α, Nn = ∂n/∂u.
+struct GapVariation {
+  VecN G;
+  MatN H;
+};
+
+GapVariation gap_variation(const std::array<double, 6>& Ns, int ns, const FaceGeometry& g, int nm,
+                           const FaceProjection& proj, const Vec3& d, bool hessian) {
+  const int n = 3 * (ns + nm);
+  const Mat3 I = Mat3::Identity();
+  Mat3N D = Mat3N::Zero(3, n), B1 = Mat3N::Zero(3, n), B2 = Mat3N::Zero(3, n);
+  for (int b = 0; b < ns; ++b) D.block<3, 3>(0, 3 * b) = Ns[b] * I;
+  for (int a = 0; a < nm; ++a) {
+    D.block<3, 3>(0, 3 * (ns + a)) = -g.shape.N[a] * I;
+    B1.block<3, 3>(0, 3 * (ns + a)) = g.shape.d1[a] * I;
+    B2.block<3, 3>(0, 3 * (ns + a)) = g.shape.d2[a] * I;
+  }
+  Eigen::Matrix2d A, m;
+  Eigen::Vector2d grad;
+  distance_derivatives(g, d, A, grad);
+  m << g.a1.dot(g.a1), g.a1.dot(g.a2), g.a1.dot(g.a2), g.a2.dot(g.a2);
+  Mat2N rhs(2, n);
+  rhs.row(0) = g.a1.transpose() * D + d.transpose() * B1;
+  rhs.row(1) = g.a2.transpose() * D + d.transpose() * B2;
+  Mat2N Xi = Mat2N::Zero(2, n);
+  if (proj.free == 2) {
+    Xi = A.inverse() * rhs;
+  } else if (proj.free == 1) {
+    const Eigen::Vector2d t(proj.free_basis[0], proj.free_basis[1]);
+    Xi = t * ((t.transpose() * rhs) / (t.dot(A * t)));
+  }
+  GapVariation v;
+  const double r = d.norm();
+  if (proj.free < 2 && r > 0.0) {
+    // Held by an edge or a corner: the gap is the signed distance ±|d| (equal to d·n where the closest
+    // point leaves the face's inside, so the gap and ∂g are continuous there), whose variation is
+    // d̂·Δ(x_s − x_m) (d ⊥ the free direction) and whose Hessian follows from Δd̂ = (I − d̂d̂ᵀ) Δd / |d|.
+    const double sign = d.dot(proj.normal) < 0.0 ? -1.0 : 1.0;
+    const Vec3 dh = d / r;
+    v.G = sign * (D.transpose() * dh);
+    if (hessian) {
+      const Mat3N Dd = D - g.a1 * Xi.row(0) - g.a2 * Xi.row(1);  // Δd with the closest point moving
+      v.H = sign * (D.transpose() * ((I - dh * dh.transpose()) * Dd) / r - (B1.transpose() * dh) * Xi.row(0) -
+                    (B2.transpose() * dh) * Xi.row(1));
+    }
+    return v;
+  }
+  const Mat3N T1 = B1 + g.x11 * Xi.row(0) + g.x12 * Xi.row(1);
+  const Mat3N T2 = B2 + g.x12 * Xi.row(0) + g.x22 * Xi.row(1);
+  const Eigen::Matrix2d minv = m.inverse();
+  const Vec3 c1 = minv(0, 0) * g.a1 + minv(0, 1) * g.a2, c2 = minv(1, 0) * g.a1 + minv(1, 1) * g.a2;
+  const Vec3& nrm = proj.normal;
+  const Mat3N Nn = -(c1 * (nrm.transpose() * T1) + c2 * (nrm.transpose() * T2));
+  v.G = D.transpose() * nrm;  // (+ Nnᵀ d, which vanishes: d = g n and Nn ⊥ n)
+  if (hessian)
+    v.H = D.transpose() * Nn - (B1.transpose() * nrm) * Xi.row(0) - (B2.transpose() * nrm) * Xi.row(1);
+  return v;
+}
+
+}  // namespace
+
+FaceProjection project_on_face(const Face& face, const std::vector<Vec3>& x, const Vec3& point, double xi0, double eta0) {
+  // Newton on the bounds in force (active set): a bound holds the point where the distance decreases
+  // out of the face (its multiplier is positive); the step then moves along the free directions alone,
+  // so the iteration ends at the constrained minimum, not where a clamped full step stalls.
+  const bool quad = face.quad();
+  double xi = xi0, eta = eta0;
+  clamp_to_face(quad, xi, eta);
+  FaceProjection p;
+  for (int iter = 0; iter < 40; ++iter) {
+    const FaceGeometry g = face_geometry(face, x, xi, eta);
+    Eigen::Matrix2d A;
+    Eigen::Vector2d grad;
+    distance_derivatives(g, point - g.x, A, grad);
+    free_directions(quad, xi, eta, -grad, p);
+    Eigen::Vector2d step = Eigen::Vector2d::Zero();
+    if (p.free == 2) {
+      step = A(0, 0) > 0 && A.determinant() > 0 ? Eigen::Vector2d(-A.ldlt().solve(grad))
+                                                : Eigen::Vector2d(-grad[0] / std::max(g.a1.squaredNorm(), 1e-300),
+                                                                  -grad[1] / std::max(g.a2.squaredNorm(), 1e-300));
+    } else if (p.free == 1) {
+      const Eigen::Vector2d t(p.free_basis[0], p.free_basis[1]);
+      const double curvature = t.dot(A * t), slope = t.dot(grad);
+      step = -(slope / (curvature > 0 ? curvature : std::max((g.a1 * t[0] + g.a2 * t[1]).squaredNorm(), 1e-300))) * t;
+    }
+    if (!step.allFinite()) step.setZero();
+    const double xi_old = xi, eta_old = eta;
+    xi += step[0];
+    eta += step[1];
+    clamp_to_face(quad, xi, eta);
+    if (std::abs(xi - xi_old) + std::abs(eta - eta_old) < 1e-15) break;
+  }
+  const FaceGeometry g = face_geometry(face, x, xi, eta);
+  Eigen::Matrix2d A;
+  Eigen::Vector2d grad;
+  distance_derivatives(g, point - g.x, A, grad);
+  free_directions(quad, xi, eta, -grad, p);
+  p.xi = xi;
+  p.eta = eta;
+  p.x = g.x;
+  p.normal = g.normal();
+  p.gap = (point - g.x).dot(p.normal);
+  p.distance = (point - g.x).norm();
+  return p;
+}
+
+SurfaceContact::SurfaceContact(const Mesh& mesh, ContactSurface slave, ContactSurface master, Options options)
+    : options_(std::move(options)) {
+  surface_names_ = {slave.name, master.name};
+  for (const ContactSurface* s : {&slave, &master}) {
+    const bool is_slave = s == &slave;
+    for (const Quad& q : s->quads) faces_.push_back({4, {q[0], q[1], q[2], q[3], 0, 0}, 0.0, is_slave});
+    for (const Tri6& t : s->tris) faces_.push_back({6, {t[0], t[1], t[2], t[3], t[4], t[5]}, 0.0, is_slave});
+  }
+  const int nslave = int(slave.quads.size() + slave.tris.size());
+  slave_faces_ = nslave;
+  if (options_.two_pass)
+    for (Face& f : faces_) f.slave = true;
+  build(mesh, nslave, false);
+}
+
+SurfaceContact::SurfaceContact(const Mesh& mesh, ContactSurface surface, Options options) : options_(std::move(options)) {
+  surface_names_ = {surface.name};
+  self_ = true;
+  for (const Quad& q : surface.quads) faces_.push_back({4, {q[0], q[1], q[2], q[3], 0, 0}, 0.0, true});
+  for (const Tri6& t : surface.tris) faces_.push_back({6, {t[0], t[1], t[2], t[3], t[4], t[5]}, 0.0, true});
+  slave_faces_ = int(faces_.size());
+  build(mesh, int(faces_.size()), true);
+}
+
+void SurfaceContact::build(const Mesh& mesh, int nslave, bool self) {
+  const int nfaces = int(faces_.size());
+  // validate() refuses node ids out of range; until then the geometry is left out (no points).
+  for (const Face& f : faces_)
+    for (int a = 0; a < f.nodes_count; ++a)
+      if (f.nodes[a] < 0 || f.nodes[a] >= mesh.num_nodes()) return;
+  std::vector<Quad> quads;
+  std::vector<Tri6> tris;
+  for (const Face& f : faces_) {
+    if (f.quad()) quads.push_back({f.nodes[0], f.nodes[1], f.nodes[2], f.nodes[3]});
+    else tris.push_back({f.nodes[0], f.nodes[1], f.nodes[2], f.nodes[3], f.nodes[4], f.nodes[5]});
+  }
+  const std::vector<double> h = face_sizes(mesh, quads, tris);  // quads first, then triangles
+  for (int f = 0, q = 0, t = 0; f < nfaces; ++f) faces_[f].size = faces_[f].quad() ? h[q++] : h[quads.size() + t++];
+  if (self) add_points(mesh, 0, nfaces, 0, nfaces, 0.5);
+  else if (!options_.two_pass) add_points(mesh, 0, nslave, nslave, nfaces, 1.0);
+  else {
+    add_points(mesh, 0, nslave, nslave, nfaces, 0.5);
+    add_points(mesh, nslave, nfaces, 0, nslave, 0.5);
+  }
+}
+
+void SurfaceContact::add_points(const Mesh& mesh, int slave_begin, int slave_end, int master_begin, int master_end,
+                                double factor) {
+  static const std::vector<ObstacleContact::Point> quad_rule = contact_rule_points(true);
+  static const std::vector<ObstacleContact::Point> tri_rule = contact_rule_points(false);
+  for (int f = slave_begin; f < slave_end; ++f) {
+    const Face& face = faces_[f];
+    for (const ObstacleContact::Point& r : face.quad() ? quad_rule : tri_rule) {
+      Point p;
+      p.face = f;
+      p.master_begin = master_begin;
+      p.master_end = master_end;
+      p.N = r.N;
+      p.dN_xi = r.dN_xi;
+      p.dN_eta = r.dN_eta;
+      p.rule_weight = r.rule_weight;
+      Vec3 x_xi = Vec3::Zero(), x_eta = Vec3::Zero();
+      for (int a = 0; a < face.nodes_count; ++a) {
+        x_xi += r.dN_xi[a] * mesh.nodes[face.nodes[a]];
+        x_eta += r.dN_eta[a] * mesh.nodes[face.nodes[a]];
+      }
+      p.factor = factor;
+      p.weight = factor * r.rule_weight * x_xi.cross(x_eta).norm();
+      p.penalty = options_.penalty != 0.0 ? options_.penalty : default_contact_penalty(options_.shear_modulus, face.size);
+      points_.push_back(p);
+    }
+  }
+}
+
+void SurfaceContact::init_state(double* state) const {
+  for (std::size_t k = 0; k < points_.size(); ++k) {
+    double* s = state + kStateSize * k;
+    s[0] = s[1] = 0.0;
+    s[2] = -1.0;
+    s[3] = s[4] = 0.0;
+  }
+}
+
+std::vector<Vec3> SurfaceContact::positions(const Mesh& mesh, const Iterate& it) const {
+  std::vector<Vec3> x(mesh.nodes);
+  if (it.u)
+    for (std::size_t n = 0; n < x.size(); ++n) x[n] += Vec3((*it.u)[3 * n], (*it.u)[3 * n + 1], (*it.u)[3 * n + 2]);
+  return x;
+}
+
+Vec3 SurfaceContact::point_position(const Point& p, const std::vector<Vec3>& x) const {
+  const Face& f = faces_[p.face];
+  Vec3 xs = Vec3::Zero();
+  for (int a = 0; a < f.nodes_count; ++a) xs += p.N[a] * x[f.nodes[a]];
+  return xs;
+}
+
+SurfaceContact::Candidate SurfaceContact::nearest_face(const Point& p, const std::vector<Vec3>& x,
+                                                       const FaceGrid& grid) const {
+  const Face& own = faces_[p.face];
+  const Vec3 xs = point_position(p, x);
+  Vec3 x_xi = Vec3::Zero(), x_eta = Vec3::Zero();
+  for (int a = 0; a < own.nodes_count; ++a) {
+    x_xi += p.dN_xi[a] * x[own.nodes[a]];
+    x_eta += p.dN_eta[a] * x[own.nodes[a]];
+  }
+  const Vec3 n_slave = x_xi.cross(x_eta).normalized();
+  Candidate best;
+  double best_distance = std::numeric_limits<double>::infinity();
+  for (int f : grid.candidates(xs)) {
+    if (f < p.master_begin || f >= p.master_end || f == p.face || shares_node(own, faces_[f])) continue;
+    const Face& face = faces_[f];
+    const FaceProjection proj = project_on_face(face, x, xs, face.quad() ? 0.0 : 1.0 / 3, face.quad() ? 0.0 : 1.0 / 3);
+    // Admissible: facing it (normals opposed), within reach, and not behind the face by more than half
+    // its size: a converged state penetrates by (p/G) h/100, so a point deeper than that is the far side
+    // of a wall (a plate's two faces), not a contact.
+    if (!(proj.normal.dot(n_slave) < 0.0)) continue;
+    if (proj.distance > kReach * std::max(face.size, own.size) || proj.gap < -0.5 * face.size) continue;
+    if (proj.distance < best_distance) {
+      best_distance = proj.distance;
+      best.face = f;
+      best.projection = proj;
+    }
+  }
+  return best;
+}
+
+void SurfaceContact::pair(const Mesh& mesh, const Iterate& converged, Couplings& couplings) const {
+  if (!converged.state_new || points_.empty()) return;
+  const std::vector<Vec3> x = positions(mesh, converged);
+  double reach = 0.0;
+  for (const Face& f : faces_) reach = std::max(reach, kReach * f.size);
+  // One grid per master range (a pair's master surface; a self-contact's or a two-pass pair's whole
+  // list, the range test in nearest_face keeping each pass to its own master faces).
+  const FaceGrid grid(faces_, 0, int(faces_.size()), x, reach);
+  std::vector<std::pair<int, int>> pairs;
+  for (std::size_t k = 0; k < points_.size(); ++k) {
+    double* s = converged.state_new + kStateSize * k;
+    const Candidate c = nearest_face(points_[k], x, grid);
+    s[2] = c.face;
+    s[3] = c.projection.xi;
+    s[4] = c.projection.eta;
+    if (c.face < 0) {
+      s[0] = s[1] = 0.0;  // out of reach: no multiplier to carry
+      continue;
+    }
+    pairs.emplace_back(points_[k].face, c.face);
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  std::array<int, 12> group;
+  for (const auto& [fs, fm] : pairs) {
+    const Face &a = faces_[fs], &b = faces_[fm];
+    std::copy(a.nodes.begin(), a.nodes.begin() + a.nodes_count, group.begin());
+    std::copy(b.nodes.begin(), b.nodes.begin() + b.nodes_count, group.begin() + a.nodes_count);
+    couplings.add(group.data(), a.nodes_count + b.nodes_count);
+  }
+}
+
+}  // namespace softhom::fe
+
+namespace softhom::fe {
+
+SurfaceContact::Evaluation SurfaceContact::evaluate(const Point& p, const double* s, double multiplier,
+                                                    const std::vector<Vec3>& x) const {
+  Evaluation e;
+  e.master = int(s[2]);
+  if (e.master < 0) return e;
+  const Face& fm = faces_[e.master];
+  e.projection = project_on_face(fm, x, point_position(p, x), s[3], s[4]);
+  // A point held at an edge of its face farther aside than half the face has slid off it within the
+  // step: it bears nothing until the next step pairs it again.
+  const FaceProjection& q = e.projection;
+  const double aside = std::sqrt(std::max(0.0, q.distance * q.distance - q.gap * q.gap));
+  e.engaged = q.free == 2 || aside <= 0.5 * fm.size;
+  // Inside the face the gap along its normal; at an edge or corner the signed distance (gap_variation).
+  e.gap = q.free == 2 ? q.gap : (q.gap < 0.0 ? -q.distance : q.distance);
+  if (e.engaged) e.pressure = std::max(0.0, multiplier - p.penalty * e.gap);
+  return e;
+}
+
+double SurfaceContact::current_weight(const Point& p, const std::vector<Vec3>& x) const {
+  const Face& f = faces_[p.face];
+  Vec3 x_xi = Vec3::Zero(), x_eta = Vec3::Zero();
+  for (int a = 0; a < f.nodes_count; ++a) {
+    x_xi += p.dN_xi[a] * x[f.nodes[a]];
+    x_eta += p.dN_eta[a] * x[f.nodes[a]];
+  }
+  return p.factor * p.rule_weight * x_xi.cross(x_eta).norm();
+}
+
+void SurfaceContact::validate(const Mesh& mesh) const {
+  const std::string& f = options_.field;
+  const int nfaces = int(faces_.size());
+  const std::string slave_key = f + (self_ ? ".self" : ".slave"), master_key = f + ".master";
+  if (slave_faces_ == 0) throw InputError(slave_key, "\"" + surface_names_[0] + "\"", "the surface has no faces");
+  if (!self_ && nfaces == slave_faces_)
+    throw InputError(master_key, "\"" + surface_names_[1] + "\"", "the surface has no faces");
+  for (int k = 0; k < nfaces; ++k)
+    for (int a = 0; a < faces_[k].nodes_count; ++a)
+      if (faces_[k].nodes[a] < 0 || faces_[k].nodes[a] >= mesh.num_nodes())
+        throw InputError(k < slave_faces_ ? slave_key : master_key, std::to_string(faces_[k].nodes[a]), "node id out of range");
+  for (const Point& p : points_)
+    if (!(p.penalty > 0.0 && std::isfinite(p.penalty)))
+      throw InputError(f + ".penalty", format_number(p.penalty),
+                       "must be positive (or automatic, from a positive shear modulus and face size)");
+  const double mu = options_.friction;
+  if (!(mu >= 0.0 && mu <= kMaxFriction))
+    throw InputError(f + ".friction", format_number(mu), "Coulomb coefficient must lie in [0, 3]");
+  if (mu > 0.0)
+    throw InputError(f + ".friction", format_number(mu), "friction between deformable surfaces is not implemented: give 0");
+  // Surfaces that overlap in the reference configuration have no admissible start: refuse them, naming
+  // the deepest point (touching within round-off of a face size is fine).
+  std::vector<double> state(static_cast<std::size_t>(state_size()));
+  init_state(state.data());
+  const std::vector<double> u(mesh.num_dofs(), 0.0);
+  Iterate at_rest{0.0, 0.0, 0.0, &u, 0.0};
+  at_rest.state_new = state.data();
+  at_rest.state_old = state.data();
+  Couplings unused;
+  pair(mesh, at_rest, unused);
+  double deepest = 0.0;
+  Vec3 where = Vec3::Zero();
+  for (std::size_t k = 0; k < points_.size(); ++k) {
+    const Evaluation e = evaluate(points_[k], state.data() + kStateSize * k, 0.0, mesh.nodes);
+    if (e.engaged && -e.gap > 1e-6 * faces_[e.master].size && -e.gap > deepest) {
+      deepest = -e.gap;
+      where = point_position(points_[k], mesh.nodes);
+    }
+  }
+  if (deepest > 0.0)
+    throw InputError(f, self_ ? surface_names_[0] : surface_names_[0] + ", " + surface_names_[1],
+                     "the surfaces overlap at the start: the slave point " + point_text(where) + " lies " +
+                         format_number(deepest) + " mm inside a master face (separate the bodies)");
+}
+
+MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const {
+  if (!it.state_old) return MaterialStatus::ok;  // no history, no pairing
+  const std::vector<Vec3> x = positions(mesh, it);
+  std::array<int, 36> dofs;
+  for (std::size_t k = 0; k < points_.size(); ++k) {
+    const Point& p = points_[k];
+    const double* so = it.state_old + kStateSize * k;
+    const double lambda = options_.augmented ? so[1] : 0.0;  // the last converged pressure
+    double* sn = it.state_new ? it.state_new + kStateSize * k : nullptr;
+    if (sn) {
+      std::copy(so, so + kStateSize, sn);
+      sn[0] = lambda;
+      sn[1] = 0.0;
+    }
+    const Evaluation e = evaluate(p, so, lambda, x);
+    if (!e.engaged) continue;
+    const Face &fs = faces_[p.face], &fm = faces_[e.master];
+    if (-e.gap > fm.size) return MaterialStatus::penetration;
+    if (!(e.pressure > 0.0)) continue;
+    if (sn) sn[1] = e.pressure;
+    const FaceGeometry g = face_geometry(fm, x, e.projection.xi, e.projection.eta);
+    const GapVariation v =
+        gap_variation(p.N, fs.nodes_count, g, fm.nodes_count, e.projection, point_position(p, x) - g.x, sink.tangent());
+    const int n = 3 * (fs.nodes_count + fm.nodes_count);
+    for (int a = 0; a < fs.nodes_count + fm.nodes_count; ++a) {
+      const int node = a < fs.nodes_count ? fs.nodes[a] : fm.nodes[a - fs.nodes_count];
+      for (int i = 0; i < 3; ++i) dofs[3 * a + i] = 3 * node + i;
+    }
+    const VecN r = -p.weight * e.pressure * v.G;
+    sink.add_residual(n, dofs.data(), r.data());
+    if (!sink.tangent()) continue;
+    const MatN K = p.weight * (p.penalty * v.G * v.G.transpose() - e.pressure * v.H);
+    sink.add_tangent(n, dofs.data(), n, dofs.data(), K.data());
+  }
+  return MaterialStatus::ok;
+}
+
+ContactTotals SurfaceContact::totals(const Mesh& mesh, const Iterate& it) const {
+  ContactTotals t;
+  if (!it.state_old) return t;
+  const std::vector<Vec3> x = positions(mesh, it);
+  for (std::size_t k = 0; k < points_.size(); ++k) {
+    const double* s = it.state_old + kStateSize * k;
+    const Evaluation e = evaluate(points_[k], s, options_.augmented ? s[0] : 0.0, x);
+    if (!e.engaged) continue;
+    t.max_penetration = std::max(t.max_penetration, -e.gap);
+    if (!(e.pressure > 0.0)) continue;
+    const double w = points_[k].weight;
+    t.normal_force += w * e.pressure;
+    t.force += w * e.pressure * e.projection.normal;
+    t.area += current_weight(points_[k], x);
+    ++t.active_points;
+  }
+  return t;
+}
+
+void SurfaceContact::face_values(const Mesh& mesh, const Iterate& it, std::vector<double>& pressure,
+                                 std::vector<double>& gap) const {
+  pressure.assign(faces_.size(), 0.0);
+  gap.assign(faces_.size(), std::numeric_limits<double>::infinity());
+  if (!it.state_old) return;
+  const std::vector<Vec3> x = positions(mesh, it);
+  std::vector<int> count(faces_.size(), 0);
+  for (std::size_t k = 0; k < points_.size(); ++k) {
+    const Point& p = points_[k];
+    const double* s = it.state_old + kStateSize * k;
+    const Evaluation e = evaluate(p, s, options_.augmented ? s[0] : 0.0, x);
+    ++count[p.face];
+    if (!e.engaged) continue;
+    const double da = current_weight(p, x);
+    if (e.pressure > 0.0 && da > 0.0) pressure[p.face] += e.pressure * p.weight / da;  // Cauchy: per current area
+    gap[p.face] = std::min(gap[p.face], e.gap);
+  }
+  for (std::size_t f = 0; f < faces_.size(); ++f)
+    if (count[f]) pressure[f] /= count[f];
+}
+
+}  // namespace softhom::fe

@@ -1,0 +1,77 @@
+// The [[contact.pairs]] (two surfaces of the structure) and [[contact.self]] (one surface against itself)
+// tables of macro scenes, declared once here.
+#include "surface_contact_keys.hpp"
+
+#include <string>
+
+namespace softhom::macro {
+namespace {
+
+const char* const kPenaltyDoc = "penalty; 0: 100 G/h per slave face, G of the softer surface's elements (no tuning needed)";
+const char* const kFrictionDoc = "Coulomb coefficient μ: only 0 (frictionless) is implemented between deformable surfaces";
+const char* const kAugmentedDoc = "augment the contact pressure once per converged step (false: pure penalty)";
+
+const keys::KeyTable<SurfacePairSpec>& pair_table() {
+  using S = SurfacePairSpec;
+  static const keys::KeyTable<S> t = [] {
+    keys::KeyTable<S> k("contact.pairs[]",
+                        "Contact between two deformable surfaces of the structure (fe/surface_contact.hpp): the slave "
+                        "surface's quadrature points against the master's faces, paired at every step, frictionless "
+                        "penalty with one augmentation per step. A uniform pressure crosses exactly where the slave "
+                        "faces are the finer and nested in the master's.");
+    k.text("slave", &S::slave, "surface whose quadrature points touch: a built-in name or a Gmsh physical surface")
+        .required()
+        .text("master", &S::master, "surface whose faces they touch")
+        .required()
+        .number("penalty", &S::penalty, keys::at_least(0), "MPa/mm", kPenaltyDoc)
+        .number("friction", &S::friction, keys::closed_range(0, 3), "-", kFrictionDoc)
+        .flag("augmented", &S::augmented, kAugmentedDoc)
+        .flag("two_pass", &S::two_pass, "also the master's points against the slave's faces, each pass weighted 1/2");
+    return k;
+  }();
+  return t;
+}
+
+const keys::KeyTable<SurfacePairSpec>& self_table() {
+  using S = SurfacePairSpec;
+  static const keys::KeyTable<S> t = [] {
+    keys::KeyTable<S> k("contact.self[]",
+                        "Self-contact of one surface (a wall folding onto itself, fingers touching): every point "
+                        "against the surface's faces that face it, never its own face or one sharing a node with it; "
+                        "two-pass, each point weighted 1/2.");
+    k.text("surface", &S::slave, "the surface: a built-in name or a Gmsh physical surface (several bodies may share it)")
+        .required()
+        .number("penalty", &S::penalty, keys::at_least(0), "MPa/mm", kPenaltyDoc)
+        .number("friction", &S::friction, keys::closed_range(0, 3), "-", kFrictionDoc)
+        .flag("augmented", &S::augmented, kAugmentedDoc);
+    return k;
+  }();
+  return t;
+}
+
+void read_list(const toml::table& contact, const char* key, bool self, std::vector<SurfacePairSpec>& out) {
+  const toml::node* list = contact.get(key);
+  if (!list) return;
+  const std::string name = std::string("contact.") + key;
+  const toml::array& arr = keys::read_array(*list, name);
+  for (std::size_t i = 0; i < arr.size(); ++i) {
+    SurfacePairSpec s;
+    s.self = self;
+    s.field = keys::index_field(name, i);
+    (self ? self_table() : pair_table()).read(keys::read_table(*arr.get(i), s.field), s.field, s);
+    out.push_back(std::move(s));
+  }
+}
+
+}  // namespace
+
+std::vector<SurfacePairSpec> read_surface_contacts(const toml::table& contact) {
+  std::vector<SurfacePairSpec> out;
+  read_list(contact, "pairs", false, out);
+  read_list(contact, "self", true, out);
+  return out;
+}
+
+std::vector<keys::TableDoc> surface_contact_tables() { return {pair_table().describe(), self_table().describe()}; }
+
+}  // namespace softhom::macro
