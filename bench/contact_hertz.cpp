@@ -36,9 +36,7 @@ int main(int argc, char** argv) {
         std::printf("level %d: stopped at t = %g\n", level, t);
         return 1;
       }
-      fe::Iterate it;
-      it.t = t;
-      it.u = &sim.displacement();
+      const fe::Iterate it = sim.converged_iterate(*p.contact);
       const fe::ContactTotals tot = p.contact->totals(p.model.mesh, it);
       if (s <= steps / 4) continue;  // the fit on d ≥ d_max/4 (a contact patch of at least 2 cells)
       force.push_back(4.0 * tot.normal_force);

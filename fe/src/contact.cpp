@@ -15,6 +15,8 @@ namespace {
 /// Coulomb coefficients above this are refused as a unit or typing slip: measured rubber-on-glass
 /// coefficients reach about 3 (Roberts 1977), so the bound leaves room for every real pairing.
 constexpr double kMaxFriction = 3.0;
+/// Iterates whose penalty pressure exceeds this multiple of the shear modulus are refused (penetration_limit).
+constexpr double kMaxPressureOverShear = 10.0;
 
 Mat3 outer(const Vec3& a, const Vec3& b) { return a * b.transpose(); }
 
@@ -70,6 +72,17 @@ Vec3 area_density(const ObstacleContact::Point& p, const int* nodes, int nf, con
     x_eta += p.dN_eta[a] * x;
   }
   return x_xi.cross(x_eta);
+}
+
+/// Point k's two states (solved with, next) into a contribution's state array.
+void write_state(double* state, int k, const ObstacleContact::PointState& solved,
+                 const ObstacleContact::PointState& next) {
+  double* s = state + 2 * std::size_t(k) * ObstacleContact::kPointStateSize;
+  for (const auto* p : {&solved, &next}) {
+    for (int i = 0; i < 3; ++i) s[i] = p->stick[i];
+    s[3] = p->multiplier;
+    s += ObstacleContact::kPointStateSize;
+  }
 }
 
 std::string point_text(const Vec3& x) {
@@ -204,7 +217,7 @@ ObstacleContact::ObstacleContact(const Mesh& mesh, std::vector<Quad> quads, std:
     }
   }
   // Reference weights, and the first stick points: the closest points at t = 0.
-  history_.resize(points_.size());
+  initial_.resize(points_.size());
   if (!nodes_ok) return;
   for (std::size_t k = 0; k < points_.size(); ++k) {
     Point& p = points_[k];
@@ -213,16 +226,41 @@ ObstacleContact::ObstacleContact(const Mesh& mesh, std::vector<Quad> quads, std:
     p.weight = p.rule_weight * area_density(p, nodes, nf, [&](int n) { return mesh.nodes[n]; }).norm();
     Vec3 X = Vec3::Zero();
     for (int a = 0; a < nf; ++a) X += p.N[a] * mesh.nodes[nodes[a]];
-    history_[k].stick = obstacle_gap(obstacle_, X, 0.0).closest - obstacle_.translation(0.0);
+    initial_[k].stick = obstacle_gap(obstacle_, X, 0.0).closest - obstacle_.translation(0.0);
   }
-  solved_with_ = history_;
 }
 
-double ObstacleContact::penetration_limit(int face) const {
+void ObstacleContact::init_state(double* state) const {
+  for (std::size_t k = 0; k < initial_.size(); ++k)
+    for (int set = 0; set < 2; ++set) {
+      double* s = state + (2 * k + set) * kPointStateSize;
+      for (int i = 0; i < 3; ++i) s[i] = initial_[k].stick[i];
+      s[3] = initial_[k].multiplier;
+    }
+}
+
+ObstacleContact::PointState ObstacleContact::read_state(const Iterate& it, int k, int set) const {
+  if (!it.state_old) return initial_[k];
+  const double* s = it.state_old + (2 * std::size_t(k) + set) * kPointStateSize;
+  return PointState{Vec3(s[0], s[1], s[2]), s[3]};
+}
+
+double ObstacleContact::penetration_limit(int face, const Iterate& it) const {
   // Deeper than its face (or half a curved obstacle's radius, past which its normal field folds) is no
-  // state Newton should linearize about.
+  // state Newton should linearize about; nor is a penalty pressure ε (−g) above ten times the surface's
+  // shear modulus (0.1 h under the default penalty) beyond what the obstacle's own motion over the step
+  // pushes in (the step's first iterate, the body where it was): a soft solid carries no such pressure,
+  // and an iterate that reaches it is one whose tangent did not yet see the contact (the step that
+  // first touches a curved obstacle: the whole increment of the step goes into it). Refused, the line
+  // search backtracks to a shallower iterate instead of bouncing off a stiff penalty (the gripper
+  // closing on a sphere: 25 iterations without convergence, then an inverted element, without it).
   const double h = face_size_[face];
-  return obstacle_.shape == RigidObstacle::Shape::plane ? h : std::min(h, 0.5 * obstacle_.radius);
+  double limit = obstacle_.shape == RigidObstacle::Shape::plane ? h : std::min(h, 0.5 * obstacle_.radius);
+  if (options_.shear_modulus > 0.0) {
+    const double moved = (obstacle_.translation(it.t) - obstacle_.translation(it.t - it.dt)).norm();
+    limit = std::min(limit, kMaxPressureOverShear * options_.shear_modulus / face_law_[face].penalty + moved);
+  }
+  return limit;
 }
 
 void ObstacleContact::validate(const Mesh& mesh) const {
@@ -283,13 +321,25 @@ double ObstacleContact::current_weight(const Mesh& mesh, const Iterate& it, cons
          area_density(p, face_node_ids(p.face), face_nodes(p.face), [&](int n) { return it.position(mesh, n); }).norm();
 }
 
-PointTraction ObstacleContact::point_traction(const Mesh& mesh, const Iterate& it, int k, ObstacleGap& g) const {
+PointTraction ObstacleContact::point_traction(const Mesh& mesh, const Iterate& it, int k, const PointState& s,
+                                              ObstacleGap& g) const {
   const Vec3 x = point_position(mesh, it, points_[k]);
   g = obstacle_gap(obstacle_, x, it.t);
-  const PointState& s = state(k, it.t);
   const Vec3 stick = s.stick + obstacle_.translation(it.t);
-  return contact_traction(g, x, stick, options_.augmented ? s.multiplier : 0.0,
-                          face_law_[points_[k].face]);
+  return contact_traction(g, x, stick, options_.augmented ? s.multiplier : 0.0, face_law_[points_[k].face]);
+}
+
+ObstacleContact::PointState ObstacleContact::advanced_state(const Iterate& it, int k, const PointState& s,
+                                                            const PointTraction& pt, const ObstacleGap& g) const {
+  PointState next = s;
+  next.multiplier = options_.augmented ? pt.pressure : 0.0;
+  // A sticking point keeps its stick point; a slipping one moves it so that the trial traction of the
+  // converged state is the returned one (−ε_T P(x − stick) = t_T); a free one takes its closest point.
+  if (pt.active && !pt.slip && options_.law.friction > 0.0) return next;
+  const double eps_t = face_law_[points_[k].face].tangential_penalty;
+  const Vec3 world = pt.slip ? Vec3(g.closest + pt.tangential / eps_t) : g.closest;
+  next.stick = world - obstacle_.translation(it.t);
+  return next;
 }
 
 MaterialStatus ObstacleContact::assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const {
@@ -306,8 +356,10 @@ MaterialStatus ObstacleContact::assemble(const Mesh& mesh, const Iterate& it, As
     std::size_t k = k0;
     for (; k < points_.size() && points_[k].face == face; ++k) {
       ObstacleGap g;
-      const PointTraction pt = point_traction(mesh, it, int(k), g);
-      if (-g.gap > penetration_limit(face)) return MaterialStatus::penetration;
+      const PointState s = solving_state(it, int(k));
+      const PointTraction pt = point_traction(mesh, it, int(k), s, g);
+      if (-g.gap > penetration_limit(face, it)) return MaterialStatus::penetration;
+      if (it.state_new) write_state(it.state_new, int(k), s, advanced_state(it, int(k), s, pt, g));
       if (!pt.active) continue;
       any = true;
       const Point& p = points_[k];
@@ -333,32 +385,12 @@ MaterialStatus ObstacleContact::assemble(const Mesh& mesh, const Iterate& it, As
   return MaterialStatus::ok;
 }
 
-void ObstacleContact::commit(const Mesh& mesh, const Iterate& converged) const {
-  const Vec3 shift = obstacle_.translation(converged.t);
-  std::vector<PointState> next = history_;
-  for (std::size_t k = 0; k < points_.size(); ++k) {
-    ObstacleGap g;
-    const PointTraction pt = point_traction(mesh, converged, int(k), g);
-    PointState& s = next[k];
-    s.multiplier = options_.augmented ? pt.pressure : 0.0;
-    // A sticking point keeps its stick point; a slipping one moves it so that the trial traction of the
-    // converged state is the returned one (−ε_T P(x − stick) = t_T); a free one takes its closest point.
-    if (pt.active && !pt.slip && options_.law.friction > 0.0) continue;
-    const double eps_t = face_law_[points_[k].face].tangential_penalty;
-    const Vec3 world = pt.slip ? Vec3(g.closest + pt.tangential / eps_t) : g.closest;
-    s.stick = world - shift;
-  }
-  solved_with_.swap(history_);
-  history_.swap(next);
-  committed_time_ = converged.t;
-}
-
 ContactTotals ObstacleContact::totals(const Mesh& mesh, const Iterate& it) const {
   ContactTotals t;
   Vec3 tangential = Vec3::Zero();
   for (std::size_t k = 0; k < points_.size(); ++k) {
     ObstacleGap g;
-    const PointTraction pt = point_traction(mesh, it, int(k), g);
+    const PointTraction pt = point_traction(mesh, it, int(k), reported_state(it, int(k)), g);
     t.max_penetration = std::max(t.max_penetration, -g.gap);
     if (!pt.active) continue;
     const double w = points_[k].weight;
@@ -377,7 +409,7 @@ std::vector<Vec3> ObstacleContact::active_positions(const Mesh& mesh, const Iter
   std::vector<Vec3> out;
   for (std::size_t k = 0; k < points_.size(); ++k) {
     ObstacleGap g;
-    if (point_traction(mesh, it, int(k), g).active) out.push_back(point_position(mesh, it, points_[k]));
+    if (point_traction(mesh, it, int(k), reported_state(it, int(k)), g).active) out.push_back(point_position(mesh, it, points_[k]));
   }
   return out;
 }
@@ -390,7 +422,7 @@ void ObstacleContact::face_values(const Mesh& mesh, const Iterate& it, std::vect
   std::vector<int> count(nfaces, 0);
   for (std::size_t k = 0; k < points_.size(); ++k) {
     ObstacleGap g;
-    const PointTraction pt = point_traction(mesh, it, int(k), g);
+    const PointTraction pt = point_traction(mesh, it, int(k), reported_state(it, int(k)), g);
     const Point& p = points_[k];
     const double da = current_weight(mesh, it, p);
     if (pt.active && da > 0.0) pressure[p.face] += pt.pressure * p.weight / da;  // Cauchy: per current area

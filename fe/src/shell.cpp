@@ -218,6 +218,10 @@ ShellDomain::ShellDomain(const Mesh& mesh, ShellSpec spec) : spec_(std::move(spe
   if (!section_) throw InputError("shell.layers", "", "a shell needs a section (its layers)");
   if (spec_.triangles.empty()) throw InputError("shell", "", "no triangles");
   topology_ = shell_topology(spec_.triangles, mesh.num_nodes(), spec_.orient, "shell");
+  for (const auto& [name, tris] : spec_.groups)
+    for (int t : tris)
+      if (t < 0 || t >= int(spec_.triangles.size()))
+        throw InputError("shell", name, "group refers to triangle " + std::to_string(t) + " of " + std::to_string(spec_.triangles.size()));
   std::map<std::pair<int, int>, ShellEdge> edges;
   for (const auto& [nodes, kind] : spec_.edges)
     edges[{std::min(nodes[0], nodes[1]), std::max(nodes[0], nodes[1])}] = kind;
@@ -252,47 +256,79 @@ void ShellDomain::init_state(double* state) const {
   for (std::size_t e = 0; e < patches_.size(); ++e) section_->init_state(state + e * ss);
 }
 
+namespace {
+
+/// One triangle's share of the residual and tangent, its patch dofs compacted to the present ones.
+struct TriangleTerms {
+  int nd = 0;
+  std::array<int, 18> dofs;
+  Eigen::Matrix<double, 18, 1> r;
+  Mat18 K;
+};
+
+}  // namespace
+
 MaterialStatus ShellDomain::assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const {
+  // The triangles' terms are computed in parallel a chunk at a time and added to the sink in triangle
+  // order by one thread (sinks are not thread-safe; the order keeps the sums deterministic). The chunk
+  // bounds the buffer (2.7 kB per triangle) and lets a failed material call stop the loop early.
   const int ss = section_->state_size();
   const bool tangent = sink.tangent();
-  SectionResponse resp;
-  Eigen::Matrix<double, 6, 18> B;
-  std::array<Mat18, 6> H;
-  Vec6v strains;
-  std::array<int, 18> dofs;
-  std::array<int, 18> local;  // patch dof of each present dof
-  Eigen::Matrix<double, 18, 1> r;
-  Eigen::Matrix<double, 18, 18> K, Kc;
-  for (int e = 0; e < int(patches_.size()); ++e) {
-    const ShellPatch& p = patches_[e];
-    std::array<Vec3, 6> x;
-    int nd = 0;
-    for (int s = 0; s < 6; ++s) {
-      if (p.nodes[s] < 0) continue;
-      x[s] = it.position(mesh, p.nodes[s]);
-      for (int i = 0; i < 3; ++i) {
-        dofs[nd] = 3 * p.nodes[s] + i;
-        local[nd++] = 3 * s + i;
+  const int ne = int(patches_.size());
+  constexpr int kChunk = 2048;
+  std::vector<TriangleTerms> terms(std::min(ne, kChunk));
+  std::vector<MaterialStatus> status(terms.size());
+  for (int begin = 0; begin < ne; begin += kChunk) {
+    const int count = std::min(kChunk, ne - begin);
+#pragma omp parallel if (count >= 256)
+    {
+      SectionResponse resp;  // per thread: its points warm-start the next triangle's
+      Eigen::Matrix<double, 6, 18> B;
+      Mat18 G;
+      std::array<int, 18> local;  // patch dof of each present dof
+#pragma omp for schedule(static)
+      for (int k = 0; k < count; ++k) {
+        const int e = begin + k;
+        const ShellPatch& p = patches_[e];
+        TriangleTerms& out = terms[k];
+        std::array<Vec3, 6> x;
+        out.nd = 0;
+        for (int s = 0; s < 6; ++s) {
+          if (p.nodes[s] < 0) continue;
+          x[s] = it.position(mesh, p.nodes[s]);
+          for (int i = 0; i < 3; ++i) {
+            out.dofs[out.nd] = 3 * p.nodes[s] + i;
+            local[out.nd++] = 3 * s + i;
+          }
+        }
+        Vec6v strains;
+        shell_kinematics(p, x, strains, B);
+        const double* so = ss > 0 && it.state_old ? it.state_old + std::size_t(e) * ss : nullptr;
+        double* sn = ss > 0 && it.state_new ? it.state_new + std::size_t(e) * ss : nullptr;
+        status[k] = section_->evaluate(strains.head<3>(), strains.tail<3>(), so, sn, it.dt, tangent, resp);
+        if (status[k] != MaterialStatus::ok) continue;
+        Vec6v NM;
+        NM << resp.N, resp.M;
+        const Vec18s rp = p.area * (B.transpose() * NM);
+        for (int q = 0; q < out.nd; ++q) out.r[q] = rp[local[q]];
+        if (!tangent) continue;
+        shell_geometric_stiffness(p, x, NM, G);
+        G.noalias() += B.transpose() * resp.tangent * B;
+        for (int b = 0; b < out.nd; ++b)
+          for (int a = 0; a < out.nd; ++a) out.K(a, b) = p.area * G(local[a], local[b]);
       }
     }
-    shell_strains(p, x, strains, &B, tangent ? &H : nullptr);
-    const double* so = ss > 0 && it.state_old ? it.state_old + std::size_t(e) * ss : nullptr;
-    double* sn = ss > 0 && it.state_new ? it.state_new + std::size_t(e) * ss : nullptr;
-    const MaterialStatus st = section_->evaluate(strains.head<3>(), strains.tail<3>(), so, sn, it.dt, tangent, resp);
-    if (st != MaterialStatus::ok) return st;
-    Vec6v NM;
-    NM << resp.N, resp.M;
-    const Vec18s rp = p.area * (B.transpose() * NM);
-    for (int q = 0; q < nd; ++q) r[q] = rp[local[q]];
-    sink.add_residual(nd, dofs.data(), r.data());
-    if (!tangent) continue;
-    K = B.transpose() * resp.tangent * B;
-    for (int k = 0; k < 6; ++k) K += NM[k] * H[k];
-    K *= p.area;
-    for (int b = 0; b < nd; ++b)
-      for (int a = 0; a < nd; ++a) Kc(a, b) = K(local[a], local[b]);
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic> Kd = Kc.topLeftCorner(nd, nd);
-    sink.add_tangent(nd, dofs.data(), nd, dofs.data(), Kd.data());
+    for (int k = 0; k < count; ++k)
+      if (status[k] != MaterialStatus::ok) return status[k];
+    for (int k = 0; k < count; ++k) {
+      TriangleTerms& t = terms[k];
+      sink.add_residual(t.nd, t.dofs.data(), t.r.data());
+      if (!tangent) continue;
+      // Column-major nd × nd: compact the leading block in place (column b starts at b · nd).
+      for (int b = 0; b < t.nd; ++b)
+        for (int a = 0; a < t.nd; ++a) t.K.data()[a + t.nd * b] = t.K(a, b);
+      sink.add_tangent(t.nd, t.dofs.data(), t.nd, t.dofs.data(), t.K.data());
+    }
   }
   return MaterialStatus::ok;
 }

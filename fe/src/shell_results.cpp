@@ -37,6 +37,7 @@ ShellDomain::Results ShellDomain::results(const Mesh& mesh, const std::vector<do
   out.principal_stress.assign(2 * std::size_t(ne), 0.0);
   out.principal_stretch.assign(3 * std::size_t(ne), 1.0);
   out.fiber.assign(3 * std::size_t(ne), 0.0);
+  out.max_stress.assign(ne, 0.0);
   out.max_principal = -std::numeric_limits<double>::infinity();
   std::vector<double> scratch(ss);
   std::vector<Vec3> fibers;  // of the first layer that has fibers
@@ -70,6 +71,7 @@ ShellDomain::Results ShellDomain::results(const Mesh& mesh, const std::vector<do
       const SectionPoint& sp = resp.points[q];
       const Mat3 sigma = shell_cauchy_stress(sp.S, right_stretch(eps + sp.z * kap), sp.lambda3);
       const auto pr = principal(sigma(0, 0), sigma(1, 1), sigma(0, 1));
+      out.max_stress[e] = q == 0 ? pr[0] : std::max(out.max_stress[e], pr[0]);
       if (pr[0] > out.max_principal) {
         out.max_principal = pr[0];
         out.max_element = e;
@@ -114,6 +116,21 @@ void ShellDomain::report(const Mesh& mesh, const Iterate& it, ContributionReport
   const Results r = results(mesh, *it.u, it.state_old);
   out.probes.emplace_back("shell max principal stress [MPa]", r.max_principal);
   out.probes.emplace_back("shell max principal element [-]", double(r.max_element));
+  // The largest in-plane principal stretch of the mid-surface, overall and per group.
+  auto max_over = [](const std::vector<double>& v, int stride, const std::vector<int>* subset, int count) {
+    double m = 0.0;
+    for (int k = 0; k < (subset ? int(subset->size()) : count); ++k)
+      m = std::max(m, v[std::size_t(stride) * (subset ? (*subset)[k] : k)]);
+    return m;
+  };
+  const int ne = int(patches_.size());
+  out.probes.emplace_back("shell max principal stretch [-]", max_over(r.principal_stretch, 3, nullptr, ne));
+  for (const auto& [name, tris] : spec_.groups) {
+    double stress = -std::numeric_limits<double>::infinity();
+    for (int t : tris) stress = std::max(stress, r.max_stress[t]);
+    out.probes.emplace_back("shell " + name + " max principal stress [MPa]", tris.empty() ? 0.0 : stress);
+    out.probes.emplace_back("shell " + name + " max principal stretch [-]", max_over(r.principal_stretch, 3, &tris, ne));
+  }
   ReportField f;
   f.cells.stem = "shell";
   f.cells.type = ReportCells::Type::triangle3;

@@ -664,8 +664,6 @@ StepAttempt Simulation::Impl::try_step(double t_new, double dt) {
     const double rc_last = n.r_prev;
     n.r_prev = rc;
     if (converged) {
-      const Iterate done{t_new, t_new, dt, &n.u, n.p};
-      for (const Contribution* c : contributions_) c->commit(model_.mesh, done);
       commit(n, as, it);
       attempt_counts_.newton_iterations += it;
       return StepAttempt{true, {}};
@@ -887,14 +885,18 @@ std::vector<Vec3> Simulation::current_positions() const { return impl_->current_
 double Simulation::cavity_pressure() const { return impl_->cavity_pressure_; }
 double Simulation::reaction(const std::vector<int>& dofs) const { return impl_->reaction(dofs); }
 ElementFields Simulation::element_fields() const { return impl_->element_fields(); }
+Iterate Simulation::converged_iterate(const Contribution& c) const {
+  Iterate it{impl_->time_, impl_->time_, 0.0, &impl_->u_, impl_->cavity_pressure_};
+  for (std::size_t k = 0; k < impl_->contributions_.size(); ++k)
+    if (impl_->contributions_[k] == &c) {
+      // With the contribution's committed history (read only: state_new stays null).
+      if (const long off = impl_->contribution_state_offset_[k]; off >= 0)
+        it.state_old = impl_->contribution_state_old_.data() + off;
+    }
+  return it;
+}
 void Simulation::report(ContributionReport& out) const {
-  const Iterate it{impl_->time_, impl_->time_, 0.0, &impl_->u_, impl_->cavity_pressure_};
-  for (std::size_t k = 0; k < impl_->contributions_.size(); ++k) {
-    Iterate own = it;  // with the contribution's committed history (read only: state_new stays null)
-    if (const long off = impl_->contribution_state_offset_[k]; off >= 0)
-      own.state_old = impl_->contribution_state_old_.data() + off;
-    impl_->contributions_[k]->report(impl_->model_.mesh, own, out);
-  }
+  for (const Contribution* c : impl_->contributions_) c->report(impl_->model_.mesh, converged_iterate(*c), out);
 }
 RunStats Simulation::stats() const { return impl_->stats(); }
 const StepCounts& Simulation::last_step_counts() const { return impl_->last_step_; }

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <unordered_map>
 
@@ -167,7 +168,8 @@ struct SurfaceElement {
   std::vector<int> nodes;  ///< mesh node indices (3, 4 or 6)
 };
 
-/// A 2- or 3-node line (Gmsh types 1 and 8) of a curve entity: fiber polylines (read_gmsh_line_group).
+/// A 2- or 3-node line (Gmsh types 1 and 8) of a curve entity: fiber polylines (read_gmsh_line_group)
+/// and named shell edges (read_gmsh_surface).
 struct LineElement {
   long entity;
   std::vector<int> nodes;  ///< mesh node indices: the two ends, then the middle
@@ -208,7 +210,6 @@ struct GmshReader {
   std::vector<VolumeElement> volumes;
   std::vector<SurfaceElement> surfaces;
   std::vector<LineElement> lines;
-  bool volumes_required = true;  ///< false: a file of fiber lines only
 
   long int_field(const char* what) { return binary ? long(tk.raw<std::int32_t>(what)) : tk.integer(what); }
   long size_field(const char* what) {
@@ -264,9 +265,6 @@ void GmshReader::read_sections() {
   }
   if (!have_format) tk.fail("", "empty file or no $MeshFormat");
   if (!have_nodes || !have_elements) tk.fail("", "missing $Nodes or $Elements");
-  if (volumes.empty() && volumes_required)
-    tk.fail("", "no volume elements (tetrahedra or hexahedra): mesh the volume (gmsh -3) and make sure its "
-                "physical group is saved");
 }
 
 void GmshReader::read_format() {
@@ -591,10 +589,118 @@ Mesh parse_gmsh(std::istream& in, const std::string& source, bool straighten_inv
   buffer << in.rdbuf();
   GmshReader reader(buffer.str(), source);
   reader.read_sections();
+  if (reader.volumes.empty())
+    reader.tk.fail("", "no volume elements (tetrahedra or hexahedra): mesh the volume (gmsh -3) and make sure its "
+                       "physical group is saved");
   Mesh mesh = volume_mesh(reader, straighten_inverted);
   attach_surfaces(reader, mesh);
   drop_unused_nodes(mesh);
   return mesh;
+}
+
+namespace {
+
+/// The physical groups (of dimension dim) an entity belongs to, by name.
+std::vector<std::string> group_names(const GmshReader& r, int dim, int entity) {
+  std::vector<std::string> out;
+  const auto it = r.entity_physicals[dim].find(entity);
+  if (it != r.entity_physicals[dim].end())
+    for (long phys : it->second) out.push_back(r.physical_name(dim, phys));
+  return out;
+}
+
+/// The triangles of a 3- or 6-node triangle element; a 6-node one (vertices 0, 1, 2, then the mid-edge
+/// nodes of 01, 12, 20) as its four 3-node triangles, in the parent's orientation.
+void append_triangles(const std::vector<int>& n, std::vector<std::array<int, 3>>& out) {
+  if (n.size() == 3) {
+    out.push_back({n[0], n[1], n[2]});
+    return;
+  }
+  out.push_back({n[0], n[3], n[5]});
+  out.push_back({n[3], n[1], n[4]});
+  out.push_back({n[5], n[4], n[2]});
+  out.push_back({n[3], n[4], n[5]});
+}
+
+/// Keeps the nodes the triangles use (renumbered in order of first use) and the curve segments whose
+/// nodes both stay.
+void compact_surface(GmshSurface& s) {
+  std::vector<int> id(s.nodes.size(), -1);
+  std::vector<Vec3> kept;
+  for (auto& t : s.triangles)
+    for (int& n : t) {
+      if (id[n] < 0) {
+        id[n] = int(kept.size());
+        kept.push_back(s.nodes[n]);
+      }
+      n = id[n];
+    }
+  s.nodes = std::move(kept);
+  for (auto it = s.curves.begin(); it != s.curves.end();) {
+    std::vector<std::array<int, 2>> segments;
+    for (const auto& e : it->second)
+      if (id[e[0]] >= 0 && id[e[1]] >= 0) segments.push_back({id[e[0]], id[e[1]]});
+    if (segments.empty()) it = s.curves.erase(it);
+    else (it++)->second = std::move(segments);
+  }
+}
+
+}  // namespace
+
+GmshSurface parse_gmsh_surface(std::istream& in, const std::string& source, const std::vector<std::string>& groups,
+                               const std::string& field) {
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  GmshReader r(buffer.str(), source);
+  r.read_sections();
+  std::set<std::string> available, wanted(groups.begin(), groups.end());
+  for (const auto& [tag, name] : r.physical_names[2]) available.insert(name);
+  for (const auto& [entity, phys] : r.entity_physicals[2])
+    for (long p : phys) available.insert(r.physical_name(2, p));
+  for (std::size_t k = 0; k < groups.size(); ++k)
+    if (!available.count(groups[k])) {
+      std::string names;
+      for (const std::string& a : available) names += (names.empty() ? "" : ", ") + ("\"" + a + "\"");
+      throw InputError(groups.size() > 1 ? field + "[" + std::to_string(k) + "]" : field, "\"" + groups[k] + "\"",
+                       "no physical surface of that name in " + source + " (it has " + (names.empty() ? "none" : names) + ")");
+    }
+  GmshSurface s;
+  s.nodes = std::move(r.nodes);
+  for (const SurfaceElement& e : r.surfaces) {
+    const std::vector<std::string> of = group_names(r, 2, e.entity);
+    // No group named: the triangles of every physical surface (or all of them when the file has none).
+    const bool take = wanted.empty() ? (available.empty() || !of.empty())
+                                     : std::any_of(of.begin(), of.end(), [&](const std::string& g) { return wanted.count(g) > 0; });
+    if (!take) continue;
+    if (e.nodes.size() == 4)
+      throw InputError(field, source + ":" + std::to_string(e.line),
+                       "element " + std::to_string(e.tag) + " is a quadrangle: a shell surface is made of 3- or 6-node triangles");
+    const int first = int(s.triangles.size());
+    append_triangles(e.nodes, s.triangles);
+    s.split_quadratic += e.nodes.size() == 6;
+    for (const std::string& g : of)
+      for (int t = first; t < int(s.triangles.size()); ++t) s.groups[g].push_back(t);
+  }
+  for (const std::string& g : groups)
+    if (!s.groups.count(g))
+      throw InputError(field, "\"" + g + "\"", "the physical surface holds no triangles in " + source +
+                                                   " (mesh it in 2D: gmsh -2, and save its group)");
+  if (s.triangles.empty())
+    throw InputError(field, source, "no triangles on physical surfaces: mesh the surface (gmsh -2) and save its physical group");
+  for (const LineElement& e : r.lines)
+    for (const std::string& g : group_names(r, 1, e.entity)) {
+      auto& list = s.curves[g];
+      if (e.nodes.size() == 2) list.push_back({e.nodes[0], e.nodes[1]});
+      else list.insert(list.end(), {{e.nodes[0], e.nodes[2]}, {e.nodes[2], e.nodes[1]}});  // line3: ends, then middle
+    }
+  compact_surface(s);
+  return s;
+}
+
+GmshSurface read_gmsh_surface(const std::filesystem::path& file, const std::vector<std::string>& groups,
+                              const std::string& field, const std::string& groups_field) {
+  std::istringstream in(read_input_file(file, field, kMeshFile));
+  return parse_gmsh_surface(in, file.string(), groups, groups_field);
 }
 
 Mesh read_gmsh(const std::filesystem::path& file, const std::string& field, bool straighten_inverted) {
@@ -678,7 +784,6 @@ GmshLineGroup parse_gmsh_line_group(std::istream& in, const std::string& source,
   std::ostringstream buffer;
   buffer << in.rdbuf();
   GmshReader reader(buffer.str(), source);
-  reader.volumes_required = false;
   reader.read_sections();
   const std::vector<const LineElement*> lines = group_lines(reader, group, group_field, source);
   GmshLineGroup out;

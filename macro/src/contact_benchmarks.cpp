@@ -5,6 +5,7 @@
 
 #include <Eigen/Dense>
 
+#include "softhom/macro/geometry.hpp"
 #include "softhom/materials/laws.hpp"
 
 namespace softhom::macro {
@@ -80,6 +81,41 @@ HertzProblem make_hertz_problem(int fine, int coarse, double depth) {
   opt.shear_modulus = G;
   opt.field = "hertz";
   auto contact = std::make_shared<fe::ObstacleContact>(m, m.surfaces.at("top"), std::vector<fe::Tri6>{}, sphere, opt);
+  p.contact = contact;
+  p.model.add(contact);
+  return p;
+}
+
+IroningProblem make_ironing_problem(int cells, double friction) {
+  IroningProblem p;
+  p.friction = friction;
+  const PlateSpec spec{Vec3(15.0, 3.0, 4.0), {15 * cells, 3 * cells, 4 * cells}};
+  fe::Mesh m = make_plate(spec);
+  p.model.mesh = m;
+  p.model.element_material.assign(m.num_elements(), make_material(make_neo_hookean(NeoHookeanParams::from_young(1.0, 0.3))));
+  const std::pair<const char*, std::vector<int>> supports[3] = {{"zmin", {0, 1, 2}}, {"ymin", {1}}, {"ymax", {1}}};
+  for (const auto& [surface, comps] : supports) {
+    fe::DirichletGroup g;
+    for (int node : fe::surface_nodes(m, surface))
+      for (int comp : comps) g.dofs.push_back(3 * node + comp);
+    p.model.dirichlet.push_back(g);
+  }
+  fe::RigidObstacle die;
+  die.shape = fe::RigidObstacle::Shape::cylinder;
+  die.radius = 3.0;
+  die.point = Vec3(2.5, 0.0, 4.0 + die.radius);
+  die.direction = Vec3::UnitY();
+  die.path[0] = PiecewiseLinear{{0.0, 1.0, 2.0}, {0.0, 0.0, p.slide}};
+  die.path[2] = PiecewiseLinear{{0.0, 1.0, 2.0}, {0.0, -p.depth, -p.depth}};
+  fe::ObstacleContact::Options opt;
+  opt.shear_modulus = NeoHookeanParams::from_young(1.0, 0.3).mu;
+  opt.law.friction = p.friction;
+  // The stick penalty a tenth of the normal one: with ε_T = ε_N the die, which takes every point of its
+  // patch from stick to slip at once as it starts to slide, stalled the coarse run (1 048 Newton
+  // iterations in cut-backs pressing, then no convergence); the slip force μ p does not depend on it.
+  opt.law.tangential_penalty = 0.1 * fe::default_contact_penalty(opt.shear_modulus, 1.0 / cells);
+  opt.field = "ironing";
+  auto contact = std::make_shared<fe::ObstacleContact>(m, m.surfaces.at("zmax"), std::vector<fe::Tri6>{}, die, opt);
   p.contact = contact;
   p.model.add(contact);
   return p;

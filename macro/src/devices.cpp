@@ -86,7 +86,8 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
       const Vec3 c = centroid(X, f.tip);
       // The finger's radial direction: its centroid's azimuth snapped to the finger pitch (a finger cut
       // by a symmetry plane has its centroid off its mid-plane).
-      const double phi = pitch * std::round(std::atan2(c[1], c[0]) / pitch);
+      const double azimuth = std::atan2(c[1], c[0]), phi = pitch * std::round(azimuth / pitch);
+      f.share = std::abs(azimuth - phi) > 1e-6 ? 0.5 : 1.0;
       f.radial = Vec3(std::cos(phi), std::sin(phi), 0.0);
       const Vec3 tangent(-f.radial[1], f.radial[0], 0.0);
       double r_lo = 1e300, r_hi = -1e300, t_lo = 1e300, t_hi = -1e300;
@@ -107,6 +108,8 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
       f.angle0 = std::atan2(-d.dot(f.radial), d[2]);
       fingers_.push_back(std::move(f));
     }
+    for (const auto& c : structure.model.contributions)
+      if (const auto* contact = dynamic_cast<const fe::ObstacleContact*>(c.get())) contacts_.push_back(contact);
   } else if (spec.kind == DeviceKind::tube) {
     tube_ = std::make_shared<const TubeGauge>(mesh, "device.kind");
   } else if (spec.kind == DeviceKind::bending) {
@@ -131,6 +134,8 @@ std::vector<std::string> DeviceProbe::columns() const {
     c.push_back("finger_angle_deg");
     for (const auto& t : spec_.tips) c.push_back("finger_angle_" + t + "_deg");
     c.push_back("tip_axis_distance_mm");
+    for (const fe::ObstacleContact* contact : contacts_) c.push_back(contact->options().label + "_normal_force_N");
+    if (!contacts_.empty()) c.push_back("grip_force_N");
   } else if (spec_.kind == DeviceKind::tube) {
     for (const std::string& n : TubeGauge::columns()) c.push_back(n);
   } else if (spec_.kind == DeviceKind::bending) {
@@ -176,6 +181,7 @@ std::vector<double> DeviceProbe::values(const fe::Simulation& sim) const {
     row.push_back(std::accumulate(angles.begin(), angles.end(), 0.0) / double(std::max<std::size_t>(1, angles.size())));
     row.insert(row.end(), angles.begin(), angles.end());
     row.push_back(distance);
+    for (double f : grip_forces(sim)) row.push_back(f);
   } else if (tube_) {
     for (double q : tube_->values(X, x)) row.push_back(q);
   } else if (bending_) {
@@ -184,12 +190,25 @@ std::vector<double> DeviceProbe::values(const fe::Simulation& sim) const {
   return row;
 }
 
+std::vector<double> DeviceProbe::grip_forces(const fe::Simulation& sim) const {
+  if (contacts_.empty()) return {};
+  std::vector<double> out;
+  double sum = 0.0, fingers = 0.0;
+  for (const fe::ObstacleContact* c : contacts_) {
+    out.push_back(c->totals(structure_->model.mesh, sim.converged_iterate(*c)).normal_force);
+    sum += out.back();
+  }
+  for (const Finger& f : fingers_) fingers += f.share;
+  out.push_back(fingers > 0.0 ? sum / fingers : 0.0);
+  return out;
+}
+
 std::string DeviceProbe::stop_reason(const std::vector<double>& row, const std::vector<double>* previous,
                                      double next_time) const {
   if (spec_.kind != DeviceKind::gripper || !(spec_.stop_distance > 0.0)) return "";
   const std::string why = " (device.stop_distance = " + format_number(spec_.stop_distance) +
                           " mm; contact between the fingers is not modelled)";
-  const double distance = row.back(), t = row.front();
+  const double distance = row[distance_column()], t = row.front();
   if (distance < spec_.stop_distance)
     return "stopped before the fingers touch: a fingertip node is " + format_number(distance) + " mm from the axis" + why;
   // Extrapolated in the controlled load value (pressure or volume ratio), not in time: a hold after a
@@ -197,7 +216,7 @@ std::string DeviceProbe::stop_reason(const std::vector<double>& row, const std::
   const PiecewiseLinear& load = structure_->spec.load;
   const double c_prev = previous ? load(previous->front()) : 0.0, c = load(t), c_next = load(next_time);
   if (previous && next_time > t && std::abs(c - c_prev) > 0.0) {
-    const double rate = (distance - previous->back()) / (c - c_prev);
+    const double rate = (distance - (*previous)[distance_column()]) / (c - c_prev);
     const double predicted = distance + rate * (c_next - c);
     if (predicted < spec_.stop_distance)
       return "stopped before the fingers touch: a fingertip node is " + format_number(distance) +

@@ -95,8 +95,8 @@ int run_program(const std::vector<std::string>& args, const std::filesystem::pat
 /// gmsh's `-0` output of the checked .geo (the geometry only, as an MSH 4.1 $Entities section whose
 /// volume lines are "tag minX minY minZ maxX maxY maxZ ..."); 0 when gmsh cannot tell (its own run then
 /// reports the error).
-double geometry_box_volume(const std::string& program, const std::filesystem::path& geo, const std::string& h,
-                           const std::filesystem::path& stem) {
+double geometry_box_measure(const std::string& program, const std::filesystem::path& geo, const std::string& h,
+                            const std::filesystem::path& stem, int dimension) {
   const std::filesystem::path entities = stem.string() + ".entities.msh", log = stem.string() + ".entities.log";
   const int rc = run_program({program, geo.string(), "-0", "-setnumber", "mesh_size", h, "-format", "msh41", "-o",
                               entities.string()},
@@ -108,18 +108,26 @@ double geometry_box_volume(const std::string& program, const std::filesystem::pa
   std::string line;
   while (rc == 0 && std::getline(in, line) && line.rfind("$Entities", 0) != 0) {}
   std::size_t counts[4] = {0, 0, 0, 0};
-  if (!(rc == 0 && in >> counts[0] >> counts[1] >> counts[2] >> counts[3]) || counts[3] == 0) return 0.0;
+  if (!(rc == 0 && in >> counts[0] >> counts[1] >> counts[2] >> counts[3]) || counts[dimension] == 0) return 0.0;
   std::getline(in, line);
-  for (std::size_t k = 0; k < counts[0] + counts[1] + counts[2] && std::getline(in, line); ++k) {}
+  for (int d = 0; d < dimension; ++d)
+    for (std::size_t k = 0; k < counts[d] && std::getline(in, line); ++k) {}
   double sum = 0.0, lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-  for (std::size_t k = 0; k < counts[3] && std::getline(in, line); ++k) {
+  // A surface's box bounds its area by the sum of the box's three face areas (a sphere's: 12 r² against
+  // 4π r²), a volume's box its volume.
+  auto measure = [dimension](const double* e) {
+    return dimension == 3 ? e[0] * e[1] * e[2] : e[0] * e[1] + e[1] * e[2] + e[2] * e[0];
+  };
+  for (std::size_t k = 0; k < counts[dimension] && std::getline(in, line); ++k) {
     std::istringstream v(line);
     double tag, a[3], b[3];
     if (!(v >> tag >> a[0] >> a[1] >> a[2] >> b[0] >> b[1] >> b[2])) break;
-    sum += (b[0] - a[0]) * (b[1] - a[1]) * (b[2] - a[2]);
+    const double e[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    sum += measure(e);
     for (int i = 0; i < 3; ++i) lo[i] = std::min(lo[i], a[i]), hi[i] = std::max(hi[i], b[i]);
   }
-  return std::min(sum, (hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]));
+  const double all[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+  return dimension == 3 ? std::min(sum, measure(all)) : sum;
 }
 
 /// Refuses, before gmsh meshes it, a .geo whose mesh at mesh_size cannot be solved in the memory
@@ -128,19 +136,21 @@ double geometry_box_volume(const std::string& program, const std::filesystem::pa
 /// 54 661 at 0.5, 251 745 at 0.3, i.e. 6.8 V / h³ as h falls. V is the volumes' bounding boxes, an
 /// overestimate for curved or hollow parts (a quarter tube's box holds 2.3x its wall); a size field
 /// that refines below mesh_size makes more nodes than this.
+/// A triangulated surface (dimension 2) has about 1.2 A / h² nodes at size h (equilateral triangles of
+/// area 0.43 h², two per node); the estimate then counts them as solid nodes, an overestimate.
 void refuse_unmeshable_geo(const std::string& program, const std::filesystem::path& geo, double mesh_size,
-                           const std::string& h, const std::filesystem::path& stem) {
+                           const std::string& h, const std::filesystem::path& stem, int dimension) {
   const double available = double(softhom::available_memory_bytes());
   if (!(available > 0.0)) return;
-  const double volume = geometry_box_volume(program, geo, h, stem);
-  const double nodes = 6.8 * volume / (mesh_size * mesh_size * mesh_size);
+  const double volume = geometry_box_measure(program, geo, h, stem, dimension);
+  const double nodes = dimension == 3 ? 6.8 * volume / (mesh_size * mesh_size * mesh_size) : 1.2 * volume / (mesh_size * mesh_size);
   const SizeEstimate e = estimate_size_of_nodes(nodes, false);
   if (!(e.bytes() > available)) return;
   char why[320];
   std::snprintf(why, sizeof why,
-                "the geometry's bounding boxes (%.3g mm^3) meshed at this size make about %.3g nodes, which need "
+                "the geometry's bounding boxes (%.3g mm^%d) meshed at this size make about %.3g nodes, which need "
                 "about %.3g GiB but %.3g GiB are available; use a larger mesh_size",
-                volume, nodes, e.bytes() / 1073741824.0, available / 1073741824.0);
+                volume, dimension, nodes, e.bytes() / 1073741824.0, available / 1073741824.0);
   throw InputError("geometry.mesh_size", h, why);
 }
 
@@ -154,13 +164,13 @@ std::filesystem::path mesh_cache_dir(const std::filesystem::path& out) {
 
 std::filesystem::path mesh_from_geo(const std::filesystem::path& geo, double mesh_size,
                                     const std::filesystem::path& cache_dir, const std::string& field,
-                                    const std::vector<std::pair<std::string, double>>& parameters) {
+                                    const std::vector<std::pair<std::string, double>>& parameters, int dimension) {
   namespace fs = std::filesystem;
   if (!fs::is_regular_file(geo)) throw InputError(field, geo.string(), "no such .geo file");
   const std::string text = read_text(geo);
   check_geo_text(text, geo, field);
   const std::string h = size_text(mesh_size);
-  std::string keyed = text + "\n#mesh_size=" + h;
+  std::string keyed = text + "\n#mesh_size=" + h + (dimension == 2 ? "\n#surface" : "");
   for (const auto& [name, value] : parameters) keyed += "\n#" + name + "=" + size_text(value);
   char hash[17];
   std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(fnv1a(keyed)));
@@ -177,9 +187,11 @@ std::filesystem::path mesh_from_geo(const std::filesystem::path& geo, double mes
   const std::string program = env && *env ? env : "gmsh";
   // A .geo that never reads mesh_size sets its own sizes: the estimate at mesh_size would not apply.
   if (text.find("mesh_size") != std::string::npos)
-    refuse_unmeshable_geo(program, fs::absolute(geo), mesh_size, h, cache_dir / (name + ".tmp-" + std::to_string(::getpid())));
+    refuse_unmeshable_geo(program, fs::absolute(geo), mesh_size, h, cache_dir / (name + ".tmp-" + std::to_string(::getpid())),
+                          dimension);
   // An argument vector, not a command line: paths with spaces or shell characters are passed as they are.
-  std::vector<std::string> args{program, fs::absolute(geo).string(), "-3", "-order", "2", "-setnumber", "mesh_size", h};
+  std::vector<std::string> args{program, fs::absolute(geo).string(), dimension == 2 ? "-2" : "-3", "-order",
+                                dimension == 2 ? "1" : "2", "-setnumber", "mesh_size", h};
   for (const auto& [name, value] : parameters) args.insert(args.end(), {"-setnumber", name, size_text(value)});
   args.insert(args.end(), {"-format", "msh41", "-o", tmp.string()});
   const int rc = run_program(args, log);
@@ -198,6 +210,27 @@ std::filesystem::path mesh_from_geo(const std::filesystem::path& geo, double mes
   fs::rename(tmp, mesh, ec);
   if (ec) throw InputError(field, mesh.string(), "cannot store the generated mesh: " + ec.message());
   return mesh;
+}
+
+std::filesystem::path scene_mesh_file(const std::string& file, const std::string& geo, double mesh_size,
+                                      const std::filesystem::path& scene_file, const std::filesystem::path& mesh_cache,
+                                      int dimension, const std::vector<std::pair<std::string, double>>& parameters) {
+  if (file.empty() == geo.empty())
+    throw InputError(file.empty() ? "geometry.file" : "geometry.geo", "",
+                     file.empty() ? "missing: give file (a .msh) or geo (a .geo with mesh_size)" : "give file or geo, not both");
+  if (!geo.empty() && !(mesh_size > 0.0)) throw InputError("geometry.mesh_size", "", "missing: required with geometry.geo");
+  if (geo.empty() && mesh_size > 0.0) throw InputError("geometry.mesh_size", format_number(mesh_size), "only with geometry.geo");
+  auto resolve = [&](const std::string& f) {
+    std::filesystem::path p(f);
+    if (p.is_relative() && !scene_file.empty()) p = scene_file.parent_path() / p;
+    return p;
+  };
+  std::filesystem::path path = resolve(file);
+  if (!geo.empty())
+    path = mesh_from_geo(resolve(geo), mesh_size, mesh_cache.empty() ? mesh_cache_dir() : mesh_cache, "geometry.geo",
+                         parameters, dimension);
+  if (!std::filesystem::exists(path)) throw InputError("geometry.file", path.string(), "no such file");
+  return path;
 }
 
 }  // namespace softhom::macro

@@ -450,24 +450,11 @@ void read_imported(const toml::table& scene, const toml::table& g, const std::fi
   const GmshKeys o = read_geometry(gmsh_table(), g, "gmsh");
   s.kind = StructureKind::imported;
   s.fiber_frame = o.fiber_frame;
-  if (o.file.empty() == o.geo.empty())
-    throw InputError(o.file.empty() ? "geometry.file" : "geometry.geo", "",
-                     o.file.empty() ? "missing: give file (a .msh) or geo (a .geo with mesh_size)" : "give file or geo, not both");
-  if (!o.geo.empty() && !(o.mesh_size > 0.0)) throw InputError("geometry.mesh_size", "", "missing: required with geometry.geo");
-  if (o.geo.empty() && o.mesh_size > 0.0) throw InputError("geometry.mesh_size", format_number(o.mesh_size), "only with geometry.geo");
-  auto resolve = [&](const std::string& f) {
-    std::filesystem::path p(f);
-    if (p.is_relative() && !scene_file.empty()) p = scene_file.parent_path() / p;
-    return p;
-  };
-  std::filesystem::path path = resolve(o.file);
   const toml::node* helix = scene.get("helix_tube");
-  if (helix && o.geo.empty()) throw InputError("helix_tube", "", "only with geometry.geo (the .geo reads the tube's parameters)");
+  if (helix && o.geo.empty() && !o.file.empty())
+    throw InputError("helix_tube", "", "only with geometry.geo (the .geo reads the tube's parameters)");
   const auto geo_parameters = helix ? helix_tube_geo_parameters(read_helix_tube(*helix)) : std::vector<std::pair<std::string, double>>{};
-  if (!o.geo.empty())
-    path = mesh_from_geo(resolve(o.geo), o.mesh_size, mesh_cache.empty() ? mesh_cache_dir() : mesh_cache, "geometry.geo",
-                         geo_parameters);
-  if (!std::filesystem::exists(path)) throw InputError("geometry.file", path.string(), "no such file");
+  const std::filesystem::path path = scene_mesh_file(o.file, o.geo, o.mesh_size, scene_file, mesh_cache, 3, geo_parameters);
   auto& im = s.imported;
   im.mesh = io::read_gmsh(path, "geometry.file", helix != nullptr);  // curved edges on thin fibers may invert tets
   im.file = path.string();
@@ -509,7 +496,7 @@ void read_geometry_table(const toml::table& scene, const std::filesystem::path& 
   } else if (type == "gmsh") {
     read_imported(scene, g, scene_file, mesh_cache, s);
   } else if (type == "shell") {
-    read_shell(scene, g, s);
+    read_shell(scene, g, s, scene_file, mesh_cache);
   } else {
     throw InputError("geometry.type", keys::describe_value(*tn), "must be " + kTypes + keys::did_you_mean(type, {"tube", "actuator", "sphere", "plate", "gmsh", "shell"}));
   }

@@ -4,7 +4,12 @@
 
 #include <cmath>
 
+#include <algorithm>
+#include <filesystem>
+
+#include "softhom/io/gmsh.hpp"
 #include "softhom/io/scene.hpp"
+#include "softhom/macro/mesh_generation.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/shell_section.hpp"
 
@@ -19,6 +24,9 @@ struct ShellGeometryKeys {
   ShellShape shape = ShellShape::sphere;
   double radius = 10.0, length = 10.0, width = 1.0, sweep_deg = 360.0, hole_deg = 18.0, angle_deg = 40.0;
   int cells = 8, axial_cells = 8;
+  std::string file, geo;  ///< gmsh: a .msh, or a .geo meshed at run time into triangles
+  double mesh_size = 0.0;
+  std::vector<std::string> surfaces;  ///< gmsh: the physical surfaces that make the shell (all when empty)
 };
 
 struct LayerKeys {
@@ -65,7 +73,7 @@ const KeyTable<EdgeKeys>& edge_table() {
   using T = ShellEdgeCondition::Type;
   static const KeyTable<EdgeKeys> t = [] {
     KeyTable<EdgeKeys> k("shell.edges[]", "A condition on a named boundary edge of the surface (others are free).");
-    k.text("edge", &EdgeKeys::edge, "edge name of the shape (x0, y0, z0, z1, theta0, xmin, hole, free, ...)").required()
+    k.text("edge", &EdgeKeys::edge, "edge name of the shape (x0, y0, z0, z1, theta0, xmin, hole, free, ...) or a physical curve of a gmsh surface").required()
         .choice("type", &EdgeKeys::type,
                 Choices<T>{{{"clamped", T::clamped},
                             {"simply_supported", T::simply_supported},
@@ -163,7 +171,7 @@ std::vector<ShellEdgeCondition> read_edges(const ShellKeys& k) {
 const KeyTable<ShellGeometryKeys>& shell_geometry_table() {
   using O = ShellGeometryKeys;
   static const KeyTable<O> t = [] {
-    KeyTable<O> k("geometry (shell)", "A thin shell's mid-surface, built in ([shell] gives its section and edges).");
+    KeyTable<O> k("geometry (shell)", "A thin shell's mid-surface, built in or from Gmsh ([shell] gives its section and edges).");
     k.text("type", &O::type, "structure kind: \"shell\"").required()
         .choice("shape", &O::shape,
                 Choices<ShellShape>{{{"sphere", ShellShape::sphere},
@@ -171,12 +179,14 @@ const KeyTable<ShellGeometryKeys>& shell_geometry_table() {
                                      {"cylinder", ShellShape::cylinder},
                                      {"strip", ShellShape::strip},
                                      {"hemisphere", ShellShape::hemisphere},
-                                     {"vault", ShellShape::vault}},
+                                     {"vault", ShellShape::vault},
+                                     {"gmsh", ShellShape::gmsh}},
                                     {}},
                 "sphere (closed; rigid motions held at three poles), sphere_octant (symmetry edges x0, y0, z0), cylinder "
                 "(along z, edges z0, z1; sweep 90: symmetry theta0, theta1), strip (z = 0, edges xmin, xmax, ymin, "
                 "ymax), hemisphere (quarter with a hole: symmetry x0, y0, edges hole, z0), vault (quarter barrel vault: "
-                "symmetry x0, y0, diaphragm xL, edge free)")
+                "symmetry x0, y0, diaphragm xL, edge free), gmsh (the triangles of a mesh file or of a .geo meshed at run "
+                "time: its physical curves are the edges)")
         .required()
         .number("radius", &O::radius, kLength, "mm", "sphere, cylinder, hemisphere and vault radius")
         .number("length", &O::length, kLength, "mm", "cylinder and vault length (whole), strip length along x")
@@ -185,17 +195,50 @@ const KeyTable<ShellGeometryKeys>& shell_geometry_table() {
         .number("hole_deg", &O::hole_deg, keys::open_range(0, 90), "deg", "hemisphere: half-angle of the hole about z")
         .number("angle_deg", &O::angle_deg, keys::open_range(0, 90), "deg", "vault: half opening angle")
         .integer("cells", &O::cells, kCells, "", "cells along the first direction (spheres: along an octant's edge)")
-        .integer("axial_cells", &O::axial_cells, kCells, "", "cells along the second direction (cylinder: axial)");
+        .integer("axial_cells", &O::axial_cells, kCells, "", "cells along the second direction (cylinder: axial)")
+        .text("file", &O::file, "gmsh: MSH 4.1 file of 3- or 6-node triangles (a 6-node one becomes its four 3-node "
+                                "triangles), relative to the scene file (or give geo)")
+        .text("geo", &O::geo, "gmsh: Gmsh geometry, relative to the scene file, meshed into triangles with gmsh -2 "
+                              "-setnumber mesh_size (instead of file)")
+        .number("mesh_size", &O::mesh_size, kLength, "mm", "gmsh: element size passed to the .geo (required with geo)")
+        .custom(
+            "surfaces", "list of strings", "gmsh: the physical surfaces that make the shell; each also gets its own "
+                                           "probes in response.csv",
+            [](const toml::node& n, const std::string& f, O& o) {
+              const toml::array& a = keys::read_array(n, f);
+              for (std::size_t i = 0; i < a.size(); ++i) o.surfaces.push_back(keys::read_text(*a.get(i), keys::index_field(f, i)));
+            },
+            "every physical surface");
     return k;
   }();
   return t;
 }
 
+/// The gmsh shape's surface: the triangles of the named physical surfaces, the physical curves as edges.
+ShellSurface read_gmsh_shell(const ShellGeometryKeys& g, const std::filesystem::path& scene_file,
+                             const std::filesystem::path& mesh_cache) {
+  const std::filesystem::path path = scene_mesh_file(g.file, g.geo, g.mesh_size, scene_file, mesh_cache, 2);
+  io::GmshSurface m = io::read_gmsh_surface(path, g.surfaces, g.geo.empty() ? "geometry.file" : "geometry.geo", "geometry.surfaces");
+  ShellSurface out;
+  out.mesh.nodes = std::move(m.nodes);
+  out.triangles = std::move(m.triangles);
+  out.edges = std::move(m.curves);
+  out.groups = std::move(m.groups);
+  if (!g.surfaces.empty())  // probes for the named surfaces only
+    for (auto it = out.groups.begin(); it != out.groups.end();)
+      it = std::count(g.surfaces.begin(), g.surfaces.end(), it->first) ? std::next(it) : out.groups.erase(it);
+  return out;
+}
+
 }  // namespace
 
-void read_shell(const toml::table& scene, const toml::table& geometry, StructureSpec& s) {
+void read_shell(const toml::table& scene, const toml::table& geometry, StructureSpec& s, const std::filesystem::path& scene_file,
+                const std::filesystem::path& mesh_cache) {
   ShellGeometryKeys g;
   shell_geometry_table().read(geometry, "geometry", g);
+  if (g.shape != ShellShape::gmsh)
+    for (const char* key : {"file", "geo", "mesh_size", "surfaces"})
+      if (geometry.contains(key)) throw InputError(std::string("geometry.") + key, "", "only with geometry.shape = \"gmsh\"");
   s.kind = StructureKind::shell;
   ShellStructureSpec& sh = s.shell;
   sh.shape = g.shape;
@@ -218,6 +261,7 @@ void read_shell(const toml::table& scene, const toml::table& geometry, Structure
   sh.frame.origin = Vec3(k.frame_origin[0], k.frame_origin[1], k.frame_origin[2]);
   sh.section = read_section(k);
   sh.edges = read_edges(k);
+  if (g.shape == ShellShape::gmsh) sh.imported = read_gmsh_shell(g, scene_file, mesh_cache);
 }
 
 std::vector<keys::TableDoc> shell_scene_tables() {

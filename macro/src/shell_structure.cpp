@@ -33,9 +33,17 @@ int nearest(const std::vector<Vec3>& nodes, const Vec3& p) {
   return best;
 }
 
-/// Signed volume enclosed by the triangles (outward positive), closed up to planes through the origin.
-double enclosed_volume(const fe::Mesh& mesh, const std::vector<fe::Tri3>& tris) {
-  return fe::cavity_volume(mesh.nodes, fe::shell_load_faces(tris), Vec3(1, 1, 1));
+/// Signed volume enclosed by the triangles (outward positive), closed up to planes through the origin,
+/// or (about_centroid) up to cones from the nodes' centroid.
+double enclosed_volume(const fe::Mesh& mesh, const std::vector<fe::Tri3>& tris, bool about_centroid = false) {
+  std::vector<Vec3> x = mesh.nodes;
+  if (about_centroid) {
+    Vec3 c = Vec3::Zero();
+    for (const Vec3& p : x) c += p;
+    c /= double(std::max<std::size_t>(x.size(), 1));
+    for (Vec3& p : x) p -= c;
+  }
+  return fe::cavity_volume(x, fe::shell_load_faces(tris), Vec3(1, 1, 1));
 }
 
 /// Applies the edge conditions: Dirichlet groups into m, rotation conditions into `edges`; returns the
@@ -140,8 +148,12 @@ void build_shell(Structure& s) {
   m.mesh = surface.mesh;
   // Orient consistently first; a closed (or symmetry-closed) surface then faces out of its cavity.
   const fe::ShellTopology top = fe::shell_topology(surface.triangles, m.mesh.num_nodes(), true, "shell");
-  const bool cavity = s.spec.control == LoadControl::volume || top.boundary_edges == 0;
-  if (cavity && enclosed_volume(m.mesh, surface.triangles) < 0.0)
+  // An imported surface (a vessel open at its ends) faces away from its nodes' centroid in the mean:
+  // the flux of x − c through it is positive, as a closed surface's outward one is (its openings add
+  // their share with the same sign when they face away from c too).
+  const bool imported = spec.shape == ShellShape::gmsh;
+  const bool cavity = s.spec.control == LoadControl::volume || top.boundary_edges == 0 || imported;
+  if (cavity && enclosed_volume(m.mesh, surface.triangles, imported) < 0.0)
     for (fe::Tri3& t : surface.triangles) std::swap(t[1], t[2]);
   // The scene's conditions first (shell.edges[k] in messages), then the shape's own symmetry edges
   // that none of them replaces.
@@ -149,7 +161,7 @@ void build_shell(Structure& s) {
   for (const ShellEdgeCondition& d : default_shell_edges(spec.shape, spec.sweep_deg))
     if (std::none_of(spec.edges.begin(), spec.edges.end(), [&](const ShellEdgeCondition& c) { return c.edge == d.edge; }))
       conditions.push_back(d);
-  fe::ShellSpec shell{surface.triangles, {}, spec.section, spec.frame, true};
+  fe::ShellSpec shell{surface.triangles, {}, spec.section, spec.frame, true, surface.groups};
   const std::vector<std::string> symmetry = apply_edges(surface, conditions, m, shell.edges);
   if (spec.shape == ShellShape::sphere) {
     // A closed sphere has no edge to hold: its six rigid motions are held by the tangential

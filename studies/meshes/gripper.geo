@@ -17,7 +17,10 @@
 // through them).
 //
 // Physical groups: volume "pdms"; surfaces "bottom" (z = 0), "ysym" (y = 0), "channel" (the walls of
-// the channels), "tip_0" and "tip_120" (the fingertips' top faces), "outer" (the rest).
+// the channels), "tip_0" and "tip_120" (the fingertips' top faces), "inner_0" and "inner_120" (the
+// fingers' faces towards the axis, at radius 2.0: where they grip a sample), "flank_0" and "flank_120"
+// (their side faces, y = ±0.75 in the finger's frame: where neighbouring fingers would touch), "outer"
+// (the rest). Finger 0 is cut by the mirror plane: inner_0 is half its face, flank_0 one of its flanks.
 SetFactory("OpenCASCADE");
 DefineConstant[ mesh_size = 0.5 ];
 Rb = 4.5; tb = 1.5;
@@ -72,13 +75,62 @@ For i In {0:#all[]-1}
     channel[] += {all[i]};
   EndIf
 EndFor
+// The fingers' inner faces and flanks: the surfaces all of whose vertices lie on the finger's face
+// x = f_x0 (inner) or all on one of y = ±f_w/2 (flank) of its box above the base, tested in finger k's
+// frame (the inner face's and the tip's corners lie on both flank planes).
+inner0[] = {}; inner120[] = {}; flank0[] = {}; flank120[] = {};
+For i In {0:#all[]-1}
+  pts[] = PointsOf{ Surface{all[i]}; };
+  For k In {0:1}
+    phi = k * 2 * Pi / 3;
+    on_inner = 1;
+    on_plus = 1;
+    on_minus = 1;
+    For j In {0:#pts[]-1}
+      xyz[] = Point{pts[j]};
+      xr = xyz[0] * Cos(phi) + xyz[1] * Sin(phi);
+      yr = -xyz[0] * Sin(phi) + xyz[1] * Cos(phi);
+      If (xyz[2] < tb - e || xr < f_x0 - e || xr > f_x1 + e || Fabs(yr) > f_w / 2 + e)
+        on_inner = 0;
+        on_plus = 0;
+        on_minus = 0;
+      EndIf
+      If (Fabs(xr - f_x0) > e)
+        on_inner = 0;
+      EndIf
+      If (Fabs(yr - f_w / 2) > e)
+        on_plus = 0;
+      EndIf
+      If (Fabs(yr + f_w / 2) > e)
+        on_minus = 0;
+      EndIf
+    EndFor
+    on_flank = on_plus + on_minus;
+    If (on_inner == 1 && k == 0)
+      inner0[] += {all[i]};
+    EndIf
+    If (on_inner == 1 && k == 1)
+      inner120[] += {all[i]};
+    EndIf
+    If (on_flank == 1 && k == 0)
+      flank0[] += {all[i]};
+    EndIf
+    If (on_flank == 1 && k == 1)
+      flank120[] += {all[i]};
+    EndIf
+  EndFor
+EndFor
 outer[] = all[];
-outer[] -= {bottom[], ysym[], tip0[], tip120[], channel[]};
+outer[] -= {bottom[], ysym[], tip0[], tip120[], channel[], inner0[], inner120[], flank0[], flank120[]};
 Physical Surface("bottom") = {bottom[]};
 Physical Surface("ysym") = {ysym[]};
 Physical Surface("channel") = {channel[]};
 Physical Surface("tip_0") = {tip0[]};
 Physical Surface("tip_120") = {tip120[]};
+Physical Surface("inner_0") = {inner0[]};
+Physical Surface("inner_120") = {inner120[]};
+Physical Surface("flank_0") = {flank0[]};
+Physical Surface("flank_120") = {flank120[]};
 Physical Surface("outer") = {outer[]};
 
 Mesh.MeshSizeMax = mesh_size;

@@ -49,8 +49,9 @@ std::string mesh_cache_env() {
 }
 
 Csv run_device(const std::string& stem, const std::vector<std::pair<std::string, std::string>>& edits,
-               const std::string& tag, std::string* output = nullptr) {
+               const std::string& tag, std::string* output = nullptr, fs::path* out_dir = nullptr) {
   const auto out = fresh_dir("device-" + tag);
+  if (out_dir) *out_dir = out;
   const auto r = run_softhom("macro " + device_scene(stem, edits) + " --out " + out.string() + " -q", mesh_cache_env());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   if (output) *output = r.output + read_file(out / "summary.json");
@@ -164,6 +165,41 @@ TEST(DeviceGripper, AngleGrowsWithPressureFingersAgreeStopsBeforeContact) {
   EXPECT_GT(c.at(last(c), "tip_axis_distance_mm"), 0.43);
   EXPECT_NE(log.find("stopped before the fingers touch"), std::string::npos) << log;
   EXPECT_NE(log.find("\"stopped_before_contact\": true"), std::string::npos) << log;
+}
+
+// The gripper closing on a rigid 2 mm sphere (gripper_grip_rigid_coarse on the 0.7 mm mesh, to 250 kPa in
+// 50 kPa steps: 42 Newton iterations, no cut-back): no grip force until the fingers reach the sample (at
+// 150 kPa the free fingertips are still 1.36 mm from the axis), then a grip force growing with pressure
+// while the finger angle all but stops (blocked: measured +0.34° from 200 to 250 kPa against +3.80° from
+// 100 to 150 kPa). Finger 0 is cut in half by the mirror plane, so its contact carries half of finger
+// 120's force (three-fold symmetry; each finger touches the sphere at one or two quadrature points on this
+// mesh, measured 11 % and 12 % apart, 25 % allowed). The surface stays outside the sphere to a small part
+// of a face (the augmented penalty leaves (p_step − p_last)/ε: measured 4.8e-3 mm at most), and the fingertips stay apart (the 1.5 mm wide fingers meet 0.43 mm from the axis).
+TEST(DeviceGripper, GripsARigidSample) {
+  fs::path out;
+  const Csv c = run_device("gripper_grip_rigid_coarse",
+                           {{"mesh_size = 0.5", "mesh_size = 0.7"}, {"[1.0, 0.3]]", "[1.0, 0.25]]"},
+                            {"steps = 12", "steps = 5"}, {"fields = [1.0]", "fields = false"}},
+                           "gripper-grip", nullptr, &out);
+  ASSERT_EQ(c.rows.size(), 6u);
+  EXPECT_NEAR(c.at(last(c), "pressure_kPa"), 250.0, 1e-9);
+  std::size_t first = 0;
+  while (first < c.rows.size() && !(c.at(first, "grip_force_N") > 0.0)) ++first;
+  ASSERT_EQ(first, 4u);  // the step to 200 kPa
+  for (std::size_t k = first; k < c.rows.size(); ++k) {
+    if (k > first) EXPECT_GT(c.at(k, "grip_force_N"), c.at(k - 1, "grip_force_N")) << "row " << k;
+    EXPECT_NEAR(2.0 * c.at(k, "contact_0_normal_force_N"), c.at(k, "contact_1_normal_force_N"),
+                0.25 * c.at(k, "contact_1_normal_force_N"))
+        << "row " << k;
+  }
+  const double before = c.at(first - 1, "finger_angle_deg") - c.at(first - 2, "finger_angle_deg");
+  const double after = c.at(last(c), "finger_angle_deg") - c.at(first, "finger_angle_deg");
+  EXPECT_LT(after, 0.3 * before);
+  EXPECT_GT(c.at(last(c), "tip_axis_distance_mm"), 0.43);
+  const Csv r = read_csv(out / "response.csv");
+  for (std::size_t k = 0; k < r.rows.size(); ++k)
+    for (const char* col : {"contact_0_max_penetration [mm]", "contact_1_max_penetration [mm]"})
+      EXPECT_LT(r.at(k, col), 0.01) << col << " row " << k;  // h/70 on the 0.7 mm mesh
 }
 
 // QLV creep (τ = 10 min, g∞ = 0.7) under pressure ramps of 3, 10 and 20 min to the same 0.15 MPa:

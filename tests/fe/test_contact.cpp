@@ -218,9 +218,7 @@ PressedBlock press_block(bool tet10, double delta, int steps, bool augmented,
   for (int n : surface_nodes(m, "top")) top_z.push_back(3 * n + 2);
   out.reaction_z = sim.reaction(top_z);
   const std::vector<double>& u = sim.displacement();
-  Iterate it;
-  it.t = 1.0;
-  it.u = &u;
+  const Iterate it = sim.converged_iterate(*contact);
   out.totals = contact->totals(m, it);
   contact->face_values(m, it, out.pressure, out.gap);
   contact->report(m, it, out.report);
@@ -327,10 +325,7 @@ TEST(Contact, PulledBlockSticksThenSlipsAtMuN) {
     }
     rx = sim.reaction(dx);
     rz = sim.reaction(dz);
-    Iterate it;
-    it.t = t;
-    it.u = &sim.displacement();
-    tot = contact->totals(m, it);
+    tot = contact->totals(m, sim.converged_iterate(*contact));
   };
   ContactTotals tot;
   double rx = 0.0, rz = 0.0;

@@ -104,19 +104,19 @@ Vec3 cylinder(double x, double y) {  // radius 2 about the x axis, y the arc len
 
 TEST(ShellTriangle, TangentMatchesDifferencesOnACurvedPatchWithFreeEdges) {
   const Grid g = grid(3, 3, 1.0, 1.2, 0.2, cylinder);
-  const ShellDomain shell(g.mesh, {g.tris, {}, neo_hookean_section(0.1), {}, true});
+  const ShellDomain shell(g.mesh, {g.tris, {}, neo_hookean_section(0.1), {}, true, {}});
   expect_tangent_matches(shell, g.mesh, 0.04);
 }
 
 TEST(ShellTriangle, TangentMatchesDifferencesOfACompressibleSection) {
   const Grid g = grid(3, 3, 1.0, 1.2, 0.2, cylinder);
-  const ShellDomain shell(g.mesh, {g.tris, {}, neo_hookean_section(0.1, PlaneStressMode::compressible), {}, true});
+  const ShellDomain shell(g.mesh, {g.tris, {}, neo_hookean_section(0.1, PlaneStressMode::compressible), {}, true, {}});
   expect_tangent_matches(shell, g.mesh, 0.04);
 }
 
 TEST(ShellTriangle, TangentMatchesDifferencesWithClampedEdgesAndAFiberLayer) {
   const Grid g = grid(3, 3, 1.0, 1.2, 0.2, cylinder);
-  ShellSpec spec{g.tris, {}, fiber_section(0.1), {}, true};
+  ShellSpec spec{g.tris, {}, fiber_section(0.1), {}, true, {}};
   for (int j = 0; j < g.ny; ++j) spec.edges.push_back({{g.node(0, j), g.node(0, j + 1)}, ShellEdge::clamped});
   for (int i = 0; i < g.nx; ++i) spec.edges.push_back({{g.node(i, 0), g.node(i + 1, 0)}, ShellEdge::clamped});
   const ShellDomain shell(g.mesh, spec);
@@ -127,7 +127,7 @@ TEST(ShellTriangle, UniformStretchOfAFlatPatchGivesUniformStressAndNoBending) {
   // Patch test: u = ((λ1 − 1) x, (λ2 − 1) y, 0) on an irregular flat mesh is in equilibrium at every
   // interior node (residual at round-off) and every triangle has the section's N of ε = ½(λ² − 1), κ = 0.
   const Grid g = grid(4, 4, 1.0, 1.0, 0.25, [](double x, double y) { return Vec3(x, y, 0.0); });
-  const ShellDomain shell(g.mesh, {g.tris, {}, neo_hookean_section(0.05), {}, true});
+  const ShellDomain shell(g.mesh, {g.tris, {}, neo_hookean_section(0.05), {}, true, {}});
   const double l1 = 1.3, l2 = 0.9;
   std::vector<double> u(g.mesh.num_dofs(), 0.0);
   for (int n = 0; n < g.mesh.num_nodes(); ++n) {
@@ -166,7 +166,7 @@ TEST(ShellTriangle, CurvatureIsExactForAQuadraticSurfaceOnAnIrregularMesh) {
   // quadratic interpolation, so the only error is round-off (relative 1e-10 allows for its
   // conditioning on the jittered cells).
   const Grid g = grid(5, 5, 1.0, 1.0, 0.25, [](double x, double y) { return Vec3(x, y, 0.0); });
-  const ShellDomain shell(g.mesh, {g.tris, {}, neo_hookean_section(0.05), {}, true});
+  const ShellDomain shell(g.mesh, {g.tris, {}, neo_hookean_section(0.05), {}, true, {}});
   const double c11 = 0.7, c12 = -0.3, c22 = 0.4;
   auto q = [&](const Vec3& X) { return 0.5 * (c11 * X.x() * X.x() + 2 * c12 * X.x() * X.y() + c22 * X.y() * X.y()); };
   int interior = 0;
@@ -187,7 +187,7 @@ TEST(ShellTriangle, CurvatureIsExactForAQuadraticSurfaceOnAnIrregularMesh) {
 
 TEST(ShellTriangle, CurvedReferenceSurfaceStartsUnstressed) {
   const Grid g = grid(3, 4, 1.0, 2.0, 0.2, cylinder);
-  const ShellDomain shell(g.mesh, {g.tris, {}, neo_hookean_section(0.1), {}, true});
+  const ShellDomain shell(g.mesh, {g.tris, {}, neo_hookean_section(0.1), {}, true, {}});
   const test::DenseSink s = evaluate(shell, g.mesh, std::vector<double>(g.mesh.num_dofs(), 0.0), false);
   EXPECT_LT(s.R.cwiseAbs().maxCoeff(), 1e-14);  // κ = B − B and ε = 0 exactly
 }
@@ -240,7 +240,7 @@ TEST(ShellModel, EachPartMustBeHeldOnItsOwn) {
   for (Tri3 t : b.tris) a.tris.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
   FeModel m;
   m.mesh = a.mesh;
-  m.add(std::make_shared<ShellDomain>(m.mesh, ShellSpec{a.tris, {}, neo_hookean_section(0.1), {}, true}));
+  m.add(std::make_shared<ShellDomain>(m.mesh, ShellSpec{a.tris, {}, neo_hookean_section(0.1), {}, true, {}}));
   DirichletGroup held;
   for (int d = 0; d < 3 * offset; ++d) held.dofs.push_back(d);
   m.dirichlet.push_back(held);
@@ -262,7 +262,7 @@ TEST(ShellResults, EquibiaxialStretchGivesTheClosedFormStressesStretchesAndFiber
   // stretches (λ, λ, λ⁻²); a fiber at 30° from e1 stays at 30° (equal stretches). Round-off of the
   // plane-stress condensation: 1e-10.
   const Grid g = grid(2, 2, 1.0, 1.0, 0.2, [](double x, double y) { return Vec3(x, y, 0.0); });
-  const ShellDomain shell(g.mesh, {g.tris, {}, fiber_section(0.1), {}, true});
+  const ShellDomain shell(g.mesh, {g.tris, {}, fiber_section(0.1), {}, true, {}});
   const double l = 1.4;
   std::vector<double> u(g.mesh.num_dofs(), 0.0);
   for (int n = 0; n < g.mesh.num_nodes(); ++n) {
@@ -286,4 +286,45 @@ TEST(ShellResults, EquibiaxialStretchGivesTheClosedFormStressesStretchesAndFiber
   }
   EXPECT_GE(r.max_principal, sigma - 1e-10);  // the fiber layer adds its tension on top
   EXPECT_GE(r.max_element, 0);
+}
+
+// The closed-form kinematics of the assembly (shell_kinematics, shell_geometric_stiffness) against the
+// forward jets of shell_strains on every patch of a jittered curved grid with clamped and free edges,
+// at a random finite deformation and random section forces: the same strains, B and Σ NM_k ∂²s_k to
+// round-off (1e-10 of the largest entry; a wrong term is O(1) of it).
+TEST(ShellTriangle, ClosedFormKinematicsMatchTheJets) {
+  Grid g = grid(4, 3, 2.0, 1.5, 0.2, cylinder);
+  std::vector<std::pair<std::array<int, 2>, ShellEdge>> edges;
+  for (int j = 0; j < g.ny; ++j) edges.push_back({{g.node(0, j), g.node(0, j + 1)}, ShellEdge::clamped});
+  const ShellDomain shell(g.mesh, {g.tris, edges, neo_hookean_section(0.1), {}, true, {}});
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> d(-0.1, 0.1);
+  for (const ShellPatch& p : shell.patches()) {
+    std::array<Vec3, 6> x;
+    for (int s = 0; s < 6; ++s)
+      if (p.nodes[s] >= 0) x[s] = g.mesh.nodes[p.nodes[s]] + Vec3(d(rng), d(rng), d(rng));
+    Vec6v NM;
+    for (int k = 0; k < 6; ++k) NM[k] = 10.0 * d(rng);
+    Vec6v s_jet, s_closed;
+    Eigen::Matrix<double, 6, 18> B_jet, B_closed;
+    std::array<Eigen::Matrix<double, 18, 18>, 6> H;
+    shell_strains(p, x, s_jet, &B_jet, &H);
+    Eigen::Matrix<double, 18, 18> G_jet = Eigen::Matrix<double, 18, 18>::Zero(), G_closed;
+    for (int k = 0; k < 6; ++k) G_jet += NM[k] * H[k];
+    shell_kinematics(p, x, s_closed, B_closed);
+    shell_geometric_stiffness(p, x, NM, G_closed);
+    // Absent slots carry no dofs: their rows and columns are compared as zeros on both sides.
+    for (int s = 0; s < 6; ++s)
+      if (p.nodes[s] < 0) {
+        B_jet.middleCols<3>(3 * s).setZero();
+        G_jet.middleRows<3>(3 * s).setZero();
+        G_jet.middleCols<3>(3 * s).setZero();
+        B_closed.middleCols<3>(3 * s).setZero();
+        G_closed.middleRows<3>(3 * s).setZero();
+        G_closed.middleCols<3>(3 * s).setZero();
+      }
+    EXPECT_LT((s_jet - s_closed).cwiseAbs().maxCoeff(), 1e-10 * s_jet.cwiseAbs().maxCoeff() + 1e-14);
+    EXPECT_LT((B_jet - B_closed).cwiseAbs().maxCoeff(), 1e-10 * B_jet.cwiseAbs().maxCoeff());
+    EXPECT_LT((G_jet - G_closed).cwiseAbs().maxCoeff(), 1e-10 * G_jet.cwiseAbs().maxCoeff());
+  }
 }

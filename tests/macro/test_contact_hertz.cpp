@@ -1,10 +1,12 @@
 // Hertz indentation through the contact contribution (fe/contact.hpp) on the shared problem of
 // macro/contact_benchmarks.hpp: a rigid sphere pressed into a graded quarter block. The refinement study
-// (the 2 % of the converged mesh and the observed order) is bench/contact_hertz.cpp.
+// (the 2 % of the converged mesh and the observed order) is bench/contact_hertz.cpp. Then the ironing die
+// (macro::make_ironing_problem) sliding frictionless over a coarse block: level reactions (bench/ironing.cpp).
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "softhom/fe/solver.hpp"
 #include "softhom/macro/contact_benchmarks.hpp"
@@ -27,9 +29,7 @@ TEST(ContactHertz, ForceAndContactRadiusFollowHertz) {
   for (int s = 1; s <= 4; ++s) {
     const double t = 0.25 * s;
     ASSERT_TRUE(sim.advance_to(t).reached()) << t;
-    fe::Iterate it;
-    it.t = t;
-    it.u = &sim.displacement();
+    const fe::Iterate it = sim.converged_iterate(*p.contact);
     const fe::ContactTotals tot = p.contact->totals(p.model.mesh, it);
     if (s == 1) continue;  // the fit on d ≥ d_max/2: a patch of at least 3 cells
     force.push_back(4.0 * tot.normal_force);  // the quarter's force × 4
@@ -43,4 +43,32 @@ TEST(ContactHertz, ForceAndContactRadiusFollowHertz) {
   EXPECT_LT(std::abs(force_error), 0.09) << "alpha " << alpha << " Hertz " << alpha_hertz;
   const double a_hertz = p.contact_radius(force.back()), h = 1.25 * std::sqrt(p.depth) / 5;
   EXPECT_NEAR(a, a_hertz, h);
+}
+
+// Ironing (macro::make_ironing_problem, after Puso & Laursen 2004; the die rigid), frictionless on the
+// coarse mesh (one hex8 per unit): the die pressed 1.0 in 10 steps and slid 10 in 20. While it slides on
+// the flat block the vertical reaction stays level, a step-to-step change below 10 % of its mean
+// (measured 4.2 %: the contact patch's quadrature points cross element edges as the die moves half an
+// element per step; a node-to-surface scheme jumps by a node's share), and without friction the force
+// against the sliding is only the asymmetry of the indented block: |F_x| < 0.05 F_z (measured at most
+// 0.036). The obstacle's path moves the first iterate of every step by its increment, which the
+// penetration bound admits (the press steps take 4-11 iterations).
+TEST(ContactIroning, FrictionlessDieSlidesWithLevelForces) {
+  const macro::IroningProblem p = macro::make_ironing_problem(1, 0.0);
+  fe::Simulation sim(p.model);
+  std::vector<double> fz;
+  for (int s = 1; s <= 30; ++s) {
+    const double t = s <= 10 ? 0.1 * s : 1.0 + 0.05 * (s - 10);
+    ASSERT_TRUE(sim.advance_to(t).reached()) << t;
+    EXPECT_LE(sim.last_step_counts().newton_iterations, 25) << t;
+    if (t < 1.25 - 1e-12) continue;
+    const fe::ContactTotals tot = p.contact->totals(p.model.mesh, sim.converged_iterate(*p.contact));
+    fz.push_back(-tot.force[2]);
+    EXPECT_LT(std::abs(tot.force[0]), 0.05 * std::abs(tot.force[2])) << t;
+  }
+  double mean = 0.0, jump = 0.0;
+  for (double f : fz) mean += f / double(fz.size());
+  for (std::size_t k = 1; k < fz.size(); ++k) jump = std::max(jump, std::abs(fz[k] - fz[k - 1]));
+  EXPECT_GT(mean, 3.0);  // measured 4.30: the block's resistance to the 1.0 indentation
+  EXPECT_LT(jump, 0.1 * mean);
 }

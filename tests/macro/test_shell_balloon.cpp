@@ -134,9 +134,11 @@ TEST(ShellBalloon, ReportGivesTheLargestStressAndTheShellField) {
   ASSERT_TRUE(sim.advance_to(1.0).reached());
   fe::ContributionReport r;
   sim.report(r);
-  ASSERT_EQ(r.probes.size(), 2u);
+  ASSERT_EQ(r.probes.size(), 3u);
   EXPECT_EQ(r.probes[0].first, "shell max principal stress [MPa]");
   EXPECT_NEAR(r.probes[0].second, kG * (4.0 - 1.0 / 16.0), 0.02 * kG * 3.9375);
+  EXPECT_EQ(r.probes[2].first, "shell max principal stretch [-]");
+  EXPECT_NEAR(r.probes[2].second, 2.0, 0.02);  // λ = 2, the facets' stretch within ±1 %
   ASSERT_EQ(r.fields.size(), 1u);
   const fe::ReportField& f = r.fields[0];
   EXPECT_EQ(f.cells.stem, "shell");

@@ -21,14 +21,18 @@
 // converged contact pressure p penetrates a face by (p − λ)/ε_N ≤ (p / G) h / 100 — under 1 % of the face
 // at pressures up to G, on graded meshes too — and the per-step augmentation λ ← p shrinks that to the
 // pressure change of one step. An iterate deeper than its face's size (or half the radius of a curved
-// obstacle) is refused with
-// MaterialStatus::penetration: the line search backtracks, or the step is cut back and retried smaller.
+// obstacle), or whose penalty pressure exceeds 10 G (0.1 h deep under the default penalty) by more than
+// the obstacle's own motion over the step, is refused
+// with MaterialStatus::penetration: the line search backtracks, or the step is cut back and retried smaller.
 //
-// History: the stick points and multipliers are kept in the contribution (a mutable per-point store,
-// updated only by commit() after a converged step, so a failed or cut-back step leaves them as they
-// were). It holds two states: the one the last converged step was solved with, which an iterate at that
-// step's time sees (reports, totals), and the committed one, which every later iterate sees. A model
-// holding one ObstacleContact is solved by one Simulation at a time.
+// History: the stick point (in the obstacle's frame) and the multiplier of every point are the
+// contribution's state (state_size(), Iterate::state_old/state_new), two sets per point: the one the
+// step is solved with, and the one the next step starts from (λ ← p, the stick point moved by the
+// slip), which every evaluation writes from its iterate; the driver keeps the converged iterate's only.
+// The step's Newton iterates read the second set of the converged state; its reports (totals, fields)
+// read the first, so they see the tractions the converged state was solved with. An iterate without
+// a state (tests of the tangent) sees the initial one: no multiplier, the stick points at the closest
+// points at t = 0.
 #include <array>
 #include <string>
 #include <vector>
@@ -129,8 +133,9 @@ class ObstacleContact final : public Contribution {
   void validate(const Mesh& mesh) const override;
   void declare_couplings(Couplings& couplings) const override;
   MaterialStatus assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const override;
-  /// After a converged step: the stick points and multipliers of the converged state.
-  void commit(const Mesh& mesh, const Iterate& converged) const override;
+  /// Two point states per quadrature point (see the file comment).
+  int state_size() const override { return 2 * kPointStateSize * num_points(); }
+  void init_state(double* state) const override;
   /// Probes <label>_normal_force [N], _tangential_force [N], _area [mm^2], _active_points [1],
   /// _max_penetration [mm]; the field <label> (its faces: contact_pressure, gap, displacement of their nodes).
   void report(const Mesh& mesh, const Iterate& it, ContributionReport& out) const override;
@@ -162,9 +167,11 @@ class ObstacleContact final : public Contribution {
     Vec3 stick = Vec3::Zero();
     double multiplier = 0.0;
   };
-  /// The state of point k an iterate at time t sees: the converged step's own at its time or before,
-  /// the committed one after it.
-  const PointState& state(int k, double t) const { return t > committed_time_ ? history_[k] : solved_with_[k]; }
+  static constexpr int kPointStateSize = 4;  ///< stick point (3), multiplier
+  /// The state point k of a converged state was solved with (reports), and the one its next step's
+  /// iterates are solved with: from the iterate's state_old, or the initial one without.
+  PointState reported_state(const Iterate& it, int k) const { return read_state(it, k, 0); }
+  PointState solving_state(const Iterate& it, int k) const { return read_state(it, k, 1); }
 
  private:
   int face_nodes(int face) const { return face < int(quads_.size()) ? 4 : 6; }
@@ -174,9 +181,13 @@ class ObstacleContact final : public Contribution {
   Vec3 point_position(const Mesh& mesh, const Iterate& it, const Point& p) const;
   /// Current area density |x_ξ × x_η| × rule weight of a point.
   double current_weight(const Mesh& mesh, const Iterate& it, const Point& p) const;
-  PointTraction point_traction(const Mesh& mesh, const Iterate& it, int k, ObstacleGap& g) const;
+  PointTraction point_traction(const Mesh& mesh, const Iterate& it, int k, const PointState& s, ObstacleGap& g) const;
+  /// The state the next step starts from, after point k converged with traction pt at gap g.
+  PointState advanced_state(const Iterate& it, int k, const PointState& s, const PointTraction& pt,
+                            const ObstacleGap& g) const;
+  PointState read_state(const Iterate& it, int k, int set) const;
   /// Deepest admissible penetration of a face's point in an iterate.
-  double penetration_limit(int face) const;
+  double penetration_limit(int face, const Iterate& it) const;
 
   std::vector<Quad> quads_;
   std::vector<Tri6> tris_;
@@ -185,9 +196,7 @@ class ObstacleContact final : public Contribution {
   std::vector<Point> points_;
   std::vector<double> face_size_;            ///< h per face
   std::vector<ContactLaw> face_law_;         ///< the law with each face's penalties
-  mutable std::vector<PointState> history_;      ///< committed: for the steps after committed_time_
-  mutable std::vector<PointState> solved_with_;  ///< what the step that converged at committed_time_ used
-  mutable double committed_time_ = -1e300;
+  std::vector<PointState> initial_;         ///< no multiplier, stick points at the closest points at t = 0
 };
 
 /// The quadrature points of ObstacleContact's rule on one face kind (quad: 3×3 Gauss; 6-node triangle:

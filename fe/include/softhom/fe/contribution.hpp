@@ -168,13 +168,6 @@ class Contribution {
     (void)it;
     (void)out;
   }
-  /// After a converged step, at the converged iterate, on every rank alike: a contribution with a history
-  /// of its own (a contact's stick points, kept mutable) takes the converged state's. Never called for a
-  /// failed or cut-back attempt, so that history stays that of the last converged step.
-  virtual void commit(const Mesh& mesh, const Iterate& converged) const {
-    (void)mesh;
-    (void)converged;
-  }
 
  protected:
   Contribution() = default;

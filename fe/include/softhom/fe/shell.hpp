@@ -31,6 +31,7 @@
 // non-orientable surface is refused naming an element); check_closed refuses a surface with a boundary
 // edge where a closed one is needed (a cavity).
 #include <array>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -101,6 +102,14 @@ Mat3 shell_frame(const ShellFrameRule& rule, const Vec3& n, const Vec3& c, bool&
 void shell_strains(const ShellPatch& p, const std::array<Vec3, 6>& x, Vec6v& strains,
                    Eigen::Matrix<double, 6, 18>* B = nullptr, std::array<Eigen::Matrix<double, 18, 18>, 6>* H = nullptr);
 
+/// The same strains and B in closed form (shell_kinematics.cpp).
+void shell_kinematics(const ShellPatch& p, const std::array<Vec3, 6>& x, Vec6v& strains, Eigen::Matrix<double, 6, 18>& B);
+/// The stress-weighted sum of the strains' second derivatives G = Σ_k NM_k ∂²[ε; κ]_k/∂x² (the geometric
+/// part of the tangent) for NM = [N; M], in closed form: one Hessian of t·W instead of the six carried
+/// by the forward jets of shell_strains (which the tests keep as its reference).
+void shell_geometric_stiffness(const ShellPatch& p, const std::array<Vec3, 6>& x, const Vec6v& NM,
+                               Eigen::Matrix<double, 18, 18>& G);
+
 /// What a shell is made of: the triangles, their edge conditions, section and frame.
 struct ShellSpec {
   std::vector<Tri3> triangles;
@@ -109,6 +118,8 @@ struct ShellSpec {
   std::shared_ptr<const ShellSection> section;
   ShellFrameRule frame;
   bool orient = true;  ///< orient the triangles consistently (false: refuse inconsistent ones)
+  /// Named sets of triangles (a vessel's sac, its parent artery), each with its own probes.
+  std::map<std::string, std::vector<int>> groups;
 };
 
 /// The shell domain: residual and consistent tangent of every triangle's patch.
@@ -127,7 +138,9 @@ class ShellDomain final : public Contribution {
   bool holds_rigid_motion() const override { return has_clamped_; }
   int state_size() const override { return int(patches_.size()) * section_->state_size(); }
   void init_state(double* state) const override;
-  /// Probes "shell max principal stress [MPa]" and "shell max principal element [-]"; the field "shell":
+  /// Probes "shell max principal stress [MPa]", "shell max principal element [-]" and "shell max principal
+  /// stretch [-]", and for every group G "shell G max principal stress [MPa]" and "shell G max principal
+  /// stretch [-]"; the field "shell":
   /// the triangles with per-cell thickness stretch, Cauchy stress per layer at bottom, middle and top
   /// (σ11, σ22, σ12 in the local frame carried by the mid-surface's rotation), in-plane principal
   /// stresses and stretches, the current fiber direction, and the points' displacement.
@@ -147,6 +160,7 @@ class ShellDomain final : public Contribution {
     std::vector<double> principal_stress;   ///< 2 per triangle: in-plane principal σ of the mid-surface
     std::vector<double> principal_stretch;  ///< 3 per triangle: in-plane λ1 ≥ λ2, thickness λ3
     std::vector<double> fiber;              ///< 3 per triangle: current direction of the first fiber of the first layer with fibers (0 if none)
+    std::vector<double> max_stress;         ///< 1 per triangle: largest in-plane principal σ over its section points
     double max_principal = 0.0;             ///< over triangles and section points
     int max_element = -1;
   };

@@ -192,6 +192,9 @@ class Simulation {
   ElementFields element_fields() const;
   /// The probes and fields of every contribution at the converged state (ContributionReport).
   void report(ContributionReport& out) const;
+  /// The converged state as contribution `c` (one of the model's) sees it: time, displacement and its
+  /// committed history (state_old; state_new null), for its own queries (e.g. a contact's totals).
+  Iterate converged_iterate(const Contribution& c) const;
   /// Statistics so far (linear-solver times of the current solver object).
   RunStats stats() const;
   /// Work of the last converged sub-step.

@@ -22,8 +22,10 @@
 // Errors are InputError("FILE:LINE", token, problem): unsupported version, unknown or
 // unsupported element type, reference to a missing node or entity, a face that is no element's
 // face, an inverted element.
+#include <array>
 #include <filesystem>
 #include <istream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -57,5 +59,27 @@ GmshLineGroup parse_gmsh_line_group(std::istream& in, const std::string& source,
                                     const std::string& group_field);
 GmshLineGroup read_gmsh_line_group(const std::filesystem::path& file, const std::string& group,
                                    const std::string& group_field, const std::string& file_field);
+
+/// A triangulated surface for shells (fe/shell.hpp): the triangles of chosen physical surfaces and the
+/// physical curves as named edges. Volume elements in the file are ignored.
+struct GmshSurface {
+  std::vector<Vec3> nodes;                       ///< the nodes the triangles use, renumbered
+  std::vector<std::array<int, 3>> triangles;     ///< in the file's orientation
+  std::map<std::string, std::vector<int>> groups;  ///< physical surface name → its triangles
+  /// Physical curve name → its segments (a 3-node line as its two halves) among the surface's nodes.
+  std::map<std::string, std::vector<std::array<int, 2>>> curves;
+  int split_quadratic = 0;  ///< 6-node triangles, each split into its four 3-node triangles (corner, corner, corner, middle)
+};
+
+/// Parses MSH 4.1 text into the triangles of the physical surfaces `groups` (all physical surfaces when
+/// empty; every triangle when the file has none). A 6-node triangle becomes its four 3-node triangles on
+/// its mid-edge nodes (the rotation-free shell takes its curvature from edge neighbours: the four
+/// share the quadratic element's nodes). Throws InputError naming `groups_field` (its entry) for a group
+/// the file lacks (listing those it has) or one holding no triangles, and for quadrangles.
+GmshSurface parse_gmsh_surface(std::istream& in, const std::string& source, const std::vector<std::string>& groups,
+                               const std::string& groups_field);
+/// The same from a file read through the checked opener (`field` names the key of the file).
+GmshSurface read_gmsh_surface(const std::filesystem::path& file, const std::vector<std::string>& groups,
+                              const std::string& field, const std::string& groups_field);
 
 }  // namespace softhom::io

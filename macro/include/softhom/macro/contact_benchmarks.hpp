@@ -26,6 +26,20 @@ struct HertzProblem {
 };
 HertzProblem make_hertz_problem(int fine, int coarse, double depth = 0.01);
 
+/// Ironing after Puso & Laursen (2004, CMAME 193, the ironing example): a die pressed 1.0 into a soft
+/// neo-Hookean block (E = 1, ν = 0.3) over t ∈ [0, 1] and slid 10 along it over t ∈ [1, 2], Coulomb
+/// friction μ = 0.3. Here the die is rigid (a cylinder of radius 3 across the block's width, axis along
+/// y) and the block [0, 15] × [0, 3] × [0, 4] longer than the published 9 so that the die, starting
+/// 2.5 from its left end, slides the whole 10 on it; bottom fixed, u_y = 0 on both sides (the die spans
+/// the width: plane strain); `cells` hex8 per unit length; the default normal penalty, a tenth of it
+/// tangentially.
+struct IroningProblem {
+  fe::FeModel model;
+  std::shared_ptr<const fe::ObstacleContact> contact;
+  double depth = 1.0, slide = 10.0, friction = 0.3;
+};
+IroningProblem make_ironing_problem(int cells, double friction = 0.3);
+
 /// The Hertz coefficient of indentation data beyond a far-field compliance: the least-squares fit
 /// d = α F^{2/3} + C F (C F the displacement of the finite block's far field, linear in the total force
 /// where a ≪ L) returns α; Hertz's is (3 / (4 E* √R))^{2/3}.

@@ -13,7 +13,11 @@
 //           root section has the channel's hole, so its nodal centroid is slightly off the tip's),
 //           the channel volume and its change, and the smallest distance
 //           of a fingertip node to the axis; the run stops before the fingers touch, when that
-//           distance falls below stop_distance (fingers are not in contact in the model).
+//           distance falls below stop_distance (fingers are not in contact in the model). With
+//           rigid obstacles ([[contact.obstacles]], a held sample) also the grip force: the normal
+//           force of each obstacle contact and the force of the sample on one finger (their sum over
+//           the modelled fingers divided by the modelled share of the fingers: a fingertip cut by a
+//           mirror plane counts half).
 //   tube    a tube along z clamped at its lower end: axial and radial stretch of the gauge section,
 //           twist of the free end (helix_tube.hpp, TubeGauge).
 //   bending an actuator along z clamped at "zmin": end rotation (bending angle), chord angle and tip
@@ -24,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "softhom/fe/contact.hpp"
 #include "softhom/fe/solver.hpp"
 #include "softhom/macro/bending_gauge.hpp"
 #include "softhom/macro/helix_tube.hpp"
@@ -71,6 +76,7 @@ class DeviceProbe {
     std::vector<int> tip, root;
     Vec3 radial = Vec3::Zero();  ///< unit radial direction of the finger (from the finger pitch)
     double angle0 = 0.0;         ///< reference angle of the root-to-tip line (nodal centroids: ≈ 0)
+    double share = 1.0;          ///< the modelled part of the finger: 1/2 when a mirror plane cuts it
   };
   DeviceSpec spec_;
   const Structure* structure_;
@@ -80,8 +86,13 @@ class DeviceProbe {
   std::vector<Finger> fingers_;
   std::shared_ptr<const TubeGauge> tube_;
   std::shared_ptr<const BendingGauge> bending_;
+  std::vector<const fe::ObstacleContact*> contacts_;  ///< gripper: the held sample's contacts
   double volume0_ = 0.0;
   double channel_volume(const std::vector<Vec3>& x) const;
+  /// Gripper: tip_axis_distance_mm's column (after t, pressure, the volumes and the angles).
+  std::size_t distance_column() const { return 5 + fingers_.size(); }
+  /// Gripper with obstacles: each contact's normal force, then the grip force on one finger [N].
+  std::vector<double> grip_forces(const fe::Simulation& sim) const;
 };
 
 }  // namespace softhom::macro

@@ -24,8 +24,18 @@ std::filesystem::path mesh_cache_dir(const std::filesystem::path& out = {});
 /// Path of the cached mesh of `geo` at `mesh_size` (mm), generating it when absent. `field` names the
 /// scene key in errors: InputError when the .geo is missing, gmsh is not installed, or gmsh fails (its
 /// error lines in the message). `parameters` are passed as further -setnumber NAME VALUE (and hashed).
+/// `dimension` 2 meshes the surfaces only, into 3-node triangles (`gmsh -2 -order 1`: shells).
 std::filesystem::path mesh_from_geo(const std::filesystem::path& geo, double mesh_size,
                                     const std::filesystem::path& cache_dir, const std::string& field,
-                                    const std::vector<std::pair<std::string, double>>& parameters = {});
+                                    const std::vector<std::pair<std::string, double>>& parameters = {},
+                                    int dimension = 3);
+
+/// The mesh file of a scene's [geometry]: `file`, or `geo` meshed at `mesh_size` (mesh_from_geo with
+/// `dimension` and `parameters`), both relative to scene_file. Throws InputError naming geometry.file,
+/// geometry.geo or geometry.mesh_size when neither or both are given, mesh_size is missing with geo or
+/// given without it, or the file does not exist.
+std::filesystem::path scene_mesh_file(const std::string& file, const std::string& geo, double mesh_size,
+                                      const std::filesystem::path& scene_file, const std::filesystem::path& mesh_cache,
+                                      int dimension, const std::vector<std::pair<std::string, double>>& parameters = {});
 
 }  // namespace softhom::macro

@@ -16,6 +16,7 @@ struct ShellSurface {
   fe::Mesh mesh;  ///< nodes only (the triangles are the shell's)
   std::vector<fe::Tri3> triangles;
   std::map<std::string, std::vector<std::array<int, 2>>> edges;  ///< named boundary edges (node pairs)
+  std::map<std::string, std::vector<int>> groups;  ///< named sets of triangles, each with its own probes
   /// Nodes of the named boundary edges (sorted, unique); empty for an unknown name.
   std::vector<int> edge_nodes(const std::string& name) const;
 };
