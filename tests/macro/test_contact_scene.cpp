@@ -133,26 +133,26 @@ TEST(ContactScene, PairsAndSelfContactBecomeContributions) {
 }
 
 TEST(ContactScene, SurfaceContactRefusalsNameTheirField) {
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"nope\"\nmaster = \"zmin\"\n"))
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"nope\"\nmaster = \"zmin\"\n"))
                 .find("contact.pairs[0].slave"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\nmaster = \"nope\"\n"))
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\nmaster = \"nope\"\n"))
                 .find("contact.pairs[0].master"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\n")).find("contact.pairs[0].master"),
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\n")).find("contact.pairs[0].master"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"nope\"\n")).find("contact.self[0].surface"),
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"nope\"\n")).find("contact.self[0].surface"),
             std::string::npos);
   // Friction out of range (the key's bound), and within it but not implemented between deformable surfaces.
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nfriction = 4.0\n"))
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nfriction = 4.0\n"))
                 .find("contact.self[0].friction"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nfriction = 0.5\n"))
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nfriction = 0.5\n"))
                 .find("contact.self[0].friction"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\nmaster = \"zmin\"\npenalty = -1.0\n"))
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\nmaster = \"zmin\"\npenalty = -1.0\n"))
                 .find("contact.pairs[0].penalty"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nself = 1\n")).find("contact.self[0].self"),
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nself = 1\n")).find("contact.self[0].self"),
             std::string::npos);
 }
