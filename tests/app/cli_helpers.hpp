@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include <unistd.h>
 
 namespace softhom::test {
@@ -56,6 +58,11 @@ struct Csv {
     throw std::runtime_error("no column " + column);
   }
 };
+
+inline nlohmann::json read_json(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
 
 inline Csv read_csv(const std::filesystem::path& path) {
   Csv csv;

@@ -21,10 +21,6 @@ std::vector<std::string> point_columns(int fibers) {
   return c;
 }
 
-nlohmann::json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
 }  // namespace
 
 TEST(Cli, VersionAndHelp) {

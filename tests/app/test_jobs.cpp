@@ -14,6 +14,7 @@
 
 namespace jobs = softhom::jobs;
 using softhom::test::fresh_dir;
+using softhom::test::read_json;
 using softhom::test::read_csv;
 
 namespace {
@@ -64,11 +65,6 @@ void expect_rows_equal(const jobs::MemorySink& memory, const std::filesystem::pa
   for (std::size_t i = 0; i < file.rows.size(); ++i)
     for (std::size_t j = 0; j < file.columns.size(); ++j)
       EXPECT_EQ(table->values()[i * file.columns.size() + j], file.rows[i][j]) << file.columns[j] << " row " << i;
-}
-
-nlohmann::json read_json(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
 }
 
 }  // namespace

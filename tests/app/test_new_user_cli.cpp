@@ -16,14 +16,10 @@
 
 namespace fs = std::filesystem;
 using softhom::test::fresh_dir;
+using softhom::test::read_json;
 using softhom::test::run_softhom;
 
 namespace {
-
-nlohmann::json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
 
 }  // namespace
 

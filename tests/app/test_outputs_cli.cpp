@@ -24,11 +24,6 @@ namespace {
 // Runs the binary with extra environment assignments ("NAME=value ...").
 CommandResult run_env(const std::string& env, const std::string& args) { return run_softhom(args, env); }
 
-nlohmann::json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
-
 // Names in `dir` that look like temporaries (".NAME.tmp-PID").
 std::vector<std::string> temporaries(const fs::path& dir) {
   std::vector<std::string> out;

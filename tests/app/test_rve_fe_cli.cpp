@@ -19,11 +19,6 @@ std::string pdms_cell(const std::string& solver) {
          solver + "\n[output]\nfields = \"last\"\n";
 }
 
-nlohmann::json read_json(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
-
 }  // namespace
 
 // The FE and FFT runs of one cell: identical CSV header, every FFT summary key present in the FE

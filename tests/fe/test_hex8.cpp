@@ -13,7 +13,7 @@ using namespace softhom::fe;
 
 namespace {
 
-Mat83 distorted_cube() {
+Mat83 distorted_hex_coords() {
   Mat83 X;
   X << 0, 0, 0, 1, 0, 0, 1.1, 0.9, 0, 0, 1, 0.1, 0, 0.05, 1, 1, 0, 1.2, 1, 1, 1, -0.1, 1, 0.9;
   return X;
@@ -59,7 +59,7 @@ Mat83 displacement_from(const Mat83& X, const Mat3& F, double noise, unsigned se
 }  // namespace
 
 TEST(Hex8, TangentMatchesFiniteDifferencesUniaxialShearRandom) {
-  const Hex8Geometry g = hex8_geometry(distorted_cube());
+  const Hex8Geometry g = hex8_geometry(distorted_hex_coords());
   ASSERT_TRUE(g.valid);
   const auto m = anisotropic_gent();
   Mat3 uni = Vec3(1.3, 0.9, 0.88).asDiagonal();
@@ -68,21 +68,21 @@ TEST(Hex8, TangentMatchesFiniteDifferencesUniaxialShearRandom) {
   for (Formulation f : {Formulation::standard, Formulation::fbar}) {
     // Central differences with h = 1e-6 have truncation O(h²)·|K'''| and round-off O(ε|r|/h) ≈ 1e-10
     // relative: 1e-6 leaves a wide margin yet catches any missing term (those are O(1) relative).
-    EXPECT_LT(tangent_error(g, displacement_from(distorted_cube(), uni, 0.0, 1), *m, f), 1e-6);
-    EXPECT_LT(tangent_error(g, displacement_from(distorted_cube(), shear, 0.0, 2), *m, f), 1e-6);
-    EXPECT_LT(tangent_error(g, displacement_from(distorted_cube(), uni * shear, 0.08, 3), *m, f), 1e-6);
+    EXPECT_LT(tangent_error(g, displacement_from(distorted_hex_coords(), uni, 0.0, 1), *m, f), 1e-6);
+    EXPECT_LT(tangent_error(g, displacement_from(distorted_hex_coords(), shear, 0.0, 2), *m, f), 1e-6);
+    EXPECT_LT(tangent_error(g, displacement_from(distorted_hex_coords(), uni * shear, 0.08, 3), *m, f), 1e-6);
   }
 }
 
 TEST(Hex8, FbarTangentIsSymmetricForHyperelasticLaw) {
   // The F-bar residual is the exact gradient of Σ w W(F̄): its Hessian must be symmetric.
-  const Hex8Geometry g = hex8_geometry(distorted_cube());
+  const Hex8Geometry g = hex8_geometry(distorted_hex_coords());
   const auto m = anisotropic_gent();
   Mat3 F = Vec3(1.2, 0.95, 0.9).asDiagonal();
   F(0, 2) = 0.2;
   Vec24 r;
   Mat24 K;
-  ASSERT_EQ(hex8_internal_force(g, displacement_from(distorted_cube(), F, 0.05, 7), *m, nullptr, nullptr, 0.0,
+  ASSERT_EQ(hex8_internal_force(g, displacement_from(distorted_hex_coords(), F, 0.05, 7), *m, nullptr, nullptr, 0.0,
                                 Formulation::fbar, r, &K),
             MaterialStatus::ok);
   EXPECT_LT((K - K.transpose()).cwiseAbs().maxCoeff() / K.cwiseAbs().maxCoeff(), 1e-12);
@@ -91,7 +91,7 @@ TEST(Hex8, FbarTangentIsSymmetricForHyperelasticLaw) {
 TEST(Hex8, HomogeneousDeformationReproducesMaterialStress) {
   // Patch test on one distorted element: a homogeneous F gives F̄ = F at every Gauss point and nodal
   // forces equal to ∫ P ∇N dV, whose sum over nodes vanishes.
-  const Mat83 X = distorted_cube();
+  const Mat83 X = distorted_hex_coords();
   const Hex8Geometry g = hex8_geometry(X);
   const auto m = anisotropic_gent();
   Mat3 F = Vec3(1.4, 0.85, 0.9).asDiagonal();
@@ -113,7 +113,7 @@ TEST(Hex8, HomogeneousDeformationReproducesMaterialStress) {
 }
 
 TEST(Hex8, InvertedElementIsReported) {
-  const Hex8Geometry g = hex8_geometry(distorted_cube());
+  const Hex8Geometry g = hex8_geometry(distorted_hex_coords());
   Mat83 u = Mat83::Zero();
   u(6, 0) = -3.0;  // drag one corner through the element
   Vec24 r;
@@ -146,7 +146,7 @@ TEST(Quad4, PressureStiffnessMatchesFiniteDifferences) {
 
 TEST(Quad4, EnclosedVolumeOfADistortedHexIsExact) {
   // The six faces of a hex (inward = cavity seen from outside is the negative): −(1/3)∮ x·n = −V.
-  const Mat83 X = distorted_cube();
+  const Mat83 X = distorted_hex_coords();
   const Hex8Geometry g = hex8_geometry(X);
   std::vector<Vec3> nodes;
   for (int a = 0; a < 8; ++a) nodes.push_back(X.row(a).transpose());

@@ -30,7 +30,7 @@ Tet10Coords curved_tet() {
   return X;
 }
 
-MaterialPtr anisotropic_gent(double K = 0.34) {
+MaterialPtr anisotropic_gent_of_bulk(double K = 0.34) {
   // K/G = 20 by default: tangent entries of similar size, a sharper finite-difference check.
   return std::make_shared<test_support::LocalGentHGO>(0.017, 14.0, K, std::vector<Vec3>{Vec3(1, 1, 0.3)}, 0.8, 18.0);
 }
@@ -91,7 +91,7 @@ TEST(Tet10Element, GeometryOfCurvedElementIsValid) {
 
 TEST(Tet10Element, TangentMatchesFiniteDifferences) {
   const Tet10Geometry g = tet10_geometry(curved_tet());
-  const MaterialPtr m = anisotropic_gent();
+  const MaterialPtr m = anisotropic_gent_of_bulk();
   Mat3 F;
   F << 1.25, 0.15, 0.05, -0.1, 0.9, 0.12, 0.04, 0.08, 1.1;  // fibers in tension, finite shear
   const Tet10Coords u = displacement_from(curved_tet(), F, 0.03, 7);
@@ -110,7 +110,7 @@ TEST(Tet10Element, TangentMatchesFiniteDifferences) {
 TEST(Tet10Element, NearlyIncompressibleMixedTangentMatchesFiniteDifferences) {
   // K/G = 1e5: the condensed tangent is dominated by V U''(θ) d dᵀ; relative error still ≤ 1e-6.
   const Tet10Geometry g = tet10_geometry(curved_tet());
-  const MaterialPtr m = anisotropic_gent(1700.0);
+  const MaterialPtr m = anisotropic_gent_of_bulk(1700.0);
   Mat3 F;
   F << 1.2, 0.1, 0.0, 0.0, 0.95, 0.1, 0.0, 0.05, 0.88;
   const Tet10Coords u = displacement_from(curved_tet(), F, 0.01, 11);
@@ -124,7 +124,7 @@ TEST(Tet10Element, NearlyIncompressibleMixedTangentMatchesFiniteDifferences) {
 TEST(Tet10Element, RigidRotationGivesZeroForce) {
   const Tet10Coords X = curved_tet();
   const Tet10Geometry g = tet10_geometry(X);
-  const MaterialPtr m = anisotropic_gent();
+  const MaterialPtr m = anisotropic_gent_of_bulk();
   const Mat3 Q = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
   const Tet10Coords u = displacement_from(X, Q, 0.0, 1);
   Vec30 r;

@@ -19,7 +19,7 @@ using namespace softhom::io;
 
 namespace {
 
-std::string data(const std::string& name) { return std::string(SOFTHOM_SOURCE_DIR) + "/tests/data/gmsh/" + name; }
+std::string gmsh_file(const std::string& name) { return std::string(SOFTHOM_SOURCE_DIR) + "/tests/data/gmsh/" + name; }
 
 std::string read_text(const std::string& file) {
   std::ifstream in(file, std::ios::binary);
@@ -164,7 +164,7 @@ void expect_same(const Mesh& a, const Mesh& b) {
   EXPECT_EQ(a.tri_surfaces, b.tri_surfaces);
 }
 
-std::string error_of(const std::string& text) {
+std::string binary_error_of(const std::string& text) {
   try {
     parse(text, "bin.msh");
   } catch (const InputError& e) {
@@ -178,7 +178,7 @@ std::string error_of(const std::string& text) {
 TEST(GmshBinary, SameMeshAsAsciiInBothByteOrders) {
   // Hexahedra with quadrangle surfaces, tet10 with two regions, and tet4 promoted to tet10.
   for (const char* file : {"hex_block.msh", "two_regions_tet10.msh", "box_tet4.msh"}) {
-    const std::string ascii = read_text(data(file));
+    const std::string ascii = read_text(gmsh_file(file));
     const Mesh reference = parse(ascii, file);
     ASSERT_GT(reference.num_elements(), 0) << file;
     for (const bool big : {false, true})
@@ -190,7 +190,7 @@ TEST(GmshBinary, SameMeshAsAsciiInBothByteOrders) {
       }
   }
   // And from a file on disk (read_gmsh opens it in binary mode).
-  const std::string ascii = read_text(data("hex_block.msh"));
+  const std::string ascii = read_text(gmsh_file("hex_block.msh"));
   const std::string path = testing::TempDir() + "softhom_hex_block_binary.msh";
   {
     std::ofstream out(path, std::ios::binary);
@@ -200,24 +200,24 @@ TEST(GmshBinary, SameMeshAsAsciiInBothByteOrders) {
 }
 
 TEST(GmshBinary, TruncatedOrCorruptDataIsAnInputError) {
-  const std::string bin = BinaryWriter(read_text(data("hex_block.msh")), false, 8).convert();
+  const std::string bin = BinaryWriter(read_text(gmsh_file("hex_block.msh")), false, 8).convert();
   // Cut inside the node coordinates.
   const std::size_t nodes = bin.find("$Nodes\n");
   ASSERT_NE(nodes, std::string::npos);
   const std::string cut = bin.substr(0, nodes + 200);
-  EXPECT_NE(error_of(cut).find("binary"), std::string::npos) << error_of(cut);
+  EXPECT_NE(binary_error_of(cut).find("binary"), std::string::npos) << binary_error_of(cut);
   // A node count of 2^40 (corrupt): refused before allocating.
   std::string corrupt = bin;
   const std::uint64_t huge = std::uint64_t(1) << 40;
   std::memcpy(&corrupt[nodes + 7 + 8], &huge, 8);  // second size_t after "$Nodes\n": number of nodes
-  EXPECT_NE(error_of(corrupt).find("invalid count"), std::string::npos) << error_of(corrupt);
+  EXPECT_NE(binary_error_of(corrupt).find("invalid count"), std::string::npos) << binary_error_of(corrupt);
   // Endianness marker that is neither 1 nor byte-swapped 1.
   std::string marker = bin;
   const std::size_t m = marker.find("4.1 1 8\n") + 8;
   marker[m] = 7;
-  EXPECT_NE(error_of(marker).find("endianness"), std::string::npos) << error_of(marker);
+  EXPECT_NE(binary_error_of(marker).find("endianness"), std::string::npos) << binary_error_of(marker);
   // data-size other than 4 or 8.
   std::string size = bin;
   size.replace(size.find("4.1 1 8"), 7, "4.1 1 2");
-  EXPECT_NE(error_of(size).find("data-size"), std::string::npos) << error_of(size);
+  EXPECT_NE(binary_error_of(size).find("data-size"), std::string::npos) << binary_error_of(size);
 }

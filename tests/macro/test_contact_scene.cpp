@@ -35,7 +35,7 @@ steps = 2
 }
 
 /// The InputError of parsing, building and setting up the scene's simulation, or "no error".
-std::string error_of(const std::string& text) {
+std::string contact_error_of(const std::string& text) {
   try {
     const macro::MacroScene m = macro::parse_macro_scene(io::parse_scene(text, "<test>"));
     const macro::Structure s = macro::build_structure(m.spec);
@@ -68,23 +68,23 @@ TEST(ContactScene, ObstacleBecomesAContribution) {
 
 TEST(ContactScene, RefusalsNameTheirField) {
   const std::string plane = "type = \"plane\"\nposition = [0.0, 0.0, -0.5]\nnormal = [0.0, 0.0, 1.0]\n";
-  EXPECT_NE(error_of(plate_with(plane + "surface = \"nope\"\n")).find("contact.obstacles[0].surface"), std::string::npos);
-  EXPECT_NE(error_of(plate_with(plane + "surface = \"zmin\"\nfriction = 4.0\n")).find("contact.obstacles[0].friction"),
+  EXPECT_NE(contact_error_of(plate_with(plane + "surface = \"nope\"\n")).find("contact.obstacles[0].surface"), std::string::npos);
+  EXPECT_NE(contact_error_of(plate_with(plane + "surface = \"zmin\"\nfriction = 4.0\n")).find("contact.obstacles[0].friction"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with(plane + "surface = \"zmin\"\nradius = 1.0\n")).find("contact.obstacles[0].radius"),
+  EXPECT_NE(contact_error_of(plate_with(plane + "surface = \"zmin\"\nradius = 1.0\n")).find("contact.obstacles[0].radius"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with("type = \"sphere\"\nsurface = \"zmin\"\nposition = [0.0, 0.0, -3.0]\n"))
+  EXPECT_NE(contact_error_of(plate_with("type = \"sphere\"\nsurface = \"zmin\"\nposition = [0.0, 0.0, -3.0]\n"))
                 .find("contact.obstacles[0].radius"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with("type = \"plane\"\nsurface = \"zmin\"\nposition = [0.0, 0.0, -0.5]\nnormal = [0, 0, 0]\n"))
+  EXPECT_NE(contact_error_of(plate_with("type = \"plane\"\nsurface = \"zmin\"\nposition = [0.0, 0.0, -0.5]\nnormal = [0, 0, 0]\n"))
                 .find("contact.obstacles[0].normal"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with(plane + "surface = \"zmin\"\npath = [[1.0, 0, 0, 0], [0.5, 0, 0, 1]]\n"))
+  EXPECT_NE(contact_error_of(plate_with(plane + "surface = \"zmin\"\npath = [[1.0, 0, 0, 0], [0.5, 0, 0, 1]]\n"))
                 .find("contact.obstacles[0].path[1][0]"),
             std::string::npos);
-  EXPECT_EQ(error_of(plate_with(plane + "surface = \"zmin\"\n")), "no error");
+  EXPECT_EQ(contact_error_of(plate_with(plane + "surface = \"zmin\"\n")), "no error");
   // The plane 0.25 mm inside the plate's bottom face.
-  const std::string overlap = error_of(
+  const std::string overlap = contact_error_of(
       plate_with("type = \"plane\"\nsurface = \"zmin\"\nposition = [0.0, 0.0, 0.25]\nnormal = [0.0, 0.0, 1.0]\n"));
   EXPECT_NE(overlap.find("contact.obstacles[0]"), std::string::npos) << overlap;
   EXPECT_NE(overlap.find("overlaps the body"), std::string::npos) << overlap;
@@ -133,26 +133,26 @@ TEST(ContactScene, PairsAndSelfContactBecomeContributions) {
 }
 
 TEST(ContactScene, SurfaceContactRefusalsNameTheirField) {
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"nope\"\nmaster = \"zmin\"\n"))
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"nope\"\nmaster = \"zmin\"\n"))
                 .find("contact.pairs[0].slave"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\nmaster = \"nope\"\n"))
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\nmaster = \"nope\"\n"))
                 .find("contact.pairs[0].master"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\n")).find("contact.pairs[0].master"),
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\n")).find("contact.pairs[0].master"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"nope\"\n")).find("contact.self[0].surface"),
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"nope\"\n")).find("contact.self[0].surface"),
             std::string::npos);
   // Friction out of range (the key's bound), and within it but not implemented between deformable surfaces.
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nfriction = 4.0\n"))
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nfriction = 4.0\n"))
                 .find("contact.self[0].friction"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nfriction = 0.5\n"))
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nfriction = 0.5\n"))
                 .find("contact.self[0].friction"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\nmaster = \"zmin\"\npenalty = -1.0\n"))
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\nmaster = \"zmin\"\npenalty = -1.0\n"))
                 .find("contact.pairs[0].penalty"),
             std::string::npos);
-  EXPECT_NE(error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nself = 1\n")).find("contact.self[0].self"),
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nself = 1\n")).find("contact.self[0].self"),
             std::string::npos);
 }

@@ -31,7 +31,7 @@ std::string scene_text() {
   return ss.str();
 }
 
-std::string replaced(std::string text, const std::string& from, const std::string& to) {
+std::string with_replacement(std::string text, const std::string& from, const std::string& to) {
   const auto at = text.find(from);
   EXPECT_NE(at, std::string::npos) << from;
   return at == std::string::npos ? text : text.replace(at, from.size(), to);
@@ -40,7 +40,7 @@ std::string replaced(std::string text, const std::string& from, const std::strin
 /// The InputError of parsing the coarse scene with one edit (the .geo path stays relative to it).
 std::string error_with(const std::string& from, const std::string& to) {
   try {
-    macro::parse_macro_scene(io::parse_scene(replaced(scene_text(), from, to), "<test>"), kCoarse);
+    macro::parse_macro_scene(io::parse_scene(with_replacement(scene_text(), from, to), "<test>"), kCoarse);
   } catch (const InputError& e) {
     return e.what();
   }

@@ -90,7 +90,7 @@ TEST(ShellBalloon, NeoHookeanThroughItsPressureMaximumMatchesTheThinShellClosedF
 
 TEST(ShellBalloon, GentThroughItsPressureMaximumMatchesTheThinShellClosedForm) {
   const double Jm = 30.0;
-  const auto closed = [&](double l) { return test_support::thin_balloon_pressure(kG, Jm, kR, kH, l); };
+  const auto closed = [&](double l) { return softhom::macro::test_support::thin_balloon_pressure(kG, Jm, kR, kH, l); };
   // Through the maximum (λ ≈ 1.38) and into the stiffening as λ⁴ nears Jm/2: to λ = 3; measured
   // 0.27 % at most on the same octant, bound 0.5 % as above.
   const BalloonRun r = run_balloon(balloon(gent(Jm), 16, 27.0), 18, closed);

@@ -66,14 +66,14 @@ $Elements
 $EndElements
 )";
 
-io::GmshSurface parse(const std::vector<std::string>& groups) {
+io::GmshSurface parse_groups(const std::vector<std::string>& groups) {
   std::istringstream in(kTri6);
   return io::parse_gmsh_surface(in, "tri6.msh", groups, "geometry.surfaces");
 }
 
-std::string error_of(const std::vector<std::string>& groups) {
+std::string groups_error_of(const std::vector<std::string>& groups) {
   try {
-    parse(groups);
+    parse_groups(groups);
   } catch (const InputError& e) {
     return e.what();
   }
@@ -90,7 +90,7 @@ void write(const fs::path& p, const std::string& text) {
 // The 6-node triangle becomes four 3-node triangles of a quarter of its area each, all facing +z as
 // the parent does; the 3-node line becomes two segments; unused nodes are dropped (none here).
 TEST(ShellGmsh, SplitsSixNodeTrianglesAndReadsCurves) {
-  const io::GmshSurface s = parse({});
+  const io::GmshSurface s = parse_groups({});
   ASSERT_EQ(s.triangles.size(), 4u);
   EXPECT_EQ(s.split_quadratic, 1);
   EXPECT_EQ(s.nodes.size(), 6u);
@@ -104,10 +104,10 @@ TEST(ShellGmsh, SplitsSixNodeTrianglesAndReadsCurves) {
 }
 
 TEST(ShellGmsh, RefusesMissingAndEmptyGroupsNamingThem) {
-  const std::string missing = error_of({"wall", "nope"});
+  const std::string missing = groups_error_of({"wall", "nope"});
   EXPECT_NE(missing.find("geometry.surfaces[1]"), std::string::npos) << missing;
   EXPECT_NE(missing.find("\"wall\""), std::string::npos) << missing;  // lists the groups it has
-  const std::string empty = error_of({"empty"});
+  const std::string empty = groups_error_of({"empty"});
   EXPECT_NE(empty.find("geometry.surfaces"), std::string::npos) << empty;
   EXPECT_NE(empty.find("no triangles"), std::string::npos) << empty;
 }

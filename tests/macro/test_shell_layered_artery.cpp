@@ -23,9 +23,9 @@ namespace {
 struct Layer {
   double mu, k1, k2, beta_deg, thickness;
 };
-constexpr double kRmid = 10.0, kH = 0.5;
-const Layer kMedia{0.006, 0.0023632, 0.8393, 29.0, kH * 2.0 / 3.0};
-const Layer kAdventitia{0.0006, 0.000562, 0.7112, 62.0, kH / 3.0};
+constexpr double kRmid = 10.0, kWallThickness = 0.5;
+const Layer kMedia{0.006, 0.0023632, 0.8393, 29.0, kWallThickness * 2.0 / 3.0};
+const Layer kAdventitia{0.0006, 0.000562, 0.7112, 62.0, kWallThickness / 3.0};
 
 MaterialPtr law(const Layer& l) {
   GentHGOParams g;
@@ -64,7 +64,7 @@ struct SolidState {
   double p, r_inner, r_mid;
 };
 SolidState solid(const Material& media, const Material& adventitia, double ri) {
-  const double Ri = kRmid - 0.5 * kH;
+  const double Ri = kRmid - 0.5 * kWallThickness;
   auto radius = [&](double R) { return std::sqrt(R * R - Ri * Ri + ri * ri); };
   double p = 0.0;
   double R0 = Ri;
@@ -95,7 +95,7 @@ TEST(ShellLayeredArtery, PressureRadiusMatchesTheExactLayeredSolidTube) {
   const MaterialPtr media = law(kMedia), adventitia = law(kAdventitia);
   // The solid's pressure–radius curve, in r_i; the shell's load path reaches its last point.
   std::vector<SolidState> curve;
-  for (int k = 0; k <= 240; ++k) curve.push_back(solid(*media, *adventitia, (kRmid - 0.5 * kH) * (1.0 + 0.6 * k / 240.0)));
+  for (int k = 0; k <= 240; ++k) curve.push_back(solid(*media, *adventitia, (kRmid - 0.5 * kWallThickness) * (1.0 + 0.6 * k / 240.0)));
   auto mid_pressure = [](const SolidState& s) { return s.p * s.r_inner / s.r_mid; };
   const double p_end = mid_pressure(curve.back());
   StructureSpec spec;

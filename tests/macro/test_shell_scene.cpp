@@ -43,7 +43,7 @@ path = [[0.0, 1.0], [1.0, 2.0]]
 steps = 2
 )";
 
-macro::MacroScene parse(const std::string& text) { return macro::parse_macro_scene(io::parse_scene(text, "<test>")); }
+macro::MacroScene parse_shell_scene(const std::string& text) { return macro::parse_macro_scene(io::parse_scene(text, "<test>")); }
 
 /// The scene with `from` replaced by `to` must be refused naming `field`.
 void expect_refused(const std::string& from, const std::string& to, const std::string& field, bool build = false) {
@@ -52,7 +52,7 @@ void expect_refused(const std::string& from, const std::string& to, const std::s
   ASSERT_NE(at, std::string::npos) << from;
   text.replace(at, from.size(), to);
   try {
-    const macro::MacroScene m = parse(text);
+    const macro::MacroScene m = parse_shell_scene(text);
     if (build) (void)macro::build_structure(m.spec);
     FAIL() << "accepted: " << to;
   } catch (const InputError& e) {
@@ -73,7 +73,7 @@ TEST(ShellScene, TheShippedBalloonParsesAndBuilds) {
 }
 
 TEST(ShellScene, LayersFramesAndEdgesAreRead) {
-  const macro::MacroScene m = parse(kBalloon);
+  const macro::MacroScene m = parse_shell_scene(kBalloon);
   ASSERT_TRUE(m.spec.shell.section);
   EXPECT_EQ(m.spec.shell.section->layers().size(), 2u);
   EXPECT_NEAR(m.spec.shell.section->thickness(), 0.15, 1e-15);
@@ -83,7 +83,7 @@ TEST(ShellScene, LayersFramesAndEdgesAreRead) {
   std::string strip = kBalloon;
   strip.replace(strip.find("sphere_octant"), 13, "strip");
   strip.replace(strip.find("\"volume\""), 8, "\"pressure\"");
-  const macro::Structure s = macro::build_structure(parse(strip).spec);
+  const macro::Structure s = macro::build_structure(parse_shell_scene(strip).spec);
   EXPECT_EQ(s.shell->frame_fallbacks(), int(s.shell->triangles().size()));
   EXPECT_NEAR((s.shell->patches()[0].frame.col(0) - Vec3::UnitY()).norm(), 0.0, 1e-14);
 }
@@ -103,7 +103,7 @@ TEST(ShellScene, BadInputIsRefusedNamingItsKey) {
 }
 
 TEST(ShellScene, ARunOfTheBalloonSceneReachesTheEndOfItsPath) {
-  const macro::MacroScene m = parse(kBalloon);
+  const macro::MacroScene m = parse_shell_scene(kBalloon);
   const macro::Structure s = macro::build_structure(m.spec);
   fe::Simulation sim(s.model, m.newton);
   for (double t : m.times) ASSERT_TRUE(sim.advance_to(t).reached());

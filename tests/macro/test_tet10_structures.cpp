@@ -26,7 +26,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-MaterialPtr gent(double G, double Jm, double K) { return std::make_shared<fe::test_support::LocalGentHGO>(G, Jm, K); }
+MaterialPtr tet10_gent(double G, double Jm, double K) { return std::make_shared<fe::test_support::LocalGentHGO>(G, Jm, K); }
 
 fe::NewtonOptions options(int substeps = 1) {
   fe::NewtonOptions o;
@@ -35,18 +35,18 @@ fe::NewtonOptions options(int substeps = 1) {
   return o;
 }
 
-struct TubeResult {
+struct Tet10TubeResult {
   double p_fe, p_exact, ri, seconds;
   int iterations, dofs;
 };
 
-TubeResult inflate_tet_tube(int radial, int circ) {
+Tet10TubeResult inflate_tet_tube(int radial, int circ) {
   StructureSpec spec;
   spec.kind = StructureKind::tube;
   spec.tube = {5.0, 7.5, 0.5, radial, circ, 1, 90.0};
   spec.tet10 = true;
   spec.plane_strain = true;
-  spec.material = gent(0.017, 14.0, 2000.0);  // K/G ≈ 1.2e5
+  spec.material = tet10_gent(0.017, 14.0, 2000.0);  // K/G ≈ 1.2e5
   spec.control = LoadControl::volume;
   spec.load = {{0.0, 1.0}, {1.0, 4.0}};  // V/V0 = (r_i/R_i)² = 4
   const Structure s = build_structure(spec);
@@ -142,8 +142,8 @@ TEST(Tet10Structures, ViscoelasticBlockRelaxesLikeTheMaterialPoint) {
 }
 
 TEST(Tet10Structures, PlaneStrainTubeMatchesClosedFormAndConverges) {
-  const TubeResult coarse = inflate_tet_tube(1, 4);
-  const TubeResult fine = inflate_tet_tube(2, 8);
+  const Tet10TubeResult coarse = inflate_tet_tube(1, 4);
+  const Tet10TubeResult fine = inflate_tet_tube(2, 8);
   const double e_coarse = std::abs(coarse.p_fe / coarse.p_exact - 1), e_fine = std::abs(fine.p_fe / fine.p_exact - 1);
   std::cerr << "tet10 tube: coarse (" << coarse.dofs << " dofs) p_FE = " << coarse.p_fe << " p_exact = " << coarse.p_exact
             << " rel.err " << e_coarse << " (" << coarse.iterations << " its, " << coarse.seconds << " s); fine ("
@@ -164,7 +164,7 @@ TEST(Tet10Structures, FollowerPressureOnTriangleFacesInflatesTube) {
   spec.tube = {5.0, 7.5, 0.5, 1, 4, 1, 90.0};
   spec.tet10 = true;
   spec.plane_strain = true;
-  spec.material = gent(0.017, 14.0, 2000.0);
+  spec.material = tet10_gent(0.017, 14.0, 2000.0);
   spec.control = LoadControl::pressure;
   const double p_target = ts::tube_pressure(0.017, 14.0, 5.0, 7.5, 7.0);
   spec.load = {{0.0, 1.0}, {0.0, p_target}};
@@ -218,7 +218,7 @@ TEST(Tet10Structures, ShippedGmshTubeInflatesLikeTheClosedForm) {
                          {"ysym", {false, true, false}}, {"xsym", {true, false, false}}};
   spec.imported.load_surfaces = {"inner"};
   spec.imported.cavity_mask = Vec3(1, 1, 0);
-  spec.material = gent(0.017, 14.0, 2000.0);
+  spec.material = tet10_gent(0.017, 14.0, 2000.0);
   spec.control = LoadControl::volume;
   spec.load = {{0.0, 1.0}, {1.0, 2.25}};
   const Structure s = build_structure(spec);

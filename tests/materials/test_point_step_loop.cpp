@@ -10,13 +10,13 @@
 using namespace softhom;
 
 namespace {
-PiecewiseLinear ramp(double to) { return {{0.0, 1.0}, {1.0, to}}; }
+PiecewiseLinear unit_ramp(double to) { return {{0.0, 1.0}, {1.0, to}}; }
 bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 }  // namespace
 
 TEST(PointStepLoop, CutBacksHalveGrowAndKeepTheAnswer) {
   const auto m = build_material(preset_spec("ecoflex"));
-  MixedControl c = uniaxial_control(ramp(2.5));
+  MixedControl c = uniaxial_control(unit_ramp(2.5));
   c.times = {1.0};  // one output step of stretch 1 → 2.5
   PointSolverOptions hard;
   hard.max_iterations = 3;  // too few for the whole step: it must be cut back
@@ -26,7 +26,7 @@ TEST(PointStepLoop, CutBacksHalveGrowAndKeepTheAnswer) {
   EXPECT_GT(r.steps.back().substeps, 1);
   // Each kind of cut-back is logged once, however many there were.
   EXPECT_EQ(r.log.size(), 1u);
-  MixedControl fine = uniaxial_control(ramp(2.5));
+  MixedControl fine = uniaxial_control(unit_ramp(2.5));
   for (int k = 1; k <= 50; ++k) fine.times.push_back(k / 50.0);
   const PointRunResult ref = run_material_point(*m, fine);
   ASSERT_TRUE(ref.completed) << ref.error;
@@ -38,7 +38,7 @@ TEST(PointStepLoop, CutBacksHalveGrowAndKeepTheAnswer) {
 
 TEST(PointStepLoop, LockingIsAFatalStop) {
   const auto m = build_material(preset_spec("verify-iso"));
-  MixedControl c = uniaxial_control(ramp(1.3));
+  MixedControl c = uniaxial_control(unit_ramp(1.3));
   for (int k = 1; k <= 60; ++k) c.times.push_back(k / 60.0);
   const PointRunResult r = run_material_point(*m, c);
   EXPECT_FALSE(r.completed);
@@ -52,7 +52,7 @@ TEST(PointStepLoop, LockingIsAFatalStop) {
 TEST(PointStepLoop, StopRequestKeepsTheConvergedRows) {
   clear_stop_request();
   const auto m = build_material(preset_spec("ecoflex"));
-  MixedControl c = uniaxial_control(ramp(1.5));
+  MixedControl c = uniaxial_control(unit_ramp(1.5));
   for (int k = 1; k <= 10; ++k) c.times.push_back(k / 10.0);
   int rows = 0;
   const PointRunResult r = run_material_point(*m, c, {}, [&](const PointState&) {
@@ -68,7 +68,7 @@ TEST(PointStepLoop, StopRequestKeepsTheConvergedRows) {
 
 TEST(PointStepLoop, WallTimeBudgetEndsTheCutBacks) {
   const auto m = build_material(preset_spec("ecoflex"));
-  MixedControl c = uniaxial_control(ramp(2.5));
+  MixedControl c = uniaxial_control(unit_ramp(2.5));
   c.times = {1.0};
   PointSolverOptions o;
   o.max_iterations = 3;        // the whole step fails and would be cut back ...

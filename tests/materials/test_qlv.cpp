@@ -19,8 +19,8 @@ using namespace softhom::test;
 
 namespace {
 
-constexpr double kFdTol = 1e-6;
-constexpr double kExactTol = 1e-12;
+constexpr double kQlvFdTol = 1e-6;
+constexpr double kQlvExactTol = 1e-12;
 
 GentHGOParams aniso(double K) {
   GentHGOParams p;
@@ -101,14 +101,14 @@ TEST(QLV, AlgorithmicTangentMatchesFiniteDifferences) {
         bool ok = true;
         const Mat9 A_fd = fd_tangent(*m, F, old.data(), dt, ok);
         ASSERT_TRUE(ok);
-        EXPECT_TRUE(matrices_close(A, A_fd, kFdTol, "QLV algorithmic tangent", &worst));
+        EXPECT_TRUE(matrices_close(A, A_fd, kQlvFdTol, "QLV algorithmic tangent", &worst));
         // Stress-only call: same P.
         Mat3 P2;
         ASSERT_EQ(m->evaluate(F, old.data(), fresh.data(), dt, P2, nullptr), MaterialStatus::ok);
-        EXPECT_TRUE(matrices_close(P, P2, kExactTol, "stress-only"));
+        EXPECT_TRUE(matrices_close(P, P2, kQlvExactTol, "stress-only"));
         // Balance of angular momentum: P Fᵀ symmetric (S is symmetric, history included).
         const Mat3 tau = P * F.transpose();
-        EXPECT_LE((tau - tau.transpose()).norm(), kExactTol * tau.norm());
+        EXPECT_LE((tau - tau.transpose()).norm(), kQlvExactTol * tau.norm());
         ++count;
       }
     }
@@ -131,7 +131,7 @@ TEST(QLV, UnitLongTermWeightEqualsTheElasticLaw) {
     Mat9 Ae, Aq;
     ASSERT_EQ(elastic->evaluate(F, nullptr, nullptr, 0.0, Pe, &Ae), MaterialStatus::ok);
     ASSERT_EQ(qlv->evaluate(F, s0.data(), s1.data(), 0.3 * n, Pq, &Aq), MaterialStatus::ok);
-    EXPECT_TRUE(matrices_close(Pe, Pq, kExactTol, "P with g_inf = 1"));
+    EXPECT_TRUE(matrices_close(Pe, Pq, kQlvExactTol, "P with g_inf = 1"));
     EXPECT_TRUE(matrices_close(Ae, Aq, 1e-11, "A with g_inf = 1"));
   }
   // And no terms at all: the plain adapter (no history).
@@ -152,7 +152,7 @@ TEST(QLV, InstantaneousResponseFromRestIsElastic) {
     Mat9 Ae, Aq;
     ASSERT_EQ(elastic->evaluate(F, nullptr, nullptr, 0.0, Pe, &Ae), MaterialStatus::ok);
     ASSERT_EQ(qlv->evaluate(F, s0.data(), s1.data(), 0.0, Pq, &Aq), MaterialStatus::ok);
-    EXPECT_TRUE(matrices_close(Pe, Pq, kExactTol, "instantaneous P"));
+    EXPECT_TRUE(matrices_close(Pe, Pq, kQlvExactTol, "instantaneous P"));
     EXPECT_TRUE(matrices_close(Ae, Aq, 1e-11, "instantaneous A"));
     EXPECT_TRUE(Pq.allFinite() && Aq.allFinite());
   }
@@ -176,8 +176,8 @@ TEST(QLV, RelaxationAtFixedDeformationIsTheExactExponential) {
   m->init_state(rest.data());
   Mat3 P;
   ASSERT_EQ(m->evaluate(F, rest.data(), jumped.data(), 0.0, P, nullptr), MaterialStatus::ok);
-  EXPECT_TRUE(matrices_close(Mat3(F * Se), P, kExactTol, "instantaneous"));
-  EXPECT_TRUE(matrices_close(SD, load(jumped.data()), kExactTol, "stored S_D^e"));
+  EXPECT_TRUE(matrices_close(Mat3(F * Se), P, kQlvExactTol, "instantaneous"));
+  EXPECT_TRUE(matrices_close(SD, load(jumped.data()), kQlvExactTol, "stored S_D^e"));
 
   const auto expected = [&](double t) {
     double D = pr.g_inf;
@@ -188,7 +188,7 @@ TEST(QLV, RelaxationAtFixedDeformationIsTheExactExponential) {
     // One step of length t.
     std::vector<double> s(n);
     ASSERT_EQ(m->evaluate(F, jumped.data(), s.data(), t, P, nullptr), MaterialStatus::ok);
-    EXPECT_TRUE(matrices_close(expected(t), P, kExactTol, "one step, t = " + std::to_string(t)));
+    EXPECT_TRUE(matrices_close(expected(t), P, kQlvExactTol, "one step, t = " + std::to_string(t)));
     // Ten steps of t/10, in place (state_old == state_new).
     std::vector<double> w = jumped;
     for (int k = 0; k < 10; ++k)
@@ -198,7 +198,7 @@ TEST(QLV, RelaxationAtFixedDeformationIsTheExactExponential) {
   // The long-time limit is the g∞-weighted value, strictly between it and the instantaneous one before.
   std::vector<double> s(n);
   ASSERT_EQ(m->evaluate(F, jumped.data(), s.data(), 1e6, P, nullptr), MaterialStatus::ok);
-  EXPECT_TRUE(matrices_close(Mat3(F * (SH + pr.g_inf * SD)), P, kExactTol, "t → ∞"));
+  EXPECT_TRUE(matrices_close(Mat3(F * (SH + pr.g_inf * SD)), P, kQlvExactTol, "t → ∞"));
 }
 
 TEST(QLV, ZeroTimeStepWithHistoryHasNoDivision) {
@@ -222,9 +222,9 @@ TEST(QLV, ZeroTimeStepWithHistoryHasNoDivision) {
     const Mat3 h = load(old.data() + 6 * (k + 1)) + pr.terms[k].g * dSD;
     S += h;
     // Relative to |S^e|: S_D^e is a difference of numbers of size K (J − 1), its rounding is ε |S^e|.
-    EXPECT_TRUE(matrices_close(h, load(fresh.data() + 6 * (k + 1)), kExactTol, "h_k", nullptr, Se.norm()));
+    EXPECT_TRUE(matrices_close(h, load(fresh.data() + 6 * (k + 1)), kQlvExactTol, "h_k", nullptr, Se.norm()));
   }
-  EXPECT_TRUE(matrices_close(Mat3(F * S), P, kExactTol, "P at Δt = 0"));
+  EXPECT_TRUE(matrices_close(Mat3(F * S), P, kQlvExactTol, "P at Δt = 0"));
   // A tiny positive step agrees with Δt = 0 to first order in Δt/τ.
   Mat3 P_small;
   ASSERT_EQ(m->evaluate(F, old.data(), fresh.data(), 1e-12, P_small, nullptr), MaterialStatus::ok);
@@ -257,7 +257,7 @@ TEST(QLV, ObjectivityAndRotation) {
   Mat3 P, PQ;
   ASSERT_EQ(m->evaluate(F, old.data(), s1.data(), 0.7, P, nullptr), MaterialStatus::ok);
   ASSERT_EQ(m->evaluate(Q * F, old.data(), s2.data(), 0.7, PQ, nullptr), MaterialStatus::ok);
-  EXPECT_TRUE(matrices_close(Mat3(Q * P), PQ, kExactTol, "P(QF) = Q P(F)"));
+  EXPECT_TRUE(matrices_close(Mat3(Q * P), PQ, kQlvExactTol, "P(QF) = Q P(F)"));
   // The material history (S_D^e, h_k) is unaffected by a superposed rotation.
   for (int i = 0; i < m->state_size(); ++i) EXPECT_NEAR(s1[i], s2[i], 1e-12 * (1.0 + std::abs(s1[i])));
   const auto r = m->rotated(Q);

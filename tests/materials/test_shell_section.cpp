@@ -33,9 +33,9 @@ constexpr double kH = 1e-5;
 /// Analytic vs FD tangent, relative Frobenius norm: measured 5e-10 to 9e-10 for every law, mode and
 /// section here; 1e-7 leaves two orders for the FD error sources above and fails on any missing term
 /// (the dλ3/dE and pressure terms are O(1) parts of D).
-constexpr double kFdTol = 1e-7;
+constexpr double kSectionFdTol = 1e-7;
 /// Identities in exact arithmetic computed with O(100) roundings on numbers of the size of the result.
-constexpr double kExactTol = 1e-12;
+constexpr double kSectionExactTol = 1e-12;
 
 /// An in-plane strain with shear (E12 = 0.05), well inside the Gent limit (Ī1 − 3 ≈ 0.07 < Jm).
 const Vec3v kStrain(0.12, 0.04, 0.10);
@@ -50,13 +50,13 @@ GentHGOParams gent_fibers(double K, std::vector<double> angles, double kappa) {
 
 using Vec2 = Eigen::Vector2d;
 
-struct NamedLaw {
+struct SectionLaw {
   std::string name;
   MaterialPtr law;
 };
 
 /// Every law family with bulk modulus K (QLV: Gent-HGO wrapped with two Prony terms).
-std::vector<NamedLaw> all_laws(double K) {
+std::vector<SectionLaw> section_laws(double K) {
   const PronySeries prony{0.4, {{0.3, 1.0}, {0.3, 10.0}}};
   return {
       {"neo-Hookean", make_material(make_neo_hookean({kG, K}))},
@@ -108,7 +108,7 @@ Mat3 cauchy_at(const Material& law, double l1, double l2, PlaneStressMode mode, 
 TEST(PlaneStress, CondensedTangentMatchesFiniteDifferencesForEveryLaw) {
   for (const PlaneStressMode mode : {PlaneStressMode::compressible, PlaneStressMode::incompressible}) {
     const double K = mode == PlaneStressMode::compressible ? 100.0 * kG : 2000.0;
-    for (const NamedLaw& nl : all_laws(K)) {
+    for (const SectionLaw& nl : section_laws(K)) {
       SCOPED_TRACE(nl.name + ", " + name(mode));
       const Material& law = *nl.law;
       std::vector<double> s0(std::size_t(law.state_size()) + 1), s1 = s0, s2 = s0;
@@ -120,7 +120,7 @@ TEST(PlaneStress, CondensedTangentMatchesFiniteDifferencesForEveryLaw) {
       ASSERT_EQ(plane_stress(law, kStrain, s1.data(), s2.data(), dt, mode, p), MaterialStatus::ok);
       EXPECT_TRUE(p.S.allFinite());
       const Mat3v D_fd = fd_condensed(law, kStrain, s1.data(), dt, mode, p.lambda3);
-      EXPECT_TRUE(matrices_close(p.D, D_fd, kFdTol, "dS/dE", nullptr, kG));
+      EXPECT_TRUE(matrices_close(p.D, D_fd, kSectionFdTol, "dS/dE", nullptr, kG));
       // Symmetric for the hyperelastic laws (S = ∂W/∂E); the QLV algorithmic tangent is not in general.
       if (law.state_size() == 0) {
         EXPECT_LE(relative_error(p.D, Mat3v(p.D.transpose())), 1e-10) << p.D;
@@ -133,7 +133,7 @@ TEST(PlaneStress, CondensedTangentMatchesFiniteDifferencesForEveryLaw) {
 // including K/G = 1e5 where the pressure K (J − 1) is known to ~ε K only.
 TEST(PlaneStress, ThroughThicknessStressVanishes) {
   for (const double K : {100.0 * kG, 1e5 * kG})
-    for (const NamedLaw& nl : all_laws(K)) {
+    for (const SectionLaw& nl : section_laws(K)) {
       SCOPED_TRACE(nl.name + ", K/G = " + std::to_string(K / kG));
       const Material& law = *nl.law;
       std::vector<double> s0(std::size_t(law.state_size()) + 1), s1 = s0;
@@ -167,10 +167,10 @@ TEST(PlaneStress, EquibiaxialClosedForms) {
     const double l4 = std::pow(l, -4.0);
     const double gent_sigma = kG * kJm * (l * l - l4) / (kJm - 2.0 * l * l - l4 + 3.0);
     const Mat3 sg = cauchy_at(*gent_law, l, l, PlaneStressMode::incompressible);
-    EXPECT_NEAR(sg(0, 0), gent_sigma, kExactTol * gent_sigma) << "λ = " << l;
-    EXPECT_NEAR(sg(1, 1), gent_sigma, kExactTol * gent_sigma) << "λ = " << l;
+    EXPECT_NEAR(sg(0, 0), gent_sigma, kSectionExactTol * gent_sigma) << "λ = " << l;
+    EXPECT_NEAR(sg(1, 1), gent_sigma, kSectionExactTol * gent_sigma) << "λ = " << l;
     const Mat3 sn = cauchy_at(*neo, l, l, PlaneStressMode::incompressible);
-    EXPECT_NEAR(sn(0, 0), kG * (l * l - l4), kExactTol * kG * (l * l - l4)) << "λ = " << l;
+    EXPECT_NEAR(sn(0, 0), kG * (l * l - l4), kSectionExactTol * kG * (l * l - l4)) << "λ = " << l;
     EXPECT_EQ(sn(2, 2), 0.0);
   }
 }
@@ -188,8 +188,8 @@ TEST(PlaneStress, UniaxialClosedForms) {
     const double gent_sigma = kG * kJm * (l * l - 1.0 / l) / (kJm - l * l - 2.0 / l + 3.0);
     for (const auto& [law, sigma] : {std::pair{neo, neo_sigma}, std::pair{gent_law, gent_sigma}}) {
       const Mat3 s = cauchy_at(*law, l, l2, PlaneStressMode::incompressible);
-      EXPECT_NEAR(s(0, 0), sigma, kExactTol * sigma) << "λ = " << l;
-      EXPECT_NEAR(s(1, 1), 0.0, kExactTol * sigma) << "λ = " << l;
+      EXPECT_NEAR(s(0, 0), sigma, kSectionExactTol * sigma) << "λ = " << l;
+      EXPECT_NEAR(s(1, 1), 0.0, kSectionExactTol * sigma) << "λ = " << l;
       PlaneStressPoint p;
       ASSERT_EQ(plane_stress(*law, Vec3v(0.5 * (l * l - 1.0), 0.5 * (l2 * l2 - 1.0), 0.0), nullptr, nullptr, 0.0,
                              PlaneStressMode::compressible, p),
@@ -206,9 +206,9 @@ TEST(PlaneStress, UniaxialClosedForms) {
 TEST(PlaneStress, CompressibleApproachesIncompressible) {
   const auto differences = [](double ratio) {
     std::vector<Eigen::Vector3d> out;
-    for (const NamedLaw& nl : all_laws(1.0)) {
+    for (const SectionLaw& nl : section_laws(1.0)) {
       // The same law with K = ratio · G0.
-      const MaterialPtr law = all_laws(ratio * nl.law->initial_shear_modulus())[out.size()].law;
+      const MaterialPtr law = section_laws(ratio * nl.law->initial_shear_modulus())[out.size()].law;
       std::vector<double> s0(std::size_t(law->state_size()) + 1), s1 = s0;
       law->init_state(s0.data());
       PlaneStressPoint c, i;
@@ -221,7 +221,7 @@ TEST(PlaneStress, CompressibleApproachesIncompressible) {
     return out;
   };
   const auto coarse = differences(1e4), fine = differences(1e5);
-  const auto laws = all_laws(1.0);
+  const auto laws = section_laws(1.0);
   for (std::size_t l = 0; l < laws.size(); ++l) {
     SCOPED_TRACE(laws[l].name);
     for (int q = 0; q < 3; ++q) {
@@ -313,7 +313,7 @@ TEST(ShellSection, TangentMatchesFiniteDifferences) {
       ASSERT_EQ(sec.evaluate(0.5 * x.head<3>(), 0.5 * x.tail<3>(), s0.data(), s1.data(), 0.5, true, r),
                 MaterialStatus::ok);
       ASSERT_EQ(sec.evaluate(x.head<3>(), x.tail<3>(), s1.data(), s2.data(), 0.5, true, r), MaterialStatus::ok);
-      EXPECT_TRUE(matrices_close(r.tangent, fd_section(sec, x, s1.data(), 0.5), kFdTol, "d[N;M]/d[ε;κ]", nullptr,
+      EXPECT_TRUE(matrices_close(r.tangent, fd_section(sec, x, s1.data(), 0.5), kSectionFdTol, "d[N;M]/d[ε;κ]", nullptr,
                                  kG * sec.thickness()));
       ASSERT_EQ(int(r.points.size()), sec.num_points());
       // Lobatto: the bottom face is a point; Gauss: inside the bottom layer.
@@ -349,10 +349,10 @@ TEST(ShellSection, SmallStrainIsotropicPlateStiffness) {
     SectionResponse r;
     ASSERT_EQ(sec.evaluate(Vec3v::Zero(), Vec3v::Zero(), nullptr, nullptr, 0.0, true, r), MaterialStatus::ok);
     const Mat3v Q = plane_stress_stiffness(c.E, c.nu);
-    EXPECT_TRUE(matrices_close(Mat3v(r.tangent.topLeftCorner<3, 3>()), Mat3v(h * Q), kExactTol, "A"));
-    EXPECT_TRUE(matrices_close(Mat3v(r.tangent.bottomRightCorner<3, 3>()), Mat3v(h * h * h / 12.0 * Q), kExactTol, "D"));
+    EXPECT_TRUE(matrices_close(Mat3v(r.tangent.topLeftCorner<3, 3>()), Mat3v(h * Q), kSectionExactTol, "A"));
+    EXPECT_TRUE(matrices_close(Mat3v(r.tangent.bottomRightCorner<3, 3>()), Mat3v(h * h * h / 12.0 * Q), kSectionExactTol, "D"));
     const double B = r.tangent.topRightCorner<3, 3>().norm();
-    EXPECT_LE(B, kExactTol * h * h * Q.norm()) << "B";
+    EXPECT_LE(B, kSectionExactTol * h * h * Q.norm()) << "B";
     EXPECT_LE(r.N.norm() + r.M.norm(), 1e-300);
     EXPECT_DOUBLE_EQ(r.thickness_stretch, 1.0);
   }
@@ -400,7 +400,7 @@ TEST(ShellSection, StateAndIntegrationWeights) {
   SectionResponse r;
   ASSERT_EQ(one.evaluate(eps, Vec3v(0.2, 0.0, 0.0), nullptr, nullptr, 0.0, false, r), MaterialStatus::ok);
   const Vec3v simpson = 0.1 * (r.points[0].S + 4.0 * r.points[1].S + r.points[2].S);
-  EXPECT_LE((r.N - simpson).norm(), kExactTol * r.N.norm());
+  EXPECT_LE((r.N - simpson).norm(), kSectionExactTol * r.N.norm());
 }
 
 // Bad layers: InputError naming the layer's field; fiber angles that do not fit the law's families.
@@ -441,14 +441,14 @@ TEST(ShellSection, FiberAnglesOfALayer) {
   PlaneStressPoint a, b;
   ASSERT_EQ(plane_stress(*at30, kStrain, nullptr, nullptr, 0.0, PlaneStressMode::incompressible, a), MaterialStatus::ok);
   ASSERT_EQ(plane_stress(*turned, kStrain, nullptr, nullptr, 0.0, PlaneStressMode::incompressible, b), MaterialStatus::ok);
-  EXPECT_LE((a.S - b.S).norm(), kExactTol * a.S.norm());
+  EXPECT_LE((a.S - b.S).norm(), kSectionExactTol * a.S.norm());
 }
 
 // Warm starts: from the previous step's J (a 1 % smaller strain) the compressible iteration lands on the
 // same S (to the solve's tolerance, 1e-12 of S, or its round-off floor ~ε K) in no more law evaluations
 // than from J = 1.
 TEST(PlaneStress, WarmStartFromPreviousJ) {
-  for (const NamedLaw& nl : all_laws(1e5 * kG)) {
+  for (const SectionLaw& nl : section_laws(1e5 * kG)) {
     if (nl.law->state_size() > 0) continue;
     SCOPED_TRACE(nl.name);
     PlaneStressPoint previous, cold, warm;

@@ -20,7 +20,7 @@ using namespace softhom::rve;
 
 namespace {
 
-int ranks() {
+int world_ranks() {
   int n = 1;
   MPI_Comm_size(MPI_COMM_WORLD, &n);
   return n;
@@ -103,7 +103,7 @@ TEST(SlabPhaseImage, ExtrudedPlanesAreTheWholeImageRestricted) {
   const std::array<int, 3> n{12, 10, 9};
   const PhaseImage section = circle_section(n[0], n[1]), whole = extrude(section, n[2]);
   const auto planes = distributed_planes(n);
-  ASSERT_EQ(bool(planes), ranks() > 1);
+  ASSERT_EQ(bool(planes), world_ranks() > 1);
   if (!planes) return;
   const PhaseImage slab = extrude_planes(section, n[2], planes->begin, planes->count, kSlabImageHalo);
   const PhaseImage cut = slab_of(whole, planes->begin, planes->count, kSlabImageHalo);
@@ -112,7 +112,7 @@ TEST(SlabPhaseImage, ExtrudedPlanesAreTheWholeImageRestricted) {
   for (std::size_t v = 0; v < slab.normal.size(); ++v) EXPECT_EQ(slab.normal[v], cut.normal[v]) << v;
   // Held planes: its own (FFTW-MPI's block ⌈n3/P⌉ at most) and one halo plane each side.
   const std::size_t plane = std::size_t(n[0]) * n[1];
-  const int block = (n[2] + ranks() - 1) / ranks();
+  const int block = (n[2] + world_ranks() - 1) / world_ranks();
   EXPECT_LE(planes->count, block);
   EXPECT_EQ(slab.held_voxels(), plane * std::size_t(planes->count + (planes->count > 0 ? 2 : 0)));
   EXPECT_EQ(slab.fiber_fraction.size(), slab.held_voxels());
@@ -145,7 +145,7 @@ TEST(SlabPhaseImage, DistributedSolveOnSlabImagesEqualsSerial) {
 TEST(SlabPhaseImage, EstimatedNormalsReadTheHaloPlanes) {
   const PhaseImage whole = inclined_fiber_without_normals({10, 8, 7});
   const PhaseImage mine = rank_image(whole);
-  EXPECT_EQ(mine.is_slab(), ranks() > 1);
+  EXPECT_EQ(mine.is_slab(), world_ranks() > 1);
   expect_same(solve(whole, false), solve(mine, true));
 }
 
@@ -160,7 +160,7 @@ TEST(SlabPhaseImage, RefusesAForeignSlab) {
   const PhaseImage all_planes = extrude_planes(section, n[2], 0, n[2], kSlabImageHalo);
   opt.distributed = false;
   EXPECT_THROW(FftRveSolver(all_planes, m, m, 0.0, Mat3::Identity(), opt), std::invalid_argument);
-  if (ranks() > 1) {
+  if (world_ranks() > 1) {
     opt.distributed = true;
     EXPECT_THROW(FftRveSolver(all_planes, m, m, 0.0, Mat3::Identity(), opt), std::invalid_argument);
   }

@@ -1,11 +1,35 @@
 #pragma once
 // Small local image builders and controls for the FFT RVE tests (independent of the geometry generator).
+#include <algorithm>
 #include <cmath>
+#include <string>
 
+#include "softhom/materials/laws.hpp"
+#include "softhom/materials/library.hpp"
 #include "softhom/materials/loading.hpp"
 #include "softhom/rve/geometry.hpp"
 
 namespace softhom::rve::testing {
+
+inline constexpr double kPi = 3.14159265358979323846;
+
+/// The chapter-IV phases: Ecoflex (Gent, G = 0.017 MPa, Jm = 14, K = 2000 MPa) and the 10 MPa glass.
+inline MaterialPtr ecoflex() { return make_material(make_gent_hgo({0.017, 14.0, 2000.0, {}, FiberInvariant::full, true})); }
+inline MaterialPtr glass() { return make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))); }
+inline MaterialPtr neo_hookean(double mu, double K) { return make_material(make_neo_hookean({mu, K})); }
+/// A named preset of the material library.
+inline MaterialPtr preset(const std::string& name) { return build_material(preset_spec(name)); }
+/// One circular fiber of radius 0.2 mm (the chapter-IV cells) at volume fraction vf.
+inline FiberCellSpec circle_spec(double vf, Arrangement arr = Arrangement::square) {
+  FiberCellSpec s;
+  s.shape = SectionShape::circle;
+  s.radius = 0.2;
+  s.volume_fraction = vf;
+  s.arrangement = arr;
+  return s;
+}
+/// |a − b| / |b| (Frobenius).
+inline double rel(const Mat3& a, const Mat3& b) { return (a - b).norm() / std::max(b.norm(), 1e-300); }
 
 /// One circular fiber of radius r at the centre of the unit cell, n × n pixels, fraction by s × s
 /// sub-sampling, radial normals in composite pixels.

@@ -18,15 +18,13 @@
 using namespace softhom;
 using namespace softhom::rve;
 using softhom::rve::testing::uniaxial_ramp;
+using softhom::rve::testing::kPi;
+using softhom::rve::testing::preset;
+using softhom::rve::testing::rel;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-MaterialPtr preset(const std::string& name) { return build_material(preset_spec(name)); }
-double rel(const Mat3& a, const Mat3& b) { return (a - b).norm() / std::max(b.norm(), 1e-300); }
-
-Section circle_cell(double vf = 0.23, Arrangement arr = Arrangement::square) {
+Section circle_section_cell(double vf = 0.23, Arrangement arr = Arrangement::square) {
   FiberCellSpec s;
   s.shape = SectionShape::circle;
   s.radius = 0.2;
@@ -88,7 +86,7 @@ int expect_coordinate_pairing(const CellMesh& m) {
 // difference): measured min dihedral angle 4.2°–4.4°, min radius ratio 0.080–0.087 on two machines.
 // Required > 2.5° and > 0.04: still an order of magnitude above a sliver (< 0.3° and < 0.005).
 TEST(FeMesh3d, PeriodicTetMeshMatchesOppositeFaces) {
-  const Section s = circle_cell();
+  const Section s = circle_section_cell();
   const CellMesh m = cell_mesh_of(s, s.L1 / 3, s.L1 / 6);
   std::printf("3D cell mesh: %d Tet10 elements, %d vertices, %d nodes (%d copies), dihedral %.1f..%.1f deg, "
               "radius ratio min %.3f mean %.3f, fiber volume error %.2e\n",
@@ -116,7 +114,7 @@ TEST(FeMesh3d, PeriodicTetMeshMatchesOppositeFaces) {
 // The stretched surface triangles approximate the cylinders less well (measured fiber volume error
 // 3.9e-3 at interface size L1/5; required < 1e-2).
 TEST(FeMesh3d, HexagonalCellIsPeriodicAfterTheAffineMap) {
-  const Section s = circle_cell(0.3, Arrangement::hexagonal);
+  const Section s = circle_section_cell(0.3, Arrangement::hexagonal);
   CellMeshOptions o;
   o.mesh_size = s.L1 / 3;
   o.interface_size = s.L1 / 5;
@@ -133,7 +131,7 @@ TEST(FeMesh3d, HexagonalCellIsPeriodicAfterTheAffineMap) {
 // Newton iterations; four steps took 16 to the same states): the equality is of converged states, the
 // step loop is the 2D test's (FeRve.HomogeneousCellEqualsMaterialPoint) and the nonlinearity is the same.
 TEST(FeRve3d, HomogeneousCellEqualsMaterialPoint) {
-  const Section s = circle_cell();
+  const Section s = circle_section_cell();
   const MaterialPtr m = preset("ecoflex");
   const MixedControl control = uniaxial_ramp(2.0, 1);
   const PointRunResult point = run_material_point(*m, control);
@@ -158,7 +156,7 @@ TEST(FeRve3d, HomogeneousCellEqualsMaterialPoint) {
 
 // The 3D pressure option is P2/P0 only: asking for the bubble pair is an input error.
 TEST(FeRve3d, RejectsTheSectionOnlyPressureSpace) {
-  const Section s = circle_cell();
+  const Section s = circle_section_cell();
   FeSolverOptions o;
   o.pressure = FePressure::p1_bubble;
   EXPECT_THROW(FeRveSolver(cell_mesh_of(s, s.L1 / 2, s.L1 / 4), preset("ecoflex"), preset("glass"), 45.0,
@@ -176,7 +174,7 @@ TEST(FeRve3d, RejectsTheSectionOnlyPressureSpace) {
 // iterations against 8 for two; hyperelastic, so the same end state to the Newton tolerance: measured
 // 4.61e-4 at L/3 with one step, 4.55e-4 with two).
 TEST(FeRve3d, StraightFibersMatchTheSectionSolution) {
-  const Section s = circle_cell();
+  const Section s = circle_section_cell();
   const MaterialPtr matrix = preset("pdms"), glass = preset("glass");
   const MixedControl control = uniaxial_ramp(1.3, 1);
   SectionMeshOptions so;
@@ -210,7 +208,7 @@ TEST(FeRve3d, StraightFibersMatchTheSectionSolution) {
 // iteration pair with r_k ≤ 1e-2 and r_(k+1) above the round-off floor must show
 // log r_(k+1) / log r_k ≥ 1.6 (quadratic: 2; a linearly converging modified Newton would give ≈ 1).
 TEST(FeRve3d, NewtonConvergesQuadratically) {
-  const Section s = circle_cell();
+  const Section s = circle_section_cell();
   const MixedControl control = uniaxial_ramp(1.4, 1);
   FeSolverOptions o;
   o.pressure = FePressure::p0;
@@ -237,7 +235,7 @@ TEST(FeRve3d, NewtonConvergesQuadratically) {
 // 1e-5 (L/4) between the rules (PDMS, λ = 1.5), so the quadrature is not what limits the 3D
 // accuracy; 4 points stay the default. Other point counts are input errors.
 TEST(FeRve3d, DegreeFiveRuleIntegratesCurvedVolumesExactly) {
-  const Section s = circle_cell();
+  const Section s = circle_section_cell();
   const CellMesh m = cell_mesh_of(s, s.L1 / 3, s.L1 / 6);
   const double vf_exact = m.volume(1) / (m.L1 * m.L2 * m.L3);
   FeSolverOptions o;
@@ -263,7 +261,7 @@ TEST(FeRve3d, DegreeFiveRuleIntegratesCurvedVolumesExactly) {
 // element); measured fiber volume errors: L/3 2.6e-5 (before: 2.1e-4), L/6 3.9e-6. Required:
 // < 1e-4 at both, every interface vertex on the surface to round-off (offset < 1e-9 r).
 TEST(FeMesh3d, PhaseVolumesFollowTheCylinder) {
-  const Section s = circle_cell();
+  const Section s = circle_section_cell();
   for (double div : {3.0, 6.0}) {
     const CellMesh m = cell_mesh_of(s, s.L1 / div, s.L1 / (2 * div));
     std::printf("L/%g: %d Tet10, fiber volume error %.2e, max interface offset %.1e r, %d cells relabelled, "
@@ -280,7 +278,7 @@ TEST(FeMesh3d, PhaseVolumesFollowTheCylinder) {
 // bit-reproducible between runs, so the test asks for a valid mesh from seed 1 within the retries,
 // not for a particular seed.
 TEST(FeMesh3d, FoldedMeshIsRemadeWithTheNextSeed) {
-  const Section s = circle_cell();
+  const Section s = circle_section_cell();
   const CellMesh m = cell_mesh_of(s, s.L1 / 5.0, s.L1 / 10.0);
   std::printf("L/5: seed used %u, %d Tet10, fiber volume error %.2e\n", m.quality.seed_used, m.num_elements(),
               m.quality.fiber_volume_error);

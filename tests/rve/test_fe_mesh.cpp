@@ -6,22 +6,14 @@
 
 #include "softhom/materials/errors.hpp"
 #include "softhom/rve/fe_mesh.hpp"
+#include "rve/rve_test_helpers.hpp"
 
 using namespace softhom;
 using namespace softhom::rve;
+using softhom::rve::testing::circle_spec;
+using softhom::rve::testing::kPi;
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-
-FiberCellSpec circle_spec(double vf, Arrangement arr = Arrangement::square) {
-  FiberCellSpec s;
-  s.shape = SectionShape::circle;
-  s.radius = 0.2;
-  s.volume_fraction = vf;
-  s.arrangement = arr;
-  return s;
-}
 
 /// Every node on y1 = L1 or y2 = L2 has a master at the periodic image; masters are not on those
 /// edges; each element has positive area (counter-clockwise vertices).

@@ -18,12 +18,11 @@ using namespace softhom;
 using namespace softhom::rve;
 using softhom::rve::testing::full_deformation;
 using softhom::rve::testing::uniaxial_ramp;
+using softhom::rve::testing::preset;
+using softhom::rve::testing::rel;
+using softhom::rve::testing::neo_hookean;
 
 namespace {
-
-MaterialPtr preset(const std::string& name) { return build_material(preset_spec(name)); }
-MaterialPtr neo_hookean(double mu, double K) { return make_material(make_neo_hookean({mu, K})); }
-double rel(const Mat3& a, const Mat3& b) { return (a - b).norm() / std::max(b.norm(), 1e-300); }
 
 Section circle_cell(double vf = 0.23) {
   FiberCellSpec s;

@@ -11,10 +11,9 @@ using namespace softhom;
 using namespace softhom::rve;
 using softhom::rve::testing::circle_image;
 using softhom::rve::testing::uniaxial_ramp;
+using softhom::rve::testing::neo_hookean;
 
 namespace {
-
-MaterialPtr neo_hookean(double mu, double K) { return make_material(make_neo_hookean({mu, K})); }
 
 FftSolverOptions options(fft::Discretization d) {
   FftSolverOptions o;

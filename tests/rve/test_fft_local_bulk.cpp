@@ -19,6 +19,8 @@ using namespace softhom::rve;
 using softhom::rve::testing::circle_image;
 using softhom::rve::testing::full_deformation;
 using softhom::rve::testing::uniaxial_ramp;
+using softhom::rve::testing::ecoflex;
+using softhom::rve::testing::glass;
 
 namespace {
 
@@ -29,8 +31,6 @@ Mat3 some_deformation() {
 }
 
 MaterialPtr pdms() { return make_material(make_gent_hgo({0.65, 5.0, 2000.0, {}, FiberInvariant::full, true})); }
-MaterialPtr ecoflex() { return make_material(make_gent_hgo({0.017, 14.0, 2000.0, {}, FiberInvariant::full, true})); }
-MaterialPtr glass() { return make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))); }
 
 /// circle_image with every voxel given to its majority phase (no composite voxels).
 PhaseImage binary_circle(int n, double r) {
@@ -64,9 +64,9 @@ Solve solve(const PhaseImage& im, const MaterialPtr& matrix, const MaterialPtr& 
 
 TEST(FftLocalBulk, ReferenceMediumAtTheIdentityIsTheIsotropicTangent) {
   const double k = 7.0, mu = 1.5;
-  const Mat9 A = detail::isotropic_pull_back(k, mu, Mat3::Identity());
-  EXPECT_LE((A - detail::isotropic_tangent(k - 2.0 / 3.0 * mu, mu)).cwiseAbs().maxCoeff(), 1e-14 * k);
-  const detail::IsotropicModuli iso = detail::isotropic_projection(detail::isotropic_tangent(3.0, 0.4));
+  const Mat9 A = rve::detail::isotropic_pull_back(k, mu, Mat3::Identity());
+  EXPECT_LE((A - rve::detail::isotropic_tangent(k - 2.0 / 3.0 * mu, mu)).cwiseAbs().maxCoeff(), 1e-14 * k);
+  const rve::detail::IsotropicModuli iso = rve::detail::isotropic_projection(rve::detail::isotropic_tangent(3.0, 0.4));
   EXPECT_NEAR(iso.K, 3.0 + 2.0 / 3.0 * 0.4, 1e-14);
   EXPECT_NEAR(iso.mu, 0.4, 1e-14);
 }
@@ -78,7 +78,7 @@ TEST(FftLocalBulk, ReferenceMediumIsTheSpatialMediumPulledBack) {
   const double k = 40.0, mu = 2.0, lambda = k - 2.0 / 3.0 * mu;
   const Mat3 F = some_deformation(), Fi = F.inverse();
   const double J = F.determinant();
-  const Mat9 A = detail::isotropic_pull_back(k, mu, F);
+  const Mat9 A = rve::detail::isotropic_pull_back(k, mu, F);
   Mat3 dF;
   dF << 0.3, -0.2, 0.1, 0.7, 0.05, -0.4, 0.2, 0.6, -0.3;
   const Mat3 L = dF * Fi;
@@ -93,8 +93,8 @@ TEST(FftLocalBulk, ReferenceMediumIsTheSpatialMediumPulledBack) {
   for (int c = 0; c < 9; ++c) b[c] = cof(c / 3, c % 3);
   const Mat3 Ci = Fi * Fi.transpose();
   const double tr = Ci.trace(), expected_k = lambda + 2.0 * mu * Ci.squaredNorm() / (tr * tr);
-  EXPECT_NEAR(detail::local_bulk_modulus(b.dot(A * b), J, b.squaredNorm()), expected_k, 1e-12 * k);
-  EXPECT_EQ(detail::local_bulk_modulus(-1.0, J, b.squaredNorm()), 0.0);  // clipped
+  EXPECT_NEAR(rve::detail::local_bulk_modulus(b.dot(A * b), J, b.squaredNorm()), expected_k, 1e-12 * k);
+  EXPECT_EQ(rve::detail::local_bulk_modulus(-1.0, J, b.squaredNorm()), 0.0);  // clipped
 }
 
 // Two phases with the same shear modulus and bulk moduli 1000× apart, every voxel pure, every component

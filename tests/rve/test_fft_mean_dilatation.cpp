@@ -12,9 +12,11 @@
 #include "softhom/materials/laws.hpp"
 #include "softhom/rve/fft_solver.hpp"
 #include "softhom/rve/geometry.hpp"
+#include "rve/rve_test_helpers.hpp"
 
 using namespace softhom;
 using namespace softhom::rve;
+using softhom::rve::testing::glass;
 
 namespace {
 
@@ -24,10 +26,10 @@ MaterialPtr gent(double k_over_g) {
 
 /// nq points of one voxel with independent F_q = I + 0.15 · random (the voxel algebra does not need
 /// them to come from one displacement) and Gauss weights 1/nq.
-detail::MeanDilatationVoxel random_voxel(int nq, unsigned seed) {
+rve::detail::MeanDilatationVoxel random_voxel(int nq, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> d(-0.15, 0.15);
-  detail::MeanDilatationVoxel v;
+  rve::detail::MeanDilatationVoxel v;
   for (int q = 0; q < nq; ++q) {
     v.F[q] = Mat3::Identity();
     for (int i = 0; i < 3; ++i)
@@ -40,13 +42,13 @@ detail::MeanDilatationVoxel random_voxel(int nq, unsigned seed) {
 }
 
 /// The voxel's response with the law evaluated at F̄_q.
-detail::MeanDilatationResponse respond(const Material& m, const detail::MeanDilatationVoxel& v, bool tangent) {
+rve::detail::MeanDilatationResponse respond(const Material& m, const rve::detail::MeanDilatationVoxel& v, bool tangent) {
   Mat3 P[8];
   Mat9 A[8];
   for (int q = 0; q < v.nq; ++q)
     EXPECT_EQ(m.evaluate(v.modified(q), nullptr, nullptr, 0.0, P[q], tangent ? &A[q] : nullptr), MaterialStatus::ok);
-  detail::MeanDilatationResponse r;
-  detail::mean_dilatation_response(v, P, tangent ? A : nullptr, r);
+  rve::detail::MeanDilatationResponse r;
+  rve::detail::mean_dilatation_response(v, P, tangent ? A : nullptr, r);
   return r;
 }
 
@@ -60,8 +62,8 @@ TEST(FftMeanDilatation, StressIsQ1P0ForADecoupledLaw) {
   const double K = m->volumetric_modulus();
   ASSERT_GT(K, 0.0);
   for (int nq : {4, 8}) {
-    const detail::MeanDilatationVoxel v = random_voxel(nq, 7u + unsigned(nq));
-    const detail::MeanDilatationResponse r = respond(*m, v, false);
+    const rve::detail::MeanDilatationVoxel v = random_voxel(nq, 7u + unsigned(nq));
+    const rve::detail::MeanDilatationResponse r = respond(*m, v, false);
     const auto dU = [&](double J) { return 0.5 * K * (J - 1.0 / J); };
     for (int q = 0; q < nq; ++q) {
       Mat3 P;
@@ -82,9 +84,9 @@ TEST(FftMeanDilatation, TangentIsTheDerivativeOfTheStress) {
   for (double kg : {10.0, 1.2e5})
     for (int nq : {4, 8}) {
       const MaterialPtr m = gent(kg);
-      const detail::MeanDilatationVoxel v = random_voxel(nq, 11u + unsigned(nq));
-      const detail::MeanDilatationResponse r = respond(*m, v, true);
-      detail::MeanDilatationCoupling coupling;
+      const rve::detail::MeanDilatationVoxel v = random_voxel(nq, 11u + unsigned(nq));
+      const rve::detail::MeanDilatationResponse r = respond(*m, v, true);
+      rve::detail::MeanDilatationCoupling coupling;
       coupling.resize(1, nq);
       coupling.store(0, r);
       // H(9q + a, 9p + b) = ∂P_q,a / ∂F_p,b from the operator (unit ΔF_p,b through add_to_batch).
@@ -103,11 +105,11 @@ TEST(FftMeanDilatation, TangentIsTheDerivativeOfTheStress) {
         coupling.add_to_batch<B>(0, nq, v.w, dF, dP);
         for (int row = 0; row < n; ++row) H(row, col) = dP[(row % 9) * B + row / 9];
         const double h = 1e-6;
-        detail::MeanDilatationVoxel vp = v, vm = v;
+        rve::detail::MeanDilatationVoxel vp = v, vm = v;
         vp.F[col / 9](col % 9 / 3, col % 3) += h;
         vm.F[col / 9](col % 9 / 3, col % 3) -= h;
         ASSERT_TRUE(vp.prepare(nq, v.w) && vm.prepare(nq, v.w));
-        const detail::MeanDilatationResponse rp = respond(*m, vp, false), rm = respond(*m, vm, false);
+        const rve::detail::MeanDilatationResponse rp = respond(*m, vp, false), rm = respond(*m, vm, false);
         for (int row = 0; row < n; ++row) {
           const int q = row / 9, a = row % 9;
           H_fd(row, col) = (rp.P[q](a / 3, a % 3) - rm.P[q](a / 3, a % 3)) / (2.0 * h);
@@ -124,9 +126,9 @@ TEST(FftMeanDilatation, TangentIsTheDerivativeOfTheStress) {
 // uniform ΔF, averaged: to round-off.
 TEST(FftMeanDilatation, VoxelTangentIsTheOperatorOnAUniformIncrement) {
   const MaterialPtr m = gent(1.2e5);
-  const detail::MeanDilatationVoxel v = random_voxel(4, 3u);
-  const detail::MeanDilatationResponse r = respond(*m, v, true);
-  detail::MeanDilatationCoupling coupling;
+  const rve::detail::MeanDilatationVoxel v = random_voxel(4, 3u);
+  const rve::detail::MeanDilatationResponse r = respond(*m, v, true);
+  rve::detail::MeanDilatationCoupling coupling;
   coupling.resize(1, 4);
   coupling.store(0, r);
   constexpr int B = 8;
@@ -176,7 +178,6 @@ PhaseImage circle(int n) {
   return voxelize_section(generate_section(spec), n, n);
 }
 
-MaterialPtr glass() { return make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))); }
 
 }  // namespace
 

@@ -15,12 +15,11 @@
 using namespace softhom;
 using namespace softhom::rve;
 using softhom::rve::testing::circle_image;
+using softhom::rve::testing::neo_hookean;
+using softhom::rve::testing::ecoflex;
+using softhom::rve::testing::glass;
 
 namespace {
-
-MaterialPtr ecoflex() { return make_material(make_gent_hgo({0.017, 14.0, 2000.0, {}, FiberInvariant::full, true})); }
-MaterialPtr glass() { return make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))); }
-MaterialPtr neo_hookean(double mu, double K) { return make_material(make_neo_hookean({mu, K})); }
 
 std::map<std::string, std::size_t> by_array(const FftRveSolver& s) {
   std::map<std::string, std::size_t> m;

@@ -46,10 +46,10 @@ double probed_diagonal(const fft::StencilGradient& st, const Mat9& C, std::size_
 void expect_scaling_is_the_node_diagonal(const fft::Grid& grid, fft::Discretization disc) {
   const fft::GradientOperator op(grid, disc);
   const fft::StencilGradient st(op);
-  const Mat9 C = detail::isotropic_tangent(2.0, 1.0);
+  const Mat9 C = rve::detail::isotropic_tangent(2.0, 1.0);
   std::vector<double> w;
   for (const auto& q : op.quadrature()) w.push_back(q.weight);
-  const Eigen::Vector3d D0 = detail::reference_diagonal(st, w, C);
+  const Eigen::Vector3d D0 = rve::detail::reference_diagonal(st, w, C);
   double packed[45];
   int idx = 0;
   for (int a = 0; a < 9; ++a)
@@ -57,7 +57,7 @@ void expect_scaling_is_the_node_diagonal(const fft::Grid& grid, fft::Discretizat
   const std::size_t N = grid.voxels();
   std::vector<double> store(3 * N);
   std::vector<float> s;
-  detail::jacobi_scaling(
+  rve::detail::jacobi_scaling(
       st, w, D0, N, false, [&](std::size_t p, int k) { return factor(p) * packed[k]; }, store.data(),
       [](double*, std::size_t) {}, s);
   ASSERT_EQ(s.size(), 3 * N);

@@ -13,12 +13,12 @@ using namespace softhom;
 using namespace softhom::rve;
 using softhom::rve::testing::circle_image;
 using softhom::rve::testing::uniaxial_ramp;
+using softhom::rve::testing::rel;
+using softhom::rve::testing::neo_hookean;
+using softhom::rve::testing::ecoflex;
+using softhom::rve::testing::glass;
 
 namespace {
-
-MaterialPtr ecoflex() { return make_material(make_gent_hgo({0.017, 14.0, 2000.0, {}, FiberInvariant::full, true})); }
-MaterialPtr glass() { return make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))); }
-MaterialPtr neo_hookean(double mu, double K) { return make_material(make_neo_hookean({mu, K})); }
 
 FftSolverOptions options(fft::Discretization d, TangentPrecision p, double tol) {
   FftSolverOptions o;
@@ -29,7 +29,6 @@ FftSolverOptions options(fft::Discretization d, TangentPrecision p, double tol) 
   return o;
 }
 
-double rel(const Mat3& a, const Mat3& b) { return (a - b).norm() / std::max(b.norm(), 1e-300); }
 
 }  // namespace
 

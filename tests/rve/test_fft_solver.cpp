@@ -21,12 +21,12 @@ using softhom::rve::testing::circle_image;
 using softhom::rve::testing::full_deformation;
 using softhom::rve::testing::layer_image;
 using softhom::rve::testing::uniaxial_ramp;
+using softhom::rve::testing::rel;
+using softhom::rve::testing::neo_hookean;
+using softhom::rve::testing::ecoflex;
+using softhom::rve::testing::glass;
 
 namespace {
-
-MaterialPtr ecoflex() { return make_material(make_gent_hgo({0.017, 14.0, 2000.0, {}, FiberInvariant::full, true})); }
-MaterialPtr glass() { return make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))); }
-MaterialPtr neo_hookean(double mu, double K) { return make_material(make_neo_hookean({mu, K})); }
 
 FftSolverOptions fast_options(fft::Discretization d, double tol = 1e-10) {
   FftSolverOptions o;
@@ -36,7 +36,6 @@ FftSolverOptions fast_options(fft::Discretization d, double tol = 1e-10) {
   return o;
 }
 
-double rel(const Mat3& a, const Mat3& b) { return (a - b).norm() / std::max(b.norm(), 1e-300); }
 
 /// One OpenMP thread while in scope (runs compared bit for bit: the sums over the points add in one order).
 struct OneThread {

@@ -21,9 +21,11 @@
 #include "softhom/rve/fe_solver.hpp"
 #include "softhom/rve/fft_solver.hpp"
 #include "softhom/rve/geometry.hpp"
+#include "rve/rve_test_helpers.hpp"
 
 using namespace softhom;
 using namespace softhom::rve;
+using softhom::rve::testing::glass;
 
 namespace {
 
@@ -39,7 +41,6 @@ Section circle_section() {
 MaterialPtr gent_matrix(double k_over_g) {
   return make_material(make_gent_hgo({0.017, 14.0, 0.017 * k_over_g, {}, FiberInvariant::full, true}));
 }
-MaterialPtr glass() { return make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))); }
 
 /// F22: 1 → 1.5 in `steps` steps (8: the figures of the iteration counts below); F21 = F23 = F13 = 0;
 /// every other component stress-free.

@@ -7,22 +7,14 @@
 
 #include "softhom/materials/errors.hpp"
 #include "softhom/rve/geometry.hpp"
+#include "rve/rve_test_helpers.hpp"
 
 using namespace softhom::rve;
 using softhom::InputError;
+using softhom::rve::testing::circle_spec;
+using softhom::rve::testing::kPi;
 
 namespace {
-
-const double kPi = std::acos(-1.0);
-
-FiberCellSpec circle_spec(double vf, Arrangement arr = Arrangement::square) {
-  FiberCellSpec s;
-  s.shape = SectionShape::circle;
-  s.radius = 0.2;  // spec §7: circular fibers r = 0.2 mm
-  s.volume_fraction = vf;
-  s.arrangement = arr;
-  return s;
-}
 
 FiberCellSpec square_fiber_spec(double vf, double rot_deg) {
   FiberCellSpec s;

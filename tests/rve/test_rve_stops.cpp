@@ -20,13 +20,13 @@ using namespace softhom;
 using namespace softhom::rve;
 using softhom::rve::testing::circle_image;
 using softhom::rve::testing::uniaxial_ramp;
+using softhom::rve::testing::neo_hookean;
+using softhom::rve::testing::ecoflex;
+using softhom::rve::testing::glass;
 
 namespace {
 
 constexpr double kEcoflexJm = 14.0;
-MaterialPtr ecoflex() { return make_material(make_gent_hgo({0.017, kEcoflexJm, 2000.0, {}, FiberInvariant::full, true})); }
-MaterialPtr glass() { return make_material(make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))); }
-MaterialPtr neo_hookean(double mu, double K) { return make_material(make_neo_hookean({mu, K})); }
 
 /// Uniaxial stretch at which an incompressible Gent solid locks: Ī1 − 3 = λ² + 2/λ − 3 = Jm
 /// (the larger root, by bisection on the increasing branch λ > 1).

@@ -11,18 +11,13 @@
 #include "softhom/io/scene.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/studies/calibration.hpp"
+#include "studies/studies_test_helpers.hpp"
 
 using namespace softhom;
+using softhom::studies::testing::fresh_dir;
 namespace fs = std::filesystem;
 
 namespace {
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("softhom_test_work_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 }  // namespace
 

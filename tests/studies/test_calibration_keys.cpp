@@ -10,20 +10,15 @@
 #include "softhom/io/scene.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/studies/calibration.hpp"
+#include "studies/studies_test_helpers.hpp"
 
 namespace fs = std::filesystem;
 using namespace softhom;
+using softhom::studies::testing::fresh_dir;
 
 namespace {
 
 const fs::path kCalibrations = fs::path(SOFTHOM_SOURCE_DIR) / "studies/calibrations";
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("softhom_test_calkeys_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 std::string error_of(const std::string& text, const fs::path& dir) {
   try {
@@ -34,7 +29,7 @@ std::string error_of(const std::string& text, const fs::path& dir) {
   return "no error";
 }
 
-const char* kModel = "[model]\nG = {value = 0.05, min = 0.001, max = 1.0}\nJm = 10\nK = 2000\n";
+const char* kKeysModel = "[model]\nG = {value = 0.05, min = 0.001, max = 1.0}\nJm = 10\nK = 2000\n";
 const char* kCurve = "\n[[curves]]\nname = \"tension\"\nfile = \"u.csv\"\nx = \"F11\"\ny = \"P11\"\n"
                      "[curves.load]\ntype = \"uniaxial\"\nstretch = 1.2\nsteps = 4\n";
 
@@ -66,29 +61,29 @@ TEST(CalibrationKeys, EveryShippedCalibrationParses) {
 TEST(CalibrationKeys, RenamedAndMistypedKeys) {
   const fs::path dir = fresh_dir("renamed");
   write(dir / "u.csv", "F11,P11\n1.0,0\n1.1,0.01\n1.2,0.02\n");
-  EXPECT_EQ(error_of(std::string(kModel) + kCurve, dir), "no error");
-  std::string msg = error_of(std::string(kModel) + "[solver]\nmethod = \"levenberg_marquardt\"\n" + kCurve, dir);
+  EXPECT_EQ(error_of(std::string(kKeysModel) + kCurve, dir), "no error");
+  std::string msg = error_of(std::string(kKeysModel) + "[solver]\nmethod = \"levenberg_marquardt\"\n" + kCurve, dir);
   EXPECT_NE(msg.find("solver.method = \"levenberg_marquardt\": renamed to \"levenberg-marquardt\""), std::string::npos) << msg;
-  msg = error_of(std::string(kModel) + "[solver]\nstarts = 2.5\n" + kCurve, dir);
+  msg = error_of(std::string(kKeysModel) + "[solver]\nstarts = 2.5\n" + kCurve, dir);
   EXPECT_NE(msg.find("solver.starts = 2.5: must be a whole number"), std::string::npos) << msg;
-  msg = error_of(std::string(kModel) + "[output]\nplot = \"no\"\n" + kCurve, dir);
+  msg = error_of(std::string(kKeysModel) + "[output]\nplot = \"no\"\n" + kCurve, dir);
   EXPECT_NE(msg.find("output.plot = \"no\": must be true or false"), std::string::npos) << msg;
-  msg = error_of(std::string(kModel) + "[solver]\npoint_tolerence = 1e-9\n" + kCurve, dir);
+  msg = error_of(std::string(kKeysModel) + "[solver]\npoint_tolerence = 1e-9\n" + kCurve, dir);
   EXPECT_NE(msg.find("did you mean 'point_tolerance'"), std::string::npos) << msg;
-  msg = error_of(std::string(kModel) + kCurve + "weigth = 2\n", dir);
+  msg = error_of(std::string(kKeysModel) + kCurve + "weigth = 2\n", dir);
   EXPECT_NE(msg.find("curves[0].load.weigth"), std::string::npos) << msg;  // after [curves.load]: its key
 }
 
 TEST(CalibrationKeys, CsvErrorsNameTheCurveFieldFileAndLine) {
   const fs::path dir = fresh_dir("csv");
   write(dir / "u.csv", "F11,P11\n1.0,0\n1.1,abc\n1.2,0.02\n");
-  std::string msg = error_of(std::string(kModel) + kCurve, dir);
+  std::string msg = error_of(std::string(kKeysModel) + kCurve, dir);
   EXPECT_NE(msg.find("curves[0].file"), std::string::npos) << msg;
   EXPECT_NE(msg.find("u.csv line 3"), std::string::npos) << msg;
   EXPECT_NE(msg.find("'abc'"), std::string::npos) << msg;
   EXPECT_NE(msg.find("column P11"), std::string::npos) << msg;
   write(dir / "u.csv", "F11,P11\n1.0,0\n1.1\n");
-  msg = error_of(std::string(kModel) + kCurve, dir);
+  msg = error_of(std::string(kKeysModel) + kCurve, dir);
   EXPECT_NE(msg.find("u.csv line 3"), std::string::npos) << msg;
   EXPECT_NE(msg.find("1 fields, the header has 2"), std::string::npos) << msg;
 }
@@ -98,7 +93,7 @@ TEST(CalibrationKeys, CsvWithAByteOrderMarkReadsLikeWithout) {
   // header (3 fields by its commas) and line 2 was refused ("2 fields, the header has 3").
   const fs::path dir = fresh_dir("csv-bom");
   write(dir / "u.csv", "\xEF\xBB\xBF# exported, two columns, no units\nF11,P11\n1.0,0\n1.1,abc\n");
-  const std::string msg = error_of(std::string(kModel) + kCurve, dir);
+  const std::string msg = error_of(std::string(kKeysModel) + kCurve, dir);
   EXPECT_NE(msg.find("u.csv line 4"), std::string::npos) << msg;  // the header was read, the data row named
   EXPECT_NE(msg.find("column P11"), std::string::npos) << msg;
 }

@@ -9,21 +9,15 @@
 #include "softhom/io/scene.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/studies/campaign.hpp"
+#include "studies/studies_test_helpers.hpp"
 
 namespace fs = std::filesystem;
 using namespace softhom;
 using namespace softhom::studies;
+using softhom::studies::testing::fresh_dir;
+using softhom::studies::testing::expand;
 
 namespace {
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("softhom_test_campaign_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-Campaign expand(const std::string& text) { return expand_campaign(io::parse_scene(text, "<test>"), fs::temp_directory_path()); }
 
 // Two prefix-related tension loads (t12 is the start of t13), 2 matrices x 2 angles on 8² grids,
 // the pure matrix, and one case that must fail (one Newton iteration allowed, no cut-back).

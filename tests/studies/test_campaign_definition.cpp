@@ -10,10 +10,12 @@
 #include "softhom/materials/errors.hpp"
 #include "softhom/studies/campaign.hpp"
 #include "softhom/studies/campaign_definition.hpp"
+#include "studies/studies_test_helpers.hpp"
 
 namespace fs = std::filesystem;
 using namespace softhom;
 using namespace softhom::studies;
+using softhom::studies::testing::expand;
 
 namespace {
 
@@ -31,8 +33,6 @@ matrix = ["pdms"]
 angle = [30, 60]
 load = ["t12"]
 )";
-
-Campaign expand(const std::string& text) { return expand_campaign(io::parse_scene(text, "<test>"), fs::temp_directory_path()); }
 
 std::string error_of(const std::string& text) {
   try {

@@ -16,21 +16,15 @@
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/interrupt.hpp"
 #include "softhom/studies/campaign.hpp"
+#include "studies/studies_test_helpers.hpp"
 
 namespace fs = std::filesystem;
 using namespace softhom;
 using namespace softhom::studies;
+using softhom::studies::testing::fresh_dir;
+using softhom::studies::testing::expand;
 
 namespace {
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("softhom_test_store_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-Campaign expand(const std::string& text) { return expand_campaign(io::parse_scene(text, "<test>"), fs::temp_directory_path()); }
 
 // Campaign A: the matrix alone and two composite angles under a two-step tension; B: another load.
 const char* kA = R"(

@@ -11,18 +11,13 @@
 #include <thread>
 
 #include "softhom/studies/campaign.hpp"
+#include "studies/studies_test_helpers.hpp"
 
 namespace fs = std::filesystem;
 using namespace softhom::studies;
+using softhom::studies::testing::fresh_dir;
 
 namespace {
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("softhom_test_sweep_cli_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 pid_t spawn(const std::vector<std::string>& args) {
   const pid_t pid = fork();

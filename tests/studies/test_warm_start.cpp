@@ -10,19 +10,14 @@
 #include "softhom/rve/fft_solver.hpp"
 #include "softhom/studies/campaign.hpp"
 #include "softhom/studies/rve_scene.hpp"
+#include "studies/studies_test_helpers.hpp"
 
 namespace fs = std::filesystem;
 using namespace softhom;
 using namespace softhom::studies;
+using softhom::studies::testing::fresh_dir;
 
 namespace {
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("softhom_test_warm_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 RveSceneSetup cell(const std::string& matrix_table) {
   const std::string text = "[microstructure]\nshape = \"circle\"\nradius = 0.2\nvolume_fraction = 0.23\ngrid = [8, 8]\nfiber_angle_deg = 45\n"
