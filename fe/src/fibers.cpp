@@ -30,7 +30,7 @@ std::array<double, 3> line_derivatives(int order, double s) {
   return {s - 0.5, s + 0.5, -2.0 * s};
 }
 
-std::string point_text(const Vec3& X) {
+std::string fiber_point_text(const Vec3& X) {
   return "(" + format_number(X[0]) + ", " + format_number(X[1]) + ", " + format_number(X[2]) + ")";
 }
 
@@ -78,7 +78,7 @@ TiedFibers::TiedFibers(const Mesh& mesh, const FiberLines& lines, FiberOptions o
     for (const Vec3& X : line) {
       const auto h = locator->locate(X);
       if (!h)
-        throw InputError(f, "point " + point_text(X) + " of fiber " + std::to_string(k),
+        throw InputError(f, "point " + fiber_point_text(X) + " of fiber " + std::to_string(k),
                          options_.tie == FiberTie::surface ? "not on surface \"" + options_.surface + "\""
                                                            : "outside every host element");
       hosts_.push_back(*h);

@@ -8,7 +8,7 @@
 namespace softhom::fe {
 namespace {
 
-constexpr auto check = petsc_check;
+constexpr auto fill_check = petsc_check;
 constexpr int kMaxBlock = 32;  // a hex8 or tet10 element's free rows (24, 30), and one pressure column
 
 }  // namespace
@@ -16,18 +16,18 @@ constexpr int kMaxBlock = 32;  // a hex8 or tet10 element's free rows (24, 30), 
 void DirectFill::begin(Mat M) {
   if (M_) end();
   PetscBool mpi = PETSC_FALSE, seq = PETSC_FALSE;
-  check(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(M), MATMPIAIJ, &mpi), "PetscObjectTypeCompare");
-  check(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(M), MATSEQAIJ, &seq), "PetscObjectTypeCompare");
+  fill_check(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(M), MATMPIAIJ, &mpi), "PetscObjectTypeCompare");
+  fill_check(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(M), MATSEQAIJ, &seq), "PetscObjectTypeCompare");
   if (!mpi && !seq) return;  // another storage: MatSetValues
-  check(MatGetOwnershipRange(M, &rstart_, &rend_), "MatGetOwnershipRange");
-  check(MatGetOwnershipRangeColumn(M, &cstart_, &cend_), "MatGetOwnershipRangeColumn");
+  fill_check(MatGetOwnershipRange(M, &rstart_, &rend_), "MatGetOwnershipRange");
+  fill_check(MatGetOwnershipRangeColumn(M, &cstart_, &cend_), "MatGetOwnershipRangeColumn");
   diag_ = {};
   off_ = {};
   garray_ = nullptr;
   ngarray_ = 0;
   if (mpi) {
-    check(MatMPIAIJGetSeqAIJ(M, &diag_.m, &off_.m, &garray_), "MatMPIAIJGetSeqAIJ");
-    check(MatGetLocalSize(off_.m, nullptr, &ngarray_), "MatGetLocalSize");
+    fill_check(MatMPIAIJGetSeqAIJ(M, &diag_.m, &off_.m, &garray_), "MatMPIAIJGetSeqAIJ");
+    fill_check(MatGetLocalSize(off_.m, nullptr, &ngarray_), "MatGetLocalSize");
   } else {
     diag_.m = M;
   }
@@ -35,9 +35,9 @@ void DirectFill::begin(Mat M) {
     if (!p->m) continue;
     PetscInt rows = 0;
     PetscBool done = PETSC_FALSE;
-    check(MatGetRowIJ(p->m, 0, PETSC_FALSE, PETSC_FALSE, &rows, &p->ia, &p->ja, &done), "MatGetRowIJ");
+    fill_check(MatGetRowIJ(p->m, 0, PETSC_FALSE, PETSC_FALSE, &rows, &p->ia, &p->ja, &done), "MatGetRowIJ");
     if (!done || rows != rend_ - rstart_) throw std::runtime_error("PETSc: MatGetRowIJ gave no CSR arrays for the direct fill");
-    check(MatSeqAIJGetArray(p->m, &p->values), "MatSeqAIJGetArray");
+    fill_check(MatSeqAIJGetArray(p->m, &p->values), "MatSeqAIJGetArray");
   }
   M_ = M;
 }
@@ -48,8 +48,8 @@ void DirectFill::end() {
     if (!p->m) continue;
     PetscInt rows = 0;
     PetscBool done = PETSC_FALSE;
-    check(MatSeqAIJRestoreArray(p->m, &p->values), "MatSeqAIJRestoreArray");
-    check(MatRestoreRowIJ(p->m, 0, PETSC_FALSE, PETSC_FALSE, &rows, &p->ia, &p->ja, &done), "MatRestoreRowIJ");
+    fill_check(MatSeqAIJRestoreArray(p->m, &p->values), "MatSeqAIJRestoreArray");
+    fill_check(MatRestoreRowIJ(p->m, 0, PETSC_FALSE, PETSC_FALSE, &rows, &p->ia, &p->ja, &done), "MatRestoreRowIJ");
   }
   M_ = nullptr;
 }
@@ -65,7 +65,7 @@ PetscInt DirectFill::find(const Part& p, PetscInt r, PetscInt c, PetscInt from) 
 
 void DirectFill::add(int nr, const PetscInt* rows, int nc, const PetscInt* cols, const PetscScalar* v) {
   if (nc > kMaxBlock) {
-    check(MatSetValues(M_, nr, rows, nc, cols, v, ADD_VALUES), "MatSetValues");
+    fill_check(MatSetValues(M_, nr, rows, nc, cols, v, ADD_VALUES), "MatSetValues");
     return;
   }
   // The off-diagonal part's local column of each column (−1: a column of this rank), found once per
@@ -115,7 +115,7 @@ void DirectFill::add(int nr, const PetscInt* rows, int nc, const PetscInt* cols,
     const PetscScalar* vi = v + std::size_t(i) * nc;
     if (!found) {
       // Another rank's row (PETSc's stash), or an entry outside the pattern (PETSc reports it).
-      check(MatSetValues(M_, 1, &row, nc, cols, vi, ADD_VALUES), "MatSetValues");
+      fill_check(MatSetValues(M_, 1, &row, nc, cols, vi, ADD_VALUES), "MatSetValues");
       continue;
     }
     for (int j = 0; j < nc; ++j) (off_col[j] < 0 ? diag_.values : off_.values)[pos[j]] += vi[j];

@@ -8,7 +8,7 @@
 namespace softhom::fe {
 namespace {
 
-constexpr auto check = petsc_check;
+constexpr auto nest_check = petsc_check;
 
 }  // namespace
 
@@ -48,17 +48,17 @@ void NestedSaddleMatrix::create(MPI_Comm comm, int rank, const std::vector<Petsc
         o[k] = std::min(o[k], N[j] - n[j]);
       }
       Mat& b = blocks_[2 * i + j];
-      check(MatCreate(comm, &b), "MatCreate");
-      check(MatSetSizes(b, n[i], n[j], N[i], N[j]), "MatSetSizes");
-      check(MatSetType(b, MATAIJ), "MatSetType");
+      nest_check(MatCreate(comm, &b), "MatCreate");
+      nest_check(MatSetSizes(b, n[i], n[j], N[i], N[j]), "MatSetSizes");
+      nest_check(MatSetType(b, MATAIJ), "MatSetType");
       // The displacement block in nodal blocks of 3, as the field split's extracted block had it
       // (BoomerAMG takes the block size as its number of functions).
-      if (i == 0 && j == 0) check(MatSetBlockSize(b, 3), "MatSetBlockSize");
-      check(MatSeqAIJSetPreallocation(b, 0, d.data()), "MatSeqAIJSetPreallocation");
-      check(MatMPIAIJSetPreallocation(b, 0, d.data(), 0, o.data()), "MatMPIAIJSetPreallocation");
-      check(MatSetOption(b, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE), "MatSetOption");
+      if (i == 0 && j == 0) nest_check(MatSetBlockSize(b, 3), "MatSetBlockSize");
+      nest_check(MatSeqAIJSetPreallocation(b, 0, d.data()), "MatSeqAIJSetPreallocation");
+      nest_check(MatMPIAIJSetPreallocation(b, 0, d.data(), 0, o.data()), "MatMPIAIJSetPreallocation");
+      nest_check(MatSetOption(b, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE), "MatSetOption");
     }
-  check(MatCreateNest(comm, 2, nullptr, 2, nullptr, blocks_, &nest_), "MatCreateNest");
+  nest_check(MatCreateNest(comm, 2, nullptr, 2, nullptr, blocks_, &nest_), "MatCreateNest");
   for (int k = 0; k < 2; ++k) {
     row_idx_[k].reserve(64);
     col_idx_[k].reserve(64);
@@ -102,21 +102,21 @@ void NestedSaddleMatrix::add(PetscInt nr, const PetscInt* rows, PetscInt nc, con
       sub_.resize(mr * mc);
       for (std::size_t a = 0; a < mr; ++a)
         for (std::size_t c = 0; c < mc; ++c) sub_[a * mc + c] = v[row_pos_[i][a] * nc + col_pos_[j][c]];
-      check(MatSetValues(blocks_[2 * i + j], PetscInt(mr), row_idx_[i].data(), PetscInt(mc), col_idx_[j].data(),
+      nest_check(MatSetValues(blocks_[2 * i + j], PetscInt(mr), row_idx_[i].data(), PetscInt(mc), col_idx_[j].data(),
                          sub_.data(), mode),
             "MatSetValues");
     }
 }
 
 void NestedSaddleMatrix::zero() {
-  for (Mat b : blocks_) check(MatZeroEntries(b), "MatZeroEntries");
+  for (Mat b : blocks_) nest_check(MatZeroEntries(b), "MatZeroEntries");
 }
 
 void NestedSaddleMatrix::assemble() {
-  for (Mat b : blocks_) check(MatAssemblyBegin(b, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
-  for (Mat b : blocks_) check(MatAssemblyEnd(b, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
-  check(MatAssemblyBegin(nest_, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
-  check(MatAssemblyEnd(nest_, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  for (Mat b : blocks_) nest_check(MatAssemblyBegin(b, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+  for (Mat b : blocks_) nest_check(MatAssemblyEnd(b, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  nest_check(MatAssemblyBegin(nest_, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+  nest_check(MatAssemblyEnd(nest_, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
 }
 
 double NestedSaddleMatrix::bytes() const {

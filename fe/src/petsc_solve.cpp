@@ -28,7 +28,7 @@ PetscMatrixBytes g_matrix_bytes;  // of the last PetscSolver's first set-up (acc
 
 constexpr auto check = petsc_check;
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
+double petsc_seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
@@ -665,7 +665,7 @@ bool PetscSolver::factorize(const CscMatrix&) {
     check(KSPSetUp(d.ksp), "KSPSetUp");
     attach_p_multigrid();
   });
-  times_.factorization += seconds_since(t0);
+  times_.factorization += petsc_seconds_since(t0);
   ++times_.factorizations;
   times_.factor_nnz = 0.0;
   if (times_.factorizations == 1) account_matrices();
@@ -822,7 +822,7 @@ void PetscSolver::update_operator() {
   // the field split's blocks) stay those of the tangent last set up.
   check(KSPSetReusePreconditioner(d.ksp, PETSC_TRUE), "KSPSetReusePreconditioner");
   check(KSPSetOperators(d.ksp, d.A, d.A), "KSPSetOperators");
-  times_.solve += seconds_since(t0);
+  times_.solve += petsc_seconds_since(t0);
 }
 
 double PetscSolver::max_over_ranks(double value) const {
@@ -899,7 +899,7 @@ KrylovOutcome PetscSolver::solve(const std::vector<double>& b, std::vector<doubl
   x.assign(d.dof_of_eq.size(), 0.0);
   for (std::size_t k = 0; k < d.dof_of_eq.size(); ++k) x[k] = av[d.gu(d.dof_of_eq[k])];
   check(VecRestoreArrayRead(d.all, &av), "VecRestoreArrayRead");
-  times_.solve += seconds_since(t0);
+  times_.solve += petsc_seconds_since(t0);
   ++times_.solves;
   return o;
 }
@@ -919,7 +919,7 @@ void PetscSolver::distribute(const std::vector<int>& element_owner, const std::v
   else
     d.count_row_entries(element_owner, mixed_elements, couplings);
   create_system();
-  times_.analysis += seconds_since(t0);
+  times_.analysis += petsc_seconds_since(t0);
 }
 
 void PetscSolver::Data::number_rows(const std::vector<int>& element_owner, const std::vector<int>& node_owner,

@@ -21,7 +21,7 @@ long long edge_key(int a, int b) { return (long long)std::min(a, b) << 32 | (uns
 /// Nodes of edge k (opposite vertex k) in the triangle's order.
 std::pair<int, int> edge_nodes(const Tri3& t, int k) { return {t[(k + 1) % 3], t[(k + 2) % 3]}; }
 
-std::string element(int e) { return "element " + std::to_string(e); }
+std::string element_name(int e) { return "element " + std::to_string(e); }
 
 std::unordered_map<long long, std::vector<EdgeUse>> edge_map(const std::vector<Tri3>& tris, const std::string& field) {
   std::unordered_map<long long, std::vector<EdgeUse>> edges;
@@ -32,10 +32,10 @@ std::unordered_map<long long, std::vector<EdgeUse>> edge_map(const std::vector<T
       auto& uses = edges[edge_key(a, b)];
       uses.push_back({e, k});
       if (uses.size() > 2)
-        throw InputError(field, element(e),
+        throw InputError(field, element_name(e),
                          "non-manifold surface: the edge of nodes " + std::to_string(a) + ", " + std::to_string(b) +
-                             " is shared by three or more triangles (" + element(uses[0].tri) + ", " +
-                             element(uses[1].tri) + ", " + element(e) + ")");
+                             " is shared by three or more triangles (" + element_name(uses[0].tri) + ", " +
+                             element_name(uses[1].tri) + ", " + element_name(e) + ")");
     }
   return edges;
 }
@@ -71,9 +71,9 @@ int orient_parts(std::vector<Tri3>& tris, const std::unordered_map<long long, st
           flip[other.tri] = want;
           queue.push_back(other.tri);
         } else if (flip[other.tri] != want) {
-          throw InputError(field, element(other.tri),
+          throw InputError(field, element_name(other.tri),
                            "the surface is not orientable (a Möbius-like part): no consistent normal through " +
-                               element(t) + " and " + element(other.tri));
+                               element_name(t) + " and " + element_name(other.tri));
         }
       }
     }
@@ -92,8 +92,8 @@ ShellTopology shell_topology(std::vector<Tri3>& tris, int num_nodes, bool orient
   for (int e = 0; e < int(tris.size()); ++e) {
     const Tri3& t = tris[e];
     for (int n : t)
-      if (n < 0 || n >= num_nodes) throw InputError(field, element(e), "node id " + std::to_string(n) + " out of range");
-    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) throw InputError(field, element(e), "a triangle repeats a node");
+      if (n < 0 || n >= num_nodes) throw InputError(field, element_name(e), "node id " + std::to_string(n) + " out of range");
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) throw InputError(field, element_name(e), "a triangle repeats a node");
   }
   ShellTopology top;
   auto edges = edge_map(tris, field);
@@ -114,8 +114,8 @@ ShellTopology shell_topology(std::vector<Tri3>& tris, int num_nodes, bool orient
       }
       const EdgeUse& other = uses[0].tri == e && uses[0].k == k ? uses[1] : uses[0];
       if (!opposite_ways(tris, uses[0], uses[1]))
-        throw InputError(field, element(e),
-                         "inconsistently oriented triangles: " + element(e) + " and " + element(other.tri) +
+        throw InputError(field, element_name(e),
+                         "inconsistently oriented triangles: " + element_name(e) + " and " + element_name(other.tri) +
                              " run their shared edge the same way (orient the surface, or let softhom orient it)");
       top.neighbour[e][k] = other.tri;
       top.opposite[e][k] = tris[other.tri][other.k];
@@ -127,7 +127,7 @@ void check_closed(const ShellTopology& topology, const std::string& field) {
   for (int e = 0; e < int(topology.neighbour.size()); ++e)
     for (int k = 0; k < 3; ++k)
       if (topology.neighbour[e][k] < 0)
-        throw InputError(field, element(e), "the surface is open (this triangle has a boundary edge) where a closed one is needed");
+        throw InputError(field, element_name(e), "the surface is open (this triangle has a boundary edge) where a closed one is needed");
 }
 
 std::vector<Quad> shell_load_faces(const std::vector<Tri3>& tris) {

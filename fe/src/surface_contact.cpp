@@ -75,7 +75,7 @@ using Face = SurfaceContact::Face;
 /// Search reach in face sizes: a point pairs with faces within this many sizes of it.
 constexpr double kReach = 2.0;
 /// Coulomb coefficients above this are refused (contact.cpp's bound for the rigid obstacles).
-constexpr double kMaxFriction = 3.0;
+constexpr double kMaxSurfaceFriction = 3.0;
 
 /// Shape functions of a master face at (ξ, η) with their first and second derivatives: the bilinear
 /// quad on [-1, 1]² (mesh.hpp's order), or the 6-node triangle (ξ = L1, η = L2; kTet10Faces' order).
@@ -194,7 +194,7 @@ void distance_derivatives(const FaceGeometry& g, const Vec3& d, Eigen::Matrix2d&
   grad << -d.dot(g.a1), -d.dot(g.a2);
 }
 
-std::string point_text(const Vec3& x) {
+std::string surface_point_text(const Vec3& x) {
   std::ostringstream s;
   s << "(" << format_number(x[0]) << ", " << format_number(x[1]) << ", " << format_number(x[2]) << ")";
   return s.str();
@@ -522,7 +522,7 @@ void SurfaceContact::validate(const Mesh& mesh) const {
       throw InputError(f + ".penalty", format_number(p.penalty),
                        "must be positive (or automatic, from a positive shear modulus and face size)");
   const double mu = options_.friction;
-  if (!(mu >= 0.0 && mu <= kMaxFriction))
+  if (!(mu >= 0.0 && mu <= kMaxSurfaceFriction))
     throw InputError(f + ".friction", format_number(mu), "Coulomb coefficient must lie in [0, 3]");
   if (mu > 0.0)
     throw InputError(f + ".friction", format_number(mu), "friction between deformable surfaces is not implemented: give 0");
@@ -547,7 +547,7 @@ void SurfaceContact::validate(const Mesh& mesh) const {
   }
   if (deepest > 0.0)
     throw InputError(f, self_ ? surface_names_[0] : surface_names_[0] + ", " + surface_names_[1],
-                     "the surfaces overlap at the start: the slave point " + point_text(where) + " lies " +
+                     "the surfaces overlap at the start: the slave point " + surface_point_text(where) + " lies " +
                          format_number(deepest) + " mm inside a master face (separate the bodies)");
 }
 

@@ -7,7 +7,7 @@
 namespace softhom::fe {
 namespace {
 
-Mat3 skew(const Vec3& v) {
+Mat3 cross_matrix(const Vec3& v) {
   Mat3 m;
   m << 0, -v[2], v[1], v[2], 0, -v[0], -v[1], v[0], 0;
   return m;
@@ -71,7 +71,7 @@ void tri6_pressure(const Mat63& x, const Vec3& mask, Vec18& a, Mat18* da, double
       for (int k = 0; k < 6; ++k)
         dflux->segment<3>(3 * k) += N[k] * mask.cwiseProduct(n) + w * (Nxi[k] * x_eta.cross(wv) + Neta[k] * wv.cross(x_xi));
     if (!da) continue;
-    const Mat3 sx = w * skew(x_xi), se = w * skew(x_eta);
+    const Mat3 sx = w * cross_matrix(x_xi), se = w * cross_matrix(x_eta);
     for (int k = 0; k < 6; ++k)
       for (int m = 0; m < 6; ++m) da->block<3, 3>(3 * k, 3 * m) += N[k] * (Neta[m] * sx - Nxi[m] * se);
   }

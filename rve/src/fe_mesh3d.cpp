@@ -40,7 +40,7 @@ using Vec2 = Eigen::Vector2d;
 using Vec3d = Eigen::Vector3d;
 using detail::PlacedFiber;
 using detail::signed_distance;
-constexpr double kPi = 3.14159265358979323846;
+constexpr double kPi3d = 3.14159265358979323846;
 
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Domain = CGAL::Labeled_mesh_domain_3<Kernel>;
@@ -234,7 +234,7 @@ void measure_tet_quality(const CellMesh& m, CellMeshQuality& q) {
     for (int k = 0; k < 4; ++k)
       for (int l = k + 1; l < 4; ++l) {
         const double c = std::clamp(n[k].dot(n[l]) / (n[k].norm() * n[l].norm()), -1.0, 1.0);
-        const double ang = 180.0 - std::acos(c) * 180.0 / kPi;
+        const double ang = 180.0 - std::acos(c) * 180.0 / kPi3d;
         q.min_dihedral_deg = std::min(q.min_dihedral_deg, ang);
         q.max_dihedral_deg = std::max(q.max_dihedral_deg, ang);
         const double len = (x[k] - x[l]).norm();

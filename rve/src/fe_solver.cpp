@@ -26,10 +26,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 // Dunavant degree-4 rule on the reference triangle (weights sum to 1; area 1/2).
-constexpr double kQa = 0.445948490915965, kQb = 0.091576213509771;
-constexpr double kWa = 0.223381589678011, kWb = 0.109951743655322;
-constexpr double kQuad[6][3] = {{kQa, kQa, kWa}, {1 - 2 * kQa, kQa, kWa}, {kQa, 1 - 2 * kQa, kWa},
-                                {kQb, kQb, kWb}, {1 - 2 * kQb, kQb, kWb}, {kQb, 1 - 2 * kQb, kWb}};
+constexpr double kT6Qa = 0.445948490915965, kT6Qb = 0.091576213509771;
+constexpr double kT6Wa = 0.223381589678011, kT6Wb = 0.109951743655322;
+constexpr double kQuad[6][3] = {{kT6Qa, kT6Qa, kT6Wa}, {1 - 2 * kT6Qa, kT6Qa, kT6Wa}, {kT6Qa, 1 - 2 * kT6Qa, kT6Wa},
+                                {kT6Qb, kT6Qb, kT6Wb}, {1 - 2 * kT6Qb, kT6Qb, kT6Wb}, {kT6Qb, 1 - 2 * kT6Qb, kT6Wb}};
 
 // The element families. Everything else (assembly, periodic dof map, condensation, Newton, macro
 // control, outputs) is shared and written once against these traits:

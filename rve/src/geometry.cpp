@@ -23,9 +23,9 @@ namespace softhom::rve {
 namespace {
 
 using Vec2 = Eigen::Vector2d;
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kSquareCircleLimit = kPi / 4.0;                // square array of circles
-constexpr double kHexCircleLimit = kPi / (2.0 * 1.7320508075688772);  // hexagonal array of circles
+constexpr double kPiGeometry = 3.14159265358979323846;
+constexpr double kSquareCircleLimit = kPiGeometry / 4.0;                // square array of circles
+constexpr double kHexCircleLimit = kPiGeometry / (2.0 * 1.7320508075688772);  // hexagonal array of circles
 const double kSqrt3 = std::sqrt(3.0);
 
 std::string num(double v) {
@@ -38,7 +38,7 @@ std::string num(double v) {
 // Single-fiber primitives.
 
 double fiber_area(const FiberSection& f) {
-  return f.shape == SectionShape::circle ? kPi * f.radius * f.radius : f.width * f.height;
+  return f.shape == SectionShape::circle ? kPiGeometry * f.radius * f.radius : f.width * f.height;
 }
 
 /// Radius of the circle around the centre that contains the whole fiber (cheap broad phase).
@@ -56,7 +56,7 @@ struct OrientedRect {
 };
 
 OrientedRect make_rect(const FiberSection& f, const Vec2& shift = Vec2::Zero()) {
-  const double t = f.rotation_deg * kPi / 180.0;
+  const double t = f.rotation_deg * kPiGeometry / 180.0;
   OrientedRect r;
   r.c = f.center + shift;
   r.u = Vec2(std::cos(t), std::sin(t));
@@ -250,13 +250,13 @@ CellSizes cell_sizes(const FiberCellSpec& spec, int nf) {
   if (spec.cell_size) {
     c.L1 = *spec.cell_size;
     const double A = vf * cell_shape * c.L1 * c.L1 / nf;
-    if (circle) c.radius = std::sqrt(A / kPi);
+    if (circle) c.radius = std::sqrt(A / kPiGeometry);
     else c.width = c.height = std::sqrt(A);  // cell size given: square fibers (no aspect ratio to keep)
   } else {
     c.radius = spec.radius;
     c.width = spec.width;
     c.height = spec.height;
-    const double A = circle ? kPi * c.radius * c.radius : c.width * c.height;
+    const double A = circle ? kPiGeometry * c.radius * c.radius : c.width * c.height;
     c.L1 = std::sqrt(nf * A / (vf * cell_shape));
   }
   return c;

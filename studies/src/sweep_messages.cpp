@@ -13,7 +13,7 @@ namespace softhom::studies {
 
 namespace {
 
-class Writer {
+class MessageWriter {
  public:
   void u64(std::uint64_t v) { raw(&v, sizeof v); }
   void f64(double v) { raw(&v, sizeof v); }
@@ -73,7 +73,7 @@ constexpr std::uint64_t kRecordMagic = 0x31434853'4D4F4853ull;  // "SHOMSHC1": g
 }  // namespace
 
 std::vector<char> encode_case_record(const CaseRecord& r) {
-  Writer w;
+  MessageWriter w;
   w.u64(kRecordMagic);
   w.str(r.id);
   w.u64(r.parameters.size());
