@@ -335,7 +335,8 @@ std::function<void(const rve::RveStep&, const rve::RveFields*)> case_progress(co
                                                                               int steps, Clock::time_point start) {
   if (!ctx.case_progress) return {};
   constexpr double kEverySeconds = 10.0;
-  return [id, steps, start, step = 0, last_line = start](const rve::RveStep&, const rve::RveFields*) mutable {
+  return [id, steps, start, step = 0, last_line = start](const rve::RveStep& st, const rve::RveFields*) mutable {
+    if (st.t <= 0.0) return;  // the segment's starting row
     ++step;
     const auto now = Clock::now();
     if (std::chrono::duration<double>(now - last_line).count() < kEverySeconds || step >= steps) return;
