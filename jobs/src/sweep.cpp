@@ -9,6 +9,7 @@
 // "interrupted": true in the summary; rerun to complete); 2 for bad input.
 // Under mpirun / srun with several ranks the cases are spread over the ranks (run_campaign_mpi); rank 0
 // alone prints, writes DIR and summary.json.
+#include <iomanip>
 #include <iostream>
 
 #include "softhom/core/mpi.hpp"
@@ -100,7 +101,8 @@ bool run_sweep(const SweepJob& job, Sink& sink, const RunOptions& options) {
   sink.write_summary(summary);
   if (!options.quiet)
     std::cerr << "softhom sweep: " << (r.interrupted ? "interrupted, " : "") << ok << " ok, " << failed << " failed of "
-              << r.total << " cases (" << r.finished << " run now in " << r.wall_time_s << " s) → " << r.store.string()
+              << r.total << " cases (" << r.finished << " run now in " << std::fixed << std::setprecision(1) << r.wall_time_s
+              << std::defaultfloat << " s) → " << r.store.string()
               << ", " << r.csv.string() << "\n";
   return all_ok;
 }
