@@ -175,11 +175,12 @@ struct ElementPass {
   double* Rt = mixed ? out.R_true.data() : nullptr;
   double* Ru = mixed ? out.R_u.data() : nullptr;
   double* drhs = predictor ? out.dirichlet_rhs.data() : nullptr;
-  Mat3 sigma;
-  Vec24 r;
-  Mat24 Ke;
-  Vec30 r10;
-  Mat30 K10;
+  // Per-thread scratch of the element kernels (each pass overwrites them before use).
+  Mat3 sigma = Mat3::Zero();
+  Vec24 r = Vec24::Zero();
+  Mat24 Ke = Mat24::Zero();
+  Vec30 r10 = Vec30::Zero();
+  Mat30 K10 = Mat30::Zero();
 
   void claim_failure(int e, MaterialStatus st) {
     int expected = -1;
