@@ -18,7 +18,7 @@ namespace {
 // GMRES iterations a fresh solve with the default p-multigrid (not from a secant start) gets before it
 // counts as failed, and the displacement block falls back to BoomerAMG on the P2 field. Its converged
 // solves take at most 158 on the device scenes and 259 on the 106 395-dof fibered tube at K/G 1e5
-// (BENCHMARKS.md, "Krylov iterations per Newton step: Cook's membrane"); where its P1 coarse space
+// (BENCHMARKS.md, "Macro solver on PETSc", Cook's membrane); where its P1 coarse space
 // locks it either crawls (the plane-strain tet10 membrane at K/G 1e4, 32x32: 670, 393, 292, 292,
 // against 59–96 on BoomerAMG) or stalls at |r|/|b| ~ 1 (64x64 at 1e4, 32x32 at 1e5).
 constexpr int kPMultigridBudget = 400;
@@ -111,8 +111,8 @@ bool Simulation::Impl::petsc_linear_solve(const std::vector<double>& b, std::vec
             " iterations (" + o.reason + ", |r|/|b| = " + format_number(o.relative_residual) + ")";
       // The p-multigrid's P1 coarse space locks where nearly incompressible material is confined (Cook's
       // membrane in plane strain at K/G 1e5 in tet10: GMRES stalls at |r|/|b| ~ 1), where BoomerAMG on
-      // the P2 block converges in 40–80 iterations (BENCHMARKS.md, "Krylov iterations per Newton step:
-      // Cook's membrane"). It takes over from the retry of this step on, whose tangent is filled with its
+      // the P2 block converges in 40–80 iterations (BENCHMARKS.md, "Macro solver on PETSc",
+      // Cook's membrane). It takes over from the retry of this step on, whose tangent is filled with its
       // own augmentation (on this tangent, filled with α = 1, BoomerAMG failed as well).
       if (judged && petsc_->fall_back_from_p_multigrid()) {
         factor_valid_ = false;

@@ -123,7 +123,7 @@ constexpr const char* kPMultigridDefaults =
 /// (set_bddc_constraints). Near incompressibility wants the flux: the averages alone leave a subdomain's
 /// net volume change to the local solves, and they are only a normal flux where a face is flat (never on
 /// the staircase faces of a partition of elements). Against the per-component averages they cut the
-/// counts 1.2–1.5× on Cook's membrane and 1.6× on 64 subdomains (BENCHMARKS.md, "BDDC"). Deluxe
+/// counts 1.2–1.5× on Cook's membrane and 1.6× on 64 subdomains (BENCHMARKS.md, "Macro solver on PETSc", BDDC). Deluxe
 /// scaling; the subdomain problems factorized by MUMPS, whose pivoting the K/G = 1e5 matrices need
 /// (PETSc's own LU took 33.8 GMRES iterations per solve on the 7 785-dof tube where MUMPS takes 12.1).
 /// The primal basis is built as for a symmetric matrix (PCBDDC's default) although the follower-pressure
@@ -135,7 +135,7 @@ constexpr const char* kBddcDefaults =
     "-pc_bddc_monolithic -pc_bddc_use_nnsp "
     "-pc_bddc_neumann_pc_factor_mat_solver_type mumps -pc_bddc_dirichlet_pc_factor_mat_solver_type mumps";
 /// Above this geometric-mean spread of the nodal 3 × 3 blocks (nodal_block_spread) the P2 level gets
-/// two Chebyshev sweeps instead of one. (Calibrated in BENCHMARKS.md, "Fibers on the p-multigrid".)
+/// two Chebyshev sweeps instead of one. (Calibrated in BENCHMARKS.md, "Device scenes": the fiber blocks on the p-multigrid.)
 constexpr double kAnisotropicBlockSpread = 3.0;
 
 /// The three translations and three rotations of the nodes at `coords` (x y z per node: this rank's

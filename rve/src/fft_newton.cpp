@@ -203,7 +203,7 @@ bool FftRveSolver::Impl::search_line(NewtonState& s, StepOutcome& out) {
   // iterate x_k, which reproduces W_V′ there, so the reference is x_k's true residual; the
   // merit x_k was accepted with (the previous linearization's) is not comparable and, taken as
   // the reference, let the true residual grow several-fold or held the step to the last trial
-  // (BENCHMARKS.md, "FFT Newton iterations: the line search's reference").
+  // (BENCHMARKS.md, "Iteration cost and solver options": the line search).
   const double merit_accepted = pressures.active() ? true_merit : merit;
   const bool accepted =
       fe::backtracking_line_search(merit_accepted, s.continuation || s.had_prescribed_step, trial).accepted;
@@ -294,7 +294,7 @@ void FftRveSolver::Impl::solve_newton_step(NewtonState& s, int it, const Mat3& d
   // fibers, a pressure spike K (J − 1) that makes the tangent indefinite (composite voxels, whose
   // laminate carries the law's own pressure): its shift must leave the dilatation free
   // (shift_medium()). Later solves shift by C0 itself, which damps every mode alike and measured
-  // better once the spike is gone (BENCHMARKS.md, "FFT Newton iterations").
+  // better once the spike is gone (BENCHMARKS.md, "Iteration cost and solver options").
   set_reference(it == 0 || (it == 1 && !s.extrapolated));
   form_newton_rhs(s, dFp, prescribed_reached, out);
   KVec& b = s.r;

@@ -30,7 +30,7 @@ RveRunResult run_small_ecoflex_cell() {
 
 // Counts are deterministic for a given thread count; measured 40 Newton / 3 391 Krylov (84.8 per Newton)
 // with 2 threads, 40 / 3 331 (83.3) with 1. Bounds: the measured counts + 10 % (the spread between thread
-// counts and the float-tangent rounding, BENCHMARKS.md "Single-precision tangents": +0–9 % Krylov).
+// counts and the float-tangent rounding, BENCHMARKS.md "Iteration cost and solver options": +0–9 % Krylov).
 TEST(FftRveKrylovCost, KrylovPerNewtonOnASmallEcoflexCell) {
   const RveRunResult r = run_small_ecoflex_cell();
   ASSERT_TRUE(r.completed) << r.error;

@@ -357,7 +357,7 @@ TEST(FftRve, SquareFiberEcoflexTensionStaysSymmetricPastFormerStall) {
 // Newton / Krylov counts and reaches the same stress to 1e-12 (measured 4e-15). Mixed (u, p) cells
 // amplify round-off: their float pressures and slopes flip a last bit on a round-off difference (6e-8 of
 // the pressure correction), which Newton corrects to its tolerance 1e-8, and ecoflex (K/G = 1.2e5) is as
-// sensitive as a change of FFT plan (±5–10 % Krylov, BENCHMARKS "Single-precision tangents"): the same
+// sensitive as a change of FFT plan (±5–10 % Krylov, BENCHMARKS.md "Iteration cost and solver options"): the same
 // stress to the tolerance and counts within 10 % on a PDMS-like section (K/G = 3e3) and on an
 // ecoflex/glass 16 × 16 × 4 cell; the stress alone on the ecoflex/glass section with a step size that
 // makes the line search backtrack and the steps cut back, whose path depends on round-off (there the

@@ -43,8 +43,8 @@ struct NewtonOptions {
   int initial_substeps = 1;   ///< sub-steps per output interval at the start
   SolverKind solver = SolverKind::automatic;  ///< umfpack: always LU; petsc: Krylov + AMG; otherwise Cholesky first
   /// automatic (automatic_solver): PETSc from this many free dofs on, where it beats CHOLMOD. Meshes of
-  /// quadratic tets alone (their p-multigrid) from petsc_min_dofs_tet10 (BENCHMARKS.md "Time per Newton
-  /// step and auto"); other meshes from petsc_min_dofs, which no measured size reaches (on the 3D tube
+  /// quadratic tets alone (their p-multigrid) from petsc_min_dofs_tet10 (BENCHMARKS.md "Macro solver on PETSc",
+  /// `auto`); other meshes from petsc_min_dofs, which no measured size reaches (on the 3D tube
   /// at 1.6e4 dofs the field split is several times slower per Newton iteration than the factor).
   int petsc_min_dofs = 2147483647;
   int petsc_min_dofs_tet10 = 100000;

@@ -133,7 +133,7 @@ struct FftSolverOptions {
   /// there. Projected, the 128³ inclined cell's first step to λ = 1.075 converges in one attempt (17 /
   /// 2 163 Newton / Krylov against 53 / 4 556 with a cut-back), but where the indefiniteness is
   /// physical (fibers buckling under compression) the step is no longer a Newton step and the cell does
-  /// not converge (BENCHMARKS.md, "FFT Newton iterations: the first step of fine grids"). The residual
+  /// not converge (BENCHMARKS.md, "Iteration cost and solver options": the shifted first solve). The residual
   /// is always the true one: the converged state does not depend on this choice.
   CompositeTangent composite_tangent = CompositeTangent::exact;
   KrylovOperator krylov_operator = KrylovOperator::stencil;
