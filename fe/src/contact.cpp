@@ -85,12 +85,6 @@ void write_state(double* state, int k, const ObstacleContact::PointState& solved
   }
 }
 
-std::string point_text(const Vec3& x) {
-  std::ostringstream s;
-  s << "(" << format_number(x[0]) << ", " << format_number(x[1]) << ", " << format_number(x[2]) << ")";
-  return s.str();
-}
-
 }  // namespace
 
 std::string RigidObstacle::shape_name() const {

@@ -30,10 +30,6 @@ std::array<double, 3> line_derivatives(int order, double s) {
   return {s - 0.5, s + 0.5, -2.0 * s};
 }
 
-std::string fiber_point_text(const Vec3& X) {
-  return "(" + format_number(X[0]) + ", " + format_number(X[1]) + ", " + format_number(X[2]) + ")";
-}
-
 /// The current angle of a chord d at x from the z axis in the cylindrical frame about z, in (-90, 90]
 /// deg (positive toward the hoop direction e_θ = e_z × e_r); a fiber drawn either way gives one angle.
 double angle_from_axis_deg(const Vec3& x, const Vec3& d) {
@@ -78,7 +74,7 @@ TiedFibers::TiedFibers(const Mesh& mesh, const FiberLines& lines, FiberOptions o
     for (const Vec3& X : line) {
       const auto h = locator->locate(X);
       if (!h)
-        throw InputError(f, "point " + fiber_point_text(X) + " of fiber " + std::to_string(k),
+        throw InputError(f, "point " + point_text(X) + " of fiber " + std::to_string(k),
                          options_.tie == FiberTie::surface ? "not on surface \"" + options_.surface + "\""
                                                            : "outside every host element");
       hosts_.push_back(*h);

@@ -194,12 +194,6 @@ void distance_derivatives(const FaceGeometry& g, const Vec3& d, Eigen::Matrix2d&
   grad << -d.dot(g.a1), -d.dot(g.a2);
 }
 
-std::string surface_point_text(const Vec3& x) {
-  std::ostringstream s;
-  s << "(" << format_number(x[0]) << ", " << format_number(x[1]) << ", " << format_number(x[2]) << ")";
-  return s.str();
-}
-
 bool shares_node(const Face& a, const Face& b) {
   for (int i = 0; i < a.nodes_count; ++i)
     for (int j = 0; j < b.nodes_count; ++j)
@@ -547,7 +541,7 @@ void SurfaceContact::validate(const Mesh& mesh) const {
   }
   if (deepest > 0.0)
     throw InputError(f, self_ ? surface_names_[0] : surface_names_[0] + ", " + surface_names_[1],
-                     "the surfaces overlap at the start: the slave point " + surface_point_text(where) + " lies " +
+                     "the surfaces overlap at the start: the slave point " + point_text(where) + " lies " +
                          format_number(deepest) + " mm inside a master face (separate the bodies)");
 }
 

@@ -39,7 +39,7 @@ TEST(VolumeGradient, QuadAndTri6FluxGradientsMatchFiniteDifferences) {
   q << 0.1, -0.2, 1.0, 1.3, 0.1, 1.2, 1.1, 0.9, 0.8, -0.1, 1.2, 1.1;
   Mat63 t;
   t << 0, 0, 1, 1, 0.1, 1.2, 0.1, 1, 0.9, 0.55, 0.02, 1.15, 0.6, 0.6, 1.0, 0.03, 0.5, 0.93;
-  for (const Vec3 mask : {Vec3(1, 1, 1), Vec3(1, 1, 0)}) {
+  for (const Vec3& mask : {Vec3(1, 1, 1), Vec3(1, 1, 0)}) {
     check_gradient<Mat43, Vec12>(q, mask, [](const Mat43& x, const Vec3& m, Vec12& a, double& f, Vec12* g) {
       quad4_pressure(x, m, a, nullptr, f, g);
     });

@@ -112,6 +112,15 @@ struct ContactTotals {
   double max_penetration = 0.0;   ///< max(−g, 0) [mm]
 };
 
+/// The five probes of a contact's totals: <label>_normal_force [N], _tangential_force [N], _area [mm^2],
+/// _active_points [1], _max_penetration [mm].
+void add_contact_probes(const std::string& label, const ContactTotals& totals, ContributionReport& out);
+/// A contact's faces (their node lists) as cells of their own, named `stem`: the nodes they use at their
+/// reference positions, the nodes' displacement, and per face contact_pressure [MPa] and gap [mm].
+ReportField contact_face_field(const Mesh& mesh, const Iterate& it, const std::string& stem, ReportCells::Type type,
+                               const std::vector<std::vector<int>>& faces, std::vector<double> pressure,
+                               std::vector<double> gap);
+
 /// Contact of one surface (quads and/or 6-node triangles, outward normals) with one rigid obstacle.
 class ObstacleContact final : public Contribution {
  public:

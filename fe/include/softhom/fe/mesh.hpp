@@ -15,9 +15,17 @@
 
 #include <Eigen/Geometry>
 
+#include "softhom/core/input_error.hpp"
 #include "softhom/materials/tensor.hpp"
 
 namespace softhom::fe {
+
+/// "(x, y, z)", each coordinate as format_number writes it: a point named in a message.
+inline std::string point_text(const Vec3& x) {
+  std::string text = "(";
+  for (int i = 0; i < 3; ++i) text.append(format_number(x[i])).append(i < 2 ? ", " : ")");
+  return text;
+}
 
 using Hex = std::array<int, 8>;
 using Quad = std::array<int, 4>;

@@ -159,10 +159,6 @@ class SurfaceContact final : public Contribution {
   bool self_ = false;
 };
 
-/// The five probes of a contact's totals (ObstacleContact's columns): <label>_normal_force [N],
-/// _tangential_force [N], _area [mm^2], _active_points [1], _max_penetration [mm].
-void add_contact_probes(const std::string& label, const ContactTotals& totals, ContributionReport& out);
-
 /// The closest point of face (positions x of its nodes) to `point`, from the start (ξ0, η0): Newton in
 /// the parametric coordinates, clamped to the face.
 FaceProjection project_on_face(const SurfaceContact::Face& face, const std::vector<Vec3>& x, const Vec3& point,
