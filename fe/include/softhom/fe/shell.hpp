@@ -38,6 +38,7 @@
 
 #include "softhom/fe/contribution.hpp"
 #include "softhom/fe/mesh.hpp"
+#include "softhom/materials/loading.hpp"
 #include "softhom/materials/shell_section.hpp"
 
 namespace softhom::fe {
@@ -174,6 +175,49 @@ class ShellDomain final : public Contribution {
   int frame_fallbacks_ = 0;
   bool has_clamped_ = false;
 };
+
+/// A follower end moment on a shell edge, for an element without rotational dofs: the edge's rotation
+/// about a fixed axis is taken as that of the chords from each edge node to its partner one row inward
+/// (θ_k the angle of x_edge − x_inner about the axis), and the load is work-conjugate to it: potential
+/// −Σ_k M_k(t) θ_k, M_k = share_k · moment(t). The forces ±M_k ∂θ_k/∂x stay a pure couple on every
+/// chord whatever its direction, and the tangent −Σ M_k ∂²θ_k/∂x² is symmetric (the moment about a fixed
+/// axis is conservative). Within the rotation-free triangle the chord of the last row is the edge's
+/// conormal up to the curvature of that row (an O(h) difference of the end rotation).
+class ShellEdgeMoment final : public Contribution {
+ public:
+  struct Pair {
+    int edge = -1, inner = -1;
+    double share = 0.0;  ///< this pair's part of the total moment (the shares sum to 1)
+  };
+  /// Throws InputError naming `field` for an axis of zero length or a pair without two distinct nodes.
+  ShellEdgeMoment(std::vector<Pair> pairs, const Vec3& axis, PiecewiseLinear moment, const std::string& field);
+  Kind kind() const override { return Kind::load; }
+  std::string name() const override { return "shell_edge_moment"; }
+  void validate(const Mesh& mesh) const override;
+  void declare_couplings(Couplings& couplings) const override;
+  void load_levels(double t, std::vector<double>& levels) const override { levels.push_back(moment_(t)); }
+  MaterialStatus assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const override;
+  /// Probes "shell edge moment [N mm]" (the total moment) and "shell edge rotation [rad]" (rotation()).
+  void report(const Mesh& mesh, const Iterate& it, ContributionReport& out) const override;
+  /// The chords' rotation about the axis from their reference directions: the angle of the
+  /// share-weighted mean of their rotations as unit vectors, in (−π, π].
+  double rotation(const Mesh& mesh, const std::vector<double>& u) const;
+  const std::vector<Pair>& pairs() const { return pairs_; }
+
+ private:
+  std::vector<Pair> pairs_;
+  Vec3 axis_, p_, q_;  ///< unit axis and an orthonormal basis (p, q = axis × p) of the plane normal to it
+  PiecewiseLinear moment_;
+};
+
+/// The pairs of a uniform moment per unit length along the boundary edge made of `segments` (node
+/// pairs of boundary edges of `tris`): each edge node with the node of its triangles off the edge whose
+/// direction is closest to the inward conormal, its share the half-length of its segments over the
+/// edge's length (a constant moment per unit length, lumped as a uniform line load is). Throws
+/// InputError naming `field` when a segment is no triangle's edge.
+std::vector<ShellEdgeMoment::Pair> shell_edge_moment_pairs(const Mesh& mesh, const std::vector<Tri3>& tris,
+                                                           const std::vector<std::array<int, 2>>& segments,
+                                                           const std::string& field);
 
 /// The triangles as degenerate quads (a, c, b, b) whose normal points against the triangle's (a, b, c):
 /// into the cavity of an outward-oriented closed shell, the solid-face convention of PressureLoad and

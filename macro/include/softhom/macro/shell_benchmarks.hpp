@@ -1,0 +1,47 @@
+#pragma once
+// Geometrically nonlinear shell benchmarks of Sze, Liu & Lo (2004), "Popular benchmark problems for
+// geometric nonlinear analysis of shells", Finite Elements in Analysis and Design 40:1551–1569, built
+// for the rotation-free triangle (fe/shell.hpp), shared by the tests and bench_shell_nonlinear.
+// Their laws are linear elastic (small strain, large rotation); here a compressible neo-Hookean law with
+// the same small-strain moduli, plane stress by S33 = 0 (it departs from St Venant–Kirchhoff at second
+// order in the strain: below 1e-3 of the response at these problems' strains of at most 3 %).
+#include <array>
+#include <memory>
+
+#include "softhom/macro/structures.hpp"
+
+namespace softhom::macro {
+
+/// A one-layer section of a compressible neo-Hookean law with the small-strain moduli of (E, ν).
+std::shared_ptr<const ShellSection> small_strain_shell_section(double E, double nu, double thickness);
+
+/// The hemisphere with an 18° hole under alternating radial point forces (Sze et al. 2004): R = 10,
+/// t = 0.04, E = 6.825e7, ν = 0.3, forces of P = 400 outward along x at A = (R, 0, 0) and inward along y
+/// at B = (0, R, 0), dead, ramped over t ∈ [0, 1]. The quarter x, y ≥ 0 (cells² grid), symmetry edges
+/// x0 and y0 (each carries half of its point's force), equator and hole free, u_z = 0 at A against the
+/// rigid translation along z.
+struct PinchedHemisphere {
+  Structure structure;
+  int node_a = -1, node_b = -1;
+};
+PinchedHemisphere make_pinched_hemisphere(int cells, double force = 400.0);
+/// Sze et al. (2004), the hemisphere's table of radial deflections, at P = 400: the outward
+/// displacement of A and the inward displacement of B.
+inline constexpr double kHemisphereUaAt400 = 4.067, kHemisphereUbAt400 = 8.178;
+
+/// The cantilever strip rolled up by an end moment (Sze et al. 2004): L = 12, W = 1, t = 0.1,
+/// E = 1.2e6, ν = 0, clamped at x = 0, moment about −y at x = L ramped to `fraction` · M_max over
+/// t ∈ [0, 1], M_max = 2π E I / L = 50π/3 (the strip closes into a circle), as fe::ShellEdgeMoment on the
+/// edge xmax. Grid of cells × cells_across, one diagonal.
+struct RolledCantilever {
+  Structure structure;
+  int tip_node = -1;  ///< the tip node at y = 0
+  std::shared_ptr<const fe::ShellEdgeMoment> moment;
+  double length = 12.0, bending_stiffness = 100.0, max_moment = 0.0;
+  /// Euler's closed form of the tip (u, w) at moment M: the strip bends into an arc of curvature
+  /// M / (E I), θ = M L / (E I): u = L (sin θ / θ − 1), w = L (1 − cos θ) / θ.
+  std::array<double, 2> tip(double M) const;
+};
+RolledCantilever make_rolled_cantilever(int cells, int cells_across, double fraction);
+
+}  // namespace softhom::macro

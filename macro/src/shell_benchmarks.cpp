@@ -1,0 +1,87 @@
+// The nonlinear shell benchmarks of Sze, Liu & Lo (2004) (shell_benchmarks.hpp).
+#include "softhom/macro/shell_benchmarks.hpp"
+
+#include <cmath>
+
+#include "softhom/materials/laws.hpp"
+
+namespace softhom::macro {
+namespace {
+
+int nearest_node(const fe::Mesh& mesh, const Vec3& p) {
+  int best = 0;
+  for (int n = 1; n < mesh.num_nodes(); ++n)
+    if ((mesh.nodes[n] - p).norm() < (mesh.nodes[best] - p).norm()) best = n;
+  return best;
+}
+
+/// A shell structure with no pressure (the benchmarks' loads are point forces and moments).
+Structure unpressurized(StructureSpec spec) {
+  spec.kind = StructureKind::shell;
+  spec.control = LoadControl::pressure;
+  spec.load = PiecewiseLinear{{0.0, 1.0}, {0.0, 0.0}};
+  return build_structure(spec);
+}
+
+}  // namespace
+
+std::shared_ptr<const ShellSection> small_strain_shell_section(double E, double nu, double thickness) {
+  NeoHookeanParams p;
+  p.mu = E / (2 * (1 + nu));
+  p.K = E / (3 * (1 - 2 * nu));
+  return std::make_shared<ShellSection>(std::vector<ShellLayer>{{make_material(make_neo_hookean(p)), thickness, 3}},
+                                        PlaneStressMode::compressible);
+}
+
+PinchedHemisphere make_pinched_hemisphere(int cells, double force) {
+  const double R = 10.0;
+  StructureSpec spec;
+  spec.shell.shape = ShellShape::hemisphere;
+  spec.shell.radius = R;
+  spec.shell.hole_deg = 18.0;
+  spec.shell.cells = cells;
+  spec.shell.section = small_strain_shell_section(6.825e7, 0.3, 0.04);
+  PinchedHemisphere h;
+  h.structure = unpressurized(spec);
+  fe::FeModel& m = h.structure.model;
+  h.node_a = nearest_node(m.mesh, Vec3(R, 0, 0));
+  h.node_b = nearest_node(m.mesh, Vec3(0, R, 0));
+  const PiecewiseLinear ramp{{0.0, 1.0}, {0.0, 1.0}};
+  m.nodal_loads.emplace_back(std::vector<int>{3 * h.node_a, 3 * h.node_b + 1}, std::vector<double>{0.5 * force, -0.5 * force}, ramp);
+  m.dirichlet.emplace_back(std::vector<int>{3 * h.node_a + 2}, std::vector<double>{}, PiecewiseLinear::constant(0.0));
+  return h;
+}
+
+std::array<double, 2> RolledCantilever::tip(double M) const {
+  const double theta = M * length / bending_stiffness;
+  if (theta < 1e-12) return {0.0, 0.0};
+  return {length * (std::sin(theta) / theta - 1.0), length * (1.0 - std::cos(theta)) / theta};
+}
+
+RolledCantilever make_rolled_cantilever(int cells, int cells_across, double fraction) {
+  const double L = 12.0, W = 1.0, t = 0.1, E = 1.2e6;
+  StructureSpec spec;
+  spec.shell.shape = ShellShape::strip;
+  spec.shell.length = L;
+  spec.shell.width = W;
+  spec.shell.cells = cells;
+  spec.shell.axial_cells = cells_across;
+  spec.shell.section = small_strain_shell_section(E, 0.0, t);
+  spec.shell.edges = {{"xmin", ShellEdgeCondition::Type::clamped, -1}};
+  RolledCantilever c;
+  c.structure = unpressurized(spec);
+  c.length = L;
+  c.bending_stiffness = E * W * t * t * t / 12.0;
+  c.max_moment = 2.0 * M_PI * c.bending_stiffness / L;
+  fe::FeModel& m = c.structure.model;
+  c.tip_node = nearest_node(m.mesh, Vec3(L, 0, 0));
+  const ShellSurface surface = make_shell_surface(spec.shell);
+  const auto pairs = fe::shell_edge_moment_pairs(m.mesh, c.structure.shell->triangles(), surface.edges.at("xmax"), "xmax");
+  // About −y: the chord along +x turns toward +z (the strip rolls up).
+  c.moment = std::make_shared<fe::ShellEdgeMoment>(pairs, Vec3(0, -1, 0), PiecewiseLinear{{0.0, 1.0}, {0.0, fraction * c.max_moment}},
+                                                   "shell_edge_moment");
+  m.add(c.moment);
+  return c;
+}
+
+}  // namespace softhom::macro
