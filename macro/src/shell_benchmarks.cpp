@@ -84,4 +84,70 @@ RolledCantilever make_rolled_cantilever(int cells, int cells_across, double frac
   return c;
 }
 
+double ThinTube::radius(const fe::Simulation& sim) const {
+  const std::vector<Vec3> x = sim.current_positions();
+  double r = 0.0;
+  for (int n : radius_nodes) r += std::hypot(x[n].x(), x[n].y()) / double(radius_nodes.size());
+  return r;
+}
+
+namespace {
+
+/// The z dofs of the nodes at z = L.
+std::vector<int> end_z_dofs(const fe::Mesh& mesh, double length) {
+  std::vector<int> dofs;
+  for (int n = 0; n < mesh.num_nodes(); ++n)
+    if (std::abs(mesh.nodes[n].z() - length) < 1e-9 * length) dofs.push_back(3 * n + 2);
+  return dofs;
+}
+
+}  // namespace
+
+ThinTube make_thin_tube_shell(const MaterialPtr& law, const ThinTubeSize& size, int cells, double pressure) {
+  StructureSpec spec;
+  spec.kind = StructureKind::shell;
+  spec.shell.shape = ShellShape::cylinder;
+  spec.shell.radius = size.radius;
+  spec.shell.length = size.length;
+  spec.shell.sweep_deg = 90.0;
+  spec.shell.cells = cells;
+  spec.shell.axial_cells = 2;
+  spec.shell.frame.kind = fe::ShellFrameRule::Kind::cylindrical;
+  spec.shell.frame.axis = Vec3::UnitZ();
+  spec.shell.section = std::make_shared<ShellSection>(std::vector<ShellLayer>{{law, size.wall, 3}});
+  spec.shell.edges = {{"z0", ShellEdgeCondition::Type::symmetry, 2}, {"z1", ShellEdgeCondition::Type::symmetry, 2}};
+  spec.control = LoadControl::pressure;
+  spec.load = PiecewiseLinear{{0.0, 1.0}, {0.0, pressure}};
+  ThinTube t;
+  t.structure = build_structure(spec);
+  for (int n = 0; n < t.structure.model.mesh.num_nodes(); ++n) t.radius_nodes.push_back(n);
+  t.end_dofs = end_z_dofs(t.structure.model.mesh, size.length);
+  return t;
+}
+
+ThinTube make_thin_tube_solid(const MaterialPtr& law, const ThinTubeSize& size, int cells, int axial_cells, double pressure) {
+  StructureSpec spec;
+  spec.kind = StructureKind::tube;
+  spec.tube.inner_radius = size.radius - 0.5 * size.wall;
+  spec.tube.outer_radius = size.radius + 0.5 * size.wall;
+  spec.tube.length = size.length;
+  spec.tube.radial_cells = 1;
+  spec.tube.circumferential_cells = cells;
+  spec.tube.axial_cells = axial_cells;
+  spec.tube.sweep_deg = 90.0;
+  spec.tet10 = true;
+  spec.plane_strain = true;
+  spec.material = law;
+  spec.fiber_frame = FiberFrame::cylindrical;
+  spec.control = LoadControl::pressure;
+  spec.load = PiecewiseLinear{{0.0, 1.0}, {0.0, pressure}};
+  ThinTube t;
+  t.structure = build_structure(spec);
+  const fe::Mesh& mesh = t.structure.model.mesh;
+  for (int n = 0; n < mesh.num_nodes(); ++n)
+    if (std::abs(std::hypot(mesh.nodes[n].x(), mesh.nodes[n].y()) - size.radius) < 1e-6 * size.radius) t.radius_nodes.push_back(n);
+  t.end_dofs = end_z_dofs(mesh, size.length);
+  return t;
+}
+
 }  // namespace softhom::macro

@@ -44,4 +44,23 @@ struct RolledCantilever {
 };
 RolledCantilever make_rolled_cantilever(int cells, int cells_across, double fraction);
 
+/// A thin tube (mid radius R, wall H, length L) held at the axial stretch λz = 1 (both ends at u_z = 0),
+/// inflated by a follower pressure ramped to `pressure` over t ∈ [0, 1], as a quarter: either the
+/// shell (cylinder, `cells` × 2, symmetry edges, cylindrical frame: e1 hoop, e2 axial) under the
+/// pressure on its mid-surface, or the tet10 solid (`cells` × 1 radial × `axial_cells`, the law's frame
+/// (hoop, axial, radial) per element) under the pressure on its inner wall. The law's fibers are given
+/// in that frame in both. radius_nodes: the shell's nodes, or the solid's on the reference mid-surface;
+/// end_dofs: the z dofs at z = L (their reaction is the axial force of the quarter).
+struct ThinTube {
+  Structure structure;
+  std::vector<int> radius_nodes, end_dofs;
+  /// Mean current distance of radius_nodes from the axis.
+  double radius(const fe::Simulation& sim) const;
+};
+struct ThinTubeSize {
+  double radius = 10.0, wall = 0.2, length = 1.0;
+};
+ThinTube make_thin_tube_shell(const MaterialPtr& law, const ThinTubeSize& size, int cells, double pressure);
+ThinTube make_thin_tube_solid(const MaterialPtr& law, const ThinTubeSize& size, int cells, int axial_cells, double pressure);
+
 }  // namespace softhom::macro
