@@ -123,7 +123,7 @@ struct Run {
 /// Runs `tube` in kSteps equal steps; at each, the worst relative errors of the radius and the axial force
 /// against the exact state at the step's pressure (`key` of the exact state: the pressure the model carries).
 template <class Key>
-Run run_tube(const char* model, int cells, const ThinTube& tube, const std::vector<Exact>& curve, double p_end, Key key,
+Run run_tube(const char* model, int cells, const ThinWallTube& tube, const std::vector<Exact>& curve, double p_end, Key key,
              std::chrono::steady_clock::time_point t0) {
   fe::Simulation sim(tube.structure.model);
   Run run{model, cells, sim.num_free_dofs()};
@@ -160,7 +160,7 @@ Run run_solid(const MaterialPtr& law, const std::vector<Exact>& curve, int cells
   return best_of(axial_cells == 1 ? 3 : 1, [&] {
     const auto t0 = std::chrono::steady_clock::now();
     const double p_end = end_state(curve).p;
-    const ThinTube tube = make_thin_tube_solid(law, {kRmid, kH, kLength}, cells, axial_cells, p_end);
+    const ThinWallTube tube = make_thin_wall_tube_solid(law, {kRmid, kH, kLength}, cells, axial_cells, p_end);
     return run_tube(axial_cells == 1 ? "tet10 solid" : "tet10 cubic", cells, tube, curve, p_end, [](const Exact& e) { return e.p; }, t0);
   });
 }
@@ -170,7 +170,7 @@ Run run_shell(const MaterialPtr& law, const std::vector<Exact>& curve, int cells
     const auto t0 = std::chrono::steady_clock::now();
     auto mid_pressure = [](const Exact& e) { return e.p * e.r_inner / e.r_mid; };
     const double p_end = mid_pressure(end_state(curve));
-    const ThinTube tube = make_thin_tube_shell(law, {kRmid, kH, kLength}, cells, p_end);
+    const ThinWallTube tube = make_thin_wall_tube_shell(law, {kRmid, kH, kLength}, cells, p_end);
     return run_tube("shell", cells, tube, curve, p_end, mid_pressure, t0);
   });
 }

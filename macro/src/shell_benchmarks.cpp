@@ -84,7 +84,7 @@ RolledCantilever make_rolled_cantilever(int cells, int cells_across, double frac
   return c;
 }
 
-double ThinTube::radius(const fe::Simulation& sim) const {
+double ThinWallTube::radius(const fe::Simulation& sim) const {
   const std::vector<Vec3> x = sim.current_positions();
   double r = 0.0;
   for (int n : radius_nodes) r += std::hypot(x[n].x(), x[n].y()) / double(radius_nodes.size());
@@ -103,7 +103,7 @@ std::vector<int> end_z_dofs(const fe::Mesh& mesh, double length) {
 
 }  // namespace
 
-ThinTube make_thin_tube_shell(const MaterialPtr& law, const ThinTubeSize& size, int cells, double pressure) {
+ThinWallTube make_thin_wall_tube_shell(const MaterialPtr& law, const ThinWallTubeSize& size, int cells, double pressure) {
   StructureSpec spec;
   spec.kind = StructureKind::shell;
   spec.shell.shape = ShellShape::cylinder;
@@ -118,14 +118,14 @@ ThinTube make_thin_tube_shell(const MaterialPtr& law, const ThinTubeSize& size, 
   spec.shell.edges = {{"z0", ShellEdgeCondition::Type::symmetry, 2}, {"z1", ShellEdgeCondition::Type::symmetry, 2}};
   spec.control = LoadControl::pressure;
   spec.load = PiecewiseLinear{{0.0, 1.0}, {0.0, pressure}};
-  ThinTube t;
+  ThinWallTube t;
   t.structure = build_structure(spec);
   for (int n = 0; n < t.structure.model.mesh.num_nodes(); ++n) t.radius_nodes.push_back(n);
   t.end_dofs = end_z_dofs(t.structure.model.mesh, size.length);
   return t;
 }
 
-ThinTube make_thin_tube_solid(const MaterialPtr& law, const ThinTubeSize& size, int cells, int axial_cells, double pressure) {
+ThinWallTube make_thin_wall_tube_solid(const MaterialPtr& law, const ThinWallTubeSize& size, int cells, int axial_cells, double pressure) {
   StructureSpec spec;
   spec.kind = StructureKind::tube;
   spec.tube.inner_radius = size.radius - 0.5 * size.wall;
@@ -141,7 +141,7 @@ ThinTube make_thin_tube_solid(const MaterialPtr& law, const ThinTubeSize& size, 
   spec.fiber_frame = FiberFrame::cylindrical;
   spec.control = LoadControl::pressure;
   spec.load = PiecewiseLinear{{0.0, 1.0}, {0.0, pressure}};
-  ThinTube t;
+  ThinWallTube t;
   t.structure = build_structure(spec);
   const fe::Mesh& mesh = t.structure.model.mesh;
   for (int n = 0; n < mesh.num_nodes(); ++n)

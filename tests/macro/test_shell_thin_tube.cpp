@@ -32,7 +32,7 @@ MaterialPtr thin_tube_law() {
   return make_material(make_gent_hgo(g));
 }
 
-double mean_radius(const fe::Simulation& sim, const std::vector<int>& nodes) {
+double thin_tube_mean_radius(const fe::Simulation& sim, const std::vector<int>& nodes) {
   const std::vector<Vec3> x = sim.current_positions();
   double r = 0.0;
   for (int n : nodes) r += std::hypot(x[n].x(), x[n].y()) / double(nodes.size());
@@ -49,20 +49,20 @@ TEST(ShellThinTube, MatchesTheTet10SolidInRadiusAndAxialForce) {
   // wall's radial stress, −p_i/2 in the mean: an O(H/R) difference of the axial force). Here measured
   // shell against solid: radius −0.20, −0.33, −0.42 %, axial force +0.48, +0.55, +0.60 %. Bound: 1 %.
   const MaterialPtr law = thin_tube_law();
-  const ThinTubeSize size;  // R = 10, H = 0.2, L = 1
+  const ThinWallTubeSize size;  // R = 10, H = 0.2, L = 1
   const double p_inner = 0.085;
-  const ThinTube solid = make_thin_tube_solid(law, size, 12, 1, p_inner);
+  const ThinWallTube solid = make_thin_wall_tube_solid(law, size, 12, 1, p_inner);
   fe::Simulation solid_sim(solid.structure.model);
   std::vector<double> times{0.0}, p_mid{0.0}, radius, force;
   for (int k = 1; k <= 3; ++k) {
     ASSERT_TRUE(solid_sim.advance_to(k / 3.0).reached()) << k;
-    const double r_inner = mean_radius(solid_sim, solid.structure.inner_nodes), r_mid = solid.radius(solid_sim);
+    const double r_inner = thin_tube_mean_radius(solid_sim, solid.structure.inner_nodes), r_mid = solid.radius(solid_sim);
     times.push_back(k / 3.0);
     p_mid.push_back(p_inner * k / 3.0 * r_inner / r_mid);
     radius.push_back(r_mid);
     force.push_back(solid_sim.reaction(solid.end_dofs));
   }
-  ThinTube shell = make_thin_tube_shell(law, size, 12, 1.0);
+  ThinWallTube shell = make_thin_wall_tube_shell(law, size, 12, 1.0);
   shell.structure.model.pressures.front().pressure = PiecewiseLinear{times, p_mid};
   fe::Simulation shell_sim(shell.structure.model);
   for (int k = 1; k <= 3; ++k) {

@@ -51,16 +51,16 @@ RolledCantilever make_rolled_cantilever(int cells, int cells_across, double frac
 /// (hoop, axial, radial) per element) under the pressure on its inner wall. The law's fibers are given
 /// in that frame in both. radius_nodes: the shell's nodes, or the solid's on the reference mid-surface;
 /// end_dofs: the z dofs at z = L (their reaction is the axial force of the quarter).
-struct ThinTube {
+struct ThinWallTube {
   Structure structure;
   std::vector<int> radius_nodes, end_dofs;
   /// Mean current distance of radius_nodes from the axis.
   double radius(const fe::Simulation& sim) const;
 };
-struct ThinTubeSize {
+struct ThinWallTubeSize {
   double radius = 10.0, wall = 0.2, length = 1.0;
 };
-ThinTube make_thin_tube_shell(const MaterialPtr& law, const ThinTubeSize& size, int cells, double pressure);
-ThinTube make_thin_tube_solid(const MaterialPtr& law, const ThinTubeSize& size, int cells, int axial_cells, double pressure);
+ThinWallTube make_thin_wall_tube_shell(const MaterialPtr& law, const ThinWallTubeSize& size, int cells, double pressure);
+ThinWallTube make_thin_wall_tube_solid(const MaterialPtr& law, const ThinWallTubeSize& size, int cells, int axial_cells, double pressure);
 
 }  // namespace softhom::macro
