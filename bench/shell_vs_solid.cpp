@@ -20,7 +20,6 @@
 #include "softhom/io/files.hpp"
 #include "softhom/macro/shell_benchmarks.hpp"
 #include "softhom/materials/errors.hpp"
-#include "softhom/materials/laws.hpp"
 
 using namespace softhom;
 using namespace softhom::macro;
@@ -33,36 +32,6 @@ constexpr int kSteps = 6;
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-/// The wall's law in the frame (hoop, axial, radial); fibers at ±beta from the hoop direction.
-MaterialPtr wall_law(bool fibers) {
-  GentHGOParams g;
-  g.G = 1.0;
-  g.Jm = 1e4;  // practically neo-Hookean (the same law in every model)
-  g.K = 1000.0;
-  g.invariant = FiberInvariant::isochoric;
-  if (fibers)
-    for (double s : {1.0, -1.0}) {
-      FiberFamily f;
-      const double b = s * 40.0 * M_PI / 180.0;
-      f.direction = Vec3(std::cos(b), std::sin(b), 0.0);
-      f.k1 = 2.0;
-      f.k2 = 1.0;
-      g.fibers.push_back(f);
-    }
-  return make_material(make_gent_hgo(g));
-}
-
-/// Cauchy stress of the law at hoop stretch λ, λz = 1, λr = 1/λ (J = 1), frame (θ, z, r).
-Mat3 cauchy_at(const Material& m, double l) {
-  Mat3 F = Mat3::Zero();
-  F(0, 0) = l;
-  F(1, 1) = 1.0;
-  F(2, 2) = 1.0 / l;
-  Mat3 P;
-  m.evaluate(F, nullptr, nullptr, 0.0, P, nullptr);
-  return P * F.transpose();
 }
 
 /// The exact incompressible tube at inner radius r_i: inner pressure, inner and mid-wall radii, and the
@@ -80,7 +49,7 @@ Exact exact_tube(const Material& m, double ri) {
   for (int k = 0; k <= n; ++k) {
     const double R = Ri + kH * k / n;
     r[k] = radius(R);
-    const Mat3 s = cauchy_at(m, r[k] / R);
+    const Mat3 s = tube_wall_cauchy(m, r[k] / R);
     hoop[k] = (s(0, 0) - s(2, 2)) / r[k];
     axial[k] = s(1, 1) - s(2, 2);
   }
@@ -194,7 +163,7 @@ int main(int argc, char** argv) {
   const int max_cells = argc > 1 ? std::atoi(argv[1]) : 48;
   if (argc > 2) kH = std::atof(argv[2]) * kRmid;
   for (bool fibers : {false, true}) {
-    const MaterialPtr law = wall_law(fibers);
+    const MaterialPtr law = thin_wall_tube_law(fibers);
     const std::vector<Exact> curve = exact_curve(*law);
     std::printf("%s wall, H/R = %.3f, λz = 1, to a hoop stretch of %.2f in %d steps\n", fibers ? "HGO ±40°" : "neo-Hookean",
                 kH / kRmid, kStretch, kSteps);

@@ -1,4 +1,4 @@
-// The nonlinear shell benchmarks of Sze, Liu & Lo (2004) (shell_benchmarks.hpp).
+// The shell benchmarks the tests and benches share (shell_benchmarks.hpp): Sze, Liu & Lo (2004) and the thin tube.
 #include "softhom/macro/shell_benchmarks.hpp"
 
 #include <cmath>
@@ -6,7 +6,6 @@
 #include "softhom/materials/laws.hpp"
 
 namespace softhom::macro {
-namespace {
 
 int nearest_node(const fe::Mesh& mesh, const Vec3& p) {
   int best = 0;
@@ -15,15 +14,12 @@ int nearest_node(const fe::Mesh& mesh, const Vec3& p) {
   return best;
 }
 
-/// A shell structure with no pressure (the benchmarks' loads are point forces and moments).
-Structure unpressurized(StructureSpec spec) {
+Structure build_unpressurized_shell(StructureSpec spec) {
   spec.kind = StructureKind::shell;
   spec.control = LoadControl::pressure;
   spec.load = PiecewiseLinear{{0.0, 1.0}, {0.0, 0.0}};
   return build_structure(spec);
 }
-
-}  // namespace
 
 std::shared_ptr<const ShellSection> small_strain_shell_section(double E, double nu, double thickness) {
   NeoHookeanParams p;
@@ -42,7 +38,7 @@ PinchedHemisphere make_pinched_hemisphere(int cells, double force) {
   spec.shell.cells = cells;
   spec.shell.section = small_strain_shell_section(6.825e7, 0.3, 0.04);
   PinchedHemisphere h;
-  h.structure = unpressurized(spec);
+  h.structure = build_unpressurized_shell(spec);
   fe::FeModel& m = h.structure.model;
   h.node_a = nearest_node(m.mesh, Vec3(R, 0, 0));
   h.node_b = nearest_node(m.mesh, Vec3(0, R, 0));
@@ -69,7 +65,7 @@ RolledCantilever make_rolled_cantilever(int cells, int cells_across, double frac
   spec.shell.section = small_strain_shell_section(E, 0.0, t);
   spec.shell.edges = {{"xmin", ShellEdgeCondition::Type::clamped, -1}};
   RolledCantilever c;
-  c.structure = unpressurized(spec);
+  c.structure = build_unpressurized_shell(spec);
   c.length = L;
   c.bending_stiffness = E * W * t * t * t / 12.0;
   c.max_moment = 2.0 * M_PI * c.bending_stiffness / L;
@@ -82,6 +78,33 @@ RolledCantilever make_rolled_cantilever(int cells, int cells_across, double frac
                                                    "shell_edge_moment");
   m.add(c.moment);
   return c;
+}
+
+MaterialPtr thin_wall_tube_law(bool fibers) {
+  GentHGOParams g;
+  g.G = 1.0;
+  g.Jm = 1e4;
+  g.K = 1000.0;
+  g.invariant = FiberInvariant::isochoric;
+  if (fibers)
+    for (double s : {1.0, -1.0}) {
+      FiberFamily f;
+      f.direction = Vec3(std::cos(s * 40.0 * M_PI / 180.0), std::sin(s * 40.0 * M_PI / 180.0), 0.0);
+      f.k1 = 2.0;
+      f.k2 = 1.0;
+      g.fibers.push_back(f);
+    }
+  return make_material(make_gent_hgo(g));
+}
+
+Mat3 tube_wall_cauchy(const Material& law, double hoop_stretch) {
+  Mat3 F = Mat3::Zero();
+  F(0, 0) = hoop_stretch;
+  F(1, 1) = 1.0;
+  F(2, 2) = 1.0 / hoop_stretch;
+  Mat3 P;
+  law.evaluate(F, nullptr, nullptr, 0.0, P, nullptr);
+  return P * F.transpose();
 }
 
 double ThinWallTube::radius(const fe::Simulation& sim) const {

@@ -6,22 +6,13 @@
 
 #include <cmath>
 
-#include "softhom/macro/structures.hpp"
+#include "softhom/macro/shell_benchmarks.hpp"
 #include "softhom/materials/laws.hpp"
 
 using namespace softhom;
 using namespace softhom::macro;
 
 namespace {
-
-/// A compressible neo-Hookean law with the small-strain moduli of (E, ν), plane stress by S33 = 0.
-std::shared_ptr<const ShellSection> elastic_section(double E, double nu, double thickness) {
-  NeoHookeanParams p;
-  p.mu = E / (2 * (1 + nu));
-  p.K = E / (3 * (1 - 2 * nu));
-  return std::make_shared<ShellSection>(std::vector<ShellLayer>{{make_material(make_neo_hookean(p)), thickness, 3}},
-                                        PlaneStressMode::compressible);
-}
 
 /// Consistent nodal forces of a dead load q per unit reference area along `direction`.
 fe::NodalLoad surface_load(const fe::Mesh& mesh, const std::vector<fe::Tri3>& tris, const Vec3& q, double factor) {
@@ -41,13 +32,6 @@ fe::NodalLoad surface_load(const fe::Mesh& mesh, const std::vector<fe::Tri3>& tr
   return load;
 }
 
-Structure unloaded(StructureSpec spec) {
-  spec.kind = StructureKind::shell;
-  spec.control = LoadControl::pressure;
-  spec.load = PiecewiseLinear{{0.0, 1.0}, {0.0, 0.0}};
-  return build_structure(spec);
-}
-
 /// The displacement of `node` after one step to t = 1, divided by the load factor.
 Vec3 linear_displacement(const Structure& s, int node, double factor) {
   fe::NewtonOptions o;
@@ -57,13 +41,6 @@ Vec3 linear_displacement(const Structure& s, int node, double factor) {
   EXPECT_TRUE(a.reached()) << a.message;
   const auto& u = sim.displacement();
   return Vec3(u[3 * node], u[3 * node + 1], u[3 * node + 2]) / factor;
-}
-
-int nearest(const fe::Mesh& mesh, const Vec3& p) {
-  int best = 0;
-  for (int n = 1; n < mesh.num_nodes(); ++n)
-    if ((mesh.nodes[n] - p).norm() < (mesh.nodes[best] - p).norm()) best = n;
-  return best;
 }
 
 }  // namespace
@@ -79,13 +56,13 @@ TEST(ShellBenchmarks, ScordelisLoRoofMidsideDeflection) {
   spec.shell.angle_deg = 40.0;
   spec.shell.cells = 32;
   spec.shell.axial_cells = 32;
-  spec.shell.section = elastic_section(4.32e8, 0.0, 0.25);
-  Structure s = unloaded(spec);
+  spec.shell.section = small_strain_shell_section(4.32e8, 0.0, 0.25);
+  Structure s = build_unpressurized_shell(spec);
   // A hundredth of the load: w ~ 3e-3 ≪ t, linear to ~1e-4, and far above the residual's round-off floor.
   const double factor = 0.01;
   s.model.nodal_loads.push_back(surface_load(s.model.mesh, s.shell->triangles(), Vec3(0, 0, -90.0), factor));
   const double phi = 40.0 * M_PI / 180.0;
-  const int node = nearest(s.model.mesh, Vec3(0.0, 25.0 * std::sin(phi), 25.0 * std::cos(phi)));
+  const int node = nearest_node(s.model.mesh, Vec3(0.0, 25.0 * std::sin(phi), 25.0 * std::cos(phi)));
   const double w = -linear_displacement(s, node, factor).z();
   // 16² and 32² quarters give 0.2881 and 0.2968 (from below, observed order 1.7): 2 % at 32².
   EXPECT_NEAR(w, 0.3024, 0.02 * 0.3024);
@@ -102,10 +79,10 @@ TEST(ShellBenchmarks, PinchedCylinderWithDiaphragms) {
   spec.shell.sweep_deg = 90.0;
   spec.shell.cells = 32;
   spec.shell.axial_cells = 32;
-  spec.shell.section = elastic_section(3e6, 0.3, 3.0);
+  spec.shell.section = small_strain_shell_section(3e6, 0.3, 3.0);
   spec.shell.edges = {{"z0", ShellEdgeCondition::Type::symmetry, 2}, {"z1", ShellEdgeCondition::Type::diaphragm, 2}};
-  Structure s = unloaded(spec);
-  const int node = nearest(s.model.mesh, Vec3(0.0, 300.0, 0.0));
+  Structure s = build_unpressurized_shell(spec);
+  const int node = nearest_node(s.model.mesh, Vec3(0.0, 300.0, 0.0));
   const double factor = 1e3;  // w ~ 0.02 ≪ t = 3: linear to ~1e-4, far above the round-off floor
   s.model.nodal_loads.emplace_back(std::vector<int>{3 * node + 1}, std::vector<double>{-0.25},
                                    PiecewiseLinear{{0.0, 1.0}, {0.0, factor}});
@@ -127,13 +104,13 @@ TEST(ShellBenchmarks, LongCylinderUnderInternalPressureMatchesTheThinWalledClose
   spec.shell.length = 2.0;
   spec.shell.cells = 48;
   spec.shell.axial_cells = 4;
-  spec.shell.section = elastic_section(E, nu, H);
+  spec.shell.section = small_strain_shell_section(E, nu, H);
   spec.shell.edges = {{"z0", ShellEdgeCondition::Type::symmetry, 2}, {"z1", ShellEdgeCondition::Type::symmetry, 2}};
   spec.control = LoadControl::pressure;
   spec.load = PiecewiseLinear{{0.0, 1.0}, {0.0, p}};
   Structure s = build_structure(spec);
   auto hold = [&](const Vec3& at, int component) {
-    s.model.dirichlet.emplace_back(std::vector<int>{3 * nearest(s.model.mesh, at) + component}, std::vector<double>{},
+    s.model.dirichlet.emplace_back(std::vector<int>{3 * nearest_node(s.model.mesh, at) + component}, std::vector<double>{},
                                    PiecewiseLinear::constant(0.0));
   };
   hold(Vec3(R, 0, 0), 1);
@@ -165,13 +142,13 @@ TEST(ShellBenchmarks, CantileverStripUnderATipForce) {
   spec.shell.width = W;
   spec.shell.cells = 20;
   spec.shell.axial_cells = 4;
-  spec.shell.section = elastic_section(E, 0.0, t);
+  spec.shell.section = small_strain_shell_section(E, 0.0, t);
   spec.shell.edges = {{"xmin", ShellEdgeCondition::Type::clamped, -1}};
-  Structure s = unloaded(spec);
+  Structure s = build_unpressurized_shell(spec);
   std::vector<int> dofs;
   for (int n = 0; n < s.model.mesh.num_nodes(); ++n)
     if (std::abs(s.model.mesh.nodes[n].x() - L) < 1e-9) dofs.push_back(3 * n + 2);
   s.model.nodal_loads.emplace_back(dofs, std::vector<double>(dofs.size(), P / dofs.size()), PiecewiseLinear{{0.0, 1.0}, {0.0, 1.0}});
-  const double w = linear_displacement(s, nearest(s.model.mesh, Vec3(L, 0, 0)), 1.0).z();
+  const double w = linear_displacement(s, nearest_node(s.model.mesh, Vec3(L, 0, 0)), 1.0).z();
   EXPECT_NEAR(w / (P * L * L * L / (3 * E * W * t * t * t / 12)), 1.0, 0.01);
 }

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "softhom/macro/structures.hpp"
+#include "softhom/macro/shell_benchmarks.hpp"
 #include "softhom/materials/laws.hpp"
 
 using namespace softhom;
@@ -45,15 +45,9 @@ MaterialPtr law(const Layer& l) {
 }
 
 /// σθθ − σrr of a law at the hoop stretch λθ, axial stretch 1, λr = 1/λθ (J = 1: the volumetric part
-/// vanishes), fibers in the θz plane: F = diag(λθ, 1, λr) in the frame (θ, z, r).
+/// vanishes), fibers in the θz plane.
 double hoop_minus_radial(const Material& m, double lt) {
-  Mat3 F = Mat3::Zero();
-  F(0, 0) = lt;
-  F(1, 1) = 1.0;
-  F(2, 2) = 1.0 / lt;
-  Mat3 P;
-  m.evaluate(F, nullptr, nullptr, 0.0, P, nullptr);
-  const Mat3 sigma = P * F.transpose();
+  const Mat3 sigma = tube_wall_cauchy(m, lt);
   return sigma(0, 0) - sigma(2, 2);
 }
 

@@ -12,6 +12,13 @@
 
 namespace softhom::macro {
 
+/// The node of `mesh` nearest to p (a benchmark's load or probe point).
+int nearest_node(const fe::Mesh& mesh, const Vec3& p);
+
+/// build_structure of a shell without pressure (spec.shell as given; the load is point forces and
+/// moments the caller adds).
+Structure build_unpressurized_shell(StructureSpec spec);
+
 /// A one-layer section of a compressible neo-Hookean law with the small-strain moduli of (E, ν).
 std::shared_ptr<const ShellSection> small_strain_shell_section(double E, double nu, double thickness);
 
@@ -57,6 +64,13 @@ struct ThinWallTube {
   /// Mean current distance of radius_nodes from the axis.
   double radius(const fe::Simulation& sim) const;
 };
+/// The thin tubes' wall law: Gent–HGO with G = 1, K = 1000, Jm = 1e4 (practically neo-Hookean), and
+/// with `fibers` two families at ±40° from the hoop direction (k1 = 2, k2 = 1, isochoric invariant),
+/// given in the frame (hoop, axial, radial).
+MaterialPtr thin_wall_tube_law(bool fibers);
+/// Cauchy stress of a law in the frame (hoop, axial, radial) at the hoop stretch λ, λz = 1, λr = 1/λ
+/// (J = 1): the state of an incompressible tube's wall at a fixed axial stretch.
+Mat3 tube_wall_cauchy(const Material& law, double hoop_stretch);
 struct ThinWallTubeSize {
   double radius = 10.0, wall = 0.2, length = 1.0;
 };
