@@ -7,7 +7,8 @@
 //     M_max, the error over L, and the fraction of M_max reached (the run stops where Newton does).
 // Each prints wall time, Newton iterations, peak memory, the error, and the observed order from three
 // successive meshes. Usage: bench_shell_nonlinear [max_hemisphere_cells=64] [max_cantilever_cells=96]
-// [cantilever cells along per cell across=12] [hemisphere load steps=20]
+// [cantilever cells along per cell across=12] [hemisphere load steps=20]; SHELL_BENCH_TRACE=1 prints the
+// cantilever's tip at every step.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
