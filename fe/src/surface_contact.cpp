@@ -716,6 +716,18 @@ ContactTotals SurfaceContact::totals(const Mesh& mesh, const Iterate& it) const 
   return t;
 }
 
+std::vector<Vec3> SurfaceContact::active_positions(const Mesh& mesh, const Iterate& it) const {
+  std::vector<Vec3> out;
+  if (!it.state_old) return out;
+  const std::vector<Vec3> x = positions(mesh, it);
+  for (std::size_t k = 0; k < points_.size(); ++k) {
+    const double* s = it.state_old + kStateSize * k;
+    const Evaluation e = evaluate(points_[k], s, options_.augmented ? s[0] : 0.0, x);
+    if (e.engaged && e.pressure > 0.0) out.push_back(point_position(points_[k], x));
+  }
+  return out;
+}
+
 SurfaceContact::FaceValues SurfaceContact::face_values(const Mesh& mesh, const Iterate& it) const {
   FaceValues v;
   const std::size_t nf = faces_.size();

@@ -342,11 +342,11 @@ TEST(SurfaceContact, RingPinchedUntilItsInnerWallFoldsOntoItself) {
   EXPECT_LT(p.asymmetry, 1e-6);
 }
 
-// The same pinch with friction on the fold (μ = 0.5): the walls, pressed together as the fold closes,
-// also slide on each other, and the friction between them stays symmetric: the two sides of the fold
-// bear equal and opposite tangential tractions, so the fold's total friction force vanishes (to 1e-6
-// of its normal force, the symmetry's tolerance) while its points do carry tangential tractions, and the
-// displacements stay mirror-symmetric to 1e-6 as without friction.
+// The same pinch with friction on the fold (μ = 0.5). The two walls pressed together are mirror images
+// of each other, so facing points move alike along the fold and the walls do not slide on each other:
+// the friction must leave the symmetric solution as it is, its resultant vanishing (to 1e-6 of the
+// normal force, the symmetry's tolerance; measured 4e-16) with the displacements mirror-symmetric to
+// 1e-6 and the penetration within the frictionless bound.
 TEST(SurfaceFriction, RingPinchWithFrictionStaysSymmetric) {
   Pinch p = pinch_ring(0.5);
   EXPECT_GT(p.probes["fold_active_points [1]"], 0.0);

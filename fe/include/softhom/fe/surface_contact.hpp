@@ -125,6 +125,8 @@ class SurfaceContact final : public Contribution {
 
   /// Resultants at an iterate whose state_old holds the pairing.
   ContactTotals totals(const Mesh& mesh, const Iterate& it) const;
+  /// Current positions of the slave quadrature points in contact (p > 0) at such an iterate.
+  std::vector<Vec3> active_positions(const Mesh& mesh, const Iterate& it) const;
   /// Per face of faces() (slave ones filled): the mean Cauchy contact pressure and tangential traction
   /// over its points, the least gap (+inf where unpaired) and the fraction of its active points slipping.
   struct FaceValues {
