@@ -10,8 +10,8 @@
 // of the master body: g > 0 apart) and the nominal pressure p = ⟨λ + ε (−g)⟩ per reference slave area.
 // The residual is the variation of the penalty energy: R = −Σ w p ∂g/∂u over the slave face's and the
 // master face's nodes, and its tangent the exact second variation, w (ε ∂g⊗∂g − p ∂²g), including the
-// motion of the closest point over the master face and the rotation of its normal (symmetric). It is
-// exact everywhere: where the closest point is held by an edge or a corner of the face (below a kink of
+// motion of the closest point over the master face and the rotation of its normal (symmetric without
+// friction). It is exact everywhere: where the closest point is held by an edge or a corner of the face (below a kink of
 // the master surface, or past the edge of the face it was paired with in this step) the gap is the
 // signed distance to it, which joins the normal gap continuously with its first derivative. A point
 // more than half a face beside its master face bears nothing until the next step pairs it again.
@@ -21,9 +21,9 @@
 // of, or at most half a face behind (deeper is the far side of a wall, never a contact: a wall must be
 // thicker than half a face to be told from a penetration). A uniform grid over the master faces' boxes
 // finds the candidates (linear in the surfaces' size); no point pairs with its own face or one sharing
-// a node with it (a self-contact's neighbours). The pairing, the parametric start of the projection and the
-// multiplier are the contribution's history (state_size: 5 per slave point), so a cut-back step is
-// retried with the pairing of the converged state. The couplings are the (slave face, master face)
+// a node with it (a self-contact's neighbours). The pairing, the parametric start of the projection,
+// the multiplier and the stick anchor are the contribution's history (state_size: 9 per slave point),
+// so a cut-back step is retried with the pairing and the anchors of the converged state. The couplings are the (slave face, master face)
 // pairs: the driver rebuilds the stiffness pattern when they change.
 //
 // Self-contact is two-pass: every point of the surface is a slave, each weighted by one half, so both
