@@ -35,6 +35,34 @@ void print_orders(const std::vector<double>& hs, const std::vector<double>& errs
     std::printf("observed order %zu→%zu: %.2f\n", k - 1, k, std::log(errs[k - 1] / errs[k]) / std::log(hs[k - 1] / hs[k]));
 }
 
+/// Force (the quarter's × 4) against travel − penetration over `steps` equal steps, kept from a quarter
+/// of the travel on (a contact patch of at least 2 cells), with the last contact radius (the farthest
+/// active point from the axis) and penetration. False when a step stops.
+struct Series {
+  std::vector<double> force, indentation;
+  double radius = 0.0, penetration = 0.0;
+};
+
+template <class Problem>
+bool press(const Problem& p, double travel, int steps, fe::Simulation& sim, Series& out) {
+  for (int s = 1; s <= steps; ++s) {
+    const double t = double(s) / steps;
+    if (!sim.advance_to(t).reached()) {
+      std::printf("stopped at t = %g\n", t);
+      return false;
+    }
+    const fe::Iterate it = sim.converged_iterate(*p.contact);
+    const fe::ContactTotals tot = p.contact->totals(p.model.mesh, it);
+    if (s <= steps / 4) continue;
+    out.force.push_back(4.0 * tot.normal_force);
+    out.indentation.push_back(travel * t - tot.max_penetration);
+    out.radius = 0.0;
+    for (const Vec3& x : p.contact->active_positions(p.model.mesh, it)) out.radius = std::max(out.radius, std::hypot(x[0], x[1]));
+    out.penetration = tot.max_penetration;
+  }
+  return true;
+}
+
 int spheres(int max_level) {
   const int fine[] = {4, 6, 8, 12}, coarse[] = {4, 5, 6, 8};
   std::printf("%6s %8s %8s %12s %12s %12s %8s %8s %8s\n", "cells", "h/a", "dofs", "force_err", "radius_err", "pen/h",
@@ -44,25 +72,11 @@ int spheres(int max_level) {
     const auto t0 = std::chrono::steady_clock::now();
     const macro::HertzSpheresProblem p = macro::make_hertz_spheres_problem(fine[level], coarse[level]);
     fe::Simulation sim(p.model);
-    std::vector<double> force, approach;
-    double a = 0.0, penetration = 0.0;
-    const int steps = 8;
-    for (int s = 1; s <= steps; ++s) {
-      const double t = double(s) / steps;
-      if (!sim.advance_to(t).reached()) {
-        std::printf("level %d: stopped at t = %g\n", level, t);
-        return 1;
-      }
-      const fe::Iterate it = sim.converged_iterate(*p.contact);
-      const fe::ContactTotals tot = p.contact->totals(p.model.mesh, it);
-      if (s <= steps / 4) continue;  // the fit on δ ≥ δ_max/4 (a contact patch of at least 2 cells)
-      force.push_back(4.0 * tot.normal_force);
-      approach.push_back(p.approach * t - tot.max_penetration);
-      a = 0.0;
-      for (const Vec3& x : p.contact->active_positions(p.model.mesh, it)) a = std::max(a, std::hypot(x[0], x[1]));
-      penetration = tot.max_penetration;
-    }
-    const double alpha = macro::hertz_coefficient(force, approach);
+    Series r;
+    if (!press(p, p.approach, 8, sim, r)) return 1;
+    const std::vector<double>& force = r.force;
+    const double a = r.radius, penetration = r.penetration;
+    const double alpha = macro::hertz_coefficient(force, r.indentation);
     const double alpha_hertz =
         std::pow(3.0 / (4.0 * p.effective_modulus * std::sqrt(p.effective_radius)), 2.0 / 3.0);
     const double force_error = std::pow(alpha_hertz / alpha, 1.5) - 1.0;
@@ -91,25 +105,11 @@ int main(int argc, char** argv) {
     const auto t0 = std::chrono::steady_clock::now();
     const macro::HertzProblem p = macro::make_hertz_problem(fine[level], coarse[level]);
     fe::Simulation sim(p.model);
-    std::vector<double> force, indentation;
-    double a = 0.0, penetration = 0.0;
-    const int steps = 8;
-    for (int s = 1; s <= steps; ++s) {
-      const double t = double(s) / steps;
-      if (!sim.advance_to(t).reached()) {
-        std::printf("level %d: stopped at t = %g\n", level, t);
-        return 1;
-      }
-      const fe::Iterate it = sim.converged_iterate(*p.contact);
-      const fe::ContactTotals tot = p.contact->totals(p.model.mesh, it);
-      if (s <= steps / 4) continue;  // the fit on d ≥ d_max/4 (a contact patch of at least 2 cells)
-      force.push_back(4.0 * tot.normal_force);
-      indentation.push_back(p.depth * t - tot.max_penetration);
-      a = 0.0;  // the farthest active quadrature point from the axis
-      for (const Vec3& x : p.contact->active_positions(p.model.mesh, it)) a = std::max(a, std::hypot(x[0], x[1]));
-      penetration = tot.max_penetration;
-    }
-    const double alpha = macro::hertz_coefficient(force, indentation);
+    Series r;
+    if (!press(p, p.depth, 8, sim, r)) return 1;
+    const std::vector<double>& force = r.force;
+    const double a = r.radius, penetration = r.penetration;
+    const double alpha = macro::hertz_coefficient(force, r.indentation);
     const double alpha_hertz = std::pow(3.0 / (4.0 * p.effective_modulus * std::sqrt(p.radius)), 2.0 / 3.0);
     const double force_error = std::pow(alpha_hertz / alpha, 1.5) - 1.0;
     const double a_hertz = p.contact_radius(force.back());

@@ -19,8 +19,8 @@ const keys::KeyTable<SurfacePairSpec>& pair_table() {
   static const keys::KeyTable<S> t = [] {
     keys::KeyTable<S> k("contact.pairs[]",
                         "Contact between two deformable surfaces of the structure (fe/surface_contact.hpp): the slave "
-                        "surface's quadrature points against the master's faces, paired at every step, frictionless "
-                        "penalty with one augmentation per step, optional Coulomb friction. A uniform pressure crosses exactly where the slave "
+                        "surface's quadrature points against the master's faces, paired at every step, penalty with "
+                        "one augmentation per step and optional Coulomb friction. A uniform pressure crosses exactly where the slave "
                         "faces are the finer and nested in the master's.");
     k.text("slave", &S::slave, "surface whose quadrature points touch: a built-in name or a Gmsh physical surface")
         .required()

@@ -257,9 +257,9 @@ struct Pinch {
 
 /// The ring of ring(4.5, 5.5, 64) (plane strain) pinched between two frictionless rigid plates, held by
 /// symmetry alone (u_x = 0 at the top and bottom, u_y = 0 at the sides), its inner surface in
-/// self-contact with Coulomb coefficient mu: the plates travel 4.6 each in 20 steps, 0.1 beyond the
+/// self-contact with Coulomb coefficient mu: the plates travel 4.6 each in `steps` steps, 0.1 beyond the
 /// walls' first touch, so the two walls are pressed together along a band.
-Pinch pinch_ring(double mu) {
+Pinch pinch_ring(double mu, int steps = 20) {
   const Ring r = ring(4.5, 5.5, 64);
   const Mesh& m = r.mesh;
   FeModel model;
@@ -290,7 +290,6 @@ Pinch pinch_ring(double mu) {
   so.friction = mu;
   model.add(std::make_shared<SurfaceContact>(m, surface(m, "inner"), so));
   Simulation sim(model);
-  const int steps = 20;
   Pinch out;
   for (int s = 1; s <= steps; ++s) {
     const AdvanceResult a = sim.advance_to(double(s) / steps);

@@ -103,12 +103,7 @@ SfDragged sf_dragged(bool tet10, double mu, double drag) {
   FeModel model;
   model.mesh = m;
   model.element_material.assign(m.num_elements(), make_material(make_neo_hookean({1.0, 20.0})));
-  auto fix = [&](const std::string& name, int comp, PiecewiseLinear v) {
-    DirichletGroup g;
-    for (int n : surface_nodes(m, name)) g.dofs.push_back(3 * n + comp);
-    g.value = std::move(v);
-    model.dirichlet.push_back(g);
-  };
+  auto fix = [&](const std::string& name, int comp, PiecewiseLinear v) { test::hold_surface(model, name, comp, std::move(v)); };
   for (int comp = 0; comp < 3; ++comp) fix("base", comp, PiecewiseLinear::constant(0.0));
   fix("press", 0, PiecewiseLinear{{0.0, 1.0, 2.0}, {0.0, 0.0, drag}});
   fix("press", 1, PiecewiseLinear::constant(0.0));
