@@ -63,6 +63,12 @@ bool press(const Problem& p, double travel, int steps, fe::Simulation& sim, Seri
   return true;
 }
 
+/// The series' Hertz coefficient against (3 / (4 E* √R))^{2/3}, as a force error at equal indentation.
+double force_error(const Series& r, double modulus, double radius) {
+  const double alpha = macro::hertz_coefficient(r.force, r.indentation);
+  return std::pow(std::pow(3.0 / (4.0 * modulus * std::sqrt(radius)), 2.0 / 3.0) / alpha, 1.5) - 1.0;
+}
+
 int spheres(int max_level) {
   const int fine[] = {4, 6, 8, 12}, coarse[] = {4, 5, 6, 8};
   std::printf("%6s %8s %8s %12s %12s %12s %8s %8s %8s\n", "cells", "h/a", "dofs", "force_err", "radius_err", "pen/h",
@@ -74,19 +80,16 @@ int spheres(int max_level) {
     fe::Simulation sim(p.model);
     Series r;
     if (!press(p, p.approach, 8, sim, r)) return 1;
+    const double error = force_error(r, p.effective_modulus, p.effective_radius);
     const std::vector<double>& force = r.force;
     const double a = r.radius, penetration = r.penetration;
-    const double alpha = macro::hertz_coefficient(force, r.indentation);
-    const double alpha_hertz =
-        std::pow(3.0 / (4.0 * p.effective_modulus * std::sqrt(p.effective_radius)), 2.0 / 3.0);
-    const double force_error = std::pow(alpha_hertz / alpha, 1.5) - 1.0;
     const double a_final = std::sqrt(p.effective_radius * p.approach), h_over_a = p.fine_size / a_final;
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::printf("%6d %8.4f %8d %12.4e %12.4e %12.3e %8d %8.2f %8.0f\n", fine[level] + coarse[level], h_over_a,
-                sim.num_free_dofs(), force_error, a / p.contact_radius(force.back()) - 1.0, penetration / p.fine_size,
+                sim.num_free_dofs(), error, a / p.contact_radius(force.back()) - 1.0, penetration / p.fine_size,
                 sim.stats().newton_iterations, seconds, double(io::peak_memory_bytes()) / (1 << 20));
     hs.push_back(h_over_a);
-    errs.push_back(std::abs(force_error));
+    errs.push_back(std::abs(error));
   }
   print_orders(hs, errs);
   return 0;
@@ -107,19 +110,17 @@ int main(int argc, char** argv) {
     fe::Simulation sim(p.model);
     Series r;
     if (!press(p, p.depth, 8, sim, r)) return 1;
+    const double error = force_error(r, p.effective_modulus, p.radius);
     const std::vector<double>& force = r.force;
     const double a = r.radius, penetration = r.penetration;
-    const double alpha = macro::hertz_coefficient(force, r.indentation);
-    const double alpha_hertz = std::pow(3.0 / (4.0 * p.effective_modulus * std::sqrt(p.radius)), 2.0 / 3.0);
-    const double force_error = std::pow(alpha_hertz / alpha, 1.5) - 1.0;
     const double a_hertz = p.contact_radius(force.back());
     const double h_over_a = 1.25 / fine[level];
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::printf("%6d %8.4f %8d %12.4e %12.4e %12.3e %8d %8.2f\n", fine[level] + coarse[level], h_over_a,
-                sim.num_free_dofs(), force_error, a / a_hertz - 1.0, penetration / (h_over_a * std::sqrt(p.depth)),
+                sim.num_free_dofs(), error, a / a_hertz - 1.0, penetration / (h_over_a * std::sqrt(p.depth)),
                 sim.stats().newton_iterations, seconds);
     hs.push_back(h_over_a);
-    errs.push_back(std::abs(force_error));
+    errs.push_back(std::abs(error));
   }
   print_orders(hs, errs);
   return 0;
