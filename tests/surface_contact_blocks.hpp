@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "softhom/fe/solver.hpp"
@@ -53,6 +54,14 @@ inline ContactSurface surface(const Mesh& m, const std::string& name) {
   return s;
 }
 
+/// Holds component `comp` of the nodes of surface `name` on the path v.
+inline void hold_surface(FeModel& model, const std::string& name, int comp, PiecewiseLinear v) {
+  DirichletGroup g;
+  for (int n : surface_nodes(model.mesh, name)) g.dofs.push_back(3 * n + comp);
+  g.value = std::move(v);
+  model.dirichlet.push_back(g);
+}
+
 struct Stack {
   std::vector<double> pressure;  ///< Cauchy contact pressure per slave face
   double applied = 0.0;          ///< −R_z / current area of the press face
@@ -70,12 +79,7 @@ inline Stack stack(int n_lower, int n_upper, bool tet10, bool upper_is_slave, bo
   FeModel model;
   model.mesh = m;
   model.element_material.assign(m.num_elements(), make_material(make_neo_hookean({1.0, 20.0})));
-  auto fix = [&](const std::string& name, int comp, PiecewiseLinear v) {
-    DirichletGroup g;
-    for (int n : surface_nodes(m, name)) g.dofs.push_back(3 * n + comp);
-    g.value = std::move(v);
-    model.dirichlet.push_back(g);
-  };
+  auto fix = [&](const std::string& name, int comp, PiecewiseLinear v) { hold_surface(model, name, comp, std::move(v)); };
   fix("xmin", 0, PiecewiseLinear::constant(0.0));
   fix("ymin", 1, PiecewiseLinear::constant(0.0));
   fix("base", 2, PiecewiseLinear::constant(0.0));

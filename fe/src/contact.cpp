@@ -12,9 +12,6 @@
 namespace softhom::fe {
 namespace {
 
-/// Coulomb coefficients above this are refused as a unit or typing slip: measured rubber-on-glass
-/// coefficients reach about 3 (Roberts 1977), so the bound leaves room for every real pairing.
-constexpr double kMaxFriction = 3.0;
 /// Iterates whose penalty pressure exceeds this multiple of the shear modulus are refused (penetration_limit).
 constexpr double kMaxPressureOverShear = 10.0;
 
@@ -142,20 +139,28 @@ PointTraction contact_traction(const ObstacleGap& g, const Vec3& x, const Vec3& 
   const Mat3 P = Mat3::Identity() - outer(n, n);
   const Vec3 trial = -law.tangential_penalty * (P * v);
   const Mat3 dtrial = -law.tangential_penalty * (P - n.dot(v) * g.dnormal - outer(n, g.dnormal * v));
-  const double norm = trial.norm(), limit = law.friction * p;
-  if (norm <= limit) {
-    out.tangential = trial;
-    out.traction += trial;
-    out.dtraction += dtrial;
-    return out;
-  }
-  // Slip: on the cone, along the trial direction s.
-  const Vec3 s = trial / norm;
-  out.slip = true;
-  out.tangential = limit * s;
-  out.traction += out.tangential;
-  out.dtraction += law.friction * outer(s, dp) + (limit / norm) * (Mat3::Identity() - outer(s, s)) * dtrial;
+  const CoulombReturn c = coulomb_return(trial, law.friction, p);
+  out.slip = c.slip;
+  out.tangential = c.traction;
+  out.traction += c.traction;
+  out.dtraction += c.d_trial * dtrial + outer(c.d_pressure, dp);
   return out;
+}
+
+CoulombReturn coulomb_return(const Vec3& trial, double friction, double pressure) {
+  CoulombReturn c;
+  const double norm = trial.norm(), limit = friction * pressure;
+  if (norm <= limit) {
+    c.traction = trial;
+    return c;
+  }
+  // Slip: on the cone, along the trial direction s; the cone's radius follows the pressure.
+  const Vec3 s = trial / norm;
+  c.slip = true;
+  c.traction = limit * s;
+  c.d_trial = (limit / norm) * (Mat3::Identity() - outer(s, s));
+  c.d_pressure = friction * s;
+  return c;
 }
 
 double default_contact_penalty(double shear_modulus, double face_size) { return 100.0 * shear_modulus / face_size; }
@@ -272,7 +277,7 @@ void ObstacleContact::validate(const Mesh& mesh) const {
       throw InputError(f + ".penalty", format_number(law.penalty),
                        "must be positive (or automatic, from a positive shear modulus and face size)");
   const ContactLaw& law = options_.law;
-  if (!(law.friction >= 0.0 && law.friction <= kMaxFriction))
+  if (!(law.friction >= 0.0 && law.friction <= kMaxContactFriction))
     throw InputError(f + ".friction", format_number(law.friction), "Coulomb coefficient must lie in [0, 3]");
   if (obstacle_.shape != RigidObstacle::Shape::sphere && !(std::abs(obstacle_.direction.norm() - 1.0) < 1e-12))
     throw InputError(f + ".normal", "", "direction must be a non-zero vector");

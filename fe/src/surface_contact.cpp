@@ -74,8 +74,8 @@ using Face = SurfaceContact::Face;
 
 /// Search reach in face sizes: a point pairs with faces within this many sizes of it.
 constexpr double kReach = 2.0;
-/// Coulomb coefficients above this are refused (contact.cpp's bound for the rigid obstacles).
-constexpr double kMaxSurfaceFriction = 3.0;
+/// The default stick penalty's share of the normal one (surface_contact.hpp).
+constexpr double kTangentialPenaltyRatio = 0.1;
 
 /// Shape functions of a master face at (ξ, η) with their first and second derivatives: the bilinear
 /// quad on [-1, 1]² (mesh.hpp's order), or the 6-node triangle (ξ = L1, η = L2; kTet10Faces' order).
@@ -201,65 +201,85 @@ bool shares_node(const Face& a, const Face& b) {
   return false;
 }
 
-/// ∂g/∂u and ∂²g/∂u² of one slave point against its master face (surface_contact.hpp): dofs are the
+/// The kinematics of one slave point against its master face (surface_contact.hpp): dofs are the
 /// slave face's nodes, then the master face's. D, B_α map nodal increments to Δ(x_s − x_m) and Δa_α at
-/// fixed (ξ, η); Ξ = ∂ξ/∂u from the stationarity of the distance; T_α the total Δa_α, Nn = ∂n/∂u.
-struct GapVariation {
-  VecN G;
-  MatN H;
+/// fixed (ξ, η); Ξ = ∂ξ/∂u from the stationarity of the distance; ν the contact normal and Nν = ∂ν/∂u.
+/// Inside the face ν is the face's normal n; where an edge or a corner holds the closest point it is the
+/// distance's direction ±d/|d| (the gap there is the signed distance, equal to d·n where the closest
+/// point leaves the face's inside, so the gap and its derivative are continuous). The gap's variation
+/// is then ∂g = Dᵀν in both cases (+ Nνᵀ d, which vanishes: d ∥ ν and Nν ⊥ ν) and its second variation
+/// Dᵀ Nν − (B_αᵀ ν) Ξ_α.
+struct GapKinematics {
+  Mat3N D, B1, B2;
+  Mat2N Xi;
+  Vec3 nu = Vec3::UnitZ();
+  Mat3N Nnu;
+  VecN gradient() const { return D.transpose() * nu; }
+  /// (∂D/∂u)ᵀ f for a force f at the closest point: the master's shape functions move with ξ.
+  MatN moving_point(const Vec3& f) const { return -(B1.transpose() * f) * Xi.row(0) - (B2.transpose() * f) * Xi.row(1); }
+  MatN hessian() const { return D.transpose() * Nnu + moving_point(nu); }
 };
 
-GapVariation gap_variation(const std::array<double, 6>& Ns, int ns, const FaceGeometry& g, int nm,
-                           const FaceProjection& proj, const Vec3& d, bool hessian) {
+GapKinematics gap_kinematics(const std::array<double, 6>& Ns, int ns, const FaceGeometry& g, int nm,
+                             const FaceProjection& proj, const Vec3& d, bool derivatives) {
   const int n = 3 * (ns + nm);
   const Mat3 I = Mat3::Identity();
-  Mat3N D = Mat3N::Zero(3, n), B1 = Mat3N::Zero(3, n), B2 = Mat3N::Zero(3, n);
-  for (int b = 0; b < ns; ++b) D.block<3, 3>(0, 3 * b) = Ns[b] * I;
+  GapKinematics k;
+  k.D = Mat3N::Zero(3, n);
+  for (int b = 0; b < ns; ++b) k.D.block<3, 3>(0, 3 * b) = Ns[b] * I;
+  for (int a = 0; a < nm; ++a) k.D.block<3, 3>(0, 3 * (ns + a)) = -g.shape.N[a] * I;
+  const double r = d.norm();
+  const bool held = proj.free < 2 && r > 0.0;
+  const double sign = d.dot(proj.normal) < 0.0 ? -1.0 : 1.0;
+  k.nu = held ? Vec3(sign * d / r) : proj.normal;
+  if (!derivatives) return k;
+  k.B1 = k.B2 = Mat3N::Zero(3, n);
   for (int a = 0; a < nm; ++a) {
-    D.block<3, 3>(0, 3 * (ns + a)) = -g.shape.N[a] * I;
-    B1.block<3, 3>(0, 3 * (ns + a)) = g.shape.d1[a] * I;
-    B2.block<3, 3>(0, 3 * (ns + a)) = g.shape.d2[a] * I;
+    k.B1.block<3, 3>(0, 3 * (ns + a)) = g.shape.d1[a] * I;
+    k.B2.block<3, 3>(0, 3 * (ns + a)) = g.shape.d2[a] * I;
   }
   Eigen::Matrix2d A, m;
   Eigen::Vector2d grad;
   distance_derivatives(g, d, A, grad);
   m << g.a1.dot(g.a1), g.a1.dot(g.a2), g.a1.dot(g.a2), g.a2.dot(g.a2);
   Mat2N rhs(2, n);
-  rhs.row(0) = g.a1.transpose() * D + d.transpose() * B1;
-  rhs.row(1) = g.a2.transpose() * D + d.transpose() * B2;
-  Mat2N Xi = Mat2N::Zero(2, n);
+  rhs.row(0) = g.a1.transpose() * k.D + d.transpose() * k.B1;
+  rhs.row(1) = g.a2.transpose() * k.D + d.transpose() * k.B2;
+  k.Xi = Mat2N::Zero(2, n);
   if (proj.free == 2) {
-    Xi = A.inverse() * rhs;
+    k.Xi = A.inverse() * rhs;
   } else if (proj.free == 1) {
     const Eigen::Vector2d t(proj.free_basis[0], proj.free_basis[1]);
-    Xi = t * ((t.transpose() * rhs) / (t.dot(A * t)));
+    k.Xi = t * ((t.transpose() * rhs) / (t.dot(A * t)));
   }
-  GapVariation v;
-  const double r = d.norm();
-  if (proj.free < 2 && r > 0.0) {
-    // Held by an edge or a corner: the gap is the signed distance ±|d| (equal to d·n where the closest
-    // point leaves the face's inside, so the gap and ∂g are continuous there), whose variation is
-    // d̂·Δ(x_s − x_m) (d ⊥ the free direction) and whose Hessian follows from Δd̂ = (I − d̂d̂ᵀ) Δd / |d|.
-    const double sign = d.dot(proj.normal) < 0.0 ? -1.0 : 1.0;
-    const Vec3 dh = d / r;
-    v.G = sign * (D.transpose() * dh);
-    if (hessian) {
-      const Mat3N Dd = D - g.a1 * Xi.row(0) - g.a2 * Xi.row(1);  // Δd with the closest point moving
-      v.H = sign * (D.transpose() * ((I - dh * dh.transpose()) * Dd) / r - (B1.transpose() * dh) * Xi.row(0) -
-                    (B2.transpose() * dh) * Xi.row(1));
-    }
-    return v;
+  if (held) {  // Δν = (I − ν⊗ν) Δd / |d|, Δd = Δ(x_s − x_m) with the closest point moving
+    const Mat3N Dd = k.D - g.a1 * k.Xi.row(0) - g.a2 * k.Xi.row(1);
+    k.Nnu = sign * (I - k.nu * k.nu.transpose()) * Dd / r;
+    return k;
   }
-  const Mat3N T1 = B1 + g.x11 * Xi.row(0) + g.x12 * Xi.row(1);
-  const Mat3N T2 = B2 + g.x12 * Xi.row(0) + g.x22 * Xi.row(1);
+  const Mat3N T1 = k.B1 + g.x11 * k.Xi.row(0) + g.x12 * k.Xi.row(1);
+  const Mat3N T2 = k.B2 + g.x12 * k.Xi.row(0) + g.x22 * k.Xi.row(1);
   const Eigen::Matrix2d minv = m.inverse();
   const Vec3 c1 = minv(0, 0) * g.a1 + minv(0, 1) * g.a2, c2 = minv(1, 0) * g.a1 + minv(1, 1) * g.a2;
-  const Vec3& nrm = proj.normal;
-  const Mat3N Nn = -(c1 * (nrm.transpose() * T1) + c2 * (nrm.transpose() * T2));
-  v.G = D.transpose() * nrm;  // (+ Nnᵀ d, which vanishes: d = g n and Nn ⊥ n)
-  if (hessian)
-    v.H = D.transpose() * Nn - (B1.transpose() * nrm) * Xi.row(0) - (B2.transpose() * nrm) * Xi.row(1);
-  return v;
+  k.Nnu = -(c1 * (k.nu.transpose() * T1) + c2 * (k.nu.transpose() * T2));
+  return k;
+}
+
+/// The parametric coordinates of the point of a face's surface, extended beyond its bounds by its shape
+/// functions, nearest to y (Gauss–Newton from (ξ, η)): where a stick anchor lies on that face.
+std::array<double, 2> extended_coordinates(const Face& f, const std::vector<Vec3>& x, const Vec3& y, double xi, double eta) {
+  for (int iter = 0; iter < 20; ++iter) {
+    const FaceGeometry g = face_geometry(f, x, xi, eta);
+    Eigen::Matrix2d m;
+    m << g.a1.dot(g.a1), g.a1.dot(g.a2), g.a1.dot(g.a2), g.a2.dot(g.a2);
+    const Vec3 d = y - g.x;
+    const Eigen::Vector2d step = m.ldlt().solve(Eigen::Vector2d(d.dot(g.a1), d.dot(g.a2)));
+    if (!step.allFinite()) break;
+    xi += step[0];
+    eta += step[1];
+    if (step.cwiseAbs().sum() < 1e-14) break;
+  }
+  return {xi, eta};
 }
 
 }  // namespace
@@ -378,6 +398,8 @@ void SurfaceContact::add_points(const Mesh& mesh, int slave_begin, int slave_end
       p.factor = factor;
       p.weight = factor * r.rule_weight * x_xi.cross(x_eta).norm();
       p.penalty = options_.penalty != 0.0 ? options_.penalty : default_contact_penalty(options_.shear_modulus, face.size);
+      p.tangential_penalty =
+          options_.tangential_penalty != 0.0 ? options_.tangential_penalty : kTangentialPenaltyRatio * p.penalty;
       points_.push_back(p);
     }
   }
@@ -388,7 +410,7 @@ void SurfaceContact::init_state(double* state) const {
     double* s = state + kStateSize * k;
     s[0] = s[1] = 0.0;
     s[2] = -1.0;
-    s[3] = s[4] = 0.0;
+    std::fill(s + 3, s + kStateSize, 0.0);
   }
 }
 
@@ -436,6 +458,25 @@ SurfaceContact::Candidate SurfaceContact::nearest_face(const Point& p, const std
   return best;
 }
 
+void SurfaceContact::carry_anchor(const Candidate& c, const std::vector<Vec3>& x, double* s) const {
+  // A point paired anew anchors at its closest point; one that changes faces keeps its anchor's place,
+  // in the new face's parametric coordinates (extended beyond the face: the anchor may lie just past
+  // its edge, within the elastic slip of the point).
+  const int old = int(s[2]);
+  if (c.face < 0 || c.face == old) return;
+  double* a = s + kNextAnchor;
+  if (old < 0) {
+    a[0] = c.projection.xi;
+    a[1] = c.projection.eta;
+    return;
+  }
+  const Vec3 place = face_geometry(faces_[old], x, a[0], a[1]).x;
+  const std::array<double, 2> moved =
+      extended_coordinates(faces_[c.face], x, place, c.projection.xi, c.projection.eta);
+  a[0] = moved[0];
+  a[1] = moved[1];
+}
+
 void SurfaceContact::pair(const Mesh& mesh, const Iterate& converged, Couplings& couplings) const {
   if (!converged.state_new || points_.empty()) return;
   const std::vector<Vec3> x = positions(mesh, converged);
@@ -448,6 +489,7 @@ void SurfaceContact::pair(const Mesh& mesh, const Iterate& converged, Couplings&
   for (std::size_t k = 0; k < points_.size(); ++k) {
     double* s = converged.state_new + kStateSize * k;
     const Candidate c = nearest_face(points_[k], x, grid);
+    carry_anchor(c, x, s);
     s[2] = c.face;
     s[3] = c.projection.xi;
     s[4] = c.projection.eta;
@@ -516,10 +558,12 @@ void SurfaceContact::validate(const Mesh& mesh) const {
       throw InputError(f + ".penalty", format_number(p.penalty),
                        "must be positive (or automatic, from a positive shear modulus and face size)");
   const double mu = options_.friction;
-  if (!(mu >= 0.0 && mu <= kMaxSurfaceFriction))
+  if (!(mu >= 0.0 && mu <= kMaxContactFriction))
     throw InputError(f + ".friction", format_number(mu), "Coulomb coefficient must lie in [0, 3]");
-  if (mu > 0.0)
-    throw InputError(f + ".friction", format_number(mu), "friction between deformable surfaces is not implemented: give 0");
+  for (const Point& p : points_)
+    if (!(p.tangential_penalty > 0.0 && std::isfinite(p.tangential_penalty)))
+      throw InputError(f + ".tangential_penalty", format_number(p.tangential_penalty),
+                       "must be positive (or automatic: a tenth of the normal penalty)");
   // Surfaces that overlap in the reference configuration have no admissible start: refuse them, naming
   // the deepest point (touching within round-off of a face size is fine).
   std::vector<double> state(static_cast<std::size_t>(state_size()));
@@ -545,6 +589,71 @@ void SurfaceContact::validate(const Mesh& mesh) const {
                          format_number(deepest) + " mm inside a master face (separate the bodies)");
 }
 
+/// A point's tractions: the normal pressure p along ν and the friction traction t_T, per reference area
+/// of the slave, with the residual −w Dᵀ(p ν + t_T) and its derivative over the point's dofs.
+struct SurfaceContact::Response {
+  int dofs = 0;
+  VecN r;
+  MatN K;
+  Vec3 normal = Vec3::UnitZ();
+  Vec3 tangential = Vec3::Zero();
+  bool slip = false;
+};
+
+SurfaceContact::Response SurfaceContact::respond(const Point& p, const Evaluation& e, const double* anchor,
+                                                 const std::vector<Vec3>& x, bool tangent) const {
+  const Face &fs = faces_[p.face], &fm = faces_[e.master];
+  const FaceGeometry g = face_geometry(fm, x, e.projection.xi, e.projection.eta);
+  const Vec3 xs = point_position(p, x);
+  const GapKinematics k = gap_kinematics(p.N, fs.nodes_count, g, fm.nodes_count, e.projection, xs - g.x, tangent);
+  Response out;
+  out.dofs = 3 * (fs.nodes_count + fm.nodes_count);
+  out.normal = k.nu;
+  const VecN G = k.gradient();
+  if (tangent) out.K = p.weight * (p.penalty * G * G.transpose() - e.pressure * k.hessian());
+  const double mu = options_.friction;
+  if (!(mu > 0.0)) {
+    out.r = -p.weight * e.pressure * G;
+    return out;
+  }
+  // The trial stick traction −ε_T P v, v = x_s − x_a (the anchor a material point of the master face).
+  const std::array<double, 6> Na = face_shape(fm.quad(), anchor[0], anchor[1]).N;
+  Vec3 xa = Vec3::Zero();
+  for (int a = 0; a < fm.nodes_count; ++a) xa += Na[a] * x[fm.nodes[a]];
+  const Vec3 v = xs - xa, &nu = k.nu;
+  const Mat3 P = Mat3::Identity() - nu * nu.transpose();
+  const CoulombReturn c = coulomb_return(-p.tangential_penalty * (P * v), mu, e.pressure);
+  out.tangential = c.traction;
+  out.slip = c.slip;
+  out.r = -p.weight * (e.pressure * G + k.D.transpose() * c.traction);
+  if (!tangent) return out;
+  // Δ(P v) = P Δv − (ν·v) Δν − ν (v·Δν); Δp = −ε_N ∂g; the force −t_T acts at the moving closest point.
+  Mat3N Dv = k.D;
+  for (int a = 0; a < fm.nodes_count; ++a) Dv.block<3, 3>(0, 3 * (fs.nodes_count + a)) = -Na[a] * Mat3::Identity();
+  const Mat3N dtrial =
+      -p.tangential_penalty * (P * Dv - nu.dot(v) * k.Nnu - nu * (v.transpose() * k.Nnu));
+  const Mat3N dt = c.d_trial * dtrial - p.penalty * c.d_pressure * G.transpose();
+  out.K -= p.weight * (k.D.transpose() * dt + k.moving_point(c.traction));
+  return out;
+}
+
+void SurfaceContact::advance_anchor(const Point& p, const Evaluation& e, const Response& r,
+                                    const std::vector<Vec3>& x, double* next) const {
+  // Sticking: the anchor stays. Slipping: it moves to where the trial traction of the converged state is
+  // the returned one, −ε_T P (x_s − x_a) = t_T, i.e. the closest point + t_T/ε_T. Free: the closest point.
+  if (!e.engaged || !(e.pressure > 0.0) || !(options_.friction > 0.0)) {
+    next[0] = e.projection.xi;
+    next[1] = e.projection.eta;
+    return;
+  }
+  if (!r.slip) return;
+  const Vec3 place = e.projection.x + r.tangential / p.tangential_penalty;
+  const std::array<double, 2> a =
+      extended_coordinates(faces_[e.master], x, place, e.projection.xi, e.projection.eta);
+  next[0] = a[0];
+  next[1] = a[1];
+}
+
 MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const {
   if (!it.state_old) return MaterialStatus::ok;  // no history, no pairing
   const std::vector<Vec3> x = positions(mesh, it);
@@ -554,30 +663,31 @@ MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, Ass
     const double* so = it.state_old + kStateSize * k;
     const double lambda = options_.augmented ? so[1] : 0.0;  // the last converged pressure
     double* sn = it.state_new ? it.state_new + kStateSize * k : nullptr;
-    if (sn) {
+    if (sn) {  // the step solves with the multiplier and the anchor the converged state passed on
       std::copy(so, so + kStateSize, sn);
       sn[0] = lambda;
       sn[1] = 0.0;
+      std::copy(so + kNextAnchor, so + kNextAnchor + 2, sn + kAnchor);
     }
     const Evaluation e = evaluate(p, so, lambda, x);
-    if (!e.engaged) continue;
+    if (e.master < 0) continue;
     const Face &fs = faces_[p.face], &fm = faces_[e.master];
-    if (-e.gap > fm.size) return MaterialStatus::penetration;
-    if (!(e.pressure > 0.0)) continue;
-    if (sn) sn[1] = e.pressure;
-    const FaceGeometry g = face_geometry(fm, x, e.projection.xi, e.projection.eta);
-    const GapVariation v =
-        gap_variation(p.N, fs.nodes_count, g, fm.nodes_count, e.projection, point_position(p, x) - g.x, sink.tangent());
-    const int n = 3 * (fs.nodes_count + fm.nodes_count);
+    if (e.engaged && -e.gap > fm.size) return MaterialStatus::penetration;
+    if (!e.engaged || !(e.pressure > 0.0)) {
+      if (sn) advance_anchor(p, e, Response{}, x, sn + kNextAnchor);
+      continue;
+    }
+    const Response r = respond(p, e, so + kNextAnchor, x, sink.tangent());
+    if (sn) {
+      sn[1] = e.pressure;
+      advance_anchor(p, e, r, x, sn + kNextAnchor);
+    }
     for (int a = 0; a < fs.nodes_count + fm.nodes_count; ++a) {
       const int node = a < fs.nodes_count ? fs.nodes[a] : fm.nodes[a - fs.nodes_count];
       for (int i = 0; i < 3; ++i) dofs[3 * a + i] = 3 * node + i;
     }
-    const VecN r = -p.weight * e.pressure * v.G;
-    sink.add_residual(n, dofs.data(), r.data());
-    if (!sink.tangent()) continue;
-    const MatN K = p.weight * (p.penalty * v.G * v.G.transpose() - e.pressure * v.H);
-    sink.add_tangent(n, dofs.data(), n, dofs.data(), K.data());
+    sink.add_residual(r.dofs, dofs.data(), r.r.data());
+    if (sink.tangent()) sink.add_tangent(r.dofs, dofs.data(), r.dofs, dofs.data(), r.K.data());
   }
   return MaterialStatus::ok;
 }
@@ -586,40 +696,71 @@ ContactTotals SurfaceContact::totals(const Mesh& mesh, const Iterate& it) const 
   ContactTotals t;
   if (!it.state_old) return t;
   const std::vector<Vec3> x = positions(mesh, it);
+  Vec3 tangential = Vec3::Zero();
   for (std::size_t k = 0; k < points_.size(); ++k) {
     const double* s = it.state_old + kStateSize * k;
     const Evaluation e = evaluate(points_[k], s, options_.augmented ? s[0] : 0.0, x);
     if (!e.engaged) continue;
     t.max_penetration = std::max(t.max_penetration, -e.gap);
     if (!(e.pressure > 0.0)) continue;
+    const Response r = respond(points_[k], e, s + kAnchor, x, false);
     const double w = points_[k].weight;
     t.normal_force += w * e.pressure;
-    t.force += w * e.pressure * e.projection.normal;
+    tangential += w * r.tangential;
+    t.force += w * (e.pressure * r.normal + r.tangential);
     t.area += current_weight(points_[k], x);
     ++t.active_points;
+    if (r.slip) ++t.slipping_points;
   }
+  t.tangential_force = tangential.norm();
   return t;
 }
 
-void SurfaceContact::face_values(const Mesh& mesh, const Iterate& it, std::vector<double>& pressure,
-                                 std::vector<double>& gap) const {
-  pressure.assign(faces_.size(), 0.0);
-  gap.assign(faces_.size(), std::numeric_limits<double>::infinity());
-  if (!it.state_old) return;
+std::vector<Vec3> SurfaceContact::active_positions(const Mesh& mesh, const Iterate& it) const {
+  std::vector<Vec3> out;
+  if (!it.state_old) return out;
   const std::vector<Vec3> x = positions(mesh, it);
-  std::vector<int> count(faces_.size(), 0);
+  for (std::size_t k = 0; k < points_.size(); ++k) {
+    const double* s = it.state_old + kStateSize * k;
+    const Evaluation e = evaluate(points_[k], s, options_.augmented ? s[0] : 0.0, x);
+    if (e.engaged && e.pressure > 0.0) out.push_back(point_position(points_[k], x));
+  }
+  return out;
+}
+
+SurfaceContact::FaceValues SurfaceContact::face_values(const Mesh& mesh, const Iterate& it) const {
+  FaceValues v;
+  const std::size_t nf = faces_.size();
+  v.pressure.assign(nf, 0.0);
+  v.tangential.assign(nf, 0.0);
+  v.slip.assign(nf, 0.0);
+  v.gap.assign(nf, std::numeric_limits<double>::infinity());
+  if (!it.state_old) return v;
+  const std::vector<Vec3> x = positions(mesh, it);
+  std::vector<int> count(nf, 0), active(nf, 0);
   for (std::size_t k = 0; k < points_.size(); ++k) {
     const Point& p = points_[k];
     const double* s = it.state_old + kStateSize * k;
     const Evaluation e = evaluate(p, s, options_.augmented ? s[0] : 0.0, x);
     ++count[p.face];
     if (!e.engaged) continue;
+    v.gap[p.face] = std::min(v.gap[p.face], e.gap);
     const double da = current_weight(p, x);
-    if (e.pressure > 0.0 && da > 0.0) pressure[p.face] += e.pressure * p.weight / da;  // Cauchy: per current area
-    gap[p.face] = std::min(gap[p.face], e.gap);
+    if (!(e.pressure > 0.0 && da > 0.0)) continue;
+    const Response r = respond(p, e, s + kAnchor, x, false);
+    v.pressure[p.face] += e.pressure * p.weight / da;  // Cauchy: per current area
+    v.tangential[p.face] += r.tangential.norm() * p.weight / da;
+    ++active[p.face];
+    if (r.slip) v.slip[p.face] += 1.0;
   }
-  for (std::size_t f = 0; f < faces_.size(); ++f)
-    if (count[f]) pressure[f] /= count[f];
+  for (std::size_t f = 0; f < nf; ++f) {
+    if (count[f]) {
+      v.pressure[f] /= count[f];
+      v.tangential[f] /= count[f];
+    }
+    if (active[f]) v.slip[f] /= active[f];
+  }
+  return v;
 }
 
 }  // namespace softhom::fe

@@ -34,6 +34,7 @@ void add_surface_contacts(const std::vector<SurfacePairSpec>& specs, fe::FeModel
     fe::SurfaceContact::Options opt;
     opt.penalty = s.penalty;
     opt.friction = s.friction;
+    opt.tangential_penalty = s.tangential_penalty;
     opt.augmented = s.augmented;
     opt.two_pass = s.two_pass;
     opt.field = s.field;

@@ -8,7 +8,10 @@ namespace softhom::macro {
 namespace {
 
 const char* const kPenaltyDoc = "penalty; 0: 100 G/h per slave face, G of the softer surface's elements (no tuning needed)";
-const char* const kFrictionDoc = "Coulomb coefficient μ: only 0 (frictionless) is implemented between deformable surfaces";
+const char* const kFrictionDoc =
+    "Coulomb coefficient μ (0: frictionless): regularized stick (anchors convected with the master surface) and slip";
+const char* const kTangentialPenaltyDoc =
+    "stick penalty ε_T; 0: a tenth of the normal penalty, 10 G/h (elastic slip before sliding ≤ μ p h / 10 G)";
 const char* const kAugmentedDoc = "augment the contact pressure once per converged step (false: pure penalty)";
 
 const keys::KeyTable<SurfacePairSpec>& pair_table() {
@@ -16,8 +19,8 @@ const keys::KeyTable<SurfacePairSpec>& pair_table() {
   static const keys::KeyTable<S> t = [] {
     keys::KeyTable<S> k("contact.pairs[]",
                         "Contact between two deformable surfaces of the structure (fe/surface_contact.hpp): the slave "
-                        "surface's quadrature points against the master's faces, paired at every step, frictionless "
-                        "penalty with one augmentation per step. A uniform pressure crosses exactly where the slave "
+                        "surface's quadrature points against the master's faces, paired at every step, penalty with "
+                        "one augmentation per step and optional Coulomb friction. A uniform pressure crosses exactly where the slave "
                         "faces are the finer and nested in the master's.");
     k.text("slave", &S::slave, "surface whose quadrature points touch: a built-in name or a Gmsh physical surface")
         .required()
@@ -25,6 +28,7 @@ const keys::KeyTable<SurfacePairSpec>& pair_table() {
         .required()
         .number("penalty", &S::penalty, keys::at_least(0), "MPa/mm", kPenaltyDoc)
         .number("friction", &S::friction, keys::closed_range(0, 3), "-", kFrictionDoc)
+        .number("tangential_penalty", &S::tangential_penalty, keys::at_least(0), "MPa/mm", kTangentialPenaltyDoc)
         .flag("augmented", &S::augmented, kAugmentedDoc)
         .flag("two_pass", &S::two_pass, "also the master's points against the slave's faces, each pass weighted 1/2");
     return k;
@@ -43,6 +47,7 @@ const keys::KeyTable<SurfacePairSpec>& self_table() {
         .required()
         .number("penalty", &S::penalty, keys::at_least(0), "MPa/mm", kPenaltyDoc)
         .number("friction", &S::friction, keys::closed_range(0, 3), "-", kFrictionDoc)
+        .number("tangential_penalty", &S::tangential_penalty, keys::at_least(0), "MPa/mm", kTangentialPenaltyDoc)
         .flag("augmented", &S::augmented, kAugmentedDoc);
     return k;
   }();

@@ -6,11 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <map>
 #include <memory>
-#include <random>
 
-#include "dense_sink.hpp"
 #include "surface_contact_blocks.hpp"
+#include "surface_contact_tangent.hpp"
 #include "softhom/fe/solver.hpp"
 #include "softhom/fe/surface_contact.hpp"
 #include "softhom/materials/errors.hpp"
@@ -21,85 +21,19 @@ using namespace softhom::fe;
 using test::stack;
 using test::Stack;
 using test::surface;
+using test::pressed_and_wrinkled;
 using test::two_blocks;
 
 namespace {
 
 SurfaceContact::Options options(double penalty, const std::string& field = "contact.pairs[0]") {
-  SurfaceContact::Options o;
-  o.penalty = penalty;
-  o.shear_modulus = 1.0;
-  o.field = field;
-  return o;
+  return test::contact_options(penalty, field);
 }
 
-/// The contact's residual and tangent at u with the pairing of u and every multiplier λ0 (so that the
-/// pressure's geometric term, p ∂²g, weighs as much as the penalty's).
-struct PairedState {
-  std::vector<double> state;
-};
-
-PairedState paired_at(const SurfaceContact& c, const Mesh& m, const std::vector<double>& u, double lambda0) {
-  PairedState s;
-  s.state.assign(std::size_t(c.state_size()), 0.0);
-  c.init_state(s.state.data());
-  Iterate it;
-  it.u = &u;
-  it.state_new = s.state.data();
-  it.state_old = s.state.data();
-  Couplings unused;
-  c.pair(m, it, unused);
-  for (int k = 0; k < c.num_points(); ++k) s.state[SurfaceContact::kStateSize * k + 1] = lambda0;
-  return s;
-}
-
-test::DenseSink evaluate(const SurfaceContact& c, const Mesh& m, const std::vector<double>& u, const PairedState& s,
-                         bool tangent) {
-  test::DenseSink sink(m.num_dofs(), tangent);
-  std::vector<double> scratch(s.state);
-  Iterate it;
-  it.u = &u;
-  it.state_old = s.state.data();
-  it.state_new = scratch.data();
-  EXPECT_EQ(c.assemble(m, it, sink), MaterialStatus::ok);
-  return sink;
-}
-
-/// max |K − K_fd| / max |K| of the contact at u (pairing and multipliers of u, central differences).
+/// max |K − K_fd| / max |K| of the contact at u (pairing and multipliers λ0 of u).
 double tangent_error(const SurfaceContact& c, const Mesh& m, const std::vector<double>& u, double lambda0,
                      int* active = nullptr) {
-  const PairedState s = paired_at(c, m, u, lambda0);
-  const test::DenseSink at = evaluate(c, m, u, s, true);
-  const double h = 1e-6;
-  // Only the surfaces' dofs enter the contact: the other columns are zero in both.
-  std::vector<char> on_surface(m.num_nodes(), 0);
-  for (const SurfaceContact::Face& f : c.faces())
-    for (int a = 0; a < f.nodes_count; ++a) on_surface[f.nodes[a]] = 1;
-  Eigen::MatrixXd fd = Eigen::MatrixXd::Zero(m.num_dofs(), m.num_dofs());
-  for (int j = 0; j < m.num_dofs(); ++j) {
-    if (!on_surface[j / 3]) continue;
-    std::vector<double> up = u, um = u;
-    up[j] += h;
-    um[j] -= h;
-    fd.col(j) = (evaluate(c, m, up, s, false).R - evaluate(c, m, um, s, false).R) / (2 * h);
-  }
-  if (active) *active = int((at.R.array().abs() > 0).count());
-  return (at.K - fd).cwiseAbs().maxCoeff() / at.K.cwiseAbs().maxCoeff();
-}
-
-/// A displacement that presses the upper block 0.02 into the lower one and bends both facing surfaces
-/// (curved master faces, rotated normals): random nodal offsets of amplitude 0.01 near z = 1.
-std::vector<double> pressed_and_wrinkled(const Mesh& m, double gap) {
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> r(-0.01, 0.01);
-  std::vector<double> u(m.num_dofs(), 0.0);
-  for (int n = 0; n < m.num_nodes(); ++n) {
-    const double z = m.nodes[n][2];
-    if (z > 1.0 + 0.5 * gap) u[3 * n + 2] -= gap + 0.02;
-    if (std::abs(z - 1.0) < 0.1 || std::abs(z - 1.0 - gap) < 0.1)
-      for (int i = 0; i < 3; ++i) u[3 * n + i] += r(rng);
-  }
-  return u;
+  return test::contact_tangent_error(c, m, u, test::paired_state(c, m, u, lambda0), active);
 }
 
 }  // namespace
@@ -232,7 +166,7 @@ TEST(SurfaceContact, PatchTestOnPetscPathEqualsCholmod) {
 }
 
 // Bad input, each naming its key: an empty surface, an overlap at the start (naming the point), a
-// friction coefficient out of range or (not implemented) positive, a negative penalty.
+// friction coefficient out of range, a negative penalty or tangential penalty.
 TEST(SurfaceContact, RefusesBadInputNamingTheKey) {
   const Mesh m = two_blocks(2, 2, 0.0, false);
   auto message = [&](const SurfaceContact& c) {
@@ -253,8 +187,13 @@ TEST(SurfaceContact, RefusesBadInputNamingTheKey) {
   SurfaceContact::Options o = options(1.0);
   o.friction = -0.1;
   EXPECT_NE(message(SurfaceContact(m, up, low, o)).find("contact.pairs[0].friction"), std::string::npos);
-  o.friction = 0.3;
+  o.friction = 3.5;
   EXPECT_NE(message(SurfaceContact(m, up, low, o)).find("contact.pairs[0].friction"), std::string::npos);
+  o.friction = 0.3;
+  o.tangential_penalty = -2.0;
+  EXPECT_NE(message(SurfaceContact(m, up, low, o)).find("contact.pairs[0].tangential_penalty"), std::string::npos);
+  o.tangential_penalty = 0.0;
+  EXPECT_EQ(message(SurfaceContact(m, up, low, o)), "accepted");
   EXPECT_NE(message(SurfaceContact(m, up, low, options(-1.0))).find("contact.pairs[0].penalty"), std::string::npos);
   // The upper block moved 0.05 into the lower one: refused, naming a point of the overlap.
   Mesh overlap = m;
@@ -305,16 +244,22 @@ Ring ring(double ri, double ro, int around) {
 
 }  // namespace
 
-// A thin ring (radii 4.5 and 5.5, 64 × 2 hex8, plane strain) pinched between two frictionless rigid
-// plates until its inner wall folds onto itself (self-contact of the inner surface): the plates travel
-// 4.6 each, 0.1 beyond the walls' first touch, so the two walls are pressed together along a band.
-// Held by symmetry alone (u_x = 0 at the top and bottom, u_y = 0 at the sides), so the solution must
-// be the symmetric one: mirrored nodes' displacements agree to 1e-6 of the largest (Newton's tolerance
-// is 1e-8 of the force scale; the pairing breaks ties by face number, the only asymmetric choice). The
-// fold's pressures stay below G, where the penalty's bound (p/G) h/100 is under 1 % of a face, and so
-// does its penetration (measured 0.00375 mm, 56 % of 1 % of a face; a point's pressure exceeds its
-// face's mean, so the bound is not taken at the face means).
-TEST(SurfaceContact, RingPinchedUntilItsInnerWallFoldsOntoItself) {
+namespace {
+
+/// What the pinched ring shows at the end of its pinch.
+struct Pinch {
+  std::map<std::string, double> probes;
+  double p_max = 0.0;        ///< the fold's largest face pressure [MPa]
+  double asymmetry = 0.0;    ///< the largest mismatch of mirrored nodes' displacements / the largest one
+  double face_size = 0.0;    ///< an inner face's size (√area)
+  RunStats stats;
+};
+
+/// The ring of ring(4.5, 5.5, 64) (plane strain) pinched between two frictionless rigid plates, held by
+/// symmetry alone (u_x = 0 at the top and bottom, u_y = 0 at the sides), its inner surface in
+/// self-contact with Coulomb coefficient mu: the plates travel 4.6 each in `steps` steps, 0.1 beyond the
+/// walls' first touch, so the two walls are pressed together along a band.
+Pinch pinch_ring(double mu, int steps = 20) {
   const Ring r = ring(4.5, 5.5, 64);
   const Mesh& m = r.mesh;
   FeModel model;
@@ -342,38 +287,23 @@ TEST(SurfaceContact, RingPinchedUntilItsInnerWallFoldsOntoItself) {
   }
   SurfaceContact::Options so = options(0.0, "contact.self[0]");
   so.label = "fold";
+  so.friction = mu;
   model.add(std::make_shared<SurfaceContact>(m, surface(m, "inner"), so));
   Simulation sim(model);
-  const int steps = 20;
+  Pinch out;
   for (int s = 1; s <= steps; ++s) {
     const AdvanceResult a = sim.advance_to(double(s) / steps);
-    ASSERT_TRUE(a.reached()) << "step " << s << ": " << a.message;
+    EXPECT_TRUE(a.reached()) << "step " << s << ": " << a.message;
+    if (!a.reached()) return out;
   }
   ContributionReport report;
   sim.report(report);
-  double fold_force = -1.0, fold_penetration = -1.0, fold_points = 0.0, plate_force = 0.0;
-  for (const auto& [name, value] : report.probes) {
-    if (name == "fold_normal_force [N]") fold_force = value;
-    if (name == "fold_max_penetration [mm]") fold_penetration = value;
-    if (name == "fold_active_points [1]") fold_points = value;
-    if (name == "top_normal_force [N]") plate_force = value;
-  }
-  const RunStats st = sim.stats();
-  std::printf("ring: plate force %.4g N, fold force %.4g N on %g points, penetration %.3g mm; %d pattern rebuilds "
-              "(%.3g s, symbolic analyses %.3g s in all), %d Newton iterations, %d cut-backs\n",
-              plate_force, fold_force, fold_points, fold_penetration, st.pattern_rebuilds, st.pattern_rebuild_time,
-              st.linear.analysis, st.newton_iterations, st.cutbacks);
-  EXPECT_GT(fold_points, 0.0);
-  EXPECT_GT(fold_force, 0.0);
-  double p_max = 0.0;
+  for (const auto& [name, value] : report.probes) out.probes[name] = value;
   for (const ReportField& f : report.fields)
     if (f.cells.stem == "fold")
       for (const ReportArray& a : f.arrays)
-        if (a.name == "contact_pressure") p_max = *std::max_element(a.values.begin(), a.values.end());
-  const double h = std::sqrt(2 * M_PI * 4.5 / 64 * 1.0);  // an inner face's size: √area
-  std::printf("ring: largest face pressure of the fold %.3g MPa, 1 %% of a face %.3g mm\n", p_max, h / 100);
-  EXPECT_LT(p_max, 1.0);  // below G: the penalty's bound (p/G) h/100 is under 1 % of a face
-  EXPECT_LT(fold_penetration, h / 100.0);
+        if (a.name == "contact_pressure") out.p_max = *std::max_element(a.values.begin(), a.values.end());
+  out.face_size = std::sqrt(2 * M_PI * 4.5 / 64 * 1.0);
   const std::vector<double>& u = sim.displacement();
   double largest = 0.0, asym = 0.0;
   for (int n = 0; n < m.num_nodes(); ++n) largest = std::max(largest, std::hypot(u[3 * n], u[3 * n + 1]));
@@ -383,6 +313,44 @@ TEST(SurfaceContact, RingPinchedUntilItsInnerWallFoldsOntoItself) {
       asym = std::max({asym, std::abs(u[3 * a] + u[3 * bx]), std::abs(u[3 * a + 1] - u[3 * bx + 1]),
                        std::abs(u[3 * a] - u[3 * by]), std::abs(u[3 * a + 1] + u[3 * by + 1])});
     }
-  std::printf("ring: asymmetry %.3g of the largest displacement %.4g\n", asym / largest, largest);
-  EXPECT_LT(asym, 1e-6 * largest);
+  out.asymmetry = asym / largest;
+  out.stats = sim.stats();
+  std::printf("ring, mu = %g: plate force %.4g N, fold force %.4g N (tangential %.3g N) on %g points, penetration "
+              "%.3g mm; largest face pressure %.3g MPa; asymmetry %.3g; %d pattern rebuilds, %d Newton iterations, "
+              "%d cut-backs\n",
+              mu, out.probes["top_normal_force [N]"], out.probes["fold_normal_force [N]"],
+              out.probes["fold_tangential_force [N]"], out.probes["fold_active_points [1]"],
+              out.probes["fold_max_penetration [mm]"], out.p_max, out.asymmetry, out.stats.pattern_rebuilds,
+              out.stats.newton_iterations, out.stats.cutbacks);
+  return out;
+}
+
+}  // namespace
+
+// The frictionless pinch. The solution must be the symmetric one: mirrored nodes' displacements agree
+// to 1e-6 of the largest (Newton's tolerance is 1e-8 of the force scale; the pairing breaks ties by face
+// number, the only asymmetric choice). The fold's pressures stay below G, where the penalty's bound
+// (p/G) h/100 is under 1 % of a face, and so does its penetration (measured 0.00375 mm, 56 % of 1 % of a
+// face; a point's pressure exceeds its face's mean, so the bound is not taken at the face means).
+TEST(SurfaceContact, RingPinchedUntilItsInnerWallFoldsOntoItself) {
+  Pinch p = pinch_ring(0.0);
+  EXPECT_GT(p.probes["fold_active_points [1]"], 0.0);
+  EXPECT_GT(p.probes["fold_normal_force [N]"], 0.0);
+  EXPECT_LT(p.p_max, 1.0);  // below G: the penalty's bound (p/G) h/100 is under 1 % of a face
+  EXPECT_LT(p.probes["fold_max_penetration [mm]"], p.face_size / 100.0);
+  EXPECT_LT(p.asymmetry, 1e-6);
+}
+
+// The same pinch with friction on the fold (μ = 0.5). The two walls pressed together are mirror images
+// of each other, so facing points move alike along the fold and the walls do not slide on each other:
+// the friction must leave the symmetric solution as it is, its resultant vanishing (to 1e-6 of the
+// normal force, the symmetry's tolerance; measured 4e-16) with the displacements mirror-symmetric to
+// 1e-6 and the penetration within the frictionless bound.
+TEST(SurfaceFriction, RingPinchWithFrictionStaysSymmetric) {
+  Pinch p = pinch_ring(0.5);
+  EXPECT_GT(p.probes["fold_active_points [1]"], 0.0);
+  EXPECT_GT(p.probes["fold_normal_force [N]"], 0.0);
+  EXPECT_LT(p.probes["fold_tangential_force [N]"], 1e-6 * p.probes["fold_normal_force [N]"]);
+  EXPECT_LT(p.probes["fold_max_penetration [mm]"], p.face_size / 100.0);
+  EXPECT_LT(p.asymmetry, 1e-6);
 }

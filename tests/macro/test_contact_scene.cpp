@@ -143,12 +143,12 @@ TEST(ContactScene, SurfaceContactRefusalsNameTheirField) {
             std::string::npos);
   EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"nope\"\n")).find("contact.self[0].surface"),
             std::string::npos);
-  // Friction out of range (the key's bound), and within it but not implemented between deformable surfaces.
+  // Friction out of range (the key's bound), and a negative stick penalty.
   EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nfriction = 4.0\n"))
                 .find("contact.self[0].friction"),
             std::string::npos);
-  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nfriction = 0.5\n"))
-                .find("contact.self[0].friction"),
+  EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.self]]\nsurface = \"xmax\"\nfriction = 0.5\ntangential_penalty = -1\n"))
+                .find("contact.self[0].tangential_penalty"),
             std::string::npos);
   EXPECT_NE(contact_error_of(plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\nmaster = \"zmin\"\npenalty = -1.0\n"))
                 .find("contact.pairs[0].penalty"),

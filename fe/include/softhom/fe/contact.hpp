@@ -70,6 +70,10 @@ struct ObstacleGap {
 };
 ObstacleGap obstacle_gap(const RigidObstacle& obstacle, const Vec3& x, double t);
 
+/// Coulomb coefficients above this are refused as a unit or typing slip: measured rubber-on-glass
+/// coefficients reach about 3 (Roberts 1977), so the bound leaves room for every real pairing.
+constexpr double kMaxContactFriction = 3.0;
+
 /// The regularized contact law of one surface point.
 struct ContactLaw {
   double penalty = 0.0;             ///< ε_N: pressure per penetration [MPa/mm]
@@ -86,6 +90,17 @@ struct PointTraction {
   bool active = false;             ///< p > 0
   bool slip = false;               ///< on the Coulomb cone
 };
+
+/// The regularized Coulomb law on a trial stick traction: kept when |trial| ≤ μ p (stick), else returned
+/// onto the cone as μ p trial/|trial| (slip); its derivative is Δt = d_trial Δtrial + d_pressure Δp.
+/// Shared by the rigid obstacles and the contact between deformable surfaces (surface_contact.hpp).
+struct CoulombReturn {
+  Vec3 traction = Vec3::Zero();
+  Mat3 d_trial = Mat3::Identity();
+  Vec3 d_pressure = Vec3::Zero();
+  bool slip = false;
+};
+CoulombReturn coulomb_return(const Vec3& trial, double friction, double pressure);
 
 /// p = ⟨λ + ε_N (−g)⟩ along n; with friction the trial t_T = −ε_T P (x − stick) (P = I − n⊗n), kept when
 /// |t_T| ≤ μ p (stick), else μ p t_T/|t_T| (slip); and their exact derivative with respect to x.

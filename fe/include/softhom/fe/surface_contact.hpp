@@ -1,6 +1,7 @@
 #pragma once
-// Contact between deformable surfaces, and self-contact of one surface: frictionless penalty with one
-// augmentation of the multiplier per converged step, as the rigid obstacles' law (contact.hpp).
+// Contact between deformable surfaces, and self-contact of one surface: penalty with one augmentation of
+// the multiplier per converged step and regularized Coulomb friction, as the rigid obstacles' law
+// (contact.hpp).
 //
 // Formulation: the quadrature points of the slave surface's faces (ObstacleContact's rules: 3×3 Gauss
 // on quads, Dunavant's 7 points on 6-node triangles) each see one master face (a hex8 quad or a tet10
@@ -9,8 +10,8 @@
 // of the master body: g > 0 apart) and the nominal pressure p = ⟨λ + ε (−g)⟩ per reference slave area.
 // The residual is the variation of the penalty energy: R = −Σ w p ∂g/∂u over the slave face's and the
 // master face's nodes, and its tangent the exact second variation, w (ε ∂g⊗∂g − p ∂²g), including the
-// motion of the closest point over the master face and the rotation of its normal (symmetric). It is
-// exact everywhere: where the closest point is held by an edge or a corner of the face (below a kink of
+// motion of the closest point over the master face and the rotation of its normal (symmetric without
+// friction). It is exact everywhere: where the closest point is held by an edge or a corner of the face (below a kink of
 // the master surface, or past the edge of the face it was paired with in this step) the gap is the
 // signed distance to it, which joins the normal gap continuously with its first derivative. A point
 // more than half a face beside its master face bears nothing until the next step pairs it again.
@@ -20,9 +21,9 @@
 // of, or at most half a face behind (deeper is the far side of a wall, never a contact: a wall must be
 // thicker than half a face to be told from a penetration). A uniform grid over the master faces' boxes
 // finds the candidates (linear in the surfaces' size); no point pairs with its own face or one sharing
-// a node with it (a self-contact's neighbours). The pairing, the parametric start of the projection and the
-// multiplier are the contribution's history (state_size: 5 per slave point), so a cut-back step is
-// retried with the pairing of the converged state. The couplings are the (slave face, master face)
+// a node with it (a self-contact's neighbours). The pairing, the parametric start of the projection,
+// the multiplier and the stick anchor are the contribution's history (state_size: 9 per slave point),
+// so a cut-back step is retried with the pairing and the anchors of the converged state. The couplings are the (slave face, master face)
 // pairs: the driver rebuilds the stiffness pattern when they change.
 //
 // Self-contact is two-pass: every point of the surface is a slave, each weighted by one half, so both
@@ -30,6 +31,27 @@
 // both surfaces are slaves, each weighted by one half). With one pass, a uniform pressure crosses
 // exactly when every slave face lies within one master face (the slave side finer, nested): the
 // master's loads are then the quadrature of its own shape functions (tests/fe/test_surface_contact.cpp).
+//
+// Friction (μ > 0): every slave point keeps a stick anchor, a material point of its master face given by
+// its parametric coordinates (ξ_a, η_a), so the anchor moves with the master surface. The slip is the
+// tangential part of the offset from the anchor, v_T = P (x_s − x_a) with P = I − ν⊗ν (ν the contact
+// normal: the master face's, or at an edge the direction of the distance), the trial stick traction
+// −ε_T v_T, returned onto the cone |t_T| ≤ μ p (fe::coulomb_return, the obstacles' law). The slave
+// point bears t_T, the master face's closest point −t_T; the tangent is the exact derivative,
+// including the anchor's and the closest point's motion and the normal's rotation (non-symmetric in
+// slip, and in stick where the normal turns: the direct solver then preconditions GMRES with the
+// factor of the symmetric part, the petsc path runs GMRES anyway). A converged sticking point keeps its
+// anchor; a slipping one moves it to where the converged trial traction is the returned one (the
+// closest point + t_T/ε_T, in the face's extended parametric coordinates); a free one takes its
+// closest point. When the pairing gives a point another master face, its anchor is carried over to
+// the new face's (extended) parametric coordinates at the same place.
+//
+// Tangential penalty (default): ε_T = ε_N / 10 = 10 G/h. Ten times a surface element's own shear
+// stiffness G/h, so a sticking contact slides elastically by μ p h/(10 G) at most before it slips (3 %
+// of a face at μ = 0.3, p = G), and a tenth of the normal penalty: the whole patch going from stick to
+// slip in one step (a drag starting, a rigid die starting to slide: bench/ironing.cpp needed this ratio)
+// then changes the tangent by a tenth of the normal stiffness only, which Newton crosses in a few
+// iterations. The slip force μ p does not depend on it.
 //
 // Penalty (default as the rigid law's): ε = 100 G/h per slave face. A slave point deeper than its
 // master face's size is refused with MaterialStatus::penetration (the step is cut back). A point's
@@ -72,7 +94,8 @@ class SurfaceContact final : public Contribution {
   struct Options {
     double penalty = 0.0;        ///< ε [MPa/mm] > 0 on every face; 0: 100 G/h per slave face
     double shear_modulus = 0.0;  ///< G of the surfaces' elements, for the default penalty
-    double friction = 0.0;       ///< Coulomb coefficient: only 0 (frictionless) is implemented
+    double friction = 0.0;       ///< Coulomb coefficient μ ∈ [0, 3]
+    double tangential_penalty = 0.0;  ///< ε_T [MPa/mm] > 0 on every face; 0: ε_N / 10 per slave face
     bool augmented = true;       ///< λ ← p at every converged step (false: pure penalty)
     bool two_pass = false;       ///< pairs: the master's points against the slave's faces too
     std::string field = "contact.pairs[0]";  ///< its TOML path, for messages
@@ -85,27 +108,37 @@ class SurfaceContact final : public Contribution {
 
   Kind kind() const override { return Kind::interface; }
   std::string name() const override { return options_.field; }
-  /// Refuses empty surfaces, nodes out of range, bad penalties, friction, and surfaces that overlap at
-  /// t = 0 (naming the deepest point).
+  /// Refuses empty surfaces, nodes out of range, bad penalties, a friction coefficient outside [0, 3],
+  /// and surfaces that overlap at t = 0 (naming the deepest point).
   void validate(const Mesh& mesh) const override;
   bool couplings_change() const override { return true; }
   void pair(const Mesh& mesh, const Iterate& converged, Couplings& couplings) const override;
   int state_size() const override { return kStateSize * int(points_.size()); }
   void init_state(double* state) const override;
   MaterialStatus assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const override;
-  /// Probes <label>_normal_force [N], _tangential_force [N], _area [mm^2], _active_points [1],
-  /// _max_penetration [mm]; the field <label> on the slave faces: contact_pressure (Cauchy), gap.
+  /// Probes <label>_normal_force [N], _tangential_force [N] (|Σ t_T dA|, the friction force on the
+  /// slaves), _area [mm^2], _active_points [1], _max_penetration [mm]; with friction also
+  /// _slipping_points [1]; the field <label> on the slave faces: contact_pressure (Cauchy), gap,
+  /// tangential_traction (Cauchy, |t_T| averaged over the face's points) and slip (the fraction of its
+  /// active points on the Coulomb cone).
   void report(const Mesh& mesh, const Iterate& it, ContributionReport& out) const override;
 
   /// Resultants at an iterate whose state_old holds the pairing.
   ContactTotals totals(const Mesh& mesh, const Iterate& it) const;
-  /// Per slave face (the faces of faces(), slave ones only): the mean Cauchy contact pressure over its
-  /// points and the least gap (+inf where unpaired).
-  void face_values(const Mesh& mesh, const Iterate& it, std::vector<double>& pressure, std::vector<double>& gap) const;
+  /// Current positions of the slave quadrature points in contact (p > 0) at such an iterate.
+  std::vector<Vec3> active_positions(const Mesh& mesh, const Iterate& it) const;
+  /// Per face of faces() (slave ones filled): the mean Cauchy contact pressure and tangential traction
+  /// over its points, the least gap (+inf where unpaired) and the fraction of its active points slipping.
+  struct FaceValues {
+    std::vector<double> pressure, gap, tangential, slip;
+  };
+  FaceValues face_values(const Mesh& mesh, const Iterate& it) const;
   int num_points() const { return int(points_.size()); }
   /// History per point: the multiplier its step solves with, its pressure there (the next step's
-  /// multiplier), master face (−1: none), ξ, η of the projection's start.
-  static constexpr int kStateSize = 5;
+  /// multiplier), master face (−1: none), ξ, η of the projection's start, the stick anchor's ξ_a, η_a on
+  /// the master face the step solves with, and the next step's.
+  static constexpr int kStateSize = 9;
+  static constexpr int kAnchor = 5, kNextAnchor = 7;  ///< offsets of (ξ_a, η_a) in a point's state
 
   /// One face of either surface.
   struct Face {
@@ -126,6 +159,7 @@ class SurfaceContact final : public Contribution {
     double rule_weight = 0.0;
     double weight = 0.0;  ///< reference area weight × the pass's factor
     double penalty = 0.0;
+    double tangential_penalty = 0.0;
     double factor = 1.0;  ///< the pass's weight (1/2 in two passes)
   };
   /// A point at positions x against its master face (history s): the projection and the pressure with
@@ -138,6 +172,14 @@ class SurfaceContact final : public Contribution {
     double pressure = 0.0;
   };
   Evaluation evaluate(const Point& p, const double* s, double multiplier, const std::vector<Vec3>& x) const;
+  /// The point's tractions at an evaluation, with the stick anchor (ξ_a, η_a) on its master face: the
+  /// residual and (with `tangent`) the tangent over the slave face's then the master face's dofs.
+  struct Response;
+  Response respond(const Point& p, const Evaluation& e, const double* anchor, const std::vector<Vec3>& x,
+                   bool tangent) const;
+  /// The anchor the next step starts from, after the point converged with response r.
+  void advance_anchor(const Point& p, const Evaluation& e, const Response& r, const std::vector<Vec3>& x,
+                      double* next) const;
   /// Current area weight of a point (its rule weight × |x_ξ × x_η| × the pass's factor).
   double current_weight(const Point& p, const std::vector<Vec3>& x) const;
   void build(const Mesh& mesh, int surfaces, bool self);
@@ -148,6 +190,8 @@ class SurfaceContact final : public Contribution {
     FaceProjection projection;
   };
   Candidate nearest_face(const Point& p, const std::vector<Vec3>& x, const FaceGrid& grid) const;
+  /// Point state s paired with c from its pairing in s: its next anchor on c's face.
+  void carry_anchor(const Candidate& c, const std::vector<Vec3>& x, double* s) const;
   std::vector<Vec3> positions(const Mesh& mesh, const Iterate& it) const;
   Vec3 point_position(const Point& p, const std::vector<Vec3>& x) const;
 

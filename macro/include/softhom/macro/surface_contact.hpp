@@ -14,7 +14,8 @@ struct SurfacePairSpec {
   std::string slave, master;  ///< a pair's surfaces; a self-contact has its surface in `slave` alone
   bool self = false;
   double penalty = 0.0;       ///< ε [MPa/mm]; 0: 100 G/h per slave face
-  double friction = 0.0;      ///< Coulomb coefficient (only 0 is implemented: fe::SurfaceContact refuses more)
+  double friction = 0.0;      ///< Coulomb coefficient μ ∈ [0, 3]
+  double tangential_penalty = 0.0;  ///< ε_T [MPa/mm]; 0: ε / 10
   bool augmented = true;
   bool two_pass = false;      ///< a pair's master points against the slave faces too
   std::string field;          ///< its TOML path, "contact.pairs[k]" or "contact.self[k]", for messages
