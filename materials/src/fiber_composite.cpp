@@ -1,7 +1,13 @@
 // Transversely isotropic law of a unidirectional fiber composite: the Gent + HGO law (gent_hgo.cpp)
 // plus, for every fiber family a0, a fiber–matrix (longitudinal) shear term and a transverse shear term:
-//   W = W_Gent+HGO + Σ_f [ (GL/2)(I5 − I4²) + GT (τ − 1) ],   τ = (I1 I4 − I5) / (2 J √I4)
+//   W = W_Gent+HGO + Σ_f [ (GL/2)(I5 − I4²) + GT (τ − 1) + (Ef/2)(√I4 − 1)² ],   τ = (I1 I4 − I5) / (2 J √I4)
 // with the full invariants I1 = tr C, I4 = a0·C a0, I5 = a0·C² a0, J = det F.
+//
+// The fiber term (Ef/2)(λf − 1)², λf = √I4, is a linear elastic fiber in its stretch (rule of mixtures:
+// Ef = φ E_fiber), in tension and compression as glass is; HGO's k1/(2k2)[exp(k2 (I4 − 1)²) − 1] (a
+// collagen fiber, tension only) stiffens at least as (I4 − 1)², i.e. as λf⁴, which the stiff glass fibers
+// of the composite do not (their own neo-Hookean stress grows as λf − λf⁻²). Both small-strain fiber
+// moduli are equal for Ef = 4 k1.
 //
 // Why these two measures. A transversely isotropic W depends on I1 … I5 (Spencer, Deformations of
 // Fibre-reinforced Materials, 1972; Merodio & Ogden, Int. J. Non-Linear Mech. 40 (2005) 213); Gent + HGO
@@ -49,16 +55,18 @@ inline double transverse_shear(double I1, double I4, double I5, double J) {
   return (I1 * I4 - I5) / (2.0 * J * std::sqrt(I4));
 }
 
-inline double shear_terms_energy(double GL, double GT, double I1, double I4, double I5, double J) {
-  return 0.5 * GL * (I5 - I4 * I4) + GT * (transverse_shear(I1, I4, I5, J) - 1.0);
+inline double added_terms_energy(const FiberCompositeParams& p, double I1, double I4, double I5, double J) {
+  const double s = std::sqrt(I4) - 1.0;
+  return 0.5 * p.GL * (I5 - I4 * I4) + p.GT * (transverse_shear(I1, I4, I5, J) - 1.0) + 0.5 * p.Ef * s * s;
 }
 
-/// (GL/2)(I5 − I4²) + GT (τ − 1): derivatives in (I1, I4, I5, J).
-InvariantDerivatives shear_term_derivatives(double GL, double GT, double I1, double I4, double I5, double J) {
+/// (GL/2)(I5 − I4²) + GT (τ − 1) + (Ef/2)(√I4 − 1)²: derivatives in (I1, I4, I5, J).
+InvariantDerivatives added_term_derivatives(const FiberCompositeParams& p, double I1, double I4, double I5, double J) {
+  const double GL = p.GL, GT = p.GT, s = std::sqrt(I4);
   InvariantDerivatives d;
-  d.g(kI4) = -GL * I4;
+  d.g(kI4) = -GL * I4 + 0.5 * p.Ef * (1.0 - 1.0 / s);
   d.g(kI5) = 0.5 * GL;
-  d.H(kI4, kI4) = -GL;
+  d.H(kI4, kI4) = -GL + 0.25 * p.Ef / (s * s * s);
   if (GT == 0.0) return d;
   const double D = 2.0 * J * std::sqrt(I4), tau = (I1 * I4 - I5) / D;
   Eigen::Vector4d t;  // ∂τ
@@ -111,7 +119,8 @@ class FiberCompositeLaw final : public ElasticLaw {
   std::string describe() const override {
     std::ostringstream s;
     s.precision(6);
-    s << "fiber composite (" << base_->describe() << "; GL=" << p_.GL << " MPa, GT=" << p_.GT << " MPa)";
+    s << "fiber composite (" << base_->describe() << "; GL=" << p_.GL << " MPa, GT=" << p_.GT << " MPa, Ef=" << p_.Ef
+      << " MPa)";
     return s.str();
   }
 
@@ -123,7 +132,7 @@ class FiberCompositeLaw final : public ElasticLaw {
       const Vec3 b = C * a0;
       const double I4 = a0.dot(b);
       if (!(I4 > 0.0)) return MaterialStatus::not_finite;
-      add_invariant_terms(shear_term_derivatives(p_.GL, p_.GT, C.trace(), I4, b.squaredNorm(), J), a0, C, Ci, J, S, CC);
+      add_invariant_terms(added_term_derivatives(p_, C.trace(), I4, b.squaredNorm(), J), a0, C, Ci, J, S, CC);
     }
     if (!S.allFinite() || (CC && !CC->allFinite())) return MaterialStatus::not_finite;
     return MaterialStatus::ok;
@@ -133,7 +142,7 @@ class FiberCompositeLaw final : public ElasticLaw {
     double W = base_->energy(C, J);
     for (const Vec3& a0 : directions_) {
       const Vec3 b = C * a0;
-      W += shear_terms_energy(p_.GL, p_.GT, C.trace(), a0.dot(b), b.squaredNorm(), J);
+      W += added_terms_energy(p_, C.trace(), a0.dot(b), b.squaredNorm(), J);
     }
     return W;
   }

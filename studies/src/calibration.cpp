@@ -59,7 +59,7 @@ MaterialSpec CalibrationModel::spec(const std::vector<double>& v) const {
   MaterialSpec s;
   s.field_prefix = "model";
   s.law = GL >= 0 ? LawKind::fiber_composite : LawKind::gent_hgo;
-  if (GL >= 0) s.fiber_shear = {v[GL], v[GT]};
+  if (GL >= 0) s.fiber_shear = {v[GL], v[GT], v[Ef]};
   s.gent.G = v[G];
   s.gent.Jm = v[Jm];
   s.gent.K = v[K];

@@ -233,6 +233,7 @@ const keys::KeyTable<NoKeys>& model_table() {
         .custom("kappa", kParameter, "GOH fiber dispersion shared by all families", r, "0", "[0, 1/3]", "-")
         .custom("GL", kParameter, "added fiber-matrix shear modulus (law = \"fiber-composite\")", r, "required with it", ">= 0", "MPa")
         .custom("GT", kParameter, "added transverse shear modulus (law = \"fiber-composite\")", r, "required with it", ">= 0", "MPa")
+        .custom("Ef", kParameter, "stretch-linear fiber modulus (law = \"fiber-composite\")", r, "required with it", ">= 0", "MPa")
         .custom("fiber_invariant", "choice", "fiber invariant (with fibers)", r, "required with fibers",
                 "\"full\", \"isochoric\"")
         .custom("tension_only", "true/false", "fibers carry no compression (with fibers)", r, "true")
@@ -434,8 +435,9 @@ CalibrationModel parse_model(const toml::table& root) {
     if (!mt.contains("fibers")) throw InputError("model.fibers", "", "law = \"fiber-composite\" needs [[model.fibers]]");
     m.GL = add_parameter(m, mt, "GL", "model", "GL", false, 0.0, kInf);
     m.GT = add_parameter(m, mt, "GT", "model", "GT", false, 0.0, kInf);
+    m.Ef = add_parameter(m, mt, "Ef", "model", "Ef", false, 0.0, kInf);
   } else {
-    for (const char* k : {"GL", "GT"})
+    for (const char* k : {"GL", "GT", "Ef"})
       if (mt.contains(k))
         throw InputError(keys::join_key("model", k), keys::describe_value(*mt.get(k)), "a parameter of law = \"fiber-composite\" only");
   }

@@ -1,11 +1,12 @@
 // The fiber-composite law (materials/src/fiber_composite.cpp): Gent + HGO plus a fiber–matrix shear
-// term (GL/2)(I5 − I4²) and a transverse shear term GT (τ − 1) per family.
+// term (GL/2)(I5 − I4²), a transverse shear term GT (τ − 1) and a stretch-linear fiber (Ef/2)(√I4 − 1)²
+// per family.
 //
 // Tolerances:
 //  - 1e-7 relative (Frobenius norm of the whole 9x9 or 3x3) for analytic against central differences:
 //    the differences are accurate to ~1e-9 (fd_check.hpp), so a wrong term of relative size 1e-7 fails.
 //    K = 0.05 (comparable to G and GL) so that the shear terms carry the norm, not the volumetric part.
-//  - 1e-13 relative for equalities that hold in exact arithmetic with O(10) roundings (the reduction to
+//  - 1e-13 relative (1e-12 where a fiber stress is added) for equalities that hold in exact arithmetic with O(10) roundings (the reduction to
 //    Gent + HGO, the closed forms in shear, the stress in a stretch along the fibers).
 #include <gtest/gtest.h>
 
@@ -44,7 +45,7 @@ TEST(FiberComposite, TangentAndStressMatchFiniteDifferences) {
   const Vec3 d1 = Vec3(1.0, 2.0, 0.5).normalized(), d2 = Vec3(-1.0, 0.3, 2.0).normalized();
   for (const double K : {0.05, 2000.0}) {
     for (const auto& dirs : {std::vector<Vec3>{d1}, std::vector<Vec3>{d1, d2}}) {
-      const ElasticLawPtr law = make_fiber_composite({composite_base(K, dirs), 0.011, 0.007});
+      const ElasticLawPtr law = make_fiber_composite({composite_base(K, dirs), 0.011, 0.007, 0.9});
       const HyperelasticMaterial m(law);
       for (int n = 0; n < 6; ++n) {
         const Mat3 F = random_F(rng, random_J(rng), 0.35);
@@ -99,14 +100,18 @@ TEST(FiberComposite, SimpleShearAlongAndAcrossTheFibersGivesTheAddedModuli) {
   }
 }
 
-TEST(FiberComposite, StretchAlongTheFibersIsGentHGO) {
-  // A stretch along the fibers with equal lateral stretches leaves a0 principal and the cross plane
-  // dilated: both terms sit at their minimum 0, so the stress is exactly Gent + HGO's.
+TEST(FiberComposite, StretchAlongTheFibersAddsOnlyTheLinearFiber) {
+  // A stretch λ along the fibers (e2) with equal lateral stretches leaves a0 principal and the cross
+  // plane dilated: the shear terms sit at their minimum 0 (no stress), and the fiber term
+  // (Ef/2)(λ − 1)² adds P22 = Ef (λ − 1) to Gent + HGO's stress, in tension and in compression.
   const GentHGOParams base = composite_base(2000.0, {Vec3::UnitY()});
-  const ElasticLawPtr composite = make_fiber_composite({base, 0.05, 0.05}), gent = make_gent_hgo(base);
+  const double Ef = 0.9;
+  const ElasticLawPtr composite = make_fiber_composite({base, 0.05, 0.05, Ef}), gent = make_gent_hgo(base);
   for (const double l : {0.9, 1.1, 1.4}) {
     const Mat3 F = Vec3(0.97 / std::sqrt(l), l, 0.97 / std::sqrt(l)).asDiagonal();
-    EXPECT_TRUE(matrices_close(composite_stress(composite, F), composite_stress(gent, F), kCompositeExactTol, "P", nullptr, 0.017))
+    Mat3 expected = composite_stress(gent, F);
+    expected(1, 1) += Ef * (l - 1.0);
+    EXPECT_TRUE(matrices_close(composite_stress(composite, F), expected, kCompositeExactTol * 10, "P", nullptr, 0.017))
         << "λ = " << l;
   }
 }
@@ -131,6 +136,7 @@ TEST(FiberComposite, SceneTableReadsTheLawAndRefusesBadModuliNamingTheKey) {
   };
   EXPECT_NE(refusal("GL = -0.01\n[[fibers]]\nangle_deg = 45\n").find("material.GL"), std::string::npos);
   EXPECT_NE(refusal("GT = nan\n[[fibers]]\nangle_deg = 45\n").find("material.GT"), std::string::npos);
+  EXPECT_NE(refusal("Ef = -1\n[[fibers]]\nangle_deg = 45\n").find("material.Ef"), std::string::npos);
   EXPECT_NE(refusal("GL = 0.01\n").find("material.fibers"), std::string::npos);
   // GL belongs to this law only: a Gent table refuses it naming the key.
   try {

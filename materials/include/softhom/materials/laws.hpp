@@ -35,11 +35,13 @@ struct GentHGOParams {
 
 /// Transversely isotropic fiber composite (materials/src/fiber_composite.cpp): Gent + HGO plus, per fiber
 /// family, a fiber–matrix shear term (GL/2)(I5 − I4²) and a transverse shear term GT (τ − 1),
-/// τ = (I1 I4 − I5)/(2 J √I4). Small-strain shear moduli: G + GL along the fibers, G + GT across them.
+/// τ = (I1 I4 − I5)/(2 J √I4), and a fiber term linear in the fiber stretch, (Ef/2)(√I4 − 1)². Small-strain
+/// shear moduli: G + GL along the fibers, G + GT across them.
 struct FiberCompositeParams {
   GentHGOParams base;  ///< the Gent matrix and the HGO families (at least one)
   double GL = 0.0;     ///< added longitudinal (fiber–matrix) shear modulus [MPa]
   double GT = 0.0;     ///< added transverse shear modulus [MPa]
+  double Ef = 0.0;     ///< stretch-linear fiber term (Ef/2)(√I4 − 1)², tension and compression [MPa]
 };
 
 /// Energy form of the compressible neo-Hookean law. Both have the small-strain moduli (μ, K).

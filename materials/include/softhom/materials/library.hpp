@@ -17,10 +17,11 @@ enum class LawKind { gent_hgo, neo_hookean, yeoh, ogden, fiber_composite };
 /// Laws whose material table takes [[fibers]] families (the spec's `gent` holds them).
 inline bool has_fiber_families(LawKind k) { return k == LawKind::gent_hgo || k == LawKind::fiber_composite; }
 
-/// The two shear moduli the fiber-composite law adds to Gent + HGO (its Gent and HGO part is `gent`).
+/// The moduli the fiber-composite law adds to Gent + HGO (its Gent and HGO part is `gent`).
 struct FiberShearModuli {
   double GL = 0.0;
   double GT = 0.0;
+  double Ef = 0.0;
 };
 
 /// A material as described in input. `field_prefix` is prepended to field names in error messages
