@@ -25,7 +25,7 @@
 //    incompressibility, tension across the fibers stiffens with it.
 // Both vanish with their first derivatives at C = I (stress-free reference). Guo, Peng & Moran (J.
 // Biomech. 39 (2006) 1849) separate the composite's response the same way (fiber stretch against the
-// matrix's shear across and along the fibers) in their composite-based model. GL = GT = 0 is the
+// matrix's shear across and along the fibers) in their composite-based model. GL = GT = Ef = 0 is the
 // Gent + HGO law exactly.
 //
 // Each term is W_x(I1, I4, I5, J) with gradient g and Hessian H in those four variables:
