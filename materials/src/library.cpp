@@ -51,6 +51,25 @@ const std::vector<LawEntry>& law_table() {
                   {"K", "MPa", modulus, bulk, false, "required (or from the preset)",
                    [](MaterialSpec& s, V v) { s.gent.K = v[0]; }}},
                  nullptr});
+    const keys::Range shear_term = keys::closed_range(0.0, 1e9);
+    t.push_back({LawKind::fiber_composite, "fiber-composite", {}, "fiber-composite",
+                 "transversely isotropic fiber composite: Gent + HGO fiber families + per family a fiber-matrix "
+                 "shear term (GL/2)(I5 - I4^2) and a transverse shear term GT (tau - 1), tau = (I1 I4 - I5)/(2 J sqrt(I4)); small-strain "
+                 "shear moduli G + GL along and G + GT across the fibers; a stretch-linear fiber term Ef; GL = GT = Ef = 0 is law = \"gent\"",
+                 {{"G", "MPa", modulus, "initial shear modulus of the Gent matrix", false, "required",
+                   [](MaterialSpec& s, V v) { s.gent.G = v[0]; }},
+                  {"Jm", "-", positive, "Gent locking parameter (Ī1 - 3 < Jm)", false, "required",
+                   [](MaterialSpec& s, V v) { s.gent.Jm = v[0]; }},
+                  {"K", "MPa", modulus, bulk, false, "required", [](MaterialSpec& s, V v) { s.gent.K = v[0]; }},
+                  {"GL", "MPa", shear_term, "added longitudinal (fiber-matrix) shear modulus, term in I5 - I4^2", false, "0",
+                   [](MaterialSpec& s, V v) { s.fiber_shear.GL = v[0]; }},
+                  {"GT", "MPa", shear_term, "added transverse shear modulus, term in tau = (I1 I4 - I5)/(2 J sqrt(I4))", false, "0",
+                   [](MaterialSpec& s, V v) { s.fiber_shear.GT = v[0]; }},
+                  {"Ef", "MPa", shear_term,
+                   "fiber term linear in the fiber stretch, (Ef/2)(sqrt(I4) - 1)^2 per family, in tension and compression "
+                   "(rule of mixtures: volume fraction x fiber Young's modulus)", false, "0",
+                   [](MaterialSpec& s, V v) { s.fiber_shear.Ef = v[0]; }}},
+                 nullptr});
     t.push_back({LawKind::neo_hookean, "neo-hookean", {}, "neo-Hookean",
                  "compressible neo-Hookean; (mu, K) or (E, nu); form = \"isochoric\" | \"lame-log\"",
                  {{"mu", "MPa", modulus, "shear modulus", false, "required unless E, nu (or from the preset)",
@@ -151,6 +170,13 @@ MaterialSpec preset_spec(const std::string& name, const std::string& field_prefi
 void validate(const MaterialSpec& s) {
   const std::string& pre = s.field_prefix;
   switch (s.law) {
+    case LawKind::fiber_composite:
+      require(s.fiber_shear.GL >= 0.0, pre, "GL", s.fiber_shear.GL, "added shear modulus must be >= 0");
+      require(s.fiber_shear.GT >= 0.0, pre, "GT", s.fiber_shear.GT, "added shear modulus must be >= 0");
+      require(s.fiber_shear.Ef >= 0.0, pre, "Ef", s.fiber_shear.Ef, "fiber modulus must be >= 0");
+      if (s.gent.fibers.empty())
+        throw InputError(pre + ".fibers", "[]", "the fiber-composite law needs at least one [[fibers]] family");
+      [[fallthrough]];
     case LawKind::gent_hgo: {
       const auto& p = s.gent;
       require(p.G > 0.0, pre, "G", p.G, "shear modulus must be > 0");
@@ -217,6 +243,7 @@ MaterialPtr build_material(const MaterialSpec& s) {
   ElasticLawPtr law;
   switch (s.law) {
     case LawKind::gent_hgo: law = make_gent_hgo(s.gent); break;
+    case LawKind::fiber_composite: law = make_fiber_composite({s.gent, s.fiber_shear.GL, s.fiber_shear.GT, s.fiber_shear.Ef}); break;
     case LawKind::neo_hookean: law = make_neo_hookean(s.neo_hookean); break;
     case LawKind::yeoh: law = make_yeoh(s.yeoh); break;
     case LawKind::ogden: law = make_ogden(s.ogden); break;

@@ -129,7 +129,7 @@ const keys::KeyTable<MaterialKeys>& material_keys() {
                 "required with fibers", "\"full\", \"isochoric\"")
         .custom("tension_only", "true/false", "a fiber family contributes only while stretched (I4 > 1)",
                 [](const toml::node& n, const std::string& f, M& m) { m.tension_only = keys::read_flag(n, f); }, "true")
-        .custom("fibers", "array of tables", "[[<path>.fibers]] fiber families (Gent-HGO only)",
+        .custom("fibers", "array of tables", "[[<path>.fibers]] fiber families (Gent-HGO and fiber-composite)",
                 [](const toml::node& n, const std::string&, M& m) { m.fibers = &n; }, "none")
         .custom("viscoelastic", "table", "[<path>.viscoelastic] QLV relaxation (Prony series)",
                 [](const toml::node& n, const std::string&, M& m) { m.viscoelastic = &n; }, "none");
@@ -272,13 +272,13 @@ MaterialSpec parse_material(const toml::table& t, const std::string& path) {
   }
   read_law_parameters(m, law, path, s);
 
-  // Fiber families (Gent-HGO only).
+  // Fiber families (Gent-HGO and fiber-composite).
   if (m.k1) family_defaults.k1 = *m.k1;
   if (m.k2) family_defaults.k2 = *m.k2;
   if (m.kappa) family_defaults.kappa = *m.kappa;
   if (m.fibers) {
     const std::string fp = keys::join_key(path, "fibers");
-    if (s.law != LawKind::gent_hgo) throw InputError(fp, "", "fiber families need law = \"gent\"");
+    if (!has_fiber_families(s.law)) throw InputError(fp, "", "fiber families need law = \"gent\" or \"fiber-composite\"");
     const toml::array& arr = keys::read_array(*m.fibers, fp);
     for (std::size_t i = 0; i < arr.size(); ++i) s.gent.fibers.push_back(read_fiber(*arr.get(i), keys::index_field(fp, i), family_defaults));
   }

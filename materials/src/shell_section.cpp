@@ -160,8 +160,8 @@ MaterialPtr rotated_about_normal(const MaterialPtr& law, double angle_deg) {
 MaterialPtr layer_material(MaterialSpec spec, std::span<const double> angles_deg) {
   const std::string field = spec.field_prefix + ".fibers";
   if (!angles_deg.empty()) {
-    if (spec.law != LawKind::gent_hgo)
-      throw InputError(field, "", "fiber angles need a law with fiber families (Gent-HGO)");
+    if (!has_fiber_families(spec.law))
+      throw InputError(field, "", "fiber angles need a law with fiber families (Gent-HGO, fiber-composite)");
     auto& fibers = spec.gent.fibers;
     if (fibers.empty()) throw InputError(field, "[]", "fiber angles given but no fiber family (k1, k2) to place");
     if (fibers.size() != 1 && fibers.size() != angles_deg.size())

@@ -58,7 +58,8 @@ bool sample_in_x(const std::vector<double>& mx, const std::vector<double>& my, c
 MaterialSpec CalibrationModel::spec(const std::vector<double>& v) const {
   MaterialSpec s;
   s.field_prefix = "model";
-  s.law = LawKind::gent_hgo;
+  s.law = GL >= 0 ? LawKind::fiber_composite : LawKind::gent_hgo;
+  if (GL >= 0) s.fiber_shear = {v[GL], v[GT], v[Ef]};
   s.gent.G = v[G];
   s.gent.Jm = v[Jm];
   s.gent.K = v[K];

@@ -224,13 +224,16 @@ const keys::KeyTable<NoKeys>& model_table() {
   static const keys::KeyTable<NoKeys> t = [] {
     keys::KeyTable<NoKeys> k("model", "The homogeneous Gent + HGO model; parameters: " + kParameterDoc + ".");
     auto r = read_below<NoKeys>();
-    k.custom("law", "string", "\"gent\" only (Gent matrix + HGO fibers)", r, "\"gent\"")
+    k.custom("law", "string", "\"gent\" (Gent matrix + HGO fibers) or \"fiber-composite\" (+ GL, GT)", r, "\"gent\"")
         .custom("G", kParameter, "shear modulus", r, "required", "> 0", "MPa")
         .custom("Jm", kParameter, "Gent locking parameter", r, "required", "> 0", "-")
         .custom("K", kParameter, "bulk modulus", r, "required", "> 0", "MPa")
         .custom("k1", kParameter, "HGO fiber stiffness (with fibers)", r, "required with fibers", ">= 0", "MPa")
         .custom("k2", kParameter, "HGO exponential coefficient (with fibers)", r, "required with fibers", ">= 0", "-")
         .custom("kappa", kParameter, "GOH fiber dispersion shared by all families", r, "0", "[0, 1/3]", "-")
+        .custom("GL", kParameter, "added fiber-matrix shear modulus (law = \"fiber-composite\")", r, "required with it", ">= 0", "MPa")
+        .custom("GT", kParameter, "added transverse shear modulus (law = \"fiber-composite\")", r, "required with it", ">= 0", "MPa")
+        .custom("Ef", kParameter, "stretch-linear fiber modulus (law = \"fiber-composite\")", r, "required with it", ">= 0", "MPa")
         .custom("fiber_invariant", "choice", "fiber invariant (with fibers)", r, "required with fibers",
                 "\"full\", \"isochoric\"")
         .custom("tension_only", "true/false", "fibers carry no compression (with fibers)", r, "true")
@@ -420,12 +423,24 @@ CalibrationModel parse_model(const toml::table& root) {
   NoKeys none;
   model_table().read(mt, "model", none);
   const std::string law = io::get_string_or(mt, "law", "model", "gent");
-  if (law != "gent" && law != "gent-hgo")
-    throw InputError("model.law", "\"" + law + "\"", "calibration supports the Gent + HGO (+ QLV) model only: law = \"gent\"");
+  const bool composite = law == "fiber-composite";
+  if (law != "gent" && law != "gent-hgo" && !composite)
+    throw InputError("model.law", "\"" + law + "\"",
+                     "calibration supports law = \"gent\" (Gent + HGO, + QLV) and \"fiber-composite\"");
   CalibrationModel m;
   m.G = add_parameter(m, mt, "G", "model", "G", true, 0.0, kInf);
   m.Jm = add_parameter(m, mt, "Jm", "model", "Jm", true, 0.0, kInf);
   m.K = add_parameter(m, mt, "K", "model", "K", true, 0.0, kInf);
+  if (composite) {
+    if (!mt.contains("fibers")) throw InputError("model.fibers", "", "law = \"fiber-composite\" needs [[model.fibers]]");
+    m.GL = add_parameter(m, mt, "GL", "model", "GL", false, 0.0, kInf);
+    m.GT = add_parameter(m, mt, "GT", "model", "GT", false, 0.0, kInf);
+    m.Ef = add_parameter(m, mt, "Ef", "model", "Ef", false, 0.0, kInf);
+  } else {
+    for (const char* k : {"GL", "GT", "Ef"})
+      if (mt.contains(k))
+        throw InputError(keys::join_key("model", k), keys::describe_value(*mt.get(k)), "a parameter of law = \"fiber-composite\" only");
+  }
   if (const toml::node* fibers = mt.get("fibers")) {
     parse_fibers(mt, *fibers, m);
   } else {

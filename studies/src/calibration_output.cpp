@@ -33,8 +33,11 @@ std::string material_toml(const CalibrationModel& model, const std::vector<doubl
     while (std::getline(h, line)) s << "# " << line << "\n";
   }
   s << "[material]\n";
-  s << "law = \"gent\"\n";
+  s << "law = \"" << (model.GL >= 0 ? "fiber-composite" : "gent") << "\"\n";
   s << "G = " << format_number(v[model.G]) << "\n";
+  if (model.GL >= 0)
+    s << "GL = " << format_number(v[model.GL]) << "\nGT = " << format_number(v[model.GT]) << "\nEf = " << format_number(v[model.Ef])
+      << "\n";
   s << "Jm = " << format_number(v[model.Jm]) << "\n";
   s << "K = " << format_number(v[model.K]) << "\n";
   if (!model.fibers.empty()) {

@@ -350,7 +350,8 @@ std::vector<std::pair<std::string, ElasticLawPtr>> all_laws() {
           {"Gent+2HGO isochoric", make_gent_hgo(ecoflex_aniso({d1, d2}, FiberInvariant::isochoric, false))},
           {"neo-Hookean", make_neo_hookean(NeoHookeanParams::from_young(10.0, 0.3))},
           {"Yeoh", make_yeoh(cpasmo_yeoh())},
-          {"Ogden", make_ogden(cpasmo_ogden())}};
+          {"Ogden", make_ogden(cpasmo_ogden())},
+          {"fiber composite", make_fiber_composite({ecoflex_aniso({d1, d2}, FiberInvariant::full, false), 0.011, 0.007, 0.9})}};
 }
 }  // namespace
 
@@ -582,7 +583,9 @@ TEST(ElasticLaws, VolumetricModulusIsTheAdditiveBulkTerm) {
       {"Gent+HGO", [&](double K) { return make_gent_hgo(ecoflex_aniso({d1}, FiberInvariant::full, true, K)); }},
       {"neo-Hookean", [](double K) { return make_neo_hookean({3.8, K}); }},
       {"Yeoh", [](double K) { return make_yeoh(cpasmo_yeoh(K)); }},
-      {"Ogden", [](double K) { return make_ogden(cpasmo_ogden(K)); }}};
+      {"Ogden", [](double K) { return make_ogden(cpasmo_ogden(K)); }},
+      {"fiber composite",
+       [&](double K) { return make_fiber_composite({ecoflex_aniso({d1}, FiberInvariant::full, false, K), 0.011, 0.007, 0.9}); }}};
   const PronySeries prony{0.5, {{0.3, 2.0}, {0.2, 20.0}}};
   std::mt19937 rng(77);
   for (const auto& [name, make] : laws)

@@ -81,6 +81,7 @@ TEST(QLV, AlgorithmicTangentMatchesFiniteDifferences) {
   const std::vector<std::pair<std::string, ElasticLawPtr>> laws = {
       {"Gent+2HGO K=2000", make_gent_hgo(aniso(2000.0))},
       {"Gent+2HGO K=0.1", make_gent_hgo(aniso(0.1))},  // deviatoric part carries the norm
+      {"fiber composite K=0.1", make_fiber_composite({aniso(0.1), 0.011, 0.007, 0.9})},
       {"neo-Hookean", make_neo_hookean({0.017, 0.05})},
       {"Ogden", make_ogden({{0.0111, 1.119e-5, 0.0114}, {2.393, 8.123, -2.168}, 0.1})}};
   const std::vector<PronySeries> series = {{0.5, {{0.5, 2.0}}}, three_terms()};

@@ -65,6 +65,7 @@ std::vector<SectionLaw> section_laws(double K) {
       {"Ogden", make_material(make_ogden({{0.0111, 1.119e-5, 0.0114}, {2.393, 8.123, -2.168}, K}))},
       {"HGO dispersed at 30°", make_material(make_gent_hgo(gent_fibers(K, {30.0}, 0.1)))},
       {"QLV Gent-HGO", make_material(make_gent_hgo(gent_fibers(K, {-40.0}, 0.0)), prony)},
+      {"fiber composite at 25°", make_material(make_fiber_composite({gent_fibers(K, {25.0}, 0.0), 0.6 * kG, 0.4 * kG, 2.0 * kK1}))},
   };
 }
 

@@ -33,6 +33,17 @@ struct GentHGOParams {
   bool tension_only = true;  ///< a family contributes only while I*_i > 1
 };
 
+/// Transversely isotropic fiber composite (materials/src/fiber_composite.cpp): Gent + HGO plus, per fiber
+/// family, a fiber–matrix shear term (GL/2)(I5 − I4²) and a transverse shear term GT (τ − 1),
+/// τ = (I1 I4 − I5)/(2 J √I4), and a fiber term linear in the fiber stretch, (Ef/2)(√I4 − 1)². Small-strain
+/// shear moduli: G + GL along the fibers, G + GT across them.
+struct FiberCompositeParams {
+  GentHGOParams base;  ///< the Gent matrix and the HGO families (at least one)
+  double GL = 0.0;     ///< added longitudinal (fiber–matrix) shear modulus [MPa]
+  double GT = 0.0;     ///< added transverse shear modulus [MPa]
+  double Ef = 0.0;     ///< stretch-linear fiber term (Ef/2)(√I4 − 1)², tension and compression [MPa]
+};
+
 /// Energy form of the compressible neo-Hookean law. Both have the small-strain moduli (μ, K).
 ///   isochoric: W = (μ/2)(Ī1 − 3) + W_V(J)                       (spec §3, the default)
 ///   lame_log:  W = (μ/2)(I1 − 3 − 2 ln J) + (λ/2)(ln J)², λ = K − 2μ/3
@@ -75,6 +86,7 @@ struct PronySeries {
 
 // Factories. Parameters are assumed validated (see library.hpp for the validating front end).
 ElasticLawPtr make_gent_hgo(const GentHGOParams& p);
+ElasticLawPtr make_fiber_composite(const FiberCompositeParams& p);
 ElasticLawPtr make_neo_hookean(const NeoHookeanParams& p);
 ElasticLawPtr make_yeoh(const YeohParams& p);
 ElasticLawPtr make_ogden(const OgdenParams& p);

@@ -12,7 +12,17 @@
 
 namespace softhom {
 
-enum class LawKind { gent_hgo, neo_hookean, yeoh, ogden };
+enum class LawKind { gent_hgo, neo_hookean, yeoh, ogden, fiber_composite };
+
+/// Laws whose material table takes [[fibers]] families (the spec's `gent` holds them).
+inline bool has_fiber_families(LawKind k) { return k == LawKind::gent_hgo || k == LawKind::fiber_composite; }
+
+/// The moduli the fiber-composite law adds to Gent + HGO (its Gent and HGO part is `gent`).
+struct FiberShearModuli {
+  double GL = 0.0;
+  double GT = 0.0;
+  double Ef = 0.0;
+};
 
 /// A material as described in input. `field_prefix` is prepended to field names in error messages
 /// (e.g. "material" or "phases.matrix").
@@ -21,6 +31,7 @@ struct MaterialSpec {
   std::string preset;  ///< name from spec §6, or empty
   LawKind law = LawKind::gent_hgo;
   GentHGOParams gent;
+  FiberShearModuli fiber_shear;  ///< fiber_composite only
   NeoHookeanParams neo_hookean;
   YeohParams yeoh;
   OgdenParams ogden;

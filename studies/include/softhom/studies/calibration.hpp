@@ -6,7 +6,8 @@
 // see exactly the same load.
 //
 // Input (`softhom calibrate CALIBRATION.toml`):
-//   [model]  law = "gent" (optional); G, Jm, K, k1, k2: a number (fixed) or {value, min, max} (free)
+//   [model]  law = "gent" (optional) or "fiber-composite" (with its GL, GT, Ef, and fibers);
+//            G, Jm, K, k1, k2: a number (fixed) or {value, min, max} (free)
 //            or {value, fixed = true}; fiber_invariant, tension_only as in a scene's [material];
 //            [[model.fibers]] angle_deg = number | {value, min, max}, plus_minus = false (true: two
 //            families at +θ and −θ sharing one angle parameter); all families share k1, k2 and the
@@ -67,6 +68,8 @@ struct CalibrationModel {
   std::vector<CalParameter> parameters;
   int G = -1, Jm = -1, K = -1, k1 = -1, k2 = -1;  ///< indices into parameters (k1, k2: -1 without fibers)
   int kappa = -1;  ///< GOH fiber dispersion shared by all families; -1: aligned fibers (κ = 0)
+  /// law = "fiber-composite": its added shear moduli GL, GT (shared by all families); -1 for Gent + HGO.
+  int GL = -1, GT = -1, Ef = -1;
   std::vector<CalFiber> fibers;
   FiberInvariant invariant = FiberInvariant::full;
   bool tension_only = true;
