@@ -694,6 +694,10 @@ StepAttempt Simulation::Impl::attempt_substep(double t_new, double dt) {
   extrapolate_step_ = true;
   update_pairing();  // from the converged state: the same pairing for a retry after a cut-back
   StepAttempt a = try_step(t_new, dt);
+  // A failed attempt's last factor is of an iterate off the path (an overshoot into a material limit):
+  // the retry, or the cut-back's smaller step, starts with a fresh one (on the fine aneurysm a lagged
+  // factor wasted five GMRES iterations on every cut-back before it was refreshed anyway).
+  if (!a.ok) factor_stale_ = true;
   if (!a.ok && !a.fatal && extrapolated_ && !stop_requested()) {
     // The secant start may overshoot where the response stiffens or softens abruptly: retry the same
     // step from the converged state before cutting it back (an expected event: noted once).
@@ -701,6 +705,7 @@ StepAttempt Simulation::Impl::attempt_substep(double t_new, double dt) {
                                   " from the secant predictor; retried from the converged state (noted once)");
     extrapolate_step_ = false;
     a = try_step(t_new, dt);
+    if (!a.ok) factor_stale_ = true;
   }
   const SolverTimes linear_after = linear_times();
   attempt_counts_.factorizations = linear_after.factorizations - linear_before.factorizations;
@@ -858,7 +863,7 @@ LinearSolverReport Simulation::Impl::linear_report() const {
   r.route = to_string(linear_choice_.route);
   r.preconditioner = to_string(linear_choice_.preconditioner);
   if (linear_choice_.preconditioner == Preconditioner::petsc_options) r.preconditioner += ": " + linear_choice_.user_pc_type;
-  r.description = petsc_ ? petsc_->description() : to_string(solver_->kind());
+  r.description = petsc_ ? petsc_->description() : direct_ ? direct_->description() : to_string(solver_->kind());
   const SolverTimes t = linear_times();
   r.krylov_iterations = stats_.krylov_iterations;
   r.factorizations = t.factorizations;

@@ -88,6 +88,9 @@ struct NewtonOptions {
   /// element operations). false: GMRES on the condensed u system (the condensed K/G ~ 1e5 tangent goes
   /// stale within a Newton step; see solver.cpp, linear_solve).
   bool saddle_krylov = true;
+  /// cholmod: steps whose symmetric part is indefinite factorize it by MUMPS's symmetric indefinite LDLᵀ
+  /// where the tangent is symmetric up to round-off (half the flops of UMFPACK's LU; false: LU there).
+  bool symmetric_indefinite = true;
   /// Factorizations predicted to cost more than this many flops are kept across Newton iterations and
   /// load steps (GMRES with the lagged factor); cheaper ones are redone for every tangent (direct solves).
   double lag_flops = 2e9;
