@@ -1,5 +1,6 @@
-// Linear algebra of fe::Simulation: factorizations (CHOLMOD of the symmetric part, UMFPACK LU past a
-// limit point), the right-preconditioned GMRES solves and the three-field element updates.
+// Linear algebra of fe::Simulation: factorizations (CHOLMOD of the symmetric part; past a limit point
+// MUMPS's LDLᵀ of it or UMFPACK LU), the right-preconditioned GMRES solves and the three-field element
+// updates.
 #include "simulation_impl.hpp"
 
 #include <omp.h>

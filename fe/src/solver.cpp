@@ -438,11 +438,18 @@ MaterialStatus Simulation::Impl::evaluate_iterate(int it, bool predictor, double
 
 MaterialStatus Simulation::Impl::line_search(double t_new, double dt, MaterialStatus st, NewtonIterate& n,
                                              Assembly& as) {
-  // Line search on the full assembly of the trial point (most steps accept α = 1, so no extra
+  // Line search on the assembly of the full step, with its tangent (most steps accept α = 1, so no extra
   // residual evaluation): backtrack when the trial is inadmissible (material failure) or, without a
   // cavity constraint, when s(α) = Δu·R(u + αΔu) is not reduced enough (energy criterion).
   const int ndof = model_.mesh.num_dofs();
   const bool mixed = !mix_bulk_.empty();
+  // Backtracked trials evaluate the residual alone; the accepted one then gets its tangent. Through the
+  // Gent locking of the fine aneurysm a third of the Newton iterations backtrack (77 trials in 99
+  // iterations), each a tangent assembly before (~85 % of its cost is the tangent).
+  auto with_tangent = [&](MaterialStatus status) {
+    if (n.backtracks == 0 || status != MaterialStatus::ok) return status;
+    return assemble(t_new, dt, true, n.u, n.p, as);
+  };
   for (;;) {
     bool ok = st == MaterialStatus::ok;
     double s = 0.0;
@@ -454,7 +461,7 @@ MaterialStatus Simulation::Impl::line_search(double t_new, double dt, MaterialSt
         if (dofs_.eq[d] >= 0) s += n.x1[dofs_.eq[d]] * as.R[d];
       ok = std::abs(s) <= 0.9 * std::abs(n.s0);
     }
-    if (ok || n.backtracks >= 6 || n.alpha < 0.05) return st;
+    if (ok || n.backtracks >= 6 || n.alpha < 0.05) return with_tangent(st);
     ++n.backtracks;
     ++stats_.line_search_backtracks;
     double next = 0.5 * n.alpha;
@@ -466,7 +473,7 @@ MaterialStatus Simulation::Impl::line_search(double t_new, double dt, MaterialSt
     }
     n.p = n.p_base + n.alpha * n.dp;
     if (mixed) mixed_update({}, n.alpha);
-    st = assemble(t_new, dt, true, n.u, n.p, as);
+    st = assemble(t_new, dt, false, n.u, n.p, as);
   }
 }
 

@@ -17,8 +17,9 @@
 // symmetric tangent solves directly). With the three-field iteration GMRES runs in the uncondensed
 // (u, p_e) space (linear_solve.cpp). Late Newton iterations test the residual before assembling a
 // tangent. The factor is CHOLMOD's LLᵀ of the tangent's symmetric part (the follower-pressure stiffness
-// is the only unsymmetric term), falling back to UMFPACK LU when the symmetric part is not positive
-// definite (past a limit point).
+// is the only unsymmetric term), falling back where the symmetric part is not positive definite (past a
+// limit point, or a Newton iterate off the path) to MUMPS's LDLᵀ of it for a tangent symmetric up to
+// round-off, to UMFPACK LU for another.
 #include <array>
 #include <functional>
 #include <memory>
