@@ -36,7 +36,7 @@ def draw(rows, stem):
             continue
         dofs = [int(r["dofs"]) for r in mine]
         ax.loglog(dofs, [float(r["cpu_per_iteration"]) for r in mine], marker + "-", label=f"{route}: CPU per iteration")
-        ax.loglog(dofs, [float(r["assembly_per_iteration"]) for r in mine], marker + ":", label=f"{route}: assembly (wall)")
+        ax.loglog(dofs, [float(r["wall_per_iteration"]) for r in mine], marker + ":", label=f"{route}: wall per iteration (loaded)")
     ax.set_xlabel("free dofs [-]")
     ax.set_ylabel("time per Newton iteration [s]")
     ax.set_title("Shell sphere octant under follower pressure")
