@@ -164,8 +164,10 @@ bool SparseDirectSolver::factorize(const CscMatrix& A) {
     // again in the next one.
     indefinite_this_step_ = fell_back_ = !ok;
   }
-  // The symmetric part's LDLᵀ where the skew part is round-off (the check is one pass over the entries).
-  if (!ok && symmetric_indefinite_ && relative_skew(A) <= kLdltSkew) {
+  // The symmetric part's LDLᵀ where the skew part is round-off (the check is one pass over the entries);
+  // never for the run's first factor, whose singularity check (a mechanism, a disconnected part) needs
+  // the pivot ratio that LU reports and MUMPS's LDLᵀ does not.
+  if (!ok && symmetric_indefinite_ && factorized_ && relative_skew(A) <= kLdltSkew) {
     if (!ldlt_) ldlt_ = make_symmetric_indefinite_solver();
     ok = factorize_with(*ldlt_, ldlt_analyzed_, A);
   }
@@ -173,6 +175,7 @@ bool SparseDirectSolver::factorize(const CscMatrix& A) {
     if (!lu_) lu_ = make_linear_solver(SolverKind::umfpack);
     ok = factorize_with(*lu_, lu_analyzed_, A);
   }
+  factorized_ = factorized_ || ok;
   sum_times();
   return ok;
 }

@@ -13,8 +13,8 @@ namespace softhom::fe {
 
 /// The factor of the direct routes: CHOLMOD's LLᵀ of the symmetric part (cholmod route) with, made on
 /// demand for the steps where that part is not positive definite, MUMPS's LDLᵀ of the symmetric part
-/// where the tangent is symmetric up to kLdltSkew (LinearSolverChoice::symmetric_indefinite), else
-/// UMFPACK's LU; or LU alone (umfpack route). Each factorization analyses its pattern once, at its first
+/// where the tangent is symmetric up to kLdltSkew (LinearSolverChoice::symmetric_indefinite) and a
+/// factorization succeeded before, else UMFPACK's LU; or LU alone (umfpack route). Each factorization analyses its pattern once, at its first
 /// use. times() sums all three.
 class SparseDirectSolver final : public LinearSolver {
  public:
@@ -52,6 +52,7 @@ class SparseDirectSolver final : public LinearSolver {
   bool symmetric_indefinite_ = false;
   bool cholesky_analyzed_ = false, ldlt_analyzed_ = false, lu_analyzed_ = false;
   bool indefinite_this_step_ = false, fell_back_ = false;
+  bool factorized_ = false;  ///< a factorization succeeded (the first one is never LDLᵀ)
   double last_flops_ = 0.0;
 };
 
