@@ -6,6 +6,7 @@
 // (t_end < 1 stops early: one step to a small pressure gives the cost of a Newton iteration)
 // (the .geo is meshed into $SOFTHOM_MESH_CACHE, or <temp>/softhom-mesh-cache, once).
 #include <chrono>
+#include <ctime>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -21,6 +22,13 @@ namespace {
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// CPU seconds of this process (all threads): comparable across runs on a shared machine.
+double cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
 /// The value of the probe `name` of the shell's report at the simulation's state.
@@ -50,8 +58,10 @@ int main(int argc, char** argv) {
   const double setup = seconds_since(t0);
   std::printf("%s\ntriangles %zu, free dofs %d, meshing + reading %.1f s, setup %.1f s\n", scene.c_str(),
               s.shell->triangles().size(), sim.num_free_dofs(), mesh_time, setup);
-  std::printf("%8s %10s %8s %10s %14s %14s\n", "t", "p [MPa]", "Newton", "wall [s]", "sac σ1 [MPa]", "sac λ1 [-]");
+  std::printf("%8s %10s %8s %10s %10s %10s %8s %14s %14s\n", "t", "p [MPa]", "Newton", "wall [s]", "CPU [s]", "step its",
+              "cuts", "sac σ1 [MPa]", "sac λ1 [-]");
   t0 = std::chrono::steady_clock::now();
+  const double cpu0 = cpu_seconds();
   bool ok = true;
   for (double t : m.times) {
     if (t <= 0.0) continue;
@@ -62,21 +72,23 @@ int main(int argc, char** argv) {
       ok = false;
       break;
     }
-    std::printf("%8.3f %10.5f %8d %10.1f %14.4g %14.4f\n", t, m.spec.load(t), sim.stats().newton_iterations,
-                seconds_since(t0), probe(s, sim, "shell sac max principal stress [MPa]"),
+    std::printf("%8.3f %10.5f %8d %10.1f %10.1f %10d %8d %14.4g %14.4f\n", t, m.spec.load(t), sim.stats().newton_iterations,
+                seconds_since(t0), cpu_seconds() - cpu0, a.counts.newton_iterations, a.counts.cutbacks,
+                probe(s, sim, "shell sac max principal stress [MPa]"),
                 probe(s, sim, "shell sac max principal stretch [-]"));
     if (t >= t_end) break;
   }
   const double wall = seconds_since(t0);
   const fe::RunStats st = sim.stats();
   const int it = std::max(1, st.newton_iterations);
-  std::printf("%s: %.1f s, %d Newton iterations (%d cut-backs), %.2f s per iteration\n", ok ? "reached" : "stopped", wall,
-              st.newton_iterations, st.cutbacks, wall / it);
+  const double cpu = cpu_seconds() - cpu0;
+  std::printf("%s: %.1f s wall, %.1f s CPU, %d Newton iterations (%d cut-backs), %.2f s wall per iteration\n",
+              ok ? "reached" : "stopped", wall, cpu, st.newton_iterations, st.cutbacks, wall / it);
   std::printf("assembly %.1f s (%d with tangent, %d residual only), "
-              "linear: analysis %.1f s, factorization %.1f s (%d), solves %.1f s; route %s\n",
+              "linear: analysis %.1f s, factorization %.1f s (%d), solves %.1f s (%d, %d GMRES iterations); %s: %s\n",
               st.assembly_time, st.tangent_assemblies, st.residual_assemblies,
-              st.linear.analysis, st.linear.factorization, st.linear.factorizations, st.linear.solve,
-              st.linear_solver.route.c_str());
+              st.linear.analysis, st.linear.factorization, st.linear.factorizations, st.linear.solve, st.linear.solves,
+              st.krylov_iterations, st.linear_solver.route.c_str(), st.linear_solver.description.c_str());
   std::printf("peak memory %.2f GiB\n", io::peak_memory_bytes() / 1073741824.0);
   return ok ? 0 : 1;
 }

@@ -1,5 +1,6 @@
-// Linear algebra of fe::Simulation: factorizations (CHOLMOD of the symmetric part, UMFPACK LU past a
-// limit point), the right-preconditioned GMRES solves and the three-field element updates.
+// Linear algebra of fe::Simulation: factorizations (CHOLMOD of the symmetric part; past a limit point
+// MUMPS's LDLᵀ of it or UMFPACK LU), the right-preconditioned GMRES solves and the three-field element
+// updates.
 #include "simulation_impl.hpp"
 
 #include <omp.h>
@@ -63,9 +64,10 @@ bool Simulation::Impl::refactor(std::string& why) {
   const bool exact_cholesky = symmetric(K_);
   const bool ok = direct_->factorize(K_);
   // Expected past a pressure maximum: noted once, not per step.
-  if (direct_->fell_back_to_lu() && !first_factorization_)
+  if (direct_->fell_back() && !first_factorization_)
     note_once("tangent indefinite", "the tangent's symmetric part is not positive definite from t = " + format_number(time_) +
-                                        " on (past a pressure maximum or near a buckling mode): UMFPACK LU for such steps (noted once)");
+                                        " on (past a pressure maximum, near a buckling mode, or a Newton iterate off the path): "
+                                        "MUMPS's LDLᵀ of a symmetric tangent, UMFPACK's LU of another, for such steps (noted once)");
   last_factor_flops_ = direct_->last_factor_flops();
   keep_saddle_of_factor(ok);
   factor_valid_ = ok;

@@ -3,6 +3,9 @@
 #include "linear_solver_factory.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
 #include <sstream>
 #include <vector>
 
@@ -76,6 +79,7 @@ LinearSolverChoice choose_linear_solver(const NewtonOptions& o, const LinearSyst
     c.route = kind == SolverKind::umfpack ? LinearRoute::umfpack : LinearRoute::cholmod;
     c.preconditioner = Preconditioner::sparse_factor;
     c.saddle_krylov = o.saddle_krylov && f.three_field;
+    c.symmetric_indefinite = c.route == LinearRoute::cholmod && o.symmetric_indefinite;
     return c;
   }
   c.route = LinearRoute::petsc;
@@ -101,13 +105,24 @@ LinearSolverChoice choose_linear_solver(const NewtonOptions& o, const LinearSyst
   return c;
 }
 
-SparseDirectSolver::SparseDirectSolver(LinearRoute route) {
+SparseDirectSolver::SparseDirectSolver(LinearRoute route, bool symmetric_indefinite)
+    : symmetric_indefinite_(symmetric_indefinite && route == LinearRoute::cholmod) {
   if (route == LinearRoute::cholmod) cholesky_ = make_linear_solver(SolverKind::cholmod);
+}
+
+double relative_skew(const CscMatrix& A) {
+  if (A.mirror.empty()) return std::numeric_limits<double>::infinity();  // no transposes known
+  double skew = 0.0, big = 0.0;
+  for (long k = 0; k < A.nnz(); ++k) {
+    big = std::max(big, std::abs(A.values[k]));
+    skew = std::max(skew, std::abs(A.values[k] - A.values[A.mirror[k]]));
+  }
+  return big > 0.0 ? skew / big : 0.0;
 }
 
 void SparseDirectSolver::sum_times() {
   times_ = {};
-  for (const LinearSolver* s : {cholesky_.get(), lu_.get()}) {
+  for (const LinearSolver* s : {cholesky_.get(), ldlt_.get(), lu_.get()}) {
     if (!s) continue;
     const SolverTimes& t = s->times();
     times_.analysis += t.analysis;
@@ -127,32 +142,54 @@ void SparseDirectSolver::analyze(const CscMatrix& A) {
   sum_times();
 }
 
+bool SparseDirectSolver::factorize_with(LinearSolver& s, bool& analyzed, const CscMatrix& A) {
+  if (!analyzed) {
+    s.analyze(A);
+    analyzed = true;
+  }
+  const double before = s.times().flops;
+  const bool ok = s.factorize(A);
+  current_ = &s;
+  last_flops_ = s.times().flops - before;
+  return ok;
+}
+
 bool SparseDirectSolver::factorize(const CscMatrix& A) {
   bool ok = false;
   fell_back_ = false;
   if (cholesky_now()) {
-    analyze(A);
-    const double before = cholesky_->times().flops;
-    ok = cholesky_->factorize(A);
-    current_ = cholesky_.get();
-    last_flops_ = cholesky_->times().flops - before;
-    // Not positive definite (an iterate past a limit point or near a buckling mode): LU for the rest of
-    // this step; Cholesky is tried again in the next one.
-    lu_this_step_ = fell_back_ = !ok;
+    ok = factorize_with(*cholesky_, cholesky_analyzed_, A);
+    // Not positive definite (an iterate past a limit point, near a buckling mode, or a Newton iterate off
+    // the equilibrium path): an indefinite factorization for the rest of this step; Cholesky is tried
+    // again in the next one.
+    indefinite_this_step_ = fell_back_ = !ok;
+  }
+  // The symmetric part's LDLᵀ where the skew part is round-off (the check is one pass over the entries);
+  // never for the run's first factor, whose singularity check (a mechanism, a disconnected part) needs
+  // the pivot ratio that LU reports and MUMPS's LDLᵀ does not.
+  if (!ok && symmetric_indefinite_ && factorized_ && relative_skew(A) <= kLdltSkew) {
+    if (!ldlt_) ldlt_ = make_symmetric_indefinite_solver();
+    ok = factorize_with(*ldlt_, ldlt_analyzed_, A);
   }
   if (!ok) {
     if (!lu_) lu_ = make_linear_solver(SolverKind::umfpack);
-    if (!lu_analyzed_) {
-      lu_->analyze(A);
-      lu_analyzed_ = true;
-    }
-    const double before = lu_->times().flops;
-    ok = lu_->factorize(A);
-    current_ = lu_.get();
-    last_flops_ = lu_->times().flops - before;
+    ok = factorize_with(*lu_, lu_analyzed_, A);
   }
+  factorized_ = factorized_ || ok;
   sum_times();
   return ok;
+}
+
+std::string SparseDirectSolver::description() const {
+  std::string out;
+  const std::pair<const LinearSolver*, const char*> parts[] = {{cholesky_.get(), "cholmod"}, {ldlt_.get(), "mumps-ldlt"}, {lu_.get(), "umfpack"}};
+  for (const auto& [s, name] : parts) {
+    if (!s || s->times().factorizations == 0) continue;
+    if (!out.empty()) out += " + ";
+    out += name;
+    out += " " + std::to_string(s->times().factorizations);
+  }
+  return out.empty() ? to_string(kind()) : out;
 }
 
 void SparseDirectSolver::solve(const std::vector<double>& b, std::vector<double>& x) {
@@ -171,7 +208,7 @@ double SparseDirectSolver::reciprocal_condition() const { return current_ ? curr
 
 std::unique_ptr<LinearSolver> make_macro_linear_solver(const LinearSolverChoice& choice, const Mesh& mesh, const DofMap& dofs) {
   if (choice.route == LinearRoute::petsc) return std::make_unique<PetscSolver>(mesh, dofs, choice);
-  return std::make_unique<SparseDirectSolver>(choice.route);
+  return std::make_unique<SparseDirectSolver>(choice.route, choice.symmetric_indefinite);
 }
 
 }  // namespace softhom::fe

@@ -4,8 +4,9 @@
 // (NewtonOptions) and facts of the mesh by a pure function, and what a run reports of it.
 //
 // Routes and their preconditioners (every one is the best measured for some case, BENCHMARKS.md):
-// - cholmod: CHOLMOD's LLᵀ of the tangent's symmetric part, UMFPACK's LU in steps where that part is
-//   indefinite; a direct solve, or GMRES preconditioned by a factor kept across Newton iterations where
+// - cholmod: CHOLMOD's LLᵀ of the tangent's symmetric part; in steps where that part is indefinite,
+//   MUMPS's LDLᵀ of it where the tangent is symmetric up to round-off (a follower pressure on a surface
+//   held on its boundary), UMFPACK's LU otherwise; a direct solve, or GMRES preconditioned by a factor kept across Newton iterations where
 //   a factorization costs more than NewtonOptions::lag_flops (with three-field elements on the
 //   uncondensed (u, p_e) space unless saddle_krylov is off).
 // - umfpack: UMFPACK's LU throughout.
@@ -64,6 +65,9 @@ struct LinearSolverChoice {
   Preconditioner preconditioner = Preconditioner::sparse_factor;
   /// cholmod: GMRES with a lagged factor runs on the uncondensed (u, p_e) space (three-field elements).
   bool saddle_krylov = false;
+  /// cholmod: steps whose symmetric part is indefinite factorize it by MUMPS's LDLᵀ where the tangent is
+  /// symmetric up to round-off (NewtonOptions::symmetric_indefinite), by UMFPACK's LU otherwise.
+  bool symmetric_indefinite = false;
   // The petsc route.
   std::string user_pc_type;     ///< the -pc_type of petsc_options ("" when it sets none)
   bool field_split = false;     ///< the (u, p) Schur split (with three-field elements): nest, augmentation

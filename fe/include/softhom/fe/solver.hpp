@@ -17,8 +17,9 @@
 // symmetric tangent solves directly). With the three-field iteration GMRES runs in the uncondensed
 // (u, p_e) space (linear_solve.cpp). Late Newton iterations test the residual before assembling a
 // tangent. The factor is CHOLMOD's LLᵀ of the tangent's symmetric part (the follower-pressure stiffness
-// is the only unsymmetric term), falling back to UMFPACK LU when the symmetric part is not positive
-// definite (past a limit point).
+// is the only unsymmetric term), falling back where the symmetric part is not positive definite (past a
+// limit point, or a Newton iterate off the path) to MUMPS's LDLᵀ of it for a tangent symmetric up to
+// round-off, to UMFPACK LU for another.
 #include <array>
 #include <functional>
 #include <memory>
@@ -88,6 +89,9 @@ struct NewtonOptions {
   /// element operations). false: GMRES on the condensed u system (the condensed K/G ~ 1e5 tangent goes
   /// stale within a Newton step; see solver.cpp, linear_solve).
   bool saddle_krylov = true;
+  /// cholmod: steps whose symmetric part is indefinite factorize it by MUMPS's symmetric indefinite LDLᵀ
+  /// where the tangent is symmetric up to round-off (half the flops of UMFPACK's LU; false: LU there).
+  bool symmetric_indefinite = true;
   /// Factorizations predicted to cost more than this many flops are kept across Newton iterations and
   /// load steps (GMRES with the lagged factor); cheaper ones are redone for every tangent (direct solves).
   double lag_flops = 2e9;
