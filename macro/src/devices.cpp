@@ -1,10 +1,12 @@
 #include "softhom/macro/devices.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <numeric>
 
 #include "softhom/core/keys.hpp"
+#include "softhom/fe/surface_contact.hpp"
 #include "softhom/materials/errors.hpp"
 
 namespace softhom::macro {
@@ -42,6 +44,26 @@ double mean_distance(const std::vector<Vec3>& x, const std::vector<int>& nodes) 
   double sum = 0.0;
   for (int n : nodes) sum += (x[n] - c).norm();
   return nodes.empty() ? 0.0 : sum / double(nodes.size());
+}
+
+/// A fixed plane through the z axis (normal horizontal, the origin on it): a mirror plane of the gripper.
+bool is_axial_mirror_plane(const fe::RigidObstacle& o) {
+  const double tol = 1e-9 * (1.0 + o.point.norm());
+  bool fixed = true;
+  for (const PiecewiseLinear& u : o.path)
+    for (double v : u.v) fixed = fixed && v == 0.0;
+  return o.shape == fe::RigidObstacle::Shape::plane && fixed && std::abs(o.direction[2]) < 1e-9 &&
+         std::abs(o.point.dot(o.direction)) < tol;
+}
+
+/// device.csv's stem for a contact between surfaces: its TOML path as a name, contact.pairs[1] → contact_pairs_1.
+std::string contact_label(const std::string& field) {
+  std::string out;
+  for (char c : field)
+    if (std::isalnum(static_cast<unsigned char>(c))) out += c;
+    else if (!out.empty() && out.back() != '_') out += '_';
+  while (!out.empty() && out.back() == '_') out.pop_back();
+  return out;
 }
 
 void require_surface(const fe::Mesh& mesh, const std::string& name, const std::string& field) {
@@ -108,14 +130,36 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
       f.angle0 = std::atan2(-d.dot(f.radial), d[2]);
       fingers_.push_back(std::move(f));
     }
-    for (const auto& c : structure.model.contributions)
-      if (const auto* contact = dynamic_cast<const fe::ObstacleContact*>(c.get())) contacts_.push_back(contact);
+    if (!spec.sample_surface.empty()) {
+      require_surface(mesh, spec.sample_surface, "device.sample_surface");
+      sample_ = fe::surface_nodes(mesh, spec.sample_surface);
+      sample_reach0_ = sample_reach(X);
+      if (!(sample_reach0_ > 0.0))
+        throw InputError("device.sample_surface", "\"" + spec.sample_surface + "\"",
+                         "the sample does not reach out from the axis towards the fingers");
+    }
+    for (const auto& c : structure.model.contributions) {
+      if (const auto* contact = dynamic_cast<const fe::ObstacleContact*>(c.get()))
+        contacts_.push_back({contact->options().label, contact, is_axial_mirror_plane(contact->obstacle())});
+      else if (dynamic_cast<const fe::SurfaceContact*>(c.get()))
+        contacts_.push_back({contact_label(c->name()), c.get(), false});
+    }
   } else if (spec.kind == DeviceKind::tube) {
     tube_ = std::make_shared<const TubeGauge>(mesh, "device.kind");
   } else if (spec.kind == DeviceKind::bending) {
     bending_ = std::make_shared<const BendingGauge>(mesh, "device.kind");
   }
   volume0_ = channel_volume(X);
+}
+
+double DeviceProbe::sample_reach(const std::vector<Vec3>& x) const {
+  double sum = 0.0;
+  for (const Finger& f : fingers_) {
+    double reach = -1e300;
+    for (int n : sample_) reach = std::max(reach, x[n].dot(f.radial));
+    sum += reach;
+  }
+  return fingers_.empty() ? 0.0 : sum / double(fingers_.size());
 }
 
 double DeviceProbe::channel_volume(const std::vector<Vec3>& x) const {
@@ -134,8 +178,14 @@ std::vector<std::string> DeviceProbe::columns() const {
     c.push_back("finger_angle_deg");
     for (const auto& t : spec_.tips) c.push_back("finger_angle_" + t + "_deg");
     c.push_back("tip_axis_distance_mm");
-    for (const fe::ObstacleContact* contact : contacts_) c.push_back(contact->options().label + "_normal_force_N");
-    if (!contacts_.empty()) c.push_back("grip_force_N");
+    bool fingers = false, sample = false;
+    for (const GripContact& contact : contacts_) {
+      c.push_back(contact.label + "_normal_force_N");
+      (contact.between_fingers ? fingers : sample) = true;
+    }
+    if (fingers) c.push_back("finger_contact_force_N");
+    if (sample) c.push_back("grip_force_N");
+    if (!sample_.empty()) c.insert(c.end(), {"sample_reach_mm", "sample_compression_percent"});
   } else if (spec_.kind == DeviceKind::tube) {
     for (const std::string& n : TubeGauge::columns()) c.push_back(n);
   } else if (spec_.kind == DeviceKind::bending) {
@@ -182,6 +232,10 @@ std::vector<double> DeviceProbe::values(const fe::Simulation& sim) const {
     row.insert(row.end(), angles.begin(), angles.end());
     row.push_back(distance);
     for (double f : grip_forces(sim)) row.push_back(f);
+    if (!sample_.empty()) {
+      const double reach = sample_reach(x);
+      row.insert(row.end(), {reach, 100.0 * (1.0 - reach / sample_reach0_)});
+    }
   } else if (tube_) {
     for (double q : tube_->values(X, x)) row.push_back(q);
   } else if (bending_) {
@@ -193,13 +247,20 @@ std::vector<double> DeviceProbe::values(const fe::Simulation& sim) const {
 std::vector<double> DeviceProbe::grip_forces(const fe::Simulation& sim) const {
   if (contacts_.empty()) return {};
   std::vector<double> out;
-  double sum = 0.0, fingers = 0.0;
-  for (const fe::ObstacleContact* c : contacts_) {
-    out.push_back(c->totals(structure_->model.mesh, sim.converged_iterate(*c)).normal_force);
-    sum += out.back();
+  double sample = 0.0, between = 0.0, fingers = 0.0;
+  int planes = 0;
+  const fe::Mesh& mesh = structure_->model.mesh;
+  for (const GripContact& c : contacts_) {
+    const fe::Iterate it = sim.converged_iterate(*c.contribution);
+    const auto* obstacle = dynamic_cast<const fe::ObstacleContact*>(c.contribution);
+    out.push_back(obstacle ? obstacle->totals(mesh, it).normal_force
+                           : static_cast<const fe::SurfaceContact*>(c.contribution)->totals(mesh, it).normal_force);
+    if (c.between_fingers) between += out.back(), ++planes;
+    else sample += out.back();
   }
   for (const Finger& f : fingers_) fingers += f.share;
-  out.push_back(fingers > 0.0 ? sum / fingers : 0.0);
+  if (planes > 0) out.push_back(between / planes);
+  if (planes < int(contacts_.size())) out.push_back(fingers > 0.0 ? sample / fingers : 0.0);
   return out;
 }
 
