@@ -1,7 +1,6 @@
 #include "softhom/macro/devices.hpp"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <numeric>
 
@@ -56,14 +55,15 @@ bool is_axial_mirror_plane(const fe::RigidObstacle& o) {
          std::abs(o.point.dot(o.direction)) < tol;
 }
 
-/// device.csv's stem for a contact between surfaces: its TOML path as a name, contact.pairs[1] → contact_pairs_1.
-std::string contact_label(const std::string& field) {
-  std::string out;
-  for (char c : field)
-    if (std::isalnum(static_cast<unsigned char>(c))) out += c;
-    else if (!out.empty() && out.back() != '_') out += '_';
-  while (!out.empty() && out.back() == '_') out.pop_back();
-  return out;
+/// The response.csv label of a contact between surfaces (macro/src/surface_contact.cpp names them so):
+/// contact.pairs[k] → contact_pair_k, contact.self[k] → contact_self_k, without the index when it is the
+/// only one of its kind.
+std::string contact_label(const std::string& field, int of_its_kind) {
+  const bool self = field.rfind("contact.self", 0) == 0;
+  const std::string stem = self ? "contact_self" : "contact_pair";
+  const auto open = field.find('['), close = field.find(']');
+  if (of_its_kind == 1 || open == std::string::npos || close == std::string::npos) return stem;
+  return stem + "_" + field.substr(open + 1, close - open - 1);
 }
 
 void require_surface(const fe::Mesh& mesh, const std::string& name, const std::string& field) {
@@ -109,7 +109,6 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
       // The finger's radial direction: its centroid's azimuth snapped to the finger pitch (a finger cut
       // by a symmetry plane has its centroid off its mid-plane).
       const double azimuth = std::atan2(c[1], c[0]), phi = pitch * std::round(azimuth / pitch);
-      f.share = std::abs(azimuth - phi) > 1e-6 ? 0.5 : 1.0;
       f.radial = Vec3(std::cos(phi), std::sin(phi), 0.0);
       const Vec3 tangent(-f.radial[1], f.radial[0], 0.0);
       double r_lo = 1e300, r_hi = -1e300, t_lo = 1e300, t_hi = -1e300;
@@ -117,6 +116,9 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
         r_lo = std::min(r_lo, X[n].dot(f.radial)), r_hi = std::max(r_hi, X[n].dot(f.radial));
         t_lo = std::min(t_lo, X[n].dot(tangent)), t_hi = std::max(t_hi, X[n].dot(tangent));
       }
+      // Cut by a mirror plane through its middle: its tip reaches out on one side of the finger's
+      // mid-plane only (an unstructured mesh's nodal centroid is never exactly on it).
+      f.share = std::abs(t_hi + t_lo) > 0.25 * (t_hi - t_lo) ? 0.5 : 1.0;
       const double tol = 1e-6 * (1.0 + r_hi - r_lo);
       for (int n = 0; n < int(X.size()); ++n) {
         const double r = X[n].dot(f.radial), t = X[n].dot(tangent);
@@ -138,11 +140,14 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
         throw InputError("device.sample_surface", "\"" + spec.sample_surface + "\"",
                          "the sample does not reach out from the axis towards the fingers");
     }
+    int pairs = 0, selves = 0;
+    for (const auto& c : structure.model.contributions)
+      if (dynamic_cast<const fe::SurfaceContact*>(c.get())) (c->name().rfind("contact.self", 0) == 0 ? selves : pairs) += 1;
     for (const auto& c : structure.model.contributions) {
       if (const auto* contact = dynamic_cast<const fe::ObstacleContact*>(c.get()))
         contacts_.push_back({contact->options().label, contact, is_axial_mirror_plane(contact->obstacle())});
       else if (dynamic_cast<const fe::SurfaceContact*>(c.get()))
-        contacts_.push_back({contact_label(c->name()), c.get(), false});
+        contacts_.push_back({contact_label(c->name(), c->name().rfind("contact.self", 0) == 0 ? selves : pairs), c.get(), false});
     }
   } else if (spec.kind == DeviceKind::tube) {
     tube_ = std::make_shared<const TubeGauge>(mesh, "device.kind");
