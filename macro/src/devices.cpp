@@ -149,6 +149,11 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
       else if (dynamic_cast<const fe::SurfaceContact*>(c.get()))
         contacts_.push_back({contact_label(c->name(), c->name().rfind("contact.self", 0) == 0 ? selves : pairs), c.get(), false});
     }
+    for (const GripContact& contact : contacts_)
+      if (contact.between_fingers && spec.stop_distance > 0.0)
+        throw InputError("device.stop_distance", format_number(spec.stop_distance),
+                         "the stop before the fingers touch is for scenes without their contact; " + contact.label +
+                             " is a mirror plane through the axis, where the fingers touch (give 0)");
   } else if (spec.kind == DeviceKind::tube) {
     tube_ = std::make_shared<const TubeGauge>(mesh, "device.kind");
   } else if (spec.kind == DeviceKind::bending) {

@@ -147,3 +147,23 @@ TEST(GripperContact, HoldsASoftSample) {
     for (const char* col : {"contact_pair_0_max_penetration [mm]", "contact_pair_1_max_penetration [mm]"})
       EXPECT_LT(run.response.at(r, col), 0.117) << col << " row " << r;
 }
+
+// The stop before the fingers touch belongs to scenes without their contact: with the mirror planes it
+// is refused (exit 2, naming the key), nothing run.
+TEST(GripperContact, StopDistanceRefusedWithFingerContact) {
+  std::ifstream in(fs::path(SOFTHOM_SOURCE_DIR) / "studies/devices/gripper_contact_coarse.toml");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string text = ss.str();
+  const std::string geo = "geo = \"../meshes/", size = "mesh_size = 0.5", root = "root_z = 1.5";
+  text.replace(text.find(geo), geo.size(), "geo = \"" + (fs::path(SOFTHOM_SOURCE_DIR) / "studies/meshes").string() + "/");
+  text.replace(text.find(size), size.size(), "mesh_size = 1.0");
+  text.replace(text.find(root), root.size(), "stop_distance = 0.5\nroot_z = 1.5");
+  const auto out = fresh_dir("contact-stop");
+  const auto r = run_softhom("macro " + write_temp_scene("contact-stop-" + std::to_string(::getpid()), text) + " --out " +
+                                 out.string() + " -q",
+                             "SOFTHOM_MESH_CACHE=" + (out / "mesh").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("device.stop_distance"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(out / "device.csv"));
+}
