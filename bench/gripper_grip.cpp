@@ -1,11 +1,12 @@
-// The cost of contact on the gripper holding a rigid sample (studies/devices/gripper_grip_rigid_*.toml):
-// the scene is run through its load steps once with its obstacle contacts and once without them (the
-// free gripper, up to the step before the fingers reach the sample's place). Per load step: Newton
-// iterations, cut-backs, CPU time, CPU time per Newton iteration, the grip force (device.csv's
-// grip_force_N) and the tip-to-axis distance; then the mean Newton iterations per step before and after
-// the first contact, the time per Newton iteration of both runs over the steps they share, and the
-// contacts' own assembly (residual and tangent of every obstacle contact, timed alone at the final state)
-// against the whole assembly of one Newton iteration.
+// The cost of contact on the gripper holding a sample or closing past its fingers' first contact
+// (studies/devices/gripper_grip_rigid_*.toml, gripper_contact_*.toml, gripper_sample_*.toml): the scene is
+// run through its load steps once with its contacts (rigid obstacles and pairs between surfaces) and once
+// without them (the free gripper, up to the step before the first contact). Per load step: Newton
+// iterations, cut-backs, CPU time, CPU time per Newton iteration, the contact force (device.csv's
+// grip_force_N plus finger_contact_force_N) and the tip-to-axis distance; then the mean Newton
+// iterations per step before and after the first contact, the time per Newton iteration of both runs
+// over the steps they share, and the contacts' own assembly (residual and tangent of every contact,
+// timed alone at the final state) against the whole assembly of one Newton iteration.
 //
 //   bench_gripper_grip [SCENE.toml] [MESH_SIZE]     (default: studies/devices/gripper_grip_rigid_coarse.toml
 //                                                    from the source tree, at its mesh size)
@@ -21,6 +22,7 @@
 
 #include "softhom/fe/contact.hpp"
 #include "softhom/fe/solver.hpp"
+#include "softhom/fe/surface_contact.hpp"
 #include "softhom/io/scene.hpp"
 #include "softhom/macro/devices.hpp"
 #include "softhom/macro/mesh_generation.hpp"
@@ -62,7 +64,7 @@ std::vector<StepRow> run(const macro::MacroScene& ms, const macro::Structure& st
       if (columns[c] == name) return int(c);
     return -1;
   };
-  const int grip = column("grip_force_N"), tip = column("tip_axis_distance_mm");
+  const int grip = column("grip_force_N"), between = column("finger_contact_force_N"), tip = column("tip_axis_distance_mm");
   std::vector<StepRow> rows;
   for (std::size_t k = 0; k < ms.times.size() && k < last; ++k) {
     const double t0 = cpu_seconds();
@@ -75,7 +77,7 @@ std::vector<StepRow> run(const macro::MacroScene& ms, const macro::Structure& st
     row.reached = r.reached();
     const std::vector<double> v = probe.values(sim);
     row.pressure_kPa = v[1];
-    row.grip_N = grip >= 0 ? v[grip] : 0.0;
+    row.grip_N = (grip >= 0 ? v[grip] : 0.0) + (between >= 0 ? v[between] : 0.0);
     row.tip_mm = tip >= 0 ? v[tip] : 0.0;
     rows.push_back(row);
     if (!row.reached) break;
@@ -85,7 +87,7 @@ std::vector<StepRow> run(const macro::MacroScene& ms, const macro::Structure& st
 
 void print(const char* title, const std::vector<StepRow>& rows) {
   std::printf("%s\n%8s %6s %8s %9s %10s %10s %9s\n", title, "p_kPa", "newton", "cutbacks", "cpu_s", "cpu/newton",
-              "grip_N", "tip_mm");
+              "contact_N", "tip_mm");
   for (const StepRow& r : rows)
     std::printf("%8.1f %6d %8d %9.2f %10.3f %10.4g %9.4f%s\n", r.pressure_kPa, r.newton, r.cutbacks, r.seconds,
                 r.newton ? r.seconds / r.newton : 0.0, r.grip_N, r.tip_mm, r.reached ? "" : "  (not reached)");
@@ -99,14 +101,20 @@ int main(int argc, char** argv) {
   if (argc > 2) scene["geometry"].as_table()->insert_or_assign("mesh_size", std::atof(argv[2]));
   const macro::MacroScene ms = macro::parse_macro_scene(scene, scene_file, macro::mesh_cache_dir({}));
   const macro::Structure with = macro::build_structure(ms.spec);
-  std::vector<std::shared_ptr<const fe::ObstacleContact>> contacts;
+  std::vector<std::shared_ptr<const fe::Contribution>> contacts;
+  int points = 0;
   macro::Structure without = with;
   without.model.contributions.clear();
   for (const auto& c : with.model.contributions) {
-    if (auto oc = std::dynamic_pointer_cast<const fe::ObstacleContact>(c)) contacts.push_back(oc);
-    else without.model.contributions.push_back(c);
+    if (auto oc = std::dynamic_pointer_cast<const fe::ObstacleContact>(c)) points += oc->num_points();
+    else if (auto sc = std::dynamic_pointer_cast<const fe::SurfaceContact>(c)) points += sc->num_points();
+    else {
+      without.model.contributions.push_back(c);
+      continue;
+    }
+    contacts.push_back(c);
   }
-  std::printf("scene %s: %d nodes, %d elements, %zu obstacle contacts\n", scene_file.string().c_str(),
+  std::printf("scene %s: %d nodes, %d elements, %zu contacts\n", scene_file.string().c_str(),
               with.model.mesh.num_nodes(), with.model.mesh.num_elements(), contacts.size());
 
   fe::Simulation sim(with.model, ms.newton);
@@ -149,8 +157,6 @@ int main(int argc, char** argv) {
     for (const auto& c : contacts) c->assemble(with.model.mesh, sim.converged_iterate(*c), sink);
   const double contact_seconds = (cpu_seconds() - tc) / reps;
   const double assembly = st.tangent_assemblies ? st.assembly_time / (st.tangent_assemblies + st.residual_assemblies) : 0.0;
-  int points = 0;
-  for (const auto& c : contacts) points += c->num_points();
   std::printf("assembly of the contacts alone: %.1f us CPU per evaluation (%d points); whole assembly %.4f s wall per "
               "evaluation (%d with tangent, %d residual only); linear solves %.1f s wall of the run\n",
               1e6 * contact_seconds, points, assembly, st.tangent_assemblies, st.residual_assemblies,

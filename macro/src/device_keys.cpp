@@ -7,7 +7,7 @@ namespace softhom::macro {
 const keys::KeyTable<DeviceSpec>& device_table() {
   using O = DeviceSpec;
   static const keys::KeyTable<O> t = [] {
-    keys::KeyTable<O> k("device", "device outputs on the mesh's physical surfaces, written to device.csv (cpasmo: heights and well expansion by region; gripper: finger angle, stop before the fingers touch; tube: axial and radial stretch, twist; bending: end rotation and tip displacement). Gmsh meshes; tube and bending also generated tubes and actuators.");
+    keys::KeyTable<O> k("device", "device outputs on the mesh's physical surfaces, written to device.csv (cpasmo: heights and well expansion by region; gripper: finger angle, contact forces, a held sample's compression, stop before the fingers touch; tube: axial and radial stretch, twist; bending: end rotation and tip displacement). Gmsh meshes; tube and bending also generated tubes and actuators.");
     k.choice("kind", &O::kind, {{"cpasmo", DeviceKind::cpasmo}, {"gripper", DeviceKind::gripper}, {"tube", DeviceKind::tube}, {"bending", DeviceKind::bending}},
              "which device's quantities (macro/devices.hpp)")
         .required()
@@ -26,7 +26,9 @@ const keys::KeyTable<DeviceSpec>& device_table() {
         .integer("fingers", &O::fingers, keys::closed_range(1, 360), "", "gripper: fingers equally spaced about the z axis")
         .number("root_z", &O::root_z, keys::any_value(), "mm", "gripper: height of the fingers' roots (top of the base)")
         .number("stop_distance", &O::stop_distance, keys::at_least(0), "mm",
-                "gripper: stop when a fingertip node is this close to the z axis (0: never)");
+                "gripper: stop when a fingertip node is this close to the z axis (0: never)")
+        .text("sample_surface", &O::sample_surface,
+              "gripper: the surface of a held deformable sample (a Gmsh physical surface); adds its reach towards the fingers and its compression");
     return k;
   }();
   return t;

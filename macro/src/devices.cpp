@@ -5,6 +5,7 @@
 #include <numeric>
 
 #include "softhom/core/keys.hpp"
+#include "softhom/fe/surface_contact.hpp"
 #include "softhom/materials/errors.hpp"
 
 namespace softhom::macro {
@@ -42,6 +43,27 @@ double mean_distance(const std::vector<Vec3>& x, const std::vector<int>& nodes) 
   double sum = 0.0;
   for (int n : nodes) sum += (x[n] - c).norm();
   return nodes.empty() ? 0.0 : sum / double(nodes.size());
+}
+
+/// A fixed plane through the z axis (normal horizontal, the origin on it): a mirror plane of the gripper.
+bool is_axial_mirror_plane(const fe::RigidObstacle& o) {
+  const double tol = 1e-9 * (1.0 + o.point.norm());
+  bool fixed = true;
+  for (const PiecewiseLinear& u : o.path)
+    for (double v : u.v) fixed = fixed && v == 0.0;
+  return o.shape == fe::RigidObstacle::Shape::plane && fixed && std::abs(o.direction[2]) < 1e-9 &&
+         std::abs(o.point.dot(o.direction)) < tol;
+}
+
+/// The response.csv label of a contact between surfaces (macro/src/surface_contact.cpp names them so):
+/// contact.pairs[k] → contact_pair_k, contact.self[k] → contact_self_k, without the index when it is the
+/// only one of its kind.
+std::string contact_label(const std::string& field, int of_its_kind) {
+  const bool self = field.rfind("contact.self", 0) == 0;
+  const std::string stem = self ? "contact_self" : "contact_pair";
+  const auto open = field.find('['), close = field.find(']');
+  if (of_its_kind == 1 || open == std::string::npos || close == std::string::npos) return stem;
+  return stem + "_" + field.substr(open + 1, close - open - 1);
 }
 
 void require_surface(const fe::Mesh& mesh, const std::string& name, const std::string& field) {
@@ -87,7 +109,6 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
       // The finger's radial direction: its centroid's azimuth snapped to the finger pitch (a finger cut
       // by a symmetry plane has its centroid off its mid-plane).
       const double azimuth = std::atan2(c[1], c[0]), phi = pitch * std::round(azimuth / pitch);
-      f.share = std::abs(azimuth - phi) > 1e-6 ? 0.5 : 1.0;
       f.radial = Vec3(std::cos(phi), std::sin(phi), 0.0);
       const Vec3 tangent(-f.radial[1], f.radial[0], 0.0);
       double r_lo = 1e300, r_hi = -1e300, t_lo = 1e300, t_hi = -1e300;
@@ -95,6 +116,9 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
         r_lo = std::min(r_lo, X[n].dot(f.radial)), r_hi = std::max(r_hi, X[n].dot(f.radial));
         t_lo = std::min(t_lo, X[n].dot(tangent)), t_hi = std::max(t_hi, X[n].dot(tangent));
       }
+      // Cut by a mirror plane through its middle: its tip reaches out on one side of the finger's
+      // mid-plane only (an unstructured mesh's nodal centroid is never exactly on it).
+      f.share = std::abs(t_hi + t_lo) > 0.25 * (t_hi - t_lo) ? 0.5 : 1.0;
       const double tol = 1e-6 * (1.0 + r_hi - r_lo);
       for (int n = 0; n < int(X.size()); ++n) {
         const double r = X[n].dot(f.radial), t = X[n].dot(tangent);
@@ -108,14 +132,44 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
       f.angle0 = std::atan2(-d.dot(f.radial), d[2]);
       fingers_.push_back(std::move(f));
     }
+    if (!spec.sample_surface.empty()) {
+      require_surface(mesh, spec.sample_surface, "device.sample_surface");
+      sample_ = fe::surface_nodes(mesh, spec.sample_surface);
+      sample_reach0_ = sample_reach(X);
+      if (!(sample_reach0_ > 0.0))
+        throw InputError("device.sample_surface", "\"" + spec.sample_surface + "\"",
+                         "the sample does not reach out from the axis towards the fingers");
+    }
+    int pairs = 0, selves = 0;
     for (const auto& c : structure.model.contributions)
-      if (const auto* contact = dynamic_cast<const fe::ObstacleContact*>(c.get())) contacts_.push_back(contact);
+      if (dynamic_cast<const fe::SurfaceContact*>(c.get())) (c->name().rfind("contact.self", 0) == 0 ? selves : pairs) += 1;
+    for (const auto& c : structure.model.contributions) {
+      if (const auto* contact = dynamic_cast<const fe::ObstacleContact*>(c.get()))
+        contacts_.push_back({contact->options().label, contact, is_axial_mirror_plane(contact->obstacle())});
+      else if (dynamic_cast<const fe::SurfaceContact*>(c.get()))
+        contacts_.push_back({contact_label(c->name(), c->name().rfind("contact.self", 0) == 0 ? selves : pairs), c.get(), false});
+    }
+    for (const GripContact& contact : contacts_)
+      if (contact.between_fingers && spec.stop_distance > 0.0)
+        throw InputError("device.stop_distance", format_number(spec.stop_distance),
+                         "the stop before the fingers touch is for scenes without their contact; " + contact.label +
+                             " is a mirror plane through the axis, where the fingers touch (give 0)");
   } else if (spec.kind == DeviceKind::tube) {
     tube_ = std::make_shared<const TubeGauge>(mesh, "device.kind");
   } else if (spec.kind == DeviceKind::bending) {
     bending_ = std::make_shared<const BendingGauge>(mesh, "device.kind");
   }
   volume0_ = channel_volume(X);
+}
+
+double DeviceProbe::sample_reach(const std::vector<Vec3>& x) const {
+  double sum = 0.0;
+  for (const Finger& f : fingers_) {
+    double reach = -1e300;
+    for (int n : sample_) reach = std::max(reach, x[n].dot(f.radial));
+    sum += reach;
+  }
+  return fingers_.empty() ? 0.0 : sum / double(fingers_.size());
 }
 
 double DeviceProbe::channel_volume(const std::vector<Vec3>& x) const {
@@ -134,8 +188,14 @@ std::vector<std::string> DeviceProbe::columns() const {
     c.push_back("finger_angle_deg");
     for (const auto& t : spec_.tips) c.push_back("finger_angle_" + t + "_deg");
     c.push_back("tip_axis_distance_mm");
-    for (const fe::ObstacleContact* contact : contacts_) c.push_back(contact->options().label + "_normal_force_N");
-    if (!contacts_.empty()) c.push_back("grip_force_N");
+    bool fingers = false, sample = false;
+    for (const GripContact& contact : contacts_) {
+      c.push_back(contact.label + "_normal_force_N");
+      (contact.between_fingers ? fingers : sample) = true;
+    }
+    if (fingers) c.push_back("finger_contact_force_N");
+    if (sample) c.push_back("grip_force_N");
+    if (!sample_.empty()) c.insert(c.end(), {"sample_reach_mm", "sample_compression_percent"});
   } else if (spec_.kind == DeviceKind::tube) {
     for (const std::string& n : TubeGauge::columns()) c.push_back(n);
   } else if (spec_.kind == DeviceKind::bending) {
@@ -182,6 +242,10 @@ std::vector<double> DeviceProbe::values(const fe::Simulation& sim) const {
     row.insert(row.end(), angles.begin(), angles.end());
     row.push_back(distance);
     for (double f : grip_forces(sim)) row.push_back(f);
+    if (!sample_.empty()) {
+      const double reach = sample_reach(x);
+      row.insert(row.end(), {reach, 100.0 * (1.0 - reach / sample_reach0_)});
+    }
   } else if (tube_) {
     for (double q : tube_->values(X, x)) row.push_back(q);
   } else if (bending_) {
@@ -193,13 +257,20 @@ std::vector<double> DeviceProbe::values(const fe::Simulation& sim) const {
 std::vector<double> DeviceProbe::grip_forces(const fe::Simulation& sim) const {
   if (contacts_.empty()) return {};
   std::vector<double> out;
-  double sum = 0.0, fingers = 0.0;
-  for (const fe::ObstacleContact* c : contacts_) {
-    out.push_back(c->totals(structure_->model.mesh, sim.converged_iterate(*c)).normal_force);
-    sum += out.back();
+  double sample = 0.0, between = 0.0, fingers = 0.0;
+  int planes = 0;
+  const fe::Mesh& mesh = structure_->model.mesh;
+  for (const GripContact& c : contacts_) {
+    const fe::Iterate it = sim.converged_iterate(*c.contribution);
+    const auto* obstacle = dynamic_cast<const fe::ObstacleContact*>(c.contribution);
+    out.push_back(obstacle ? obstacle->totals(mesh, it).normal_force
+                           : static_cast<const fe::SurfaceContact*>(c.contribution)->totals(mesh, it).normal_force);
+    if (c.between_fingers) between += out.back(), ++planes;
+    else sample += out.back();
   }
   for (const Finger& f : fingers_) fingers += f.share;
-  out.push_back(fingers > 0.0 ? sum / fingers : 0.0);
+  if (planes > 0) out.push_back(between / planes);
+  if (planes < int(contacts_.size())) out.push_back(fingers > 0.0 ? sample / fingers : 0.0);
   return out;
 }
 

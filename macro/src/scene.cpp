@@ -7,6 +7,7 @@
 #include "softhom/fe/petsc_options.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 
 #include "contact_keys.hpp"
@@ -52,6 +53,7 @@ struct PlateKeys : GeometryKeys<PlateSpec> {};
 struct GmshKeys {
   std::string type, file, geo;
   double mesh_size = 0.0;
+  std::vector<std::pair<std::string, double>> geo_parameters;  ///< -setnumber NAME VALUE for the .geo
   FiberFrame fiber_frame = FiberFrame::global;
 };
 
@@ -129,6 +131,21 @@ KeyTable<PlateKeys> plate_table() {
   return t;
 }
 
+/// [geometry] geo_parameters: names a .geo may define (letters, digits, '_', not starting with a digit) and
+/// finite numbers.
+std::vector<std::pair<std::string, double>> read_geo_parameters(const toml::node& node, const std::string& field) {
+  std::vector<std::pair<std::string, double>> out;
+  for (const auto& [key, value] : keys::read_table(node, field)) {
+    const std::string name(key.str()), f = field + "." + name;
+    const bool identifier = !name.empty() && !std::isdigit(static_cast<unsigned char>(name[0])) &&
+                            std::all_of(name.begin(), name.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+    if (!identifier) throw InputError(f, "\"" + name + "\"", "not a .geo constant name (letters, digits, _)");
+    if (name == "mesh_size") throw InputError(f, "", "give it as geometry.mesh_size");
+    out.emplace_back(name, keys::read_number(value, f));
+  }
+  return out;
+}
+
 KeyTable<GmshKeys> gmsh_table() {
   KeyTable<GmshKeys> t("geometry (gmsh)",
                        "An imported MSH 4.1 mesh (its own elements), or a .geo meshed at run time by gmsh into quadratic "
@@ -136,7 +153,11 @@ KeyTable<GmshKeys> gmsh_table() {
   add_common(t, false);
   t.text("file", &GmshKeys::file, "mesh file, relative to the scene file (or give geo)")
       .text("geo", &GmshKeys::geo, "Gmsh geometry, relative to the scene file, meshed with -setnumber mesh_size (instead of file)")
-      .number("mesh_size", &GmshKeys::mesh_size, kLength, "mm", "element size passed to the .geo (required with geo)");
+      .number("mesh_size", &GmshKeys::mesh_size, kLength, "mm", "element size passed to the .geo (required with geo)")
+      .custom("geo_parameters", "table of numbers",
+              "further numbers passed to the .geo (-setnumber NAME VALUE; its DefineConstant names), e.g. { sample_radius = 0.5 }",
+              [](const toml::node& n, const std::string& f, GmshKeys& o) { o.geo_parameters = read_geo_parameters(n, f); },
+              "{}");
   return t;
 }
 
@@ -453,7 +474,10 @@ void read_imported(const toml::table& scene, const toml::table& g, const std::fi
   const toml::node* helix = scene.get("helix_tube");
   if (helix && o.geo.empty() && !o.file.empty())
     throw InputError("helix_tube", "", "only with geometry.geo (the .geo reads the tube's parameters)");
-  const auto geo_parameters = helix ? helix_tube_geo_parameters(read_helix_tube(*helix)) : std::vector<std::pair<std::string, double>>{};
+  auto geo_parameters = helix ? helix_tube_geo_parameters(read_helix_tube(*helix)) : std::vector<std::pair<std::string, double>>{};
+  if (!o.geo_parameters.empty() && o.geo.empty())
+    throw InputError("geometry.geo_parameters", "", "only with geometry.geo");
+  geo_parameters.insert(geo_parameters.end(), o.geo_parameters.begin(), o.geo_parameters.end());
   const std::filesystem::path path = scene_mesh_file(o.file, o.geo, o.mesh_size, scene_file, mesh_cache, 3, geo_parameters);
   auto& im = s.imported;
   im.mesh = io::read_gmsh(path, "geometry.file", helix != nullptr);  // curved edges on thin fibers may invert tets

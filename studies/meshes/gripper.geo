@@ -21,8 +21,16 @@
 // fingers' faces towards the axis, at radius 2.0: where they grip a sample), "flank_0" and "flank_120"
 // (their side faces, y = ±0.75 in the finger's frame: where neighbouring fingers would touch), "outer"
 // (the rest). Finger 0 is cut by the mirror plane: inner_0 is half its face, flank_0 one of its flanks.
+// "skin_0", "skin_120" (inner, flank and tip faces of one finger) and "fingers" (both): where the
+// fingers touch each other as they close past first contact.
+//
+// A held sample (sample_radius > 0, [geometry] geo_parameters): a separate body, not joined to the
+// gripper, a sphere of that radius on the axis centred at z = sample_z, its bottom cut flat where the
+// cut's radius is sample_flat (the flat is bonded to a holder: "sample_base", fixed by the scene, while the
+// rest of the sphere is free); volume "sample", surfaces "sample_surface" (the sphere) and "sample_base";
+// its cut by the mirror plane joins "ysym". Its mesh size is min(mesh_size, sample_radius / 3).
 SetFactory("OpenCASCADE");
-DefineConstant[ mesh_size = 0.5 ];
+DefineConstant[ mesh_size = 0.5, sample_radius = 0, sample_z = 7.0, sample_flat = 0.2 ];
 Rb = 4.5; tb = 1.5;
 f_x0 = 2.0; f_x1 = 3.5; f_w = 1.5; f_len = 6.0;
 c_x0 = 2.5; c_x1 = 3.2; c_w = 0.9; c_z1 = 7.0;
@@ -44,6 +52,23 @@ Box(40) = {-Rb - 1, 0, -1, 2 * Rb + 2, Rb + 1, H + 2};
 BooleanIntersection(41) = { Volume{31}; Delete; }{ Volume{40}; Delete; };
 
 e = 1e-4;
+sample_h = mesh_size;
+If (sample_radius > 0)
+  sample_h = Min(mesh_size, sample_radius / 3);
+  Sphere(50) = {0, 0, sample_z, sample_radius};
+  z_cut = sample_z - Sqrt(sample_radius^2 - sample_flat^2);
+  Box(51) = {-sample_radius - 1, 0, z_cut, 2 * sample_radius + 2, sample_radius + 1, 2 * sample_radius + 1};
+  BooleanIntersection(52) = { Volume{50}; Delete; }{ Volume{51}; Delete; };
+  Physical Volume("sample") = {52};
+  sample_all[] = Abs(Boundary{ Volume{52}; });
+  sample_base[] = Surface In BoundingBox{-sample_radius, -e, z_cut - e, sample_radius, sample_radius, z_cut + e};
+  sample_ysym[] = Surface In BoundingBox{-sample_radius - e, -e, z_cut - e, sample_radius + e, e, sample_z + sample_radius + e};
+  sample_surface[] = sample_all[];
+  sample_surface[] -= {sample_base[], sample_ysym[]};
+  Physical Surface("sample_surface") = {sample_surface[]};
+  Physical Surface("sample_base") = {sample_base[]};
+  MeshSize{ PointsOf{ Volume{52}; } } = sample_h;
+EndIf
 Physical Volume("pdms") = {41};
 bottom[] = Surface In BoundingBox{-Rb - e, -e, -e, Rb + e, Rb + e, e};
 ysym[] = Surface In BoundingBox{-Rb - e, -e, -e, Rb + e, e, H + e};
@@ -132,9 +157,12 @@ Physical Surface("inner_120") = {inner120[]};
 Physical Surface("flank_0") = {flank0[]};
 Physical Surface("flank_120") = {flank120[]};
 Physical Surface("outer") = {outer[]};
+Physical Surface("skin_0") = {inner0[], flank0[], tip0[]};
+Physical Surface("skin_120") = {inner120[], flank120[], tip120[]};
+Physical Surface("fingers") = {inner0[], flank0[], tip0[], inner120[], flank120[], tip120[]};
 
 Mesh.MeshSizeMax = mesh_size;
-Mesh.MeshSizeMin = 0.5 * mesh_size;
+Mesh.MeshSizeMin = 0.5 * sample_h;
 Mesh.MeshSizeFromCurvature = 0;
 Mesh.ElementOrder = 2;
 // Curved quadratic tets can invert at the base's rim: optimise the high-order nodes.

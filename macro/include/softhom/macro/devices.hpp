@@ -17,7 +17,17 @@
 //           rigid obstacles ([[contact.obstacles]], a held sample) also the grip force: the normal
 //           force of each obstacle contact and the force of the sample on one finger (their sum over
 //           the modelled fingers divided by the modelled share of the fingers: a fingertip cut by a
-//           mirror plane counts half).
+//           mirror plane counts half). Contacts between the fingers are modelled by symmetry: the
+//           fingers are mirror images of each other in the planes through the axis between them, so a
+//           finger touches its neighbour where it touches that plane (frictionless: mirror points do not
+//           slip on each other); a rigid plane obstacle through the z axis is such a mirror plane, and
+//           finger_contact_force_N is the mean force of those contacts (each the force between two
+//           neighbouring fingers). The other contacts, rigid obstacles or pairs with a deformable sample
+//           ([[contact.pairs]]), hold the sample: their normal forces and the grip force. A deformable
+//           sample (sample_surface) adds its reach towards the fingers, the mean over the modelled
+//           fingers of the largest x·e_k of its surface's nodes (e_k: finger k's radial direction; the
+//           sample's radius at rest when it is centred on the axis), and its compression, the relative
+//           decrease of that reach.
 //   tube    a tube along z clamped at its lower end: axial and radial stretch of the gauge section,
 //           twist of the free end (helix_tube.hpp, TubeGauge).
 //   bending an actuator along z clamped at "zmin": end rotation (bending angle), chord angle and tip
@@ -49,6 +59,7 @@ struct DeviceSpec {
   int fingers = 3;            ///< fingers equally spaced about the z axis (each tip's radial direction)
   double root_z = 0.0;        ///< height of the fingers' roots (the base's top) [mm]
   double stop_distance = 0.0;  ///< stop when a fingertip node comes this close to the axis [mm]
+  std::string sample_surface;  ///< a held deformable sample's surface ("": none)
 };
 
 /// Node sets and reference measures of a device, built once from the structure.
@@ -86,12 +97,23 @@ class DeviceProbe {
   std::vector<Finger> fingers_;
   std::shared_ptr<const TubeGauge> tube_;
   std::shared_ptr<const BendingGauge> bending_;
-  std::vector<const fe::ObstacleContact*> contacts_;  ///< gripper: the held sample's contacts
+  /// Gripper: a contact's label (device.csv column stem) and its normal force at the converged state.
+  struct GripContact {
+    std::string label;
+    const fe::Contribution* contribution = nullptr;
+    bool between_fingers = false;  ///< a mirror plane through the axis: the contact of neighbouring fingers
+  };
+  std::vector<GripContact> contacts_;  ///< gripper: the contacts between fingers and with the held sample
   double volume0_ = 0.0;
+  std::vector<int> sample_;  ///< gripper: the held sample's surface nodes
+  double sample_reach0_ = 0.0;
+  /// Gripper with a sample: the mean over the fingers of the largest x·e_k over the sample's nodes.
+  double sample_reach(const std::vector<Vec3>& x) const;
   double channel_volume(const std::vector<Vec3>& x) const;
   /// Gripper: tip_axis_distance_mm's column (after t, pressure, the volumes and the angles).
   std::size_t distance_column() const { return 5 + fingers_.size(); }
-  /// Gripper with obstacles: each contact's normal force, then the grip force on one finger [N].
+  /// Gripper with contacts: each contact's normal force, then the mean force between neighbouring fingers
+  /// (with mirror-plane contacts) and the grip force on one finger (with sample contacts) [N].
   std::vector<double> grip_forces(const fe::Simulation& sim) const;
 };
 
