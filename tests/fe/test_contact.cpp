@@ -169,8 +169,8 @@ TEST(Contact, ContributionTangentMatchesDifferences) {
       it.u = &u0;
       const ContactTotals tot = c->totals(*m, it);
       ASSERT_GT(tot.active_points, 0);
-      if (mode == 1) EXPECT_LT(tot.slipping_points, tot.active_points);  // the patch's rim (p → 0) slips
-      if (mode == 2) EXPECT_EQ(tot.slipping_points, tot.active_points);
+      if (mode == 1) { EXPECT_LT(tot.slipping_points, tot.active_points); }  // the patch's rim (p → 0) slips
+      if (mode == 2) { EXPECT_EQ(tot.slipping_points, tot.active_points); }
       EXPECT_LT(tangent_gap(*c, *m, u0), 1e-5) << (m == &hex ? "hex8" : "tet10") << " mode " << mode;
     }
 }

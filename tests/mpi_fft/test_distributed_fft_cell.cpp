@@ -138,7 +138,7 @@ void expect_same_solve(const PhaseImage& im, const MaterialPtr& matrix, const Ma
     const double scale = std::max(a.P.cwiseAbs().maxCoeff(), 1e-300);
     EXPECT_LE((a.P - b.P).cwiseAbs().maxCoeff() / scale, 1e-10) << "step " << k << "\n" << a.P << "\n" << b.P;
     worst = std::max(worst, (a.P - b.P).cwiseAbs().maxCoeff() / scale);
-    if (k > 0 && opt.scheme == FftScheme::newton_cg) EXPECT_GT(a.krylov_iterations, 0);
+    if (k > 0 && opt.scheme == FftScheme::newton_cg) { EXPECT_GT(a.krylov_iterations, 0); }
     EXPECT_LE((a.F - b.F).cwiseAbs().maxCoeff(), 1e-10) << "step " << k;
   }
   ::testing::Test::RecordProperty("max_relative_P_difference", std::to_string(worst));

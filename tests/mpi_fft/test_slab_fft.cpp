@@ -47,7 +47,7 @@ void expect_slab_transform_matches(std::array<int, 3> n, int fields, int columns
   EXPECT_LE(diff, 1e-12 * double(N));
   int size = 1;
   MPI_Comm_size(MPI_COMM_WORLD, &size);
-  if (size > 1 && d.slab().count > 0) EXPECT_GT(slab.transpose_bytes(), 0u);
+  if (size > 1 && d.slab().count > 0) { EXPECT_GT(slab.transpose_bytes(), 0u); }
 }
 
 }  // namespace

@@ -80,7 +80,7 @@ void expect_same_solve(const FftSolverOptions& opt, double krylov_spread, double
     const RveStep &a = serial.steps[k], &b = dist.steps[k];
     EXPECT_EQ(a.newton_iterations, b.newton_iterations) << "step " << k;
     EXPECT_LE(std::abs(a.krylov_iterations - b.krylov_iterations), krylov_spread * a.krylov_iterations) << "step " << k;
-    if (k > 0) EXPECT_GT(a.krylov_iterations, 0);
+    if (k > 0) { EXPECT_GT(a.krylov_iterations, 0); }
     const double scale = std::max(a.P.cwiseAbs().maxCoeff(), 1e-300);
     EXPECT_LE((a.P - b.P).cwiseAbs().maxCoeff() / scale, p_tolerance) << "step " << k << "\n" << a.P << "\n" << b.P;
   }
