@@ -654,6 +654,17 @@ void SurfaceContact::advance_anchor(const Point& p, const Evaluation& e, const R
   next[1] = a[1];
 }
 
+double SurfaceContact::penetration_limit(const Point& p, const Face& master, double converged_pressure) const {
+  // Deeper than the master face is no state to linearize about; nor is a penalty pressure ε (−g) more
+  // than 10 G of the softer side above the pressure the point converged with (so[1]: the step's
+  // multiplier when augmented, the pressure of the converged penetration in pure penalty). That is the
+  // step's own increment: a converged state legitimately carries any pressure, but an iterate adding
+  // more than 10 G within one step is one whose tangent did not see the contact yet (the step that
+  // first touches: the whole increment goes into the softer body, inverting its elements). Refused,
+  // the line search backtracks to a shallower iterate.
+  return std::min(master.size, pressure_depth_limit(options_.shear_modulus, p.penalty, converged_pressure / p.penalty));
+}
+
 MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const {
   if (!it.state_old) return MaterialStatus::ok;  // no history, no pairing
   const std::vector<Vec3> x = positions(mesh, it);
@@ -672,7 +683,7 @@ MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, Ass
     const Evaluation e = evaluate(p, so, lambda, x);
     if (e.master < 0) continue;
     const Face &fs = faces_[p.face], &fm = faces_[e.master];
-    if (e.engaged && -e.gap > fm.size) return MaterialStatus::penetration;
+    if (e.engaged && -e.gap > penetration_limit(p, fm, so[1])) return MaterialStatus::penetration;
     if (!e.engaged || !(e.pressure > 0.0)) {
       if (sn) advance_anchor(p, e, Response{}, x, sn + kNextAnchor);
       continue;

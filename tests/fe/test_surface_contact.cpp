@@ -155,6 +155,48 @@ TEST(SurfaceContact, SelfContactForceBalancesTheLoad) {
   EXPECT_LT(s.max_penetration, s.applied * 0.25 / 100.0);
 }
 
+namespace {
+
+/// The status of the pair's assembly with the upper block (3 × 3 faces, h = 1/3) pushed `depth` into
+/// the lower one, every point solving with the multiplier λ (its converged pressure).
+MaterialStatus pushed_in(double depth, double lambda, bool augmented) {
+  const double gap = 0.01;
+  const Mesh m = two_blocks(2, 3, gap, false);
+  SurfaceContact::Options o = options(0.0);  // the default penalty 100 G/h of the slave faces
+  o.augmented = augmented;
+  const SurfaceContact pair(m, surface(m, "upper_bottom"), surface(m, "lower_top"), o);
+  std::vector<double> u(m.num_dofs(), 0.0);
+  for (int n = 0; n < m.num_nodes(); ++n)
+    if (m.nodes[n][2] > 1.0 + gap / 2) u[3 * n + 2] = -(gap + depth);
+  const std::vector<double> state = test::paired_state(pair, m, u, lambda);
+  std::vector<double> scratch(state);
+  test::DenseSink sink(m.num_dofs(), false);
+  Iterate it;
+  it.u = &u;
+  it.state_old = state.data();
+  it.state_new = scratch.data();
+  return pair.assemble(m, it, sink);
+}
+
+}  // namespace
+
+// The pressure bound: under ε = 100 G/h (G = 1, h = 1/3, ε = 300) an iterate whose penalty pressure
+// ε (−g) exceeds 10 G above the pressure the point converged with, i.e. deeper than 1/30 + λ/300, is
+// refused; the same iterate is admitted where the points already carry λ = 5 (converged, augmented or
+// pure penalty alike). The depths straddle each bound by 10 % of it: far from the face's own bound
+// (1/2) and from round-off.
+TEST(SurfaceContact, PenaltyPressureBeyondTenShearModuliPerStepIsRefused) {
+  const double bound = 10.0 / 300.0;
+  EXPECT_EQ(pushed_in(0.9 * bound, 0.0, true), MaterialStatus::ok);
+  EXPECT_EQ(pushed_in(1.1 * bound, 0.0, true), MaterialStatus::penetration);
+  for (bool augmented : {true, false}) {
+    const double with_lambda = bound + 5.0 / 300.0;
+    EXPECT_EQ(pushed_in(1.1 * bound, 5.0, augmented), MaterialStatus::ok) << augmented;
+    EXPECT_EQ(pushed_in(0.9 * with_lambda, 5.0, augmented), MaterialStatus::ok) << augmented;
+    EXPECT_EQ(pushed_in(1.1 * with_lambda, 5.0, augmented), MaterialStatus::penetration) << augmented;
+  }
+}
+
 // The patch test on the petsc path: the pairing's couplings enter PETSc's matrix as the set moves; the
 // face pressures of the CHOLMOD run to 1e-6.
 TEST(SurfaceContact, PatchTestOnPetscPathEqualsCholmod) {

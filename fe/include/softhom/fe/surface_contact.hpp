@@ -53,8 +53,16 @@
 // then changes the tangent by a tenth of the normal stiffness only, which Newton crosses in a few
 // iterations. The slip force μ p does not depend on it.
 //
-// Penalty (default as the rigid law's): ε = 100 G/h per slave face. A slave point deeper than its
-// master face's size is refused with MaterialStatus::penetration (the step is cut back). A point's
+// Penalty (default as the rigid law's): ε = 100 G/h per slave face, G the softer surface's initial
+// shear modulus (Options::shear_modulus). An iterate is refused with MaterialStatus::penetration (the
+// line search backtracks, or the step is cut back) where a slave point lies deeper than its master
+// face's size, or where its penalty pressure ε (−g) exceeds 10 G (kMaxContactPressureOverShear, the
+// obstacles' bound) above the pressure the point converged with (the multiplier λ of an augmented step,
+// the converged penetration's pressure in pure penalty): the bound is on the step's increment, since a
+// converged state legitimately carries any pressure, while an iterate adding more than 10 G in one step
+// is one whose tangent did not yet see the contact (the step that first touches pushes its whole
+// increment into the softer body and inverts its elements). Without a modulus (G = 0, an explicit
+// penalty) only the face-size bound holds. A point's
 // search reaches two face sizes from the converged state: a step must not move the surfaces towards
 // each other by more than that.
 #include <array>
@@ -172,6 +180,8 @@ class SurfaceContact final : public Contribution {
     double pressure = 0.0;
   };
   Evaluation evaluate(const Point& p, const double* s, double multiplier, const std::vector<Vec3>& x) const;
+  /// Deepest admissible penetration of a point against `master` in an iterate (surface_contact.hpp).
+  double penetration_limit(const Point& p, const Face& master, double converged_pressure) const;
   /// The point's tractions at an evaluation, with the stick anchor (ξ_a, η_a) on its master face: the
   /// residual and (with `tangent`) the tangent over the slave face's then the master face's dofs.
   struct Response;
