@@ -493,10 +493,13 @@ void SurfaceContact::pair(const Mesh& mesh, const Iterate& converged, Couplings&
     s[2] = c.face;
     s[3] = c.projection.xi;
     s[4] = c.projection.eta;
+    s[kStartDepth] = 0.0;
     if (c.face < 0) {
       s[0] = s[1] = 0.0;  // out of reach: no multiplier to carry
       continue;
     }
+    const Evaluation e = evaluate(points_[k], s, 0.0, x);
+    if (e.engaged) s[kStartDepth] = std::max(0.0, -e.gap);
     pairs.emplace_back(points_[k].face, c.face);
   }
   std::sort(pairs.begin(), pairs.end());
@@ -654,15 +657,18 @@ void SurfaceContact::advance_anchor(const Point& p, const Evaluation& e, const R
   next[1] = a[1];
 }
 
-double SurfaceContact::penetration_limit(const Point& p, const Face& master, double converged_pressure) const {
+double SurfaceContact::penetration_limit(const Point& p, const Face& master, const double* s) const {
   // Deeper than the master face is no state to linearize about; nor is a penalty pressure ε (−g) more
-  // than 10 G of the softer side above the pressure the point converged with (so[1]: the step's
-  // multiplier when augmented, the pressure of the converged penetration in pure penalty). That is the
-  // step's own increment: a converged state legitimately carries any pressure, but an iterate adding
-  // more than 10 G within one step is one whose tangent did not see the contact yet (the step that
-  // first touches: the whole increment goes into the softer body, inverting its elements). Refused,
-  // the line search backtracks to a shallower iterate.
-  return std::min(master.size, pressure_depth_limit(options_.shear_modulus, p.penalty, converged_pressure / p.penalty));
+  // than 10 G of the softer side beyond what the point carried at the step's start: its converged
+  // pressure s[1] (the step's multiplier when augmented, its penetration's pressure in pure penalty),
+  // or its depth against the face the step pairs it with, if deeper (a point paired anew, or one that
+  // slid off its face's edge, may start inside a face it bore nothing on). That is the step's own
+  // increment: a converged state legitimately carries any pressure, but an iterate adding more than
+  // 10 G within one step is one whose tangent did not yet see the contact (the step that first
+  // touches: the whole increment goes into the softer body, inverting its elements). Refused, the line
+  // search backtracks to a shallower iterate.
+  const double start = std::max(s[1] / p.penalty, s[kStartDepth]);
+  return std::min(master.size, pressure_depth_limit(options_.shear_modulus, p.penalty, start));
 }
 
 MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const {
@@ -683,7 +689,7 @@ MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, Ass
     const Evaluation e = evaluate(p, so, lambda, x);
     if (e.master < 0) continue;
     const Face &fs = faces_[p.face], &fm = faces_[e.master];
-    if (e.engaged && -e.gap > penetration_limit(p, fm, so[1])) return MaterialStatus::penetration;
+    if (e.engaged && -e.gap > penetration_limit(p, fm, so)) return MaterialStatus::penetration;
     if (!e.engaged || !(e.pressure > 0.0)) {
       if (sn) advance_anchor(p, e, Response{}, x, sn + kNextAnchor);
       continue;
