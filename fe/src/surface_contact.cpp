@@ -498,8 +498,10 @@ void SurfaceContact::pair(const Mesh& mesh, const Iterate& converged, Couplings&
       s[0] = s[1] = 0.0;  // out of reach: no multiplier to carry
       continue;
     }
+    // Beside an edge the gap is ± the distance, its sign the side of the face's plane: a point there
+    // may cross that plane in any iterate, so its whole distance is its start.
     const Evaluation e = evaluate(points_[k], s, 0.0, x);
-    if (e.engaged) s[kStartDepth] = std::max(0.0, -e.gap);
+    s[kStartDepth] = e.projection.free == 2 ? std::max(0.0, -e.gap) : std::abs(e.gap);
     pairs.emplace_back(points_[k].face, c.face);
   }
   std::sort(pairs.begin(), pairs.end());
@@ -661,8 +663,8 @@ double SurfaceContact::penetration_limit(const Point& p, const Face& master, con
   // Deeper than the master face is no state to linearize about; nor is a penalty pressure ε (−g) more
   // than 10 G of the softer side beyond what the point carried at the step's start: its converged
   // pressure s[1] (the step's multiplier when augmented, its penetration's pressure in pure penalty),
-  // or its depth against the face the step pairs it with, if deeper (a point paired anew, or one that
-  // slid off its face's edge, may start inside a face it bore nothing on). That is the step's own
+  // or its depth against the face the step pairs it with (kStartDepth), if deeper (a point paired anew
+  // may start inside a face it bore nothing on; beside an edge the whole distance). That is the step's own
   // increment: a converged state legitimately carries any pressure, but an iterate adding more than
   // 10 G within one step is one whose tangent did not yet see the contact (the step that first
   // touches: the whole increment goes into the softer body, inverting its elements). Refused, the line
