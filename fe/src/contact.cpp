@@ -12,9 +12,6 @@
 namespace softhom::fe {
 namespace {
 
-/// Iterates whose penalty pressure exceeds this multiple of the shear modulus are refused (penetration_limit).
-constexpr double kMaxPressureOverShear = 10.0;
-
 Mat3 outer(const Vec3& a, const Vec3& b) { return a * b.transpose(); }
 
 /// Quadrature on the reference face: 3×3 Gauss on [-1, 1]² (quads), Dunavant's 7-point degree-5 rule
@@ -165,6 +162,11 @@ CoulombReturn coulomb_return(const Vec3& trial, double friction, double pressure
 
 double default_contact_penalty(double shear_modulus, double face_size) { return 100.0 * shear_modulus / face_size; }
 
+double pressure_depth_limit(double shear_modulus, double penalty, double allowance) {
+  if (!(shear_modulus > 0.0)) return std::numeric_limits<double>::infinity();
+  return kMaxContactPressureOverShear * shear_modulus / penalty + allowance;
+}
+
 std::vector<double> face_sizes(const Mesh& mesh, const std::vector<Quad>& quads, const std::vector<Tri6>& tris) {
   auto ref = [&](int node) { return mesh.nodes[node]; };
   auto area = [&](const int* nodes, bool quad) {
@@ -255,11 +257,8 @@ double ObstacleContact::penetration_limit(int face, const Iterate& it) const {
   // closing on a sphere: 25 iterations without convergence, then an inverted element, without it).
   const double h = face_size_[face];
   double limit = obstacle_.shape == RigidObstacle::Shape::plane ? h : std::min(h, 0.5 * obstacle_.radius);
-  if (options_.shear_modulus > 0.0) {
-    const double moved = (obstacle_.translation(it.t) - obstacle_.translation(it.t - it.dt)).norm();
-    limit = std::min(limit, kMaxPressureOverShear * options_.shear_modulus / face_law_[face].penalty + moved);
-  }
-  return limit;
+  const double moved = (obstacle_.translation(it.t) - obstacle_.translation(it.t - it.dt)).norm();
+  return std::min(limit, pressure_depth_limit(options_.shear_modulus, face_law_[face].penalty, moved));
 }
 
 void ObstacleContact::validate(const Mesh& mesh) const {

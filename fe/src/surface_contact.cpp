@@ -493,10 +493,15 @@ void SurfaceContact::pair(const Mesh& mesh, const Iterate& converged, Couplings&
     s[2] = c.face;
     s[3] = c.projection.xi;
     s[4] = c.projection.eta;
+    s[kStartDepth] = 0.0;
     if (c.face < 0) {
       s[0] = s[1] = 0.0;  // out of reach: no multiplier to carry
       continue;
     }
+    // Beside an edge the gap is ± the distance, its sign the side of the face's plane: a point there
+    // may cross that plane in any iterate, so its whole distance is its start.
+    const Evaluation e = evaluate(points_[k], s, 0.0, x);
+    s[kStartDepth] = e.projection.free == 2 ? std::max(0.0, -e.gap) : std::abs(e.gap);
     pairs.emplace_back(points_[k].face, c.face);
   }
   std::sort(pairs.begin(), pairs.end());
@@ -654,6 +659,20 @@ void SurfaceContact::advance_anchor(const Point& p, const Evaluation& e, const R
   next[1] = a[1];
 }
 
+double SurfaceContact::penetration_limit(const Point& p, const Face& master, const double* s) const {
+  // Deeper than the master face is no state to linearize about; nor is a penalty pressure ε (−g) more
+  // than 10 G of the softer side beyond what the point carried at the step's start: its converged
+  // pressure s[1] (the step's multiplier when augmented, its penetration's pressure in pure penalty),
+  // or its depth against the face the step pairs it with (kStartDepth), if deeper (a point paired anew
+  // may start inside a face it bore nothing on; beside an edge the whole distance). That is the step's own
+  // increment: a converged state legitimately carries any pressure, but an iterate adding more than
+  // 10 G within one step is one whose tangent did not yet see the contact (the step that first
+  // touches: the whole increment goes into the softer body, inverting its elements). Refused, the line
+  // search backtracks to a shallower iterate.
+  const double start = std::max(s[1] / p.penalty, s[kStartDepth]);
+  return std::min(master.size, pressure_depth_limit(options_.shear_modulus, p.penalty, start));
+}
+
 MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const {
   if (!it.state_old) return MaterialStatus::ok;  // no history, no pairing
   const std::vector<Vec3> x = positions(mesh, it);
@@ -672,7 +691,7 @@ MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, Ass
     const Evaluation e = evaluate(p, so, lambda, x);
     if (e.master < 0) continue;
     const Face &fs = faces_[p.face], &fm = faces_[e.master];
-    if (e.engaged && -e.gap > fm.size) return MaterialStatus::penetration;
+    if (e.engaged && -e.gap > penetration_limit(p, fm, so)) return MaterialStatus::penetration;
     if (!e.engaged || !(e.pressure > 0.0)) {
       if (sn) advance_anchor(p, e, Response{}, x, sn + kNextAnchor);
       continue;

@@ -155,6 +155,56 @@ TEST(SurfaceContact, SelfContactForceBalancesTheLoad) {
   EXPECT_LT(s.max_penetration, s.applied * 0.25 / 100.0);
 }
 
+namespace {
+
+/// The status of the pair's assembly with the upper block (3 × 3 faces, h = 1/3) pushed `depth` into
+/// the lower one, every point solving with the multiplier λ (its converged pressure), from a converged
+/// state (where the pairing was made) with the block `start` deep.
+MaterialStatus pushed_in(double depth, double lambda, bool augmented, double start = 0.0) {
+  const double gap = 0.01;
+  const Mesh m = two_blocks(2, 3, gap, false);
+  SurfaceContact::Options o = options(0.0);  // the default penalty 100 G/h of the slave faces
+  o.augmented = augmented;
+  const SurfaceContact pair(m, surface(m, "upper_bottom"), surface(m, "lower_top"), o);
+  auto pushed = [&](double d) {
+    std::vector<double> u(m.num_dofs(), 0.0);
+    for (int n = 0; n < m.num_nodes(); ++n)
+      if (m.nodes[n][2] > 1.0 + gap / 2) u[3 * n + 2] = -(gap + d);
+    return u;
+  };
+  const std::vector<double> state = test::paired_state(pair, m, pushed(start), lambda);
+  const std::vector<double> u = pushed(depth);
+  std::vector<double> scratch(state);
+  test::DenseSink sink(m.num_dofs(), false);
+  Iterate it;
+  it.u = &u;
+  it.state_old = state.data();
+  it.state_new = scratch.data();
+  return pair.assemble(m, it, sink);
+}
+
+}  // namespace
+
+// The pressure bound: under ε = 100 G/h (G = 1, h = 1/3, ε = 300) an iterate whose penalty pressure
+// ε (−g) exceeds 10 G above what the point carried at the step's start, i.e. deeper than 1/30 +
+// max(λ/300, the start's depth), is refused; the same iterate is admitted where the points already
+// carry λ = 5 (converged, augmented or pure penalty alike), or start 1/30 deep (paired inside a face
+// they bore nothing on). The depths straddle each bound by 10 % of 1/30: far from the face's own bound
+// (1/2) and from round-off.
+TEST(SurfaceContact, PenaltyPressureBeyondTenShearModuliPerStepIsRefused) {
+  const double bound = 10.0 / 300.0, below = bound - 0.1 * bound, above = bound + 0.1 * bound;
+  EXPECT_EQ(pushed_in(below, 0.0, true), MaterialStatus::ok);
+  EXPECT_EQ(pushed_in(above, 0.0, true), MaterialStatus::penetration);
+  for (bool augmented : {true, false}) {
+    const double carried = 5.0 / 300.0;
+    EXPECT_EQ(pushed_in(above, 5.0, augmented), MaterialStatus::ok) << augmented;
+    EXPECT_EQ(pushed_in(carried + below, 5.0, augmented), MaterialStatus::ok) << augmented;
+    EXPECT_EQ(pushed_in(carried + above, 5.0, augmented), MaterialStatus::penetration) << augmented;
+  }
+  EXPECT_EQ(pushed_in(bound + below, 0.0, true, bound), MaterialStatus::ok);
+  EXPECT_EQ(pushed_in(bound + above, 0.0, true, bound), MaterialStatus::penetration);
+}
+
 // The patch test on the petsc path: the pairing's couplings enter PETSc's matrix as the set moves; the
 // face pressures of the CHOLMOD run to 1e-6.
 TEST(SurfaceContact, PatchTestOnPetscPathEqualsCholmod) {

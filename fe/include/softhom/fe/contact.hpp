@@ -110,6 +110,15 @@ PointTraction contact_traction(const ObstacleGap& g, const Vec3& x, const Vec3& 
 /// ε = 100 G / h (see the file comment).
 double default_contact_penalty(double shear_modulus, double face_size);
 
+/// Iterates whose penalty pressure exceeds this multiple of the softer surface's shear modulus, beyond
+/// what the step legitimately adds, are refused (a soft solid carries no such pressure increment).
+constexpr double kMaxContactPressureOverShear = 10.0;
+
+/// The deepest penetration the pressure bound admits for a point with penalty ε on a surface of shear
+/// modulus G: 10 G/ε plus `allowance` (the depth the step may add beyond it: the obstacle's motion, a
+/// converged pressure's depth); +∞ without a modulus (G ≤ 0: an explicit penalty on no solid).
+double pressure_depth_limit(double shear_modulus, double penalty, double allowance);
+
 /// Size of each face in the reference configuration (quads first): √area of a quad, √(2 area) of a
 /// 6-node triangle (the cell size of a hex split into tets).
 std::vector<double> face_sizes(const Mesh& mesh, const std::vector<Quad>& quads, const std::vector<Tri6>& tris);

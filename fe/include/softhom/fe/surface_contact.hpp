@@ -22,7 +22,7 @@
 // thicker than half a face to be told from a penetration). A uniform grid over the master faces' boxes
 // finds the candidates (linear in the surfaces' size); no point pairs with its own face or one sharing
 // a node with it (a self-contact's neighbours). The pairing, the parametric start of the projection,
-// the multiplier and the stick anchor are the contribution's history (state_size: 9 per slave point),
+// the multiplier and the stick anchor are the contribution's history (state_size: 10 per slave point),
 // so a cut-back step is retried with the pairing and the anchors of the converged state. The couplings are the (slave face, master face)
 // pairs: the driver rebuilds the stiffness pattern when they change.
 //
@@ -53,8 +53,17 @@
 // then changes the tangent by a tenth of the normal stiffness only, which Newton crosses in a few
 // iterations. The slip force μ p does not depend on it.
 //
-// Penalty (default as the rigid law's): ε = 100 G/h per slave face. A slave point deeper than its
-// master face's size is refused with MaterialStatus::penetration (the step is cut back). A point's
+// Penalty (default as the rigid law's): ε = 100 G/h per slave face, G the softer surface's initial
+// shear modulus (Options::shear_modulus). An iterate is refused with MaterialStatus::penetration (the
+// line search backtracks, or the step is cut back) where a slave point lies deeper than its master
+// face's size, or where its penalty pressure ε (−g) exceeds 10 G (kMaxContactPressureOverShear, the
+// obstacles' bound) above what the point carried at the step's start (the pressure it converged with:
+// the multiplier λ of an augmented step, its penetration's pressure in pure penalty; or its depth
+// against the face the pairing gave it, if deeper, as where a point slid off an edge): the bound is on the step's increment, since a
+// converged state legitimately carries any pressure, while an iterate adding more than 10 G in one step
+// is one whose tangent did not yet see the contact (the step that first touches pushes its whole
+// increment into the softer body and inverts its elements). Without a modulus (G = 0, an explicit
+// penalty) only the face-size bound holds. A point's
 // search reaches two face sizes from the converged state: a step must not move the surfaces towards
 // each other by more than that.
 #include <array>
@@ -136,8 +145,10 @@ class SurfaceContact final : public Contribution {
   int num_points() const { return int(points_.size()); }
   /// History per point: the multiplier its step solves with, its pressure there (the next step's
   /// multiplier), master face (−1: none), ξ, η of the projection's start, the stick anchor's ξ_a, η_a on
-  /// the master face the step solves with, and the next step's.
-  static constexpr int kStateSize = 9;
+  /// the master face the step solves with, the next step's, and the point's depth against its master
+  /// face where the pairing found it (the pressure bound's start).
+  static constexpr int kStateSize = 10;
+  static constexpr int kStartDepth = 9;
   static constexpr int kAnchor = 5, kNextAnchor = 7;  ///< offsets of (ξ_a, η_a) in a point's state
 
   /// One face of either surface.
@@ -172,6 +183,8 @@ class SurfaceContact final : public Contribution {
     double pressure = 0.0;
   };
   Evaluation evaluate(const Point& p, const double* s, double multiplier, const std::vector<Vec3>& x) const;
+  /// Deepest admissible penetration of a point against `master` in an iterate (surface_contact.hpp).
+  double penetration_limit(const Point& p, const Face& master, const double* s) const;
   /// The point's tractions at an evaluation, with the stick anchor (ξ_a, η_a) on its master face: the
   /// residual and (with `tangent`) the tangent over the slave face's then the master face's dofs.
   struct Response;
