@@ -140,7 +140,7 @@ TEST(ShellTriangle, UniformStretchOfAFlatPatchGivesUniformStressAndNoBending) {
     const Vec3& X = g.mesh.nodes[n];
     const bool interior = X.x() > 1e-9 && X.x() < 1 - 1e-9 && X.y() > 1e-9 && X.y() < 1 - 1e-9;
     for (int i = 0; i < 3; ++i) {
-      if (interior) EXPECT_NEAR(s.R[3 * n + i], 0.0, 1e-12);  // forces ~ N h ~ 0.02: round-off 1e-15
+      if (interior) { EXPECT_NEAR(s.R[3 * n + i], 0.0, 1e-12); }  // forces ~ N h ~ 0.02: round-off 1e-15
       else boundary_force = std::max(boundary_force, std::abs(s.R[3 * n + i]));
     }
   }

@@ -146,7 +146,8 @@ TEST(ShellBalloon, ReportGivesTheLargestStressAndTheShellField) {
   for (const fe::ReportArray& a : f.arrays) {
     const std::size_t count = a.per_cell ? 64u : f.cells.points.size();
     EXPECT_EQ(a.values.size(), count * a.components) << a.name;
-    if (a.name == "thickness_stretch")
+    if (a.name == "thickness_stretch") {
       for (double v : a.values) EXPECT_NEAR(v, 0.25, 0.01);  // λ3 = λ⁻² at λ = 2 (facets: ±1 %)
+    }
   }
 }

@@ -225,7 +225,7 @@ TEST(ShellGmsh, AneurysmCoarseMeshIsOneWallOpenAtItsEnds) {
   // Outward: the dome's triangles (beyond y = 14 on the sac) have normals along +y.
   for (const fe::Tri3& t : tris) {
     const Vec3 a = s.model.mesh.nodes[t[0]], b = s.model.mesh.nodes[t[1]], c = s.model.mesh.nodes[t[2]];
-    if ((a + b + c).y() / 3 > 14.0) EXPECT_GT((b - a).cross(c - a).y(), 0.0);
+    if ((a + b + c).y() / 3 > 14.0) { EXPECT_GT((b - a).cross(c - a).y(), 0.0); }
   }
   fs::remove_all(cache);
 }

@@ -69,7 +69,7 @@ TEST(FftRveMemory, BytesPerVoxelOfTheDefaultSolve) {
   EXPECT_EQ(eco_arrays.at("stream_scratch"), threads * 18u * 32u * 8u);
   const double eco_scratch_bpv = double(eco_arrays.at("stream_scratch")) / double(section.voxels());
   EXPECT_LE(eco_bpv - eco_scratch_bpv, 280.0);
-  if (threads <= 4) EXPECT_LE(eco_bpv, 300.0);
+  if (threads <= 4) { EXPECT_LE(eco_bpv, 300.0); }
   EXPECT_EQ(eco_arrays.count("history"), 0u);  // elastic phases: no internal variables
   EXPECT_GT(eco_arrays.count("mixed_pressure"), 0u);
   EXPECT_GT(eco_arrays.count("composites"), 0u);

@@ -43,7 +43,7 @@ TEST(CaseRecordCodec, RoundTripIsExact) {
   for (std::size_t i = 0; i < r.parameters.size(); ++i) {
     EXPECT_EQ(s.parameters[i].name, r.parameters[i].name);
     ASSERT_EQ(s.parameters[i].is_string(), r.parameters[i].is_string());
-    if (r.parameters[i].is_string()) EXPECT_EQ(std::get<std::string>(s.parameters[i].value), std::get<std::string>(r.parameters[i].value));
+    if (r.parameters[i].is_string()) { EXPECT_EQ(std::get<std::string>(s.parameters[i].value), std::get<std::string>(r.parameters[i].value)); }
     else EXPECT_TRUE(same_bits(std::get<double>(s.parameters[i].value), std::get<double>(r.parameters[i].value)));
   }
   EXPECT_EQ(s.status, r.status);

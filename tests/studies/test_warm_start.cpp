@@ -55,7 +55,7 @@ TEST(WarmStart, SolverStateRestartsBitForBit) {
     ASSERT_TRUE(first.completed) << first.error;
     const rve::FftRveState saved = a->state();
     EXPECT_NEAR(saved.F(0, 0), 1.2, 1e-15);  // prescribed component exactly at its end value
-    if (matrix.find("viscoelastic") != std::string::npos) EXPECT_FALSE(saved.history_matrix.empty());
+    if (matrix.find("viscoelastic") != std::string::npos) { EXPECT_FALSE(saved.history_matrix.empty()); }
     else EXPECT_TRUE(saved.history_matrix.empty());
 
     const rve::RveRunResult cont_a = a->run(continuation(s));
