@@ -55,17 +55,6 @@ bool is_axial_mirror_plane(const fe::RigidObstacle& o) {
          std::abs(o.point.dot(o.direction)) < tol;
 }
 
-/// The response.csv label of a contact between surfaces (macro/src/surface_contact.cpp names them so):
-/// contact.pairs[k] → contact_pair_k, contact.self[k] → contact_self_k, without the index when it is the
-/// only one of its kind.
-std::string contact_label(const std::string& field, int of_its_kind) {
-  const bool self = field.rfind("contact.self", 0) == 0;
-  const std::string stem = self ? "contact_self" : "contact_pair";
-  const auto open = field.find('['), close = field.find(']');
-  if (of_its_kind == 1 || open == std::string::npos || close == std::string::npos) return stem;
-  return stem + "_" + field.substr(open + 1, close - open - 1);
-}
-
 void require_surface(const fe::Mesh& mesh, const std::string& name, const std::string& field) {
   if (!mesh.has_surface(name))
     throw InputError(field, "\"" + name + "\"", "no physical surface of that name in the mesh");
@@ -140,14 +129,11 @@ DeviceProbe::DeviceProbe(const DeviceSpec& spec, const Structure& structure) : s
         throw InputError("device.sample_surface", "\"" + spec.sample_surface + "\"",
                          "the sample does not reach out from the axis towards the fingers");
     }
-    int pairs = 0, selves = 0;
-    for (const auto& c : structure.model.contributions)
-      if (dynamic_cast<const fe::SurfaceContact*>(c.get())) (c->name().rfind("contact.self", 0) == 0 ? selves : pairs) += 1;
     for (const auto& c : structure.model.contributions) {
       if (const auto* contact = dynamic_cast<const fe::ObstacleContact*>(c.get()))
         contacts_.push_back({contact->options().label, contact, is_axial_mirror_plane(contact->obstacle())});
-      else if (dynamic_cast<const fe::SurfaceContact*>(c.get()))
-        contacts_.push_back({contact_label(c->name(), c->name().rfind("contact.self", 0) == 0 ? selves : pairs), c.get(), false});
+      else if (const auto* pair = dynamic_cast<const fe::SurfaceContact*>(c.get()))
+        contacts_.push_back({pair->options().label, pair, false});
     }
     for (const GripContact& contact : contacts_)
       if (contact.between_fingers && spec.stop_distance > 0.0)

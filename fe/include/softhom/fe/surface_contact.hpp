@@ -117,6 +117,7 @@ class SurfaceContact final : public Contribution {
 
   Kind kind() const override { return Kind::interface; }
   std::string name() const override { return options_.field; }
+  const Options& options() const { return options_; }
   /// Refuses empty surfaces, nodes out of range, bad penalties, a friction coefficient outside [0, 3],
   /// and surfaces that overlap at t = 0 (naming the deepest point).
   void validate(const Mesh& mesh) const override;
