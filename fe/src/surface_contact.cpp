@@ -66,10 +66,13 @@ class FaceGrid {
 
 namespace {
 
-using VecN = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 36, 1>;
-using MatN = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 36, 36>;
-using Mat3N = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, 36>;
-using Mat2N = Eigen::Matrix<double, 2, Eigen::Dynamic, 0, 2, 36>;
+// A point's dofs: its slave face's, the master face's and (with friction, where the closest point
+// lies on a neighbour of the paired face) the paired face's, which carries the stick anchor.
+constexpr int kMaxDofs = 54;
+using VecN = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxDofs, 1>;
+using MatN = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxDofs, kMaxDofs>;
+using Mat3N = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxDofs>;
+using Mat2N = Eigen::Matrix<double, 2, Eigen::Dynamic, 0, 2, kMaxDofs>;
 using Face = SurfaceContact::Face;
 
 /// Search reach in face sizes: a point pairs with faces within this many sizes of it.
@@ -205,8 +208,9 @@ bool shares_node(const Face& a, const Face& b) {
 /// slave face's nodes, then the master face's. D, B_α map nodal increments to Δ(x_s − x_m) and Δa_α at
 /// fixed (ξ, η); Ξ = ∂ξ/∂u from the stationarity of the distance; ν the contact normal and Nν = ∂ν/∂u.
 /// Inside the face ν is the face's normal n; where an edge or a corner holds the closest point it is the
-/// distance's direction ±d/|d| (the gap there is the signed distance, equal to d·n where the closest
-/// point leaves the face's inside, so the gap and its derivative are continuous). The gap's variation
+/// distance's direction ±d/|d|, the sign the side of the surface's pseudo-normal there (the gap is the
+/// signed distance, equal to d·n where the closest point leaves the face's inside, so the gap and its
+/// derivative are continuous). The dofs may extend beyond the two faces' (n columns, the rest zero). The gap's variation
 /// is then ∂g = Dᵀν in both cases (+ Nνᵀ d, which vanishes: d ∥ ν and Nν ⊥ ν) and its second variation
 /// Dᵀ Nν − (B_αᵀ ν) Ξ_α.
 struct GapKinematics {
@@ -221,8 +225,7 @@ struct GapKinematics {
 };
 
 GapKinematics gap_kinematics(const std::array<double, 6>& Ns, int ns, const FaceGeometry& g, int nm,
-                             const FaceProjection& proj, const Vec3& d, bool derivatives) {
-  const int n = 3 * (ns + nm);
+                             const FaceProjection& proj, const Vec3& d, double sign, int n, bool derivatives) {
   const Mat3 I = Mat3::Identity();
   GapKinematics k;
   k.D = Mat3N::Zero(3, n);
@@ -230,7 +233,6 @@ GapKinematics gap_kinematics(const std::array<double, 6>& Ns, int ns, const Face
   for (int a = 0; a < nm; ++a) k.D.block<3, 3>(0, 3 * (ns + a)) = -g.shape.N[a] * I;
   const double r = d.norm();
   const bool held = proj.free < 2 && r > 0.0;
-  const double sign = d.dot(proj.normal) < 0.0 ? -1.0 : 1.0;
   k.nu = held ? Vec3(sign * d / r) : proj.normal;
   if (!derivatives) return k;
   k.B1 = k.B2 = Mat3N::Zero(3, n);
@@ -367,12 +369,149 @@ void SurfaceContact::build(const Mesh& mesh, int nslave, bool self) {
   }
   const std::vector<double> h = face_sizes(mesh, quads, tris);  // quads first, then triangles
   for (int f = 0, q = 0, t = 0; f < nfaces; ++f) faces_[f].size = faces_[f].quad() ? h[q++] : h[quads.size() + t++];
+  build_topology();
   if (self) add_points(mesh, 0, nfaces, 0, nfaces, 0.5);
   else if (!options_.two_pass) add_points(mesh, 0, nslave, nslave, nfaces, 1.0);
   else {
     add_points(mesh, 0, nslave, nslave, nfaces, 0.5);
     add_points(mesh, nslave, nfaces, 0, nslave, 0.5);
   }
+}
+
+namespace {
+
+int corner_count(const Face& f) { return f.quad() ? 4 : 3; }
+long long corner_key(int node, int surface) { return 2LL * node + surface; }
+
+/// Parametric coordinates of a face's corners: the quad's (±1, ±1), the triangle's (0, 0), (1, 0), (0, 1).
+Eigen::Vector2d corner_coordinates(bool quad, int c) {
+  static const double q[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}, t[3][2] = {{0, 0}, {1, 0}, {0, 1}};
+  return quad ? Eigen::Vector2d(q[c][0], q[c][1]) : Eigen::Vector2d(t[c][0], t[c][1]);
+}
+
+/// The corners of a face spanning the bounds (ξ, η) lies on: two at an edge, one at a corner.
+std::vector<int> feature_corners(const Face& f, double xi, double eta) {
+  // Bounds a ξ + b η = c: the quad's ξ = ±1, η = ±1; the triangle's ξ = 0, η = 0, ξ + η = 1.
+  static const double qb[4][3] = {{1, 0, -1}, {1, 0, 1}, {0, 1, -1}, {0, 1, 1}}, tb[3][3] = {{1, 0, 0}, {0, 1, 0}, {1, 1, 1}};
+  constexpr double on = 1e-9;
+  std::vector<int> corners;
+  for (int c = 0; c < corner_count(f); ++c) {
+    const Eigen::Vector2d cc = corner_coordinates(f.quad(), c);
+    bool spans = true;
+    for (int b = 0; b < (f.quad() ? 4 : 3); ++b) {
+      const double* B = f.quad() ? qb[b] : tb[b];
+      if (std::abs(B[0] * xi + B[1] * eta - B[2]) < on && std::abs(B[0] * cc[0] + B[1] * cc[1] - B[2]) > on) spans = false;
+    }
+    if (spans) corners.push_back(c);
+  }
+  return corners;
+}
+
+bool has_corner(const Face& f, int node) {
+  for (int c = 0; c < corner_count(f); ++c)
+    if (f.nodes[c] == node) return true;
+  return false;
+}
+
+/// The corner nodes next to corner `node` along the face's boundary.
+std::array<int, 2> neighbour_corners(const Face& f, int node) {
+  const int n = corner_count(f);
+  int c = 0;
+  while (f.nodes[c] != node) ++c;
+  return {f.nodes[(c + 1) % n], f.nodes[(c + n - 1) % n]};
+}
+
+}  // namespace
+
+void SurfaceContact::build_topology() {
+  const int nfaces = int(faces_.size());
+  corner_faces_.clear();
+  ring_.assign(nfaces, {});
+  for (int f = 0; f < nfaces; ++f)
+    for (int c = 0; c < corner_count(faces_[f]); ++c) corner_faces_[corner_key(faces_[f].nodes[c], surface_of(f))].push_back(f);
+  for (int f = 0; f < nfaces; ++f) {
+    for (int c = 0; c < corner_count(faces_[f]); ++c) {
+      const std::vector<int>& around = corner_faces_[corner_key(faces_[f].nodes[c], surface_of(f))];
+      ring_[f].insert(ring_[f].end(), around.begin(), around.end());
+    }
+    std::sort(ring_[f].begin(), ring_[f].end());
+    ring_[f].erase(std::unique(ring_[f].begin(), ring_[f].end()), ring_[f].end());
+  }
+}
+
+void SurfaceContact::closest_in_ring(const Point& p, const Vec3& xs, const std::vector<Vec3>& x, Evaluation& e) const {
+  const Face& own = faces_[p.face];
+  for (int f : ring_[e.paired]) {
+    const Face& face = faces_[f];
+    if (f == e.paired || f == p.face || shares_node(own, face)) continue;
+    // A sphere around the face's nodes (widened for a curved side's bulge) farther than the best
+    // distance holds no nearer point.
+    Vec3 centre = Vec3::Zero();
+    for (int a = 0; a < face.nodes_count; ++a) centre += x[face.nodes[a]] / face.nodes_count;
+    double radius = 0.0;
+    for (int a = 0; a < face.nodes_count; ++a) radius = std::max(radius, (x[face.nodes[a]] - centre).norm());
+    if ((xs - centre).norm() - 1.5 * radius > e.projection.distance) continue;
+    const double start = face.quad() ? 0.0 : 1.0 / 3;
+    const FaceProjection q = project_on_face(face, x, xs, start, start);
+    // Ties (the same closest point on a shared edge) stay with the paired face.
+    if (q.distance < e.projection.distance - 1e-12 * face.size) {
+      e.master = f;
+      e.projection = q;
+    }
+  }
+}
+
+double SurfaceContact::feature_side(int w, const FaceProjection& q, const Vec3& d, const std::vector<Vec3>& x,
+                                    int paired, bool& interior) const {
+  // The pseudo-normal of the edge or corner (the faces' normals there, a corner's weighted by the
+  // faces' angles at it: Bærentzen and Aanæs 2005) gives the side of the surface continuously: a point
+  // held there changes sides only through the surface itself, where its distance vanishes.
+  const Face& f = faces_[w];
+  const std::vector<int> corners = feature_corners(f, q.xi, q.eta);
+  if (corners.empty()) {
+    interior = false;
+    return d.dot(q.normal) < 0.0 ? -1.0 : 1.0;
+  }
+  const int v = f.nodes[corners[0]];
+  const auto it = corner_faces_.find(corner_key(v, surface_of(w)));
+  Vec3 pseudo = Vec3::Zero();
+  std::unordered_map<int, int> rim;  // around a corner: each neighbour corner's count (2 on a closed fan)
+  int count = 0;
+  bool in_ring = true;
+  for (int g : it->second) {
+    const Face& face = faces_[g];
+    if (corners.size() > 1 && !has_corner(face, f.nodes[corners[1]])) continue;
+    ++count;
+    in_ring = in_ring && std::binary_search(ring_[paired].begin(), ring_[paired].end(), g);
+    const double start = face.quad() ? 0.0 : 1.0 / 3;
+    const Vec3 n = g == w ? q.normal : project_on_face(face, x, q.x, start, start).normal;
+    double weight = 1.0;
+    if (corners.size() == 1) {
+      const std::array<int, 2> r = neighbour_corners(face, v);
+      const Vec3 a = (x[r[0]] - x[v]).normalized(), b = (x[r[1]] - x[v]).normalized();
+      weight = std::acos(std::clamp(a.dot(b), -1.0, 1.0));
+      ++rim[r[0]];
+      ++rim[r[1]];
+    }
+    pseudo += weight * n;
+  }
+  bool closed = corners.size() > 1 ? count == 2 : count > 0;
+  for (const auto& [node, times] : rim) closed = closed && times == 2;
+  interior = closed && in_ring;
+  return d.dot(pseudo) < 0.0 ? -1.0 : 1.0;
+}
+
+int SurfaceContact::response_nodes(const Point& p, const Evaluation& e, std::array<int, 18>& nodes) const {
+  int count = 0;
+  for (int f : {p.face, e.master}) {
+    const Face& face = faces_[f];
+    for (int a = 0; a < face.nodes_count; ++a) nodes[count++] = face.nodes[a];
+  }
+  if (options_.friction > 0.0 && e.paired != e.master) {
+    const Face& face = faces_[e.paired];
+    for (int a = 0; a < face.nodes_count; ++a) nodes[count++] = face.nodes[a];
+  }
+  return count;
 }
 
 void SurfaceContact::add_points(const Mesh& mesh, int slave_begin, int slave_end, int master_begin, int master_end,
@@ -498,21 +637,27 @@ void SurfaceContact::pair(const Mesh& mesh, const Iterate& converged, Couplings&
       s[0] = s[1] = 0.0;  // out of reach: no multiplier to carry
       continue;
     }
-    // Beside an edge the gap is ± the distance, its sign the side of the face's plane: a point there
-    // may cross that plane in any iterate, so its whole distance is its start.
+    // Beside a free edge of the master surface the gap is ± the distance, its sign the side of the
+    // face's plane: a point there may cross that plane in any iterate, so its whole distance is its start.
     const Evaluation e = evaluate(points_[k], s, 0.0, x);
-    s[kStartDepth] = e.projection.free == 2 ? std::max(0.0, -e.gap) : std::abs(e.gap);
+    s[kStartDepth] = e.sided ? std::max(0.0, -e.gap) : std::abs(e.gap);
     pairs.emplace_back(points_[k].face, c.face);
   }
   std::sort(pairs.begin(), pairs.end());
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-  std::array<int, 12> group;
-  for (const auto& [fs, fm] : pairs) {
-    const Face &a = faces_[fs], &b = faces_[fm];
-    std::copy(a.nodes.begin(), a.nodes.begin() + a.nodes_count, group.begin());
-    std::copy(b.nodes.begin(), b.nodes.begin() + b.nodes_count, group.begin() + a.nodes_count);
-    couplings.add(group.data(), a.nodes_count + b.nodes_count);
-  }
+  // A point may find its closest point on any face of its paired face's ring within the step (and
+  // keeps its stick anchor on the paired face): the slave face couples with both.
+  std::array<int, 18> group;
+  for (const auto& [fs, fm] : pairs)
+    for (int f : ring_[fm]) {
+      int count = 0;
+      for (int g : {fs, fm, f}) {
+        if (g == f && f == fm) continue;
+        std::copy(faces_[g].nodes.begin(), faces_[g].nodes.begin() + faces_[g].nodes_count, group.begin() + count);
+        count += faces_[g].nodes_count;
+      }
+      couplings.add(group.data(), count);
+    }
 }
 
 }  // namespace softhom::fe
@@ -522,17 +667,22 @@ namespace softhom::fe {
 SurfaceContact::Evaluation SurfaceContact::evaluate(const Point& p, const double* s, double multiplier,
                                                     const std::vector<Vec3>& x) const {
   Evaluation e;
-  e.master = int(s[2]);
-  if (e.master < 0) return e;
+  e.paired = e.master = int(s[2]);
+  if (e.paired < 0) return e;
+  const Vec3 xs = point_position(p, x);
+  e.projection = project_on_face(faces_[e.paired], x, xs, s[3], s[4]);
+  closest_in_ring(p, xs, x, e);
   const Face& fm = faces_[e.master];
-  e.projection = project_on_face(fm, x, point_position(p, x), s[3], s[4]);
-  // A point held at an edge of its face farther aside than half the face has slid off it within the
-  // step: it bears nothing until the next step pairs it again.
   const FaceProjection& q = e.projection;
+  // Inside the face the gap along its normal; at an edge or corner the signed distance, its side the
+  // pseudo-normal's (gap_kinematics).
+  if (q.free < 2) e.sign = feature_side(e.master, q, xs - q.x, x, e.paired, e.sided);
+  e.gap = q.free == 2 ? q.gap : e.sign * q.distance;
+  // A point held at a free edge of the master surface (or beyond the paired face's neighbours) farther
+  // aside than half the face has slid off it within the step: it bears nothing until the next step
+  // pairs it again.
   const double aside = std::sqrt(std::max(0.0, q.distance * q.distance - q.gap * q.gap));
-  e.engaged = q.free == 2 || aside <= 0.5 * fm.size;
-  // Inside the face the gap along its normal; at an edge or corner the signed distance (gap_variation).
-  e.gap = q.free == 2 ? q.gap : (q.gap < 0.0 ? -q.distance : q.distance);
+  e.engaged = q.free == 2 || e.sided || aside <= 0.5 * fm.size;
   if (e.engaged) e.pressure = std::max(0.0, multiplier - p.penalty * e.gap);
   return e;
 }
@@ -607,12 +757,14 @@ struct SurfaceContact::Response {
 
 SurfaceContact::Response SurfaceContact::respond(const Point& p, const Evaluation& e, const double* anchor,
                                                  const std::vector<Vec3>& x, bool tangent) const {
-  const Face &fs = faces_[p.face], &fm = faces_[e.master];
+  const Face &fs = faces_[p.face], &fm = faces_[e.master], &fa = faces_[e.paired];
   const FaceGeometry g = face_geometry(fm, x, e.projection.xi, e.projection.eta);
   const Vec3 xs = point_position(p, x);
-  const GapKinematics k = gap_kinematics(p.N, fs.nodes_count, g, fm.nodes_count, e.projection, xs - g.x, tangent);
+  std::array<int, 18> nodes;
   Response out;
-  out.dofs = 3 * (fs.nodes_count + fm.nodes_count);
+  out.dofs = 3 * response_nodes(p, e, nodes);
+  const GapKinematics k =
+      gap_kinematics(p.N, fs.nodes_count, g, fm.nodes_count, e.projection, xs - g.x, e.sign, out.dofs, tangent);
   out.normal = k.nu;
   const VecN G = k.gradient();
   if (tangent) out.K = p.weight * (p.penalty * G * G.transpose() - e.pressure * k.hessian());
@@ -621,10 +773,10 @@ SurfaceContact::Response SurfaceContact::respond(const Point& p, const Evaluatio
     out.r = -p.weight * e.pressure * G;
     return out;
   }
-  // The trial stick traction −ε_T P v, v = x_s − x_a (the anchor a material point of the master face).
-  const std::array<double, 6> Na = face_shape(fm.quad(), anchor[0], anchor[1]).N;
+  // The trial stick traction −ε_T P v, v = x_s − x_a (the anchor a material point of the paired face).
+  const std::array<double, 6> Na = face_shape(fa.quad(), anchor[0], anchor[1]).N;
   Vec3 xa = Vec3::Zero();
-  for (int a = 0; a < fm.nodes_count; ++a) xa += Na[a] * x[fm.nodes[a]];
+  for (int a = 0; a < fa.nodes_count; ++a) xa += Na[a] * x[fa.nodes[a]];
   const Vec3 v = xs - xa, &nu = k.nu;
   const Mat3 P = Mat3::Identity() - nu * nu.transpose();
   const CoulombReturn c = coulomb_return(-p.tangential_penalty * (P * v), mu, e.pressure);
@@ -633,8 +785,10 @@ SurfaceContact::Response SurfaceContact::respond(const Point& p, const Evaluatio
   out.r = -p.weight * (e.pressure * G + k.D.transpose() * c.traction);
   if (!tangent) return out;
   // Δ(P v) = P Δv − (ν·v) Δν − ν (v·Δν); Δp = −ε_N ∂g; the force −t_T acts at the moving closest point.
-  Mat3N Dv = k.D;
-  for (int a = 0; a < fm.nodes_count; ++a) Dv.block<3, 3>(0, 3 * (fs.nodes_count + a)) = -Na[a] * Mat3::Identity();
+  Mat3N Dv = Mat3N::Zero(3, out.dofs);
+  Dv.leftCols(3 * fs.nodes_count) = k.D.leftCols(3 * fs.nodes_count);
+  const int anchor_at = fs.nodes_count + (e.paired == e.master ? 0 : fm.nodes_count);
+  for (int a = 0; a < fa.nodes_count; ++a) Dv.block<3, 3>(0, 3 * (anchor_at + a)) = -Na[a] * Mat3::Identity();
   const Mat3N dtrial =
       -p.tangential_penalty * (P * Dv - nu.dot(v) * k.Nnu - nu * (v.transpose() * k.Nnu));
   const Mat3N dt = c.d_trial * dtrial - p.penalty * c.d_pressure * G.transpose();
@@ -646,15 +800,19 @@ void SurfaceContact::advance_anchor(const Point& p, const Evaluation& e, const R
                                     const std::vector<Vec3>& x, double* next) const {
   // Sticking: the anchor stays. Slipping: it moves to where the trial traction of the converged state is
   // the returned one, −ε_T P (x_s − x_a) = t_T, i.e. the closest point + t_T/ε_T. Free: the closest point.
-  if (!e.engaged || !(e.pressure > 0.0) || !(options_.friction > 0.0)) {
+  // The anchor lies on the paired face: where the closest point is a neighbour's, in the paired face's
+  // extended coordinates.
+  const bool free = !e.engaged || !(e.pressure > 0.0) || !(options_.friction > 0.0);
+  if (!free && !r.slip) return;
+  const Vec3 place = free ? e.projection.x : Vec3(e.projection.x + r.tangential / p.tangential_penalty);
+  if (free && e.paired == e.master) {
     next[0] = e.projection.xi;
     next[1] = e.projection.eta;
     return;
   }
-  if (!r.slip) return;
-  const Vec3 place = e.projection.x + r.tangential / p.tangential_penalty;
-  const std::array<double, 2> a =
-      extended_coordinates(faces_[e.master], x, place, e.projection.xi, e.projection.eta);
+  const bool same = e.paired == e.master;
+  const std::array<double, 2> a = extended_coordinates(faces_[e.paired], x, place, same ? e.projection.xi : next[0],
+                                                       same ? e.projection.eta : next[1]);
   next[0] = a[0];
   next[1] = a[1];
 }
@@ -676,7 +834,8 @@ double SurfaceContact::penetration_limit(const Point& p, const Face& master, con
 MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, AssemblySink& sink) const {
   if (!it.state_old) return MaterialStatus::ok;  // no history, no pairing
   const std::vector<Vec3> x = positions(mesh, it);
-  std::array<int, 36> dofs;
+  std::array<int, kMaxDofs> dofs;
+  std::array<int, 18> nodes;
   for (std::size_t k = 0; k < points_.size(); ++k) {
     const Point& p = points_[k];
     const double* so = it.state_old + kStateSize * k;
@@ -701,10 +860,9 @@ MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, Ass
       sn[1] = e.pressure;
       advance_anchor(p, e, r, x, sn + kNextAnchor);
     }
-    for (int a = 0; a < fs.nodes_count + fm.nodes_count; ++a) {
-      const int node = a < fs.nodes_count ? fs.nodes[a] : fm.nodes[a - fs.nodes_count];
-      for (int i = 0; i < 3; ++i) dofs[3 * a + i] = 3 * node + i;
-    }
+    const int count = response_nodes(p, e, nodes);
+    for (int a = 0; a < count; ++a)
+      for (int i = 0; i < 3; ++i) dofs[3 * a + i] = 3 * nodes[a] + i;
     sink.add_residual(r.dofs, dofs.data(), r.r.data());
     if (sink.tangent()) sink.add_tangent(r.dofs, dofs.data(), r.dofs, dofs.data(), r.K.data());
   }

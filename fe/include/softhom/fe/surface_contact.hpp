@@ -68,6 +68,7 @@
 // each other by more than that.
 #include <array>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "softhom/fe/contact.hpp"
@@ -177,12 +178,25 @@ class SurfaceContact final : public Contribution {
   /// A point at positions x against its master face (history s): the projection and the pressure with
   /// multiplier λ; `engaged` when its closest point lies on the face (or within half a face beside it).
   struct Evaluation {
-    int master = -1;
+    int paired = -1;  ///< the master face of the step's pairing (the stick anchor's face)
+    int master = -1;  ///< the face holding the closest point: the paired one or a neighbour of it
     bool engaged = false;
+    /// The gap's sign is the master surface's side (inside a face, or at an edge or corner between
+    /// faces), not only a face plane's (at a free edge of the master surface).
+    bool sided = true;
     FaceProjection projection;
-    double gap = 0.0;  ///< along the normal inside the face; ± the distance at an edge or corner
+    double sign = 1.0;  ///< at an edge or corner: the side of the pseudo-normal
+    double gap = 0.0;   ///< along the normal inside the face; ± the distance at an edge or corner
     double pressure = 0.0;
   };
+  /// The side (±1) of a point at offset d from a closest point held at an edge or corner of face w,
+  /// by the pseudo-normal of the faces around that edge or corner; `interior` whether they close
+  /// around it (no free edge of the surface there) and lie within the paired face's neighbourhood.
+  double feature_side(int w, const FaceProjection& q, const Vec3& d, const std::vector<Vec3>& x, int paired,
+                      bool& interior) const;
+  /// The nodes a point's response couples: its slave face's, the master face's, and the paired face's
+  /// when it is another and carries a stick anchor. Returns their count.
+  int response_nodes(const Point& p, const Evaluation& e, std::array<int, 18>& nodes) const;
   Evaluation evaluate(const Point& p, const double* s, double multiplier, const std::vector<Vec3>& x) const;
   /// Deepest admissible penetration of a point against `master` in an iterate (surface_contact.hpp).
   double penetration_limit(const Point& p, const Face& master, const double* s) const;
@@ -197,6 +211,14 @@ class SurfaceContact final : public Contribution {
   /// Current area weight of a point (its rule weight × |x_ξ × x_η| × the pass's factor).
   double current_weight(const Point& p, const std::vector<Vec3>& x) const;
   void build(const Mesh& mesh, int surfaces, bool self);
+  /// ring_ and corner_faces_ from the faces' corners.
+  void build_topology();
+  /// 0 for the (first) slave surface's faces or a self-contact's, 1 for a pair's master surface's.
+  int surface_of(int face) const { return self_ || face < slave_faces_ ? 0 : 1; }
+  /// The closest point of the faces around e.paired (its ring) to xs, if nearer than e.projection:
+  /// a point the step paired with a face and which slid past its edge, or lies nearer a neighbour across
+  /// a concave edge, measures its gap to the surface, not to the paired face's extension.
+  void closest_in_ring(const Point& p, const Vec3& xs, const std::vector<Vec3>& x, Evaluation& e) const;
   void add_points(const Mesh& mesh, int slave_begin, int slave_end, int master_begin, int master_end, double factor);
   /// The point's pairing at positions x: the nearest admissible master face (−1: none) and its projection.
   struct Candidate {
@@ -210,6 +232,11 @@ class SurfaceContact final : public Contribution {
   Vec3 point_position(const Point& p, const std::vector<Vec3>& x) const;
 
   std::vector<Face> faces_;
+  /// Per face: the faces of its surface sharing a corner with it (itself included), where a point
+  /// paired with it may find its closest point within a step.
+  std::vector<std::vector<int>> ring_;
+  /// Per (corner node, surface): the faces having that corner.
+  std::unordered_map<long long, std::vector<int>> corner_faces_;
   std::vector<Point> points_;
   std::vector<std::string> surface_names_;
   int slave_faces_ = 0;  ///< faces_[0, slave_faces_) are the (first) slave surface's
