@@ -441,9 +441,19 @@ void SurfaceContact::build_topology() {
 
 void SurfaceContact::closest_in_ring(const Point& p, const Vec3& xs, const std::vector<Vec3>& x, Evaluation& e) const {
   const Face& own = faces_[p.face];
+  // In a self-contact the surface around the point itself is no contact: the faces within two rings of
+  // its own face (the pairing skips one ring: faces sharing a node) lie beside it in its own surface,
+  // where its distance to them would be a false gap.
+  const std::vector<int>& own_ring = ring_[p.face];
+  auto beside_own = [&](int f) {
+    if (!self_) return false;
+    for (int g : own_ring)
+      if (std::binary_search(ring_[g].begin(), ring_[g].end(), f)) return true;
+    return false;
+  };
   for (int f : ring_[e.paired]) {
     const Face& face = faces_[f];
-    if (f == e.paired || f == p.face || shares_node(own, face)) continue;
+    if (f == e.paired || f == p.face || shares_node(own, face) || beside_own(f)) continue;
     // A sphere around the face's nodes (widened for a curved side's bulge) farther than the best
     // distance holds no nearer point.
     Vec3 centre = Vec3::Zero();
@@ -678,11 +688,12 @@ SurfaceContact::Evaluation SurfaceContact::evaluate(const Point& p, const double
   // pseudo-normal's (gap_kinematics).
   if (q.free < 2) e.sign = feature_side(e.master, q, xs - q.x, x, e.paired, e.sided);
   e.gap = q.free == 2 ? q.gap : e.sign * q.distance;
-  // A point held at a free edge of the master surface (or beyond the paired face's neighbours) farther
-  // aside than half the face has slid off it within the step: it bears nothing until the next step
-  // pairs it again.
+  // A point held at an edge of the face nearest to it farther aside than half the face has slid off
+  // the surface around its paired face within the step (or was paired across a corner): it bears
+  // nothing until the next step pairs it again. Its gap there is at least that, unless it lies deep
+  // inside, which the face-size bound refuses anyway.
   const double aside = std::sqrt(std::max(0.0, q.distance * q.distance - q.gap * q.gap));
-  e.engaged = q.free == 2 || e.sided || aside <= 0.5 * fm.size;
+  e.engaged = q.free == 2 || aside <= 0.5 * fm.size;
   if (e.engaged) e.pressure = std::max(0.0, multiplier - p.penalty * e.gap);
   return e;
 }

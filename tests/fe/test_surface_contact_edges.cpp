@@ -119,17 +119,31 @@ TEST(SurfaceContactEdges, GapIsTheSignedDistanceAcrossConvexAndConcaveEdges) {
 }
 
 // The tangent where the slave face straddles the edge (some of its points held by it, or closest to
-// the other face) against central differences, with multipliers λ0 = 1 so every point presses: the
-// tolerance of the pair's own tangent test (test_surface_contact.cpp).
+// the other face than the one they were paired with) against central differences, with multipliers
+// λ0 = 1 so every point presses: the tolerance of the pair's own tangent test (test_surface_contact.cpp).
+// With friction (μ = 0.3, the stick anchors moved by 0.02 in ξ on the paired face: some points stick,
+// some slip); and with every point paired with A and anchored on it near the edge, so that the anchor
+// stays on the paired face while the closest point lies on its neighbour (the anchor's face's dofs).
 TEST(SurfaceContactEdges, TangentAtAnEdgeMatchesCentralDifferences) {
-  for (double angle : {0.5236, -0.5236}) {
-    const Vec3 centre(0.01, 0.03, angle > 0 ? -0.004 : 0.002);
-    const Hinge h = hinge(angle, 0.05, centre);
-    const SurfaceContact c(h.mesh, slave_face(), master_faces(), test::contact_options(20.0));
-    std::vector<double> u(h.mesh.num_dofs(), 0.0);
-    u[3 * 1 + 2] = 0.003;  // the edge's nodes moved: A and B warped
-    u[3 * 5 + 0] = -0.004;
-    const double error = test::contact_tangent_error(c, h.mesh, u, test::paired_state(c, h.mesh, u, 1.0));
-    EXPECT_LT(error, 1e-6) << (angle > 0 ? "convex" : "concave");
-  }
+  for (double mu : {0.0, 0.3})
+    for (double angle : {0.5236, -0.5236}) {
+      const Vec3 centre(0.01, 0.03, angle > 0 ? -0.004 : 0.002);
+      const Hinge h = hinge(angle, 0.05, centre);
+      SurfaceContact::Options o = test::contact_options(20.0);
+      o.friction = mu;
+      const SurfaceContact c(h.mesh, slave_face(), master_faces(), o);
+      std::vector<double> u(h.mesh.num_dofs(), 0.0);
+      u[3 * 1 + 2] = 0.003;  // the edge's nodes moved: A and B warped
+      u[3 * 5 + 0] = -0.004;
+      std::vector<double> state = test::paired_state(c, h.mesh, u, 1.0, 0.02);
+      EXPECT_LT(test::contact_tangent_error(c, h.mesh, u, state), 1e-6) << (angle > 0 ? "convex" : "concave") << ", mu " << mu;
+      for (int k = 0; k < c.num_points(); ++k) {  // all paired with A, anchored on it near the edge
+        double* s = state.data() + SurfaceContact::kStateSize * k;
+        s[2] = 1.0;
+        s[3] = s[4] = 0.0;
+        s[SurfaceContact::kAnchor] = s[SurfaceContact::kNextAnchor] = 0.95;
+        s[SurfaceContact::kAnchor + 1] = s[SurfaceContact::kNextAnchor + 1] = 0.1;
+      }
+      EXPECT_LT(test::contact_tangent_error(c, h.mesh, u, state), 1e-6) << (angle > 0 ? "convex" : "concave") << " on A, mu " << mu;
+    }
 }
