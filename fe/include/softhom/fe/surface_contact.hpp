@@ -4,17 +4,24 @@
 // (contact.hpp).
 //
 // Formulation: the quadrature points of the slave surface's faces (ObstacleContact's rules: 3×3 Gauss
-// on quads, Dunavant's 7 points on 6-node triangles) each see one master face (a hex8 quad or a tet10
-// 6-node triangle). The closest point of that face, a Newton iteration in its parametric coordinates
-// clamped to the face, gives the gap g = (x_s − x_m)·n along the master face's unit normal n (outward
-// of the master body: g > 0 apart) and the nominal pressure p = ⟨λ + ε (−g)⟩ per reference slave area.
-// The residual is the variation of the penalty energy: R = −Σ w p ∂g/∂u over the slave face's and the
-// master face's nodes, and its tangent the exact second variation, w (ε ∂g⊗∂g − p ∂²g), including the
-// motion of the closest point over the master face and the rotation of its normal (symmetric without
-// friction). It is exact everywhere: where the closest point is held by an edge or a corner of the face (below a kink of
-// the master surface, or past the edge of the face it was paired with in this step) the gap is the
-// signed distance to it, which joins the normal gap continuously with its first derivative. A point
-// more than half a face beside its master face bears nothing until the next step pairs it again.
+// on quads, Dunavant's 7 points on 6-node triangles) each see the master surface around one master face
+// (a hex8 quad or a tet10 6-node triangle), the one the step paired it with: its closest point over that
+// face and the faces sharing a corner with it (its ring), each by Newton in the face's parametric
+// coordinates clamped to the face. Inside a face the gap is g = (x_s − x_m)·n along the face's unit
+// normal n (outward of the master body: g > 0 apart); where an edge or a corner holds the closest point
+// it is the distance to it, signed by the side of the pseudo-normal there (the normals of the faces
+// around the edge or corner at that point, a corner's weighted by the faces' angles at it: Bærentzen and
+// Aanæs 2005). That is the signed distance to the surface: continuous, with its first derivative, as a
+// point slides past a face's edge, crosses a face's plane beside an edge, or comes nearer a neighbour
+// across a concave edge (where its gradient turns from one face's normal to the other's). The nominal
+// pressure is p = ⟨λ + ε (−g)⟩ per reference slave area. The residual is the variation of the penalty
+// energy: R = −Σ w p ∂g/∂u over the slave face's and the master face's nodes, and its tangent the exact
+// second variation, w (ε ∂g⊗∂g − p ∂²g), including the motion of the closest point over the master face
+// and the rotation of its normal, or at an edge of the distance's direction (symmetric without
+// friction). A point held at an edge farther than half a face beside the face nearest to it (past the
+// ring of its paired face, or paired across a corner) bears nothing until the next step pairs it again.
+// In a self-contact the faces within two rings of the point's own face are never its master (its own
+// surface beside it).
 //
 // Pairing: at the start of every step (Contribution::pair) each slave point takes the nearest master
 // face within two face sizes whose normal opposes the slave face's and which the point lies in front
@@ -23,8 +30,8 @@
 // finds the candidates (linear in the surfaces' size); no point pairs with its own face or one sharing
 // a node with it (a self-contact's neighbours). The pairing, the parametric start of the projection,
 // the multiplier and the stick anchor are the contribution's history (state_size: 10 per slave point),
-// so a cut-back step is retried with the pairing and the anchors of the converged state. The couplings are the (slave face, master face)
-// pairs: the driver rebuilds the stiffness pattern when they change.
+// so a cut-back step is retried with the pairing and the anchors of the converged state. The couplings are the (slave face, paired
+// face, face of its ring) triples: the driver rebuilds the stiffness pattern when they change.
 //
 // Self-contact is two-pass: every point of the surface is a slave, each weighted by one half, so both
 // sides of a fold carry the same pressure. A (slave, master) pair is one-pass unless `two_pass` (then
@@ -32,8 +39,9 @@
 // exactly when every slave face lies within one master face (the slave side finer, nested): the
 // master's loads are then the quadrature of its own shape functions (tests/fe/test_surface_contact.cpp).
 //
-// Friction (μ > 0): every slave point keeps a stick anchor, a material point of its master face given by
-// its parametric coordinates (ξ_a, η_a), so the anchor moves with the master surface. The slip is the
+// Friction (μ > 0): every slave point keeps a stick anchor, a material point of its paired master face
+// given by its parametric coordinates (ξ_a, η_a), so the anchor moves with the master surface (within a
+// step it stays on the paired face where the closest point lies on a neighbour). The slip is the
 // tangential part of the offset from the anchor, v_T = P (x_s − x_a) with P = I − ν⊗ν (ν the contact
 // normal: the master face's, or at an edge the direction of the distance), the trial stick traction
 // −ε_T v_T, returned onto the cone |t_T| ≤ μ p (fe::coulomb_return, the obstacles' law). The slave
