@@ -210,9 +210,9 @@ bool shares_node(const Face& a, const Face& b) {
 /// Inside the face ν is the face's normal n; where an edge or a corner holds the closest point it is the
 /// distance's direction ±d/|d|, the sign the side of the surface's pseudo-normal there (the gap is the
 /// signed distance, equal to d·n where the closest point leaves the face's inside, so the gap and its
-/// derivative are continuous). The dofs may extend beyond the two faces' (n columns, the rest zero). The gap's variation
-/// is then ∂g = Dᵀν in both cases (+ Nνᵀ d, which vanishes: d ∥ ν and Nν ⊥ ν) and its second variation
-/// Dᵀ Nν − (B_αᵀ ν) Ξ_α.
+/// derivative are continuous). The gap's variation is then ∂g = Dᵀν in both cases (+ Nνᵀ d, which
+/// vanishes: d ∥ ν and Nν ⊥ ν) and its second variation Dᵀ Nν − (B_αᵀ ν) Ξ_α. The dofs may extend
+/// beyond the two faces' (n columns, the others zero: the stick anchor's face).
 struct GapKinematics {
   Mat3N D, B1, B2;
   Mat2N Xi;
@@ -860,7 +860,7 @@ MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, Ass
     }
     const Evaluation e = evaluate(p, so, lambda, x);
     if (e.master < 0) continue;
-    const Face &fs = faces_[p.face], &fm = faces_[e.master];
+    const Face& fm = faces_[e.master];
     if (e.engaged && -e.gap > penetration_limit(p, fm, so)) return MaterialStatus::penetration;
     if (!e.engaged || !(e.pressure > 0.0)) {
       if (sn) advance_anchor(p, e, Response{}, x, sn + kNextAnchor);

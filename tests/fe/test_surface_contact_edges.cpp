@@ -40,7 +40,7 @@ ContactSurface master_faces() { return {{{0, 1, 2, 3}, {1, 4, 5, 2}}, {}, "hinge
 ContactSurface slave_face() { return {{{6, 7, 8, 9}}, {}, "slider"}; }
 
 /// The slave face moved by `to` − its centre.
-std::vector<double> moved(const Hinge& h, const Vec3& to) {
+std::vector<double> displaced_to(const Hinge& h, const Vec3& to) {
   std::vector<double> u(h.mesh.num_dofs(), 0.0);
   for (int n = 6; n < 10; ++n)
     for (int i = 0; i < 3; ++i) u[3 * n + i] = (to - h.centre)[i];
@@ -77,7 +77,7 @@ struct Sweep {
 Sweep sweep(double angle, const Vec3& from, const Vec3& to, bool on_a) {
   const Hinge h = hinge(angle, 1e-7, from);
   const SurfaceContact c(h.mesh, slave_face(), master_faces(), test::contact_options(1.0));
-  std::vector<double> state = test::paired_state(c, h.mesh, moved(h, from), 0.0);
+  std::vector<double> state = test::paired_state(c, h.mesh, displaced_to(h, from), 0.0);
   for (int k = 0; on_a && k < c.num_points(); ++k) {  // faces(): the slave, then A, then B
     double* s = state.data() + SurfaceContact::kStateSize * k;
     s[2] = 1.0;
@@ -88,7 +88,7 @@ Sweep sweep(double angle, const Vec3& from, const Vec3& to, bool on_a) {
   double last = 0.0;
   for (int i = 0; i <= n; ++i) {
     const Vec3 at = from + (to - from) * (double(i) / n);
-    const double g = face_gap(c, h, moved(h, at), state);
+    const double g = face_gap(c, h, displaced_to(h, at), state);
     out.deviation = std::max(out.deviation, std::abs(g - reference_gap(angle, at[0], at[2])));
     if (i > 0) out.excess_jump = std::max(out.excess_jump, std::abs(g - last) - (to - from).norm() / n);
     last = g;
