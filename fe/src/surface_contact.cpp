@@ -833,11 +833,11 @@ double SurfaceContact::penetration_limit(const Point& p, const Face& master, con
   // than 10 G of the softer side beyond what the point carried at the step's start: its converged
   // pressure s[1] (the step's multiplier when augmented, its penetration's pressure in pure penalty),
   // or its depth against the face the step pairs it with (kStartDepth), if deeper (a point paired anew
-  // may start inside a face it bore nothing on; beside an edge the whole distance). That is the step's own
-  // increment: a converged state legitimately carries any pressure, but an iterate adding more than
-  // 10 G within one step is one whose tangent did not yet see the contact (the step that first
-  // touches: the whole increment goes into the softer body, inverting its elements). Refused, the line
-  // search backtracks to a shallower iterate.
+  // may start inside a face it bore nothing on; beside a free edge of the surface the whole distance).
+  // That is the step's own increment: a converged state legitimately carries any pressure, but an
+  // iterate adding more than 10 G within one step is one whose tangent did not yet see the contact (the
+  // step that first touches: the whole increment goes into the softer body, inverting its elements).
+  // Refused, the line search backtracks to a shallower iterate.
   const double start = std::max(s[1] / p.penalty, s[kStartDepth]);
   return std::min(master.size, pressure_depth_limit(options_.shear_modulus, p.penalty, start));
 }
