@@ -187,7 +187,9 @@ TEST(DeviceGripper, GripsARigidSample) {
   while (first < c.rows.size() && !(c.at(first, "grip_force_N") > 0.0)) ++first;
   ASSERT_EQ(first, 4u);  // the step to 200 kPa
   for (std::size_t k = first; k < c.rows.size(); ++k) {
-    if (k > first) EXPECT_GT(c.at(k, "grip_force_N"), c.at(k - 1, "grip_force_N")) << "row " << k;
+    if (k > first) {
+      EXPECT_GT(c.at(k, "grip_force_N"), c.at(k - 1, "grip_force_N")) << "row " << k;
+    }
     EXPECT_NEAR(2.0 * c.at(k, "contact_0_normal_force_N"), c.at(k, "contact_1_normal_force_N"),
                 0.25 * c.at(k, "contact_1_normal_force_N"))
         << "row " << k;
