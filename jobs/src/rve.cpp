@@ -42,6 +42,7 @@ FeRveJob parse_fe_job(const toml::table& scene, bool microstructure_only) {
     rve::check_plate_section(job.section);
   }
   if (!microstructure_only) job.control = studies::parse_rve_load(scene);
+  if (job.plate && !microstructure_only) rve::check_plate_control(job.control);
   job.output = studies::parse_rve_output(scene, microstructure_only ? nullptr : &job.control);
   return job;
 }

@@ -166,6 +166,20 @@ struct PassSums : detail::PhaseSums {
 
 const char* to_string(FePressure p) { return p == FePressure::p0 ? "p0" : "p1-bubble"; }
 
+void check_plate_control(const MixedControl& control) {
+  for (int c : {2, 5, 8}) {
+    const std::string name = "F" + std::to_string(c / 3 + 1) + "3";
+    bool zero = control.kind[c] == ControlKind::stress;
+    if (zero)
+      for (double v : control.value[c].v) zero = zero && v == 0.0;
+    if (!zero)
+      throw InputError("load", control.name,
+                       "the plate cell (microstructure.cell = \"plate\") has traction-free faces: its normal column must be "
+                       "free and stress-free (F13, F23, F33 \"free\" with P13 = P23 = P33 = 0, a type = \"mixed\" load), but " +
+                           name + (control.kind[c] == ControlKind::stress ? " has a non-zero stress target" : " is prescribed"));
+  }
+}
+
 namespace {
 
 template <class E>
@@ -911,21 +925,6 @@ struct Model {
     return out;
   }
 
-  /// A plate's faces are traction-free: the control must say so (F̄_i3 free with P̄_i3 = 0).
-  static void check_plate_control(const MixedControl& control) {
-    for (int c : kNormalColumn) {
-      const std::string name = "F" + std::to_string(c / 3 + 1) + "3";
-      bool zero = control.kind[c] == ControlKind::stress;
-      if (zero)
-        for (double v : control.value[c].v) zero = zero && v == 0.0;
-      if (!zero)
-        throw InputError("load", control.name,
-                         "the plate cell (microstructure.cell = \"plate\") has traction-free faces: its normal column must be "
-                         "free and stress-free (F13, F23, F33 \"free\" with P13 = P23 = P33 = 0, a type = \"mixed\" load), but " +
-                             name + (control.kind[c] == ControlKind::stress ? " has a non-zero stress target" : " is prescribed"));
-    }
-  }
-
   void commit() {
     ut_c = ut;
     Fbar_c = Fbar;
@@ -1049,7 +1048,7 @@ struct Model {
   RveRunResult run(const MixedControl& control, const std::function<void(const RveStep&, const FeFields*)>& on_step,
                    const std::function<bool(double)>& want_fields) {
     control.validate();
-    if (plate) check_plate_control(control);
+    if (plate) rve::check_plate_control(control);
     const auto run_start = Clock::now();
     RveRunResult result;
     std::array<bool, 9> free{};

@@ -83,6 +83,10 @@ struct FeFields {
   std::vector<double> displacement;
 };
 
+/// Refuses (InputError on "load") a control a plate cell cannot take: F13, F23, F33 (load frame) must
+/// be free with P13 = P23 = P33 = 0 at all times (the faces are traction-free).
+void check_plate_control(const MixedControl& control);
+
 class FeRveSolver {
  public:
   /// `mesh` in the grid frame (y3 = fiber axis); materials in the global frame of `load_frame`.
