@@ -35,7 +35,14 @@ FeRveJob parse_fe_job(const toml::table& scene, bool microstructure_only) {
     throw InputError("phases.fiber", "", "missing (the cell has fibers)");
   job.fiber_angle_deg = studies::microstructure_fiber_angle(micro);
   job.settings = studies::parse_fe_rve_solver(scene, job.section.L1);
+  job.plate = studies::microstructure_is_plate(micro);
+  if (job.plate) {
+    if (job.settings.three_d)
+      throw InputError("microstructure.cell", "\"plate\"", "a plate is a section (its fibers are straight): use fe_mesh = \"section\"");
+    rve::check_plate_section(job.section);
+  }
   if (!microstructure_only) job.control = studies::parse_rve_load(scene);
+  if (job.plate && !microstructure_only) rve::check_plate_control(job.control);
   job.output = studies::parse_rve_output(scene, microstructure_only ? nullptr : &job.control);
   return job;
 }

@@ -102,6 +102,7 @@ FeCellMesh mesh_fe_cell(const FeRveJob& fe) {
   m.cell_measure = fe.section.L1 * fe.section.L2;
   if (!fe.settings.three_d) {
     m.section = std::make_unique<rve::SectionMesh>(rve::mesh_section(fe.section, fe.settings.mesh));
+    if (fe.plate) rve::make_plate(*m.section);
     m.json = section_mesh_json(*m.section, fe.settings);
     m.field_mesh = field_mesh(*m.section);
     m.phase = m.section->phase;
@@ -164,6 +165,7 @@ nlohmann::json fe_summary(const RveJob& job, const FeRveJob& fe, nlohmann::json 
   summary["ranks"] = 1;  // the FE engine runs on one process
   summary["voxels"] = nullptr;
   summary["cell_size"] = {fe.section.L1, fe.section.L2};
+  summary["cell"] = fe.plate ? "plate" : "periodic";
   summary["geometry"] = fe.geometry_note;
   summary["volume_fraction_target"] = fe.target_vf;
   summary["volume_fraction_achieved"] = solver.achieved_volume_fraction();

@@ -260,7 +260,8 @@ double SectionMesh::area(int phase_id) const {
 namespace {
 
 /// Periodic masters by coordinate matching: a node on y1 = L1 maps to the node at (0, y2), one on
-/// y2 = L2 to (y1, 0), chains resolved (corners → (0, 0)). Returns the largest mismatch.
+/// y2 = L2 to (y1, 0), chains resolved (corners → (0, 0)); a plate (periodic_y2 false) pairs the y1
+/// edges only. Returns the largest mismatch.
 double assign_masters(SectionMesh& m, double tol) {
   const int n = m.num_nodes();
   m.master.resize(n);
@@ -283,8 +284,8 @@ double assign_masters(SectionMesh& m, double tol) {
   for (int i = 0; i < n; ++i) {
     const Vec2 p = m.nodes[i];
     const bool right = std::abs(p.x() - m.L1) <= tol, top = std::abs(p.y() - m.L2) <= tol;
-    if (right) m.master[i] = find(left, top ? 0.0 : p.y(), i);  // (L1, L2) → (0, 0)
-    else if (top) m.master[i] = find(bottom, p.x(), i);
+    if (right) m.master[i] = find(left, top && m.periodic_y2 ? 0.0 : p.y(), i);  // (L1, L2) → (0, 0)
+    else if (top && m.periodic_y2) m.master[i] = find(bottom, p.x(), i);
   }
   return worst;
 }
@@ -309,6 +310,26 @@ double verify_periodic_pairing(const SectionMesh& mesh) {
     if (d.norm() > 1e-9 * std::max(mesh.L1, mesh.L2)) throw std::runtime_error("periodic mesh: master at another position");
   }
   return worst;
+}
+
+void make_plate(SectionMesh& mesh) {
+  mesh.periodic_y2 = false;
+  mesh.quality.max_pairing_error = assign_masters(mesh, 1e-9 * std::max(mesh.L1, mesh.L2));
+}
+
+void check_plate_section(const Section& section) {
+  for (std::size_t k = 0; k < section.fibers.size(); ++k) {
+    const FiberSection& f = section.fibers[k];
+    const double a = f.rotation_deg * kPi / 180.0;
+    const double half = f.shape == SectionShape::circle
+                            ? f.radius
+                            : 0.5 * (f.width * std::abs(std::sin(a)) + f.height * std::abs(std::cos(a)));
+    if (f.center.y() - half < 0.0 || f.center.y() + half > section.L2)
+      throw InputError("microstructure.cell", "\"plate\"",
+                       "fiber " + std::to_string(k) + " (y2 from " + format_number(f.center.y() - half) + " to " +
+                           format_number(f.center.y() + half) + ") cuts a free face of the plate (y2 = 0 or " +
+                           format_number(section.L2) + "): a plate is one layer of whole fibers (arrangement = \"square\")");
+  }
 }
 
 namespace {

@@ -172,6 +172,7 @@ struct MicroKeys {
   std::vector<int> grid{64, 64};
   double fiber_angle_deg = 0.0;
   const toml::node* image = nullptr;
+  bool plate = false;
 };
 
 /// Per-axis bound of grid sizes: 65536² is already 4e9 points, far beyond any memory here.
@@ -195,6 +196,10 @@ const keys::KeyTable<MicroKeys>& micro_keys() {
                 "64", "each in [1, 65536]")
         .number("fiber_angle_deg", &MicroKeys::fiber_angle_deg, keys::any_value(), "deg",
                 "fiber axis in the 1-2 plane of the load frame, from e2 toward e1 (spec §7)")
+        .choice("cell", &MicroKeys::plate, keys::Choices<bool>{{{"periodic", false}, {"plate", true}}, {}},
+                "\"periodic\": periodic in y1 and y2 (the bulk composite); \"plate\": one layer of fibers, periodic along "
+                "y1 only, its faces y2 = 0, L2 (normal e3 of the load frame) traction-free, thickness the cell side L2 "
+                "(FE engine, section mesh; the load must leave F13, F23, F33 free with P13 = P23 = P33 = 0)")
         .custom("image", "table", "[microstructure.image]: an HDF5 voxel image instead of a generated section",
                 [](const toml::node& n, const std::string& f, MicroKeys& m) { m.image = &keys::read_table(n, f); }, "none");
     return k;
@@ -455,6 +460,14 @@ MicroKeys read_micro(const toml::table& t, bool& grid_given) {
   return m;
 }
 
+/// The FFT engine's phase images are periodic in every direction: a plate cell is refused.
+void refuse_plate_for_fft(const MicroKeys& m) {
+  if (m.plate)
+    throw InputError("microstructure.cell", "\"plate\"",
+                     "the plate cell (free faces y2 = 0, L2) is an FE cell: set [solver] engine = \"fe\" (the FFT engine's "
+                     "cells are periodic in every direction)");
+}
+
 }  // namespace
 
 rve::FiberCellSpec parse_fiber_cell_spec(const toml::table& t, const std::string& p, std::string& label) {
@@ -470,9 +483,15 @@ double microstructure_fiber_angle(const toml::table& t) {
   return read_micro(t, grid_given).fiber_angle_deg;
 }
 
+bool microstructure_is_plate(const toml::table& t) {
+  bool grid_given = false;
+  return read_micro(t, grid_given).plate;
+}
+
 rve::PhaseImage build_phase_image(const toml::table& t, double& target_vf, std::string& geometry_note) {
   bool grid_given = false;
   const MicroKeys m = read_micro(t, grid_given);
+  refuse_plate_for_fft(m);
   return phase_image_of(t, m, grid_given, target_vf, geometry_note);
 }
 
@@ -654,6 +673,7 @@ RveSceneSetup parse_rve_scene(const toml::table& scene, bool with_load, const st
   s.fiber = phases.fiber;
   bool grid_given = false;
   const MicroKeys m = read_micro(micro, grid_given);
+  refuse_plate_for_fft(m);
   s.image = phase_image_of(micro, m, grid_given, s.target_vf, s.geometry_note, distributed);
   if (s.target_vf > 0.0 && !phases.has_fiber) throw InputError("phases.fiber", "", "missing (the cell has fibers)");
   // Per-voxel fiber directions only steer the fiber-rotation measure: the solver has no per-voxel

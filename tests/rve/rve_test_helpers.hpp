@@ -4,9 +4,13 @@
 #include <cmath>
 #include <string>
 
+#include <gtest/gtest.h>
+
+#include "softhom/materials/driver.hpp"
 #include "softhom/materials/laws.hpp"
 #include "softhom/materials/library.hpp"
 #include "softhom/materials/loading.hpp"
+#include "softhom/rve/fft_solver.hpp"
 #include "softhom/rve/geometry.hpp"
 
 namespace softhom::rve::testing {
@@ -30,6 +34,16 @@ inline FiberCellSpec circle_spec(double vf, Arrangement arr = Arrangement::squar
 }
 /// |a − b| / |b| (Frobenius).
 inline double rel(const Mat3& a, const Mat3& b) { return (a - b).norm() / std::max(b.norm(), 1e-300); }
+
+/// A cell of one homogeneous law is that law's material point under the same control: every output
+/// step's P̄ and F̄ to `tol` (relative).
+inline void expect_steps_match_point(const RveRunResult& r, const PointRunResult& point, double tol) {
+  ASSERT_EQ(r.steps.size(), point.steps.size());
+  for (std::size_t k = 1; k < r.steps.size(); ++k) {
+    EXPECT_LT(rel(r.steps[k].P, point.steps[k].P), tol) << "step " << k;
+    EXPECT_LT(rel(r.steps[k].F, point.steps[k].F), tol) << "step " << k;
+  }
+}
 
 /// One circular fiber of radius r at the centre of the unit cell, n × n pixels, fraction by s × s
 /// sub-sampling, radial normals in composite pixels.

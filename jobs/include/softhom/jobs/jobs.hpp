@@ -63,6 +63,7 @@ struct FeRveJob {
   double target_vf = 0.0;
   std::string geometry_note;
   double fiber_angle_deg = 0.0;
+  bool plate = false;  ///< [microstructure] cell = "plate": the section mesh's y2 faces free (rve::make_plate)
   studies::FeRveSettings settings;
   MixedControl control;
   studies::RveOutputSettings output;

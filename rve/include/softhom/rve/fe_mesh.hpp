@@ -63,6 +63,10 @@ struct SectionMesh {
   /// y2 = 0; the image node for y1 = L1, y2 = L2, with the four corners all mapped to (0, 0)).
   std::vector<int> master;
   int vertices = 0;                          ///< corner nodes (the rest are mid-side nodes)
+  /// false for a plate cell (make_plate): only the edges y1 = 0, L1 are paired; the edges y2 = 0, L2
+  /// are the plate's free faces (their nodes are their own masters, except the corners (L1, y2) →
+  /// (0, y2)).
+  bool periodic_y2 = true;
   SectionMeshQuality quality;
 
   int num_nodes() const { return int(nodes.size()); }
@@ -76,13 +80,23 @@ struct SectionMesh {
 /// boundary vertices cannot be paired.
 SectionMesh mesh_section(const Section& section, const SectionMeshOptions& options = {});
 
+/// Makes the section mesh a plate cell: one layer of fibers, periodic along y1 only, its faces
+/// y2 = 0 and y2 = L2 free (the FE solver then leaves ũ unpaired across them). The mesh itself is
+/// unchanged (the mesher's mirrored points on the y2 edges are harmless).
+void make_plate(SectionMesh& mesh);
+
+/// Refuses (InputError on "microstructure.cell") a plate section whose fibers cut a free face y2 = 0
+/// or y2 = L2 (a hexagonal or random arrangement): the plate is one layer of whole fibers.
+void check_plate_section(const Section& section);
+
 /// Quadratic-triangle shape functions at (ξ, η) (area coordinates L = (1 − ξ − η, ξ, η)).
 std::array<double, 6> tri6_shape(double xi, double eta);
 /// Their derivatives ∂N/∂ξ (column 0) and ∂N/∂η (column 1).
 Eigen::Matrix<double, 6, 2> tri6_shape_derivatives(double xi, double eta);
 
 /// Recomputes the periodic masters by coordinate matching and returns the largest mismatch; throws
-/// std::runtime_error if a node on y1 = L1 or y2 = L2 has no partner (used by tests to verify).
+/// std::runtime_error if a node on y1 = L1 or (periodic_y2) y2 = L2 has no partner (used by tests to
+/// verify).
 double verify_periodic_pairing(const SectionMesh& mesh);
 
 // ---------------------------------------------------------------------------------------------

@@ -24,6 +24,17 @@
 // no locking at K/G = 1.2e5 and the Newton steps see the linearized volumetric constraint (no K θ²
 // pressure spikes from finite rotations). Other phases use the plain displacement form.
 //
+// Plate cell (a section mesh after make_plate(), fe_mesh.hpp): one layer of fibers with free faces,
+// periodic along y1 only. Grid y2 is the plate normal (−e3 of the load frame, grid_rotation), and ũ is
+// not paired across y2 = 0, L2, so ũ carries the whole column F_i2 (grid): the load-frame column F̄_i3
+// is held at the identity's values and the control must leave it free with P̄_i3 = 0 (anything else is
+// an InputError on "load"). The free faces make the section mean of P_i2 (grid) vanish (divergence
+// theorem), which is P̄_i3 = 0 in the load frame: the law side of the same control is plane stress.
+// Reported: P̄ = the section mean of P (no void: the in-plane membrane force per unit thickness L2),
+// F̄ = the section mean of F (its column 3 is the mean through-thickness stretch and shear). Rigid
+// modes: the anchor node fixes the translation; no rotation is left, since ũ(y1, y2) cannot rotate the
+// controlled columns F̄_i1, F̄_i3 (grid).
+//
 // Unknowns of the global Newton system: the independent fluctuation dofs and the free components of
 // F̄ (load frame) of the mixed control; the system is the Hessian of the potential and is solved with
 // CHOLMOD (UMFPACK when the tangent is not positive definite). Prescribed increments enter through
@@ -71,6 +82,10 @@ struct FeFields {
   std::vector<int> phase;
   std::vector<double> displacement;
 };
+
+/// Refuses (InputError on "load") a control a plate cell cannot take: F13, F23, F33 (load frame) must
+/// be free with P13 = P23 = P33 = 0 at all times (the faces are traction-free).
+void check_plate_control(const MixedControl& control);
 
 class FeRveSolver {
  public:

@@ -33,6 +33,9 @@ rve::PhaseImage build_phase_image(const toml::table& microstructure, double& tar
 /// Reads and checks every key of [microstructure] (InputError naming the first bad one) and returns
 /// fiber_angle_deg.
 double microstructure_fiber_angle(const toml::table& microstructure);
+/// [microstructure] cell = "plate": one fiber layer with traction-free faces (FE engine only; the FFT
+/// engine's phase images refuse it).
+bool microstructure_is_plate(const toml::table& microstructure);
 
 /// [microstructure.image] (path `p`): a voxel image from HDF5 (io::read_dataset). Keys: file (relative to
 /// the scene file), dataset (default "/phase"; C-order [n2][n1] section or [n3][n2][n1] volume; integer
