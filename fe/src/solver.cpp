@@ -698,9 +698,19 @@ StepAttempt Simulation::Impl::attempt_substep(double t_new, double dt) {
   attempt_counts_ = StepCounts{};
   const SolverTimes linear_before = linear_times();
   const int krylov_before = stats_.krylov_iterations;
-  extrapolate_step_ = true;
+  // After k sub-steps in a row whose secant start failed, the next 2^k − 1 (at most 7) start from the
+  // converged state: where increments shrink from step to step (a stiffening response, Gent's locking)
+  // every extrapolation overshoots, and each failed one cost an iteration and a factorization (the
+  // fine aneurysm: 99 → … Newton iterations).
+  extrapolate_step_ = skip_extrapolation_ == 0;
+  if (skip_extrapolation_ > 0) --skip_extrapolation_;
   update_pairing();  // from the converged state: the same pairing for a retry after a cut-back
   StepAttempt a = try_step(t_new, dt);
+  if (extrapolated_ && (a.ok || a.fatal)) refused_extrapolations_ = 0;
+  if (!a.ok && !a.fatal && extrapolated_) {
+    refused_extrapolations_ = std::min(refused_extrapolations_ + 1, 3);
+    skip_extrapolation_ = (1 << refused_extrapolations_) - 1;
+  }
   // A failed attempt's last factor is of an iterate off the path (an overshoot into a material limit):
   // the retry, or the cut-back's smaller step, starts with a fresh one (on the fine aneurysm a lagged
   // factor wasted five GMRES iterations on every cut-back before it was refreshed anyway).
