@@ -54,7 +54,7 @@ std::array<double, 2> RolledCantilever::tip(double M) const {
   return {length * (std::sin(theta) / theta - 1.0), length * (1.0 - std::cos(theta)) / theta};
 }
 
-RolledCantilever make_rolled_cantilever(int cells, int cells_across, double fraction) {
+RolledCantilever make_rolled_cantilever(int cells, int cells_across, double fraction, bool hold_lateral) {
   const double L = 12.0, W = 1.0, t = 0.1, E = 1.2e6;
   StructureSpec spec;
   spec.shell.shape = ShellShape::strip;
@@ -71,6 +71,11 @@ RolledCantilever make_rolled_cantilever(int cells, int cells_across, double frac
   c.max_moment = 2.0 * M_PI * c.bending_stiffness / L;
   fe::FeModel& m = c.structure.model;
   c.tip_node = nearest_node(m.mesh, Vec3(L, 0, 0));
+  if (hold_lateral) {
+    std::vector<int> lateral(m.mesh.num_nodes());
+    for (int n = 0; n < m.mesh.num_nodes(); ++n) lateral[n] = 3 * n + 1;
+    m.dirichlet.emplace_back(lateral, std::vector<double>{}, PiecewiseLinear::constant(0.0));
+  }
   const ShellSurface surface = make_shell_surface(spec.shell);
   const auto pairs = fe::shell_edge_moment_pairs(m.mesh, c.structure.shell->triangles(), surface.edges.at("xmax"), "xmax");
   // About −y: the chord along +x turns toward +z (the strip rolls up).
