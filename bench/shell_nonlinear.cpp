@@ -7,9 +7,12 @@
 //     M_max, the error over L, and the fraction of M_max reached (the run stops where Newton does); then
 //     again with u_y = 0 held (make_rolled_cantilever: the free strip drifts sideways and stops short of
 //     M_max), to θ = 2π.
+//  3. the open cylinder pulled out by two opposite radial forces to P = 40 000, cells 8..max along its half
+//     length (1.5× around the quarter): w_A, −u_B and −u_C against Sze et al.'s table.
 // Each prints wall time, Newton iterations, peak memory, the error, and the observed order from three
 // successive meshes. Usage: bench_shell_nonlinear [max_hemisphere_cells=64] [max_cantilever_cells=96]
-// [cantilever cells along per cell across=12] [hemisphere load steps=20]; SHELL_BENCH_TRACE=1 prints the
+// [cantilever cells along per cell across=12] [hemisphere load steps=20] [max_pullout_cells=32]
+// [pullout load steps=40]; SHELL_BENCH_TRACE=1 prints the
 // cantilever's tip at every step.
 #include <chrono>
 #include <cmath>
@@ -55,6 +58,31 @@ void hemisphere(int max_cells, int steps) {
   for (std::size_t k = 2; k < ua.size(); ++k)
     std::printf("observed order (cells %d, %d, %d): A %.2f, B %.2f\n", 8 << (k - 2), 8 << (k - 1), 8 << k,
                 observed_order(ua[k - 2], ua[k - 1], ua[k]), observed_order(ub[k - 2], ub[k - 1], ub[k]));
+}
+
+void pullout(int max_cells, int steps) {
+  std::printf("open cylinder pulled out, P = 40000 in %d steps (reference: w_A %.3f, -u_B %.3f, -u_C %.3f, Sze et al. 2004)\n", steps,
+              kPulloutWaAt40k, kPulloutUbAt40k, kPulloutUcAt40k);
+  std::printf("%9s %8s %9s %8s %9s %8s %9s %8s %10s %7s %10s\n", "cells", "dofs", "w_A", "err %", "-u_B", "err %", "-u_C", "err %",
+              "wall [s]", "Newton", "peak [GiB]");
+  std::vector<double> wa;
+  for (int n = 8; n <= max_cells; n *= 2) {
+    const auto t0 = std::chrono::steady_clock::now();
+    // Cells near square: the quarter circle (7.78) against the half length (5.18).
+    const PulloutCylinder c = make_pullout_cylinder(3 * n / 2, n);
+    fe::Simulation sim(c.structure.model);
+    bool ok = true;
+    for (int k = 1; k <= steps && ok; ++k) ok = sim.advance_to(double(k) / steps).reached();
+    const auto& u = sim.displacement();
+    const double a = u[3 * c.node_a + 1], b = -u[3 * c.node_b], cc = -u[3 * c.node_c];
+    wa.push_back(a);
+    std::printf("%4d x %2d %8d %9.4f %8.2f %9.4f %8.2f %9.4f %8.2f %10.2f %7d %10.3f%s\n", 3 * n / 2, n, sim.num_free_dofs(), a,
+                100 * (a / kPulloutWaAt40k - 1), b, 100 * (b / kPulloutUbAt40k - 1), cc, 100 * (cc / kPulloutUcAt40k - 1),
+                seconds_since(t0), sim.stats().newton_iterations, io::peak_memory_bytes() / 1073741824.0, ok ? "" : " (stopped)");
+  }
+  for (std::size_t k = 2; k < wa.size(); ++k)
+    std::printf("observed order of w_A (cells %d, %d, %d): %.2f\n", 8 << (k - 2), 8 << (k - 1), 8 << k,
+                observed_order(wa[k - 2], wa[k - 1], wa[k]));
 }
 
 /// Largest |u_y| over the nodes: the exact solution (ν = 0) stays in the x–z plane.
@@ -113,5 +141,6 @@ int main(int argc, char** argv) {
   const int across = argc > 3 ? std::atoi(argv[3]) : 12;
   cantilever(max_cantilever, across, false);
   cantilever(max_cantilever, across, true);
+  pullout(argc > 5 ? std::atoi(argv[5]) : 32, argc > 6 ? std::atoi(argv[6]) : 40);
   return 0;
 }

@@ -48,6 +48,30 @@ PinchedHemisphere make_pinched_hemisphere(int cells, double force) {
   return h;
 }
 
+PulloutCylinder make_pullout_cylinder(int cells_around, int cells_axial, double force) {
+  const double R = 4.953, L = 10.35;
+  StructureSpec spec;
+  spec.shell.shape = ShellShape::cylinder;
+  spec.shell.radius = R;
+  spec.shell.length = L / 2;
+  spec.shell.sweep_deg = 90.0;
+  spec.shell.cells = cells_around;
+  spec.shell.axial_cells = cells_axial;
+  spec.shell.section = small_strain_shell_section(10.5e6, 0.3125, 0.094);
+  spec.shell.edges = {{"z0", ShellEdgeCondition::Type::symmetry, 2}};
+  PulloutCylinder c;
+  c.structure = build_unpressurized_shell(spec);
+  fe::FeModel& m = c.structure.model;
+  // The model spans z ∈ [0, L/2] with z = 0 the mid-length plane: A and B there, C on the free end.
+  c.node_a = nearest_node(m.mesh, Vec3(0, R, 0));
+  c.node_b = nearest_node(m.mesh, Vec3(R, 0, 0));
+  c.node_c = nearest_node(m.mesh, Vec3(R, 0, L / 2));
+  const PiecewiseLinear ramp{{0.0, 1.0}, {0.0, 1.0}};
+  // A lies on two symmetry planes: a quarter of the point force.
+  m.nodal_loads.emplace_back(std::vector<int>{3 * c.node_a + 1}, std::vector<double>{0.25 * force}, ramp);
+  return c;
+}
+
 std::array<double, 2> RolledCantilever::tip(double M) const {
   const double theta = M * length / bending_stiffness;
   if (theta < 1e-12) return {0.0, 0.0};
