@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
       ok = false;
       break;
     }
-    std::printf("%8.3f %10.5f %8d %10.1f %10.1f %10d %8d %14.4g %14.4f\n", t, m.spec.load(t), sim.stats().newton_iterations,
+    std::printf("%8.3f %10.5f %8d %10.1f %10.1f %10d %8d %14.7g %14.6f\n", t, m.spec.load(t), sim.stats().newton_iterations,
                 seconds_since(t0), cpu_seconds() - cpu0, a.counts.newton_iterations, a.counts.cutbacks,
                 probe(s, sim, "shell sac max principal stress [MPa]"),
                 probe(s, sim, "shell sac max principal stretch [-]"));

@@ -124,9 +124,57 @@ void AssemblyTarget::add_residual(int n, const int* dofs, const double* r) {
   }
 }
 
+namespace {
+
+/// Whether dofs come as whole nodes: (3n, 3n + 1, 3n + 2) runs.
+bool node_triples(int n, const int* dofs) {
+  if (n % 3 != 0) return false;
+  for (int i = 0; i < n; i += 3)
+    if (dofs[i] % 3 != 0 || dofs[i + 1] != dofs[i] + 1 || dofs[i + 2] != dofs[i] + 2) return false;
+  return true;
+}
+
+}  // namespace
+
 void AssemblyTarget::add_tangent(int nr, const int* rows, int nc, const int* cols, const double* k) {
   const std::vector<int>& eq = s_.dofs_.eq;
   const bool predictor = !du_c.empty();
+  auto outside = [] { throw std::logic_error("a contribution's tangent entry lies outside its declared couplings"); };
+  if (!s_.distributed_ && node_triples(nr, rows) && node_triples(nc, cols)) {
+    // Whole nodes on both sides (every element's block): the pattern keeps a node's free rows
+    // contiguous and the three columns of a node alike (build_pattern), so one search per node pair
+    // places its 3x3 block, as the solids' precomputed offsets do; a search per entry was most of the
+    // shells' scatter (324 per triangle).
+    double* kv = s_.K_.values.data();
+    for (int jb = 0; jb < nc; jb += 3) {
+      int any_col = -1;
+      for (int j = 0; j < 3 && any_col < 0; ++j) any_col = eq[cols[jb + j]];
+      for (int ib = 0; ib < nr; ib += 3) {
+        const auto& fr = s_.free_rank_[rows[ib] / 3];
+        long offset = -1;  // of the node's first free row within a column of node cols[jb] / 3
+        for (int i = 0; i < 3 && offset < 0 && any_col >= 0; ++i)
+          if (fr[i] >= 0) {
+            const long pos = s_.K_.find(eq[rows[ib + i]], any_col);
+            if (pos < 0) outside();
+            offset = pos - s_.K_.colptr[any_col] - fr[i];
+          }
+        for (int j = 0; j < 3; ++j) {
+          const int cdof = cols[jb + j];
+          const int col = eq[cdof];
+          const double* kc = k + ib + std::size_t(nr) * (jb + j);
+          if (col >= 0 && offset >= 0) {
+            double* column = kv + s_.K_.colptr[col] + offset;
+            for (int i = 0; i < 3; ++i)
+              if (fr[i] >= 0) column[fr[i]] += kc[i];
+          } else if (col < 0 && predictor && du_c[cdof] != 0.0) {
+            for (int i = 0; i < 3; ++i)
+              if (fr[i] >= 0) out.dirichlet_rhs[rows[ib + i]] += kc[i] * du_c[cdof];
+          }
+        }
+      }
+    }
+    return;
+  }
   for (int j = 0; j < nc; ++j) {
     const int cdof = cols[j];
     const int col = eq[cdof];
@@ -138,7 +186,7 @@ void AssemblyTarget::add_tangent(int nr, const int* rows, int nc, const int* col
         s_.petsc_->add_entry(rows[i], cdof, v);
       } else if (col >= 0) {
         const long pos = s_.K_.find(row, col);
-        if (pos < 0) throw std::logic_error("a contribution's tangent entry lies outside its declared couplings");
+        if (pos < 0) outside();
         s_.K_.values[pos] += v;
       } else if (predictor && du_c[cdof] != 0.0) {
         out.dirichlet_rhs[rows[i]] += v * du_c[cdof];

@@ -19,8 +19,11 @@ namespace softhom::fe {
 class SparseDirectSolver final : public LinearSolver {
  public:
   SparseDirectSolver(LinearRoute route, bool symmetric_indefinite);
-  /// A new load step: Cholesky is tried again.
-  void begin_step() { indefinite_this_step_ = false; }
+  /// A new load step: Cholesky is tried again, unless the last steps found the symmetric part
+  /// indefinite in a row: after k such steps the next 2^(k−1) − 1 (at most 7) go to the indefinite
+  /// factorization at once. A failed supernodal Cholesky costs up to a whole factorization, and through
+  /// the fine aneurysm's Gent locking every step's first one failed (28 of 70 factorizations).
+  void begin_step();
   /// The matrix's pattern changed (a moving contact set): every factorization analyses it again.
   void new_pattern() { cholesky_analyzed_ = ldlt_analyzed_ = lu_analyzed_ = false; }
   /// The Cholesky analysis (once), so that predicted_flops() knows the first factorization's cost.
@@ -52,6 +55,8 @@ class SparseDirectSolver final : public LinearSolver {
   bool symmetric_indefinite_ = false;
   bool cholesky_analyzed_ = false, ldlt_analyzed_ = false, lu_analyzed_ = false;
   bool indefinite_this_step_ = false, fell_back_ = false;
+  int indefinite_steps_ = 0;  ///< consecutive steps whose Cholesky failed
+  int skip_cholesky_ = 0;     ///< steps left that start with the indefinite factorization
   bool factorized_ = false;  ///< a factorization succeeded (the first one is never LDLᵀ)
   double last_flops_ = 0.0;
 };

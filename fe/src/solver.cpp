@@ -353,10 +353,12 @@ void Simulation::Impl::extrapolate(double t_new, std::vector<double>& u) {
     den += (l_now[k] - l_old[k]) * (l_now[k] - l_old[k]);
     nn += (l_new[k] - l_now[k]) * (l_new[k] - l_now[k]);
   }
-  // Proportional load increments only (cosine > 0.999), and at most a doubling of the last one.
-  if (!(den > 0.0 && num > 0.999 * std::sqrt(nn * den))) return;
+  // Proportional load increments of at most the last one's size: a secant stretched over a longer step
+  // than it was measured on amplifies its curvature error by ρ², and after a cut-back the sub-steps grow
+  // exactly where the response turns (through Gent's locking every such start overshot the limit).
+  if (!(den > 0.0 && num > 0.999 * std::sqrt(nn * den) && num <= 1.0001 * den)) return;
   extrapolated_ = true;
-  const double rho = std::min(num / den, 2.0);
+  const double rho = num / den;
   // Quadratic extrapolation (Lagrange through the last three converged states, in the load parameter
   // s along the last increment, s = 0 at u_{n−1} and 1 at u_n): the predictor error drops from O(Δ²)
   // to O(Δ³). At K/G ~ 1e5 the predictor's volume mismatch θ_e(u) − θ (O(Δ²) for the secant) is what
@@ -698,9 +700,19 @@ StepAttempt Simulation::Impl::attempt_substep(double t_new, double dt) {
   attempt_counts_ = StepCounts{};
   const SolverTimes linear_before = linear_times();
   const int krylov_before = stats_.krylov_iterations;
-  extrapolate_step_ = true;
+  // After k sub-steps in a row whose secant start failed, the next 2^k − 1 (at most 7) start from the
+  // converged state: where increments shrink from step to step (a stiffening response, Gent's locking)
+  // every extrapolation overshoots, and each failed one cost an iteration and a factorization (the
+  // fine aneurysm: 99 → 94 Newton iterations, 70 → 55 factorizations with the Cholesky back-off).
+  extrapolate_step_ = skip_extrapolation_ == 0;
+  if (skip_extrapolation_ > 0) --skip_extrapolation_;
   update_pairing();  // from the converged state: the same pairing for a retry after a cut-back
   StepAttempt a = try_step(t_new, dt);
+  if (extrapolated_ && (a.ok || a.fatal)) refused_extrapolations_ = 0;
+  if (!a.ok && !a.fatal && extrapolated_) {
+    refused_extrapolations_ = std::min(refused_extrapolations_ + 1, 3);
+    skip_extrapolation_ = (1 << refused_extrapolations_) - 1;
+  }
   // A failed attempt's last factor is of an iterate off the path (an overshoot into a material limit):
   // the retry, or the cut-back's smaller step, starts with a fresh one (on the fine aneurysm a lagged
   // factor wasted five GMRES iterations on every cut-back before it was refreshed anyway).
@@ -734,6 +746,10 @@ AdvanceResult Simulation::Impl::advance_to(double t_end) {
   StepControlOptions control;
   control.max_cutbacks = options_.max_cutbacks;
   control.max_step_seconds = options_.max_step_seconds;
+  // A converged sub-step after a cut-back doubles at once: the cut-back was needed where the response
+  // turned (Gent's locking), and the sub-steps after it converge as fast at twice their size (the fine
+  // aneurysm: 28 instead of 32 Newton iterations to the first output, 74 instead of 94 in all).
+  control.successes_to_grow = 1;
   // initial_substeps splits the interval into equal parts, each reached by the shared sub-step loop.
   const int parts = std::max(1, options_.initial_substeps);
   const double t0 = time_;

@@ -48,13 +48,37 @@ PinchedHemisphere make_pinched_hemisphere(int cells, double force) {
   return h;
 }
 
+PulloutCylinder make_pullout_cylinder(int cells_around, int cells_axial, double force) {
+  const double R = 4.953, L = 10.35;
+  StructureSpec spec;
+  spec.shell.shape = ShellShape::cylinder;
+  spec.shell.radius = R;
+  spec.shell.length = L / 2;
+  spec.shell.sweep_deg = 90.0;
+  spec.shell.cells = cells_around;
+  spec.shell.axial_cells = cells_axial;
+  spec.shell.section = small_strain_shell_section(10.5e6, 0.3125, 0.094);
+  spec.shell.edges = {{"z0", ShellEdgeCondition::Type::symmetry, 2}};
+  PulloutCylinder c;
+  c.structure = build_unpressurized_shell(spec);
+  fe::FeModel& m = c.structure.model;
+  // The model spans z ∈ [0, L/2] with z = 0 the mid-length plane: A and B there, C on the free end.
+  c.node_a = nearest_node(m.mesh, Vec3(0, R, 0));
+  c.node_b = nearest_node(m.mesh, Vec3(R, 0, 0));
+  c.node_c = nearest_node(m.mesh, Vec3(R, 0, L / 2));
+  const PiecewiseLinear ramp{{0.0, 1.0}, {0.0, 1.0}};
+  // A lies on two symmetry planes: a quarter of the point force.
+  m.nodal_loads.emplace_back(std::vector<int>{3 * c.node_a + 1}, std::vector<double>{0.25 * force}, ramp);
+  return c;
+}
+
 std::array<double, 2> RolledCantilever::tip(double M) const {
   const double theta = M * length / bending_stiffness;
   if (theta < 1e-12) return {0.0, 0.0};
   return {length * (std::sin(theta) / theta - 1.0), length * (1.0 - std::cos(theta)) / theta};
 }
 
-RolledCantilever make_rolled_cantilever(int cells, int cells_across, double fraction) {
+RolledCantilever make_rolled_cantilever(int cells, int cells_across, double fraction, bool hold_lateral) {
   const double L = 12.0, W = 1.0, t = 0.1, E = 1.2e6;
   StructureSpec spec;
   spec.shell.shape = ShellShape::strip;
@@ -71,6 +95,11 @@ RolledCantilever make_rolled_cantilever(int cells, int cells_across, double frac
   c.max_moment = 2.0 * M_PI * c.bending_stiffness / L;
   fe::FeModel& m = c.structure.model;
   c.tip_node = nearest_node(m.mesh, Vec3(L, 0, 0));
+  if (hold_lateral) {
+    std::vector<int> lateral(m.mesh.num_nodes());
+    for (int n = 0; n < m.mesh.num_nodes(); ++n) lateral[n] = 3 * n + 1;
+    m.dirichlet.emplace_back(lateral, std::vector<double>{}, PiecewiseLinear::constant(0.0));
+  }
   const ShellSurface surface = make_shell_surface(spec.shell);
   const auto pairs = fe::shell_edge_moment_pairs(m.mesh, c.structure.shell->triangles(), surface.edges.at("xmax"), "xmax");
   // About −y: the chord along +x turns toward +z (the strip rolls up).

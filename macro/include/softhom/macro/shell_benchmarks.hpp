@@ -36,6 +36,20 @@ PinchedHemisphere make_pinched_hemisphere(int cells, double force = 400.0);
 /// displacement of A and the inward displacement of B.
 inline constexpr double kHemisphereUaAt400 = 4.067, kHemisphereUbAt400 = 8.178;
 
+/// The open-ended cylinder pulled out by two opposite radial forces at mid-length (Sze et al. 2004):
+/// R = 4.953, L = 10.35, t = 0.094, E = 10.5e6, ν = 0.3125, P_max = 40 000, dead, ramped over
+/// t ∈ [0, 1]. The eighth 0 ≤ θ ≤ 90°, 0 ≤ z ≤ L/2 with z = 0 the mid-length plane (cells_around ×
+/// cells_axial, one diagonal): symmetry edges theta0 (y = 0), theta1 (x = 0) and z0, the end z1 free; P/4
+/// outward along y at A = (0, R, 0). Probes: A's outward w_A, and the inward −u_x at B = (R, 0, 0) and at
+/// C = (R, 0, L/2) on the free end.
+struct PulloutCylinder {
+  Structure structure;
+  int node_a = -1, node_b = -1, node_c = -1;
+};
+PulloutCylinder make_pullout_cylinder(int cells_around, int cells_axial, double force = 40000.0);
+/// Sze et al. (2004), the pull-out's table at P = 40 000: w_A, −u_B, −u_C.
+inline constexpr double kPulloutWaAt40k = 2.768, kPulloutUbAt40k = 4.551, kPulloutUcAt40k = 3.269;
+
 /// The cantilever strip rolled up by an end moment (Sze et al. 2004): L = 12, W = 1, t = 0.1,
 /// E = 1.2e6, ν = 0, clamped at x = 0, moment about −y at x = L ramped to `fraction` · M_max over
 /// t ∈ [0, 1], M_max = 2π E I / L = 50π/3 (the strip closes into a circle), as fe::ShellEdgeMoment on the
@@ -49,7 +63,11 @@ struct RolledCantilever {
   /// M / (E I), θ = M L / (E I): u = L (sin θ / θ − 1), w = L (1 − cos θ) / θ.
   std::array<double, 2> tip(double M) const;
 };
-RolledCantilever make_rolled_cantilever(int cells, int cells_across, double fraction);
+/// hold_lateral: u_y = 0 at every node (the exact solution's, ν = 0). The mesh's one diagonal direction
+/// couples the patch curvature's large-rotation error into twist, so that the free strip drifts sideways
+/// as it rolls (|u_y| ≈ the width at M ≈ 0.85 M_max on 24 × 4 cells) and its helical path has a limit
+/// point short of M_max; held, it rolls into the full circle (BENCHMARKS.md "Thin shells").
+RolledCantilever make_rolled_cantilever(int cells, int cells_across, double fraction, bool hold_lateral = false);
 
 /// A thin tube (mid radius R, wall H, length L) held at the axial stretch λz = 1 (both ends at u_z = 0),
 /// inflated by a follower pressure ramped to `pressure` over t ∈ [0, 1], as a quarter: either the
