@@ -135,10 +135,7 @@ void SparseDirectSolver::sum_times() {
   }
 }
 
-void SparseDirectSolver::begin_step() {
-  indefinite_this_step_ = skip_cholesky_ > 0;
-  if (skip_cholesky_ > 0) --skip_cholesky_;
-}
+void SparseDirectSolver::begin_step() { indefinite_this_step_ = !cholesky_backoff_.take_chance(); }
 
 void SparseDirectSolver::analyze(const CscMatrix& A) {
   if (!cholesky_now() || cholesky_analyzed_) return;
@@ -168,12 +165,8 @@ bool SparseDirectSolver::factorize(const CscMatrix& A) {
     // the equilibrium path): an indefinite factorization for the rest of this step; Cholesky is tried
     // again in the next one.
     indefinite_this_step_ = fell_back_ = !ok;
-    if (ok) {
-      indefinite_steps_ = 0;
-    } else {
-      indefinite_steps_ = std::min(indefinite_steps_ + 1, 4);
-      skip_cholesky_ = (1 << (indefinite_steps_ - 1)) - 1;
-    }
+    if (ok) cholesky_backoff_.succeeded();
+    else cholesky_backoff_.failed();
   }
   // The symmetric part's LDLᵀ where the skew part is round-off (the check is one pass over the entries);
   // never for the run's first factor, whose singularity check (a mechanism, a disconnected part) needs

@@ -8,6 +8,7 @@
 #include "softhom/fe/linear_solver.hpp"
 #include "softhom/fe/mesh.hpp"
 #include "softhom/fe/sparse.hpp"
+#include "failure_backoff.hpp"
 
 namespace softhom::fe {
 
@@ -55,8 +56,7 @@ class SparseDirectSolver final : public LinearSolver {
   bool symmetric_indefinite_ = false;
   bool cholesky_analyzed_ = false, ldlt_analyzed_ = false, lu_analyzed_ = false;
   bool indefinite_this_step_ = false, fell_back_ = false;
-  int indefinite_steps_ = 0;  ///< consecutive steps whose Cholesky failed
-  int skip_cholesky_ = 0;     ///< steps left that start with the indefinite factorization
+  FailureBackoff cholesky_backoff_{1};  ///< steps that start with the indefinite factorization
   bool factorized_ = false;  ///< a factorization succeeded (the first one is never LDLᵀ)
   double last_flops_ = 0.0;
 };

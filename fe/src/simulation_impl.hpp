@@ -319,8 +319,7 @@ struct Simulation::Impl {
   int stored_steps_ = 0;                   ///< converged steps behind u_ (capped at 2)
   bool extrapolate_step_ = true;           ///< false while a step is retried without the secant predictor
   bool extrapolated_ = false;              ///< the last try_step started from the secant predictor
-  int refused_extrapolations_ = 0;         ///< consecutive sub-steps whose secant start failed (at most 3)
-  int skip_extrapolation_ = 0;             ///< sub-steps left that start from the converged state
+  FailureBackoff extrapolation_backoff_{0};  ///< sub-steps that start from the converged state
   double stiffness_time_ = -1.0;           ///< ≥ 0: time of the pressure in the load stiffness (assemble)
   std::vector<double> state_old_, state_new_;
   std::vector<double> cauchy_;     ///< element-mean Cauchy stress of the last converged state

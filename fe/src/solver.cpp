@@ -704,15 +704,11 @@ StepAttempt Simulation::Impl::attempt_substep(double t_new, double dt) {
   // converged state: where increments shrink from step to step (a stiffening response, Gent's locking)
   // every extrapolation overshoots, and each failed one cost an iteration and a factorization (the
   // fine aneurysm: 99 → 94 Newton iterations, 70 → 55 factorizations with the Cholesky back-off).
-  extrapolate_step_ = skip_extrapolation_ == 0;
-  if (skip_extrapolation_ > 0) --skip_extrapolation_;
+  extrapolate_step_ = extrapolation_backoff_.take_chance();
   update_pairing();  // from the converged state: the same pairing for a retry after a cut-back
   StepAttempt a = try_step(t_new, dt);
-  if (extrapolated_ && (a.ok || a.fatal)) refused_extrapolations_ = 0;
-  if (!a.ok && !a.fatal && extrapolated_) {
-    refused_extrapolations_ = std::min(refused_extrapolations_ + 1, 3);
-    skip_extrapolation_ = (1 << refused_extrapolations_) - 1;
-  }
+  if (extrapolated_ && (a.ok || a.fatal)) extrapolation_backoff_.succeeded();
+  if (extrapolated_ && !a.ok && !a.fatal) extrapolation_backoff_.failed();
   // A failed attempt's last factor is of an iterate off the path (an overshoot into a material limit):
   // the retry, or the cut-back's smaller step, starts with a fresh one (on the fine aneurysm a lagged
   // factor wasted five GMRES iterations on every cut-back before it was refreshed anyway).

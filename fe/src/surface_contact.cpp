@@ -815,13 +815,13 @@ void SurfaceContact::advance_anchor(const Point& p, const Evaluation& e, const R
   // extended coordinates.
   const bool free = !e.engaged || !(e.pressure > 0.0) || !(options_.friction > 0.0);
   if (!free && !r.slip) return;
-  const Vec3 place = free ? e.projection.x : Vec3(e.projection.x + r.tangential / p.tangential_penalty);
-  if (free && e.paired == e.master) {
+  const bool same = e.paired == e.master;
+  if (free && same) {
     next[0] = e.projection.xi;
     next[1] = e.projection.eta;
     return;
   }
-  const bool same = e.paired == e.master;
+  const Vec3 place = free ? e.projection.x : Vec3(e.projection.x + r.tangential / p.tangential_penalty);
   const std::array<double, 2> a = extended_coordinates(faces_[e.paired], x, place, same ? e.projection.xi : next[0],
                                                        same ? e.projection.eta : next[1]);
   next[0] = a[0];

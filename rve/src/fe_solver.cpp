@@ -166,8 +166,13 @@ struct PassSums : detail::PhaseSums {
 
 const char* to_string(FePressure p) { return p == FePressure::p0 ? "p0" : "p1-bubble"; }
 
+namespace {
+/// A plate's normal column in the load frame: F13, F23, F33 (row-major indices of F̄).
+constexpr std::array<int, 3> kPlateNormalColumn{2, 5, 8};
+}  // namespace
+
 void check_plate_control(const MixedControl& control) {
-  for (int c : {2, 5, 8}) {
+  for (int c : kPlateNormalColumn) {
     const std::string name = "F" + std::to_string(c / 3 + 1) + "3";
     bool zero = control.kind[c] == ControlKind::stress;
     if (zero)
@@ -213,7 +218,6 @@ struct Model {
   // held at the identity's values, the control must leave it traction-free (P̄_i3 = 0, which the free
   // faces give by the divergence theorem), and the output F̄ is the section mean of F.
   bool plate = false;
-  static constexpr std::array<int, 3> kNormalColumn{2, 5, 8};  // load-frame F13, F23, F33
 
   // Dofs: node → 3 equations of its master (−1 for the anchor node, fixed against translation).
   std::vector<int> node_eq;   // 3 per node
@@ -865,7 +869,7 @@ struct Model {
       else s.target(c / 3, c % 3) = control.value[c](t_new);
     }
     if (plate)
-      for (int c : kNormalColumn) {
+      for (int c : kPlateNormalColumn) {
         s.free[c] = false;
         s.target(c / 3, c % 3) = c == 8 ? 1.0 : 0.0;
       }
@@ -1054,7 +1058,7 @@ struct Model {
     std::array<bool, 9> free{};
     for (int c = 0; c < 9; ++c) free[c] = control.kind[c] == ControlKind::stress;
     if (plate)
-      for (int c : kNormalColumn) free[c] = false;
+      for (int c : kPlateNormalColumn) free[c] = false;
     set_control(free);
     if (evaluate(0.0, false, Vec9::Zero()) != MaterialStatus::ok) throw ConvergenceError("material call failed at F = I");
     const double angle0 = fiber_angle_deg(Mat3::Identity(), a0_load);
