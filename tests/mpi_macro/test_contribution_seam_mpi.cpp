@@ -3,6 +3,7 @@
 // and fill, and give the closed-form chain displacement on every rank.
 #include <gtest/gtest.h>
 
+#include "partition.hpp"
 #include "softhom/fe/solver.hpp"
 #include "spring_contribution.hpp"
 #include "surface_contact_blocks.hpp"
@@ -51,8 +52,19 @@ TEST(ContributionSeamMpi, SpringChainGivesTheClosedFormUnderBddc) {
 // A contact between deformable surfaces on the distributed petsc path: its pairs, chosen at every step
 // (the first step adds them all), enter the matrix at the next fill on every rank. The stacked blocks'
 // contact patch test (tests/fe/test_surface_contact.cpp) gives the CHOLMOD run's face pressures to 1e-6
-// of the applied traction (both to Newton's 1e-8 of the force scale) and its uniform pressure.
+// of the applied traction (both to Newton's 1e-8 of the force scale) and its uniform pressure. On two
+// ranks the pair spans them: every rank evaluates the whole contact and adds the rows it owns.
 TEST(ContributionSeamMpi, ContactPatchTestEqualsCholmod) {
+  {
+    // The partition of two ranks (deterministic, the same on any number of processes): the lower
+    // block (master faces, elements 0–3) on one rank, part of the upper block (slave faces) on the other.
+    const std::vector<int> part = fe::partition_elements_rcb(test::two_blocks(2, 4, 0.0, false), 2);
+    int upper_elsewhere = 0;
+    for (int e = 4; e < 20; ++e) upper_elsewhere += part[e] != part[0];
+    for (int e = 1; e < 4; ++e) ASSERT_EQ(part[e], part[0]);
+    ASSERT_GT(upper_elsewhere, 0);
+    ASSERT_LT(upper_elsewhere, 16);
+  }
   const test::Stack direct = test::stack(2, 4, false, true, false);
   const test::Stack petsc = test::stack(2, 4, false, true, false, false, fe::SolverKind::petsc);
   ASSERT_EQ(petsc.pressure.size(), direct.pressure.size());
