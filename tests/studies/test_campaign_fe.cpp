@@ -1,8 +1,9 @@
 // Campaign cases on the FE engine ([solver] engine = "fe"): a section cell and a plate cell through the
 // campaign API give the FE solver's rows for the same scene (the setup `softhom rve` uses), FFT and FE
 // cases share one store, a finished FE case is skipped on a rerun, FE chains warm-start, and bad FE
-// keys are refused before anything runs, naming the case and the key. Coarse PDMS cells (mesh_size =
-// cell side / 3, 1-2 load steps) keep each test well under 2 s.
+// keys are refused before anything runs, naming the case and the key; FE cases of concurrent jobs
+// give the lone run's numbers. Coarse PDMS cells (mesh_size = cell side / 3, 1-2 load steps) keep
+// each test well under 2 s.
 #include <gtest/gtest.h>
 
 #include <omp.h>
@@ -26,20 +27,12 @@ using softhom::studies::testing::fresh_dir;
 
 namespace {
 
-// PDMS + glass (VF 0.23, cell side 0.739 mm) on a coarse FE mesh: a periodic section in uniaxial
-// tension and the plate cell (free faces) in membrane tension along e1.
-const char* kFeCampaign = R"(
-description = "FE engine cases"
+// PDMS + glass (VF 0.23, cell side 0.739 mm): a periodic section in uniaxial tension and the plate cell
+// (free faces) in membrane tension along e1.
+const char* kCellAndLoads = R"(
 [base.microstructure]
 shape = "circle"
 radius = 0.2
-[base.phases.fiber]
-preset = "glass"
-[base.solver]
-engine = "fe"
-mesh_size = 0.25
-interface_size = 0.1
-tolerance = 1e-8
 [loads.pull]
 type = "uniaxial"
 stretch = 1.1
@@ -49,18 +42,24 @@ type = "mixed"
 F = [[1.1, 0.0, "free"], ["free", "free", "free"], [0.0, 0.0, "free"]]
 path = 1.0
 steps = 1
-[[cases]]
-name = "section"
-matrix = "pdms"
-angle = 30
-load = "pull"
-[[cases]]
-name = "plate"
-matrix = "pdms"
-angle = 45
-load = "membrane"
-override = {microstructure = {cell = "plate"}}
 )";
+
+/// The coarse FE mesh (mesh_size = cell side / 3).
+const std::string kFeSolver = "engine = \"fe\", mesh_size = 0.25, interface_size = 0.1";
+
+/// The section and the plate case; `solver` (when given) is merged into each one's [solver].
+std::string section_and_plate(const std::string& solver) {
+  const std::string merged = solver.empty() ? "" : "solver = {" + solver + "}";
+  return "[[cases]]\nname = \"section\"\nmatrix = \"pdms\"\nangle = 30\nload = \"pull\"\n" +
+         (merged.empty() ? "" : "override = {" + merged + "}\n") +
+         "[[cases]]\nname = \"plate\"\nmatrix = \"pdms\"\nangle = 45\nload = \"membrane\"\noverride = {" +
+         (merged.empty() ? "" : merged + ", ") + "microstructure = {cell = \"plate\"}}\n";
+}
+
+/// Both cases on the FE engine of [base.solver].
+std::string fe_campaign() {
+  return std::string(kCellAndLoads) + "[base]\nsolver = {" + kFeSolver + ", tolerance = 1e-8}\n" + section_and_plate("");
+}
 
 SweepOptions one_thread() {
   SweepOptions o;
@@ -112,7 +111,7 @@ std::string refused_field(const std::string& text) {
 // (1e-8 relative; measured 2e-14).
 TEST(CampaignFe, SectionAndPlateCasesEqualTheFeSolver) {
   const fs::path dir = fresh_dir("fe");
-  const Campaign c = expand(kFeCampaign);
+  const Campaign c = expand(fe_campaign());
   ASSERT_EQ(c.cases.size(), 2u);
   EXPECT_EQ(c.cases[0].engine, "fe");
   const SweepReport r = run_campaign(c, dir, one_thread());
@@ -138,33 +137,26 @@ TEST(CampaignFe, SectionAndPlateCasesEqualTheFeSolver) {
   fs::remove_all(dir);
 }
 
+// Two jobs in one process: the FE cases run one at a time (concurrent FE solves differed from lone
+// ones in round-off, ~1e-12), so the store equals the one-job run's value for value.
+TEST(CampaignFe, TwoJobsStoreTheOneJobNumbers) {
+  const Campaign c = expand(fe_campaign());
+  const fs::path one = fresh_dir("fe-one"), two = fresh_dir("fe-two");
+  run_campaign(c, one, one_thread());
+  SweepOptions jobs = one_thread();
+  jobs.jobs = jobs.threads = 2;  // one thread per job, as one_thread()
+  EXPECT_EQ(run_campaign(c, two, jobs).threads_per_job, 1);
+  const auto a = read_store(one / "campaign.h5"), b = read_store(two / "campaign.h5");
+  for (const CampaignCase& cc : c.cases) EXPECT_EQ(a.at(cc.id).data, b.at(cc.id).data) << cc.id;
+  fs::remove_all(one);
+  fs::remove_all(two);
+}
+
 // FFT and FE cases in one campaign share the store and cases.csv; a rerun skips the finished FE case
 // (and the FFT one), and a removed FE case is the only one recomputed, to the same rows.
 TEST(CampaignFe, MixedCampaignAndResumeSkipsFinishedFeCase) {
   // The FFT engine by default; the FE cases name theirs (deep-merged into [base.solver]).
-  const std::string fe_override = "override = {solver = {engine = \"fe\", mesh_size = 0.25, interface_size = 0.1}";
-  const std::string mixed = R"(
-[base.microstructure]
-shape = "circle"
-radius = 0.2
-[base.solver]
-tolerance = 1e-8
-[loads.pull]
-type = "uniaxial"
-stretch = 1.1
-steps = 2
-[loads.membrane]
-type = "mixed"
-F = [[1.1, 0.0, "free"], ["free", "free", "free"], [0.0, 0.0, "free"]]
-path = 1.0
-steps = 1
-[[cases]]
-name = "section"
-matrix = "pdms"
-angle = 30
-load = "pull"
-)" + fe_override + "}\n[[cases]]\nname = \"plate\"\nmatrix = \"pdms\"\nangle = 45\nload = \"membrane\"\n" + fe_override +
-                            ", microstructure = {cell = \"plate\"}}\n" +
+  const std::string mixed = std::string(kCellAndLoads) + "[base.solver]\ntolerance = 1e-8\n" + section_and_plate(kFeSolver) +
                             "[[cases]]\nname = \"fft\"\nmatrix = \"pdms\"\nangle = 30\nresolution = 8\nload = \"pull\"\n";
   // An FE key in an FFT case is refused as `softhom rve` refuses it.
   EXPECT_EQ(refused_field(mixed + "override = {solver = {mesh_size = 0.1}}\n"), "case fft: solver.mesh_size");

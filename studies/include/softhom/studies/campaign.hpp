@@ -4,7 +4,8 @@
 // and load case; each case is an `softhom rve` scene, run on the engine its [solver] names: the FFT
 // engine (the default) or the FE engine (engine = "fe": section, 3D and plate cells, mesh keys in
 // [solver]; the resolution axis is the FFT grid, so FE cases take none and their ids have no "-nN").
-// engine = "auto" is refused: a campaign compares cases at the resolution it gives.
+// engine = "auto" is refused: a campaign compares cases at the resolution it gives. FE cases of one
+// process run one at a time (concurrent FE solves differ in round-off); spread them over MPI ranks.
 //
 // Campaign file:
 //   description = "..."
