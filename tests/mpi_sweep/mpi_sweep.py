@@ -166,11 +166,9 @@ def two_ranks_equal_serial(a, work):
           "--dry-run on 2 ranks did not list the %d cases once: %s" % (CASES, tail(text)))
 
 
-def warm_chains_equal_serial(a, work):
-    """Warm-start chains (studies/campaigns/bench_levels.toml: 3 microstructures x 4 tension levels, each
-    level's path on the next) stay on one rank: 2 ranks store what the one-process run stores, with the
-    same warm starts and the same Newton iterations (a chain split over ranks would recompute its path)."""
-    camp = HERE.parent.parent / "studies" / "campaigns" / "bench_levels.toml"
+def serial_then_two_ranks(a, camp, work):
+    """The campaign in one process, then on 2 ranks from its FFTW wisdom: the same store. Returns both
+    output directories."""
     ref, out = work / "reference", work / "mpi"
     args = lambda d: ["sweep", camp, "--out", d, "--threads", 1, "--jobs", 1]
     rc, err, _ = run([a.softhom] + args(ref))
@@ -180,6 +178,14 @@ def warm_chains_equal_serial(a, work):
     rc, err, _ = run(mpirun(a, 2, *args(out)))
     faults.check_exit(rc, err, allowed=(0,))
     check_same_store(ref, out)
+    return ref, out
+
+
+def warm_chains_equal_serial(a, work):
+    """Warm-start chains (studies/campaigns/bench_levels.toml: 3 microstructures x 4 tension levels, each
+    level's path on the next) stay on one rank: 2 ranks store what the one-process run stores, with the
+    same warm starts and the same Newton iterations (a chain split over ranks would recompute its path)."""
+    ref, out = serial_then_two_ranks(a, HERE.parent.parent / "studies" / "campaigns" / "bench_levels.toml", work)
     sr, so = summary(ref), summary(out)
     for k in ("warm_started", "newton_iterations"):
         check(sr[k] == so[k], "%s: %s on 2 ranks, %s in one process" % (k, so[k], sr[k]))
@@ -228,15 +234,7 @@ def fe_cases_equal_serial(a, work):
     ran cases, the FE records say so."""
     camp = work / "fe.toml"
     camp.write_text(FE_CAMPAIGN)
-    ref, out = work / "reference", work / "mpi"
-    args = lambda d: ["sweep", camp, "--out", d, "--threads", 1, "--jobs", 1]
-    rc, err, _ = run([a.softhom] + args(ref))
-    faults.check_exit(rc, err, allowed=(0,))
-    out.mkdir()
-    shutil.copy(ref / "fftw.wisdom", out / "fftw.wisdom")
-    rc, err, _ = run(mpirun(a, 2, *args(out)))
-    faults.check_exit(rc, err, allowed=(0,))
-    check_same_store(ref, out)
+    _, out = serial_then_two_ranks(a, camp, work)
     per_rank = summary(out).get("cases_per_rank")
     check(per_rank and len(per_rank) == 2 and sum(per_rank) == 3 and min(per_rank) >= 1,
           "cases_per_rank %s: expected both ranks to run cases, 3 in all" % per_rank)
