@@ -322,9 +322,9 @@ CampaignCase make_case(const Definitions& defs, const std::map<std::string, Axis
   if (override_table) merge_into(scene, *override_table);
   // Validate the scene exactly as `softhom rve` would (errors name the case).
   try {
-    c.engine = rve_scene_engine(scene);
-    c.id = case_id(a, name, c.engine != "fe");
+    c.id = case_id(a, name, rve_scene_engine(scene) != "fe");
     CaseScene parsed = parse_case_scene(scene);
+    c.engine = parsed.engine;
     c.control = std::move(parsed.control);
     c.elastic = parsed.elastic;
   } catch (const InputError& e) {
