@@ -18,31 +18,9 @@ namespace {
 
 std::atomic<std::size_t> parses{0};
 
-/// [solver] engine: "fft" (also without a [solver] table), "fe" or "auto".
-std::string requested_engine(const toml::table& scene) {
-  static const keys::Choices<std::string> engines{{{"fft", "fft"}, {"fe", "fe"}, {"auto", "auto"}}, {}};
-  const toml::table* solver = scene["solver"].as_table();
-  const toml::node* node = solver ? solver->get("engine") : nullptr;
-  return node ? keys::read_choice(*node, "solver.engine", engines) : "fft";
-}
-
 FeRveJob parse_fe_job(const toml::table& scene, bool microstructure_only) {
   FeRveJob job;
-  const toml::table& micro = studies::rve_microstructure(scene);
-  job.phases = studies::parse_rve_phases(scene);
-  job.section = studies::parse_fe_section(micro, job.target_vf, job.geometry_note);
-  if (job.target_vf > 0.0 && !job.phases.has_fiber)
-    throw InputError("phases.fiber", "", "missing (the cell has fibers)");
-  job.fiber_angle_deg = studies::microstructure_fiber_angle(micro);
-  job.settings = studies::parse_fe_rve_solver(scene, job.section.L1);
-  job.plate = studies::microstructure_is_plate(micro);
-  if (job.plate) {
-    if (job.settings.three_d)
-      throw InputError("microstructure.cell", "\"plate\"", "a plate is a section (its fibers are straight): use fe_mesh = \"section\"");
-    rve::check_plate_section(job.section);
-  }
-  if (!microstructure_only) job.control = studies::parse_rve_load(scene);
-  if (job.plate && !microstructure_only) rve::check_plate_control(job.control);
+  static_cast<studies::FeRveSetup&>(job) = studies::parse_fe_rve_setup(scene, !microstructure_only);
   job.output = studies::parse_rve_output(scene, microstructure_only ? nullptr : &job.control);
   return job;
 }
@@ -109,7 +87,7 @@ RveJob parse_rve(LoadedScene scene, const RveParseOptions& options) {
   RveJob job;
   job.resume = options.resume;
   RveEngine engine = RveEngine::fft;
-  if (const std::string e = requested_engine(scene.table); e == "auto") {
+  if (const std::string e = studies::rve_scene_engine(scene.table); e == "auto") {
     job.resolution = choose_engine(engine_request(scene.table));
     scene.table = resolved_scene(scene.table, *job.resolution);
     engine = job.resolution->engine;

@@ -100,15 +100,15 @@ FeCellMesh mesh_fe_cell(const FeRveJob& fe) {
   const auto mesh_start = std::chrono::steady_clock::now();
   FeCellMesh m;
   m.cell_measure = fe.section.L1 * fe.section.L2;
-  if (!fe.settings.three_d) {
-    m.section = std::make_unique<rve::SectionMesh>(rve::mesh_section(fe.section, fe.settings.mesh));
-    if (fe.plate) rve::make_plate(*m.section);
+  studies::FeRveMesh meshed = studies::mesh_fe_rve(fe);
+  m.section = std::move(meshed.section);
+  m.cell = std::move(meshed.cell);
+  if (m.section) {
     m.json = section_mesh_json(*m.section, fe.settings);
     m.field_mesh = field_mesh(*m.section);
     m.phase = m.section->phase;
     m.fiber_measure = m.section->area(1);
   } else {
-    m.cell = std::make_unique<rve::CellMesh>(rve::mesh_cell(fe.section, fe.settings.mesh3d));
     m.json = cell_mesh_json(*m.cell, fe.settings);
     m.field_mesh = field_mesh(*m.cell);
     m.phase = m.cell->phase;
@@ -202,12 +202,8 @@ bool run_fe_rve(const RveJob& job, const FeRveJob& fe, Sink& sink, const RunOpti
     write_fe_microstructure(job, fe, mesh, sink, options);
     return true;
   }
-  const auto& [matrix, fiber, has_fiber] = fe.phases;
   const double alpha = fe.fiber_angle_deg;
-  auto solver = mesh.section ? std::make_unique<rve::FeRveSolver>(std::move(*mesh.section), matrix, fiber, alpha,
-                                                                  fe.control.frame, fe.settings.solver)
-                             : std::make_unique<rve::FeRveSolver>(std::move(*mesh.cell), matrix, fiber, alpha,
-                                                                  fe.control.frame, fe.settings.solver);
+  auto solver = studies::make_fe_rve_solver({std::move(mesh.section), std::move(mesh.cell)}, fe);
   const double t_end = fe.control.times.back();
   std::unique_ptr<io::FieldWriter> writer;
   if (fe.output.fields_mode != "none") writer = sink.open_fields("fields", mesh.field_mesh);

@@ -1,8 +1,9 @@
 // softhom sweep CAMPAIGN.toml --out DIR [--jobs N] [-j THREADS] [--retry-failed] [--no-warm-start] [--dry-run]
 //
 // Runs every case of a campaign (studies/campaign.hpp: Cartesian products and explicit lists of RVE
-// scenes) with the FFT RVE engine into DIR/campaign.h5 (one group per case) and DIR/cases.csv (one
-// row per case and step). Rerunning the same command skips the finished cases. Writes
+// scenes) on the engine its scene names — the FFT engine, or the FE engine for [solver] engine = "fe"
+// (section, 3D and plate cells, set up as `softhom rve` sets them up) — into DIR/campaign.h5 (one group
+// per case) and DIR/cases.csv (one row per case and step). Rerunning the same command skips the finished cases. Writes
 // DIR/summary.json (counts, timings). Exit code 0 when every case is ok; 1 when some failed, when
 // another sweep holds DIR (campaign.lock) or when a file cannot be written (the previous files stay);
 // 128 + N when signal N (SIGINT, SIGTERM) interrupted the run (finished cases are stored,

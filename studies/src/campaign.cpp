@@ -41,7 +41,7 @@ using Clock = std::chrono::steady_clock;
 }  // namespace
 
 bool is_timing_stat(const std::string& name) {
-  return name == "wall_time_s" || name == "solve_time_s" || name == "fft_planning_s";
+  return name == "wall_time_s" || name == "solve_time_s" || name == "fft_planning_s" || name == "mesh_time_s";
 }
 
 
@@ -307,35 +307,14 @@ std::optional<PathPlan> plan_path(const Campaign& campaign, const std::vector<in
   return plan;
 }
 
-/// The solver of a chain's microstructure (made for its first member).
-std::unique_ptr<rve::FftRveSolver> make_solver(const ChainContext& ctx, const CampaignCase& c, CaseRecord& r) {
-  RveSceneSetup setup;
-  {
-    // Imported phase images are read with HDF5.
-    std::lock_guard<std::mutex> lock(hdf5_mutex());
-    setup = parse_rve_scene(c.scene);
-  }
-  setup.solver.plan.threads = ctx.threads_per_job;
-  // FFTW_MEASURE picks plans by timing, so two runs can differ in round-off; the campaign's
-  // wisdom file makes a resumed run reuse the plans of the first one (and skips measuring).
-  if (setup.solver.plan.wisdom_file.empty())
-    setup.solver.plan.wisdom_file = ctx.wisdom_file.empty() ? ctx.dir / "fftw.wisdom" : ctx.wisdom_file;
-  auto solver = std::make_unique<rve::FftRveSolver>(setup.image, setup.matrix, setup.fiber, setup.fiber_angle_deg,
-                                                    setup.control.frame, setup.solver);
-  r.stats["fft_planning_s"] = solver->planning_seconds();
-  r.info["geometry"] = setup.geometry_note;
-  r.info["fft"] = solver->fft_description();
-  return solver;
-}
-
 /// The output-step callback of a case: a case that runs for long shows where it is ("[sweep] ID: step
 /// 3 of 12, 25s"), from 10 s on and at most every 10 s, so a sweep is never silent for minutes. Empty
 /// without ctx.case_progress.
-std::function<void(const rve::RveStep&, const rve::RveFields*)> case_progress(const ChainContext& ctx, const std::string& id,
-                                                                              int steps, Clock::time_point start) {
+std::function<void(const rve::RveStep&)> case_progress(const ChainContext& ctx, const std::string& id, int steps,
+                                                      Clock::time_point start) {
   if (!ctx.case_progress) return {};
   constexpr double kEverySeconds = 10.0;
-  return [id, steps, start, step = 0, last_line = start](const rve::RveStep& st, const rve::RveFields*) mutable {
+  return [id, steps, start, step = 0, last_line = start](const rve::RveStep& st) mutable {
     if (st.t <= 0.0) return;  // the segment's starting row
     ++step;
     const auto now = Clock::now();
@@ -350,7 +329,7 @@ std::function<void(const rve::RveStep&, const rve::RveFields*)> case_progress(co
 /// reached yet) and reads the member's rows off it. Returns its record; `failed` when the path ended
 /// before the member's end.
 CaseRecord run_member(const ChainContext& ctx, const std::vector<int>& members, const PathPlan& plan, int k,
-                      std::unique_ptr<rve::FftRveSolver>& solver, std::vector<rve::RveStep>& path, bool& failed) {
+                      std::unique_ptr<CaseSolver>& solver, std::vector<rve::RveStep>& path, bool& failed) {
   const Campaign& campaign = ctx.campaign;
   const CampaignCase& c = campaign.cases[members[k]];
   const CampaignCase& fin = campaign.cases[members.back()];
@@ -372,7 +351,7 @@ CaseRecord run_member(const ChainContext& ctx, const std::vector<int>& members, 
       MixedControl seg = done == 0 ? fin.control : shifted(fin.control, S[done - 1]);
       seg.times.clear();
       for (std::size_t j = done; j <= idx.back(); ++j) seg.times.push_back(done == 0 ? S[j] : S[j] - S[done - 1]);
-      if (!solver) solver = make_solver(ctx, c, r);
+      if (!solver) solver = make_case_solver(ctx, c, r);
       result = solver->run(seg, case_progress(ctx, c.id, int(idx.back() + 1 - done), t0));
       for (std::size_t st = done == 0 ? 0 : 1; st < result.steps.size(); ++st) {
         path.push_back(result.steps[st]);
@@ -382,8 +361,7 @@ CaseRecord run_member(const ChainContext& ctx, const std::vector<int>& members, 
       }
       for (const auto& line : result.log) r.info["log"] += line + "\n";
     }
-    r.stats["voxels"] = double(solver->grid().voxels());
-    r.stats["volume_fraction_achieved"] = solver->achieved_volume_fraction();
+    solver->describe_cell(r);
     if (!path.empty()) steps.push_back(path[0]);
     for (std::size_t i = 0; i < idx.size() && idx[i] + 1 < path.size(); ++i) {
       rve::RveStep st = path[idx[i] + 1];
@@ -418,7 +396,7 @@ void run_chain(const ChainContext& ctx, const std::vector<int>& members, const s
     for (int j = 0; j <= last; ++j) run_chain(ctx, {members[j]}, {store[j]}, 0);
     return;
   }
-  std::unique_ptr<rve::FftRveSolver> solver;
+  std::unique_ptr<CaseSolver> solver;
   std::vector<rve::RveStep> path;  // path[0]: t = 0; path[j + 1]: at plan->times[j]
   for (int k = 0; k <= last; ++k) {
     if (ctx.stopping()) return;

@@ -13,6 +13,7 @@
 #include "softhom/materials/errors.hpp"
 #include "softhom/studies/campaign.hpp"
 #include "softhom/studies/campaign_definition.hpp"
+#include "softhom/studies/rve_fe_scene.hpp"
 #include "softhom/studies/rve_scene.hpp"
 
 namespace softhom::studies {
@@ -250,8 +251,9 @@ void set_phases_and_load(toml::table& scene, const Definitions& defs, const Case
                      "not defined: add [loads." + a.load + "] or use tension, compression, equibiaxial, shear, relaxation");
 }
 
-/// The case id: its name, else made of its axis values (characters unsafe in paths and CSV replaced).
-std::string case_id(const CaseAxes& a, const std::string& name) {
+/// The case id: its name, else made of its axis values (characters unsafe in paths and CSV replaced);
+/// `with_grid`: the resolution, which only the FFT engine has.
+std::string case_id(const CaseAxes& a, const std::string& name, bool with_grid) {
   std::string id_text;
   if (!name.empty()) {
     id_text = name;
@@ -260,14 +262,48 @@ std::string case_id(const CaseAxes& a, const std::string& name) {
     id << a.matrix << "-";
     if (a.matrix_only) id << "matrix";
     else id << a.section << "-a" << id_number(a.angle) << "-vf" << id_number(a.vf) << "-" << a.arrangement;
-    id << "-n" << a.grid[0];
-    for (std::size_t k = 1; k < a.grid.size(); ++k) id << "x" << a.grid[k];
+    if (with_grid) {
+      id << "-n" << a.grid[0];
+      for (std::size_t k = 1; k < a.grid.size(); ++k) id << "x" << a.grid[k];
+    }
     id << "-" << a.load;
     id_text = id.str();
   }
   for (char& ch : id_text)
     if (ch == '/' || ch == ' ' || ch == ',' || ch == '"') ch = '_';
   return id_text;
+}
+
+/// What the campaign keeps of a case scene, parsed as `softhom rve` parses it with the tables of its
+/// engine (every key checked, nothing meshed or planned).
+struct CaseScene {
+  std::string engine;
+  MixedControl control;
+  bool elastic = true;
+};
+
+bool without_history(const MaterialPtr& matrix, const MaterialPtr& fiber) {
+  return matrix->state_size() == 0 && (!fiber || fiber->state_size() == 0);
+}
+
+CaseScene parse_case_scene(const toml::table& scene) {
+  CaseScene c;
+  c.engine = rve_scene_engine(scene);
+  if (c.engine == "auto")
+    throw InputError("solver.engine", "\"auto\"",
+                     "a campaign case runs the engine it names, \"fft\" or \"fe\", at the resolution it gives "
+                     "(the cases of a campaign are compared with each other)");
+  if (c.engine == "fe") {
+    const FeRveSetup setup = parse_fe_rve_setup(scene, true);
+    (void)parse_rve_output(scene, &setup.control);
+    c.control = setup.control;
+    c.elastic = without_history(setup.phases.matrix, setup.phases.fiber);
+  } else {
+    const RveSceneSetup setup = parse_rve_scene(scene);
+    c.control = setup.control;
+    c.elastic = without_history(setup.matrix, setup.fiber);
+  }
+  return c;
 }
 
 /// Builds one case from one value per axis.
@@ -284,17 +320,22 @@ CampaignCase make_case(const Definitions& defs, const std::map<std::string, Axis
   set_microstructure(scene, defs, a, field);
   set_phases_and_load(scene, defs, a, field);
   if (override_table) merge_into(scene, *override_table);
-  c.id = case_id(a, name);
-
   // Validate the scene exactly as `softhom rve` would (errors name the case).
   try {
-    const RveSceneSetup setup = parse_rve_scene(scene);
-    c.control = setup.control;
-    c.elastic = setup.matrix->state_size() == 0 && setup.fiber->state_size() == 0;
+    c.id = case_id(a, name, rve_scene_engine(scene) != "fe");
+    CaseScene parsed = parse_case_scene(scene);
+    c.engine = parsed.engine;
+    c.control = std::move(parsed.control);
+    c.elastic = parsed.elastic;
   } catch (const InputError& e) {
-    throw InputError((context.empty() ? "case " + c.id : context) + ": " + e.field(), e.value(), std::string(e.what()).substr(
+    const std::string id = c.id.empty() ? case_id(a, name, true) : c.id;
+    throw InputError((context.empty() ? "case " + id : context) + ": " + e.field(), e.value(), std::string(e.what()).substr(
         std::min(std::string(e.what()).size(), e.field().size() + (e.value().empty() ? 0 : 3 + e.value().size()) + 2)));
   }
+  if (c.engine == "fe" && values.count("resolution"))
+    throw InputError(field + ".resolution", id_number(std::get<double>(values.at("resolution").v)),
+                     "case " + c.id + " runs on the FE engine (solver.engine = \"fe\"), which has no grid: "
+                     "its resolution is solver.mesh_size (in [base.solver] or the case's override)");
   c.scene = scene;
   c.scene_text = toml_text(scene);
   c.scene_hash = fnv1a_hex(c.scene_text);
@@ -494,7 +535,7 @@ namespace {
 void check_first_case_scene(const Campaign& camp) {
   if (camp.cases.empty()) return;
   try {
-    (void)parse_rve_scene(camp.cases.front().scene, true);
+    (void)parse_case_scene(camp.cases.front().scene);
   } catch (const InputError& e) {
     const std::string what = e.what();
     const std::string head = e.field() + (e.value().empty() ? "" : " = " + e.value()) + ": ";

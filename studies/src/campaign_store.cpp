@@ -187,9 +187,11 @@ const std::set<std::string>& reserved_attributes() {
   return r;
 }
 
-/// Counts (steps, iterations, voxels, threads) are stored as int64; everything else as float64.
+/// Counts (steps, iterations, voxels or mesh elements and equations, threads) are stored as int64;
+/// everything else as float64.
 bool is_count_stat(const std::string& name) {
-  static const std::set<std::string> counts{"steps", "newton_iterations", "krylov_iterations", "cutbacks", "voxels", "threads"};
+  static const std::set<std::string> counts{"steps",  "newton_iterations", "krylov_iterations", "cutbacks",
+                                            "voxels", "elements", "equations", "threads"};
   return counts.count(name) > 0;
 }
 

@@ -133,6 +133,52 @@ FeRveSettings parse_fe_rve_solver(const toml::table& scene, double L1) {
   return f;
 }
 
+std::string rve_scene_engine(const toml::table& scene) {
+  static const keys::Choices<std::string> engines{{{"fft", "fft"}, {"fe", "fe"}, {"auto", "auto"}}, {}};
+  const toml::table* solver = scene["solver"].as_table();
+  const toml::node* node = solver ? solver->get("engine") : nullptr;
+  return node ? keys::read_choice(*node, "solver.engine", engines) : "fft";
+}
+
+FeRveSetup parse_fe_rve_setup(const toml::table& scene, bool with_load) {
+  FeRveSetup s;
+  const toml::table& micro = rve_microstructure(scene);
+  s.phases = parse_rve_phases(scene);
+  s.section = parse_fe_section(micro, s.target_vf, s.geometry_note);
+  if (s.target_vf > 0.0 && !s.phases.has_fiber) throw InputError("phases.fiber", "", "missing (the cell has fibers)");
+  s.fiber_angle_deg = microstructure_fiber_angle(micro);
+  s.settings = parse_fe_rve_solver(scene, s.section.L1);
+  s.plate = microstructure_is_plate(micro);
+  if (s.plate) {
+    if (s.settings.three_d)
+      throw InputError("microstructure.cell", "\"plate\"", "a plate is a section (its fibers are straight): use fe_mesh = \"section\"");
+    rve::check_plate_section(s.section);
+  }
+  if (with_load) s.control = parse_rve_load(scene);
+  if (s.plate && with_load) rve::check_plate_control(s.control);
+  return s;
+}
+
+FeRveMesh mesh_fe_rve(const FeRveSetup& setup) {
+  FeRveMesh m;
+  if (setup.settings.three_d) {
+    m.cell = std::make_unique<rve::CellMesh>(rve::mesh_cell(setup.section, setup.settings.mesh3d));
+  } else {
+    m.section = std::make_unique<rve::SectionMesh>(rve::mesh_section(setup.section, setup.settings.mesh));
+    if (setup.plate) rve::make_plate(*m.section);
+  }
+  return m;
+}
+
+std::unique_ptr<rve::FeRveSolver> make_fe_rve_solver(FeRveMesh mesh, const FeRveSetup& setup) {
+  const auto& [matrix, fiber, has_fiber] = setup.phases;
+  if (mesh.section)
+    return std::make_unique<rve::FeRveSolver>(std::move(*mesh.section), matrix, fiber, setup.fiber_angle_deg,
+                                              setup.control.frame, setup.settings.solver);
+  return std::make_unique<rve::FeRveSolver>(std::move(*mesh.cell), matrix, fiber, setup.fiber_angle_deg,
+                                            setup.control.frame, setup.settings.solver);
+}
+
 keys::TableDoc fe_rve_solver_table() { return fe_keys().describe(); }
 
 std::vector<keys::TableDoc> rve_scene_tables() {

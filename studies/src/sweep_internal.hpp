@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "softhom/rve/fft_solver.hpp"
 #include "softhom/studies/campaign.hpp"
 
 namespace softhom::studies::sweep_detail {
@@ -32,6 +33,21 @@ struct ChainContext {
   std::filesystem::path wisdom_file;                // FFTW wisdom (empty: DIR/fftw.wisdom)
   bool case_progress = false;                       // a line per output step of a long case (stderr)
 };
+
+/// The engine of a chain's microstructure ([solver] engine of its scene), made for its first member and
+/// kept along the chain: each run continues from the converged state at the end of the previous one
+/// (the warm start). Both engines keep that state in their solver object between runs.
+class CaseSolver {
+ public:
+  virtual ~CaseSolver() = default;
+  /// Runs `segment` from the current state; `progress` (may be empty) sees every converged output step.
+  virtual rve::RveRunResult run(const MixedControl& segment, const std::function<void(const rve::RveStep&)>& progress) = 0;
+  /// What the record says of the cell: its size (voxels, or mesh elements and nodes) and achieved
+  /// volume fraction.
+  virtual void describe_cell(CaseRecord& r) const = 0;
+};
+/// The solver of case `c`; notes of its setup (engine, geometry, FFT plans or mesh) go into `r`.
+std::unique_ptr<CaseSolver> make_case_solver(const ChainContext& ctx, const CampaignCase& c, CaseRecord& r);
 
 /// "1.5s", "2m05s", "1h02m".
 std::string hms(double seconds);

@@ -166,11 +166,9 @@ def two_ranks_equal_serial(a, work):
           "--dry-run on 2 ranks did not list the %d cases once: %s" % (CASES, tail(text)))
 
 
-def warm_chains_equal_serial(a, work):
-    """Warm-start chains (studies/campaigns/bench_levels.toml: 3 microstructures x 4 tension levels, each
-    level's path on the next) stay on one rank: 2 ranks store what the one-process run stores, with the
-    same warm starts and the same Newton iterations (a chain split over ranks would recompute its path)."""
-    camp = HERE.parent.parent / "studies" / "campaigns" / "bench_levels.toml"
+def serial_then_two_ranks(a, camp, work):
+    """The campaign in one process, then on 2 ranks from its FFTW wisdom: the same store. Returns both
+    output directories."""
     ref, out = work / "reference", work / "mpi"
     args = lambda d: ["sweep", camp, "--out", d, "--threads", 1, "--jobs", 1]
     rc, err, _ = run([a.softhom] + args(ref))
@@ -180,10 +178,69 @@ def warm_chains_equal_serial(a, work):
     rc, err, _ = run(mpirun(a, 2, *args(out)))
     faults.check_exit(rc, err, allowed=(0,))
     check_same_store(ref, out)
+    return ref, out
+
+
+def warm_chains_equal_serial(a, work):
+    """Warm-start chains (studies/campaigns/bench_levels.toml: 3 microstructures x 4 tension levels, each
+    level's path on the next) stay on one rank: 2 ranks store what the one-process run stores, with the
+    same warm starts and the same Newton iterations (a chain split over ranks would recompute its path)."""
+    ref, out = serial_then_two_ranks(a, HERE.parent.parent / "studies" / "campaigns" / "bench_levels.toml", work)
     sr, so = summary(ref), summary(out)
     for k in ("warm_started", "newton_iterations"):
         check(sr[k] == so[k], "%s: %s on 2 ranks, %s in one process" % (k, so[k], sr[k]))
     check(sr["warm_started"] > 0, "the campaign has no warm start: the test checks nothing")
+
+
+# FE-engine cases (a coarse section cell, a plate cell) beside an FFT case: every case's numbers are the
+# one-process run's on whichever rank it lands.
+FE_CAMPAIGN = """description = "FE and FFT cases over ranks"
+[base.microstructure]
+shape = "circle"
+radius = 0.2
+grid = [8, 8]
+[base.phases.fiber]
+preset = "glass"
+[base.solver]
+tolerance = 1e-8
+[loads.pull]
+type = "uniaxial"
+stretch = 1.1
+steps = 2
+[loads.membrane]
+type = "mixed"
+F = [[1.1, 0.0, "free"], ["free", "free", "free"], [0.0, 0.0, "free"]]
+path = 1.0
+steps = 2
+[[cases]]
+name = "fe-section"
+matrix = "pdms"
+load = "pull"
+override = {solver = {engine = "fe", mesh_size = 0.25, interface_size = 0.1}}
+[[cases]]
+name = "fe-plate"
+matrix = "pdms"
+load = "membrane"
+override = {solver = {engine = "fe", mesh_size = 0.25, interface_size = 0.1}, microstructure = {cell = "plate"}}
+[[cases]]
+name = "fft"
+matrix = "pdms"
+load = "pull"
+"""
+
+
+def fe_cases_equal_serial(a, work):
+    """FE cases (section and plate cells) and an FFT case on 2 ranks: the one-process store, both ranks
+    ran cases, the FE records say so."""
+    camp = work / "fe.toml"
+    camp.write_text(FE_CAMPAIGN)
+    _, out = serial_then_two_ranks(a, camp, work)
+    per_rank = summary(out).get("cases_per_rank")
+    check(per_rank and len(per_rank) == 2 and sum(per_rank) == 3 and min(per_rank) >= 1,
+          "cases_per_rank %s: expected both ranks to run cases, 3 in all" % per_rank)
+    index = (out / "cases.csv").read_text()
+    check(index.count("fe-plate,ok,") == 3 and index.count("fe-section,ok,") == 3,
+          "the FE cases are not stored ok with 3 rows each: %s" % index[:400])
 
 
 def errors_from_rank0_only(a, work):
@@ -282,6 +339,7 @@ TESTS = {
     "reference": make_shared_reference,
     "two-ranks-equal-serial": two_ranks_equal_serial,
     "warm-chains-equal-serial": warm_chains_equal_serial,
+    "fe-cases-equal-serial": fe_cases_equal_serial,
     "errors-from-rank0-only": errors_from_rank0_only,
     "kill9-rank-resume": kill9_rank_resume,
     "kill9-job-resume-serial": kill9_job_resume_serial,

@@ -57,15 +57,8 @@ struct FftRveJob {
 };
 
 /// The FE engine's generated section, materials, load, [output] and [solver].
-struct FeRveJob {
-  studies::RvePhases phases;
-  rve::Section section;
-  double target_vf = 0.0;
-  std::string geometry_note;
-  double fiber_angle_deg = 0.0;
-  bool plate = false;  ///< [microstructure] cell = "plate": the section mesh's y2 faces free (rve::make_plate)
-  studies::FeRveSettings settings;
-  MixedControl control;
+/// The FE engine's setup (shared with the FE cases of `softhom sweep`) and what the run writes.
+struct FeRveJob : studies::FeRveSetup {
   studies::RveOutputSettings output;
 };
 

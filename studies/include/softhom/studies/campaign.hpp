@@ -1,7 +1,11 @@
 #pragma once
 // Sweep campaigns (`softhom sweep CAMPAIGN.toml --out DIR`): a Cartesian product (and explicit lists)
-// of FFT RVE cases over matrix, fiber section, fiber angle, volume fraction, arrangement, resolution
-// and load case; each case is an `softhom rve` scene.
+// of RVE cases over matrix, fiber section, fiber angle, volume fraction, arrangement, resolution
+// and load case; each case is an `softhom rve` scene, run on the engine its [solver] names: the FFT
+// engine (the default) or the FE engine (engine = "fe": section, 3D and plate cells, mesh keys in
+// [solver]; the resolution axis is the FFT grid, so FE cases take none and their ids have no "-nN").
+// engine = "auto" is refused: a campaign compares cases at the resolution it gives. FE cases of one
+// process run one at a time (concurrent FE solves differ in round-off); spread them over MPI ranks.
 //
 // Campaign file:
 //   description = "..."
@@ -42,9 +46,10 @@
 //   /cases/<id>       group per case. Attributes: parameters (names in column order), one attribute
 //                     per parameter (string, float64, int64 for resolution; angle NaN for the matrix
 //                     alone), status ("ok" or "failed"), error, scene (the case's TOML), scene_hash, counts as int64 (steps,
-//                     newton_iterations, krylov_iterations, cutbacks, voxels, threads), other statistics
+//                     newton_iterations, krylov_iterations, cutbacks, voxels, elements, equations, threads), other statistics
 //                     as float64 (timings, volume_fraction_achieved), notes as strings (geometry, fft,
-//                     log, warm_start_from, on_path_of).
+//                     log, warm_start_from, on_path_of). FFT cases: voxels, fft_planning_s, note fft; FE cases:
+//                     elements, equations, mesh_time_s, notes mesh and linear_solver. Note engine: "fft" or "fe".
 //   /cases/<id>/response  float64 rows x columns (the `softhom rve` response.csv table, 0 rows for a
 //                     case that failed before its first converged state); attribute columns.
 // DIR/cases.csv: one row per case and step (the campaign's cases in campaign order, then the store's
@@ -59,7 +64,8 @@
 // (equal to a cold run to the solver tolerance). History-dependent phases (QLV): only exact prefixes
 // (same output times up to the shorter case's end), which add no steps. Each segment of the path
 // continues from the converged state at the end of the previous case (the solver object keeps it
-// between runs; rve::FftRveState is that state made explicit, for restarts). A chain is
+// between runs, on either engine; rve::FftRveState is the FFT one made explicit, for restarts). An FE
+// chain meshes its cell once, for its first member. A chain is
 // always recomputed from its start (its finished members are not stored again), so a resumed run gives
 // the same numbers as an uninterrupted one.
 #include <cstdint>
@@ -96,6 +102,7 @@ struct CampaignCase {
   std::string microstructure_hash;         ///< hash of the scene without [load] (warm-start groups)
   MixedControl control;                    ///< parsed [load]
   bool elastic = true;                     ///< no phase has history (warm starts allowed)
+  std::string engine = "fft";              ///< [solver] engine of the scene: "fft" or "fe"
 };
 
 struct Campaign {

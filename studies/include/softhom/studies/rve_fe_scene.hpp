@@ -1,6 +1,7 @@
 #pragma once
 // The FE engine's side of an RVE scene ([solver] engine = "fe"): the generated section of
 // [microstructure] and the FE [solver] keys (mesh and Newton settings), declared key by key.
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,7 @@
 #include "softhom/rve/fe_mesh.hpp"
 #include "softhom/rve/fe_solver.hpp"
 #include "softhom/rve/geometry.hpp"
+#include "softhom/studies/rve_scene.hpp"
 
 namespace softhom::studies {
 
@@ -26,6 +28,34 @@ struct FeRveSettings {
 };
 /// [solver] for engine = "fe" (absent: defaults); `L1` is the cell side that sets the default sizes.
 FeRveSettings parse_fe_rve_solver(const toml::table& scene, double L1);
+
+/// [solver] engine of an RVE scene: "fft" (also without a [solver] table or key), "fe" or "auto"
+/// (InputError naming solver.engine for anything else).
+std::string rve_scene_engine(const toml::table& scene);
+
+/// Everything an FE RVE run needs, parsed and validated from a scene table (not [output]): the run of
+/// `softhom rve` with engine = "fe" and an FE case of `softhom sweep` read the scene through this.
+struct FeRveSetup {
+  RvePhases phases;
+  rve::Section section;
+  double target_vf = 0.0;
+  std::string geometry_note;
+  double fiber_angle_deg = 0.0;
+  bool plate = false;  ///< [microstructure] cell = "plate": the section mesh's y2 faces free (rve::make_plate)
+  FeRveSettings settings;
+  MixedControl control;  ///< [load] (when parsed with_load)
+};
+FeRveSetup parse_fe_rve_setup(const toml::table& scene, bool with_load);
+
+/// The FE cell's mesh: a section mesh (made a plate's when the setup says so) or a 3D cell mesh.
+struct FeRveMesh {
+  std::unique_ptr<rve::SectionMesh> section;
+  std::unique_ptr<rve::CellMesh> cell;
+};
+/// Meshes the setup's cell (InputError naming the size key when the solve could not fit, before meshing).
+FeRveMesh mesh_fe_rve(const FeRveSetup& setup);
+/// The FE solver of the setup on its mesh (which it takes).
+std::unique_ptr<rve::FeRveSolver> make_fe_rve_solver(FeRveMesh mesh, const FeRveSetup& setup);
 
 /// Key documentation of [solver] for engine = "fe".
 keys::TableDoc fe_rve_solver_table();
