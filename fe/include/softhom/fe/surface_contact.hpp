@@ -199,9 +199,10 @@ class SurfaceContact final : public Contribution {
   };
   /// The side (±1) of a point at offset d from a closest point held at an edge or corner of face w,
   /// by the pseudo-normal of the faces around that edge or corner; `interior` whether they close
-  /// around it (no free edge of the surface there) and lie within the paired face's neighbourhood.
+  /// around it (no free edge of the surface there) and lie within the paired face's neighbourhood;
+  /// `open` whether it is a free edge or corner of the surface.
   double feature_side(int w, const FaceProjection& q, const Vec3& d, const std::vector<Vec3>& x, int paired,
-                      bool& interior) const;
+                      bool& interior, bool& open) const;
   /// The nodes a point's response couples: its slave face's, the master face's, and the paired face's
   /// when it is another and carries a stick anchor. Returns their count.
   int response_nodes(const Point& p, const Evaluation& e, std::array<int, 18>& nodes) const;
@@ -256,5 +257,10 @@ class SurfaceContact final : public Contribution {
 /// the parametric coordinates, clamped to the face.
 FaceProjection project_on_face(const SurfaceContact::Face& face, const std::vector<Vec3>& x, const Vec3& point,
                                double xi0, double eta0);
+
+/// The closest point to `point` of the face's surface extended beyond its bounds by its shape functions,
+/// from (ξ, η): unbounded Newton in the parametric coordinates (free = 2).
+FaceProjection project_on_extended_face(const SurfaceContact::Face& face, const std::vector<Vec3>& x,
+                                        const Vec3& point, double xi, double eta);
 
 }  // namespace softhom::fe
