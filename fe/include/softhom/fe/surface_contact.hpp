@@ -13,7 +13,11 @@
 // around the edge or corner at that point, a corner's weighted by the faces' angles at it: Bærentzen and
 // Aanæs 2005). That is the signed distance to the surface: continuous, with its first derivative, as a
 // point slides past a face's edge, crosses a face's plane beside an edge, or comes nearer a neighbour
-// across a concave edge (where its gradient turns from one face's normal to the other's). The nominal
+// across a concave edge (where its gradient turns from one face's normal to the other's). Past a free
+// edge or corner of the master surface (its end, or a body's cut by a mirror plane) the face continues
+// by its shape functions: the gap is along the normal at the closest point of the face so extended, the
+// mirror half's face for a face square to the plane (the distance to the edge would grow with the
+// point's offset past it: false depths). The nominal
 // pressure is p = ⟨λ + ε (−g)⟩ per reference slave area. The residual is the variation of the penalty
 // energy: R = −Σ w p ∂g/∂u over the slave face's and the master face's nodes, and its tangent the exact
 // second variation, w (ε ∂g⊗∂g − p ∂²g), including the motion of the closest point over the master face
