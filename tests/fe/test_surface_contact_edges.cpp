@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "surface_contact_tangent.hpp"
@@ -168,7 +169,8 @@ TEST(SurfaceContactEdges, GapPastAFreeEdgeIsTheFacePlanes) {
 
 // The tangent where the slave face straddles A's free edge (its points on both sides, those past it
 // on A's extension, warped by the moved edge nodes) against central differences, every point
-// pressing (λ0 = 1), without and with friction: the tolerance of the tangent test above.
+// pressing (λ0 = 1), without and with friction. Measured 2.2e-11 and 2.3e-11 of the largest entry;
+// central differences of step 1e-6 leave round-off of 1e-16/1e-6 = 1e-10 relative: 1e-9 asserted.
 TEST(SurfaceContactEdges, TangentPastAFreeEdgeMatchesCentralDifferences) {
   for (double mu : {0.0, 0.3}) {
     const Hinge h = hinge(0.5236, 0.05, Vec3(-1.01, 0.03, -0.004));
@@ -180,7 +182,9 @@ TEST(SurfaceContactEdges, TangentPastAFreeEdgeMatchesCentralDifferences) {
     u[3 * 3 + 0] = -0.004;
     const std::vector<double> state = test::paired_state(c, h.mesh, u, 1.0, 0.02);
     int active = 0;
-    EXPECT_LT(test::contact_tangent_error(c, h.mesh, u, state, &active), 1e-6) << "mu " << mu;
+    const double error = test::contact_tangent_error(c, h.mesh, u, state, &active);
+    std::printf("past a free edge, mu = %g: tangent error %.2g of the largest entry\n", mu, error);
+    EXPECT_LT(error, 1e-9) << "mu " << mu;
     EXPECT_GT(active, 0);
   }
 }
