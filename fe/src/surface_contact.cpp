@@ -284,6 +284,24 @@ std::array<double, 2> extended_coordinates(const Face& f, const std::vector<Vec3
   return {xi, eta};
 }
 
+/// The unconstrained Newton step towards the distance's stationary point; where its Hessian A is not
+/// positive, a gradient step scaled by the tangents' lengths.
+Eigen::Vector2d free_step(const FaceGeometry& g, const Eigen::Matrix2d& A, const Eigen::Vector2d& grad) {
+  return A(0, 0) > 0 && A.determinant() > 0 ? Eigen::Vector2d(-A.ldlt().solve(grad))
+                                            : Eigen::Vector2d(-grad[0] / std::max(g.a1.squaredNorm(), 1e-300),
+                                                              -grad[1] / std::max(g.a2.squaredNorm(), 1e-300));
+}
+
+/// The projection's closest point (ξ, η) of a face, at geometry g there, and its gap and distance.
+void set_closest_point(const FaceGeometry& g, const Vec3& point, double xi, double eta, FaceProjection& p) {
+  p.xi = xi;
+  p.eta = eta;
+  p.x = g.x;
+  p.normal = g.normal();
+  p.gap = (point - g.x).dot(p.normal);
+  p.distance = (point - g.x).norm();
+}
+
 }  // namespace
 
 FaceProjection project_on_face(const Face& face, const std::vector<Vec3>& x, const Vec3& point, double xi0, double eta0) {
@@ -302,9 +320,7 @@ FaceProjection project_on_face(const Face& face, const std::vector<Vec3>& x, con
     free_directions(quad, xi, eta, -grad, p);
     Eigen::Vector2d step = Eigen::Vector2d::Zero();
     if (p.free == 2) {
-      step = A(0, 0) > 0 && A.determinant() > 0 ? Eigen::Vector2d(-A.ldlt().solve(grad))
-                                                : Eigen::Vector2d(-grad[0] / std::max(g.a1.squaredNorm(), 1e-300),
-                                                                  -grad[1] / std::max(g.a2.squaredNorm(), 1e-300));
+      step = free_step(g, A, grad);
     } else if (p.free == 1) {
       const Eigen::Vector2d t(p.free_basis[0], p.free_basis[1]);
       const double curvature = t.dot(A * t), slope = t.dot(grad);
@@ -322,41 +338,26 @@ FaceProjection project_on_face(const Face& face, const std::vector<Vec3>& x, con
   Eigen::Vector2d grad;
   distance_derivatives(g, point - g.x, A, grad);
   free_directions(quad, xi, eta, -grad, p);
-  p.xi = xi;
-  p.eta = eta;
-  p.x = g.x;
-  p.normal = g.normal();
-  p.gap = (point - g.x).dot(p.normal);
-  p.distance = (point - g.x).norm();
+  set_closest_point(g, point, xi, eta, p);
   return p;
 }
 
 FaceProjection project_on_extended_face(const Face& face, const std::vector<Vec3>& x, const Vec3& point, double xi,
                                         double eta) {
-  // Newton on the distance's stationarity, unbounded; where its Hessian is not positive, a gradient
-  // step scaled by the tangents' lengths (project_on_face's fallback).
+  // Newton on the distance's stationarity, with no bounds (the free steps of project_on_face).
   for (int iter = 0; iter < 40; ++iter) {
     const FaceGeometry g = face_geometry(face, x, xi, eta);
     Eigen::Matrix2d A;
     Eigen::Vector2d grad;
     distance_derivatives(g, point - g.x, A, grad);
-    Eigen::Vector2d step = A(0, 0) > 0 && A.determinant() > 0
-                               ? Eigen::Vector2d(-A.ldlt().solve(grad))
-                               : Eigen::Vector2d(-grad[0] / std::max(g.a1.squaredNorm(), 1e-300),
-                                                 -grad[1] / std::max(g.a2.squaredNorm(), 1e-300));
+    const Eigen::Vector2d step = free_step(g, A, grad);
     if (!step.allFinite()) break;
     xi += step[0];
     eta += step[1];
     if (step.cwiseAbs().sum() < 1e-15) break;
   }
-  const FaceGeometry g = face_geometry(face, x, xi, eta);
   FaceProjection p;
-  p.xi = xi;
-  p.eta = eta;
-  p.x = g.x;
-  p.normal = g.normal();
-  p.gap = (point - g.x).dot(p.normal);
-  p.distance = (point - g.x).norm();
+  set_closest_point(face_geometry(face, x, xi, eta), point, xi, eta, p);
   return p;
 }
 
