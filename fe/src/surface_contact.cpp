@@ -284,6 +284,24 @@ std::array<double, 2> extended_coordinates(const Face& f, const std::vector<Vec3
   return {xi, eta};
 }
 
+/// The unconstrained Newton step towards the distance's stationary point; where its Hessian A is not
+/// positive, a gradient step scaled by the tangents' lengths.
+Eigen::Vector2d free_step(const FaceGeometry& g, const Eigen::Matrix2d& A, const Eigen::Vector2d& grad) {
+  return A(0, 0) > 0 && A.determinant() > 0 ? Eigen::Vector2d(-A.ldlt().solve(grad))
+                                            : Eigen::Vector2d(-grad[0] / std::max(g.a1.squaredNorm(), 1e-300),
+                                                              -grad[1] / std::max(g.a2.squaredNorm(), 1e-300));
+}
+
+/// The projection's closest point (ξ, η) of a face, at geometry g there, and its gap and distance.
+void set_closest_point(const FaceGeometry& g, const Vec3& point, double xi, double eta, FaceProjection& p) {
+  p.xi = xi;
+  p.eta = eta;
+  p.x = g.x;
+  p.normal = g.normal();
+  p.gap = (point - g.x).dot(p.normal);
+  p.distance = (point - g.x).norm();
+}
+
 }  // namespace
 
 FaceProjection project_on_face(const Face& face, const std::vector<Vec3>& x, const Vec3& point, double xi0, double eta0) {
@@ -302,9 +320,7 @@ FaceProjection project_on_face(const Face& face, const std::vector<Vec3>& x, con
     free_directions(quad, xi, eta, -grad, p);
     Eigen::Vector2d step = Eigen::Vector2d::Zero();
     if (p.free == 2) {
-      step = A(0, 0) > 0 && A.determinant() > 0 ? Eigen::Vector2d(-A.ldlt().solve(grad))
-                                                : Eigen::Vector2d(-grad[0] / std::max(g.a1.squaredNorm(), 1e-300),
-                                                                  -grad[1] / std::max(g.a2.squaredNorm(), 1e-300));
+      step = free_step(g, A, grad);
     } else if (p.free == 1) {
       const Eigen::Vector2d t(p.free_basis[0], p.free_basis[1]);
       const double curvature = t.dot(A * t), slope = t.dot(grad);
@@ -322,12 +338,26 @@ FaceProjection project_on_face(const Face& face, const std::vector<Vec3>& x, con
   Eigen::Vector2d grad;
   distance_derivatives(g, point - g.x, A, grad);
   free_directions(quad, xi, eta, -grad, p);
-  p.xi = xi;
-  p.eta = eta;
-  p.x = g.x;
-  p.normal = g.normal();
-  p.gap = (point - g.x).dot(p.normal);
-  p.distance = (point - g.x).norm();
+  set_closest_point(g, point, xi, eta, p);
+  return p;
+}
+
+FaceProjection project_on_extended_face(const Face& face, const std::vector<Vec3>& x, const Vec3& point, double xi,
+                                        double eta) {
+  // Newton on the distance's stationarity, with no bounds (the free steps of project_on_face).
+  for (int iter = 0; iter < 40; ++iter) {
+    const FaceGeometry g = face_geometry(face, x, xi, eta);
+    Eigen::Matrix2d A;
+    Eigen::Vector2d grad;
+    distance_derivatives(g, point - g.x, A, grad);
+    const Eigen::Vector2d step = free_step(g, A, grad);
+    if (!step.allFinite()) break;
+    xi += step[0];
+    eta += step[1];
+    if (step.cwiseAbs().sum() < 1e-15) break;
+  }
+  FaceProjection p;
+  set_closest_point(face_geometry(face, x, xi, eta), point, xi, eta, p);
   return p;
 }
 
@@ -472,7 +502,7 @@ void SurfaceContact::closest_in_ring(const Point& p, const Vec3& xs, const std::
 }
 
 double SurfaceContact::feature_side(int w, const FaceProjection& q, const Vec3& d, const std::vector<Vec3>& x,
-                                    int paired, bool& interior) const {
+                                    int paired, bool& interior, bool& open) const {
   // The pseudo-normal of the edge or corner (the faces' normals there, a corner's weighted by the
   // faces' angles at it: Bærentzen and Aanæs 2005) gives the side of the surface continuously: a point
   // held there changes sides only through the surface itself, where its distance vanishes.
@@ -508,6 +538,7 @@ double SurfaceContact::feature_side(int w, const FaceProjection& q, const Vec3& 
   bool closed = corners.size() > 1 ? count == 2 : count > 0;
   for (const auto& [node, times] : rim) closed = closed && times == 2;
   interior = closed && in_ring;
+  open = !closed;
   return d.dot(pseudo) < 0.0 ? -1.0 : 1.0;
 }
 
@@ -686,14 +717,24 @@ SurfaceContact::Evaluation SurfaceContact::evaluate(const Point& p, const double
   const FaceProjection& q = e.projection;
   // Inside the face the gap along its normal; at an edge or corner the signed distance, its side the
   // pseudo-normal's (gap_kinematics).
-  if (q.free < 2) e.sign = feature_side(e.master, q, xs - q.x, x, e.paired, e.sided);
-  e.gap = q.free == 2 ? q.gap : e.sign * q.distance;
+  bool open = false;
+  if (q.free < 2) e.sign = feature_side(e.master, q, xs - q.x, x, e.paired, e.sided, open);
   // A point held at an edge of the face nearest to it farther aside than half the face has slid off
   // the surface around its paired face within the step (or was paired across a corner): it bears
   // nothing until the next step pairs it again. Its gap there is at least that, unless it lies deep
   // inside, which the face-size bound refuses anyway.
   const double aside = std::sqrt(std::max(0.0, q.distance * q.distance - q.gap * q.gap));
   e.engaged = q.free == 2 || aside <= 0.5 * fm.size;
+  // Past a free edge of the master surface (a mirror plane's cut, or the surface's end) the face
+  // continues by its own shape functions: the gap is along its normal at the closest point of that
+  // extension, smooth as the point crosses the edge, where the distance to the edge would grow with
+  // the point's offset along the face (a point 0.02 mm past a finger's cut by its mirror plane, 5e-4
+  // mm inside the finger, would lie 0.02 mm deep).
+  if (open) {
+    e.projection = project_on_extended_face(fm, x, xs, q.xi, q.eta);
+    e.sign = 1.0;
+  }
+  e.gap = e.projection.free == 2 ? e.projection.gap : e.sign * e.projection.distance;
   if (e.engaged) e.pressure = std::max(0.0, multiplier - p.penalty * e.gap);
   return e;
 }

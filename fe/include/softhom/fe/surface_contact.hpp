@@ -13,7 +13,11 @@
 // around the edge or corner at that point, a corner's weighted by the faces' angles at it: Bærentzen and
 // Aanæs 2005). That is the signed distance to the surface: continuous, with its first derivative, as a
 // point slides past a face's edge, crosses a face's plane beside an edge, or comes nearer a neighbour
-// across a concave edge (where its gradient turns from one face's normal to the other's). The nominal
+// across a concave edge (where its gradient turns from one face's normal to the other's). Past a free
+// edge or corner of the master surface (its end, or a body's cut by a mirror plane) the face continues
+// by its shape functions: the gap is along the normal at the closest point of the face so extended, the
+// mirror half's face for a face square to the plane (the distance to the edge would grow with the
+// point's offset past it: false depths). The nominal
 // pressure is p = ⟨λ + ε (−g)⟩ per reference slave area. The residual is the variation of the penalty
 // energy: R = −Σ w p ∂g/∂u over the slave face's and the master face's nodes, and its tangent the exact
 // second variation, w (ε ∂g⊗∂g − p ∂²g), including the motion of the closest point over the master face
@@ -199,9 +203,10 @@ class SurfaceContact final : public Contribution {
   };
   /// The side (±1) of a point at offset d from a closest point held at an edge or corner of face w,
   /// by the pseudo-normal of the faces around that edge or corner; `interior` whether they close
-  /// around it (no free edge of the surface there) and lie within the paired face's neighbourhood.
+  /// around it (no free edge of the surface there) and lie within the paired face's neighbourhood;
+  /// `open` whether it is a free edge or corner of the surface.
   double feature_side(int w, const FaceProjection& q, const Vec3& d, const std::vector<Vec3>& x, int paired,
-                      bool& interior) const;
+                      bool& interior, bool& open) const;
   /// The nodes a point's response couples: its slave face's, the master face's, and the paired face's
   /// when it is another and carries a stick anchor. Returns their count.
   int response_nodes(const Point& p, const Evaluation& e, std::array<int, 18>& nodes) const;
@@ -256,5 +261,10 @@ class SurfaceContact final : public Contribution {
 /// the parametric coordinates, clamped to the face.
 FaceProjection project_on_face(const SurfaceContact::Face& face, const std::vector<Vec3>& x, const Vec3& point,
                                double xi0, double eta0);
+
+/// The closest point to `point` of the face's surface extended beyond its bounds by its shape functions,
+/// from (ξ, η): unbounded Newton in the parametric coordinates (free = 2).
+FaceProjection project_on_extended_face(const SurfaceContact::Face& face, const std::vector<Vec3>& x,
+                                        const Vec3& point, double xi, double eta);
 
 }  // namespace softhom::fe
