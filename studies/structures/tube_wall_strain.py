@@ -19,7 +19,6 @@ radius r_i, pressure p): hoop ∫ P22 dR = p r_i λz, axial 2π ∫ P11 R dR = p
 Needs numpy and h5py.
 """
 import argparse
-import math
 
 import h5py
 import numpy as np
