@@ -16,7 +16,7 @@ the tied models' difference from the resolved one relative to the fibers' effect
 with its observed order in r between neighbouring radii. Finished runs are kept in OUT/<name>/.
 
     OMP_NUM_THREADS=1 nice python3 studies/structures/tied_vs_resolved.py --softhom build/apps/softhom \\
-        --out out/tied-thin --radii 0.2 0.14 0.1 [--refine 0.14]   # --refine: one finer mesh at that r
+        --out out/tied-thin --radii 0.2 0.14 0.1 --refine 0.2 --vc 0.2   # --refine: at that r on h 0.25, 0.7 r
     python3 studies/structures/tied_vs_resolved.py --out out/tied-thin --table      # the table only
 """
 import argparse
@@ -34,6 +34,7 @@ RI, WALL, LENGTH, ANGLE, COUNT = 1.5, 0.74, 1.5, 45.0, 11
 RM = RI + 0.5 * WALL
 QUANTITIES = [("axial_stretch", "λz − 1", 1.0), ("radial_stretch_outer", "λr − 1", 1.0), ("twist_end_deg", "twist°", 0.0)]
 MODELS = ["resolved", "tied", "tied_vc", "matrix"]
+BASIC = ["resolved", "tied", "matrix"]  # tied_vc at the radii of --vc only: it moves by ~E_matrix / E_fiber
 
 SCENE = """description = "Tied against resolved fibers: {model}, r = {r} mm (studies/structures/tied_vs_resolved.py)"
 [geometry]
@@ -139,10 +140,10 @@ def load(out, model, r, h, c):
             "dofs": int(dofs.group(1)) if dofs else 0}
 
 
-def relative_differences(runs):
-    """(tied − resolved) / (resolved − matrix) per quantity, for tied and tied_vc."""
+def relative_differences(runs, models=("tied", "tied_vc")):
+    """(tied − resolved) / (resolved − matrix) per quantity, for each tied model."""
     res, mat = runs["resolved"]["values"], runs["matrix"]["values"]
-    return {m: [(t - a) / (a - b) for t, a, b in zip(runs[m]["values"], res, mat)] for m in ("tied", "tied_vc")}
+    return {m: [(t - a) / (a - b) for t, a, b in zip(runs[m]["values"], res, mat)] for m in models}
 
 
 def table(args):
@@ -153,11 +154,12 @@ def table(args):
     spacing = 2.0 * math.pi * RM * math.cos(math.radians(ANGLE)) / COUNT
     for r in args.radii:
         runs = {m: load(args.out, m, r, args.h, args.c) for m in MODELS}
+        runs = {m: v for m, v in runs.items() if v is not None or m != "tied_vc"}
         if any(v is None for v in runs.values()):
             print(f"| {r} | missing runs: {[m for m, v in runs.items() if v is None]} |")
             continue
-        rows[r] = relative_differences(runs)
-        for m in MODELS:
+        rows[r] = relative_differences(runs, [m for m in ("tied", "tied_vc") if m in runs])
+        for m in runs:
             v = runs[m]
             print(f"| {r} | {math.pi * r * r / (spacing * WALL):.3f} | {m} | " +
                   " | ".join(f"{x:.5f}" for x in v["values"]) + f" | {v['dofs']} | {v['wall']:.1f} |")
@@ -166,29 +168,29 @@ def table(args):
     print("|---|---|---|---|---|")
     radii = [r for r in args.radii if r in rows]
     for i, r in enumerate(radii):
-        for m in ("tied", "tied_vc"):
+        for m in rows[r]:
             cells = []
             for k in range(len(QUANTITIES)):
                 e = rows[r][m][k]
                 text = f"{100 * e:+.1f} %"
-                if i > 0 and rows[radii[i - 1]][m][k] * e > 0:
+                if i > 0 and m in rows[radii[i - 1]] and rows[radii[i - 1]][m][k] * e > 0:
                     order = math.log(rows[radii[i - 1]][m][k] / e) / math.log(radii[i - 1] / r)
                     text += f" (order {order:.2f})"
                 cells.append(text)
             print(f"| {r} | {m} | " + " | ".join(cells) + " |")
     for r in args.refine:
-        fine = {m: load(args.out, m, r, args.fine_h, args.fine_c) for m in MODELS}
-        base = {m: load(args.out, m, r, args.h, args.c) for m in MODELS}
+        fine = {m: load(args.out, m, r, args.fine_h, args.fine_c) for m in BASIC}
+        base = {m: load(args.out, m, r, args.h, args.c) for m in BASIC}
         if any(v is None for v in list(fine.values()) + list(base.values())):
             continue
         print(f"\nmesh sensitivity at r = {r}: mesh_size {args.fine_h}, fiber_mesh_size {args.fine_c} r against the above")
-        for m in MODELS:
+        for m in BASIC:
             change = [(f - b) / b if b else float("nan") for f, b in zip(fine[m]["values"], base[m]["values"])]
             print(f"| {m} | " + " | ".join(f"{x:.5f} ({100 * d:+.1f} %)" for x, d in zip(fine[m]["values"], change)) +
                   f" | {fine[m]['dofs']} | {fine[m]['wall']:.1f} |")
-        rel = relative_differences(fine)
-        for m in ("tied", "tied_vc"):
-            print(f"| {m} rel. diff | " + " | ".join(f"{100 * e:+.1f} %" for e in rel[m]) + " |")
+        for name_, runs in (("base", base), ("fine", fine)):
+            rel = relative_differences(runs, ("tied",))["tied"]
+            print(f"| tied rel. diff, {name_} mesh | " + " | ".join(f"{100 * e:+.1f} %" for e in rel) + " |")
 
 
 def main():
@@ -198,20 +200,23 @@ def main():
     ap.add_argument("--radii", type=float, nargs="+", default=[0.2, 0.14, 0.1])
     ap.add_argument("--h", type=float, default=0.3, help="mesh_size away from the fibers [mm]")
     ap.add_argument("--c", type=float, default=1.0, help="fiber_mesh_size / r")
+    ap.add_argument("--vc", type=float, nargs="*", default=[], help="radii also run with the volume correction")
     ap.add_argument("--refine", type=float, nargs="*", default=[], help="radii run again on the finer mesh")
-    ap.add_argument("--fine-h", type=float, default=0.22)
+    ap.add_argument("--fine-h", type=float, default=0.25)
     ap.add_argument("--fine-c", type=float, default=0.7)
-    ap.add_argument("--pressure", type=float, default=10.0, help="kPa")
-    ap.add_argument("--steps", type=int, default=2)
+    ap.add_argument("--pressure", type=float, default=1.0, help="kPa (resolved_coarse.toml's: the fibers' effect is linear there)")
+    ap.add_argument("--steps", type=int, default=1)
     ap.add_argument("--table", action="store_true", help="print the table of the finished runs only")
     args = ap.parse_args()
     if not args.table:
         for r in args.radii:
-            for m in MODELS:
+            for m in BASIC:
                 run(args, m, r, args.h, args.c)
         for r in args.refine:
-            for m in MODELS:
+            for m in BASIC:
                 run(args, m, r, args.fine_h, args.fine_c)
+        for r in args.vc:
+            run(args, "tied_vc", r, args.h, args.c)
     table(args)
 
 
