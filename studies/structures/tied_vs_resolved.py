@@ -149,7 +149,7 @@ def relative_differences(runs, models=("tied", "tied_vc")):
 
 
 def table(args):
-    rows = {}
+    rows, diffs = {}, {}
     print(f"\np = {args.pressure} kPa, mesh_size {args.h} mm, fiber_mesh_size {args.c} r")
     print("| r [mm] | VF | model | " + " | ".join(label for _, label, _ in QUANTITIES) + " | dofs | wall [s] |")
     print("|---|---|---|---|---|---|---|---|")
@@ -161,6 +161,7 @@ def table(args):
             print(f"| {r} | missing runs: {[m for m, v in runs.items() if v is None]} |")
             continue
         rows[r] = relative_differences(runs, [m for m in ("tied", "tied_vc") if m in runs])
+        diffs[r] = [t - a for t, a in zip(runs["tied"]["values"], runs["resolved"]["values"])]
         for m in runs:
             v = runs[m]
             print(f"| {r} | {math.pi * r * r / (spacing * WALL):.3f} | {m} | " +
@@ -180,6 +181,18 @@ def table(args):
                     text += f" (order {order:.2f})"
                 cells.append(text)
             print(f"| {r} | {m} | " + " | ".join(cells) + " |")
+    print("\ntied − resolved (absolute), observed order between neighbouring radii:")
+    print("| r [mm] | " + " | ".join(label for _, label, _ in QUANTITIES) + " |")
+    print("|---|---|---|---|")
+    for i, r in enumerate(radii):
+        cells = []
+        for k in range(len(QUANTITIES)):
+            d = diffs[r][k]
+            text = f"{d:+.5f}"
+            if i > 0 and diffs[radii[i - 1]][k] * d > 0:
+                text += f" (order {math.log(diffs[radii[i - 1]][k] / d) / math.log(radii[i - 1] / r):.2f})"
+            cells.append(text)
+        print(f"| {r} | " + " | ".join(cells) + " |")
     for r in args.refine:
         base = {m: load(args.out, m, r, args.h, args.c) for m in BASIC}
         fine = {m: load(args.out, m, r, args.fine_h, args.fine_c) for m in BASIC}
