@@ -2,13 +2,13 @@
 """Tied fibers against resolved fibers on the same tube, as the fibers get thinner.
 
 The short Ecoflex tube of resolved_coarse.toml (R_i = 1.5 mm, wall 0.74 mm, 1.5 mm long, glass cap,
-clamped at z = 0, internal pressure) with 11 fibers on a 45° helix at mid-wall, of radius r. For each r
+clamped at z = 0, internal pressure: 1 kPa in one step by default) with 11 fibers on a 45° helix at mid-wall, of radius r. For each r
 the one mesh of studies/meshes/helix_tube.geo (fiber regions conforming, fiber_mesh_size = c r in and
 near them) carries four models:
   resolved   the fiber regions glass (neo-Hookean, E = 10 MPa, nu = 0.3),
   tied       the fiber regions Ecoflex, plus [[fibers]] along the same centrelines: area pi r^2,
              law "neo-hookean" (N = (E/3) A (lambda - lambda^-2), the glass rod's uniaxial response
-             within 0.5 % to 10 % stretch; the linear law is 7 % stiffer at 7 %), E = 10 MPa,
+             within 0.8 % to 10 % stretch; the linear law is 5-10 % stiffer), E = 10 MPa,
   tied_vc    the same with volume_correction = true (the matrix's own uniaxial stress removed over A),
   matrix     the fiber regions Ecoflex, no fibers.
 It prints axial stretch, outer radial stretch and end twist (device.csv of [device] kind = "tube"), and
@@ -16,7 +16,7 @@ the tied models' difference from the resolved one relative to the fibers' effect
 with its observed order in r between neighbouring radii. Finished runs are kept in OUT/<name>/.
 
     OMP_NUM_THREADS=1 nice python3 studies/structures/tied_vs_resolved.py --softhom build/apps/softhom \\
-        --out out/tied-thin --radii 0.2 0.14 0.1 --refine 0.2 --vc 0.2   # --refine: at that r on h 0.25, 0.7 r
+        --out out/tied-thin --radii 0.28 0.2 0.14 0.1 --refine 0.2 --vc 0.2   # --refine: that r on h 0.25, 0.7 r
     python3 studies/structures/tied_vs_resolved.py --out out/tied-thin --table      # the table only
 """
 import argparse
@@ -216,7 +216,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--softhom", default="softhom")
     ap.add_argument("--out", type=pathlib.Path, required=True)
-    ap.add_argument("--radii", type=float, nargs="+", default=[0.2, 0.14, 0.1])
+    ap.add_argument("--radii", type=float, nargs="+", default=[0.28, 0.2, 0.14, 0.1])
     ap.add_argument("--h", type=float, default=0.3, help="mesh_size away from the fibers [mm]")
     ap.add_argument("--c", type=float, default=1.0, help="fiber_mesh_size / r")
     ap.add_argument("--vc", type=float, nargs="*", default=[], help="radii also run with the volume correction")
