@@ -68,6 +68,9 @@ void check_helix_tube(const HelixTubeSpec& s) {
   if (s.fibers == 0) {
     if (s.volume_fraction > 0.0 || s.fiber_radius > 0.0)
       throw InputError(size_key(s), size_value(s), "a fiber size without fibers (helix_tube.fibers = 0)");
+    if (s.fiber_mesh_size > 0.0)
+      throw InputError("helix_tube.fiber_mesh_size", format_number(s.fiber_mesh_size),
+                       "a fiber mesh size without fibers (helix_tube.fibers = 0)");
     return;
   }
   if ((s.volume_fraction > 0.0) == (s.fiber_radius > 0.0))
@@ -85,10 +88,14 @@ void check_helix_tube(const HelixTubeSpec& s) {
 }
 
 std::vector<std::pair<std::string, double>> helix_tube_geo_parameters(const HelixTubeSpec& s) {
-  return {{"inner_radius", s.inner_radius},       {"wall_thickness", s.wall_thickness},
-          {"length", s.length},                   {"cap_thickness", s.cap_thickness},
-          {"helix_angle_deg", s.helix_angle_deg}, {"fibers", double(s.fibers)},
-          {"fiber_radius", s.fibers > 0 ? helix_fiber_radius(s) : 0.0}};
+  std::vector<std::pair<std::string, double>> p = {
+      {"inner_radius", s.inner_radius},       {"wall_thickness", s.wall_thickness},
+      {"length", s.length},                   {"cap_thickness", s.cap_thickness},
+      {"helix_angle_deg", s.helix_angle_deg}, {"fibers", double(s.fibers)},
+      {"fiber_radius", s.fibers > 0 ? helix_fiber_radius(s) : 0.0}};
+  // Passed only when set, so the meshes (and mesh-cache names) of scenes without it stay as they were.
+  if (s.fiber_mesh_size > 0.0) p.emplace_back("fiber_mesh_size", s.fiber_mesh_size);
+  return p;
 }
 
 TubeGauge::TubeGauge(const fe::Mesh& mesh, const std::string& field) {

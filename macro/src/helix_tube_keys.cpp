@@ -25,7 +25,10 @@ const keys::KeyTable<HelixTubeSpec>& helix_tube_table() {
         .number("volume_fraction", &O::volume_fraction, keys::open_range(0.0, 0.5), "-",
                 "fiber volume fraction of the wall; the fiber radius follows, r = sqrt(VF s t / pi) with the spacing "
                 "s = 2 pi R_m cos(alpha) / fibers (instead of fiber_radius)")
-        .number("fiber_radius", &O::fiber_radius, length, "mm", "fiber radius (instead of volume_fraction)");
+        .number("fiber_radius", &O::fiber_radius, length, "mm", "fiber radius (instead of volume_fraction)")
+        .number("fiber_mesh_size", &O::fiber_mesh_size, keys::at_least(0), "mm",
+                "element size inside the fibers and within one fiber radius around them, growing to geometry.mesh_size "
+                "over two more radii (0: geometry.mesh_size everywhere; thin fibers need it)");
     return k;
   }();
   return t;

@@ -11,13 +11,17 @@
 //           8 points per turn, trimmed to the wall (z = 0 ... length) and fragmented with the wall and
 //           the cap, so the fiber-matrix interfaces are conforming. fibers = 0: the same tube
 //           without fibers (the homogenized model's mesh).
+//   fiber_mesh_size > 0: element size inside the fibers and within one fiber radius around them,
+//           growing linearly to mesh_size over two more radii (a thin fiber resolved without refining
+//           the whole wall); 0 (default): mesh_size everywhere.
 //
 // Physical groups: volumes "matrix", "fibers" (when fibers > 0), "cap"; surfaces "inner" (the cavity:
 // the wall's inner face and the cap's inner disc), "zmin" (z = 0), "zmax" (the cap's top face),
 // "outer" (the rest of the boundary).
 SetFactory("OpenCASCADE");
 DefineConstant[ mesh_size = 0.4, inner_radius = 1.5, wall_thickness = 0.74, length = 2.0, cap_thickness = 0.5,
-                helix_angle_deg = 45.0, fibers = 12, fiber_radius = 0.2 ];
+                helix_angle_deg = 45.0, fibers = 12, fiber_radius = 0.2,
+                fiber_mesh_size = 0 ];
 Ri = inner_radius; Ro = inner_radius + wall_thickness; Rm = 0.5 * (Ri + Ro); L = length;
 alpha = helix_angle_deg * Pi / 180;
 rf = fiber_radius;
@@ -86,6 +90,18 @@ Physical Surface("outer") = {outer[]};
 
 Mesh.MeshSizeMax = mesh_size;
 Mesh.MeshSizeMin = 0.25 * mesh_size;
+If (fibers > 0 && fiber_mesh_size > 0)
+  Field[1] = Distance;
+  Field[1].SurfacesList = {Abs(Boundary{ Volume{fib[]}; })};
+  Field[2] = Threshold;
+  Field[2].InField = 1;
+  Field[2].SizeMin = fiber_mesh_size;
+  Field[2].SizeMax = mesh_size;
+  Field[2].DistMin = rf;
+  Field[2].DistMax = 3 * rf;
+  Background Field = 2;
+  Mesh.MeshSizeMin = Min(0.25 * mesh_size, fiber_mesh_size);
+EndIf
 Mesh.MeshSizeFromCurvature = 0;
 Mesh.ElementOrder = 2;
 // gmsh's high-order optimisation takes minutes here; the few tets that curving onto the thin fibers

@@ -26,6 +26,7 @@ struct HelixTubeSpec {
   int fibers = 0;                ///< n (0: the tube without fibers)
   double volume_fraction = 0.0;  ///< VF of the wall (gives the fiber radius), or
   double fiber_radius = 0.0;     ///< r [mm] directly (exactly one of the two when fibers > 0)
+  double fiber_mesh_size = 0.0;  ///< element size in and near the fibers [mm] (0: the global size)
 };
 
 /// Fiber spacing s perpendicular to the fibers [mm].
