@@ -342,6 +342,17 @@ FaceProjection project_on_face(const Face& face, const std::vector<Vec3>& x, con
   return p;
 }
 
+namespace {
+
+/// The closest point of a face with no better start than its centre (ξ = η = 0 on a quad, 1/3 on a
+/// triangle): a face met for the first time in a search.
+FaceProjection project_from_centre(const Face& face, const std::vector<Vec3>& x, const Vec3& point) {
+  const double centre = face.quad() ? 0.0 : 1.0 / 3;
+  return project_on_face(face, x, point, centre, centre);
+}
+
+}  // namespace
+
 FaceProjection project_on_extended_face(const Face& face, const std::vector<Vec3>& x, const Vec3& point, double xi,
                                         double eta) {
   // Newton on the distance's stationarity, with no bounds (the free steps of project_on_face).
@@ -491,8 +502,7 @@ void SurfaceContact::closest_in_ring(const Point& p, const Vec3& xs, const std::
     double radius = 0.0;
     for (int a = 0; a < face.nodes_count; ++a) radius = std::max(radius, (x[face.nodes[a]] - centre).norm());
     if ((xs - centre).norm() - 1.5 * radius > e.projection.distance) continue;
-    const double start = face.quad() ? 0.0 : 1.0 / 3;
-    const FaceProjection q = project_on_face(face, x, xs, start, start);
+    const FaceProjection q = project_from_centre(face, x, xs);
     // Ties (the same closest point on a shared edge) stay with the paired face.
     if (q.distance < e.projection.distance - 1e-12 * face.size) {
       e.master = f;
@@ -523,8 +533,7 @@ double SurfaceContact::feature_side(int w, const FaceProjection& q, const Vec3& 
     if (corners.size() > 1 && !has_corner(face, f.nodes[corners[1]])) continue;
     ++count;
     in_ring = in_ring && std::binary_search(ring_[paired].begin(), ring_[paired].end(), g);
-    const double start = face.quad() ? 0.0 : 1.0 / 3;
-    const Vec3 n = g == w ? q.normal : project_on_face(face, x, q.x, start, start).normal;
+    const Vec3 n = g == w ? q.normal : project_from_centre(face, x, q.x).normal;
     double weight = 1.0;
     if (corners.size() == 1) {
       const std::array<int, 2> r = neighbour_corners(face, v);
@@ -623,7 +632,7 @@ SurfaceContact::Candidate SurfaceContact::nearest_face(const Point& p, const std
   for (int f : grid.candidates(xs)) {
     if (f < p.master_begin || f >= p.master_end || f == p.face || shares_node(own, faces_[f])) continue;
     const Face& face = faces_[f];
-    const FaceProjection proj = project_on_face(face, x, xs, face.quad() ? 0.0 : 1.0 / 3, face.quad() ? 0.0 : 1.0 / 3);
+    const FaceProjection proj = project_from_centre(face, x, xs);
     // Admissible: facing it (normals opposed), within reach, and not behind the face by more than half
     // its size: a converged state penetrates by (p/G) h/100, so a point deeper than that is the far side
     // of a wall (a plate's two faces), not a contact.

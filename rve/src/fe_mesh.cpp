@@ -259,6 +259,10 @@ double SectionMesh::area(int phase_id) const {
 
 namespace {
 
+/// Nodes of opposite edges pair where their coordinates agree to this: the boundary points are
+/// clustered to one parameter per pair of edges, so they agree to round-off of the cell's size.
+double pairing_tolerance(double L1, double L2) { return 1e-9 * std::max(L1, L2); }
+
 /// Periodic masters by coordinate matching: a node on y1 = L1 maps to the node at (0, y2), one on
 /// y2 = L2 to (y1, 0), chains resolved (corners → (0, 0)); a plate (periodic_y2 false) pairs the y1
 /// edges only. Returns the largest mismatch.
@@ -299,7 +303,7 @@ double corner_size(double r, double R, double h_i, double h_min, double beta) {
 
 double verify_periodic_pairing(const SectionMesh& mesh) {
   SectionMesh copy = mesh;
-  const double worst = assign_masters(copy, 1e-9 * std::max(mesh.L1, mesh.L2));
+  const double worst = assign_masters(copy, pairing_tolerance(mesh.L1, mesh.L2));
   for (int i = 0; i < mesh.num_nodes(); ++i)
     if (copy.master[i] != mesh.master[i]) throw std::runtime_error("periodic mesh: stored master differs");
   // Every master lies on the cell and every node maps to a node at the same position modulo (L1, L2).
@@ -307,14 +311,14 @@ double verify_periodic_pairing(const SectionMesh& mesh) {
     Vec2 d = mesh.nodes[i] - mesh.nodes[mesh.master[i]];
     d.x() -= mesh.L1 * std::round(d.x() / mesh.L1);
     d.y() -= mesh.L2 * std::round(d.y() / mesh.L2);
-    if (d.norm() > 1e-9 * std::max(mesh.L1, mesh.L2)) throw std::runtime_error("periodic mesh: master at another position");
+    if (d.norm() > pairing_tolerance(mesh.L1, mesh.L2)) throw std::runtime_error("periodic mesh: master at another position");
   }
   return worst;
 }
 
 void make_plate(SectionMesh& mesh) {
   mesh.periodic_y2 = false;
-  mesh.quality.max_pairing_error = assign_masters(mesh, 1e-9 * std::max(mesh.L1, mesh.L2));
+  mesh.quality.max_pairing_error = assign_masters(mesh, pairing_tolerance(mesh.L1, mesh.L2));
 }
 
 void check_plate_section(const Section& section) {
@@ -716,7 +720,7 @@ SectionMesh mesh_section(const Section& section, const SectionMeshOptions& optio
   std::set<std::pair<int, int>> constrained;
   add_t6_elements(cdt, fibers, m, mid, constrained);
   if (o.curved_interfaces) curve_interfaces(m, mid, constrained, fibers);
-  quality.max_pairing_error = assign_masters(m, 1e-9 * std::max(L1, L2));
+  quality.max_pairing_error = assign_masters(m, pairing_tolerance(L1, L2));
   measure_triangle_quality(m, quality);
   const double exact = detail::fiber_area(section);
   quality.fiber_area_error = exact > 0.0 ? std::abs(m.area(1) - exact) / exact : 0.0;
