@@ -74,7 +74,8 @@ struct Stack {
 /// the upper block's top pushed down by 0.05 in 3 steps: a uniform uniaxial state whose traction
 /// the contact must transmit. `self`: the two facing surfaces as one self-contact surface.
 inline Stack stack(int n_lower, int n_upper, bool tet10, bool upper_is_slave, bool two_pass, bool self = false,
-            SolverKind solver = SolverKind::cholmod) {
+            SolverKind solver = SolverKind::cholmod,
+            SurfaceContact::Options::Integration integration = SurfaceContact::Options::Integration::segments) {
   const Mesh m = two_blocks(n_lower, n_upper, 0.0, tet10);
   FeModel model;
   model.mesh = m;
@@ -88,6 +89,7 @@ inline Stack stack(int n_lower, int n_upper, bool tet10, bool upper_is_slave, bo
   o.shear_modulus = 1.0;
   o.field = "contact.pairs[0]";
   o.two_pass = two_pass;
+  o.integration = integration;
   std::shared_ptr<SurfaceContact> c;
   if (self) {
     ContactSurface both = surface(m, "upper_bottom"), lower = surface(m, "lower_top");

@@ -568,17 +568,32 @@ void SurfaceContact::add_points(const Mesh& mesh, int slave_begin, int slave_end
                                 double factor) {
   static const std::vector<ObstacleContact::Point> quad_rule = contact_rule_points(true);
   static const std::vector<ObstacleContact::Point> tri_rule = contact_rule_points(false);
+  const bool segments = options_.integration == Options::Integration::segments;
   for (int f = slave_begin; f < slave_end; ++f) {
     const Face& face = faces_[f];
-    for (const ObstacleContact::Point& r : face.quad() ? quad_rule : tri_rule) {
+    const std::vector<ObstacleContact::Point>& rule = face.quad() ? quad_rule : tri_rule;
+    const int slots = segments ? std::max(kSegmentSlots, int(rule.size())) : int(rule.size());
+    for (int j = 0; j < slots; ++j) {
+      // Spare slots (segments) start as copies of the last Gauss point, unused (init_state).
+      const ObstacleContact::Point& r = rule[std::min<std::size_t>(j, rule.size() - 1)];
       Point p;
       p.face = f;
       p.master_begin = master_begin;
       p.master_end = master_end;
+      p.slot = j;
+      p.slots = slots;
+      p.home_count = int(rule.size());
       p.N = r.N;
       p.dN_xi = r.dN_xi;
       p.dN_eta = r.dN_eta;
       p.rule_weight = r.rule_weight;
+      // The place from the shape functions (they reproduce the parametric coordinates of the nodes).
+      static const double qxi[4] = {-1, 1, 1, -1}, qeta[4] = {-1, -1, 1, 1};
+      static const double txi[6] = {0, 1, 0, 0.5, 0.5, 0}, teta[6] = {0, 0, 1, 0, 0.5, 0.5};
+      for (int a = 0; a < face.nodes_count; ++a) {
+        p.xi += r.N[a] * (face.quad() ? qxi[a] : txi[a]);
+        p.eta += r.N[a] * (face.quad() ? qeta[a] : teta[a]);
+      }
       Vec3 x_xi = Vec3::Zero(), x_eta = Vec3::Zero();
       for (int a = 0; a < face.nodes_count; ++a) {
         x_xi += r.dN_xi[a] * mesh.nodes[face.nodes[a]];
@@ -596,11 +611,34 @@ void SurfaceContact::add_points(const Mesh& mesh, int slave_begin, int slave_end
 
 void SurfaceContact::init_state(double* state) const {
   for (std::size_t k = 0; k < points_.size(); ++k) {
+    const Point& p = points_[k];
     double* s = state + kStateSize * k;
     s[0] = s[1] = 0.0;
     s[2] = -1.0;
     std::fill(s + 3, s + kStateSize, 0.0);
+    s[kPlace] = p.xi;
+    s[kPlace + 1] = p.eta;
+    const bool home = p.slot < p.home_count;  // the Gauss points, until a pairing lays out segments
+    s[kWeight] = home ? p.weight : 0.0;
+    s[kRuleWeight] = home ? p.rule_weight : 0.0;
   }
+}
+
+SurfaceContact::Point SurfaceContact::located(const Point& p, const double* s) const {
+  Point q = p;
+  if (s[kPlace] == p.xi && s[kPlace + 1] == p.eta && s[kRuleWeight] == p.rule_weight) {
+    q.weight = s[kWeight];  // the home place: its shape functions as built
+    return q;
+  }
+  const FaceShape shape = face_shape(faces_[p.face].quad(), s[kPlace], s[kPlace + 1]);
+  q.xi = s[kPlace];
+  q.eta = s[kPlace + 1];
+  q.N = shape.N;
+  q.dN_xi = shape.d1;
+  q.dN_eta = shape.d2;
+  q.rule_weight = s[kRuleWeight];
+  q.weight = s[kWeight];
+  return q;
 }
 
 std::vector<Vec3> SurfaceContact::positions(const Mesh& mesh, const Iterate& it) const {
@@ -647,23 +685,227 @@ SurfaceContact::Candidate SurfaceContact::nearest_face(const Point& p, const std
   return best;
 }
 
-void SurfaceContact::carry_anchor(const Candidate& c, const std::vector<Vec3>& x, double* s) const {
-  // A point paired anew anchors at its closest point; one that changes faces keeps its anchor's place,
-  // in the new face's parametric coordinates (extended beyond the face: the anchor may lie just past
-  // its edge, within the elastic slip of the point).
-  const int old = int(s[2]);
-  if (c.face < 0 || c.face == old) return;
+void SurfaceContact::carry_anchor(const Candidate& c, const std::vector<Vec3>& x, const double* old, const Vec3& shift,
+                                  double* s) const {
+  // A point paired anew anchors at its closest point; one that changes faces (or takes over another
+  // slot's history) keeps its anchor's place relative to itself, in the new face's parametric
+  // coordinates (extended beyond the face: the anchor may lie just past its edge, within the elastic
+  // slip of the point).
+  const int from = int(old[2]);
+  if (c.face < 0 || (c.face == from && shift.squaredNorm() == 0.0)) return;
   double* a = s + kNextAnchor;
-  if (old < 0) {
+  if (from < 0) {
     a[0] = c.projection.xi;
     a[1] = c.projection.eta;
     return;
   }
-  const Vec3 place = face_geometry(faces_[old], x, a[0], a[1]).x;
+  const Vec3 place = face_geometry(faces_[from], x, old[kNextAnchor], old[kNextAnchor + 1]).x + shift;
   const std::array<double, 2> moved =
       extended_coordinates(faces_[c.face], x, place, c.projection.xi, c.projection.eta);
   a[0] = moved[0];
   a[1] = moved[1];
+}
+
+namespace {
+
+using Point2 = Eigen::Vector2d;
+
+double cross2(const Point2& a, const Point2& b) { return a[0] * b[1] - a[1] * b[0]; }
+
+double signed_area(const std::vector<Point2>& poly) {
+  double a = 0.0;
+  for (std::size_t i = 0; i < poly.size(); ++i) a += cross2(poly[i], poly[(i + 1) % poly.size()]);
+  return 0.5 * a;
+}
+
+/// Counter-clockwise with every turn strictly to the left.
+bool convex(const std::vector<Point2>& poly) {
+  const std::size_t n = poly.size();
+  for (std::size_t i = 0; i < n; ++i)
+    if (!(cross2(poly[(i + 1) % n] - poly[i], poly[(i + 2) % n] - poly[(i + 1) % n]) > 0.0)) return false;
+  return true;
+}
+
+/// The part of a convex polygon inside a convex counter-clockwise one (Sutherland–Hodgman).
+std::vector<Point2> clip(std::vector<Point2> poly, const std::vector<Point2>& window) {
+  for (std::size_t e = 0; e < window.size() && !poly.empty(); ++e) {
+    const Point2 a = window[e], b = window[(e + 1) % window.size()];
+    std::vector<Point2> kept;
+    for (std::size_t i = 0; i < poly.size(); ++i) {
+      const Point2 &p = poly[i], &q = poly[(i + 1) % poly.size()];
+      const double dp = cross2(b - a, p - a), dq = cross2(b - a, q - a);
+      if (dp >= 0.0) kept.push_back(p);
+      if ((dp >= 0.0) != (dq >= 0.0)) kept.push_back(p + (dp / (dp - dq)) * (q - p));
+    }
+    poly = std::move(kept);
+  }
+  return poly;
+}
+
+/// A face's parametric domain, counter-clockwise in (ξ, η).
+std::vector<Point2> parametric_domain(bool quad) {
+  if (quad) return {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+  return {{0, 0}, {1, 0}, {0, 1}};
+}
+
+/// A point of a segment: its place on the slave face, its weight in the parameter plane, its master.
+struct SegmentPoint {
+  double xi = 0.0, eta = 0.0, weight = 0.0;
+  int master = -1;
+};
+
+/// The slave face's parametric domain cut by the outlines of the master faces (corners projected onto
+/// the slave face's surface, in its parametric coordinates), each piece a fan of triangles with the
+/// 3-point rule of degree 2. Empty where they do not tile the domain (to 1e-9 of its area), an outline
+/// is not convex, or the points exceed `capacity`.
+std::vector<SegmentPoint> segment_points(const Face& slave, const std::vector<Vec3>& x,
+                                         const std::vector<std::pair<int, const Face*>>& masters, int capacity) {
+  const std::vector<Point2> domain = parametric_domain(slave.quad());
+  const double domain_area = signed_area(domain);
+  const double centre = slave.quad() ? 0.0 : 1.0 / 3;
+  std::vector<SegmentPoint> out;
+  double covered = 0.0;
+  for (const auto& [id, face] : masters) {
+    std::vector<Point2> outline;
+    for (int c = 0; c < corner_count(*face); ++c) {
+      const FaceProjection q = project_on_extended_face(slave, x, x[face->nodes[c]], centre, centre);
+      if (!std::isfinite(q.xi) || !std::isfinite(q.eta)) return {};
+      outline.emplace_back(q.xi, q.eta);
+    }
+    if (signed_area(outline) < 0.0) std::reverse(outline.begin(), outline.end());
+    if (!convex(outline)) return {};
+    const std::vector<Point2> piece = clip(domain, outline);
+    if (piece.size() < 3) continue;
+    const double area = signed_area(piece);
+    covered += area;
+    if (!(area > 1e-12 * domain_area)) continue;
+    for (std::size_t t = 1; t + 1 < piece.size(); ++t) {  // a fan from the piece's first corner
+      const Point2 &a = piece[0], &b = piece[t], &c = piece[t + 1];
+      const double w = 0.5 * cross2(b - a, c - a) / 3.0;
+      for (const auto& [la, lb, lc] : {std::array<double, 3>{4.0 / 6, 1.0 / 6, 1.0 / 6},
+                                       std::array<double, 3>{1.0 / 6, 4.0 / 6, 1.0 / 6},
+                                       std::array<double, 3>{1.0 / 6, 1.0 / 6, 4.0 / 6}}) {
+        const Point2 at = la * a + lb * b + lc * c;
+        out.push_back({at[0], at[1], w, id});
+      }
+    }
+    if (int(out.size()) > capacity) return {};
+  }
+  if (std::abs(covered - domain_area) > 1e-9 * domain_area) return {};
+  return out;
+}
+
+}  // namespace
+
+std::vector<SurfaceContact::Slot> SurfaceContact::segment_layout(std::size_t g, const std::vector<Candidate>& home,
+                                                                 const std::vector<Vec3>& x) const {
+  const Point& first = points_[g];
+  const Face& own = faces_[first.face];
+  // The master faces the Gauss points pair with and their rings, where they face the slave face (its
+  // normal at the centre opposed) from within the search's reach and not deeper than half a face.
+  const double centre = own.quad() ? 0.0 : 1.0 / 3;
+  const FaceGeometry at = face_geometry(own, x, centre, centre);
+  const Vec3 n_slave = at.normal();
+  std::vector<int> near;
+  for (const Candidate& c : home)
+    if (c.face >= 0) near.insert(near.end(), ring_[c.face].begin(), ring_[c.face].end());
+  std::sort(near.begin(), near.end());
+  near.erase(std::unique(near.begin(), near.end()), near.end());
+  std::vector<std::pair<int, const Face*>> masters;
+  for (int m : near) {
+    const Face& face = faces_[m];
+    if (m < first.master_begin || m >= first.master_end || m == first.face || shares_node(own, face)) continue;
+    const FaceProjection q = project_from_centre(face, x, at.x);
+    if (!(q.normal.dot(n_slave) < 0.0) || q.gap < -0.5 * face.size) continue;
+    masters.emplace_back(m, &face);
+  }
+  if (masters.empty()) return {};
+  std::vector<Slot> layout;
+  for (const SegmentPoint& sp : segment_points(own, x, masters, first.slots)) {
+    Slot slot{sp.xi, sp.eta, sp.weight, {}};
+    const FaceShape shape = face_shape(own.quad(), sp.xi, sp.eta);
+    Vec3 xs = Vec3::Zero();
+    for (int a = 0; a < own.nodes_count; ++a) xs += shape.N[a] * x[own.nodes[a]];
+    slot.pairing.face = sp.master;
+    slot.pairing.projection = project_from_centre(faces_[sp.master], x, xs);
+    layout.push_back(slot);
+  }
+  return layout;
+}
+
+void SurfaceContact::pair_face(const Mesh& mesh, std::size_t g, const std::vector<Vec3>& x, const FaceGrid& grid,
+                               double* s, std::vector<std::pair<int, int>>& pairs) const {
+  const Point& first = points_[g];
+  const Face& own = faces_[first.face];
+  std::vector<Candidate> home(first.home_count);
+  for (int j = 0; j < first.home_count; ++j) home[j] = nearest_face(points_[g + j], x, grid);
+  std::vector<Slot> layout;
+  if (options_.integration == Options::Integration::segments) layout = segment_layout(g, home, x);
+  if (layout.empty())
+    for (int j = 0; j < first.home_count; ++j) layout.push_back({points_[g + j].xi, points_[g + j].eta, points_[g + j].rule_weight, home[j]});
+  // The old layout's history and places.
+  const std::vector<double> old(s, s + std::size_t(kStateSize) * first.slots);
+  std::vector<Vec3> old_x(first.slots);
+  for (int j = 0; j < first.slots; ++j)
+    old_x[j] = point_position(located(points_[g + j], old.data() + kStateSize * j), x);
+  for (int j = 0; j < first.slots; ++j) {
+    double* sj = s + kStateSize * j;
+    const Point& p = points_[g + j];
+    if (j >= int(layout.size())) {  // unused
+      std::fill(sj, sj + kStateSize, 0.0);
+      sj[2] = -1.0;
+      continue;
+    }
+    const Slot& slot = layout[j];
+    // The history of the old slot nearest in the parameter plane (the slot itself where it stays).
+    int from = -1;
+    double best = std::numeric_limits<double>::infinity();
+    for (int o = 0; o < first.slots; ++o) {
+      const double* so = old.data() + kStateSize * o;
+      if (!(so[kWeight] > 0.0)) continue;
+      const double d = std::hypot(so[kPlace] - slot.xi, so[kPlace + 1] - slot.eta);
+      if (d < best) {
+        best = d;
+        from = o;
+      }
+    }
+    const double* so = from >= 0 ? old.data() + kStateSize * from : nullptr;
+    if (so) std::copy(so, so + kStateSize, sj);
+    else {
+      std::fill(sj, sj + kStateSize, 0.0);
+      sj[2] = -1.0;
+    }
+    sj[kPlace] = slot.xi;
+    sj[kPlace + 1] = slot.eta;
+    sj[kRuleWeight] = slot.rule_weight;
+    const FaceShape shape = face_shape(own.quad(), slot.xi, slot.eta);
+    Vec3 X_xi = Vec3::Zero(), X_eta = Vec3::Zero(), xs = Vec3::Zero();
+    for (int a = 0; a < own.nodes_count; ++a) {
+      X_xi += shape.d1[a] * mesh.nodes[own.nodes[a]];
+      X_eta += shape.d2[a] * mesh.nodes[own.nodes[a]];
+      xs += shape.N[a] * x[own.nodes[a]];
+    }
+    sj[kWeight] = p.factor * slot.rule_weight * X_xi.cross(X_eta).norm();
+    const Candidate& c = slot.pairing;
+    if (so) carry_anchor(c, x, so, xs - old_x[from], sj);
+    else if (c.face >= 0) {
+      sj[kNextAnchor] = c.projection.xi;
+      sj[kNextAnchor + 1] = c.projection.eta;
+    }
+    sj[2] = c.face;
+    sj[3] = c.projection.xi;
+    sj[4] = c.projection.eta;
+    sj[kStartDepth] = 0.0;
+    if (c.face < 0) {
+      sj[0] = sj[1] = 0.0;  // out of reach: no multiplier to carry
+      continue;
+    }
+    // Beside a free edge of the master surface the gap is ± the distance, its sign the side of the
+    // face's plane: a point there may cross that plane in any iterate, so its whole distance is its start.
+    const Evaluation e = evaluate(located(p, sj), sj, 0.0, x);
+    sj[kStartDepth] = e.sided ? std::max(0.0, -e.gap) : std::abs(e.gap);
+    pairs.emplace_back(first.face, c.face);
+  }
 }
 
 void SurfaceContact::pair(const Mesh& mesh, const Iterate& converged, Couplings& couplings) const {
@@ -675,24 +917,8 @@ void SurfaceContact::pair(const Mesh& mesh, const Iterate& converged, Couplings&
   // list, the range test in nearest_face keeping each pass to its own master faces).
   const FaceGrid grid(faces_, 0, int(faces_.size()), x, reach);
   std::vector<std::pair<int, int>> pairs;
-  for (std::size_t k = 0; k < points_.size(); ++k) {
-    double* s = converged.state_new + kStateSize * k;
-    const Candidate c = nearest_face(points_[k], x, grid);
-    carry_anchor(c, x, s);
-    s[2] = c.face;
-    s[3] = c.projection.xi;
-    s[4] = c.projection.eta;
-    s[kStartDepth] = 0.0;
-    if (c.face < 0) {
-      s[0] = s[1] = 0.0;  // out of reach: no multiplier to carry
-      continue;
-    }
-    // Beside a free edge of the master surface the gap is ± the distance, its sign the side of the
-    // face's plane: a point there may cross that plane in any iterate, so its whole distance is its start.
-    const Evaluation e = evaluate(points_[k], s, 0.0, x);
-    s[kStartDepth] = e.sided ? std::max(0.0, -e.gap) : std::abs(e.gap);
-    pairs.emplace_back(points_[k].face, c.face);
-  }
+  for (std::size_t g = 0; g < points_.size(); g += points_[g].slots)
+    pair_face(mesh, g, x, grid, converged.state_new + kStateSize * g, pairs);
   std::sort(pairs.begin(), pairs.end());
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
   // A point may find its closest point on any face of its paired face's ring within the step (and
@@ -793,10 +1019,13 @@ void SurfaceContact::validate(const Mesh& mesh) const {
   double deepest = 0.0;
   Vec3 where = Vec3::Zero();
   for (std::size_t k = 0; k < points_.size(); ++k) {
-    const Evaluation e = evaluate(points_[k], state.data() + kStateSize * k, 0.0, mesh.nodes);
+    const double* s = state.data() + kStateSize * k;
+    if (!(s[kWeight] > 0.0)) continue;
+    const Point p = located(points_[k], s);
+    const Evaluation e = evaluate(p, s, 0.0, mesh.nodes);
     if (e.engaged && -e.gap > 1e-6 * faces_[e.master].size && -e.gap > deepest) {
       deepest = -e.gap;
-      where = point_position(points_[k], mesh.nodes);
+      where = point_position(p, mesh.nodes);
     }
   }
   if (deepest > 0.0)
@@ -898,7 +1127,6 @@ MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, Ass
   std::array<int, kMaxDofs> dofs;
   std::array<int, 18> nodes;
   for (std::size_t k = 0; k < points_.size(); ++k) {
-    const Point& p = points_[k];
     const double* so = it.state_old + kStateSize * k;
     const double lambda = options_.augmented ? so[1] : 0.0;  // the last converged pressure
     double* sn = it.state_new ? it.state_new + kStateSize * k : nullptr;
@@ -908,6 +1136,8 @@ MaterialStatus SurfaceContact::assemble(const Mesh& mesh, const Iterate& it, Ass
       sn[1] = 0.0;
       std::copy(so + kNextAnchor, so + kNextAnchor + 2, sn + kAnchor);
     }
+    if (!(so[kWeight] > 0.0)) continue;  // an unused slot
+    const Point p = located(points_[k], so);
     const Evaluation e = evaluate(p, so, lambda, x);
     if (e.master < 0) continue;
     const Face& fm = faces_[e.master];
@@ -937,16 +1167,18 @@ ContactTotals SurfaceContact::totals(const Mesh& mesh, const Iterate& it) const 
   Vec3 tangential = Vec3::Zero();
   for (std::size_t k = 0; k < points_.size(); ++k) {
     const double* s = it.state_old + kStateSize * k;
-    const Evaluation e = evaluate(points_[k], s, options_.augmented ? s[0] : 0.0, x);
+    if (!(s[kWeight] > 0.0)) continue;
+    const Point p = located(points_[k], s);
+    const Evaluation e = evaluate(p, s, options_.augmented ? s[0] : 0.0, x);
     if (!e.engaged) continue;
     t.max_penetration = std::max(t.max_penetration, -e.gap);
     if (!(e.pressure > 0.0)) continue;
-    const Response r = respond(points_[k], e, s + kAnchor, x, false);
-    const double w = points_[k].weight;
+    const Response r = respond(p, e, s + kAnchor, x, false);
+    const double w = p.weight;
     t.normal_force += w * e.pressure;
     tangential += w * r.tangential;
     t.force += w * (e.pressure * r.normal + r.tangential);
-    t.area += current_weight(points_[k], x);
+    t.area += current_weight(p, x);
     ++t.active_points;
     if (r.slip) ++t.slipping_points;
   }
@@ -960,8 +1192,10 @@ std::vector<Vec3> SurfaceContact::active_positions(const Mesh& mesh, const Itera
   const std::vector<Vec3> x = positions(mesh, it);
   for (std::size_t k = 0; k < points_.size(); ++k) {
     const double* s = it.state_old + kStateSize * k;
-    const Evaluation e = evaluate(points_[k], s, options_.augmented ? s[0] : 0.0, x);
-    if (e.engaged && e.pressure > 0.0) out.push_back(point_position(points_[k], x));
+    if (!(s[kWeight] > 0.0)) continue;
+    const Point p = located(points_[k], s);
+    const Evaluation e = evaluate(p, s, options_.augmented ? s[0] : 0.0, x);
+    if (e.engaged && e.pressure > 0.0) out.push_back(point_position(p, x));
   }
   return out;
 }
@@ -975,26 +1209,29 @@ SurfaceContact::FaceValues SurfaceContact::face_values(const Mesh& mesh, const I
   v.gap.assign(nf, std::numeric_limits<double>::infinity());
   if (!it.state_old) return v;
   const std::vector<Vec3> x = positions(mesh, it);
-  std::vector<int> count(nf, 0), active(nf, 0);
+  // Per face the force over its current area (Cauchy), and the slipping share of its active points.
+  std::vector<double> area(nf, 0.0);
+  std::vector<int> active(nf, 0);
   for (std::size_t k = 0; k < points_.size(); ++k) {
-    const Point& p = points_[k];
     const double* s = it.state_old + kStateSize * k;
+    if (!(s[kWeight] > 0.0)) continue;
+    const Point p = located(points_[k], s);
     const Evaluation e = evaluate(p, s, options_.augmented ? s[0] : 0.0, x);
-    ++count[p.face];
+    const double da = current_weight(p, x);
+    area[p.face] += da;
     if (!e.engaged) continue;
     v.gap[p.face] = std::min(v.gap[p.face], e.gap);
-    const double da = current_weight(p, x);
     if (!(e.pressure > 0.0 && da > 0.0)) continue;
     const Response r = respond(p, e, s + kAnchor, x, false);
-    v.pressure[p.face] += e.pressure * p.weight / da;  // Cauchy: per current area
-    v.tangential[p.face] += r.tangential.norm() * p.weight / da;
+    v.pressure[p.face] += e.pressure * p.weight;
+    v.tangential[p.face] += r.tangential.norm() * p.weight;
     ++active[p.face];
     if (r.slip) v.slip[p.face] += 1.0;
   }
   for (std::size_t f = 0; f < nf; ++f) {
-    if (count[f]) {
-      v.pressure[f] /= count[f];
-      v.tangential[f] /= count[f];
+    if (area[f] > 0.0) {
+      v.pressure[f] /= area[f];
+      v.tangential[f] /= area[f];
     }
     if (active[f]) v.slip[f] /= active[f];
   }

@@ -37,6 +37,7 @@ void add_surface_contacts(const std::vector<SurfacePairSpec>& specs, fe::FeModel
     opt.tangential_penalty = s.tangential_penalty;
     opt.augmented = s.augmented;
     opt.two_pass = s.two_pass;
+    opt.integration = s.integration;
     opt.field = s.field;
     if (s.self) {
       opt.label = selves == 1 ? "contact_self" : "contact_self_" + std::to_string(self_index++);

@@ -13,6 +13,16 @@ const char* const kFrictionDoc =
 const char* const kTangentialPenaltyDoc =
     "stick penalty ε_T; 0: a tenth of the normal penalty, 10 G/h (elastic slip before sliding ≤ μ p h / 10 G)";
 const char* const kAugmentedDoc = "augment the contact pressure once per converged step (false: pure penalty)";
+const char* const kIntegrationDoc =
+    "the slave faces' quadrature: \"segments\" cuts each face into its pieces over the master faces (a uniform "
+    "pressure crosses between any meshes), \"points\" keeps the faces' Gauss points (exact only where the slave "
+    "faces are the finer and nested in the master's)";
+
+template <class Table>
+void add_integration(Table& k) {
+  using I = fe::SurfaceContact::Options::Integration;
+  k.choice("integration", &SurfacePairSpec::integration, {{"segments", I::segments}, {"points", I::points}}, kIntegrationDoc);
+}
 
 const keys::KeyTable<SurfacePairSpec>& pair_table() {
   using S = SurfacePairSpec;
@@ -20,8 +30,8 @@ const keys::KeyTable<SurfacePairSpec>& pair_table() {
     keys::KeyTable<S> k("contact.pairs[]",
                         "Contact between two deformable surfaces of the structure (fe/surface_contact.hpp): the slave "
                         "surface's quadrature points against the master's faces, paired at every step, penalty with "
-                        "one augmentation per step and optional Coulomb friction. A uniform pressure crosses exactly where the slave "
-                        "faces are the finer and nested in the master's.");
+                        "one augmentation per step and optional Coulomb friction. A uniform pressure crosses exactly between "
+                        "non-matching meshes (integration = \"segments\").");
     k.text("slave", &S::slave, "surface whose quadrature points touch: a built-in name or a Gmsh physical surface")
         .required()
         .text("master", &S::master, "surface whose faces they touch")
@@ -31,6 +41,7 @@ const keys::KeyTable<SurfacePairSpec>& pair_table() {
         .number("tangential_penalty", &S::tangential_penalty, keys::at_least(0), "MPa/mm", kTangentialPenaltyDoc)
         .flag("augmented", &S::augmented, kAugmentedDoc)
         .flag("two_pass", &S::two_pass, "also the master's points against the slave's faces, each pass weighted 1/2");
+    add_integration(k);
     return k;
   }();
   return t;
@@ -49,6 +60,7 @@ const keys::KeyTable<SurfacePairSpec>& self_table() {
         .number("friction", &S::friction, keys::closed_range(0, 3), "-", kFrictionDoc)
         .number("tangential_penalty", &S::tangential_penalty, keys::at_least(0), "MPa/mm", kTangentialPenaltyDoc)
         .flag("augmented", &S::augmented, kAugmentedDoc);
+    add_integration(k);
     return k;
   }();
   return t;

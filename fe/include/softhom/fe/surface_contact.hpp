@@ -3,8 +3,7 @@
 // the multiplier per converged step and regularized Coulomb friction, as the rigid obstacles' law
 // (contact.hpp).
 //
-// Formulation: the quadrature points of the slave surface's faces (ObstacleContact's rules: 3×3 Gauss
-// on quads, Dunavant's 7 points on 6-node triangles) each see the master surface around one master face
+// Formulation: the quadrature points of the slave surface's faces each see the master surface around one master face
 // (a hex8 quad or a tet10 6-node triangle), the one the step paired it with: its closest point over that
 // face and the faces sharing a corner with it (its ring), each by Newton in the face's parametric
 // coordinates clamped to the face. Inside a face the gap is g = (x_s − x_m)·n along the face's unit
@@ -33,15 +32,31 @@
 // thicker than half a face to be told from a penetration). A uniform grid over the master faces' boxes
 // finds the candidates (linear in the surfaces' size); no point pairs with its own face or one sharing
 // a node with it (a self-contact's neighbours). The pairing, the parametric start of the projection,
-// the multiplier and the stick anchor are the contribution's history (state_size: 10 per slave point),
+// the multiplier, the stick anchor and the point's place on its slave face are the contribution's
+// history (state_size: kStateSize per slot, kSegmentSlots slots per slave face with segments),
 // so a cut-back step is retried with the pairing and the anchors of the converged state. The couplings are the (slave face, paired
 // face, face of its ring) triples: the driver rebuilds the stiffness pattern when they change.
 //
+// Quadrature (Options::integration): with `segments` (the default) the pairing cuts each slave face
+// into the pieces that lie over one master face each: the master faces near it (the ones its Gauss
+// points pair with, and their rings) are projected onto the slave face's parameter plane by their
+// corners, joined by straight lines, each outline clips the face's parametric domain, and every piece
+// is a fan of triangles carrying the 3-point rule of degree 2 (each point paired with its piece's
+// master face). A master shape function is then smooth over every piece, so the master's loads are
+// the exact quadrature of its shape functions whatever the meshes: a uniform pressure crosses between
+// non-matching meshes (the contact patch test, tests/fe/test_surface_contact.cpp). A slave face that
+// the master faces do not tile (part of it lies past the master surface's free edge, their outlines
+// overlap or one is not convex) or whose pieces need more than kSegmentSlots points keeps its Gauss
+// points (ObstacleContact's rules: 3×3 Gauss on quads, Dunavant's 7 points on 6-node triangles), each
+// paired with its nearest master face, as does every face with `points`. The layout is part of the
+// history (each slot stores its parametric place and weight) and changes at pairings only; a new
+// slot takes the multiplier and the stick offset (x_s − x_a) of the old slot of its face nearest to
+// it in the parameter plane. With Gauss points a uniform pressure crosses exactly only where every
+// slave face lies within one master face (the slave side finer, nested).
+//
 // Self-contact is two-pass: every point of the surface is a slave, each weighted by one half, so both
 // sides of a fold carry the same pressure. A (slave, master) pair is one-pass unless `two_pass` (then
-// both surfaces are slaves, each weighted by one half). With one pass, a uniform pressure crosses
-// exactly when every slave face lies within one master face (the slave side finer, nested): the
-// master's loads are then the quadrature of its own shape functions (tests/fe/test_surface_contact.cpp).
+// both surfaces are slaves, each weighted by one half).
 //
 // Friction (μ > 0): every slave point keeps a stick anchor, a material point of its paired master face
 // given by its parametric coordinates (ξ_a, η_a), so the anchor moves with the master surface (within a
@@ -120,6 +135,9 @@ class SurfaceContact final : public Contribution {
     double tangential_penalty = 0.0;  ///< ε_T [MPa/mm] > 0 on every face; 0: ε_N / 10 per slave face
     bool augmented = true;       ///< λ ← p at every converged step (false: pure penalty)
     bool two_pass = false;       ///< pairs: the master's points against the slave's faces too
+    /// The slave faces' quadrature: on the pieces over each master face, or the Gauss points.
+    enum class Integration { segments, points };
+    Integration integration = Integration::segments;
     std::string field = "contact.pairs[0]";  ///< its TOML path, for messages
     std::string label = "pair";  ///< its outputs: response.csv columns <label>_..., field <label>.h5
   };
@@ -157,13 +175,18 @@ class SurfaceContact final : public Contribution {
   };
   FaceValues face_values(const Mesh& mesh, const Iterate& it) const;
   int num_points() const { return int(points_.size()); }
-  /// History per point: the multiplier its step solves with, its pressure there (the next step's
-  /// multiplier), master face (−1: none), ξ, η of the projection's start, the stick anchor's ξ_a, η_a on
-  /// the master face the step solves with, the next step's, and the point's depth against its master
-  /// face where the pairing found it (the pressure bound's start).
-  static constexpr int kStateSize = 10;
+  /// History per slot (a quadrature point of a slave face): the multiplier its step solves with, its
+  /// pressure there (the next step's multiplier), master face (−1: none), ξ, η of the projection's
+  /// start, the stick anchor's ξ_a, η_a on the master face the step solves with, the next step's, the
+  /// point's depth against its master face where the pairing found it (the pressure bound's start), and
+  /// its place on the slave face: ξ_s, η_s, its reference area weight (× the pass's factor; 0: an
+  /// unused slot) and its weight in the parameter plane.
+  static constexpr int kStateSize = 14;
   static constexpr int kStartDepth = 9;
   static constexpr int kAnchor = 5, kNextAnchor = 7;  ///< offsets of (ξ_a, η_a) in a point's state
+  static constexpr int kPlace = 10, kWeight = 12, kRuleWeight = 13;
+  /// Slots per slave face with segments: a quad over four master quads cut into pentagons needs 36.
+  static constexpr int kSegmentSlots = 48;
 
   /// One face of either surface.
   struct Face {
@@ -176,10 +199,14 @@ class SurfaceContact final : public Contribution {
   const std::vector<Face>& faces() const { return faces_; }
 
  private:
-  /// One slave quadrature point of a pass against the master faces [master_begin, master_end).
+  /// One slot of a slave face in a pass against the master faces [master_begin, master_end): its Gauss
+  /// point (the home place, its first `home_count` slots), or with segments a spare slot. The state
+  /// holds where the slot is (located() reads it).
   struct Point {
     int face = 0;
     int master_begin = 0, master_end = 0;
+    int slot = 0, slots = 1, home_count = 1;  ///< its index on the face, the face's slots and Gauss points
+    double xi = 0.0, eta = 0.0;  ///< the home place
     std::array<double, 6> N{}, dN_xi{}, dN_eta{};
     double rule_weight = 0.0;
     double weight = 0.0;  ///< reference area weight × the pass's factor
@@ -239,8 +266,24 @@ class SurfaceContact final : public Contribution {
     FaceProjection projection;
   };
   Candidate nearest_face(const Point& p, const std::vector<Vec3>& x, const FaceGrid& grid) const;
-  /// Point state s paired with c from its pairing in s: its next anchor on c's face.
-  void carry_anchor(const Candidate& c, const std::vector<Vec3>& x, double* s) const;
+  /// The slot p with its place and weights as the state s has them (the home place for a Gauss point).
+  Point located(const Point& p, const double* s) const;
+  /// A slot of a face's new layout: its place, weight in the parameter plane and pairing.
+  struct Slot {
+    double xi = 0.0, eta = 0.0, rule_weight = 0.0;
+    Candidate pairing;
+  };
+  /// The pieces of the slave face of the group starting at slot g over the master faces near it
+  /// (surface_contact.hpp), from its Gauss points' pairing; empty where they do not tile it.
+  std::vector<Slot> segment_layout(std::size_t g, const std::vector<Candidate>& home, const std::vector<Vec3>& x) const;
+  /// Pairs the slots of the face starting at slot g (state s): lays them out anew and carries the
+  /// history of the old layout over (surface_contact.hpp); appends the (slave, master) face pairs.
+  void pair_face(const Mesh& mesh, std::size_t g, const std::vector<Vec3>& x, const FaceGrid& grid, double* s,
+                 std::vector<std::pair<int, int>>& pairs) const;
+  /// Slot state s paired with c, from the history `old` of the slot at old_xs (the same slot where
+  /// old_xs is its place): its next anchor on c's face, at the old anchor's place moved with the slot.
+  void carry_anchor(const Candidate& c, const std::vector<Vec3>& x, const double* old, const Vec3& shift,
+                    double* s) const;
   std::vector<Vec3> positions(const Mesh& mesh, const Iterate& it) const;
   Vec3 point_position(const Point& p, const std::vector<Vec3>& x) const;
 

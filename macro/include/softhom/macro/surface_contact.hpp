@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "softhom/fe/model.hpp"
+#include "softhom/fe/surface_contact.hpp"
 
 namespace softhom::macro {
 
@@ -18,6 +19,7 @@ struct SurfacePairSpec {
   double tangential_penalty = 0.0;  ///< ε_T [MPa/mm]; 0: ε / 10
   bool augmented = true;
   bool two_pass = false;      ///< a pair's master points against the slave faces too
+  fe::SurfaceContact::Options::Integration integration = fe::SurfaceContact::Options::Integration::segments;
   std::string field;          ///< its TOML path, "contact.pairs[k]" or "contact.self[k]", for messages
 };
 
