@@ -630,14 +630,20 @@ SurfaceContact::Point SurfaceContact::located(const Point& p, const double* s) c
     q.weight = s[kWeight];  // the home place: its shape functions as built
     return q;
   }
-  const FaceShape shape = face_shape(faces_[p.face].quad(), s[kPlace], s[kPlace + 1]);
-  q.xi = s[kPlace];
-  q.eta = s[kPlace + 1];
+  q = at_place(p, s[kPlace], s[kPlace + 1]);
+  q.rule_weight = s[kRuleWeight];
+  q.weight = s[kWeight];
+  return q;
+}
+
+SurfaceContact::Point SurfaceContact::at_place(const Point& p, double xi, double eta) const {
+  Point q = p;
+  const FaceShape shape = face_shape(faces_[p.face].quad(), xi, eta);
+  q.xi = xi;
+  q.eta = eta;
   q.N = shape.N;
   q.dN_xi = shape.d1;
   q.dN_eta = shape.d2;
-  q.rule_weight = s[kRuleWeight];
-  q.weight = s[kWeight];
   return q;
 }
 
@@ -655,32 +661,40 @@ Vec3 SurfaceContact::point_position(const Point& p, const std::vector<Vec3>& x) 
   return xs;
 }
 
-SurfaceContact::Candidate SurfaceContact::nearest_face(const Point& p, const std::vector<Vec3>& x,
-                                                       const FaceGrid& grid) const {
+Vec3 SurfaceContact::slave_normal(const Point& p, const std::vector<Vec3>& x) const {
   const Face& own = faces_[p.face];
-  const Vec3 xs = point_position(p, x);
   Vec3 x_xi = Vec3::Zero(), x_eta = Vec3::Zero();
   for (int a = 0; a < own.nodes_count; ++a) {
     x_xi += p.dN_xi[a] * x[own.nodes[a]];
     x_eta += p.dN_eta[a] * x[own.nodes[a]];
   }
-  const Vec3 n_slave = x_xi.cross(x_eta).normalized();
+  return x_xi.cross(x_eta).normalized();
+}
+
+SurfaceContact::Candidate SurfaceContact::admissible(const Point& p, const Vec3& xs, const Vec3& n_slave, int f,
+                                                     const std::vector<Vec3>& x) const {
+  const Face& own = faces_[p.face];
+  const Face& face = faces_[f];
+  Candidate c;
+  if (f < p.master_begin || f >= p.master_end || f == p.face || shares_node(own, face)) return c;
+  const FaceProjection proj = project_from_centre(face, x, xs);
+  // Admissible: facing it (normals opposed), within reach, and not behind the face by more than half
+  // its size: a converged state penetrates by (p/G) h/100, so a point deeper than that is the far side
+  // of a wall (a plate's two faces), not a contact.
+  if (!(proj.normal.dot(n_slave) < 0.0)) return c;
+  if (proj.distance > kReach * std::max(face.size, own.size) || proj.gap < -0.5 * face.size) return c;
+  c.face = f;
+  c.projection = proj;
+  return c;
+}
+
+SurfaceContact::Candidate SurfaceContact::nearest_face(const Point& p, const std::vector<Vec3>& x,
+                                                       const FaceGrid& grid) const {
+  const Vec3 xs = point_position(p, x), n_slave = slave_normal(p, x);
   Candidate best;
-  double best_distance = std::numeric_limits<double>::infinity();
   for (int f : grid.candidates(xs)) {
-    if (f < p.master_begin || f >= p.master_end || f == p.face || shares_node(own, faces_[f])) continue;
-    const Face& face = faces_[f];
-    const FaceProjection proj = project_from_centre(face, x, xs);
-    // Admissible: facing it (normals opposed), within reach, and not behind the face by more than half
-    // its size: a converged state penetrates by (p/G) h/100, so a point deeper than that is the far side
-    // of a wall (a plate's two faces), not a contact.
-    if (!(proj.normal.dot(n_slave) < 0.0)) continue;
-    if (proj.distance > kReach * std::max(face.size, own.size) || proj.gap < -0.5 * face.size) continue;
-    if (proj.distance < best_distance) {
-      best_distance = proj.distance;
-      best.face = f;
-      best.projection = proj;
-    }
+    const Candidate c = admissible(p, xs, n_slave, f, x);
+    if (c.face >= 0 && (best.face < 0 || c.projection.distance < best.projection.distance)) best = c;
   }
   return best;
 }
@@ -748,24 +762,26 @@ std::vector<Point2> parametric_domain(bool quad) {
   return {{0, 0}, {1, 0}, {0, 1}};
 }
 
-/// A point of a segment: its place on the slave face, its weight in the parameter plane, its master.
+/// A point of a segment: its place on the slave face, its weight in the parameter plane and the index
+/// of its piece's master face in the list the segments were cut from.
 struct SegmentPoint {
   double xi = 0.0, eta = 0.0, weight = 0.0;
-  int master = -1;
+  int piece = -1;
 };
 
 /// The slave face's parametric domain cut by the outlines of the master faces (corners projected onto
-/// the slave face's surface, in its parametric coordinates), each piece a fan of triangles with the
-/// 3-point rule of degree 2. Empty where they do not tile the domain (to 1e-9 of its area), an outline
+/// the slave face's surface, in its parametric coordinates), each piece a triangle or the fan of
+/// triangles from its centroid, each with the 3-point rule of degree 2. Empty where they do not tile the domain (to 1e-9 of its area), an outline
 /// is not convex, or the points exceed `capacity`.
 std::vector<SegmentPoint> segment_points(const Face& slave, const std::vector<Vec3>& x,
-                                         const std::vector<std::pair<int, const Face*>>& masters, int capacity) {
+                                         const std::vector<const Face*>& masters, int capacity) {
   const std::vector<Point2> domain = parametric_domain(slave.quad());
   const double domain_area = signed_area(domain);
   const double centre = slave.quad() ? 0.0 : 1.0 / 3;
   std::vector<SegmentPoint> out;
   double covered = 0.0;
-  for (const auto& [id, face] : masters) {
+  for (std::size_t piece = 0; piece < masters.size(); ++piece) {
+    const Face* face = masters[piece];
     std::vector<Point2> outline;
     for (int c = 0; c < corner_count(*face); ++c) {
       const FaceProjection q = project_on_extended_face(slave, x, x[face->nodes[c]], centre, centre);
@@ -774,19 +790,27 @@ std::vector<SegmentPoint> segment_points(const Face& slave, const std::vector<Ve
     }
     if (signed_area(outline) < 0.0) std::reverse(outline.begin(), outline.end());
     if (!convex(outline)) return {};
-    const std::vector<Point2> piece = clip(domain, outline);
-    if (piece.size() < 3) continue;
-    const double area = signed_area(piece);
+    const std::vector<Point2> part = clip(domain, outline);
+    if (part.size() < 3) continue;
+    const double area = signed_area(part);
     covered += area;
     if (!(area > 1e-12 * domain_area)) continue;
-    for (std::size_t t = 1; t + 1 < piece.size(); ++t) {  // a fan from the piece's first corner
-      const Point2 &a = piece[0], &b = piece[t], &c = piece[t + 1];
+    // A triangle as it is; a larger piece as the fan from its centroid, which does not depend on which
+    // corner the clipping listed first: mirror-image faces get mirror-image points.
+    std::vector<std::array<Point2, 3>> triangles;
+    if (part.size() == 3) triangles.push_back({part[0], part[1], part[2]});
+    else {
+      Point2 centroid = Point2::Zero();
+      for (const Point2& v : part) centroid += v / double(part.size());
+      for (std::size_t t = 0; t < part.size(); ++t) triangles.push_back({centroid, part[t], part[(t + 1) % part.size()]});
+    }
+    for (const auto& [a, b, c] : triangles) {
       const double w = 0.5 * cross2(b - a, c - a) / 3.0;
       for (const auto& [la, lb, lc] : {std::array<double, 3>{4.0 / 6, 1.0 / 6, 1.0 / 6},
                                        std::array<double, 3>{1.0 / 6, 4.0 / 6, 1.0 / 6},
                                        std::array<double, 3>{1.0 / 6, 1.0 / 6, 4.0 / 6}}) {
         const Point2 at = la * a + lb * b + lc * c;
-        out.push_back({at[0], at[1], w, id});
+        out.push_back({at[0], at[1], w, int(piece)});
       }
     }
     if (int(out.size()) > capacity) return {};
@@ -798,7 +822,7 @@ std::vector<SegmentPoint> segment_points(const Face& slave, const std::vector<Ve
 }  // namespace
 
 std::vector<SurfaceContact::Slot> SurfaceContact::segment_layout(std::size_t g, const std::vector<Candidate>& home,
-                                                                 const std::vector<Vec3>& x) const {
+                                                                 const std::vector<Vec3>& x, const FaceGrid& grid) const {
   const Point& first = points_[g];
   const Face& own = faces_[first.face];
   // The master faces the Gauss points pair with and their rings, where they face the slave face (its
@@ -811,24 +835,27 @@ std::vector<SurfaceContact::Slot> SurfaceContact::segment_layout(std::size_t g, 
     if (c.face >= 0) near.insert(near.end(), ring_[c.face].begin(), ring_[c.face].end());
   std::sort(near.begin(), near.end());
   near.erase(std::unique(near.begin(), near.end()), near.end());
-  std::vector<std::pair<int, const Face*>> masters;
+  std::vector<int> ids;
+  std::vector<const Face*> masters;
   for (int m : near) {
     const Face& face = faces_[m];
     if (m < first.master_begin || m >= first.master_end || m == first.face || shares_node(own, face)) continue;
     const FaceProjection q = project_from_centre(face, x, at.x);
     if (!(q.normal.dot(n_slave) < 0.0) || q.gap < -0.5 * face.size) continue;
-    masters.emplace_back(m, &face);
+    ids.push_back(m);
+    masters.push_back(&face);
   }
   if (masters.empty()) return {};
+  // Each point pairs with its piece's face where that is admissible and holds its closest point
+  // inside (surfaces facing each other: the patch test's exactness, and mirror-symmetric pairings
+  // stay so); elsewhere as a Gauss point does, with its nearest admissible face (where the surfaces meet
+  // at an angle, a corner pressed on a face, that may lie beyond the piece's ring).
   std::vector<Slot> layout;
   for (const SegmentPoint& sp : segment_points(own, x, masters, first.slots)) {
-    Slot slot{sp.xi, sp.eta, sp.weight, {}};
-    const FaceShape shape = face_shape(own.quad(), sp.xi, sp.eta);
-    Vec3 xs = Vec3::Zero();
-    for (int a = 0; a < own.nodes_count; ++a) xs += shape.N[a] * x[own.nodes[a]];
-    slot.pairing.face = sp.master;
-    slot.pairing.projection = project_from_centre(faces_[sp.master], x, xs);
-    layout.push_back(slot);
+    const Point q = at_place(first, sp.xi, sp.eta);
+    Candidate c = admissible(q, point_position(q, x), slave_normal(q, x), ids[sp.piece], x);
+    if (c.face < 0 || c.projection.free < 2) c = nearest_face(q, x, grid);
+    layout.push_back({sp.xi, sp.eta, sp.weight, c});
   }
   return layout;
 }
@@ -840,7 +867,7 @@ void SurfaceContact::pair_face(const Mesh& mesh, std::size_t g, const std::vecto
   std::vector<Candidate> home(first.home_count);
   for (int j = 0; j < first.home_count; ++j) home[j] = nearest_face(points_[g + j], x, grid);
   std::vector<Slot> layout;
-  if (options_.integration == Options::Integration::segments) layout = segment_layout(g, home, x);
+  if (options_.integration == Options::Integration::segments) layout = segment_layout(g, home, x, grid);
   if (layout.empty())
     for (int j = 0; j < first.home_count; ++j) layout.push_back({points_[g + j].xi, points_[g + j].eta, points_[g + j].rule_weight, home[j]});
   // The old layout's history and places.

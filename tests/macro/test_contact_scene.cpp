@@ -108,7 +108,7 @@ std::string plate_with_surface_contacts(const std::string& tables) {
 TEST(ContactScene, PairsAndSelfContactBecomeContributions) {
   const macro::MacroScene m = macro::parse_macro_scene(io::parse_scene(
       plate_with_surface_contacts("[[contact.pairs]]\nslave = \"zmax\"\nmaster = \"zmin\"\ntwo_pass = true\n"
-                                  "integration = \"points\"\n[[contact.self]]\nsurface = \"xmax\"\npenalty = 5.0\n"),
+                                  "[[contact.self]]\nsurface = \"xmax\"\npenalty = 5.0\n"),
       "<test>"));
   const macro::Structure s = macro::build_structure(m.spec);
   ASSERT_EQ(s.model.contributions.size(), 2u);
@@ -118,10 +118,12 @@ TEST(ContactScene, PairsAndSelfContactBecomeContributions) {
   ASSERT_NE(self, nullptr);
   EXPECT_EQ(pair->name(), "contact.pairs[0]");
   EXPECT_EQ(self->name(), "contact.self[0]");
-  EXPECT_EQ(pair->num_points(), 2 * 4 * 9);  // two passes over the 2 × 2 quads of each face, Gauss points
-  EXPECT_EQ(pair->options().integration, fe::SurfaceContact::Options::Integration::points);
-  // Segments (the default): kSegmentSlots per slave face.
-  EXPECT_EQ(self->num_points(), 2 * fe::SurfaceContact::kSegmentSlots);
+  // A pair on segments (its default: kSegmentSlots per slave face), two passes over the 2 × 2 quads of
+  // each face; a self-contact on the Gauss points (its default), the two quads of xmax.
+  EXPECT_EQ(pair->options().integration, fe::SurfaceContact::Options::Integration::segments);
+  EXPECT_EQ(pair->num_points(), 2 * 4 * fe::SurfaceContact::kSegmentSlots);
+  EXPECT_EQ(self->options().integration, fe::SurfaceContact::Options::Integration::points);
+  EXPECT_EQ(self->num_points(), 2 * 9);
   fe::Simulation sim(s.model);
   EXPECT_TRUE(sim.advance_to(1.0).reached());
   fe::ContributionReport report;

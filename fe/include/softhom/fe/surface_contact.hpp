@@ -37,14 +37,18 @@
 // so a cut-back step is retried with the pairing and the anchors of the converged state. The couplings are the (slave face, paired
 // face, face of its ring) triples: the driver rebuilds the stiffness pattern when they change.
 //
-// Quadrature (Options::integration): with `segments` (the default) the pairing cuts each slave face
+// Quadrature (Options::integration): with `segments` (the default here and for a scene's pairs; a
+// scene's self-contact defaults to `points`, macro/surface_contact_keys.cpp) the pairing cuts each slave face
 // into the pieces that lie over one master face each: the master faces near it (the ones its Gauss
 // points pair with, and their rings) are projected onto the slave face's parameter plane by their
 // corners, joined by straight lines, each outline clips the face's parametric domain, and every piece
-// is a fan of triangles carrying the 3-point rule of degree 2 (each point paired with its piece's
-// master face). A master shape function is then smooth over every piece, so the master's loads are
-// the exact quadrature of its shape functions whatever the meshes: a uniform pressure crosses between
-// non-matching meshes (the contact patch test, tests/fe/test_surface_contact.cpp). A slave face that
+// (a triangle, or the fan of triangles from its centroid, so that mirror-image faces get mirror-image
+// points) carries the 3-point rule of degree 2 on each triangle, each point paired with its piece's master
+// face where that holds its closest point inside, else as a Gauss point is, with its nearest admissible
+// master face (surfaces meeting at an angle). A master
+// shape function is then smooth over every piece, so the master's loads are the exact quadrature of its
+// shape functions (for parallel flat faces: straight-sided triangles, parallelogram quads): a uniform
+// pressure crosses between non-matching meshes (the contact patch test, tests/fe/test_surface_contact.cpp). A slave face that
 // the master faces do not tile (part of it lies past the master surface's free edge, their outlines
 // overlap or one is not convex) or whose pieces need more than kSegmentSlots points keeps its Gauss
 // points (ObstacleContact's rules: 3×3 Gauss on quads, Dunavant's 7 points on 6-node triangles), each
@@ -185,8 +189,8 @@ class SurfaceContact final : public Contribution {
   static constexpr int kStartDepth = 9;
   static constexpr int kAnchor = 5, kNextAnchor = 7;  ///< offsets of (ξ_a, η_a) in a point's state
   static constexpr int kPlace = 10, kWeight = 12, kRuleWeight = 13;
-  /// Slots per slave face with segments: a quad over four master quads cut into pentagons needs 36.
-  static constexpr int kSegmentSlots = 48;
+  /// Slots per slave face with segments: a quad over four master quads, each piece a pentagon, needs 60.
+  static constexpr int kSegmentSlots = 64;
 
   /// One face of either surface.
   struct Face {
@@ -266,8 +270,14 @@ class SurfaceContact final : public Contribution {
     FaceProjection projection;
   };
   Candidate nearest_face(const Point& p, const std::vector<Vec3>& x, const FaceGrid& grid) const;
+  /// Face f as the pairing of point p at xs (slave normal n_slave), if admissible (face −1 if not).
+  Candidate admissible(const Point& p, const Vec3& xs, const Vec3& n_slave, int f, const std::vector<Vec3>& x) const;
+  /// The unit normal of p's slave face at p.
+  Vec3 slave_normal(const Point& p, const std::vector<Vec3>& x) const;
   /// The slot p with its place and weights as the state s has them (the home place for a Gauss point).
   Point located(const Point& p, const double* s) const;
+  /// The slot p moved to (ξ, η) of its face (its shape functions there; weights unchanged).
+  Point at_place(const Point& p, double xi, double eta) const;
   /// A slot of a face's new layout: its place, weight in the parameter plane and pairing.
   struct Slot {
     double xi = 0.0, eta = 0.0, rule_weight = 0.0;
@@ -275,7 +285,8 @@ class SurfaceContact final : public Contribution {
   };
   /// The pieces of the slave face of the group starting at slot g over the master faces near it
   /// (surface_contact.hpp), from its Gauss points' pairing; empty where they do not tile it.
-  std::vector<Slot> segment_layout(std::size_t g, const std::vector<Candidate>& home, const std::vector<Vec3>& x) const;
+  std::vector<Slot> segment_layout(std::size_t g, const std::vector<Candidate>& home, const std::vector<Vec3>& x,
+                                   const FaceGrid& grid) const;
   /// Pairs the slots of the face starting at slot g (state s): lays them out anew and carries the
   /// history of the old layout over (surface_contact.hpp); appends the (slave, master) face pairs.
   void pair_face(const Mesh& mesh, std::size_t g, const std::vector<Vec3>& x, const FaceGrid& grid, double* s,
