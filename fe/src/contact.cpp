@@ -227,7 +227,7 @@ ObstacleContact::ObstacleContact(const Mesh& mesh, std::vector<Quad> quads, std:
     p.weight = p.rule_weight * area_density(p, nodes, nf, [&](int n) { return mesh.nodes[n]; }).norm();
     Vec3 X = Vec3::Zero();
     for (int a = 0; a < nf; ++a) X += p.N[a] * mesh.nodes[nodes[a]];
-    initial_[k].stick = obstacle_gap(obstacle_, X, 0.0).closest - obstacle_.translation(0.0);
+    initial_[k].stick = gap_at(X, 0.0).closest - obstacle_.translation(0.0);
   }
 }
 
@@ -290,7 +290,7 @@ void ObstacleContact::validate(const Mesh& mesh) const {
   Vec3 where = Vec3::Zero();
   for (const Point& p : points_) {
     const Vec3 X = point_position(mesh, at_rest, p);
-    const double depth = -obstacle_gap(obstacle_, X, 0.0).gap;
+    const double depth = -gap_at(X, 0.0).gap;
     if (depth > 1e-6 * face_size_[p.face] && depth > deepest) {
       deepest = depth;
       where = X;
@@ -305,6 +305,15 @@ void ObstacleContact::validate(const Mesh& mesh) const {
 void ObstacleContact::declare_couplings(Couplings& couplings) const {
   for (const Quad& q : quads_) couplings.add(q.data(), 4);
   for (const Tri6& q : tris_) couplings.add(q.data(), 6);
+}
+
+ObstacleGap ObstacleContact::gap_at(const Vec3& x, double t) const {
+  // The contact surface lies `offset` from the faces towards the obstacle: the gap to the obstacle grown
+  // by that much (exact for the plane, the sphere and the cylinder), its closest point moved out as far.
+  ObstacleGap g = obstacle_gap(obstacle_, x, t);
+  g.gap -= options_.offset;
+  g.closest += options_.offset * g.normal;
+  return g;
 }
 
 Vec3 ObstacleContact::point_position(const Mesh& mesh, const Iterate& it, const Point& p) const {
@@ -322,7 +331,7 @@ double ObstacleContact::current_weight(const Mesh& mesh, const Iterate& it, cons
 PointTraction ObstacleContact::point_traction(const Mesh& mesh, const Iterate& it, int k, const PointState& s,
                                               ObstacleGap& g) const {
   const Vec3 x = point_position(mesh, it, points_[k]);
-  g = obstacle_gap(obstacle_, x, it.t);
+  g = gap_at(x, it.t);
   const Vec3 stick = s.stick + obstacle_.translation(it.t);
   return contact_traction(g, x, stick, options_.augmented ? s.multiplier : 0.0, face_law_[points_[k].face]);
 }

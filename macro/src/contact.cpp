@@ -3,7 +3,9 @@
 
 #include <memory>
 
+#include "softhom/fe/shell.hpp"
 #include "softhom/materials/errors.hpp"
+#include "softhom/materials/shell_section.hpp"
 
 namespace softhom::macro {
 
@@ -28,8 +30,29 @@ double host_shear_modulus(const fe::FeModel& model, const std::vector<fe::Quad>&
   return count ? sum / count : 0.0;
 }
 
+namespace {
+
+/// The shell of a shell scene, if the model has one.
+const fe::ShellDomain* shell_of(const fe::FeModel& model) {
+  for (const auto& c : model.contributions)
+    if (const auto* shell = dynamic_cast<const fe::ShellDomain*>(c.get())) return shell;
+  return nullptr;
+}
+
+/// A shell section's initial shear modulus: its layers' by thickness.
+double section_shear_modulus(const ShellSection& section) {
+  double sum = 0.0;
+  for (const ShellLayer& layer : section.layers()) sum += layer.thickness * layer.law->initial_shear_modulus();
+  return sum / section.thickness();
+}
+
+}  // namespace
+
 void add_contacts(const ContactSpec& spec, fe::FeModel& model) {
   const fe::Mesh& mesh = model.mesh;
+  // On a shell scene the faces are the mid-surface's triangles: the contact surface is the face half
+  // the thickness towards the obstacle, and the penalty scales with the section's shear modulus.
+  const fe::ShellDomain* shell = shell_of(model);
   for (std::size_t k = 0; k < spec.obstacles.size(); ++k) {
     const ObstacleSpec& o = spec.obstacles[k];
     if (!mesh.has_surface(o.surface))
@@ -41,7 +64,8 @@ void add_contacts(const ContactSpec& spec, fe::FeModel& model) {
       throw InputError(o.field + ".surface", "\"" + o.surface + "\"", "the surface has no faces");
     fe::ObstacleContact::Options opt;
     opt.law.penalty = opt.law.tangential_penalty = o.penalty;  // 0: 100 G/h per face
-    opt.shear_modulus = host_shear_modulus(model, quads, tris);
+    opt.shear_modulus = shell ? section_shear_modulus(shell->section()) : host_shear_modulus(model, quads, tris);
+    opt.offset = shell ? 0.5 * shell->section().thickness() : 0.0;
     if (!(o.penalty > 0.0) && !(opt.shear_modulus > 0.0))
       throw InputError(o.field + ".penalty", "0", "no shear modulus on the surface to scale it by: give a penalty");
     opt.law.friction = o.friction;

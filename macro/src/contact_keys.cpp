@@ -50,7 +50,8 @@ const keys::KeyTable<ObstacleKeys>& obstacle_table() {
     k.choice("type", &O::type, {{"plane", Shape::plane}, {"sphere", Shape::sphere}, {"cylinder", Shape::cylinder}},
              "obstacle shape (the body lies on the normal's side of a plane, outside a sphere or cylinder)")
         .required()
-        .text("surface", &O::surface, "the structure's surface: a built-in name (\"outer\", \"zmax\", ...) or a Gmsh physical surface")
+        .text("surface", &O::surface, "the structure's surface: a built-in name (\"outer\", \"zmax\", ...) or a Gmsh physical surface; on a shell \"shell\" "
+              "or a named group (the outer face, half the thickness from the mid-surface, touches)")
         .required()
         .numbers("position", &O::position, keys::any_value(), 3, 3, "mm",
                  "at t = 0: a point of the plane, the sphere's centre, a point of the cylinder's axis")

@@ -177,6 +177,12 @@ void build_shell(Structure& s) {
   auto domain = std::make_shared<fe::ShellDomain>(m.mesh, shell);
   s.shell = domain;
   m.add(domain);
+  // The mid-surface as named faces for [[contact.obstacles]]: "shell" (all of it) and each named group,
+  // each triangle a quad with its last node doubled (the contact's quad rule integrates it exactly).
+  const std::vector<fe::Quad> mid = fe::shell_load_faces(domain->triangles());
+  m.mesh.surfaces["shell"] = mid;
+  for (const auto& [name, members] : surface.groups)
+    for (int t : members) m.mesh.surfaces[name].push_back(mid[t]);
   for (int n = 0; n < m.mesh.num_nodes(); ++n) s.inner_nodes.push_back(n);
   const std::vector<fe::Quad> faces = fe::shell_load_faces(domain->triangles());
   if (s.spec.control == LoadControl::pressure) {

@@ -153,6 +153,9 @@ class ObstacleContact final : public Contribution {
     ContactLaw law;
     double shear_modulus = 0.0;    ///< G of the surface's elements, for the default penalties
     bool augmented = true;         ///< λ ← p at every converged step (false: pure penalty)
+    /// The contact surface lies this far from the faces towards the obstacle [mm] (a shell's mid-surface
+    /// faces: half its thickness); the gap is measured to the obstacle grown by it.
+    double offset = 0.0;
     std::string field = "contact"; ///< the scene's name of this pair, for messages
     std::string label = "contact"; ///< its outputs' name: response.csv columns <label>_..., fields <label>.h5
   };
@@ -212,6 +215,8 @@ class ObstacleContact final : public Contribution {
     return face < int(quads_.size()) ? quads_[face].data() : tris_[face - quads_.size()].data();
   }
   Vec3 point_position(const Mesh& mesh, const Iterate& it, const Point& p) const;
+  /// The gap of a point at x to the obstacle at time t, less Options::offset.
+  ObstacleGap gap_at(const Vec3& x, double t) const;
   /// Current area density |x_ξ × x_η| × rule weight of a point.
   double current_weight(const Mesh& mesh, const Iterate& it, const Point& p) const;
   PointTraction point_traction(const Mesh& mesh, const Iterate& it, int k, const PointState& s, ObstacleGap& g) const;
