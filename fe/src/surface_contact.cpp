@@ -771,8 +771,8 @@ struct SegmentPoint {
 
 /// The slave face's parametric domain cut by the outlines of the master faces (corners projected onto
 /// the slave face's surface, in its parametric coordinates), each piece a triangle or the fan of
-/// triangles from its centroid, each with the 3-point rule of degree 2. Empty where they do not tile the domain (to 1e-9 of its area), an outline
-/// is not convex, or the points exceed `capacity`.
+/// triangles from its centroid, each with the 3-point rule of degree 2. Empty where they do not tile
+/// the domain (to 1e-9 of its area), an outline is not convex, or the points exceed `capacity`.
 std::vector<SegmentPoint> segment_points(const Face& slave, const std::vector<Vec3>& x,
                                          const std::vector<const Face*>& masters, int capacity) {
   const std::vector<Point2> domain = parametric_domain(slave.quad());
@@ -817,6 +817,28 @@ std::vector<SegmentPoint> segment_points(const Face& slave, const std::vector<Ve
   }
   if (std::abs(covered - domain_area) > 1e-9 * domain_area) return {};
   return out;
+}
+
+}  // namespace
+
+namespace {
+
+/// The used slot of a face's old layout (its `slots` states from `old`) nearest to (ξ, η) in the
+/// parameter plane, whose history a new slot there takes (the slot itself where it stays); −1 if none.
+int nearest_used_slot(const double* old, int slots, double xi, double eta) {
+  constexpr int size = SurfaceContact::kStateSize, place = SurfaceContact::kPlace;
+  int from = -1;
+  double best = std::numeric_limits<double>::infinity();
+  for (int o = 0; o < slots; ++o) {
+    const double* so = old + size * o;
+    if (!(so[SurfaceContact::kWeight] > 0.0)) continue;
+    const double d = std::hypot(so[place] - xi, so[place + 1] - eta);
+    if (d < best) {
+      best = d;
+      from = o;
+    }
+  }
+  return from;
 }
 
 }  // namespace
@@ -869,7 +891,10 @@ void SurfaceContact::pair_face(const Mesh& mesh, std::size_t g, const std::vecto
   std::vector<Slot> layout;
   if (options_.integration == Options::Integration::segments) layout = segment_layout(g, home, x, grid);
   if (layout.empty())
-    for (int j = 0; j < first.home_count; ++j) layout.push_back({points_[g + j].xi, points_[g + j].eta, points_[g + j].rule_weight, home[j]});
+    for (int j = 0; j < first.home_count; ++j) {
+      const Point& p = points_[g + j];
+      layout.push_back({p.xi, p.eta, p.rule_weight, home[j]});
+    }
   // The old layout's history and places.
   const std::vector<double> old(s, s + std::size_t(kStateSize) * first.slots);
   std::vector<Vec3> old_x(first.slots);
@@ -884,18 +909,7 @@ void SurfaceContact::pair_face(const Mesh& mesh, std::size_t g, const std::vecto
       continue;
     }
     const Slot& slot = layout[j];
-    // The history of the old slot nearest in the parameter plane (the slot itself where it stays).
-    int from = -1;
-    double best = std::numeric_limits<double>::infinity();
-    for (int o = 0; o < first.slots; ++o) {
-      const double* so = old.data() + kStateSize * o;
-      if (!(so[kWeight] > 0.0)) continue;
-      const double d = std::hypot(so[kPlace] - slot.xi, so[kPlace + 1] - slot.eta);
-      if (d < best) {
-        best = d;
-        from = o;
-      }
-    }
+    const int from = nearest_used_slot(old.data(), first.slots, slot.xi, slot.eta);
     const double* so = from >= 0 ? old.data() + kStateSize * from : nullptr;
     if (so) std::copy(so, so + kStateSize, sj);
     else {
