@@ -3,7 +3,6 @@
 
 #include <memory>
 
-#include "softhom/fe/shell.hpp"
 #include "softhom/materials/errors.hpp"
 #include "softhom/materials/shell_section.hpp"
 
@@ -30,14 +29,13 @@ double host_shear_modulus(const fe::FeModel& model, const std::vector<fe::Quad>&
   return count ? sum / count : 0.0;
 }
 
-namespace {
-
-/// The shell of a shell scene, if the model has one.
 const fe::ShellDomain* shell_of(const fe::FeModel& model) {
   for (const auto& c : model.contributions)
     if (const auto* shell = dynamic_cast<const fe::ShellDomain*>(c.get())) return shell;
   return nullptr;
 }
+
+namespace {
 
 /// A shell section's initial shear modulus: its layers' by thickness.
 double section_shear_modulus(const ShellSection& section) {

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <memory>
 
-#include "softhom/fe/shell.hpp"
 #include "softhom/fe/surface_contact.hpp"
 #include "softhom/macro/contact.hpp"
 #include "softhom/materials/errors.hpp"
@@ -34,10 +33,9 @@ void add_surface_contacts(const std::vector<SurfacePairSpec>& specs, fe::FeModel
   for (const SurfacePairSpec& s : specs) {
     // A shell's faces are its mid-surface's triangles, which the pairs' closest-point projection does
     // not take (a triangle as a quad with a doubled node); obstacles do (macro/contact.hpp).
-    for (const auto& c : model.contributions)
-      if (dynamic_cast<const fe::ShellDomain*>(c.get()))
-        throw InputError(s.field, s.self ? "[[contact.self]]" : "[[contact.pairs]]",
-                         "a shell scene's surfaces touch [[contact.obstacles]] only");
+    if (shell_of(model))
+      throw InputError(s.field, s.self ? "[[contact.self]]" : "[[contact.pairs]]",
+                       "a shell scene's surfaces touch [[contact.obstacles]] only");
     fe::SurfaceContact::Options opt;
     opt.penalty = s.penalty;
     opt.friction = s.friction;

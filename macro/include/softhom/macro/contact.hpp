@@ -8,6 +8,7 @@
 
 #include "softhom/fe/contact.hpp"
 #include "softhom/fe/model.hpp"
+#include "softhom/fe/shell.hpp"
 #include "softhom/macro/surface_contact.hpp"
 
 namespace softhom::macro {
@@ -29,6 +30,9 @@ struct ContactSpec {
 /// The initial shear modulus of the elements that touch the faces' nodes (their mean), for the penalty.
 double host_shear_modulus(const fe::FeModel& model, const std::vector<fe::Quad>& quads,
                           const std::vector<fe::Tri6>& tris);
+
+/// The shell of a shell scene's model (its faces are a mid-surface's triangles), or null.
+const fe::ShellDomain* shell_of(const fe::FeModel& model);
 
 /// One fe::ObstacleContact per obstacle and one fe::SurfaceContact per pair or self-contact surface, added
 /// to the model (after its materials are assigned). Throws

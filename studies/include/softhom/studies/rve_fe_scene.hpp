@@ -52,7 +52,7 @@ struct FeRveMesh {
   std::unique_ptr<rve::SectionMesh> section;
   std::unique_ptr<rve::CellMesh> cell;
 };
-/// Meshes the setup's cell (InputError naming the size key when the solve could not fit, before meshing).
+/// Meshes the setup's cell: its section (a plate's when the setup says so) or its 3D cell.
 FeRveMesh mesh_fe_rve(const FeRveSetup& setup);
 /// The FE solver of the setup on its mesh (which it takes).
 std::unique_ptr<rve::FeRveSolver> make_fe_rve_solver(FeRveMesh mesh, const FeRveSetup& setup);
